@@ -1,0 +1,126 @@
+# spectrace: build into build/ (or build-san/ with SAN=1), tests with `make test`.
+# `make render` and `make test` first install missing Debian packages
+# (tools/install_deps.sh), then build and run. V=1 shows full command lines.
+
+SAN ?= 0
+ifeq ($(SAN),1)
+BUILD ?= build-san
+SANFLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+else
+BUILD ?= build
+SANFLAGS :=
+endif
+
+CC ?= cc
+CXX ?= g++
+OPT ?= -O2
+PKGS := OpenCL OpenImageIO OpenEXR tinygltf
+# Recursive (=) so pkg-config runs when a recipe needs it, after install_deps.
+PKG_CFLAGS = $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
+PKG_LIBS = $(shell pkg-config --libs $(PKGS) 2>/dev/null)
+CPPFLAGS := -Isrc -Ikernels -I$(BUILD)/gen -DCL_TARGET_OPENCL_VERSION=120 -D_GNU_SOURCE
+CFLAGS := -std=c11 $(OPT) -g -Wall -Wextra -MMD -MP $(SANFLAGS)
+CXXFLAGS := -std=c++17 $(OPT) -g -Wall -Wextra -MMD -MP $(SANFLAGS) -I/usr/include/stb -I/usr/include/nlohmann
+LDFLAGS := $(SANFLAGS)
+LDLIBS = $(PKG_LIBS) -lm -lpthread
+
+ifeq ($(V),1)
+Q :=
+else
+Q := @
+endif
+
+SRC_C := $(filter-out src/main.c,$(wildcard src/*.c))
+SRC_CXX := $(wildcard src/*.cpp)
+KERNEL_FILES := $(sort $(wildcard kernels/*.h kernels/*.cl))
+GEN_C := $(BUILD)/gen/kernel_sources.c \
+         $(if $(wildcard tools/rgb2spec/rgb2spec_opt.c),$(BUILD)/gen/rgb2spec_data.c)
+LIB_OBJS := $(SRC_C:src/%.c=$(BUILD)/obj/%.o) $(SRC_CXX:src/%.cpp=$(BUILD)/obj/%.o) \
+            $(GEN_C:$(BUILD)/gen/%.c=$(BUILD)/obj/gen/%.o)
+LIB := $(BUILD)/libspectrace.a
+PROG := $(BUILD)/spectrace
+TEST_SRCS := $(wildcard tests/test_*.c)
+TEST_BINS := $(TEST_SRCS:tests/%.c=$(BUILD)/tests/%)
+TOOL_BINS := $(patsubst tools/%.c,$(BUILD)/tools/%,$(wildcard tools/*.c))
+
+.PHONY: all deps render test test-san tests bench clean
+all: $(PROG) $(TEST_BINS)
+
+deps:
+	@tools/install_deps.sh
+
+# The main job: install what is missing, build, render the default scene.
+render: deps
+	@$(MAKE) --no-print-directory $(PROG)
+	@tools/render_default.sh $(PROG)
+
+# The tests: install what is missing, build, run every test binary.
+test: deps
+	@$(MAKE) --no-print-directory tests
+	@tests/run_tests.sh $(BUILD)
+
+# The same tests built with AddressSanitizer and UndefinedBehaviorSanitizer.
+test-san: deps
+	@$(MAKE) --no-print-directory SAN=1 tests
+	@tests/run_tests.sh build-san
+
+tests: $(PROG) $(TEST_BINS)
+
+bench: deps
+	@$(MAKE) --no-print-directory OPT=-O3 $(PROG) $(TOOL_BINS)
+	@tools/bench.sh $(BUILD)
+
+$(PROG): $(BUILD)/obj/main.o $(LIB)
+	@echo "LINK $@"
+	$(Q)$(CXX) $(LDFLAGS) -o $@ $^ $(LDLIBS)
+
+$(LIB): $(LIB_OBJS)
+	@echo "AR   $@"
+	$(Q)rm -f $@ && ar rcs $@ $^
+
+$(BUILD)/obj/%.o: src/%.c
+	@mkdir -p $(dir $@)
+	@echo "CC   $<"
+	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) $(PKG_CFLAGS) -c -o $@ $<
+
+$(BUILD)/obj/%.o: src/%.cpp
+	@mkdir -p $(dir $@)
+	@echo "CXX  $<"
+	$(Q)$(CXX) $(CPPFLAGS) $(CXXFLAGS) $(PKG_CFLAGS) -c -o $@ $<
+
+$(BUILD)/obj/gen/%.o: $(BUILD)/gen/%.c
+	@mkdir -p $(dir $@)
+	@echo "CC   $<"
+	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) -c -o $@ $<
+
+# Host tools (table generators, embedders, benchmarks) are plain C, built unsanitized
+# and optimised, since some run during the build.
+$(BUILD)/tools/%: tools/%.c $(LIB)
+	@mkdir -p $(dir $@)
+	@echo "CC   $<"
+	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) $(PKG_CFLAGS) -o $@ $< $(LIB) $(LDLIBS) -lstdc++
+
+# Kernel sources are embedded in the program so it runs from any folder.
+$(BUILD)/gen/kernel_sources.c: $(KERNEL_FILES) tools/embed/embed_files.c
+	@mkdir -p $(BUILD)/gen $(BUILD)/tools
+	@echo "GEN  $@"
+	$(Q)$(CC) -O1 -o $(BUILD)/tools/embed_files tools/embed/embed_files.c
+	$(Q)$(BUILD)/tools/embed_files $(KERNEL_FILES) > $@.tmp && mv $@.tmp $@
+
+# Jakob-Hanika 2019 sigmoid-polynomial coefficient table, fitted by our own C tool.
+# Built without sanitizers and optimised: the fit is the slow part of a clean build.
+$(BUILD)/gen/rgb2spec_data.c: tools/rgb2spec/rgb2spec_opt.c kernels/cie_data.h
+	@mkdir -p $(BUILD)/gen $(BUILD)/tools
+	@echo "GEN  $@ (fitting the RGB-to-spectrum table)"
+	$(Q)$(CC) -std=c11 -O2 -Ikernels -o $(BUILD)/tools/rgb2spec_opt tools/rgb2spec/rgb2spec_opt.c -lm -lpthread
+	$(Q)$(BUILD)/tools/rgb2spec_opt $@.tmp && mv $@.tmp $@
+
+$(BUILD)/tests/%: tests/%.c tests/test_util.h $(LIB)
+	@mkdir -p $(dir $@)
+	@echo "CC   $<"
+	$(Q)$(CC) $(CPPFLAGS) -Itests $(CFLAGS) $(PKG_CFLAGS) -o $@ $< $(LIB) $(LDFLAGS) $(LDLIBS) -lcmocka -lstdc++
+
+clean:
+	rm -rf build build-san
+
+-include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

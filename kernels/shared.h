@@ -1,0 +1,57 @@
+/* Portability layer for code shared by the host (C99/C11) and kernels (OpenCL C 1.2).
+ *
+ * Rules for every file under kernels/: include this header first; use SPT_FN for
+ * functions, SPT_CONSTANT for tables, spt_u32/spt_i32 in structs that cross the
+ * host/device boundary; structs hold only 32-bit scalars and fixed arrays, padded by
+ * hand, with their size checked on both sides (SPT_STATIC_ASSERT on the host, the
+ * layout kernel in tests). No fp64, no images, no OpenCL 2.0. */
+#ifndef SPT_SHARED_H
+#define SPT_SHARED_H
+
+#ifdef __OPENCL_VERSION__
+  #define SPT_DEVICE 1
+  #define SPT_FN static inline
+  #define SPT_CONSTANT __constant
+  #define SPT_GLOBAL __global
+  typedef uint spt_u32;
+  typedef int spt_i32;
+  /* C spellings of the float maths built-ins, so shared code reads the same on
+   * both sides. */
+  #define sqrtf sqrt
+  #define fabsf fabs
+  #define fminf fmin
+  #define fmaxf fmax
+  #define floorf floor
+  #define ceilf ceil
+  #define expf exp
+  #define logf log
+  #define powf pow
+  #define sinf sin
+  #define cosf cos
+  #define tanf tan
+  #define acosf acos
+  #define asinf asin
+  #define atan2f atan2
+  #define copysignf copysign
+  #define SPT_STATIC_ASSERT(cond, msg)
+#else
+  #include <math.h>
+  #include <stdint.h>
+  #define SPT_DEVICE 0
+  #define SPT_FN static inline
+  #define SPT_CONSTANT static const
+  #define SPT_GLOBAL
+  typedef uint32_t spt_u32;
+  typedef int32_t spt_i32;
+  #define SPT_STATIC_ASSERT(cond, msg) _Static_assert(cond, msg)
+#endif
+
+#define SPT_PI 3.14159265358979323846f
+#define SPT_INV_PI 0.31830988618379067154f
+#define SPT_INV_2PI 0.15915494309189533577f
+#define SPT_INV_4PI 0.07957747154594766788f
+
+/* Wavelengths carried by one path (hero wavelength sampling). */
+#define SPT_NUM_LAMBDA 4
+
+#endif

@@ -1,0 +1,129 @@
+/* The host scene: flat arrays in world space, filled by the glTF loader
+ * (src/gltf_load.cpp) or built in code (tests, tools), consumed by the BVH
+ * builder and the renderer's upload step. */
+#ifndef SPT_SCENE_H
+#define SPT_SCENE_H
+
+#include <stdint.h>
+
+#include "spectrum.h"
+#include "util.h"
+
+/* glTF sampler wrap codes, kept as the file gives them. */
+#define SPT_WRAP_REPEAT 10497
+#define SPT_WRAP_CLAMP 33071
+#define SPT_WRAP_MIRROR 33648
+
+typedef struct SceneTexture {
+    char name[128];      /* image name or uri, for messages and `info` */
+    int width, height;
+    int channels;        /* 1..4 */
+    int srgb_decoded;    /* 1: colour texture, decoded from sRGB to linear on load */
+    int wrap_s, wrap_t;  /* SPT_WRAP_* */
+    float *texels;       /* width*height*channels linear floats, first row = v 0 */
+} SceneTexture;
+
+enum { SPT_ALPHA_OPAQUE = 0, SPT_ALPHA_MASK = 1, SPT_ALPHA_BLEND = 2 };
+
+typedef struct SceneMaterial {
+    char name[128];
+    float base_color[4];        /* linear RGBA factor */
+    int base_color_tex;         /* texture index or -1 (all *_tex likewise) */
+    float metallic, roughness;
+    int metallic_roughness_tex; /* B = metallic, G = roughness */
+    float emissive[3];          /* linear RGB factor */
+    float emissive_strength;    /* KHR_materials_emissive_strength, default 1 */
+    int emissive_tex;
+    int normal_tex;
+    float normal_scale;
+    float ior;                  /* KHR_materials_ior, default 1.5 */
+    float transmission;         /* KHR_materials_transmission factor, default 0 */
+    int transmission_tex;
+    float dispersion;           /* KHR_materials_dispersion, 0 = none */
+    float attenuation_color[3]; /* KHR_materials_volume, default 1,1,1 */
+    float attenuation_distance; /* default +inf (stored as 0 = infinite) */
+    float thickness;
+    int double_sided;
+    int alpha_mode;             /* SPT_ALPHA_* */
+    float alpha_cutoff;         /* default 0.5 */
+    int unlit;                  /* KHR_materials_unlit */
+    /* Spectral extras ("extras": {"spectrace": {...}}); count 0 = absent. They
+     * override the RGB base colour / emission. */
+    Spd reflectance_spd;
+    Spd emission_spd;
+    char conductor[16];         /* "" or a conductor name such as "Au" */
+} SceneMaterial;
+
+enum { SPT_LIGHT_POINT = 0, SPT_LIGHT_SPOT = 1, SPT_LIGHT_DIRECTIONAL = 2 };
+
+typedef struct SceneLight {
+    char name[128];
+    int type;
+    float position[3];    /* world space */
+    float direction[3];   /* world space, unit: where the light points (-Z of its node) */
+    float color[3];       /* linear RGB, default 1 */
+    float intensity;      /* candela (point, spot) or lux (directional), as in the file */
+    float range;          /* 0 = infinite */
+    float inner_cone, outer_cone; /* radians (spot) */
+} SceneLight;
+
+typedef struct SceneCamera {
+    float position[3];
+    float forward[3], up[3], right[3]; /* world-space unit axes (-Z, +Y, +X of the node) */
+    float yfov;           /* radians */
+    float aspect;         /* width/height, 0 = not given */
+    float znear, zfar;    /* zfar 0 = infinite */
+    int orthographic;     /* 1: xmag/ymag used instead of yfov */
+    float xmag, ymag;
+    int is_default;       /* 1: made up by the loader because the file had none */
+} SceneCamera;
+
+/* What the loader counted while flattening, for `info` and warnings. */
+typedef struct SceneStats {
+    uint32_t meshes, instances, primitives;
+    uint32_t dropped_nonfinite;   /* NaN/Inf or |coordinate| >= 1e18 */
+    uint32_t dropped_degenerate;  /* zero area or repeated index */
+    uint32_t skipped_primitives;  /* points/lines: unsupported modes */
+    uint32_t emissive_triangles;
+} SceneStats;
+
+typedef struct Scene {
+    char *path;
+    /* Triangles, world space, counter-clockwise front faces (a mirrored transform
+     * has already been compensated). */
+    uint32_t tri_count;
+    float *tri_pos;       /* 9 floats per triangle: v0, v1, v2 */
+    uint32_t *tri_vidx;   /* 3 per triangle: indices into the vertex arrays */
+    uint32_t *tri_mat;    /* material index per triangle */
+    uint32_t vertex_count;
+    float *vtx_normal;    /* 3 per vertex, unit world-space shading normal, or 0,0,0
+                             where the file had none (use the geometric normal) */
+    float *vtx_uv;        /* 2 per vertex (TEXCOORD_0, 0,0 when absent) */
+    SceneMaterial *materials;
+    uint32_t material_count;
+    SceneTexture *textures;
+    uint32_t texture_count;
+    SceneLight *lights;
+    uint32_t light_count;
+    SceneCamera camera;
+    float bounds_min[3], bounds_max[3]; /* of the kept triangles; min > max when empty */
+    SceneStats stats;
+} Scene;
+
+/* glTF defaults for a material (the glTF default material when used as is). */
+void scene_material_default(SceneMaterial *m);
+
+/* Loads a .gltf or .glb file into s (zeroed first). Returns 0, or an exit code
+ * with e naming the file, the object and the reason; s is then empty. */
+int scene_load_gltf(Scene *s, const char *path, SptError *e);
+
+/* A default perspective camera that frames the bounds from +Z looking toward -Z,
+ * yfov 45 degrees. */
+void scene_default_camera(Scene *s);
+
+/* Recomputes bounds_min/max from the triangles. */
+void scene_update_bounds(Scene *s);
+
+void scene_free(Scene *s);
+
+#endif

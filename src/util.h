@@ -1,0 +1,49 @@
+/* Errors, messages and exit codes shared by every module. */
+#ifndef SPT_UTIL_H
+#define SPT_UTIL_H
+
+#include <stddef.h>
+
+/* Documented exit codes (README.md, "Exit codes"). */
+enum {
+    SPT_EXIT_OK = 0,
+    SPT_EXIT_FAILURE = 1,   /* internal or unexpected failure */
+    SPT_EXIT_USAGE = 2,     /* bad command line */
+    SPT_EXIT_INPUT = 3,     /* a scene, SPD, CSV or checkpoint file is unreadable or invalid */
+    SPT_EXIT_DEVICE = 4,    /* no OpenCL platform/device, build failure, device limits */
+    SPT_EXIT_OUTPUT = 5,    /* an output cannot be written */
+    SPT_EXIT_INTERRUPTED = 130 /* stopped by a signal before anything could be written */
+};
+
+/* A failure on user input: an exit code and one line of text naming the file, the
+ * object and the reason (without the leading "error: "). */
+typedef struct SptError {
+    int code;
+    char msg[1024];
+} SptError;
+
+/* Fills e (when not NULL) and returns code, so callers can write
+ * `return spt_fail(e, SPT_EXIT_INPUT, "%s: meshes[%d]: ...", ...)`. */
+int spt_fail(SptError *e, int code, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+/* One line to stderr with the prefix "error: ", "warning: " or "note: ". */
+void spt_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+void spt_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+void spt_note(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+
+/* Prints e as an error line and returns its code. */
+int spt_report(const SptError *e);
+
+/* Monotonic wall clock in seconds. */
+double spt_now(void);
+
+/* malloc/calloc/realloc that abort with a message on exhaustion (the host has no
+ * sensible recovery from a failed small allocation; large scene allocations check
+ * their sizes first). */
+void *spt_malloc(size_t n);
+void *spt_calloc(size_t count, size_t size);
+void *spt_realloc(void *p, size_t n);
+char *spt_strdup(const char *s);
+
+#endif

@@ -1,0 +1,34 @@
+/* Shared helpers for the cmocka tests. Each test file is one binary. */
+#ifndef SPT_TEST_UTIL_H
+#define SPT_TEST_UTIL_H
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+
+/* Fails with both values printed when |got - want| > tol. */
+#define assert_close(got, want, tol)                                                    \
+    do {                                                                                \
+        double g_ = (double)(got), w_ = (double)(want), t_ = (double)(tol);             \
+        if (!(fabs(g_ - w_) <= t_))                                                     \
+            fail_msg("%s = %.9g, expected %.9g within %.3g (off by %.3g)", #got, g_, w_, \
+                     t_, fabs(g_ - w_));                                                \
+    } while (0)
+
+/* Relative version: |got - want| <= rel * |want|. */
+#define assert_close_rel(got, want, rel)                                                \
+    do {                                                                                \
+        double g_ = (double)(got), w_ = (double)(want), r_ = (double)(rel);             \
+        if (!(fabs(g_ - w_) <= r_ * fabs(w_)))                                          \
+            fail_msg("%s = %.9g, expected %.9g within %.3g relative (off by %.3g)",     \
+                     #got, g_, w_, r_, fabs(g_ - w_) / fabs(w_));                       \
+    } while (0)
+
+/* The source tree's root, for test data: tests run from it (tests/run_tests.sh). */
+#define SPT_TEST_DATA(rel) ("tests/data/" rel)
+
+#endif

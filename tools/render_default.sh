@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# `make render`: renders the default scene (scenes/cornell_box.gltf) into out/.
+set -eu
+prog=${1:-build/spectrace}
+mkdir -p out
+"$prog" render scenes/cornell_box.gltf -o out/cornell_box.exr -o out/cornell_box.png "${@:2}"
+echo "wrote out/cornell_box.exr (linear) and out/cornell_box.png (sRGB)"
