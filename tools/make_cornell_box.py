@@ -1,0 +1,344 @@
+#!/usr/bin/env python3
+"""Writes the default scene, the Cornell box, as a self-contained glTF 2.0 file.
+
+    python3 tools/make_cornell_box.py                       # -> scenes/cornell_box.gltf
+    python3 tools/make_cornell_box.py --rgb-only out.gltf   # no spectral extras
+
+Geometry, camera, reflectances and light spectrum are the Cornell Program of
+Computer Graphics' published data for the physical box
+(https://www.graphics.cornell.edu/online/box/data.html), in mm divided by 1000.
+The scene keeps the classic frame (x from the green wall at x=0 to the red wall
+at x~0.55, y up, z from the open side at 0 to the back wall at 0.559); the camera
+node is rotated 180 degrees about +Y so that its -Z looks along +z, and its +X
+(image right) is world -x: red wall on the left, green on the right.
+
+Also a small glTF writer used by tools/make_test_scenes.py. Needs only the
+Python standard library (kernels/cie_data.h is read for the light's RGB).
+"""
+import argparse
+import base64
+import json
+import math
+import os
+import re
+import struct
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+# ---------------------------------------------------------------------------
+# Cornell data (https://www.graphics.cornell.edu/online/box/data.html), mm.
+# Each quad as published; winding is fixed below so front faces point into the
+# box (walls) or out of the blocks, and the light faces down.
+# ---------------------------------------------------------------------------
+FLOOR = [(552.8, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 559.2), (549.6, 0.0, 559.2)]
+CEILING = [(556.0, 548.8, 0.0), (556.0, 548.8, 559.2), (0.0, 548.8, 559.2), (0.0, 548.8, 0.0)]
+BACK_WALL = [(549.6, 0.0, 559.2), (0.0, 0.0, 559.2), (0.0, 548.8, 559.2), (556.0, 548.8, 559.2)]
+RIGHT_WALL = [(0.0, 0.0, 559.2), (0.0, 0.0, 0.0), (0.0, 548.8, 0.0), (0.0, 548.8, 559.2)]   # green
+LEFT_WALL = [(552.8, 0.0, 0.0), (549.6, 0.0, 559.2), (556.0, 548.8, 559.2), (556.0, 548.8, 0.0)]  # red
+SHORT_BLOCK = [
+    [(130.0, 165.0, 65.0), (82.0, 165.0, 225.0), (240.0, 165.0, 272.0), (290.0, 165.0, 114.0)],
+    [(290.0, 0.0, 114.0), (290.0, 165.0, 114.0), (240.0, 165.0, 272.0), (240.0, 0.0, 272.0)],
+    [(130.0, 0.0, 65.0), (130.0, 165.0, 65.0), (290.0, 165.0, 114.0), (290.0, 0.0, 114.0)],
+    [(82.0, 0.0, 225.0), (82.0, 165.0, 225.0), (130.0, 165.0, 65.0), (130.0, 0.0, 65.0)],
+    [(240.0, 0.0, 272.0), (240.0, 165.0, 272.0), (82.0, 165.0, 225.0), (82.0, 0.0, 225.0)],
+]
+TALL_BLOCK = [
+    [(423.0, 330.0, 247.0), (265.0, 330.0, 296.0), (314.0, 330.0, 456.0), (472.0, 330.0, 406.0)],
+    [(423.0, 0.0, 247.0), (423.0, 330.0, 247.0), (472.0, 330.0, 406.0), (472.0, 0.0, 406.0)],
+    [(472.0, 0.0, 406.0), (472.0, 330.0, 406.0), (314.0, 330.0, 456.0), (314.0, 0.0, 456.0)],
+    [(314.0, 0.0, 456.0), (314.0, 330.0, 456.0), (265.0, 330.0, 296.0), (265.0, 0.0, 296.0)],
+    [(265.0, 0.0, 296.0), (265.0, 330.0, 296.0), (423.0, 330.0, 247.0), (423.0, 0.0, 247.0)],
+]
+# The published light sits in a hole of the ceiling at y = 548.8; here the
+# ceiling is whole and the light quad is 0.5 mm below it (as in Mitsuba's cbox).
+LIGHT_Y = 548.3
+LIGHT = [(343.0, LIGHT_Y, 227.0), (343.0, LIGHT_Y, 332.0), (213.0, LIGHT_Y, 332.0), (213.0, LIGHT_Y, 227.0)]
+
+CAMERA_POS_MM = (278.0, 273.0, -800.0)
+FOCAL_MM, FILM_MM = 35.0, 25.0   # 35 mm lens, 25 mm x 25 mm film
+YFOV = 2.0 * math.atan(0.5 * FILM_MM / FOCAL_MM)  # 0.68611 rad = 39.3077 degrees
+
+# Spectral reflectances, 400..700 nm in 4 nm steps (76 values), from the same page.
+WL_4NM = list(range(400, 701, 4))
+WHITE_REFL = [
+    0.343, 0.445, 0.551, 0.624, 0.665, 0.687, 0.708, 0.723, 0.715, 0.710, 0.745, 0.758, 0.739,
+    0.767, 0.777, 0.765, 0.751, 0.745, 0.748, 0.729, 0.745, 0.757, 0.753, 0.750, 0.746, 0.747,
+    0.735, 0.732, 0.739, 0.734, 0.725, 0.721, 0.733, 0.725, 0.732, 0.743, 0.744, 0.748, 0.728,
+    0.716, 0.733, 0.726, 0.713, 0.740, 0.754, 0.764, 0.752, 0.736, 0.734, 0.741, 0.740, 0.732,
+    0.745, 0.755, 0.751, 0.744, 0.731, 0.733, 0.744, 0.731, 0.712, 0.708, 0.729, 0.730, 0.727,
+    0.707, 0.703, 0.729, 0.750, 0.760, 0.751, 0.739, 0.724, 0.730, 0.740, 0.737]
+GREEN_REFL = [
+    0.092, 0.096, 0.098, 0.097, 0.098, 0.095, 0.095, 0.097, 0.095, 0.094, 0.097, 0.098, 0.096,
+    0.101, 0.103, 0.104, 0.107, 0.109, 0.112, 0.115, 0.125, 0.140, 0.160, 0.187, 0.229, 0.285,
+    0.343, 0.390, 0.435, 0.464, 0.472, 0.476, 0.481, 0.462, 0.447, 0.441, 0.426, 0.406, 0.373,
+    0.347, 0.337, 0.314, 0.285, 0.277, 0.266, 0.250, 0.230, 0.207, 0.186, 0.171, 0.160, 0.148,
+    0.141, 0.136, 0.130, 0.126, 0.123, 0.121, 0.122, 0.119, 0.114, 0.115, 0.117, 0.117, 0.118,
+    0.120, 0.122, 0.128, 0.132, 0.139, 0.144, 0.146, 0.150, 0.152, 0.157, 0.159]
+RED_REFL = [
+    0.040, 0.046, 0.048, 0.053, 0.049, 0.050, 0.053, 0.055, 0.057, 0.056, 0.059, 0.057, 0.061,
+    0.061, 0.060, 0.062, 0.062, 0.062, 0.061, 0.062, 0.060, 0.059, 0.057, 0.058, 0.058, 0.058,
+    0.056, 0.055, 0.056, 0.059, 0.057, 0.055, 0.059, 0.059, 0.058, 0.059, 0.061, 0.061, 0.063,
+    0.063, 0.067, 0.068, 0.072, 0.080, 0.090, 0.099, 0.124, 0.154, 0.192, 0.255, 0.287, 0.349,
+    0.402, 0.443, 0.487, 0.513, 0.558, 0.584, 0.620, 0.606, 0.609, 0.651, 0.612, 0.610, 0.650,
+    0.638, 0.627, 0.620, 0.630, 0.628, 0.642, 0.639, 0.657, 0.639, 0.635, 0.642]
+# Light: spectral radiance (the page's "light spectrum"), and its reflectance 0.78.
+LIGHT_EMISSION = [(400.0, 0.0), (500.0, 8.0), (600.0, 15.6), (700.0, 18.4)]
+LIGHT_REFL = 0.78
+
+# Classic RGB albedos (Benedikt Bitterli's "Rendering Resources" Cornell box,
+# https://benedikt-bitterli.me/resources/, also pbrt-v4-scenes cornell-box).
+WHITE_RGB = (0.725, 0.71, 0.68)
+RED_RGB = (0.63, 0.065, 0.05)
+GREEN_RGB = (0.14, 0.45, 0.091)
+LIGHT_RGB_ALBEDO = (0.78, 0.78, 0.78)
+
+# XYZ -> linear sRGB (shared/DESIGN.md).
+XYZ_TO_SRGB = ((3.2406, -1.5372, -0.4986), (-0.9689, 1.8758, 0.0415), (0.0557, -0.2040, 1.0570))
+
+
+# ---------------------------------------------------------------------------
+# Colour helpers
+# ---------------------------------------------------------------------------
+def load_cie_1931(path=os.path.join(ROOT, "kernels", "cie_data.h")):
+    """The CIE 1931 CMFs at 1 nm from 360 to 830 nm, parsed from kernels/cie_data.h."""
+    text = open(path).read()
+    tables = {}
+    for name in ("X", "Y", "Z"):
+        m = re.search(r"SPT_CIE_%s\[SPT_CIE_SAMPLES\]\s*=\s*\{([^}]*)\}" % name, text)
+        tables[name] = [float(v.rstrip("f")) for v in re.findall(r"[-+0-9.eE]+f", m.group(1))]
+    return list(range(360, 831)), tables["X"], tables["Y"], tables["Z"]
+
+
+def interp(table, nm):
+    """Piecewise-linear table [(nm, v)] at nm, zero outside its range."""
+    if nm < table[0][0] or nm > table[-1][0]:
+        return 0.0
+    for (a, va), (b, vb) in zip(table, table[1:]):
+        if a <= nm <= b:
+            return va + (vb - va) * (nm - a) / (b - a)
+    return table[-1][1]
+
+
+def spectrum_to_linear_srgb(table):
+    """Linear sRGB of a spectral radiance table in the Mitsuba 3 / spectrace
+    normalisation: XYZ = sum(cmf * P) / sum(ybar) over the 1 nm samples, so a
+    constant spectrum of value 1 has Y = 1."""
+    wl, xb, yb, zb = load_cie_1931()
+    p = [interp(table, w) for w in wl]
+    ysum = sum(yb)
+    xyz = [sum(c * v for c, v in zip(cmf, p)) / ysum for cmf in (xb, yb, zb)]
+    return [sum(m * c for m, c in zip(row, xyz)) for row in XYZ_TO_SRGB]
+
+
+# ---------------------------------------------------------------------------
+# A minimal glTF 2.0 writer (one embedded buffer)
+# ---------------------------------------------------------------------------
+def _sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def _cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _normalize(a):
+    n = math.sqrt(_dot(a, a))
+    return (a[0] / n, a[1] / n, a[2] / n)
+
+
+def orient_quad(quad, toward):
+    """The quad's 4 vertices ordered so its counter-clockwise front face (normal
+    (v1-v0)x(v2-v0)) points along `toward`."""
+    n = _cross(_sub(quad[1], quad[0]), _sub(quad[2], quad[0]))
+    return list(quad) if _dot(n, toward) > 0 else list(reversed(quad))
+
+
+class GltfBuilder:
+    """Collects meshes, materials, nodes and a camera; writes one .gltf with the
+    binary data as a base64 data URI."""
+
+    def __init__(self, generator):
+        self.doc = {"asset": {"version": "2.0", "generator": generator},
+                    "scene": 0, "scenes": [{"nodes": []}], "nodes": [], "meshes": [],
+                    "materials": [], "accessors": [], "bufferViews": [], "buffers": []}
+        self.blob = bytearray()
+        self.uses_strength = False
+
+    def _view(self, data, target):
+        while len(self.blob) % 4:
+            self.blob.append(0)
+        self.doc["bufferViews"].append({"buffer": 0, "byteOffset": len(self.blob),
+                                        "byteLength": len(data), "target": target})
+        self.blob.extend(data)
+        return len(self.doc["bufferViews"]) - 1
+
+    def _accessor(self, view, ctype, count, atype, mn=None, mx=None):
+        acc = {"bufferView": view, "componentType": ctype, "count": count, "type": atype}
+        if mn is not None:
+            acc["min"], acc["max"] = mn, mx
+        self.doc["accessors"].append(acc)
+        return len(self.doc["accessors"]) - 1
+
+    def material(self, name, base_rgb, emissive=None, strength=1.0, reflectance=None,
+                 emission=None, double_sided=False):
+        """A Lambertian material (metallic 0, roughness 1). emissive: RGB factor;
+        strength > 1 is written as KHR_materials_emissive_strength. reflectance /
+        emission: [(nm, value)] tables for extras.spectrace."""
+        m = {"name": name, "pbrMetallicRoughness": {
+            "baseColorFactor": [float(c) for c in base_rgb] + [1.0],
+            "metallicFactor": 0.0, "roughnessFactor": 1.0}}
+        if double_sided:
+            m["doubleSided"] = True
+        if emissive is not None:
+            m["emissiveFactor"] = [float(c) for c in emissive]
+            if strength != 1.0:
+                m["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": float(strength)}}
+                self.uses_strength = True
+        spec = {}
+        if reflectance is not None:
+            spec["reflectance"] = [[float(a), float(b)] for a, b in reflectance]
+        if emission is not None:
+            spec["emission"] = [[float(a), float(b)] for a, b in emission]
+        if spec:
+            m["extras"] = {"spectrace": spec}
+        self.doc["materials"].append(m)
+        return len(self.doc["materials"]) - 1
+
+    def mesh(self, name, positions, triangles, material, normals=None):
+        """A triangle mesh node. positions: [(x,y,z)], triangles: [(i,j,k)]
+        counter-clockwise seen from the front."""
+        pos = b"".join(struct.pack("<3f", *p) for p in positions)
+        mn = [min(p[k] for p in positions) for k in range(3)]
+        mx = [max(p[k] for p in positions) for k in range(3)]
+        attrs = {"POSITION": self._accessor(self._view(pos, 34962), 5126, len(positions), "VEC3", mn, mx)}
+        if normals is not None:
+            nrm = b"".join(struct.pack("<3f", *n) for n in normals)
+            attrs["NORMAL"] = self._accessor(self._view(nrm, 34962), 5126, len(normals), "VEC3")
+        idx = b"".join(struct.pack("<3I", *t) for t in triangles)
+        ind = self._accessor(self._view(idx, 34963), 5125, 3 * len(triangles), "SCALAR")
+        self.doc["meshes"].append({"name": name, "primitives": [
+            {"attributes": attrs, "indices": ind, "material": material, "mode": 4}]})
+        self.node({"name": name, "mesh": len(self.doc["meshes"]) - 1})
+
+    def quads_mesh(self, name, quads, material):
+        """A mesh of flat quads (4 vertices each, already oriented), two triangles
+        per quad, with flat normals."""
+        pos, nrm, tris = [], [], []
+        for q in quads:
+            n = _normalize(_cross(_sub(q[1], q[0]), _sub(q[2], q[0])))
+            b = len(pos)
+            pos.extend(q)
+            nrm.extend([n] * 4)
+            tris.extend([(b, b + 1, b + 2), (b, b + 2, b + 3)])
+        self.mesh(name, pos, tris, material, nrm)
+
+    def node(self, node):
+        self.doc["nodes"].append(node)
+        self.doc["scenes"][0]["nodes"].append(len(self.doc["nodes"]) - 1)
+
+    def camera(self, name, yfov, translation, rotation=None, aspect=1.0, znear=0.01):
+        """A perspective camera node (looking along the node's -Z)."""
+        self.doc.setdefault("cameras", []).append({"name": name, "type": "perspective", "perspective": {
+            "aspectRatio": aspect, "yfov": yfov, "znear": znear}})
+        node = {"name": name, "camera": len(self.doc["cameras"]) - 1,
+                "translation": [float(c) for c in translation]}
+        if rotation is not None:
+            node["rotation"] = [float(c) for c in rotation]
+        self.node(node)
+
+    def write(self, path, extras=None):
+        self.doc["buffers"] = [{"byteLength": len(self.blob), "uri": "data:application/octet-stream;base64,"
+                                + base64.b64encode(bytes(self.blob)).decode("ascii")}]
+        if self.uses_strength:
+            self.doc["extensionsUsed"] = ["KHR_materials_emissive_strength"]
+        if extras:
+            self.doc["asset"]["extras"] = extras
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+        tmp = path + ".tmp"
+        with open(tmp, "w") as f:
+            json.dump(self.doc, f, indent=1)
+            f.write("\n")
+        os.replace(tmp, path)
+
+
+# ---------------------------------------------------------------------------
+def light_emission_rgb():
+    """(emissiveFactor, emissiveStrength): the linear sRGB of the Cornell light
+    spectrum, split into a factor with max 1 and a strength."""
+    rgb = spectrum_to_linear_srgb(LIGHT_EMISSION)
+    s = max(rgb)
+    return [c / s for c in rgb], s
+
+
+def build(rgb_only=False):
+    mm = 1e-3
+    centre = (278.0, 274.4, 279.6)   # inside the box: walls face it
+
+    def m(quad):
+        return [tuple(c * mm for c in v) for v in quad]
+
+    def toward_centre(quad):
+        c = tuple(sum(v[k] for v in quad) / 4 for k in range(3))
+        return orient_quad(quad, _sub(centre, c))
+
+    def block(faces):
+        bc = tuple(sum(v[k] for f in faces for v in f) / (4 * len(faces)) for k in range(3))
+        out = []
+        for q in faces:
+            c = tuple(sum(v[k] for v in q) / 4 for k in range(3))
+            d = _sub(c, bc)
+            if q[0][1] == q[1][1] == q[2][1]:   # the top face: up
+                d = (0.0, 1.0, 0.0)
+            out.append(orient_quad(q, d))
+        return out
+
+    g = GltfBuilder("spectrace tools/make_cornell_box.py" + (" --rgb-only" if rgb_only else ""))
+    spec = (lambda t: None) if rgb_only else (lambda t: t)
+    white = g.material("white", WHITE_RGB, reflectance=spec(list(zip(WL_4NM, WHITE_REFL))))
+    red = g.material("red", RED_RGB, reflectance=spec(list(zip(WL_4NM, RED_REFL))))
+    green = g.material("green", GREEN_RGB, reflectance=spec(list(zip(WL_4NM, GREEN_REFL))))
+    factor, strength = light_emission_rgb()
+    light = g.material("light", LIGHT_RGB_ALBEDO, emissive=factor, strength=strength,
+                       reflectance=spec([(400.0, LIGHT_REFL), (700.0, LIGHT_REFL)]),
+                       emission=spec(LIGHT_EMISSION))
+
+    g.quads_mesh("floor", [m(toward_centre(FLOOR))], white)
+    g.quads_mesh("ceiling", [m(toward_centre(CEILING))], white)
+    g.quads_mesh("back_wall", [m(toward_centre(BACK_WALL))], white)
+    g.quads_mesh("left_wall_red", [m(toward_centre(LEFT_WALL))], red)
+    g.quads_mesh("right_wall_green", [m(toward_centre(RIGHT_WALL))], green)
+    g.quads_mesh("short_block", [m(q) for q in block(SHORT_BLOCK)], white)
+    g.quads_mesh("tall_block", [m(q) for q in block(TALL_BLOCK)], white)
+    g.quads_mesh("light", [m(orient_quad(LIGHT, (0.0, -1.0, 0.0)))], light)
+    # 180 degrees about +Y: node -Z -> world +z, node +X -> world -x.
+    g.camera("camera", YFOV, [c * mm for c in CAMERA_POS_MM], rotation=[0.0, 1.0, 0.0, 0.0])
+    return g
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("output", nargs="?", default=os.path.join(ROOT, "scenes", "cornell_box.gltf"),
+                    help="output .gltf (default scenes/cornell_box.gltf)")
+    ap.add_argument("--rgb-only", action="store_true",
+                    help="leave out the spectral extras (RGB materials and emission only)")
+    ap.add_argument("--print-light-rgb", action="store_true",
+                    help="print the linear sRGB of the Cornell light spectrum and exit")
+    a = ap.parse_args(argv)
+    if a.print_light_rgb:
+        print("light linear sRGB: %.5f %.5f %.5f" % tuple(spectrum_to_linear_srgb(LIGHT_EMISSION)))
+        return 0
+    g = build(a.rgb_only)
+    g.write(a.output, extras={"source": "Cornell box, https://www.graphics.cornell.edu/online/box/data.html",
+                              "units": "metres"})
+    print("wrote %s" % a.output)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
