@@ -1,0 +1,34 @@
+/* The structs shared by host and kernels whose layout must agree on both sides.
+ * kernels/layout_check.cl reports the device's sizeof of every struct of
+ * SPT_LAYOUT_STRUCTS and the offset of every field of SPT_LAYOUT_FIELDS;
+ * tests/test_cl.c (and `spectrace devices --check`) compares them with the host
+ * compiler's. When you add a shared struct, include its header here and add it
+ * to SPT_LAYOUT_STRUCTS, plus the fields whose placement is easy to get wrong
+ * (after arrays, before padding) to SPT_LAYOUT_FIELDS. */
+#ifndef SPT_LAYOUT_LIST_H
+#define SPT_LAYOUT_LIST_H
+
+#include "shared.h"
+
+/* A probe of the rules in kernels/shared.h (mixed 32-bit scalars, a fixed
+ * array, hand padding), so the check has something to compare even before any
+ * other shared struct exists. */
+typedef struct LayoutProbe {
+    spt_u32 id;
+    float v[3];
+    spt_i32 count;
+    float w;
+    spt_u32 pad[2];
+} LayoutProbe; /* 32 bytes */
+
+/* X(Type) for each shared struct. */
+#define SPT_LAYOUT_STRUCTS(X) \
+    X(LayoutProbe)
+
+/* X(Type, field) for each field whose offset is checked. */
+#define SPT_LAYOUT_FIELDS(X) \
+    X(LayoutProbe, v)        \
+    X(LayoutProbe, count)    \
+    X(LayoutProbe, pad)
+
+#endif
