@@ -354,6 +354,37 @@ def write_exr(mi, path, img):
     mi.Bitmap(np.ascontiguousarray(img, dtype=np.float32), pixel_format=mi.Bitmap.PixelFormat.RGB).write(path)
 
 
+def record_means(path, scene_path, info, args):
+    """Adds info as entry 'max_depth_D' of the JSON file at path (created if absent)."""
+    import platform
+    doc = {}
+    if os.path.exists(path):
+        with open(path) as f:
+            doc = json.load(f)
+    doc.setdefault("about", "Mitsuba 3 reference image means (linear sRGB, per channel) of %s, for tests "
+                   "that compare spectrace without Mitsuba installed. Written by tools/scene_to_mitsuba.py "
+                   "--means-json; each entry records its exact command." % scene_path)
+    doc["scene"] = scene_path
+    entry = {k: info[k] for k in ("width", "height", "spp", "max_depth", "variant", "mitsuba_version")}
+    entry.update({"integrator": "path (rr_depth 5), hdrfilm box filter, independent sampler",
+                  "mean": [round(v, 7) for v in info["mean"]]})
+    if "stderr_of_mean" in info:
+        entry["stderr_of_mean"] = [float("%.3g" % v) for v in info["stderr_of_mean"]]
+        entry["relative_stderr"] = [float("%.3g" % (e / m)) if m else None
+                                    for e, m in zip(info["stderr_of_mean"], info["mean"])]
+    entry.update({"passes": info["passes"], "render_s": round(info["render_s"], 2),
+                  "paths_per_s": float("%.4g" % info["paths_per_s"]),
+                  "machine": "%s, %d logical CPUs (shared)" % (platform.machine(), os.cpu_count() or 0),
+                  "command": "python3 tools/scene_to_mitsuba.py " + " ".join(args)})
+    doc["max_depth_%d" % info["max_depth"]] = entry
+    tmp = path + ".tmp"
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(tmp, "w") as f:
+        json.dump(doc, f, indent=1)
+        f.write("\n")
+    os.replace(tmp, path)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Render a spectrace glTF scene with Mitsuba 3 (spectral).")
     ap.add_argument("scene", help="a .gltf file")
@@ -368,6 +399,9 @@ def main(argv=None):
                     help="Mitsuba variant: auto (llvm_ad_spectral if libLLVM 16+, else scalar_spectral)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true", help="print the result (means, timing) as JSON")
+    ap.add_argument("--means-json", metavar="FILE",
+                    help="record the means (with settings, timing and this command) in FILE under the key "
+                         "'max_depth_D', keeping the file's other entries (reference figures for tests)")
     a = ap.parse_args(argv)
     w, h = a.width or a.size, a.height or a.size
     try:
@@ -379,6 +413,8 @@ def main(argv=None):
         import mitsuba as mi
         write_exr(mi, a.output, img)
         info["output"] = a.output
+    if a.means_json:
+        record_means(a.means_json, a.scene, info, argv if argv is not None else sys.argv[1:])
     if a.json:
         print(json.dumps(info, indent=1))
     else:
