@@ -117,6 +117,12 @@ void scene_material_default(SceneMaterial *m);
  * with e naming the file, the object and the reason; s is then empty. */
 int scene_load_gltf(Scene *s, const char *path, SptError *e);
 
+/* The same from the file's bytes in memory (.gltf or .glb, told apart by the GLB
+ * magic); name stands for the file in messages and its folder is where external
+ * buffers and images are looked up. For tests and fuzzing. */
+int scene_load_gltf_memory(Scene *s, const void *data, size_t size, const char *name,
+                           SptError *e);
+
 /* A default perspective camera that frames the bounds from +Z looking toward -Z,
  * yfov 45 degrees. */
 void scene_default_camera(Scene *s);

@@ -1,0 +1,141 @@
+// Texture decoding through OpenImageIO (see src/texture_io.h for the contract).
+#include "texture_io.h"
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+using namespace OIIO;
+
+namespace {
+
+// Formats a reason into why (never overflows, always terminated).
+void say(char *why, size_t why_size, const std::string &text)
+{
+    if (why && why_size) snprintf(why, why_size, "%s", text.c_str());
+}
+
+// First line of OpenImageIO's pending error (clears it, so OIIO does not print it
+// at exit), or fallback when there is none.
+std::string oiio_reason(ImageInput *in, const char *fallback)
+{
+    std::string msg = in ? in->geterror() : std::string();
+    std::string global = OIIO::geterror();
+    if (msg.empty()) msg = global;
+    if (msg.empty()) msg = fallback;
+    size_t nl = msg.find('\n');
+    if (nl != std::string::npos) msg.resize(nl);
+    return msg;
+}
+
+// Reads subimage 0 of an opened input into img; 0 or -1 with why.
+int read_opened(ImageInput *in, TextureImage *img, char *why, size_t why_size)
+{
+    const ImageSpec &spec = in->spec();
+    if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1 || spec.nchannels <= 0) {
+        say(why, why_size, "not a 2D image");
+        return -1;
+    }
+    if (spec.width > SPT_TEXTURE_MAX_SIDE || spec.height > SPT_TEXTURE_MAX_SIDE) {
+        say(why, why_size,
+            std::to_string(spec.width) + "x" + std::to_string(spec.height) +
+                " texels is larger than " + std::to_string(SPT_TEXTURE_MAX_SIDE) + " per side");
+        return -1;
+    }
+    int channels = spec.nchannels < 4 ? spec.nchannels : 4;
+    size_t n = (size_t)spec.width * (size_t)spec.height * (size_t)channels;
+    if (n * sizeof(float) > SPT_TEXTURE_MAX_BYTES) {
+        say(why, why_size, "image needs more than 1 GiB as floats");
+        return -1;
+    }
+    float *texels = (float *)malloc(n * sizeof(float));
+    if (!texels) {
+        say(why, why_size, "out of memory");
+        return -1;
+    }
+    if (!in->read_image(0, 0, 0, channels, TypeDesc::FLOAT, texels)) {
+        say(why, why_size, oiio_reason(in, "cannot decode the image"));
+        free(texels);
+        return -1;
+    }
+    for (size_t i = 0; i < n; i++)
+        if (!std::isfinite(texels[i])) texels[i] = 0.0f;
+    img->width = spec.width;
+    img->height = spec.height;
+    img->channels = channels;
+    img->texels = texels;
+    return 0;
+}
+
+} // namespace
+
+extern "C" int texture_io_load_file(const char *path, TextureImage *img, char *why,
+                                    size_t why_size)
+{
+    memset(img, 0, sizeof *img);
+    auto in = ImageInput::open(path);
+    if (!in) {
+        say(why, why_size, oiio_reason(nullptr, "cannot open the image"));
+        return -1;
+    }
+    int rc = read_opened(in.get(), img, why, why_size);
+    in->close();
+    return rc;
+}
+
+extern "C" int texture_io_load_memory(const void *data, size_t size, const char *mime_type,
+                                      TextureImage *img, char *why, size_t why_size)
+{
+    memset(img, 0, sizeof *img);
+    const unsigned char *b = (const unsigned char *)data;
+    // OpenImageIO picks its reader from a file name: make one from the magic
+    // bytes, or from the MIME type when the bytes are not recognised.
+    const char *name = nullptr;
+    if (size >= 8 && !memcmp(b, "\x89PNG\r\n\x1a\n", 8))
+        name = "memory.png";
+    else if (size >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF)
+        name = "memory.jpg";
+    else if (mime_type && !strcmp(mime_type, "image/png"))
+        name = "memory.png";
+    else if (mime_type && !strcmp(mime_type, "image/jpeg"))
+        name = "memory.jpg";
+    if (!name || size == 0) {
+        say(why, why_size, "not a PNG or JPEG image");
+        return -1;
+    }
+    Filesystem::IOMemReader proxy(data, size);
+    ImageSpec config;
+    auto in = ImageInput::open(name, &config, &proxy);
+    if (!in) {
+        say(why, why_size, oiio_reason(nullptr, "cannot decode the image"));
+        return -1;
+    }
+    int rc = read_opened(in.get(), img, why, why_size);
+    in->close();
+    return rc;
+}
+
+extern "C" void texture_io_srgb_to_linear(float *texels, size_t texel_count, int channels)
+{
+    int colour = channels >= 3 ? 3 : 1; // grey(+alpha) or RGB(+alpha)
+    for (size_t i = 0; i < texel_count; i++) {
+        for (int c = 0; c < colour; c++) {
+            float *v = &texels[i * (size_t)channels + (size_t)c];
+            double x = *v;
+            // Inverse sRGB transfer (IEC 61966-2-1), as in ../shared/DESIGN.md.
+            x = x <= 0.04045 ? x / 12.92 : pow((x + 0.055) / 1.055, 2.4);
+            *v = (float)x;
+        }
+    }
+}
+
+extern "C" void texture_io_free(TextureImage *img)
+{
+    free(img->texels);
+    memset(img, 0, sizeof *img);
+}
