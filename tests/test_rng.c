@@ -1,0 +1,341 @@
+/* kernels/rng.h: the counter-based generator and the Owen-scrambled Sobol sampler. */
+#include "test_util.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "chi2.h"
+#include "rng.h"
+
+/* Chi-square tests in this binary, for the Sidak correction. */
+#define RNG_CHI2_TESTS 7
+
+/* Fails with the chi-square report unless r passed. */
+static void rng_require(const Chi2Result *r)
+{
+    if (!r->passed)
+        fail_msg("%s", r->message);
+    print_message("  %s\n", r->message);
+}
+
+/* Values from an independent Python implementation of the hashes
+ * (arbitrary-precision integers masked to 32 bits). */
+static void test_rand_matches_reference(void **state)
+{
+    (void)state;
+    static const spt_u32 want[][5] = {
+        {0u, 0u, 0u, 0u, 0x52fa79b7u},
+        {1u, 2u, 3u, 4u, 0x48c7ebb6u},
+        {3735928559u, 123456u, 789u, 17u, 0xd5ca7056u},
+        {4294967295u, 4294967295u, 4294967295u, 4294967295u, 0x809aacf4u},
+    };
+    for (int i = 0; i < 4; i++) {
+        const spt_u32 *w = want[i];
+        spt_u32 got = spt_rand_bits(spt_rng_key(w[0], w[1], w[2]), w[3]);
+        if (got != w[4])
+            fail_msg("bits(%u,%u,%u,%u) = 0x%08x, expected 0x%08x", w[0], w[1], w[2], w[3], got,
+                     w[4]);
+        assert_true(spt_rand(w[0], w[1], w[2], w[3]) == (float)(w[4] >> 8) / 16777216.0f);
+    }
+    static const spt_u32 sob[][4] = {
+        {0u, 0u, 0x00000000u, 0x5bc384eau},
+        {1u, 1u, 0x00003039u, 0xed8854deu},
+        {37u, 3u, 0xcafef00du, 0x79cd819du},
+        {1000000u, 7u, 0xffffffffu, 0xc2328008u},
+    };
+    for (int i = 0; i < 4; i++) {
+        spt_u32 got = spt_sobol_owen_u32(sob[i][0], sob[i][1], sob[i][2]);
+        if (got != sob[i][3])
+            fail_msg("sobol_owen(%u,%u,0x%08x) = 0x%08x, expected 0x%08x", sob[i][0], sob[i][1],
+                     sob[i][2], got, sob[i][3]);
+    }
+}
+
+/* Same arguments, same number, in any order of calls (no hidden state). */
+static void test_rand_is_deterministic(void **state)
+{
+    (void)state;
+    float first[64];
+    for (int i = 0; i < 64; i++)
+        first[i] = spt_rand(7u, (spt_u32)i * 31u, (spt_u32)i, (spt_u32)i % 9u);
+    for (int i = 63; i >= 0; i--) {
+        (void)spt_rand(8u, 1u, 2u, 3u);
+        assert_true(spt_rand(7u, (spt_u32)i * 31u, (spt_u32)i, (spt_u32)i % 9u) == first[i]);
+    }
+}
+
+/* The conversion never returns 1, and 10^6 outputs lie in [0, 1). */
+static void test_rand_range(void **state)
+{
+    (void)state;
+    assert_true(spt_u32_to_unit(0xffffffffu) < 1.0f);
+    assert_true(spt_u32_to_unit(0xffffffffu) == 1.0f - 1.0f / 16777216.0f);
+    assert_true(spt_u32_to_unit(0u) == 0.0f);
+    assert_true(spt_u32_to_unit(0x80000000u) == 0.5f);
+    for (spt_u32 i = 0; i < 1000000u; i++) {
+        float u = spt_rand(3u, i >> 6, i & 63u, i % 97u);
+        if (!(u >= 0.0f && u < 1.0f))
+            fail_msg("spt_rand = %.9g for i = %u", u, i);
+    }
+}
+
+/* 10^6 values over pixels, samples and dims into 1000 equal bins. */
+static void test_rand_uniform_1d(void **state)
+{
+    (void)state;
+    enum { BINS = 1000 };
+    static double obs[BINS], expct[BINS];
+    memset(obs, 0, sizeof obs);
+    const spt_u32 n = CHI2_DEFAULT_SAMPLES;
+    for (spt_u32 i = 0; i < n; i++) {
+        float u = spt_rand(11u, i % 1021u, i / 1021u, i % 37u);
+        obs[(int)(u * BINS)] += 1.0;
+    }
+    for (int b = 0; b < BINS; b++)
+        expct[b] = (double)n / BINS;
+    Chi2Result r;
+    chi2_test_counts("spt_rand 1D", obs, expct, BINS, chi2_sidak(0.01, RNG_CHI2_TESTS), &r);
+    rng_require(&r);
+}
+
+/* Pairs of spt_rand values that differ in one argument; 2D uniformity of the pairs
+ * shows the two are independent. */
+typedef struct PairCtx {
+    int which; /* 0: dims, 1: pixels, 2: samples, 3: seeds */
+} PairCtx;
+
+static int pair_sample(void *ctx, uint32_t i, double p[3])
+{
+    const PairCtx *c = ctx;
+    spt_u32 seed = 5u, pixel = i % 4099u, sample = i / 4099u, dim = 9u;
+    switch (c->which) {
+    case 0:
+        p[0] = spt_rand(seed, pixel, sample, dim);
+        p[1] = spt_rand(seed, pixel, sample, dim + 1u);
+        break;
+    case 1:
+        p[0] = spt_rand(seed, 2u * pixel, sample, dim);
+        p[1] = spt_rand(seed, 2u * pixel + 1u, sample, dim);
+        break;
+    case 2:
+        p[0] = spt_rand(seed, pixel, 2u * sample, dim);
+        p[1] = spt_rand(seed, pixel, 2u * sample + 1u, dim);
+        break;
+    default:
+        p[0] = spt_rand(i, pixel, sample, dim);
+        p[1] = spt_rand(i + 1u, pixel, sample, dim);
+        break;
+    }
+    return 1;
+}
+
+static double uniform_pdf(void *ctx, const double p[3])
+{
+    (void)ctx;
+    (void)p;
+    return 1.0;
+}
+
+static void test_rand_independent_pairs(void **state)
+{
+    (void)state;
+    static const char *names[4] = {"pairs of dims", "pairs of pixels", "pairs of samples",
+                                   "pairs of seeds"};
+    for (int w = 0; w < 4; w++) {
+        PairCtx c = {w};
+        Chi2Grid g = {0};
+        g.name = names[w];
+        g.domain = CHI2_PLANE;
+        g.x0 = g.y0 = 0.0;
+        g.x1 = g.y1 = 1.0;
+        g.res_x = g.res_y = 32;
+        g.num_tests = RNG_CHI2_TESTS;
+        g.sample = pair_sample;
+        g.pdf = uniform_pdf;
+        g.ctx = &c;
+        Chi2Result r;
+        chi2_grid_run(&g, &r);
+        rng_require(&r);
+    }
+}
+
+/* The direction-number table equals the one built here from Joe and Kuo's
+ * (s, a, m) with the textbook recurrence
+ * m_k = 2 a_1 m_{k-1} ^ 4 a_2 m_{k-2} ^ ... ^ 2^s m_{k-s} ^ m_{k-s}. */
+static void test_sobol_directions_match_joe_kuo(void **state)
+{
+    (void)state;
+    static const struct { int s, a; spt_u32 m[5]; } jk[7] = {
+        {1, 0, {1}}, {2, 1, {1, 3}}, {3, 1, {1, 3, 1}}, {3, 2, {1, 1, 1}},
+        {4, 1, {1, 1, 3, 3}}, {4, 4, {1, 3, 5, 13}}, {5, 2, {1, 1, 5, 5, 17}},
+    };
+    for (int k = 0; k < 32; k++)
+        assert_int_equal(SPT_SOBOL_DIRECTIONS[k], 1u << (31 - k));
+    for (int d = 0; d < 7; d++) {
+        uint64_t m[33];
+        int s = jk[d].s;
+        for (int k = 1; k <= 32; k++) {
+            if (k <= s) {
+                m[k] = jk[d].m[k - 1];
+                continue;
+            }
+            uint64_t v = m[k - s] ^ (m[k - s] << s);
+            for (int j = 1; j < s; j++)
+                if ((jk[d].a >> (s - 1 - j)) & 1)
+                    v ^= m[k - j] << j;
+            m[k] = v;
+        }
+        for (int k = 1; k <= 32; k++) {
+            spt_u32 want = (spt_u32)(m[k] << (32 - k));
+            spt_u32 got = SPT_SOBOL_DIRECTIONS[(d + 1) * 32 + (k - 1)];
+            if (got != want)
+                fail_msg("Sobol dim %d direction %d: 0x%08x, expected 0x%08x", d + 1, k, got,
+                         want);
+        }
+    }
+    /* The first points of Sobol dim 1 in natural order, by hand from v = 1/2, 3/4, 5/8. */
+    static const float first[8] = {0.0f, 0.5f, 0.75f, 0.25f, 0.625f, 0.125f, 0.375f, 0.875f};
+    for (spt_u32 i = 0; i < 8; i++)
+        assert_true(spt_u32_to_unit(spt_sobol_u32(i, 1)) == first[i]);
+}
+
+/* Whether points (x[i], y[i]), i < 2^k, form a (0,k,2)-net in base 2: for every
+ * a + b = k, each box [i/2^a, (i+1)/2^a) x [j/2^b, (j+1)/2^b) holds one point. */
+static int is_02_net(const float *x, const float *y, int k, char *why, size_t why_len)
+{
+    int n = 1 << k;
+    int *count = calloc((size_t)n, sizeof(int));
+    for (int a = 0; a <= k; a++) {
+        int b = k - a;
+        memset(count, 0, sizeof(int) * (size_t)n);
+        for (int i = 0; i < n; i++) {
+            int cx = (int)(x[i] * (float)(1 << a)), cy = (int)(y[i] * (float)(1 << b));
+            count[(cx << b) + cy]++;
+        }
+        for (int c = 0; c < n; c++)
+            if (count[c] != 1) {
+                snprintf(why, why_len, "k = %d, boxes 2^-%d x 2^-%d: box %d holds %d points", k,
+                         a, b, c, count[c]);
+                free(count);
+                return 0;
+            }
+    }
+    free(count);
+    return 1;
+}
+
+/* Every power-of-two prefix (and later aligned blocks) of a pixel's 2D pixel and
+ * lens samples is a (0,k,2)-net, for several pixels and seeds. */
+static void test_sobol_prefixes_are_nets(void **state)
+{
+    (void)state;
+    enum { K = 10 };
+    static float x[1 << K], y[1 << K];
+    char why[200];
+    static const spt_u32 pixels[3] = {0u, 1u, 987654u};
+    for (int pi = 0; pi < 3; pi++)
+        for (spt_u32 pair = 0; pair < 2; pair++)
+            for (int k = 0; k <= K; k++)
+                for (spt_u32 block = 0; block < 3; block++) {
+                    spt_u32 start = block << k;
+                    for (int i = 0; i < (1 << k); i++) {
+                        x[i] = spt_sample_1d(42u, pixels[pi], start + (spt_u32)i, 2u * pair);
+                        y[i] = spt_sample_1d(42u, pixels[pi], start + (spt_u32)i, 2u * pair + 1u);
+                    }
+                    if (!is_02_net(x, y, k, why, sizeof why))
+                        fail_msg("pixel %u, dims %u-%u, samples %u..%u: %s", pixels[pi],
+                                 2u * pair, 2u * pair + 1u, start, start + (1u << k) - 1u, why);
+                }
+}
+
+/* Every Sobol dim (and the wavelength dim) is stratified in 1D: the first 2^k
+ * points fall one in each interval of length 2^-k. */
+static void test_sobol_1d_stratified(void **state)
+{
+    (void)state;
+    enum { K = 12 };
+    static int count[1 << K];
+    for (spt_u32 dim = 0; dim <= SPT_SOBOL_DIMS; dim++)
+        for (int k = 0; k <= K; k++) {
+            int n = 1 << k;
+            memset(count, 0, sizeof(int) * (size_t)n);
+            for (int i = 0; i < n; i++) {
+                /* dim == SPT_SOBOL_DIMS stands for the renderer's wavelength dim. */
+                float u = dim < SPT_SOBOL_DIMS
+                              ? spt_sobol_owen((spt_u32)i, dim, 0x1234567u + dim)
+                              : spt_sample_1d(9u, 77u, (spt_u32)i, SPT_DIM_WAVELENGTH);
+                count[(int)(u * (float)n)]++;
+            }
+            for (int c = 0; c < n; c++)
+                if (count[c] != 1)
+                    fail_msg("dim %u, first %d points: interval %d holds %d", dim, n, c,
+                             count[c]);
+        }
+}
+
+/* The first sample of each pixel is a uniform random point (a chi-square over
+ * 2^18 pixels): different pixels get independent scrambles. */
+static int first_point_sample(void *ctx, uint32_t i, double p[3])
+{
+    (void)ctx;
+    p[0] = spt_sample_1d(1u, i, 0u, SPT_DIM_PIXEL_X);
+    p[1] = spt_sample_1d(1u, i, 0u, SPT_DIM_PIXEL_Y);
+    return 1;
+}
+
+/* Pixel dim 0 against lens dim 2 over the samples of one pixel: the two Sobol
+ * groups must be decorrelated by their shuffles (identical shuffles would put
+ * every point on the diagonal). */
+static int pixel_lens_sample(void *ctx, uint32_t i, double p[3])
+{
+    (void)ctx;
+    p[0] = spt_sample_1d(1u, 5u, i, SPT_DIM_PIXEL_X);
+    p[1] = spt_sample_1d(1u, 5u, i, SPT_DIM_LENS_U);
+    return 1;
+}
+
+static void test_sobol_scrambles_differ(void **state)
+{
+    (void)state;
+    Chi2Grid g = {0};
+    g.domain = CHI2_PLANE;
+    g.x1 = g.y1 = 1.0;
+    g.res_x = g.res_y = 16;
+    g.num_tests = RNG_CHI2_TESTS;
+    g.pdf = uniform_pdf;
+    Chi2Result r;
+
+    g.name = "first sample of 2^18 pixels";
+    g.samples = 1u << 18;
+    g.sample = first_point_sample;
+    chi2_grid_run(&g, &r);
+    rng_require(&r);
+
+    g.name = "pixel x against lens u";
+    g.samples = 1u << 16;
+    g.sample = pixel_lens_sample;
+    chi2_grid_run(&g, &r);
+    rng_require(&r);
+
+    /* Two neighbouring pixels never share a sequence. */
+    int same = 0;
+    for (spt_u32 i = 0; i < 1024u; i++)
+        same += spt_sample_1d(1u, 10u, i, 0u) == spt_sample_1d(1u, 11u, i, 0u);
+    assert_true(same < 4);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_rand_matches_reference),
+        cmocka_unit_test(test_rand_is_deterministic),
+        cmocka_unit_test(test_rand_range),
+        cmocka_unit_test(test_rand_uniform_1d),
+        cmocka_unit_test(test_rand_independent_pairs),
+        cmocka_unit_test(test_sobol_directions_match_joe_kuo),
+        cmocka_unit_test(test_sobol_prefixes_are_nets),
+        cmocka_unit_test(test_sobol_1d_stratified),
+        cmocka_unit_test(test_sobol_scrambles_differ),
+    };
+    return cmocka_run_group_tests_name("rng", tests, NULL, NULL);
+}
