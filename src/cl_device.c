@@ -614,7 +614,7 @@ static int resolve_into(Buf *b, const char *name, const char *text, Seen *seen, 
                 free(sub);
                 if (rc)
                     return rc;
-                buf_printf(b, "\n#line %d \"%s\"\n", lineno + 1, name);
+                buf_printf(b, "#line %d \"%s\"\n", lineno + 1, name);
             } else {
                 buf_printf(b, "/* #include \"%s\": already included */\n", inc);
             }
