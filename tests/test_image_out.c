@@ -1,0 +1,628 @@
+/* src/image_out.c, src/exr.c, src/image_io.cpp: image files, display transforms,
+ * atomic writes and their failures. Files are read back with OpenImageIO (an
+ * independent reader of what OpenEXRCore and our display transform wrote). */
+#include "test_util.h"
+
+#include <dirent.h>
+#include <signal.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "exr.h"
+#include "image_io.h"
+#include "image_out.h"
+
+/* A fresh folder per test, removed (with its files) afterwards. */
+static char g_dir[256];
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(g_dir, sizeof g_dir, "/tmp/spt-test-image-out-XXXXXX");
+    unsetenv("SPECTRACE_TEST_FAIL_WRITE");
+    return mkdtemp(g_dir) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    unsetenv("SPECTRACE_TEST_FAIL_WRITE");
+    char cmd[512];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", g_dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+/* g_dir/name in a static rotating buffer. */
+static const char *in_dir(const char *name)
+{
+    static char buf[4][512];
+    static int k;
+    k = (k + 1) % 4;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", g_dir, name);
+    return buf[k];
+}
+
+/* Number of entries of g_dir whose name contains the temporary-file mark. */
+static int temp_files_left(void)
+{
+    DIR *d = opendir(g_dir);
+    assert_non_null(d);
+    int n = 0;
+    struct dirent *de;
+    while ((de = readdir(d)))
+        if (strstr(de->d_name, SPT_IMAGE_TEMP_MARK)) {
+            print_message("left behind: %s\n", de->d_name);
+            n++;
+        }
+    closedir(d);
+    return n;
+}
+
+/* The whole file, malloc'd. */
+static unsigned char *slurp(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    unsigned char *buf = malloc((size_t)n + 1);
+    assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
+    fclose(f);
+    *size = (size_t)n;
+    return buf;
+}
+
+static void write_bytes(const char *path, const void *data, size_t n)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(data, 1, n, f), n);
+    fclose(f);
+}
+
+static void assert_attr(const char *path, const char *name, const char *want)
+{
+    char got[512];
+    SptError e = {0};
+    int found = image_io_attr(path, name, got, sizeof got, &e);
+    if (found != 1)
+        fail_msg("%s: attribute %s missing (%d) %s", path, name, found, e.msg);
+    if (strcmp(got, want))
+        fail_msg("%s: attribute %s = '%s', expected '%s'", path, name, got, want);
+}
+
+/* ------------------------------------------------------------------------- */
+
+static void test_exr_roundtrip_read_by_oiio(void **state)
+{
+    (void)state;
+    enum { W = 4, H = 3 };
+    float rgb[W * H * 3];
+    /* Values that a half-float or lossy path would change. */
+    for (int i = 0; i < W * H * 3; ++i)
+        rgb[i] = (float)(i + 1) * 0.1234567f - 1.0f;
+    rgb[0] = 1e-8f;
+    rgb[5] = 123456.7f;
+    ImageMeta meta = {.spp = 64, .render_seconds = 1.5, .device = "test device",
+                      .seed = 4000000000u, .scene = "scenes/box.gltf"};
+    assert_int_equal(image_meta_add(&meta, "integrator", "path"), 0);
+    const char *path = in_dir("out.exr");
+    SptError e = {0};
+    int rc = image_write(path, rgb, W, H, &meta, NULL, &e);
+    if (rc)
+        fail_msg("%s", e.msg);
+
+    ImageIoInfo info;
+    assert_int_equal(image_io_info(path, &info, &e), SPT_EXIT_OK);
+    assert_string_equal(info.format_name, "openexr");
+    assert_string_equal(info.format, "float");
+    assert_int_equal(info.width, W);
+    assert_int_equal(info.height, H);
+    assert_int_equal(info.channels, 3);
+    assert_string_equal(info.channel_names[0], "R");
+    assert_string_equal(info.channel_names[1], "G");
+    assert_string_equal(info.channel_names[2], "B");
+
+    float *back = NULL;
+    int w, h, ch;
+    assert_int_equal(image_io_read(path, &back, &w, &h, &ch, &e), SPT_EXIT_OK);
+    assert_int_equal(w * h * ch, W * H * 3);
+    for (int i = 0; i < W * H * 3; ++i)
+        if (back[i] != rgb[i])
+            fail_msg("value %d: read %.9g, wrote %.9g", i, back[i], rgb[i]);
+    free(back);
+
+    assert_attr(path, "spectrace:spp", "64");
+    assert_attr(path, "spectrace:renderSeconds", "1.5");
+    assert_attr(path, "spectrace:device", "test device");
+    assert_attr(path, "spectrace:seed", "4000000000");
+    assert_attr(path, "spectrace:scene", "scenes/box.gltf");
+    assert_attr(path, "spectrace:integrator", "path");
+    assert_int_equal(temp_files_left(), 0);
+}
+
+/* Linear values and their 8-bit sRGB codes, computed by hand from DESIGN.md:
+ * C <= 0.0031308 -> 12.92 C, else 1.055 C^(1/2.4) - 0.055; code = round(255 clamp).
+ *   0          -> 0
+ *   0.001      -> 255 * 0.01292 = 3.29                      -> 3
+ *   0.0031308  -> 255 * 0.040450 = 10.31                    -> 10
+ *   0.18       -> 255 * (1.055 * 0.18^0.41667 - 0.055) = 117.65  -> 118
+ *   0.25       -> 255 * 0.53710 = 136.96                    -> 137
+ *   0.5        -> 255 * 0.73536 = 187.52                    -> 188
+ *   1          -> 255;  2 -> 255 (clamped);  NaN -> 0;  -0.5 -> 0 */
+static const float k_lin[] = {0.0f, 0.001f, 0.0031308f, 0.18f, 0.25f, 0.5f, 1.0f, 2.0f, NAN,
+                              -0.5f, 0.5f, 0.25f};
+static const int k_code[] = {0, 3, 10, 118, 137, 188, 255, 255, 0, 0, 188, 137};
+
+static void test_png_srgb_codes(void **state)
+{
+    (void)state;
+    enum { W = 2, H = 2 }; /* 4 pixels = the 12 values above */
+    const char *path = in_dir("codes.png");
+    SptError e = {0};
+    ImageMeta meta = {.spp = 4, .seed = 7};
+    int rc = image_write(path, k_lin, W, H, &meta, NULL, &e);
+    if (rc)
+        fail_msg("%s", e.msg);
+    ImageIoInfo info;
+    assert_int_equal(image_io_info(path, &info, &e), SPT_EXIT_OK);
+    assert_string_equal(info.format_name, "png");
+    assert_string_equal(info.format, "uint8");
+    assert_attr(path, "oiio:ColorSpace", "sRGB");
+    assert_attr(path, "spectrace:spp", "4");
+
+    float *back = NULL;
+    int w, h, ch;
+    assert_int_equal(image_io_read(path, &back, &w, &h, &ch, &e), SPT_EXIT_OK);
+    assert_int_equal(ch, 3);
+    for (int i = 0; i < W * H * 3; ++i) {
+        int code = (int)lroundf(back[i] * 255.0f);
+        if (code != k_code[i])
+            fail_msg("linear %g: 8-bit %d, expected %d", k_lin[i], code, k_code[i]);
+    }
+    free(back);
+}
+
+static void test_exposure_doubles_linear(void **state)
+{
+    (void)state;
+    DisplayOptions plus1 = {1.0f, SPT_TONEMAP_NONE}, minus1 = {-1.0f, SPT_TONEMAP_NONE};
+    uint8_t out[3];
+    float quarter[3] = {0.25f, 0.25f, 0.25f}, one[3] = {1, 1, 1}, zero[3] = {0, 0, 0};
+    image_display_pixel(quarter, NULL, out);
+    assert_int_equal(out[0], 137); /* 0.25 as is (see the table above) */
+    image_display_pixel(quarter, &plus1, out);
+    assert_int_equal(out[0], 188); /* 0.25 * 2 = 0.5 */
+    image_display_pixel(one, &minus1, out);
+    assert_int_equal(out[1], 188); /* 1 / 2 = 0.5 */
+    image_display_pixel(zero, &plus1, out);
+    assert_int_equal(out[2], 0);
+
+    /* Through a file: an image of 0.25 written at +1 EV reads back as 0.5's code. */
+    const char *path = in_dir("ev.png");
+    float img[4 * 3];
+    for (int i = 0; i < 12; ++i)
+        img[i] = 0.25f;
+    SptError e = {0};
+    assert_int_equal(image_write(path, img, 2, 2, NULL, &plus1, &e), SPT_EXIT_OK);
+    float *back = NULL;
+    int w, h;
+    assert_int_equal(image_read_rgb(path, &back, &w, &h, &e), SPT_EXIT_OK);
+    assert_int_equal((int)lroundf(back[0] * 255.0f), 188);
+    free(back);
+
+    /* Linear formats ignore exposure and tone map. */
+    const char *exr = in_dir("ev.exr");
+    DisplayOptions both = {3.0f, SPT_TONEMAP_NEUTRAL};
+    assert_int_equal(image_write(exr, img, 2, 2, NULL, &both, &e), SPT_EXIT_OK);
+    assert_int_equal(image_read_rgb(exr, &back, &w, &h, &e), SPT_EXIT_OK);
+    assert_true(back[0] == 0.25f && back[11] == 0.25f);
+    free(back);
+}
+
+/* Khronos PBR Neutral at a few points, evaluated separately (Python, from the
+ * specification's equations in the KhronosGroup/ToneMapping README):
+ *   (0,0,0)          -> (0,0,0)
+ *   (0.5,0.5,0.5)    -> (0.46,0.46,0.46)           p <= Ks: c - 0.04
+ *   (0.04,0.2,0.6)   -> (0.01,0.17,0.57)           f = 0.04 - 0.04^2/0.16 = 0.03
+ *   (1,1,1)          -> 1 - 0.0576/0.44 = 0.869090909 (grey stays grey at pn)
+ *   (2,0.5,0.05)     -> (0.960155642, 0.323470556, 0.132465030)
+ *   (10,1,0.1)       -> (0.993898305, 0.610899015, 0.572599086) */
+static void test_tonemap_neutral_values(void **state)
+{
+    (void)state;
+    static const float in[][3] = {{0, 0, 0}, {0.5f, 0.5f, 0.5f}, {0.04f, 0.2f, 0.6f},
+                                  {1, 1, 1}, {2, 0.5f, 0.05f},   {10, 1, 0.1f}};
+    static const double want[][3] = {{0, 0, 0},
+                                     {0.46, 0.46, 0.46},
+                                     {0.01, 0.17, 0.57},
+                                     {0.869090909, 0.869090909, 0.869090909},
+                                     {0.960155642, 0.323470556, 0.132465030},
+                                     {0.993898305, 0.610899015, 0.572599086}};
+    for (size_t k = 0; k < sizeof in / sizeof in[0]; ++k) {
+        float out[3];
+        image_tonemap_neutral(in[k], out);
+        for (int c = 0; c < 3; ++c)
+            assert_close(out[c], want[k][c], 2e-6);
+    }
+    /* Out-of-domain input stays defined: NaN and negatives count as 0, inf -> white. */
+    float odd[3] = {NAN, -1.0f, INFINITY}, out[3];
+    image_tonemap_neutral(odd, out);
+    assert_true(out[0] == 1.0f && out[1] == 1.0f && out[2] == 1.0f);
+    float neg[3] = {-1.0f, NAN, 0.0f};
+    image_tonemap_neutral(neg, out);
+    assert_true(out[0] == 0.0f && out[1] == 0.0f && out[2] == 0.0f);
+
+    /* Display path: exposure, then tone map, then sRGB. (0.5,0.5,0.5) at +1 EV is
+     * (1,1,1) -> 0.869090909 -> 255 * (1.055 * 0.86909^(1/2.4) - 0.055) = 239.6 -> 240. */
+    DisplayOptions d = {1.0f, SPT_TONEMAP_NEUTRAL};
+    float half[3] = {0.5f, 0.5f, 0.5f};
+    uint8_t px[3];
+    image_display_pixel(half, &d, px);
+    assert_int_equal(px[0], 240);
+
+    int t = -1;
+    assert_int_equal(image_tonemap_parse("Neutral", &t), 0);
+    assert_int_equal(t, SPT_TONEMAP_NEUTRAL);
+    assert_int_equal(image_tonemap_parse("none", &t), 0);
+    assert_int_equal(t, SPT_TONEMAP_NONE);
+    assert_int_equal(image_tonemap_parse("aces", &t), -1);
+}
+
+static void test_tiff_float_and_hdr(void **state)
+{
+    (void)state;
+    float rgb[2 * 2 * 3] = {0.1f, 0.2f, 0.3f, 1.5f, 2.5f, 3.5f, 100.0f, 0.01f, 0.5f,
+                            0.0f, 0.75f, 7.0f};
+    SptError e = {0};
+    const char *tif = in_dir("out.tif");
+    assert_int_equal(image_write(tif, rgb, 2, 2, NULL, NULL, &e), SPT_EXIT_OK);
+    ImageIoInfo info;
+    assert_int_equal(image_io_info(tif, &info, &e), SPT_EXIT_OK);
+    assert_string_equal(info.format_name, "tiff");
+    assert_string_equal(info.format, "float");
+    float *back = NULL;
+    int w, h;
+    assert_int_equal(image_read_rgb(tif, &back, &w, &h, &e), SPT_EXIT_OK);
+    assert_memory_equal(back, rgb, sizeof rgb);
+    free(back);
+
+    const char *hdr = in_dir("out.HDR"); /* extensions are case-insensitive */
+    assert_int_equal(image_write(hdr, rgb, 2, 2, NULL, NULL, &e), SPT_EXIT_OK);
+    assert_int_equal(image_io_info(hdr, &info, &e), SPT_EXIT_OK);
+    assert_string_equal(info.format_name, "hdr");
+    assert_int_equal(image_read_rgb(hdr, &back, &w, &h, &e), SPT_EXIT_OK);
+    /* RGBE: an 8-bit mantissa (>= 128 for the largest channel) and a shared exponent:
+     * truncation error below one step, at most max / 128. */
+    for (int p = 0; p < 4; ++p) {
+        float m = fmaxf(rgb[3 * p], fmaxf(rgb[3 * p + 1], rgb[3 * p + 2]));
+        for (int c = 0; c < 3; ++c)
+            assert_close(back[3 * p + c], rgb[3 * p + c], m / 128.0f);
+    }
+    free(back);
+
+    const char *jpg = in_dir("out.jpeg");
+    float grey[8 * 8 * 3];
+    for (int i = 0; i < 8 * 8 * 3; ++i)
+        grey[i] = 0.5f;
+    assert_int_equal(image_write(jpg, grey, 8, 8, NULL, NULL, &e), SPT_EXIT_OK);
+    assert_int_equal(image_read_rgb(jpg, &back, &w, &h, &e), SPT_EXIT_OK);
+    assert_close(back[0] * 255.0f, 188, 2.0); /* lossy, but flat grey survives */
+    free(back);
+    assert_int_equal(temp_files_left(), 0);
+}
+
+static void test_output_check_failures(void **state)
+{
+    (void)state;
+    SptError e = {0};
+    assert_int_equal(image_output_check(in_dir("ok.exr"), &e), SPT_EXIT_OK);
+    assert_int_equal(image_output_check(in_dir("ok.JPG"), &e), SPT_EXIT_OK);
+
+    const char *unknown = in_dir("out.bmp");
+    assert_int_equal(image_output_check(unknown, &e), SPT_EXIT_USAGE);
+    assert_non_null(strstr(e.msg, unknown));
+    assert_int_equal(image_output_check(in_dir("noextension"), &e), SPT_EXIT_USAGE);
+    float px[3] = {0, 0, 0};
+    assert_int_equal(image_write(unknown, px, 1, 1, NULL, NULL, &e), SPT_EXIT_USAGE);
+
+    const char *missing = in_dir("no/such/folder/out.png");
+    assert_int_equal(image_output_check(missing, &e), SPT_EXIT_OUTPUT);
+    assert_non_null(strstr(e.msg, missing));
+    assert_non_null(strstr(e.msg, "does not exist"));
+    assert_int_equal(image_write(missing, px, 1, 1, NULL, NULL, &e), SPT_EXIT_OUTPUT);
+    assert_non_null(strstr(e.msg, missing));
+    assert_int_equal(image_write(in_dir("no/out.exr"), px, 1, 1, NULL, NULL, &e),
+                     SPT_EXIT_OUTPUT);
+
+    write_bytes(in_dir("plainfile"), "x", 1);
+    const char *under_file = in_dir("plainfile/out.png");
+    assert_int_equal(image_output_check(under_file, &e), SPT_EXIT_OUTPUT);
+    assert_non_null(strstr(e.msg, under_file));
+    assert_non_null(strstr(e.msg, "not a folder"));
+
+    assert_int_equal(mkdir(in_dir("folder.png"), 0755), 0);
+    assert_int_equal(image_output_check(in_dir("folder.png"), &e), SPT_EXIT_OUTPUT);
+    assert_non_null(strstr(e.msg, "is a folder"));
+    assert_int_equal(image_write(in_dir("folder.png"), px, 1, 1, NULL, NULL, &e),
+                     SPT_EXIT_OUTPUT);
+
+    assert_int_equal(temp_files_left(), 0);
+}
+
+static void test_read_only_folder(void **state)
+{
+    (void)state;
+    if (geteuid() == 0)
+        skip(); /* root writes anywhere */
+    assert_int_equal(mkdir(in_dir("ro"), 0555), 0);
+    SptError e = {0};
+    const char *path = in_dir("ro/out.png");
+    assert_int_equal(image_output_check(path, &e), SPT_EXIT_OUTPUT);
+    assert_non_null(strstr(e.msg, path));
+    chmod(in_dir("ro"), 0755);
+}
+
+/* A failed write leaves an existing output byte for byte as it was and no
+ * temporary file, for every writer. */
+static void test_failed_write_keeps_existing_output(void **state)
+{
+    (void)state;
+    const char *names[] = {"keep.png", "keep.exr", "keep.tif", "keep.hdr", "keep.jpg"};
+    float a[4 * 3], b[4 * 3];
+    for (int i = 0; i < 12; ++i)
+        a[i] = 0.2f, b[i] = 0.9f;
+    for (size_t k = 0; k < sizeof names / sizeof names[0]; ++k) {
+        const char *path = in_dir(names[k]);
+        SptError e = {0};
+        assert_int_equal(image_write(path, a, 2, 2, NULL, NULL, &e), SPT_EXIT_OK);
+        size_t n0, n1;
+        unsigned char *before = slurp(path, &n0);
+
+        setenv("SPECTRACE_TEST_FAIL_WRITE", "1", 1);
+        int rc = image_write(path, b, 2, 2, NULL, NULL, &e);
+        unsetenv("SPECTRACE_TEST_FAIL_WRITE");
+        assert_int_equal(rc, SPT_EXIT_OUTPUT);
+        assert_non_null(strstr(e.msg, path));
+        assert_non_null(strstr(e.msg, "SPECTRACE_TEST_FAIL_WRITE"));
+
+        unsigned char *after = slurp(path, &n1);
+        assert_int_equal(n0, n1);
+        assert_memory_equal(before, after, n0);
+        free(before);
+        free(after);
+        assert_int_equal(temp_files_left(), 0);
+    }
+
+    /* A JPEG wider than libjpeg allows is refused before libjpeg sees it (libjpeg
+     * would end the process). */
+    const char *jpg = in_dir("keep.jpg");
+    size_t n0, n1;
+    unsigned char *before = slurp(jpg, &n0);
+    float *wide = calloc((size_t)70000 * 3, sizeof(float));
+    SptError e = {0};
+    assert_int_equal(image_write(jpg, wide, 70000, 1, NULL, NULL, &e), SPT_EXIT_OUTPUT);
+    assert_non_null(strstr(e.msg, jpg));
+    free(wide);
+    unsigned char *after = slurp(jpg, &n1);
+    assert_int_equal(n0, n1);
+    assert_memory_equal(before, after, n0);
+    free(before);
+    free(after);
+    assert_int_equal(temp_files_left(), 0);
+}
+
+/* A real write failure in every encoder, as on a full disk: the file size limit
+ * (RLIMIT_FSIZE) makes write() fail with EFBIG once a file reaches 2 KiB. Noise
+ * does not compress, so every format needs more than that. */
+static void test_disk_full_keeps_existing_output(void **state)
+{
+    (void)state;
+    enum { W = 64, H = 64 };
+    static float noise[W * H * 3];
+    uint32_t x = 12345;
+    for (int i = 0; i < W * H * 3; ++i) {
+        x = x * 1664525u + 1013904223u;
+        noise[i] = (float)(x >> 8) / 16777216.0f;
+    }
+    const char *names[] = {"full.png", "full.exr", "full.tif", "full.hdr", "full.jpg"};
+    float small[3] = {0.5f, 0.5f, 0.5f};
+    void (*old_handler)(int) = signal(SIGXFSZ, SIG_IGN);
+    struct rlimit old_limit;
+    assert_int_equal(getrlimit(RLIMIT_FSIZE, &old_limit), 0);
+    for (size_t k = 0; k < sizeof names / sizeof names[0]; ++k) {
+        const char *path = in_dir(names[k]);
+        SptError e = {0};
+        assert_int_equal(image_write(path, small, 1, 1, NULL, NULL, &e), SPT_EXIT_OK);
+        size_t n0, n1;
+        unsigned char *before = slurp(path, &n0);
+
+        struct rlimit lim = old_limit;
+        lim.rlim_cur = 2048;
+        assert_int_equal(setrlimit(RLIMIT_FSIZE, &lim), 0);
+        int rc = image_write(path, noise, W, H, NULL, NULL, &e);
+        assert_int_equal(setrlimit(RLIMIT_FSIZE, &old_limit), 0);
+        if (rc != SPT_EXIT_OUTPUT)
+            fail_msg("%s: write beyond the file size limit returned %d", names[k], rc);
+        assert_non_null(strstr(e.msg, path));
+        print_message("%s: %s\n", names[k], e.msg);
+
+        unsigned char *after = slurp(path, &n1);
+        assert_int_equal(n0, n1);
+        assert_memory_equal(before, after, n0);
+        free(before);
+        free(after);
+        assert_int_equal(temp_files_left(), 0);
+    }
+    signal(SIGXFSZ, old_handler);
+}
+
+/* A checkpoint-like file: three interleaved float sums and an exact uint count. */
+static void write_checkpoint(const char *path, int w, int h, float *sums, uint32_t *counts)
+{
+    for (int i = 0; i < w * h; ++i) {
+        sums[3 * i + 0] = 0.5f * (float)i;
+        sums[3 * i + 1] = 1e6f + (float)i; /* large sums must survive exactly */
+        sums[3 * i + 2] = -0.25f * (float)i;
+        counts[i] = 4000000000u - (uint32_t)i; /* beyond float's exact integers */
+    }
+    ExrChannel ch[4] = {
+        {"sum.X", SPT_EXR_FLOAT, sums + 0, 3},
+        {"sum.Y", SPT_EXR_FLOAT, sums + 1, 3},
+        {"sum.Z", SPT_EXR_FLOAT, sums + 2, 3},
+        {"count", SPT_EXR_UINT, counts, 0},
+    };
+    ExrAttr at[3] = {
+        {"spectrace:scene", SPT_EXR_ATTR_STRING, "scenes/box.gltf", 0, 0},
+        {"spectrace:samplesDone", SPT_EXR_ATTR_INT, NULL, 123, 0},
+        {"spectrace:seconds", SPT_EXR_ATTR_DOUBLE, NULL, 0, 12.625},
+    };
+    SptError e = {0};
+    int rc = exr_write_layers(path, w, h, ch, 4, at, 3, &e);
+    if (rc)
+        fail_msg("%s", e.msg);
+}
+
+static void test_exr_layers_roundtrip(void **state)
+{
+    (void)state;
+    enum { W = 5, H = 37 }; /* more rows than one ZIP chunk (16) */
+    static float sums[W * H * 3];
+    static uint32_t counts[W * H];
+    const char *path = in_dir("ckpt.exr");
+    write_checkpoint(path, W, H, sums, counts);
+
+    const char *req[] = {"sum.X", "sum.Y", "sum.Z", "count"};
+    ExrLayers l;
+    SptError e = {0};
+    int rc = exr_read_layers(path, req, 4, &l, &e);
+    if (rc)
+        fail_msg("%s", e.msg);
+    assert_int_equal(l.width, W);
+    assert_int_equal(l.height, H);
+    assert_int_equal(l.channel_count, 4);
+    const char *xyz[3] = {"sum.X", "sum.Y", "sum.Z"};
+    for (int c = 0; c < 3; ++c) {
+        const ExrChannel *ch = exr_layers_channel(&l, xyz[c]);
+        assert_non_null(ch);
+        assert_int_equal(ch->type, SPT_EXR_FLOAT);
+        const float *v = ch->data;
+        for (int i = 0; i < W * H; ++i)
+            if (v[i] != sums[3 * i + c])
+                fail_msg("%s[%d] = %.9g, wrote %.9g", xyz[c], i, v[i], sums[3 * i + c]);
+    }
+    const ExrChannel *cnt = exr_layers_channel(&l, "count");
+    assert_non_null(cnt);
+    assert_int_equal(cnt->type, SPT_EXR_UINT);
+    assert_memory_equal(cnt->data, counts, sizeof counts);
+    const ExrAttr *a = exr_layers_attr(&l, "spectrace:scene", SPT_EXR_ATTR_STRING);
+    assert_non_null(a);
+    assert_string_equal(a->s, "scenes/box.gltf");
+    a = exr_layers_attr(&l, "spectrace:samplesDone", SPT_EXR_ATTR_INT);
+    assert_non_null(a);
+    assert_int_equal(a->i, 123);
+    a = exr_layers_attr(&l, "spectrace:seconds", SPT_EXR_ATTR_DOUBLE);
+    assert_non_null(a);
+    assert_true(a->d == 12.625);
+    assert_null(exr_layers_attr(&l, "spectrace:seconds", SPT_EXR_ATTR_INT));
+    exr_layers_free(&l);
+
+    /* OpenImageIO sees the same channels and the uint type. */
+    ImageIoInfo info;
+    assert_int_equal(image_io_info(path, &info, &e), SPT_EXIT_OK);
+    assert_int_equal(info.channels, 4);
+    assert_int_equal(info.height, H);
+
+    /* A file without an expected channel is refused, naming it. */
+    const char *req2[] = {"sum.X", "weight"};
+    assert_int_equal(exr_read_layers(path, req2, 2, &l, &e), SPT_EXIT_INPUT);
+    assert_non_null(strstr(e.msg, "weight"));
+    assert_non_null(strstr(e.msg, path));
+    assert_int_equal(l.channel_count, 0);
+
+    /* Injected failure: the checkpoint already there stays as it was. */
+    size_t n0, n1;
+    unsigned char *before = slurp(path, &n0);
+    setenv("SPECTRACE_TEST_FAIL_WRITE", "yes", 1);
+    ExrChannel one = {"count", SPT_EXR_UINT, counts, 1};
+    rc = exr_write_layers(path, W, H, &one, 1, NULL, 0, &e);
+    unsetenv("SPECTRACE_TEST_FAIL_WRITE");
+    assert_int_equal(rc, SPT_EXIT_OUTPUT);
+    unsigned char *after = slurp(path, &n1);
+    assert_int_equal(n0, n1);
+    assert_memory_equal(before, after, n0);
+    free(before);
+    free(after);
+    assert_int_equal(temp_files_left(), 0);
+}
+
+static void test_exr_damaged_files_refused(void **state)
+{
+    (void)state;
+    enum { W = 16, H = 40 };
+    static float sums[W * H * 3];
+    static uint32_t counts[W * H];
+    const char *path = in_dir("full.exr");
+    write_checkpoint(path, W, H, sums, counts);
+    size_t n;
+    unsigned char *bytes = slurp(path, &n);
+
+    /* Cut at several places: inside the header, inside the offset table, and in
+     * the pixel data (half, and all but the last byte). */
+    size_t cuts[] = {3, 40, n / 2, n - 1};
+    for (size_t k = 0; k < sizeof cuts / sizeof cuts[0]; ++k) {
+        const char *cut = in_dir("cut.exr");
+        write_bytes(cut, bytes, cuts[k]);
+        ExrLayers l;
+        SptError e = {0};
+        int rc = exr_read_layers(cut, NULL, 0, &l, &e);
+        if (rc != SPT_EXIT_INPUT)
+            fail_msg("file cut to %zu of %zu bytes: rc %d, expected refusal", cuts[k], n, rc);
+        assert_non_null(strstr(e.msg, cut));
+        print_message("cut to %zu bytes: %s\n", cuts[k], e.msg);
+    }
+
+    /* Overwrite pixel data in the middle with garbage: ZIP decoding must fail. */
+    unsigned char *bad = malloc(n);
+    memcpy(bad, bytes, n);
+    for (size_t i = n / 2; i < n / 2 + 64 && i < n; ++i)
+        bad[i] ^= 0x5a;
+    write_bytes(in_dir("bad.exr"), bad, n);
+    ExrLayers l;
+    SptError e = {0};
+    int rc = exr_read_layers(in_dir("bad.exr"), NULL, 0, &l, &e);
+    if (rc == SPT_EXIT_OK)
+        exr_layers_free(&l);
+    assert_int_equal(rc, SPT_EXIT_INPUT);
+    free(bad);
+    free(bytes);
+
+    write_bytes(in_dir("text.exr"), "not an exr file at all\n", 23);
+    assert_int_equal(exr_read_layers(in_dir("text.exr"), NULL, 0, &l, &e), SPT_EXIT_INPUT);
+    assert_int_equal(exr_read_layers(in_dir("absent.exr"), NULL, 0, &l, &e), SPT_EXIT_INPUT);
+    assert_non_null(strstr(e.msg, "absent.exr"));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_exr_roundtrip_read_by_oiio, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_png_srgb_codes, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_exposure_doubles_linear, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_tonemap_neutral_values, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_tiff_float_and_hdr, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_output_check_failures, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_read_only_folder, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_failed_write_keeps_existing_output, setup,
+                                        teardown),
+        cmocka_unit_test_setup_teardown(test_disk_full_keeps_existing_output, setup,
+                                        teardown),
+        cmocka_unit_test_setup_teardown(test_exr_layers_roundtrip, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_exr_damaged_files_refused, setup, teardown),
+    };
+    return cmocka_run_group_tests_name("image_out", tests, NULL, NULL);
+}
