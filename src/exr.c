@@ -395,14 +395,20 @@ int exr_read_layers(const char *path, const char *const *required, int required_
     out->width = (int)w;
     out->height = (int)h;
     out->channels = spt_calloc((size_t)chl->num_channels, sizeof *out->channels);
-    for (int c = 0; c < chl->num_channels; ++c) {
+    for (int c = 0; c < chl->num_channels && !rc; ++c) {
         ExrChannel *ch = &out->channels[out->channel_count++];
         ch->name = spt_strdup(chl->entries[c].name.str);
         ch->type = chl->entries[c].pixel_type == EXR_PIXEL_UINT ? SPT_EXR_UINT : SPT_EXR_FLOAT;
         ch->stride = 1;
-        ch->data = spt_calloc((size_t)w * (size_t)h, 4);
+        /* Plain calloc: a damaged header may claim a huge image; that is an input
+         * error, not a reason to abort. */
+        ch->data = calloc((size_t)w * (size_t)h, 4);
+        if (!ch->data)
+            rc = spt_fail(e, SPT_EXIT_INPUT, "%s: out of memory for a %lldx%lld image", path,
+                          w, h);
     }
-    rc = read_attrs(path, ctxt, out, e);
+    if (!rc)
+        rc = read_attrs(path, ctxt, out, e);
     if (!rc)
         rc = read_pixels(path, ctxt, dw.min.y, out, e);
     exr_finish(&ctxt);
