@@ -264,12 +264,14 @@ static void meta_summary(const ImageMeta *meta, char *out, size_t n)
                             meta->extra[i].value);
 }
 
-/* The metadata as "spectrace:<name>" text pairs; names and values point into store
- * or meta. Returns the count (at most 5 + SPT_IMAGE_META_MAX_EXTRA). */
+/* Storage for the text forms that meta_pairs makes. */
 typedef struct MetaText {
     char names[SPT_IMAGE_META_MAX_EXTRA][128];
     char spp[32], seconds[32], seed[32];
 } MetaText;
+
+/* The metadata as "spectrace:<name>" text pairs; names and values point into store
+ * or meta. Returns the count (at most 5 + SPT_IMAGE_META_MAX_EXTRA). */
 
 static int meta_pairs(const ImageMeta *meta, MetaText *store, const char **names,
                       const char **values)
@@ -326,22 +328,26 @@ static int write_bytes_atomic(const char *path, const void *data, size_t n, SptE
     int rc = image_temp_create(path, tmp, sizeof tmp, e);
     if (rc)
         return rc;
+    int err = 0;
     int fd = open(tmp, O_WRONLY | O_TRUNC | O_CLOEXEC);
+    if (fd < 0)
+        err = errno;
     const unsigned char *p = data;
     size_t left = n;
-    while (fd >= 0 && left > 0) {
+    while (!err && left > 0) {
         ssize_t k = write(fd, p, left);
         if (k < 0 && errno == EINTR)
             continue;
-        if (k <= 0)
+        if (k <= 0) {
+            err = k < 0 ? errno : ENOSPC;
             break;
+        }
         p += k;
         left -= (size_t)k;
     }
-    if (fd < 0 || left > 0 || close(fd) != 0) {
-        int err = errno;
-        if (fd >= 0 && left > 0)
-            close(fd);
+    if (fd >= 0 && close(fd) != 0 && !err)
+        err = errno;
+    if (err) {
         unlink(tmp);
         return spt_fail(e, SPT_EXIT_OUTPUT, "%s: cannot write: %s", path, strerror(err));
     }
