@@ -1,0 +1,583 @@
+/* kernels/sampling.h warps and src/distrib.c distributions against their pdfs,
+ * plus the chi-square helper (tests/chi2.h) itself. Uniform numbers come from a
+ * generator local to this file, so these tests do not rest on kernels/rng.h. */
+#include "test_util.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "chi2.h"
+#include "distrib.h"
+#include "sampling.h"
+
+/* Chi-square tests expected to pass in this binary, for the Sidak correction. */
+#define SAMPLING_CHI2_TESTS 7
+
+/* SplitMix64 (Steele, Lea and Flood 2014) of i, as a float in [0, 1) from its top
+ * 24 bits. */
+static float test_uniform(uint64_t i)
+{
+    uint64_t z = i * 0x9e3779b97f4a7c15ull + 0x632be59bd9b4e019ull;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    z ^= z >> 31;
+    return (float)(z >> 40) * (1.0f / 16777216.0f);
+}
+
+/* The two uniforms of sample i of a test with this stream number. */
+static void test_uniform2(uint32_t stream, uint32_t i, float *u1, float *u2)
+{
+    uint64_t base = ((uint64_t)stream << 40) + 2u * (uint64_t)i;
+    *u1 = test_uniform(base);
+    *u2 = test_uniform(base + 1u);
+}
+
+static void require_pass(const Chi2Result *r)
+{
+    if (!r->passed)
+        fail_msg("%s", r->message);
+    print_message("  %s\n", r->message);
+}
+
+/* ---- The chi-square helper ---------------------------------------------------- */
+
+/* The survival function against closed forms and published table values. */
+static void test_chi2_survival_function(void **state)
+{
+    (void)state;
+    /* dof 2: Q = exp(-x/2). dof 1: Q = erfc(sqrt(x/2)). */
+    for (double x = 0.01; x < 60.0; x *= 1.7) {
+        assert_close_rel(chi2_survival(x, 2.0), exp(-0.5 * x), 1e-12);
+        assert_close_rel(chi2_survival(x, 1.0), erfc(sqrt(0.5 * x)), 1e-10);
+    }
+    /* Upper quantiles from statistical tables (Abramowitz and Stegun 26.8). */
+    assert_close(chi2_survival(3.841458820694124, 1.0), 0.05, 1e-9);
+    assert_close(chi2_survival(23.209251158954356, 10.0), 0.01, 1e-9);
+    assert_close(chi2_survival(9.341817765591966, 10.0), 0.5, 1e-9);
+    /* Even dof 2k: Q = exp(-x/2) sum_{j<k} (x/2)^j / j!, summed in logs; covers the
+     * large-dof regime the grid tests use, both sides of the series/fraction
+     * switch. */
+    const double dof = 1000.0, xs[3] = {900.0, 1000.0, 1100.0};
+    for (int t = 0; t < 3; t++) {
+        double h = 0.5 * xs[t], sum = 0.0;
+        for (int j = 0; j < (int)(dof / 2); j++)
+            sum += exp(-h + j * log(h) - lgamma(j + 1.0));
+        assert_close_rel(chi2_survival(xs[t], dof), sum, 1e-9);
+    }
+    assert_close(chi2_sidak(0.01, 1), 0.01, 1e-15);
+    assert_close(1.0 - pow(1.0 - chi2_sidak(0.01, 10), 10), 0.01, 1e-12);
+}
+
+/* Samples of the cosine-weighted hemisphere, for the negative control and the
+ * real test. */
+static int cosine_sample(void *ctx, uint32_t i, double p[3])
+{
+    (void)ctx;
+    float u1, u2;
+    test_uniform2(1, i, &u1, &u2);
+    vec3 d = spt_sample_cosine_hemisphere(u1, u2);
+    p[0] = d.x;
+    p[1] = d.y;
+    p[2] = d.z;
+    return 1;
+}
+
+static double uniform_hemisphere_pdf(void *ctx, const double p[3])
+{
+    (void)ctx;
+    return p[2] >= 0.0 ? 1.0 / (2.0 * M_PI) : 0.0;
+}
+
+/* A wrong pdf must be rejected: cosine-distributed samples against the uniform
+ * hemisphere density, and a sampler that covers half the domain. */
+static void test_chi2_rejects_wrong_pdf(void **state)
+{
+    (void)state;
+    Chi2Grid g = {0};
+    g.name = "cosine samples against the uniform pdf";
+    g.domain = CHI2_SPHERE;
+    g.res_x = 32;
+    g.res_y = 32;
+    g.samples = 100000;
+    g.sample = cosine_sample;
+    g.pdf = uniform_hemisphere_pdf;
+    Chi2Result r;
+    assert_false(chi2_grid_run(&g, &r));
+    assert_true(r.pvalue < 1e-6);
+    print_message("  (expected failure) %s\n", r.message);
+
+    double obs[4] = {0, 50, 50, 0}, expct[4] = {25, 25, 25, 25};
+    assert_false(chi2_test_counts("half the cells", obs, expct, 4, 0.01, &r));
+    /* Samples in a cell of expected count 0 fail outright. */
+    double obs2[3] = {50, 49, 1}, exp2[3] = {50, 50, 0};
+    assert_false(chi2_test_counts("zero cell", obs2, exp2, 3, 0.01, &r));
+}
+
+/* ---- Directions ------------------------------------------------------------------ */
+
+static double cosine_pdf(void *ctx, const double p[3])
+{
+    (void)ctx;
+    return p[2] > 0.0 ? p[2] / M_PI : 0.0;
+}
+
+static int uniform_hemisphere_sample(void *ctx, uint32_t i, double p[3])
+{
+    (void)ctx;
+    float u1, u2;
+    test_uniform2(2, i, &u1, &u2);
+    vec3 d = spt_sample_uniform_hemisphere(u1, u2);
+    p[0] = d.x;
+    p[1] = d.y;
+    p[2] = d.z;
+    return 1;
+}
+
+static int uniform_sphere_sample(void *ctx, uint32_t i, double p[3])
+{
+    (void)ctx;
+    float u1, u2;
+    test_uniform2(3, i, &u1, &u2);
+    vec3 d = spt_sample_uniform_sphere(u1, u2);
+    p[0] = d.x;
+    p[1] = d.y;
+    p[2] = d.z;
+    return 1;
+}
+
+static double uniform_sphere_pdf(void *ctx, const double p[3])
+{
+    (void)ctx;
+    (void)p;
+    return 1.0 / (4.0 * M_PI);
+}
+
+/* Runs a direction test on a 32 x 32 grid in (phi, cos theta) and checks the
+ * analytic pdf integrates to 1 over the sphere. */
+static void run_direction_test(const char *name, int (*sample)(void *, uint32_t, double[3]),
+                               double (*pdf)(void *, const double[3]))
+{
+    Chi2Grid g = {0};
+    g.name = name;
+    g.domain = CHI2_SPHERE;
+    g.res_x = 32;
+    g.res_y = 32;
+    g.num_tests = SAMPLING_CHI2_TESTS;
+    g.sample = sample;
+    g.pdf = pdf;
+    Chi2Result r;
+    chi2_grid_run(&g, &r);
+    require_pass(&r);
+    assert_close(r.integral, 1.0, 1e-6);
+}
+
+static void test_cosine_hemisphere(void **state)
+{
+    (void)state;
+    run_direction_test("cosine hemisphere", cosine_sample, cosine_pdf);
+    /* The kernel's pdf function agrees with the analytic density. */
+    for (float c = -0.5f; c <= 1.0f; c += 0.125f)
+        assert_close(spt_pdf_cosine_hemisphere(c), c > 0.0f ? c / M_PI : 0.0, 1e-7);
+}
+
+static void test_uniform_hemisphere(void **state)
+{
+    (void)state;
+    run_direction_test("uniform hemisphere", uniform_hemisphere_sample, uniform_hemisphere_pdf);
+    assert_close(spt_pdf_uniform_hemisphere(0.3f), 1.0 / (2.0 * M_PI), 1e-8);
+    assert_close(spt_pdf_uniform_hemisphere(-0.3f), 0.0, 0.0);
+}
+
+static void test_uniform_sphere(void **state)
+{
+    (void)state;
+    run_direction_test("uniform sphere", uniform_sphere_sample, uniform_sphere_pdf);
+    assert_close(spt_pdf_uniform_sphere(), 1.0 / (4.0 * M_PI), 1e-8);
+}
+
+/* The directions are unit length, within the hemisphere for the hemisphere maps,
+ * also at the corners of the unit square. */
+static void test_directions_are_unit(void **state)
+{
+    (void)state;
+    const float us[5] = {0.0f, 0.25f, 0.5f, 0.75f, SPT_ONE_MINUS_EPSILON};
+    for (int i = 0; i < 5; i++)
+        for (int j = 0; j < 5; j++) {
+            vec3 d[3] = {spt_sample_cosine_hemisphere(us[i], us[j]),
+                         spt_sample_uniform_hemisphere(us[i], us[j]),
+                         spt_sample_uniform_sphere(us[i], us[j])};
+            for (int k = 0; k < 3; k++) {
+                assert_close(v3_length(d[k]), 1.0, 1e-6);
+                if (k < 2)
+                    assert_true(d[k].z >= 0.0f);
+            }
+        }
+}
+
+/* ---- Disk and triangle ----------------------------------------------------------- */
+
+/* A uniform disk point maps to a uniform point (r^2, phi) of [0,1) x [0, 2 pi). */
+static int disk_polar_sample(void *ctx, uint32_t i, double p[3])
+{
+    (void)ctx;
+    float u1, u2;
+    test_uniform2(4, i, &u1, &u2);
+    vec3 d = spt_sample_concentric_disk(u1, u2);
+    p[0] = (double)d.x * d.x + (double)d.y * d.y;
+    p[1] = atan2(d.y, d.x);
+    if (p[1] < 0.0)
+        p[1] += 2.0 * M_PI;
+    return d.z == 0.0f;
+}
+
+static double disk_polar_pdf(void *ctx, const double p[3])
+{
+    (void)ctx;
+    (void)p;
+    return 1.0 / (2.0 * M_PI);
+}
+
+static void test_concentric_disk(void **state)
+{
+    (void)state;
+    Chi2Grid g = {0};
+    g.name = "concentric disk, in (r^2, phi)";
+    g.domain = CHI2_PLANE;
+    g.x0 = 0.0;
+    g.x1 = 1.0;
+    g.y0 = 0.0;
+    g.y1 = 2.0 * M_PI;
+    g.res_x = g.res_y = 32;
+    g.num_tests = SAMPLING_CHI2_TESTS;
+    g.sample = disk_polar_sample;
+    g.pdf = disk_polar_pdf;
+    Chi2Result r;
+    chi2_grid_run(&g, &r);
+    require_pass(&r);
+    assert_close(r.integral, 1.0, 1e-9);
+}
+
+/* A triangle inside the unit square, not aligned with the grid. */
+static const double tri[3][2] = {{0.1, 0.2}, {0.9, 0.35}, {0.3, 0.95}};
+
+static int triangle_sample(void *ctx, uint32_t i, double p[3])
+{
+    (void)ctx;
+    float u1, u2;
+    test_uniform2(5, i, &u1, &u2);
+    vec3 q = spt_sample_triangle(v3((float)tri[0][0], (float)tri[0][1], 0.0f),
+                                 v3((float)tri[1][0], (float)tri[1][1], 0.0f),
+                                 v3((float)tri[2][0], (float)tri[2][1], 0.0f), u1, u2);
+    p[0] = q.x;
+    p[1] = q.y;
+    return 1;
+}
+
+static double triangle_area_d(void)
+{
+    return 0.5 * fabs((tri[1][0] - tri[0][0]) * (tri[2][1] - tri[0][1]) -
+                      (tri[2][0] - tri[0][0]) * (tri[1][1] - tri[0][1]));
+}
+
+/* Keeps the part of polygon (in, n vertices) with s * (p[axis] - c) >= 0
+ * (Sutherland-Hodgman); returns the new vertex count. */
+static int clip_polygon(double (*in)[2], int n, double (*out)[2], int axis, double c, double s)
+{
+    int m = 0;
+    for (int i = 0; i < n; i++) {
+        const double *a = in[i], *b = in[(i + 1) % n];
+        double da = s * (a[axis] - c), db = s * (b[axis] - c);
+        if (da >= 0.0) {
+            out[m][0] = a[0];
+            out[m][1] = a[1];
+            m++;
+        }
+        if ((da >= 0.0) != (db >= 0.0)) {
+            double t = da / (da - db);
+            out[m][0] = a[0] + t * (b[0] - a[0]);
+            out[m][1] = a[1] + t * (b[1] - a[1]);
+            m++;
+        }
+    }
+    return m;
+}
+
+/* Exact probability of a cell: the area of its intersection with the triangle
+ * (polygon clipping and the shoelace formula) over the triangle's area. */
+static double triangle_cell_prob(void *ctx, double x0, double x1, double y0, double y1)
+{
+    (void)ctx;
+    double a[16][2], b[16][2];
+    int n = 3;
+    memcpy(a, tri, sizeof tri);
+    n = clip_polygon(a, n, b, 0, x0, 1.0);
+    n = clip_polygon(b, n, a, 0, x1, -1.0);
+    n = clip_polygon(a, n, b, 1, y0, 1.0);
+    n = clip_polygon(b, n, a, 1, y1, -1.0);
+    double area2 = 0.0;
+    for (int i = 0; i < n; i++)
+        area2 += a[i][0] * a[(i + 1) % n][1] - a[(i + 1) % n][0] * a[i][1];
+    return 0.5 * fabs(area2) / triangle_area_d();
+}
+
+static double triangle_pdf(void *ctx, const double p[3])
+{
+    (void)ctx;
+    (void)p;
+    return 1.0 / triangle_area_d(); /* unused: cell_prob is exact */
+}
+
+static void test_triangle_area_sampling(void **state)
+{
+    (void)state;
+    Chi2Grid g = {0};
+    g.name = "triangle by area";
+    g.domain = CHI2_PLANE;
+    g.x0 = g.y0 = 0.0;
+    g.x1 = g.y1 = 1.0;
+    g.res_x = g.res_y = 32;
+    g.num_tests = SAMPLING_CHI2_TESTS;
+    g.sample = triangle_sample;
+    g.pdf = triangle_pdf;
+    g.cell_prob = triangle_cell_prob;
+    Chi2Result r;
+    chi2_grid_run(&g, &r);
+    require_pass(&r);
+    assert_close(r.integral, 1.0, 1e-9);
+    /* The float area the renderer divides by. */
+    assert_close_rel(spt_triangle_area(v3(0.1f, 0.2f, 0.0f), v3(0.9f, 0.35f, 0.0f),
+                                       v3(0.3f, 0.95f, 0.0f)),
+                     triangle_area_d(), 1e-6);
+    /* Barycentrics are non-negative and sum to 1. */
+    for (uint32_t i = 0; i < 10000; i++) {
+        float u1, u2;
+        test_uniform2(6, i, &u1, &u2);
+        vec3 b = spt_sample_triangle_bary(u1, u2);
+        assert_true(b.x >= 0.0f && b.y >= 0.0f && b.z >= -1e-7f);
+        assert_close(b.x + b.y + b.z, 1.0, 1e-6);
+    }
+}
+
+/* ---- MIS ------------------------------------------------------------------------- */
+
+static void test_power_heuristic(void **state)
+{
+    (void)state;
+    assert_close(spt_power_heuristic(1.0f, 1.0f), 0.5, 1e-7);
+    assert_close(spt_power_heuristic(2.0f, 1.0f), 0.8, 1e-7);
+    assert_close(spt_power_heuristic(1.0f, 3.0f), 0.1, 1e-7);
+    assert_close(spt_power_heuristic(1.0f, 0.0f), 1.0, 0.0);
+    assert_close(spt_power_heuristic(0.0f, 1.0f), 0.0, 0.0);
+    assert_close(spt_power_heuristic(0.0f, 0.0f), 0.0, 0.0);
+    /* No overflow for huge pdfs, and an infinite (delta) pdf wins. */
+    assert_close(spt_power_heuristic(1e30f, 1e30f), 0.5, 1e-7);
+    assert_close(spt_power_heuristic(3e30f, 1e30f), 0.9, 1e-6);
+    assert_close(spt_power_heuristic(INFINITY, 1.0f), 1.0, 0.0);
+    assert_close(spt_power_heuristic(1.0f, INFINITY), 0.0, 0.0);
+    /* The two weights of a pair sum to 1. */
+    for (int i = 1; i < 100; i++) {
+        float a = 0.37f * (float)i, b = 1.0f / (float)i;
+        double wa = (double)a * a / ((double)a * a + (double)b * b);
+        assert_close(spt_power_heuristic(a, b), wa, 1e-6);
+        assert_close(spt_power_heuristic(a, b) + spt_power_heuristic(b, a), 1.0, 1e-6);
+    }
+}
+
+/* ---- Discrete distributions ------------------------------------------------------ */
+
+/* Light powers with every kind of unusable weight mixed in. */
+#define LIGHTS 64
+static void light_weights(float *w)
+{
+    for (int i = 0; i < LIGHTS; i++)
+        w[i] = (float)((i * 37) % 101) * 0.5f + 0.01f * (float)i;
+    w[0] = 0.0f;
+    w[5] = -3.0f;
+    w[9] = NAN;
+    w[10] = INFINITY;
+    w[11] = -INFINITY;
+    w[20] = 0.0f;
+    w[21] = 1e-3f;
+    w[LIGHTS - 1] = 0.0f;
+}
+
+static int light_usable(float w)
+{
+    return isfinite(w) && w > 0.0f;
+}
+
+static void test_distrib_table(void **state)
+{
+    (void)state;
+    float w[LIGHTS];
+    light_weights(w);
+    Distrib d;
+    assert_int_equal(distrib_build(&d, w, LIGHTS), 1);
+    double total = 0.0;
+    uint32_t positive = 0;
+    for (int i = 0; i < LIGHTS; i++)
+        if (light_usable(w[i])) {
+            total += w[i];
+            positive++;
+        }
+    assert_int_equal(d.n, LIGHTS);
+    assert_int_equal(d.positive, positive);
+    assert_close_rel(d.total, total, 1e-15);
+    assert_true(d.cdf[0] == 0.0f);
+    assert_true(d.cdf[LIGHTS] == 1.0f);
+    for (int i = 0; i < LIGHTS; i++) {
+        assert_true(d.cdf[i + 1] >= d.cdf[i]);
+        double want = light_usable(w[i]) ? w[i] / total : 0.0;
+        float p = distrib_prob(&d, i);
+        if (want == 0.0)
+            assert_true(p == 0.0f);
+        else
+            assert_close(p, want, 1.5e-7);
+        /* The kernel's lookup agrees. */
+        assert_true(spt_discrete_pdf(d.cdf, (spt_u32)i) == p);
+    }
+    distrib_free(&d);
+    assert_null(d.cdf);
+}
+
+/* Sampling by power: counts against weight/total, zero weights never chosen, the
+ * probability returned is the entry's, and the remapped uniform is uniform. */
+static void test_distrib_sampling(void **state)
+{
+    (void)state;
+    float w[LIGHTS];
+    light_weights(w);
+    Distrib d;
+    distrib_build(&d, w, LIGHTS);
+    enum { REMAP_BINS = 100 };
+    static double obs[LIGHTS], expct[LIGHTS], robs[REMAP_BINS], rexp[REMAP_BINS];
+    memset(obs, 0, sizeof obs);
+    memset(robs, 0, sizeof robs);
+    const uint32_t n = CHI2_DEFAULT_SAMPLES;
+    for (uint32_t s = 0; s < n; s++) {
+        float prob, ur;
+        spt_i32 i = spt_discrete_sample(d.cdf, LIGHTS, test_uniform(((uint64_t)7 << 40) + s),
+                                        &prob, &ur);
+        assert_true(i >= 0 && i < LIGHTS);
+        if (!light_usable(w[i]))
+            fail_msg("picked entry %d of weight %g", i, w[i]);
+        if (prob != distrib_prob(&d, (uint32_t)i))
+            fail_msg("entry %d: probability %.9g, table says %.9g", i, prob,
+                     distrib_prob(&d, (uint32_t)i));
+        assert_true(ur >= 0.0f && ur < 1.0f);
+        obs[i] += 1.0;
+        robs[(int)(ur * REMAP_BINS)] += 1.0;
+    }
+    for (int i = 0; i < LIGHTS; i++)
+        expct[i] = light_usable(w[i]) ? n * (w[i] / d.total) : 0.0;
+    for (int b = 0; b < REMAP_BINS; b++)
+        rexp[b] = (double)n / REMAP_BINS;
+    double alpha = chi2_sidak(0.01, SAMPLING_CHI2_TESTS);
+    Chi2Result r;
+    chi2_test_counts("light selection by power", obs, expct, LIGHTS, alpha, &r);
+    require_pass(&r);
+    chi2_test_counts("remapped uniform", robs, rexp, REMAP_BINS, alpha, &r);
+    require_pass(&r);
+    distrib_free(&d);
+}
+
+/* Edge cases: boundaries of u, a single entry, empty distributions. */
+static void test_distrib_edges(void **state)
+{
+    (void)state;
+    float prob, ur;
+    /* u = 0 and u just below 1 (and out-of-range u) pick the first and last
+     * usable entries, never the zero ones around them. */
+    float w[6] = {0.0f, 2.0f, 0.0f, 1.0f, 1.0f, 0.0f};
+    Distrib d;
+    assert_int_equal(distrib_build(&d, w, 6), 1);
+    assert_int_equal(spt_discrete_sample(d.cdf, 6, 0.0f, &prob, &ur), 1);
+    assert_close(prob, 0.5, 1e-7);
+    assert_close(ur, 0.0, 0.0);
+    assert_int_equal(spt_discrete_sample(d.cdf, 6, SPT_ONE_MINUS_EPSILON, &prob, 0), 4);
+    assert_close(prob, 0.25, 1e-7);
+    assert_int_equal(spt_discrete_sample(d.cdf, 6, 1.0f, &prob, 0), 4);
+    assert_int_equal(spt_discrete_sample(d.cdf, 6, -1.0f, &prob, 0), 1);
+    assert_int_equal(spt_discrete_sample(d.cdf, 6, NAN, &prob, 0), 1);
+    assert_int_equal(spt_discrete_sample(d.cdf, 6, 0.5f, &prob, &ur), 3);
+    assert_close(ur, 0.0, 1e-6);
+    assert_int_equal(spt_discrete_sample(d.cdf, 6, 0.625f, &prob, &ur), 3);
+    assert_close(ur, 0.5, 1e-6);
+    distrib_free(&d);
+
+    float one = 5.0f;
+    assert_int_equal(distrib_build(&d, &one, 1), 1);
+    assert_int_equal(spt_discrete_sample(d.cdf, 1, 0.7f, &prob, &ur), 0);
+    assert_true(prob == 1.0f);
+    assert_close(ur, 0.7, 1e-7);
+    assert_close(d.total, 5.0, 0.0);
+    distrib_free(&d);
+
+    /* All weights unusable, or none: empty, sampling returns -1. */
+    float bad[4] = {0.0f, -1.0f, NAN, INFINITY};
+    assert_int_equal(distrib_build(&d, bad, 4), 0);
+    assert_int_equal(d.positive, 0);
+    assert_close(d.total, 0.0, 0.0);
+    for (int i = 0; i <= 4; i++)
+        assert_true(d.cdf[i] == 0.0f);
+    prob = 1.0f;
+    ur = 1.0f;
+    assert_int_equal(spt_discrete_sample(d.cdf, 4, 0.3f, &prob, &ur), -1);
+    assert_true(prob == 0.0f && ur == 0.0f);
+    distrib_free(&d);
+    assert_int_equal(distrib_build(&d, NULL, 0), 0);
+    assert_int_equal(spt_discrete_sample(d.cdf, 0, 0.3f, &prob, 0), -1);
+    distrib_free(&d);
+}
+
+/* Millions of entries: the double-precision sum keeps the table exact to float
+ * rounding (a float running sum would stall once the total dwarfs an entry). */
+static void test_distrib_large(void **state)
+{
+    (void)state;
+    const uint32_t n = 3000000;
+    float *w = malloc(sizeof(float) * n);
+    for (uint32_t i = 0; i < n; i++)
+        w[i] = 1.0f + (float)(i % 3);
+    Distrib d;
+    assert_int_equal(distrib_build(&d, w, n), 1);
+    assert_close(d.total, 6000000.0, 0.0);
+    assert_true(d.cdf[n] == 1.0f);
+    for (uint32_t i = 0; i < n; i += 1000) {
+        /* cdf[i] = (i + i/3*3 + ...) / total: the exact prefix sum, then rounded. */
+        double prefix = 0.0;
+        uint32_t full = i / 3;
+        prefix = 6.0 * full;
+        for (uint32_t j = full * 3; j < i; j++)
+            prefix += 1.0 + (double)(j % 3);
+        assert_true(d.cdf[i] == (float)(prefix / d.total));
+    }
+    /* Entry 0 (weight 1 of 6e6) is picked by u just above 0 and has its weight. */
+    float prob;
+    assert_int_equal(spt_discrete_sample(d.cdf, n, 1e-8f, &prob, 0), 0);
+    assert_close_rel(prob, 1.0 / 6e6, 1e-3);
+    assert_int_equal(spt_discrete_sample(d.cdf, n, SPT_ONE_MINUS_EPSILON, &prob, 0),
+                     (int)(n - 1));
+    distrib_free(&d);
+    free(w);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_chi2_survival_function),
+        cmocka_unit_test(test_chi2_rejects_wrong_pdf),
+        cmocka_unit_test(test_cosine_hemisphere),
+        cmocka_unit_test(test_uniform_hemisphere),
+        cmocka_unit_test(test_uniform_sphere),
+        cmocka_unit_test(test_directions_are_unit),
+        cmocka_unit_test(test_concentric_disk),
+        cmocka_unit_test(test_triangle_area_sampling),
+        cmocka_unit_test(test_power_heuristic),
+        cmocka_unit_test(test_distrib_table),
+        cmocka_unit_test(test_distrib_sampling),
+        cmocka_unit_test(test_distrib_edges),
+        cmocka_unit_test(test_distrib_large),
+    };
+    return cmocka_run_group_tests_name("sampling", tests, NULL, NULL);
+}
