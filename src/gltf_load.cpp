@@ -864,6 +864,7 @@ int Loader::decode_image(int image)
     }
     if (rc) {
         spt_warn("%s: images[%d]: %s; using the material's factors instead", file, image, why);
+        stats.unusable_images++;
         return 0;
     }
     decoded[image] = ti;

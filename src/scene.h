@@ -85,6 +85,8 @@ typedef struct SceneStats {
     uint32_t dropped_degenerate;  /* zero area or repeated index */
     uint32_t skipped_primitives;  /* points/lines: unsupported modes */
     uint32_t emissive_triangles;
+    uint32_t unusable_images;     /* missing, corrupt or outside the scene folder:
+                                     the material factors are used instead */
 } SceneStats;
 
 typedef struct Scene {

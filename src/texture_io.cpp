@@ -109,8 +109,8 @@ extern "C" int texture_io_load_memory(const void *data, size_t size, const char 
         return -1;
     }
     Filesystem::IOMemReader proxy(data, size);
-    ImageSpec config;
-    auto in = ImageInput::open(name, &config, &proxy);
+    // No config spec: with one, OpenImageIO 2.4 ignores the proxy argument.
+    auto in = ImageInput::open(name, nullptr, &proxy);
     if (!in) {
         say(why, why_size, oiio_reason(nullptr, "cannot decode the image"));
         return -1;
