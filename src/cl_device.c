@@ -432,6 +432,42 @@ fail:
     return rc;
 }
 
+int cl_devices_open(const char *selection, int profiling, ClDevice **out, int *count,
+                    SptError *e)
+{
+    *out = NULL;
+    *count = 0;
+    ClDeviceList list;
+    int rc = cl_device_list(&list, e);
+    if (rc)
+        return rc;
+    int *sel = spt_calloc((size_t)list.count, sizeof *sel);
+    int n = 0;
+    rc = cl_device_select(&list, selection, sel, &n, e);
+    ClDevice *devs = rc ? NULL : spt_calloc((size_t)n, sizeof *devs);
+    for (int k = 0; k < n && !rc; k++) {
+        rc = cl_device_open(&devs[k], &list.devices[sel[k]], profiling, e);
+        if (rc)
+            cl_devices_close(devs, k);
+        else
+            *count = k + 1;
+    }
+    if (!rc)
+        *out = devs;
+    else
+        *count = 0;
+    free(sel);
+    cl_device_list_free(&list);
+    return rc;
+}
+
+void cl_devices_close(ClDevice *devs, int count)
+{
+    for (int k = 0; devs && k < count; k++)
+        cl_device_close(&devs[k]);
+    free(devs);
+}
+
 void cl_device_close(ClDevice *d)
 {
     if (d->queue) {
@@ -768,7 +804,11 @@ static void cache_store(const char *dir, const char *path, const char *key,
                         const unsigned char *bin, size_t bin_len)
 {
     char tmp[4200];
-    snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
+    /* Unique per process and per call, so that two processes, or two devices of
+     * one process building in threads, never share a temporary file. */
+    static unsigned serial;
+    snprintf(tmp, sizeof tmp, "%s.tmp.%ld.%p.%u", path, (long)getpid(), (const void *)&tmp,
+             serial++);
     const char *why = NULL;
     FILE *f = NULL;
     if (make_dirs(dir))

@@ -120,6 +120,13 @@ int cl_device_open(ClDevice *d, const ClDeviceInfo *info, int profiling, SptErro
 /* Releases everything cl_device_open made; a zeroed or closed ClDevice is fine. */
 void cl_device_close(ClDevice *d);
 
+/* Lists the devices, resolves `selection` (as cl_device_select) and opens each
+ * selected device: *out (count entries) is malloc'd, free it with
+ * cl_devices_close. On failure nothing stays open. */
+int cl_devices_open(const char *selection, int profiling, ClDevice **out, int *count,
+                    SptError *e);
+void cl_devices_close(ClDevice *devs, int count);
+
 /* Reports a failure from a function taking d: prints e as one `error:` line
  * and then, when d holds the log of a failed build, the full build log.
  * Returns e's code. */

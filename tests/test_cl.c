@@ -72,6 +72,17 @@ static int child_select(int argc, char **argv)
     int *sel = calloc((size_t)list.count, sizeof *sel);
     for (int a = 0; a < argc; a++) {
         int n = 0;
+        if (!strncmp(argv[a], "open:", 5)) { /* open the selected devices */
+            ClDevice *devs = NULL;
+            int rc = cl_devices_open(argv[a] + 5, 0, &devs, &n, &e);
+            printf("%s -> %s %d", argv[a], rc ? "error" : "opened", n);
+            for (int k = 0; k < n; k++)
+                printf(" %d:%s", devs[k].info.index,
+                       devs[k].context && devs[k].queue ? "ok" : "-");
+            printf("\n");
+            cl_devices_close(devs, n);
+            continue;
+        }
         printf("%s ->", argv[a]);
         if (cl_device_select(&list, argv[a], sel, &n, &e)) {
             printf(" error\n");
@@ -244,7 +255,7 @@ static void test_two_pocl_devices_all_and_lists(void **state)
     char cmd[5000], out[4096];
     snprintf(cmd, sizeof cmd,
              "POCL_DEVICES='pthread pthread' POCL_MAX_PTHREAD_COUNT=1 '%s' --child-select "
-             "all 1,0 PTHREAD,pthread cpu,cpu 0,0 2 all,0 2>&1",
+             "all 1,0 PTHREAD,pthread cpu,cpu 0,0 2 all,0 open:1,0 open:0,7 2>&1",
              g_self);
     int rc = run_capture(cmd, out, sizeof out);
     assert_int_equal(rc, 0);
@@ -255,7 +266,9 @@ static void test_two_pocl_devices_all_and_lists(void **state)
                        "cpu,cpu -> 0,1\n"
                        "0,0 -> 0\n"
                        "2 -> error\n"
-                       "all,0 -> 0,1\n";
+                       "all,0 -> 0,1\n"
+                       "open:1,0 -> opened 2 1:ok 0:ok\n"
+                       "open:0,7 -> error 0\n";
     if (strcmp(out, want))
         fail_msg("child printed:\n%s\nexpected:\n%s", out, want);
 }
@@ -633,10 +646,11 @@ static void test_error_names_and_check_macro(void **state)
     assert_int_equal(release_null_buffer(&e), SPT_EXIT_DEVICE);
     assert_non_null(strstr(e.msg, "clReleaseMemObject failed at tests/test_cl.c:"));
     assert_non_null(strstr(e.msg, "CL_INVALID_MEM_OBJECT (-38)"));
-    assert_int_equal(cl_check(CL_INVALID_BUFFER_SIZE, "(m = clCreateBuffer(c, 0, 0, 0, &err), err)",
-                              "x.c", 7, &e),
+    assert_int_equal(cl_check(CL_INVALID_BUFFER_SIZE,
+                              "(m = clCreateBuffer(c, 0, 0, 0, &err), err)", "x.c", 7, &e),
                      SPT_EXIT_DEVICE);
-    assert_string_equal(e.msg, "OpenCL: clCreateBuffer failed at x.c:7: CL_INVALID_BUFFER_SIZE (-61)");
+    assert_string_equal(e.msg,
+                        "OpenCL: clCreateBuffer failed at x.c:7: CL_INVALID_BUFFER_SIZE (-61)");
 }
 
 static void test_layout_matches_host(void **state)
