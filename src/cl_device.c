@@ -212,17 +212,19 @@ int cl_device_list(ClDeviceList *out, SptError *e)
     cl_platform_id *plats = spt_calloc(nplat, sizeof *plats);
     int rc = SPT_EXIT_OK;
     SPT_CL_CHECK_GOTO(e, clGetPlatformIDs(nplat, plats, NULL), rc, done);
-    for (cl_uint p = 0; p < nplat; p++) {
+    for (cl_uint p = 0; p < nplat && !rc; p++) {
         cl_uint ndev = 0;
         err = clGetDeviceIDs(plats[p], CL_DEVICE_TYPE_ALL, 0, NULL, &ndev);
-        if (err == CL_DEVICE_NOT_FOUND || ndev == 0)
+        if (err == CL_DEVICE_NOT_FOUND)
             continue; /* a platform without devices is not an error */
         SPT_CL_CHECK_GOTO(e, err, rc, done);
+        if (ndev == 0)
+            continue;
         cl_device_id *ids = spt_calloc(ndev, sizeof *ids);
-        rc = cl_check(clGetDeviceIDs(plats[p], CL_DEVICE_TYPE_ALL, ndev, ids, NULL),
-                      "clGetDeviceIDs", __FILE__, __LINE__, e);
         out->devices = spt_realloc(out->devices, (out->count + ndev) * sizeof *out->devices);
-        for (cl_uint i = 0; i < ndev && rc == SPT_EXIT_OK; i++) {
+        SPT_CL_CHECK_GOTO(e, clGetDeviceIDs(plats[p], CL_DEVICE_TYPE_ALL, ndev, ids, NULL), rc,
+                          next);
+        for (cl_uint i = 0; i < ndev && !rc; i++) {
             ClDeviceInfo *d = &out->devices[out->count];
             memset(d, 0, sizeof *d);
             d->index = out->count;
@@ -232,13 +234,14 @@ int cl_device_list(ClDeviceList *out, SptError *e)
             get_plat_str(plats[p], CL_PLATFORM_VERSION, d->platform_version,
                          sizeof d->platform_version);
             rc = describe_device(d, ids[i], e);
-            if (rc == SPT_EXIT_OK)
+            if (!rc)
                 out->count++;
         }
+    next:
         free(ids);
-        if (rc)
-            goto done;
     }
+    if (rc)
+        goto done;
     if (out->count == 0)
         rc = spt_fail(e, SPT_EXIT_DEVICE,
                       "%u OpenCL platform(s) found but no device; " SPT_POCL_HINT, nplat);
