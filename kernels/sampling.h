@@ -147,13 +147,13 @@ SPT_FN spt_i32 spt_discrete_sample(const SPT_GLOBAL float *cdf, spt_u32 n, float
     /* First index in [0, n) whose cdf exceeds u; cdf[0] = 0 <= u, so lo >= 1. */
     spt_u32 lo = 0u, len = n;
     while (len > 0u) {
-        spt_u32 half = len >> 1;
-        spt_u32 mid = lo + half;
+        spt_u32 hlen = len >> 1;
+        spt_u32 mid = lo + hlen;
         if (cdf[mid] <= u) {
             lo = mid + 1u;
-            len -= half + 1u;
+            len -= hlen + 1u;
         } else {
-            len = half;
+            len = hlen;
         }
     }
     spt_u32 i = lo - 1u;

@@ -5,7 +5,9 @@
 #include <string.h>
 
 #include "chi2.h"
+#include "cl_device.h"
 #include "rng.h"
+#include "sampling.h"
 
 /* Chi-square tests in this binary, for the Sidak correction. */
 #define RNG_CHI2_TESTS 7
@@ -324,6 +326,123 @@ static void test_sobol_scrambles_differ(void **state)
     assert_true(same < 4);
 }
 
+/* ---- Host and device agree ------------------------------------------------------ */
+
+static const char device_src[] =
+    "#include \"rng.h\"\n"
+    "#include \"sampling.h\"\n"
+    "__kernel void k_rng_check(__global uint *bits, __global float *f,\n"
+    "                          __global const float *cdf, uint ncdf)\n"
+    "{\n"
+    "    uint i = get_global_id(0);\n"
+    "    bits[4 * i + 0] = spt_rand_bits(spt_rng_key(7u, i * 3u, i / 5u), i % 41u);\n"
+    "    bits[4 * i + 1] = spt_sobol_owen_u32(i, i % SPT_SOBOL_DIMS, 0x9e3779b9u * i);\n"
+    "    bits[4 * i + 2] = as_uint(spt_sample_1d(3u, i / 64u, i % 64u, i % 13u));\n"
+    "    float prob, ur;\n"
+    "    bits[4 * i + 3] = (uint)spt_discrete_sample(cdf, ncdf, spt_rand(1u, i, 0u, 0u), &prob, &ur);\n"
+    "    float u1 = spt_rand(2u, i, 0u, 0u), u2 = spt_rand(2u, i, 0u, 1u);\n"
+    "    vec3 c = spt_sample_cosine_hemisphere(u1, u2);\n"
+    "    vec3 s = spt_sample_uniform_sphere(u1, u2);\n"
+    "    vec3 t = spt_sample_triangle_bary(u1, u2);\n"
+    "    __global float *o = f + 12 * i;\n"
+    "    o[0] = c.x; o[1] = c.y; o[2] = c.z; o[3] = s.x; o[4] = s.y; o[5] = s.z;\n"
+    "    o[6] = t.x; o[7] = t.y; o[8] = t.z; o[9] = prob; o[10] = ur;\n"
+    "    o[11] = spt_power_heuristic(u1, u2);\n"
+    "}\n";
+
+/* The same computations as k_rng_check, on the host, for item i. */
+static void host_check(spt_u32 i, const float *cdf, spt_u32 ncdf, spt_u32 bits[4], float f[12])
+{
+    float u = spt_sample_1d(3u, i / 64u, i % 64u, i % 13u);
+    bits[0] = spt_rand_bits(spt_rng_key(7u, i * 3u, i / 5u), i % 41u);
+    bits[1] = spt_sobol_owen_u32(i, i % SPT_SOBOL_DIMS, 0x9e3779b9u * i);
+    memcpy(&bits[2], &u, sizeof u);
+    float prob, ur;
+    bits[3] = (spt_u32)spt_discrete_sample(cdf, ncdf, spt_rand(1u, i, 0u, 0u), &prob, &ur);
+    float u1 = spt_rand(2u, i, 0u, 0u), u2 = spt_rand(2u, i, 0u, 1u);
+    vec3 c = spt_sample_cosine_hemisphere(u1, u2);
+    vec3 s = spt_sample_uniform_sphere(u1, u2);
+    vec3 t = spt_sample_triangle_bary(u1, u2);
+    float v[12] = {c.x, c.y, c.z, s.x, s.y, s.z, t.x, t.y, t.z, prob, ur,
+                   spt_power_heuristic(u1, u2)};
+    memcpy(f, v, sizeof v);
+}
+
+/* The headers compile as OpenCL C 1.2 (with the renderer's fast-math flag), and
+ * the default OpenCL device produces the host's random numbers bit for bit (the
+ * "Scale" principle: a sample's numbers do not depend on the device) and the
+ * host's warps to float precision. Skipped without an OpenCL device. */
+static void test_device_matches_host(void **state)
+{
+    (void)state;
+    enum { N = 4096, NCDF = 5 };
+    const float cdf[NCDF + 1] = {0.0f, 0.125f, 0.125f, 0.5f, 0.875f, 1.0f};
+    SptError e = {0};
+    ClDevice *devs = NULL;
+    int count = 0;
+    if (cl_devices_open(NULL, 0, &devs, &count, &e)) {
+        print_message("no OpenCL device: %s\n", e.msg);
+        skip();
+    }
+    ClDevice *d = &devs[0];
+    print_message("  device: %s (%s)\n", d->info.name, d->info.platform_name);
+    cl_program prog = NULL;
+    if (cl_program_build_text(d, "kernels/test_rng_check.cl", device_src, "-cl-fast-relaxed-math",
+                              &prog, &e)) {
+        cl_device_report(d, &e);
+        cl_devices_close(devs, count);
+        fail_msg("kernel build failed: %s", e.msg);
+    }
+    cl_int err = CL_SUCCESS;
+    cl_kernel k = clCreateKernel(prog, "k_rng_check", &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_mem bits_buf = NULL, f_buf = NULL, cdf_buf = NULL;
+    assert_int_equal(cl_buffer_create(d, "bits", CL_MEM_WRITE_ONLY, sizeof(cl_uint) * 4 * N, NULL,
+                                      &bits_buf, &e),
+                     0);
+    assert_int_equal(cl_buffer_create(d, "floats", CL_MEM_WRITE_ONLY, sizeof(float) * 12 * N,
+                                      NULL, &f_buf, &e),
+                     0);
+    assert_int_equal(cl_buffer_create(d, "cdf", CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                                      sizeof cdf, (void *)cdf, &cdf_buf, &e),
+                     0);
+    cl_uint ncdf = NCDF;
+    assert_int_equal(clSetKernelArg(k, 0, sizeof bits_buf, &bits_buf), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 1, sizeof f_buf, &f_buf), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 2, sizeof cdf_buf, &cdf_buf), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 3, sizeof ncdf, &ncdf), CL_SUCCESS);
+    size_t global = N;
+    assert_int_equal(clEnqueueNDRangeKernel(d->queue, k, 1, NULL, &global, NULL, 0, NULL, NULL),
+                     CL_SUCCESS);
+    static cl_uint bits[4 * N];
+    static float f[12 * N];
+    assert_int_equal(clEnqueueReadBuffer(d->queue, bits_buf, CL_TRUE, 0, sizeof bits, bits, 0,
+                                         NULL, NULL),
+                     CL_SUCCESS);
+    assert_int_equal(
+        clEnqueueReadBuffer(d->queue, f_buf, CL_TRUE, 0, sizeof f, f, 0, NULL, NULL),
+        CL_SUCCESS);
+    clReleaseMemObject(bits_buf);
+    clReleaseMemObject(f_buf);
+    clReleaseMemObject(cdf_buf);
+    clReleaseKernel(k);
+    clReleaseProgram(prog);
+    cl_devices_close(devs, count);
+    for (spt_u32 i = 0; i < N; i++) {
+        spt_u32 hb[4];
+        float hf[12];
+        host_check(i, cdf, NCDF, hb, hf);
+        for (int j = 0; j < 4; j++)
+            if (bits[4 * i + j] != hb[j])
+                fail_msg("item %u, integer output %d: device 0x%08x, host 0x%08x", i, j,
+                         bits[4 * i + j], hb[j]);
+        for (int j = 0; j < 12; j++)
+            if (!(fabsf(f[12 * i + j] - hf[j]) <= 2e-6f))
+                fail_msg("item %u, float output %d: device %.9g, host %.9g", i, j, f[12 * i + j],
+                         hf[j]);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -336,6 +455,7 @@ int main(void)
         cmocka_unit_test(test_sobol_prefixes_are_nets),
         cmocka_unit_test(test_sobol_1d_stratified),
         cmocka_unit_test(test_sobol_scrambles_differ),
+        cmocka_unit_test(test_device_matches_host),
     };
     return cmocka_run_group_tests_name("rng", tests, NULL, NULL);
 }
