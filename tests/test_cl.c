@@ -215,6 +215,60 @@ static void test_select_by_name_ignores_case(void **state)
     assert_int_equal(sel[0], want);
 }
 
+/* Selection on a made-up list of four devices: CPU, GPU, GPU, accelerator. */
+static void expect_selection(const ClDeviceList *list, const char *sel, const char *want)
+{
+    int out[8], n = 0;
+    SptError e = {0};
+    char got[64] = "error";
+    if (cl_device_select(list, sel, out, &n, &e) == SPT_EXIT_OK) {
+        got[0] = 0;
+        for (int k = 0; k < n; k++)
+            snprintf(got + strlen(got), sizeof got - strlen(got), "%s%d", k ? "," : "", out[k]);
+    }
+    if (strcmp(got, want))
+        fail_msg("selection '%s' gave %s, expected %s (%s)", sel ? sel : "(null)", got, want,
+                 e.msg);
+}
+
+static void test_select_rules_on_made_up_devices(void **state)
+{
+    (void)state;
+    ClDeviceInfo d[4];
+    memset(d, 0, sizeof d);
+    const char *names[4] = {"Xeon CPU", "Radeon GPU A", "Radeon GPU B", "FPGA thing"};
+    cl_device_type types[4] = {CL_DEVICE_TYPE_CPU, CL_DEVICE_TYPE_GPU, CL_DEVICE_TYPE_GPU,
+                               CL_DEVICE_TYPE_ACCELERATOR};
+    for (int i = 0; i < 4; i++) {
+        d[i].index = i;
+        snprintf(d[i].name, sizeof d[i].name, "%s", names[i]);
+        snprintf(d[i].vendor, sizeof d[i].vendor, "%s", i == 0 ? "Intel" : "AMD");
+        snprintf(d[i].platform_name, sizeof d[i].platform_name, "Platform %d", i);
+        d[i].type = types[i];
+    }
+    ClDeviceList list = {d, 4};
+    expect_selection(&list, NULL, "1");      /* the first GPU */
+    expect_selection(&list, "", "1");
+    expect_selection(&list, "all", "0,1,2,3");
+    expect_selection(&list, "3, 0", "3,0");
+    expect_selection(&list, "gpu,gpu", "1,2");
+    expect_selection(&list, "gpu,gpu,gpu", "1,2"); /* no third GPU: nothing more */
+    expect_selection(&list, "radeon gpu b", "2");
+    expect_selection(&list, "amd,amd", "1,2");  /* vendor */
+    expect_selection(&list, "platform 3", "3");  /* platform name */
+    expect_selection(&list, "CPU", "0");         /* type, not the name "Xeon CPU" */
+    expect_selection(&list, "accelerator,cpu", "3,0");
+    expect_selection(&list, "4", "error");
+    expect_selection(&list, "-1", "error");
+    expect_selection(&list, "2,nvidia", "error");
+    /* Without a GPU the default is the first CPU. */
+    d[1].type = d[2].type = CL_DEVICE_TYPE_ACCELERATOR;
+    d[3].type = CL_DEVICE_TYPE_CPU;
+    expect_selection(&list, NULL, "0");
+    d[0].type = CL_DEVICE_TYPE_ACCELERATOR;
+    expect_selection(&list, NULL, "3");
+}
+
 static void test_select_out_of_range_lists_devices(void **state)
 {
     (void)state;
@@ -698,6 +752,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_list_matches_direct_query),
         cmocka_unit_test(test_select_by_index_and_default),
         cmocka_unit_test(test_select_by_name_ignores_case),
+        cmocka_unit_test(test_select_rules_on_made_up_devices),
         cmocka_unit_test(test_select_out_of_range_lists_devices),
         cmocka_unit_test(test_select_no_match_lists_devices),
         cmocka_unit_test(test_two_pocl_devices_all_and_lists),
