@@ -305,7 +305,7 @@ def scene_dict(mi, scene, width, height, spp, max_depth, tmpdir, seed=0):
     return d
 
 
-def render(scene_path, width, height, spp, max_depth, variant="auto", seed=0, pass_samples=1 << 22,
+def render(scene_path, width, height, spp, max_depth, variant="auto", seed=0, pass_samples=1 << 24,
            verbose=True):
     """Renders scene_path with Mitsuba; returns (image HxWx3 float64 linear sRGB,
     info dict). The spp are split into passes of at most pass_samples paths
@@ -354,7 +354,22 @@ def write_exr(mi, path, img):
     mi.Bitmap(np.ascontiguousarray(img, dtype=np.float32), pixel_format=mi.Bitmap.PixelFormat.RGB).write(path)
 
 
-def record_means(path, scene_path, info, args):
+def block_means(img, n=4):
+    """n x n grid of per-channel block means, row 0 at the top of the image."""
+    h, w = img.shape[:2]
+    return [[[round(float(v), 6) for v in img[i * h // n:(i + 1) * h // n, j * w // n:(j + 1) * w // n]
+              .mean(axis=(0, 1))] for j in range(n)] for i in range(n)]
+
+
+def _compact_json(obj):
+    """indent=1 JSON with lists of numbers on one line."""
+    import re
+    text = json.dumps(obj, indent=1)
+    return re.sub(r"\[\s*([-0-9.e+,\s]+?)\s*\]", lambda m: "[" + ", ".join(m.group(1).split()).replace(",,", ",") + "]",
+                  text)
+
+
+def record_means(path, scene_path, info, args, img):
     """Adds info as entry 'max_depth_D' of the JSON file at path (created if absent)."""
     import platform
     doc = {}
@@ -362,12 +377,14 @@ def record_means(path, scene_path, info, args):
         with open(path) as f:
             doc = json.load(f)
     doc.setdefault("about", "Mitsuba 3 reference image means (linear sRGB, per channel) of %s, for tests "
-                   "that compare spectrace without Mitsuba installed. Written by tools/scene_to_mitsuba.py "
+                   "that compare spectrace without Mitsuba installed; block_means_4x4[row][column] are the "
+                   "means of a 4 x 4 grid of blocks, row 0 at the top (they catch a mirrored image). Written by tools/scene_to_mitsuba.py "
                    "--means-json; each entry records its exact command." % scene_path)
     doc["scene"] = scene_path
     entry = {k: info[k] for k in ("width", "height", "spp", "max_depth", "variant", "mitsuba_version")}
     entry.update({"integrator": "path (rr_depth 5), hdrfilm box filter, independent sampler",
-                  "mean": [round(v, 7) for v in info["mean"]]})
+                  "mean": [round(v, 7) for v in info["mean"]],
+                  "block_means_4x4": block_means(img)})
     if "stderr_of_mean" in info:
         entry["stderr_of_mean"] = [float("%.3g" % v) for v in info["stderr_of_mean"]]
         entry["relative_stderr"] = [float("%.3g" % (e / m)) if m else None
@@ -380,8 +397,7 @@ def record_means(path, scene_path, info, args):
     tmp = path + ".tmp"
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     with open(tmp, "w") as f:
-        json.dump(doc, f, indent=1)
-        f.write("\n")
+        f.write(_compact_json(doc) + "\n")
     os.replace(tmp, path)
 
 
@@ -398,6 +414,8 @@ def main(argv=None):
     ap.add_argument("--variant", default="auto",
                     help="Mitsuba variant: auto (llvm_ad_spectral if libLLVM 16+, else scalar_spectral)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--pass-samples", type=int, default=1 << 24,
+                    help="at most this many paths per mi.render call (default 16777216; 0 = one pass)")
     ap.add_argument("--json", action="store_true", help="print the result (means, timing) as JSON")
     ap.add_argument("--means-json", metavar="FILE",
                     help="record the means (with settings, timing and this command) in FILE under the key "
@@ -405,7 +423,8 @@ def main(argv=None):
     a = ap.parse_args(argv)
     w, h = a.width or a.size, a.height or a.size
     try:
-        img, info = render(a.scene, w, h, a.spp, a.max_depth, a.variant, a.seed)
+        img, info = render(a.scene, w, h, a.spp, a.max_depth, a.variant, a.seed,
+                           a.pass_samples if a.pass_samples > 0 else w * h * a.spp)
     except ImportError:
         print("skip: " + MITSUBA_MISSING)
         return 0
@@ -414,7 +433,7 @@ def main(argv=None):
         write_exr(mi, a.output, img)
         info["output"] = a.output
     if a.means_json:
-        record_means(a.means_json, a.scene, info, argv if argv is not None else sys.argv[1:])
+        record_means(a.means_json, a.scene, info, argv if argv is not None else sys.argv[1:], img)
     if a.json:
         print(json.dumps(info, indent=1))
     else:
