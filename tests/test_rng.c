@@ -10,7 +10,7 @@
 #include "sampling.h"
 
 /* Chi-square tests in this binary, for the Sidak correction. */
-#define RNG_CHI2_TESTS 7
+#define RNG_CHI2_TESTS 8
 
 /* Fails with the chi-square report unless r passed. */
 static void rng_require(const Chi2Result *r)
@@ -103,7 +103,7 @@ static void test_rand_uniform_1d(void **state)
 /* Pairs of spt_rand values that differ in one argument; 2D uniformity of the pairs
  * shows the two are independent. */
 typedef struct PairCtx {
-    int which; /* 0: dims, 1: pixels, 2: samples, 3: seeds */
+    int which; /* 0: dims, 1: pixels, 2: samples, 3: seeds, 4: same dim of two bounces */
 } PairCtx;
 
 static int pair_sample(void *ctx, uint32_t i, double p[3])
@@ -123,9 +123,13 @@ static int pair_sample(void *ctx, uint32_t i, double p[3])
         p[0] = spt_rand(seed, pixel, 2u * sample, dim);
         p[1] = spt_rand(seed, pixel, 2u * sample + 1u, dim);
         break;
-    default:
+    case 3:
         p[0] = spt_rand(i, pixel, sample, dim);
         p[1] = spt_rand(i + 1u, pixel, sample, dim);
+        break;
+    default:
+        p[0] = spt_rand(seed, pixel, sample, spt_dim_bounce(1u, SPT_DIM_BSDF_U));
+        p[1] = spt_rand(seed, pixel, sample, spt_dim_bounce(2u, SPT_DIM_BSDF_U));
         break;
     }
     return 1;
@@ -141,9 +145,9 @@ static double uniform_pdf(void *ctx, const double p[3])
 static void test_rand_independent_pairs(void **state)
 {
     (void)state;
-    static const char *names[4] = {"pairs of dims", "pairs of pixels", "pairs of samples",
-                                   "pairs of seeds"};
-    for (int w = 0; w < 4; w++) {
+    static const char *names[5] = {"pairs of dims", "pairs of pixels", "pairs of samples",
+                                   "pairs of seeds", "one dim of two bounces"};
+    for (int w = 0; w < 5; w++) {
         PairCtx c = {w};
         Chi2Grid g = {0};
         g.name = names[w];
