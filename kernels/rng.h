@@ -222,11 +222,15 @@ SPT_FN spt_u32 spt_reverse_bits(spt_u32 x)
  * 32-bit fixed-point fraction (natural order, not Gray code). */
 SPT_FN spt_u32 spt_sobol_u32(spt_u32 index, spt_u32 dim)
 {
+    /* Dim 0's matrix is the identity on reversed bits. */
+    if (dim == 0u)
+        return spt_reverse_bits(index);
     spt_u32 x = 0u;
     spt_u32 base = dim * 32u;
+    /* Branch-free: shuffled indices have random bits, which defeat a CPU's
+     * branch predictor and diverge on a GPU. */
     for (spt_u32 k = 0u; index != 0u; index >>= 1, ++k)
-        if (index & 1u)
-            x ^= SPT_SOBOL_DIRECTIONS[base + k];
+        x ^= SPT_SOBOL_DIRECTIONS[base + k] & (0u - (index & 1u));
     return x;
 }
 

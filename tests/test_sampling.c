@@ -530,6 +530,37 @@ static void test_distrib_edges(void **state)
     distrib_free(&d);
 }
 
+/* The binary search agrees with a linear scan (the i with cdf[i] <= u <
+ * cdf[i+1]) for many sizes, with runs of zero weights, and for u exactly on
+ * table values. */
+static void test_discrete_matches_linear_scan(void **state)
+{
+    (void)state;
+    float w[70];
+    uint64_t r = 99;
+    for (uint32_t n = 1; n <= 70; n++) {
+        for (uint32_t i = 0; i < n; i++)
+            w[i] = test_uniform(r++) < 0.35f ? 0.0f : test_uniform(r++) * 10.0f;
+        w[(n * 7) % n] = 1.0f; /* at least one usable weight */
+        Distrib d;
+        assert_int_equal(distrib_build(&d, w, n), 1);
+        for (uint32_t t = 0; t < 500 + n; t++) {
+            float u = t < n ? d.cdf[t] : test_uniform(r++);
+            if (u >= 1.0f)
+                continue;
+            uint32_t want = 0;
+            while (!(u < d.cdf[want + 1]))
+                want++;
+            float prob;
+            spt_i32 got = spt_discrete_sample(d.cdf, n, u, &prob, 0);
+            if (got != (spt_i32)want)
+                fail_msg("n = %u, u = %.9g: index %d, linear scan says %u", n, u, got, want);
+            assert_true(w[want] > 0.0f && prob > 0.0f);
+        }
+        distrib_free(&d);
+    }
+}
+
 /* Millions of entries: the double-precision sum keeps the table exact to float
  * rounding (a float running sum would stall once the total dwarfs an entry). */
 static void test_distrib_large(void **state)
@@ -577,6 +608,7 @@ int main(void)
         cmocka_unit_test(test_distrib_table),
         cmocka_unit_test(test_distrib_sampling),
         cmocka_unit_test(test_distrib_edges),
+        cmocka_unit_test(test_discrete_matches_linear_scan),
         cmocka_unit_test(test_distrib_large),
     };
     return cmocka_run_group_tests_name("sampling", tests, NULL, NULL);
