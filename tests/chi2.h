@@ -101,10 +101,12 @@ static double chi2_sidak(double alpha, int num_tests)
     return 1.0 - pow(1.0 - alpha, 1.0 / (num_tests > 0 ? num_tests : 1));
 }
 
+/* One cell of a test: observed and expected counts. */
 typedef struct Chi2Cell {
     double obs, exp;
 } Chi2Cell;
 
+/* qsort order of cells: ascending expected count. */
 static int chi2_cell_cmp(const void *a, const void *b)
 {
     double x = ((const Chi2Cell *)a)->exp, y = ((const Chi2Cell *)b)->exp;

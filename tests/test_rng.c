@@ -106,6 +106,7 @@ typedef struct PairCtx {
     int which; /* 0: dims, 1: pixels, 2: samples, 3: seeds, 4: same dim of two bounces */
 } PairCtx;
 
+/* Sample i: a pair of spt_rand values differing in the argument ctx names. */
 static int pair_sample(void *ctx, uint32_t i, double p[3])
 {
     const PairCtx *c = ctx;
@@ -135,6 +136,7 @@ static int pair_sample(void *ctx, uint32_t i, double p[3])
     return 1;
 }
 
+/* The uniform density on the unit square. */
 static double uniform_pdf(void *ctx, const double p[3])
 {
     (void)ctx;

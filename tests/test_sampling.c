@@ -32,6 +32,7 @@ static void test_uniform2(uint32_t stream, uint32_t i, float *u1, float *u2)
     *u2 = test_uniform(base + 1u);
 }
 
+/* Fails with the chi-square report unless r passed; prints it either way. */
 static void require_pass(const Chi2Result *r)
 {
     if (!r->passed)
@@ -82,6 +83,7 @@ static int cosine_sample(void *ctx, uint32_t i, double p[3])
     return 1;
 }
 
+/* Density of the uniform hemisphere, per steradian. */
 static double uniform_hemisphere_pdf(void *ctx, const double p[3])
 {
     (void)ctx;
@@ -115,12 +117,14 @@ static void test_chi2_rejects_wrong_pdf(void **state)
 
 /* ---- Directions ------------------------------------------------------------------ */
 
+/* Density of the cosine-weighted hemisphere, per steradian. */
 static double cosine_pdf(void *ctx, const double p[3])
 {
     (void)ctx;
     return p[2] > 0.0 ? p[2] / M_PI : 0.0;
 }
 
+/* Sample i of spt_sample_uniform_hemisphere. */
 static int uniform_hemisphere_sample(void *ctx, uint32_t i, double p[3])
 {
     (void)ctx;
@@ -133,6 +137,7 @@ static int uniform_hemisphere_sample(void *ctx, uint32_t i, double p[3])
     return 1;
 }
 
+/* Sample i of spt_sample_uniform_sphere. */
 static int uniform_sphere_sample(void *ctx, uint32_t i, double p[3])
 {
     (void)ctx;
@@ -145,6 +150,7 @@ static int uniform_sphere_sample(void *ctx, uint32_t i, double p[3])
     return 1;
 }
 
+/* Density of the uniform sphere, per steradian. */
 static double uniform_sphere_pdf(void *ctx, const double p[3])
 {
     (void)ctx;
@@ -171,6 +177,7 @@ static void run_direction_test(const char *name, int (*sample)(void *, uint32_t,
     assert_close(r.integral, 1.0, 1e-6);
 }
 
+/* Chi-square of the cosine-weighted hemisphere; its pdf function. */
 static void test_cosine_hemisphere(void **state)
 {
     (void)state;
@@ -180,6 +187,7 @@ static void test_cosine_hemisphere(void **state)
         assert_close(spt_pdf_cosine_hemisphere(c), c > 0.0f ? c / M_PI : 0.0, 1e-7);
 }
 
+/* Chi-square of the uniform hemisphere; its pdf function. */
 static void test_uniform_hemisphere(void **state)
 {
     (void)state;
@@ -188,6 +196,7 @@ static void test_uniform_hemisphere(void **state)
     assert_close(spt_pdf_uniform_hemisphere(-0.3f), 0.0, 0.0);
 }
 
+/* Chi-square of the uniform sphere; its pdf function. */
 static void test_uniform_sphere(void **state)
 {
     (void)state;
@@ -230,6 +239,7 @@ static int disk_polar_sample(void *ctx, uint32_t i, double p[3])
     return d.z == 0.0f;
 }
 
+/* Density of a uniform disk point in (r^2, phi). */
 static double disk_polar_pdf(void *ctx, const double p[3])
 {
     (void)ctx;
@@ -237,6 +247,7 @@ static double disk_polar_pdf(void *ctx, const double p[3])
     return 1.0 / (2.0 * M_PI);
 }
 
+/* Chi-square of the concentric disk in (r^2, phi). */
 static void test_concentric_disk(void **state)
 {
     (void)state;
@@ -260,6 +271,7 @@ static void test_concentric_disk(void **state)
 /* A triangle inside the unit square, not aligned with the grid. */
 static const double tri[3][2] = {{0.1, 0.2}, {0.9, 0.35}, {0.3, 0.95}};
 
+/* Sample i of spt_sample_triangle on tri, as (x, y). */
 static int triangle_sample(void *ctx, uint32_t i, double p[3])
 {
     (void)ctx;
@@ -273,6 +285,7 @@ static int triangle_sample(void *ctx, uint32_t i, double p[3])
     return 1;
 }
 
+/* Area of tri, in double precision. */
 static double triangle_area_d(void)
 {
     return 0.5 * fabs((tri[1][0] - tri[0][0]) * (tri[2][1] - tri[0][1]) -
@@ -320,6 +333,7 @@ static double triangle_cell_prob(void *ctx, double x0, double x1, double y0, dou
     return 0.5 * fabs(area2) / triangle_area_d();
 }
 
+/* Area density of tri. */
 static double triangle_pdf(void *ctx, const double p[3])
 {
     (void)ctx;
@@ -327,6 +341,8 @@ static double triangle_pdf(void *ctx, const double p[3])
     return 1.0 / triangle_area_d(); /* unused: cell_prob is exact */
 }
 
+/* Chi-square of triangle sampling with exact cell probabilities; the
+ * barycentrics and the area function. */
 static void test_triangle_area_sampling(void **state)
 {
     (void)state;
@@ -360,6 +376,7 @@ static void test_triangle_area_sampling(void **state)
 
 /* ---- MIS ------------------------------------------------------------------------- */
 
+/* Power heuristic values against a^2 / (a^2 + b^2), and its edge cases. */
 static void test_power_heuristic(void **state)
 {
     (void)state;
@@ -387,6 +404,7 @@ static void test_power_heuristic(void **state)
 
 /* Light powers with every kind of unusable weight mixed in. */
 #define LIGHTS 64
+/* Fills w[0..LIGHTS-1]. */
 static void light_weights(float *w)
 {
     for (int i = 0; i < LIGHTS; i++)
@@ -401,11 +419,13 @@ static void light_weights(float *w)
     w[LIGHTS - 1] = 0.0f;
 }
 
+/* Whether distrib_build counts weight w. */
 static int light_usable(float w)
 {
     return isfinite(w) && w > 0.0f;
 }
 
+/* The CDF table: bounds, monotonicity, probabilities equal weight / total. */
 static void test_distrib_table(void **state)
 {
     (void)state;
