@@ -306,7 +306,7 @@ def scene_dict(mi, scene, width, height, spp, max_depth, tmpdir, seed=0):
 
 
 def render(scene_path, width, height, spp, max_depth, variant="auto", seed=0, pass_samples=1 << 24,
-           verbose=True):
+           verbose=True, warmup=False):
     """Renders scene_path with Mitsuba; returns (image HxWx3 float64 linear sRGB,
     info dict). The spp are split into passes of at most pass_samples paths
     (different seeds) to bound the memory of the LLVM wavefront; info carries
@@ -327,6 +327,11 @@ def render(scene_path, width, height, spp, max_depth, variant="auto", seed=0, pa
         t0 = time.time()
         msc = mi.load_dict(scene_dict(mi, scene, width, height, passes[0], max_depth, tmp))
         t_load = time.time() - t0
+        if warmup:   # compile the kernel outside the timed passes
+            t0 = time.time()
+            np.array(mi.render(msc, seed=999999, spp=1))
+            if verbose:
+                print("  warm-up (1 spp, kernel compilation): %.2f s" % (time.time() - t0), file=sys.stderr)
         for w in scene["warnings"]:
             print("warning: %s" % w, file=sys.stderr)
         t0 = time.time()
@@ -416,6 +421,8 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--pass-samples", type=int, default=1 << 24,
                     help="at most this many paths per mi.render call (default 16777216; 0 = one pass)")
+    ap.add_argument("--benchmark", action="store_true",
+                    help="time paths/s: a 1 spp warm-up render first, then all spp in one pass")
     ap.add_argument("--json", action="store_true", help="print the result (means, timing) as JSON")
     ap.add_argument("--means-json", metavar="FILE",
                     help="record the means (with settings, timing and this command) in FILE under the key "
@@ -423,8 +430,9 @@ def main(argv=None):
     a = ap.parse_args(argv)
     w, h = a.width or a.size, a.height or a.size
     try:
+        one_pass = a.pass_samples <= 0 or a.benchmark
         img, info = render(a.scene, w, h, a.spp, a.max_depth, a.variant, a.seed,
-                           a.pass_samples if a.pass_samples > 0 else w * h * a.spp)
+                           w * h * a.spp if one_pass else a.pass_samples, warmup=a.benchmark)
     except ImportError:
         print("skip: " + MITSUBA_MISSING)
         return 0
