@@ -8,7 +8,7 @@
 #ifndef SPT_SHARED_H
 #define SPT_SHARED_H
 
-#ifdef __OPENCL_VERSION__
+#if defined(__OPENCL_VERSION__) || defined(__OPENCL_C_VERSION__)
   #define SPT_DEVICE 1
   #define SPT_FN static inline
   #define SPT_CONSTANT __constant
@@ -32,6 +32,9 @@
   #define acosf acos
   #define asinf asin
   #define atan2f atan2
+  #define tanhf tanh
+  #define coshf cosh
+  #define atanhf atanh
   #define copysignf copysign
   #define SPT_STATIC_ASSERT(cond, msg)
 #else

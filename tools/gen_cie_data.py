@@ -5,6 +5,11 @@
 Source: the colour-science Python package (colour.MSDS_CMFS["CIE 1931 2 Degree
 Standard Observer"]), which carries the CIE's published 1 nm table (CIE 018:2019,
 "CIE 1931 colour-matching functions, 2 degree observer", CVRL/CIE data).
+The CIE standard illuminant D65, for the kernels' RGB-illuminant upsampling: the
+published 5 nm table (colour.SDS_ILLUMINANTS["D65"], CIE S 014-2/E:2006) from 360 to
+780 nm, continued to 830 nm by the CIE daylight model (colour.sd_CIE_illuminant_D_series
+at the D65 chromaticity, scaled to meet the table at 780 nm), interpolated linearly
+to 1 nm and normalised so that Y = sum(ybar S) / sum(ybar) = 1.
 Run: python3 tools/gen_cie_data.py > kernels/cie_data.h
 """
 import sys
@@ -40,7 +45,27 @@ def main():
     for k, name in enumerate(("SPT_CIE_X", "SPT_CIE_Y", "SPT_CIE_Z")):
         out.write(table(name, [v[k] for v in xyz]))
         out.write("\n")
-    out.write("#endif\n")
+    d65 = colour.SDS_ILLUMINANTS["D65"]
+    xy = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
+    dser = colour.sd_CIE_illuminant_D_series(xy)
+    tail_scale = d65[780] / dser[780]
+
+    def d65_at(w):
+        lo = (w // 5) * 5
+        hi = lo + 5 if w % 5 else lo
+        def v(x):
+            return d65[x] if x <= 780 else dser[x] * tail_scale
+        if lo == hi:
+            return v(lo)
+        f = (w - lo) / 5.0
+        return v(lo) * (1 - f) + v(hi) * f
+
+    d = [d65_at(w) for w in wl]
+    y = sum(di * v[1] for di, v in zip(d, xyz)) / ysum
+    out.write("/* CIE D65 on the same grid, normalised to Y = 1 (see tools/gen_cie_data.py). */\n")
+    out.write("#define SPT_D65_NORM SPT_D65_NORM\n")
+    out.write(table("SPT_D65_NORM", [di / y for di in d]))
+    out.write("\n#endif\n")
 
 
 if __name__ == "__main__":
