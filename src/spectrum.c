@@ -1,0 +1,516 @@
+/* Host colour science: SPDs, CIE XYZ, sRGB, named illuminants, RGB upsampling. */
+#include "spectrum.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "spectrum_data.h"
+#include "../kernels/cie_data.h"
+#include "../kernels/spectrum.h"
+
+void spd_free(Spd *s)
+{
+    if (!s)
+        return;
+    free(s->nm);
+    free(s->value);
+    free(s->line_nm);
+    free(s->line_power);
+    memset(s, 0, sizeof *s);
+}
+
+static double *dup_doubles(const double *p, int n)
+{
+    if (n <= 0 || !p)
+        return NULL;
+    double *q = spt_malloc((size_t)n * sizeof(double));
+    memcpy(q, p, (size_t)n * sizeof(double));
+    return q;
+}
+
+int spd_copy(Spd *dst, const Spd *src)
+{
+    Spd r;
+    memset(&r, 0, sizeof r);
+    r.count = src->count;
+    r.nm = dup_doubles(src->nm, src->count);
+    r.value = dup_doubles(src->value, src->count);
+    r.line_count = src->line_count;
+    r.line_nm = dup_doubles(src->line_nm, src->line_count);
+    r.line_power = dup_doubles(src->line_power, src->line_count);
+    *dst = r;
+    return 0;
+}
+
+typedef struct Pair {
+    double nm, v;
+} Pair;
+
+static int cmp_pair(const void *a, const void *b)
+{
+    double x = ((const Pair *)a)->nm, y = ((const Pair *)b)->nm;
+    return x < y ? -1 : x > y;
+}
+
+int spd_from_samples(Spd *out, const double *nm, const double *value, int n, SptError *e)
+{
+    memset(out, 0, sizeof *out);
+    if (n < 1)
+        return spt_fail(e, SPT_EXIT_INPUT, "an SPD needs at least one sample");
+    Pair *p = spt_malloc((size_t)n * sizeof(Pair));
+    for (int i = 0; i < n; i++) {
+        if (!isfinite(nm[i]) || !isfinite(value[i]) || nm[i] <= 0) {
+            free(p);
+            return spt_fail(e, SPT_EXIT_INPUT,
+                            "sample %d (%g nm, %g) is not a positive finite wavelength with a finite value",
+                            i, nm[i], value[i]);
+        }
+        p[i].nm = nm[i];
+        p[i].v = value[i];
+    }
+    qsort(p, (size_t)n, sizeof *p, cmp_pair);
+    for (int i = 1; i < n; i++)
+        if (p[i].nm == p[i - 1].nm) {
+            double w = p[i].nm;
+            free(p);
+            return spt_fail(e, SPT_EXIT_INPUT, "wavelength %g nm is given twice", w);
+        }
+    out->count = n;
+    out->nm = spt_malloc((size_t)n * sizeof(double));
+    out->value = spt_malloc((size_t)n * sizeof(double));
+    for (int i = 0; i < n; i++) {
+        out->nm[i] = p[i].nm;
+        out->value[i] = p[i].v;
+    }
+    free(p);
+    return 0;
+}
+
+double spd_eval(const Spd *s, double nm)
+{
+    int n = s->count;
+    if (n == 0 || !(nm >= s->nm[0]) || nm > s->nm[n - 1])
+        return 0.0;
+    if (n == 1)
+        return s->value[0];
+    int lo = 0, hi = n - 1;
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if (s->nm[mid] <= nm)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    double f = (nm - s->nm[lo]) / (s->nm[hi] - s->nm[lo]);
+    return s->value[lo] * (1.0 - f) + s->value[hi] * f;
+}
+
+/* CMFs at a wavelength, in double from the float tables (linear interpolation). */
+static void cmf_at(double nm, double out[3])
+{
+    out[0] = spt_cie_x((float)nm);
+    out[1] = spt_cie_y((float)nm);
+    out[2] = spt_cie_z((float)nm);
+}
+
+void spd_to_xyz(const Spd *s, double xyz[3])
+{
+    xyz[0] = xyz[1] = xyz[2] = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        double v = spd_eval(s, SPT_CIE_LAMBDA_MIN + i);
+        xyz[0] += SPT_CIE_X[i] * v;
+        xyz[1] += SPT_CIE_Y[i] * v;
+        xyz[2] += SPT_CIE_Z[i] * v;
+    }
+    for (int k = 0; k < s->line_count; k++) {
+        double c[3];
+        cmf_at(s->line_nm[k], c);
+        for (int j = 0; j < 3; j++)
+            xyz[j] += c[j] * s->line_power[k];
+    }
+}
+
+double spd_luminous_efficacy(const Spd *s)
+{
+    double xyz[3], p = 0.0;
+    spd_to_xyz(s, xyz);
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+        p += spd_eval(s, SPT_CIE_LAMBDA_MIN + i);
+    for (int k = 0; k < s->line_count; k++)
+        if (s->line_nm[k] >= SPT_CIE_LAMBDA_MIN && s->line_nm[k] <= SPT_CIE_LAMBDA_MAX)
+            p += s->line_power[k];
+    return p > 0 ? 683.0 * xyz[1] / p : 0.0;
+}
+
+void spd_to_grid(const Spd *s, float *grid)
+{
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+        grid[i] = (float)spd_eval(s, SPT_CIE_LAMBDA_MIN + i);
+    /* A line of power p becomes p per nm in the 1 nm bin around it, split
+     * between the two nearest grid points so its centroid is kept. */
+    for (int k = 0; k < s->line_count; k++) {
+        double x = s->line_nm[k] - SPT_CIE_LAMBDA_MIN;
+        if (x < 0 || x > SPT_CIE_SAMPLES - 1)
+            continue;
+        int i = (int)x;
+        if (i > SPT_CIE_SAMPLES - 2)
+            i = SPT_CIE_SAMPLES - 2;
+        double f = x - i;
+        grid[i] += (float)(s->line_power[k] * (1.0 - f));
+        grid[i + 1] += (float)(s->line_power[k] * f);
+    }
+}
+
+double blackbody_radiance(double nm, double kelvin)
+{
+    const double h = 6.62607015e-34, c = 299792458.0, kb = 1.380649e-23;
+    if (!(kelvin > 0) || !(nm > 0))
+        return 0.0;
+    double l = nm * 1e-9;
+    return 2.0 * h * c * c / (pow(l, 5) * (exp(h * c / (l * kb * kelvin)) - 1.0));
+}
+
+void xyz_to_linear_srgb(const double xyz[3], double rgb[3])
+{
+    double x = xyz[0], y = xyz[1], z = xyz[2];
+    rgb[0] = 3.2406 * x - 1.5372 * y - 0.4986 * z;
+    rgb[1] = -0.9689 * x + 1.8758 * y + 0.0415 * z;
+    rgb[2] = 0.0557 * x - 0.2040 * y + 1.0570 * z;
+}
+
+void linear_srgb_to_xyz(const double rgb[3], double xyz[3])
+{
+    double r = rgb[0], g = rgb[1], b = rgb[2];
+    xyz[0] = 0.4124 * r + 0.3576 * g + 0.1805 * b;
+    xyz[1] = 0.2126 * r + 0.7152 * g + 0.0722 * b;
+    xyz[2] = 0.0193 * r + 0.1192 * g + 0.9505 * b;
+}
+
+double srgb_encode(double c)
+{
+    return c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055;
+}
+
+double srgb_decode(double c)
+{
+    return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
+}
+
+int srgb_to_8bit(double linear)
+{
+    if (!(linear > 0.0)) /* NaN and negatives */
+        return 0;
+    if (linear >= 1.0)
+        return 255;
+    double v = srgb_encode(linear);
+    if (v < 0)
+        v = 0;
+    if (v > 1)
+        v = 1;
+    return (int)floor(255.0 * v + 0.5);
+}
+
+/* ---- Named SPDs ----------------------------------------------------------------- */
+
+static void spd_from_table(Spd *out, double start, double step, int count, const double *v)
+{
+    double *nm = spt_malloc((size_t)count * sizeof(double));
+    for (int i = 0; i < count; i++)
+        nm[i] = start + step * i;
+    spd_from_samples(out, nm, v, count, NULL);
+    free(nm);
+}
+
+/* CIE illuminant A from its defining formula (CIE 15:2004, eq. 1.1), normalised to
+ * 100 at 560 nm, at 1 nm from 300 to 830 nm. */
+static void spd_illuminant_a(Spd *out)
+{
+    int n = 531;
+    double *nm = spt_malloc((size_t)n * sizeof(double)), *v = spt_malloc((size_t)n * sizeof(double));
+    const double c2 = 1.435e7; /* nm K, as in the CIE definition */
+    for (int i = 0; i < n; i++) {
+        double l = 300.0 + i;
+        nm[i] = l;
+        v[i] = 100.0 * pow(560.0 / l, 5) * (exp(c2 / (2848.0 * 560.0)) - 1.0) /
+               (exp(c2 / (2848.0 * l)) - 1.0);
+    }
+    spd_from_samples(out, nm, v, n, NULL);
+    free(nm);
+    free(v);
+}
+
+/* Mercury lines and relative powers: NIST Atomic Spectra Database, "Strong lines
+ * of mercury (Hg I)" (NIST Handbook of Basic Atomic Spectroscopic Data),
+ * relative intensities 1800, 150, 4000, 1100, 240, 280, scaled so the strongest
+ * (435.8 nm) has power 1. Wavelengths in air, nm. */
+static const double mercury_nm[6] = {404.656, 407.783, 435.833, 546.074, 576.960, 579.066};
+static const double mercury_rel[6] = {1800, 150, 4000, 1100, 240, 280};
+
+int spd_named(Spd *out, const char *name, SptError *e)
+{
+    memset(out, 0, sizeof *out);
+    if (!strncasecmp(name, "blackbody:", 10)) {
+        char *end;
+        double k = strtod(name + 10, &end);
+        if (!name[10] || *end || !(k > 0) || k > 1e6)
+            return spt_fail(e, SPT_EXIT_INPUT,
+                            "'%s': a blackbody needs a temperature in kelvin, e.g. blackbody:2856", name);
+        int n = SPT_CIE_SAMPLES;
+        double *nm = spt_malloc((size_t)n * sizeof(double)), *v = spt_malloc((size_t)n * sizeof(double));
+        for (int i = 0; i < n; i++) {
+            nm[i] = SPT_CIE_LAMBDA_MIN + i;
+            v[i] = blackbody_radiance(nm[i], k);
+        }
+        spd_from_samples(out, nm, v, n, NULL);
+        free(nm);
+        free(v);
+        return 0;
+    }
+    if (!strcasecmp(name, "A")) {
+        spd_illuminant_a(out);
+    } else if (!strcasecmp(name, "D65")) {
+        spd_from_table(out, spt_d65_start, spt_d65_step, spt_d65_count, spt_d65_values);
+    } else if (!strcasecmp(name, "F2")) {
+        spd_from_table(out, spt_f2_start, spt_f2_step, spt_f2_count, spt_f2_values);
+    } else if (!strcasecmp(name, "F7")) {
+        spd_from_table(out, spt_f7_start, spt_f7_step, spt_f7_count, spt_f7_values);
+    } else if (!strcasecmp(name, "F11")) {
+        spd_from_table(out, spt_f11_start, spt_f11_step, spt_f11_count, spt_f11_values);
+    } else if (!strcasecmp(name, "mercury") || !strcasecmp(name, "Hg")) {
+        out->line_count = 6;
+        out->line_nm = dup_doubles(mercury_nm, 6);
+        out->line_power = spt_malloc(6 * sizeof(double));
+        for (int i = 0; i < 6; i++)
+            out->line_power[i] = mercury_rel[i] / 4000.0;
+    } else {
+        return spt_fail(e, SPT_EXIT_INPUT,
+                        "unknown SPD '%s' (known: A, D65, F2, F7, F11, mercury, blackbody:KELVIN, or a CSV file)",
+                        name);
+    }
+    return 0;
+}
+
+int spd_read_csv(Spd *out, const char *path, SptError *e)
+{
+    memset(out, 0, sizeof *out);
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return spt_fail(e, SPT_EXIT_INPUT, "%s: cannot read: %s", path, strerror(errno));
+    char line[4096];
+    int lineno = 0, n = 0, cap = 0, rc = 0, header_ok = 1;
+    double *nm = NULL, *v = NULL;
+    while (fgets(line, sizeof line, f)) {
+        lineno++;
+        char *p = line;
+        while (isspace((unsigned char)*p))
+            p++;
+        if (!*p || *p == '#')
+            continue;
+        char *end;
+        errno = 0;
+        double a = strtod(p, &end);
+        char *q = end;
+        while (*q == ' ' || *q == '\t')
+            q++;
+        int ok = end != p && *q == ',';
+        double b = 0;
+        if (ok) {
+            q++;
+            b = strtod(q, &end);
+            ok = end != q;
+            while (isspace((unsigned char)*end))
+                end++;
+            ok = ok && (*end == 0 || *end == '#') && isfinite(a) && isfinite(b) && a > 0;
+        }
+        if (!ok) {
+            /* One header line is allowed before the first sample. */
+            if (n == 0 && header_ok && !isdigit((unsigned char)*p) && *p != '-' && *p != '+' && *p != '.') {
+                header_ok = 0;
+                continue;
+            }
+            char *nl = strchr(line, '\n');
+            if (nl)
+                *nl = 0;
+            rc = spt_fail(e, SPT_EXIT_INPUT,
+                          "%s: line %d: expected 'wavelength_nm,value' with numbers, got '%.60s'", path,
+                          lineno, p);
+            goto done;
+        }
+        header_ok = 0;
+        if (n == cap) {
+            cap = cap ? 2 * cap : 64;
+            nm = spt_realloc(nm, (size_t)cap * sizeof(double));
+            v = spt_realloc(v, (size_t)cap * sizeof(double));
+        }
+        nm[n] = a;
+        v[n] = b;
+        n++;
+    }
+    if (n == 0) {
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: no samples (expected lines of 'wavelength_nm,value')", path);
+        goto done;
+    }
+    {
+        SptError e2 = {0};
+        if (spd_from_samples(out, nm, v, n, &e2))
+            rc = spt_fail(e, SPT_EXIT_INPUT, "%s: %s", path, e2.msg);
+    }
+done:
+    free(nm);
+    free(v);
+    fclose(f);
+    return rc;
+}
+
+int spd_parse(Spd *out, const char *text, SptError *e)
+{
+    SptError e1 = {0};
+    if (!spd_named(out, text, &e1))
+        return 0;
+    FILE *f = fopen(text, "r");
+    if (!f) {
+        if (!strncasecmp(text, "blackbody:", 10))
+            return spt_fail(e, SPT_EXIT_INPUT, "%s", e1.msg);
+        return spt_fail(e, SPT_EXIT_INPUT, "%s", e1.msg);
+    }
+    fclose(f);
+    return spd_read_csv(out, text, e);
+}
+
+/* ---- RGB upsampling (Jakob and Hanika 2019) ----------------------------------- */
+
+/* Linear sRGB of sigmoid spectrum (normalised-wavelength coefficients a) seen as
+ * a reflectance under D65 with Y(D65) = 1, i.e. the colour of D65 * s. */
+static void sigmoid_rgb(const double a[3], double rgb[3])
+{
+    double xyz[3] = {0, 0, 0};
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        double t = (double)i / (SPT_CIE_SAMPLES - 1);
+        double x = (a[0] * t + a[1]) * t + a[2];
+        double s = 0.5 + x / (2.0 * sqrt(1.0 + x * x));
+        double w = s * SPT_D65_NORM[i];
+        xyz[0] += w * SPT_CIE_X[i];
+        xyz[1] += w * SPT_CIE_Y[i];
+        xyz[2] += w * SPT_CIE_Z[i];
+    }
+    for (int k = 0; k < 3; k++)
+        xyz[k] /= SPT_CIE_Y_INTEGRAL;
+    xyz_to_linear_srgb(xyz, rgb);
+}
+
+/* Solves the 3x3 system m x = b (Cramer); returns 0 when singular. */
+static int solve3(double m[3][3], const double b[3], double x[3])
+{
+    double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                 m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                 m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    if (!(fabs(det) > 1e-300))
+        return 0;
+    for (int c = 0; c < 3; c++) {
+        double t[3][3];
+        memcpy(t, m, sizeof t);
+        for (int r = 0; r < 3; r++)
+            t[r][c] = b[r];
+        x[c] = (t[0][0] * (t[1][1] * t[2][2] - t[1][2] * t[2][1]) -
+                t[0][1] * (t[1][0] * t[2][2] - t[1][2] * t[2][0]) +
+                t[0][2] * (t[1][0] * t[2][1] - t[1][1] * t[2][0])) / det;
+    }
+    return 1;
+}
+
+/* Gauss-Newton (with step halving) from a toward the coefficients whose colour is
+ * target; continuation from grey keeps it in the basin of saturated colours. */
+static void fit_sigmoid(const double target[3], double a[3])
+{
+    const int steps = 8;
+    double grey = (target[0] + target[1] + target[2]) / 3.0;
+    for (int k = 1; k <= steps; k++) {
+        double tk[3];
+        for (int c = 0; c < 3; c++)
+            tk[c] = grey + (target[c] - grey) * k / steps;
+        for (int it = 0; it < 30; it++) {
+            double r0[3], res[3];
+            sigmoid_rgb(a, r0);
+            double err = 0;
+            for (int c = 0; c < 3; c++) {
+                res[c] = r0[c] - tk[c];
+                err += res[c] * res[c];
+            }
+            if (err < 1e-14)
+                break;
+            double J[3][3];
+            for (int j = 0; j < 3; j++) {
+                double b[3] = {a[0], a[1], a[2]}, r1[3];
+                double h = 1e-6 * (1.0 + fabs(a[j]));
+                b[j] += h;
+                sigmoid_rgb(b, r1);
+                for (int c = 0; c < 3; c++)
+                    J[c][j] = (r1[c] - r0[c]) / h;
+            }
+            double d[3];
+            if (!solve3(J, res, d))
+                break;
+            double lambda = 1.0;
+            for (int tries = 0; tries < 20; tries++, lambda *= 0.5) {
+                double b[3] = {a[0] - lambda * d[0], a[1] - lambda * d[1], a[2] - lambda * d[2]}, r1[3];
+                sigmoid_rgb(b, r1);
+                double e1 = 0;
+                for (int c = 0; c < 3; c++)
+                    e1 += (r1[c] - tk[c]) * (r1[c] - tk[c]);
+                if (e1 < err) {
+                    memcpy(a, b, sizeof b);
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/* Coefficients in nm of the polynomial a0 t^2 + a1 t + a2, t = (l - 360) / 470. */
+static void to_nm_coeffs(const double a[3], float c[3])
+{
+    const double l0 = SPT_CIE_LAMBDA_MIN, w = SPT_CIE_LAMBDA_MAX - SPT_CIE_LAMBDA_MIN;
+    c[0] = (float)(a[0] / (w * w));
+    c[1] = (float)(a[1] / w - 2.0 * a[0] * l0 / (w * w));
+    c[2] = (float)(a[0] * l0 * l0 / (w * w) - a[1] * l0 / w + a[2]);
+}
+
+void rgb_to_coeffs(const float rgb_in[3], float coeffs[3])
+{
+    double rgb[3];
+    for (int c = 0; c < 3; c++) {
+        double v = rgb_in[c];
+        rgb[c] = v > 0 ? (v < 1 ? v : 1) : 0; /* NaN -> 0 */
+    }
+    if (rgb[0] == rgb[1] && rgb[1] == rgb[2]) {
+        double v = rgb[0];
+        coeffs[0] = coeffs[1] = 0.0f;
+        coeffs[2] = v <= 0 ? -1e20f : v >= 1 ? 1e20f : (float)((v - 0.5) / sqrt(v * (1.0 - v)));
+        return;
+    }
+    /* The fit cannot reach exactly 0 or 1 on a channel; keep a small margin. */
+    for (int c = 0; c < 3; c++)
+        rgb[c] = 1e-4 + rgb[c] * (1.0 - 2e-4);
+    double a[3] = {0, 0, 0};
+    fit_sigmoid(rgb, a);
+    to_nm_coeffs(a, coeffs);
+}
+
+void rgb_illuminant_coeffs(const float rgb[3], float coeffs[3], float *scale)
+{
+    float m = fmaxf(fmaxf(rgb[0], rgb[1]), rgb[2]);
+    if (!(m > 0.0f)) {
+        coeffs[0] = coeffs[1] = 0.0f;
+        coeffs[2] = -1e20f;
+        *scale = 0.0f;
+        return;
+    }
+    *scale = 2.0f * m;
+    float r[3] = {rgb[0] / *scale, rgb[1] / *scale, rgb[2] / *scale};
+    rgb_to_coeffs(r, coeffs);
+}
