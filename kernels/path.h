@@ -1,0 +1,113 @@
+/* Device helpers of the wavefront kernels: spectra of materials, textures, ray
+ * offsets and the conversion of a path's spectral radiance to XYZ. OpenCL C only
+ * (float4 carries the path's four wavelengths). */
+#ifndef SPT_PATH_H
+#define SPT_PATH_H
+
+#include "shared.h"
+#include "vecmath.h"
+#include "spectrum.h"
+#include "render_types.h"
+
+/* sigmoid-polynomial spectrum at four wavelengths. */
+static float4 spec_sigmoid4(float c0, float c1, float c2, float4 lam)
+{
+    return (float4)(spt_sigmoid_poly(c0, c1, c2, lam.x), spt_sigmoid_poly(c0, c1, c2, lam.y),
+                    spt_sigmoid_poly(c0, c1, c2, lam.z), spt_sigmoid_poly(c0, c1, c2, lam.w));
+}
+
+/* A tabulated spectrum on the 1 nm grid 360..830 at four wavelengths. */
+static float table_lookup(const __global float *t, float l)
+{
+    float x = l - (float)SPT_CIE_LAMBDA_MIN;
+    if (!(x >= 0.0f) || x > (float)(SPT_CIE_SAMPLES - 1))
+        return 0.0f;
+    int i = min((int)x, SPT_CIE_SAMPLES - 2);
+    float f = x - (float)i;
+    return t[i] * (1.0f - f) + t[i + 1] * f;
+}
+
+/* The value of spectrum s at the four wavelengths lam. */
+static float4 spec_eval(const __global SpecRef *s, float4 lam, const __global float *spectra)
+{
+    uint kind = s->kind;
+    if (kind == SPT_SPEC_SIGMOID) {
+        float4 v = s->scale * spec_sigmoid4(s->c[0], s->c[1], s->c[2], lam);
+        if (s->flags & SPT_SPEC_ILLUMINANT)
+            v *= (float4)(spt_d65_norm(lam.x), spt_d65_norm(lam.y), spt_d65_norm(lam.z),
+                          spt_d65_norm(lam.w));
+        return v;
+    }
+    if (kind == SPT_SPEC_TABLE) {
+        const __global float *t = spectra + s->offset;
+        return s->scale * (float4)(table_lookup(t, lam.x), table_lookup(t, lam.y),
+                                   table_lookup(t, lam.z), table_lookup(t, lam.w));
+    }
+    return (float4)(0.0f);
+}
+
+/* Wraps a texture coordinate by a glTF wrap mode into [0, 1]. */
+static float wrap_coord(float u, int mode)
+{
+    if (mode == 33071) /* CLAMP_TO_EDGE */
+        return clamp(u, 0.0f, 1.0f);
+    if (mode == 33648) { /* MIRRORED_REPEAT */
+        float f = u - 2.0f * floor(u * 0.5f);
+        return f > 1.0f ? 2.0f - f : f;
+    }
+    return u - floor(u); /* REPEAT */
+}
+
+/* Texel (nearest) of texture tex at uv: sigmoid coefficients in xyz, scale in w. */
+static float4 texture_texel(const __global GpuTexture *textures, const __global float4 *texels,
+                            int tex, float2 uv)
+{
+    const __global GpuTexture *t = textures + tex;
+    float u = wrap_coord(uv.x, t->wrap_s), v = wrap_coord(uv.y, t->wrap_t);
+    int x = clamp((int)(u * (float)t->width), 0, t->width - 1);
+    int y = clamp((int)(v * (float)t->height), 0, t->height - 1);
+    return texels[t->offset + (uint)(y * t->width + x)];
+}
+
+/* Spectrum of a texel of a coefficient texture at lam. */
+static float4 texel_spectrum(float4 texel, float4 lam)
+{
+    return texel.w * spec_sigmoid4(texel.x, texel.y, texel.z, lam);
+}
+
+/* A ray origin moved off the surface at p along n (pointing to the side the ray
+ * leaves on), by an amount that grows with |p| to cover float rounding of p. */
+static float3 offset_origin(float3 p, float3 n)
+{
+    float3 a = fabs(p);
+    float m = fmax(a.x, fmax(a.y, a.z));
+    return p + n * (1e-5f * m + 1e-6f);
+}
+
+/* XYZ of a path's spectral radiance L at wavelengths lam with pdfs pdf: the mean
+ * over the wavelengths of L cmf / pdf, normalised by the integral of ybar so a
+ * flat spectrum of 1 has Y = 1. Wavelengths with pdf 0 (terminated) count 0. */
+static float4 path_radiance_to_xyz(float4 L, float4 lam, float4 pdf)
+{
+    float l[4] = {lam.x, lam.y, lam.z, lam.w};
+    float r[4] = {L.x, L.y, L.z, L.w};
+    float p[4] = {pdf.x, pdf.y, pdf.z, pdf.w};
+    float4 xyz = (float4)(0.0f);
+    for (int i = 0; i < SPT_NUM_LAMBDA; i++) {
+        if (!(p[i] > 0.0f))
+            continue;
+        float w = r[i] / p[i];
+        xyz.x += w * spt_cie_x(l[i]);
+        xyz.y += w * spt_cie_y(l[i]);
+        xyz.z += w * spt_cie_z(l[i]);
+    }
+    return xyz * (1.0f / ((float)SPT_NUM_LAMBDA * SPT_CIE_Y_INTEGRAL));
+}
+
+/* Largest component of v. */
+static float max4(float4 v)
+{
+    return fmax(fmax(v.x, v.y), fmax(v.z, v.w));
+}
+
+#endif

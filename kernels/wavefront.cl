@@ -1,0 +1,296 @@
+/* The wavefront path tracer's kernel entry points (DESIGN.md, "Data flow").
+ *
+ * One iteration of the host loop (src/render.c) runs: k_generate (finish ended
+ * paths, start new ones from the chunk's work counter, queue every live path),
+ * k_extend (closest hit), k_shade (emission with MIS, next-event estimation into
+ * the shadow queue, BSDF sampling, Russian roulette), k_connect (shadow rays).
+ * When a chunk's work is all done, k_accumulate sums its per-sample contributions
+ * into per-pixel sums in sample order, so the image does not depend on how paths
+ * were scheduled in the pool.
+ *
+ * Work item w of a chunk is pixel = w mod (W*H), sample = sample_begin + w / (W*H);
+ * every random number is a function of (seed, pixel, sample, dimension) only.
+ * Depth counts path segments from the camera (Mitsuba's max_depth convention). */
+#include "shared.h"
+#include "vecmath.h"
+#include "rng.h"
+#include "sampling.h"
+#include "spectrum.h"
+#include "bvh.h"
+#include "render_types.h"
+#include "path.h"
+
+#define PARAM(type, name) __global type *name,
+#define PS_PARAM(type, name) __global type *ps_##name,
+#define SH_PARAM(type, name) __global type *sh_##name,
+/* Every kernel takes every buffer, in the order of these lists, so the host sets
+ * arguments from the same lists (src/render.c). */
+#define ALL_BUFFERS            \
+    SPT_SCENE_BUFFERS(PARAM)   \
+    SPT_WORK_BUFFERS(PARAM)    \
+    SPT_PATH_STATE(PS_PARAM)   \
+    SPT_SHADOW_STATE(SH_PARAM) \
+    const RenderParams P
+
+#define NO_HIT 0xffffffffu
+
+__kernel void k_generate(ALL_BUFFERS)
+{
+    uint i = get_global_id(0);
+    if (i >= P.pool_size)
+        return;
+    uint flags = ps_flags[i];
+    if (flags == SPT_PATH_FINISHED) {
+        /* Write the finished path's XYZ into its own contribution slot. */
+        float4 rad = ps_radiance[i];
+#ifdef SPT_TEST_INJECT_NAN
+        /* Test hook (SPECTRACE_TEST_INJECT_NAN): pixel 0's radiance becomes NaN. */
+        if (ps_work[i] % (uint)(P.width * P.height) == 0u)
+            rad.x = NAN;
+#endif
+        float4 xyz = path_radiance_to_xyz(rad, ps_lambda[i], ps_lambda_pdf[i]);
+        if (isfinite(xyz.x) && isfinite(xyz.y) && isfinite(xyz.z)) {
+            xyz.w = 1.0f;
+        } else {
+            atomic_inc(&counters[SPT_CNT_NAN]);
+            xyz = (float4)(0.0f); /* w = 0: the sample is dropped, not counted */
+        }
+        contrib[ps_work[i]] = xyz;
+        atomic_inc(&counters[SPT_CNT_DONE]);
+        flags = SPT_PATH_DEAD;
+        ps_flags[i] = flags;
+    }
+    if (flags == SPT_PATH_DEAD) {
+        uint w = atomic_inc(&counters[SPT_CNT_WORK]);
+        if (w >= P.work_end - P.work_begin)
+            return;
+        uint npix = (uint)(P.width * P.height);
+        uint pixel = w % npix;
+        uint sample = P.sample_begin + w / npix;
+        float px = (float)(pixel % (uint)P.width) + spt_sample_1d(P.seed, pixel, sample, SPT_DIM_PIXEL_X);
+        float py = (float)(pixel / (uint)P.width) + spt_sample_1d(P.seed, pixel, sample, SPT_DIM_PIXEL_Y);
+        float sx = 2.0f * px / (float)P.width - 1.0f;
+        float sy = 1.0f - 2.0f * py / (float)P.height;
+        float3 d = vload4(0, P.cam_fwd).xyz + sx * vload4(0, P.cam_right).xyz +
+                   sy * vload4(0, P.cam_up).xyz;
+        ps_ray_o[i] = (float4)(vload4(0, P.cam_pos).xyz, 0.0f);
+        ps_ray_d[i] = (float4)(normalize(d), 0.0f);
+        float lam[4], pdf[4];
+        spt_sample_wavelengths(spt_sample_1d(P.seed, pixel, sample, SPT_DIM_WAVELENGTH), lam, pdf);
+        ps_lambda[i] = (float4)(lam[0], lam[1], lam[2], lam[3]);
+        ps_lambda_pdf[i] = (float4)(pdf[0], pdf[1], pdf[2], pdf[3]);
+        ps_throughput[i] = (float4)(1.0f);
+        ps_radiance[i] = (float4)(0.0f);
+        ps_work[i] = w;
+        ps_depth[i] = 0;
+        ps_bsdf_pdf[i] = 0.0f; /* camera ray: emission seen directly has MIS weight 1 */
+        ps_flags[i] = SPT_PATH_ALIVE;
+    }
+    uint q = atomic_inc(&counters[SPT_CNT_EXTEND]);
+    queue_extend[q] = i;
+}
+
+__kernel void k_extend(ALL_BUFFERS)
+{
+    uint g = get_global_id(0);
+    if (g >= counters[SPT_CNT_EXTEND])
+        return;
+    uint i = queue_extend[g];
+    BvhHit h;
+    if (P.node_count > 0u &&
+        bvh_intersect(nodes, tris, ps_ray_o[i].xyz, ps_ray_d[i].xyz, 1e30f, &h))
+        ps_hit[i] = (float4)(h.t, h.u, h.v, as_float(h.prim));
+    else
+        ps_hit[i] = (float4)(0.0f, 0.0f, 0.0f, as_float(NO_HIT));
+}
+
+/* Interpolated texture coordinates of packed triangle prim at barycentrics (u, v). */
+static float2 tri_uv(const __global TriShade *ts, const __global float *vtx_uv, uint prim,
+                     float u, float v)
+{
+    TriShade s = ts[prim];
+    float2 a = vload2(s.v[0], vtx_uv), b = vload2(s.v[1], vtx_uv), c = vload2(s.v[2], vtx_uv);
+    return (1.0f - u - v) * a + u * b + v * c;
+}
+
+/* Emitted radiance of material m at uv, at the four wavelengths. */
+static float4 material_emission(const __global GpuMaterial *m, float2 uv, float4 lam,
+                                const __global float *spectra,
+                                const __global GpuTexture *textures, const __global float4 *texels)
+{
+    float4 le = spec_eval(&m->emission, lam, spectra);
+    if (m->emissive_tex >= 0)
+        le *= texel_spectrum(texture_texel(textures, texels, m->emissive_tex, uv), lam);
+    return le;
+}
+
+__kernel void k_shade(ALL_BUFFERS)
+{
+    uint g = get_global_id(0);
+    if (g >= counters[SPT_CNT_EXTEND])
+        return;
+    uint i = queue_extend[g];
+    float4 hit = ps_hit[i];
+    uint prim = as_uint(hit.w);
+    uint depth = ps_depth[i] + 1u; /* segments including the one just traced */
+    if (prim == NO_HIT) {
+        ps_flags[i] = SPT_PATH_FINISHED;
+        return;
+    }
+    float4 lam = ps_lambda[i];
+    float4 beta = ps_throughput[i];
+    float4 L = ps_radiance[i];
+    float3 rd = ps_ray_d[i].xyz;
+    vec3 v0, v1, v2;
+    bvh_tri_vertices(tris, prim, &v0, &v1, &v2);
+    float bu = hit.y, bv = hit.z;
+    float3 p = (1.0f - bu - bv) * v0 + bu * v1 + bv * v2;
+    float3 ng = normalize(cross(v1 - v0, v2 - v0));
+    int front = dot(ng, rd) < 0.0f;
+    TriShade ts = tri_shade[prim];
+    const __global GpuMaterial *m = materials + ts.material;
+    float2 uv = tri_uv(tri_shade, vtx_uv, prim, bu, bv);
+
+    /* Emission on the front face, weighted against light sampling by MIS. */
+    if ((m->flags & SPT_MAT_EMISSIVE) && front) {
+        float4 le = material_emission(m, uv, lam, spectra, textures, texels);
+        float w = 1.0f;
+        float prev_pdf = ps_bsdf_pdf[i];
+        if (prev_pdf > 0.0f) {
+            float cos_l = fabs(dot(ng, rd));
+            float light_pdf = tri_light_pdf[prim] * hit.x * hit.x / fmax(cos_l, 1e-8f);
+            w = spt_power_heuristic(prev_pdf, light_pdf);
+        }
+        L += beta * le * w;
+    }
+    if (P.max_depth > 0 && depth >= (uint)P.max_depth) {
+        ps_radiance[i] = L;
+        ps_flags[i] = SPT_PATH_FINISHED;
+        return;
+    }
+
+    /* The surface as seen from the incoming side. */
+    float3 n = front ? ng : -ng;
+    float3 ns = n;
+    {
+        float3 a = vload3(ts.v[0], vtx_normal), b = vload3(ts.v[1], vtx_normal),
+               c = vload3(ts.v[2], vtx_normal);
+        float3 si = (1.0f - bu - bv) * a + bu * b + bv * c;
+        float len = length(si);
+        if (len > 1e-6f) {
+            si /= len;
+            ns = dot(si, n) < 0.0f ? -si : si;
+        }
+    }
+    float4 albedo = spec_eval(&m->reflectance, lam, spectra);
+    if (m->base_tex >= 0)
+        albedo *= texel_spectrum(texture_texel(textures, texels, m->base_tex, uv), lam);
+    albedo = clamp(albedo, 0.0f, 1.0f);
+
+    uint npix = (uint)(P.width * P.height);
+    uint w_item = ps_work[i];
+    uint pixel = w_item % npix;
+    uint sample = P.sample_begin + w_item / npix;
+    uint bounce = depth - 1u;
+    float3 po = offset_origin(p, n);
+
+    /* Next-event estimation: an emitter triangle chosen by power, a point on it. */
+    if (P.emitter_count > 0u && (P.max_depth <= 0 || depth + 1u <= (uint)P.max_depth)) {
+        float prob;
+        int e = spt_discrete_sample(emitter_cdf, P.emitter_count,
+                                    spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_LIGHT_SELECT)),
+                                    &prob, 0);
+        if (e >= 0) {
+            uint lt = emitters[e];
+            vec3 a, b, c;
+            bvh_tri_vertices(tris, lt, &a, &b, &c);
+            vec3 bary = spt_sample_triangle_bary(
+                spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_LIGHT_U)),
+                spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_LIGHT_V)));
+            float3 q = bary.x * a + bary.y * b + bary.z * c;
+            float3 nl = cross(b - a, c - a);
+            float3 wi = q - po;
+            float dist2 = dot(wi, wi);
+            float dist = sqrt(dist2);
+            wi /= dist;
+            nl = normalize(nl);
+            float cos_l = -dot(nl, wi);
+            float cos_s = dot(ns, wi);
+            if (cos_l > 0.0f && cos_s > 0.0f && dot(n, wi) > 0.0f) {
+                float light_pdf = tri_light_pdf[lt] * dist2 / cos_l;
+                float bsdf_pdf = cos_s * SPT_INV_PI;
+                float wgt = spt_power_heuristic(light_pdf, bsdf_pdf);
+                float2 luv = tri_uv(tri_shade, vtx_uv, lt, bary.y, bary.z);
+                const __global GpuMaterial *lm = materials + tri_shade[lt].material;
+                float4 le = material_emission(lm, luv, lam, spectra, textures, texels);
+                float4 cn = beta * albedo * (SPT_INV_PI * cos_s * wgt / light_pdf) * le;
+                if (max4(cn) > 0.0f) {
+                    uint s = atomic_inc(&counters[SPT_CNT_SHADOW]);
+                    sh_ray_o[s] = (float4)(po, 0.0f);
+                    sh_ray_d[s] = (float4)(wi, dist * (1.0f - 1e-4f));
+                    sh_contrib[s] = cn;
+                    sh_path[s] = i;
+                }
+            }
+        }
+    }
+
+    /* Lambertian BSDF sampling: cosine-weighted, so beta *= albedo. */
+    vec3 lw = spt_sample_cosine_hemisphere(
+        spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_BSDF_U)),
+        spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_BSDF_V)));
+    vec3 t, bt;
+    v3_basis(ns, &t, &bt);
+    float3 wo = lw.x * t + lw.y * bt + lw.z * ns;
+    float pdf = lw.z * SPT_INV_PI;
+    beta *= albedo;
+    int alive = dot(wo, n) > 0.0f && pdf > 0.0f && max4(beta) > 0.0f;
+
+    /* Russian roulette on the largest wavelength throughput. */
+    if (alive && depth >= P.rr_depth) {
+        float qs = fmin(max4(beta), 1.0f);
+        float u = spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_ROULETTE));
+        if (u >= qs)
+            alive = 0;
+        else
+            beta /= qs;
+    }
+    ps_radiance[i] = L;
+    if (!alive) {
+        ps_flags[i] = SPT_PATH_FINISHED;
+        return;
+    }
+    ps_throughput[i] = beta;
+    ps_ray_o[i] = (float4)(po, 0.0f);
+    ps_ray_d[i] = (float4)(wo, 0.0f);
+    ps_bsdf_pdf[i] = pdf;
+    ps_depth[i] = depth;
+}
+
+__kernel void k_connect(ALL_BUFFERS)
+{
+    uint g = get_global_id(0);
+    if (g >= counters[SPT_CNT_SHADOW])
+        return;
+    float4 d = sh_ray_d[g];
+    if (P.node_count > 0u && bvh_occluded(nodes, tris, sh_ray_o[g].xyz, d.xyz, d.w))
+        return;
+    /* A path queues at most one shadow ray per iteration: no race on its radiance. */
+    uint i = sh_path[g];
+    ps_radiance[i] += sh_contrib[g];
+}
+
+/* Sums the chunk's per-sample contributions of each pixel, in sample order, into
+ * chunk_sum (XYZ, and the number of samples kept in w). */
+__kernel void k_accumulate(ALL_BUFFERS)
+{
+    uint pixel = get_global_id(0);
+    uint npix = (uint)(P.width * P.height);
+    if (pixel >= npix)
+        return;
+    uint n = (P.work_end - P.work_begin) / npix;
+    float4 s = (float4)(0.0f);
+    for (uint k = 0; k < n; k++)
+        s += contrib[pixel + k * npix];
+    chunk_sum[pixel] = s;
+}

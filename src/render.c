@@ -1,0 +1,544 @@
+/* The wavefront loop on one device (DESIGN.md, "Data flow") and the upload of the
+ * scene into the arrays the kernels read. */
+#include "render.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "../kernels/cie_data.h"
+#include "../kernels/spectrum.h"
+
+/* Host spellings of the kernel types named in the buffer lists. */
+typedef cl_float4 float4;
+typedef cl_uint uint;
+
+/* ---- Scene upload ------------------------------------------------------------ */
+
+/* A spectrum reference from an SPD: its 1 nm grid appended to spectra. */
+static SpecRef spec_from_spd(const Spd *spd, float scale, float **spectra, uint32_t *count)
+{
+    SpecRef r;
+    memset(&r, 0, sizeof r);
+    r.kind = SPT_SPEC_TABLE;
+    r.scale = scale;
+    r.offset = *count;
+    *spectra = spt_realloc(*spectra, (*count + SPT_CIE_SAMPLES) * sizeof(float));
+    spd_to_grid(spd, *spectra + *count);
+    *count += SPT_CIE_SAMPLES;
+    return r;
+}
+
+/* Luminance (Y, with Y = 1 for the normalised D65) of a material's emission. */
+static double emission_luminance(const GpuMaterial *m, const float *spectra)
+{
+    const SpecRef *s = &m->emission;
+    double y = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        double l = SPT_CIE_LAMBDA_MIN + i, v;
+        if (s->kind == SPT_SPEC_TABLE) {
+            v = spectra[s->offset + i];
+        } else if (s->kind == SPT_SPEC_SIGMOID) {
+            v = spt_sigmoid_poly(s->c[0], s->c[1], s->c[2], (float)l);
+            if (s->flags & SPT_SPEC_ILLUMINANT)
+                v *= spt_d65_norm((float)l);
+        } else {
+            v = 0.0;
+        }
+        y += v * SPT_CIE_Y[i];
+    }
+    return s->scale * y / SPT_CIE_Y_INTEGRAL;
+}
+
+static void material_upload(GpuMaterial *gm, const SceneMaterial *m, float **spectra,
+                            uint32_t *count)
+{
+    memset(gm, 0, sizeof *gm);
+    if (m->reflectance_spd.count > 0 || m->reflectance_spd.line_count > 0) {
+        gm->reflectance = spec_from_spd(&m->reflectance_spd, 1.0f, spectra, count);
+    } else {
+        gm->reflectance.kind = SPT_SPEC_SIGMOID;
+        gm->reflectance.scale = 1.0f;
+        rgb_to_coeffs(m->base_color, gm->reflectance.c);
+    }
+    float strength = m->emissive_strength;
+    if (m->emission_spd.count > 0 || m->emission_spd.line_count > 0) {
+        /* Spectral extras are absolute radiance and override factor and strength. */
+        gm->emission = spec_from_spd(&m->emission_spd, 1.0f, spectra, count);
+        gm->flags |= SPT_MAT_EMISSIVE;
+    } else {
+        float rgb[3] = {m->emissive[0] * strength, m->emissive[1] * strength,
+                        m->emissive[2] * strength};
+        if (rgb[0] > 0.0f || rgb[1] > 0.0f || rgb[2] > 0.0f) {
+            gm->emission.kind = SPT_SPEC_SIGMOID;
+            gm->emission.flags = SPT_SPEC_ILLUMINANT;
+            rgb_illuminant_coeffs(rgb, gm->emission.c, &gm->emission.scale);
+            gm->flags |= SPT_MAT_EMISSIVE;
+        }
+    }
+    gm->base_tex = m->base_color_tex;
+    gm->emissive_tex = (gm->flags & SPT_MAT_EMISSIVE) ? m->emissive_tex : -1;
+    gm->alpha_cutoff = m->alpha_cutoff;
+}
+
+/* A coefficient texture from a scene texture: each texel's RGB (alpha ignored)
+ * becomes sigmoid coefficients with scale 1. */
+static void texture_upload(GpuTexture *gt, const SceneTexture *t, float **texels, size_t *count)
+{
+    size_t n = (size_t)t->width * (size_t)t->height;
+    memset(gt, 0, sizeof *gt);
+    gt->offset = (uint32_t)*count;
+    gt->width = t->width;
+    gt->height = t->height;
+    gt->wrap_s = t->wrap_s;
+    gt->wrap_t = t->wrap_t;
+    *texels = spt_realloc(*texels, (*count + n) * 4 * sizeof(float));
+    float *out = *texels + 4 * *count;
+    for (size_t i = 0; i < n; i++) {
+        const float *px = t->texels + i * (size_t)t->channels;
+        float rgb[3];
+        for (int c = 0; c < 3; c++)
+            rgb[c] = px[t->channels >= 3 ? c : 0];
+        rgb_to_coeffs(rgb, out + 4 * i);
+        out[4 * i + 3] = 1.0f;
+    }
+    *count += n;
+}
+
+int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
+{
+    memset(g, 0, sizeof *g);
+    int rc = bvh_build(&g->bvh, s->tri_pos, s->tri_count, e);
+    if (rc)
+        return rc;
+    uint32_t n = g->bvh.prim_count;
+    g->tri_shade = spt_calloc(n ? n : 1, sizeof(TriShade));
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t t = g->bvh.prim_index[i];
+        for (int k = 0; k < 3; k++)
+            g->tri_shade[i].v[k] = s->tri_vidx[3 * (size_t)t + k];
+        g->tri_shade[i].material = s->tri_mat[t];
+    }
+    g->vtx_normal = s->vtx_normal;
+    g->vtx_uv = s->vtx_uv;
+    g->vertex_count = s->vertex_count;
+
+    g->material_count = s->material_count;
+    g->materials = spt_calloc(s->material_count ? s->material_count : 1, sizeof(GpuMaterial));
+    for (uint32_t i = 0; i < s->material_count; i++)
+        material_upload(&g->materials[i], &s->materials[i], &g->spectra, &g->spectra_count);
+    g->texture_count = s->texture_count;
+    g->textures = spt_calloc(s->texture_count ? s->texture_count : 1, sizeof(GpuTexture));
+    for (uint32_t i = 0; i < s->texture_count; i++)
+        texture_upload(&g->textures[i], &s->textures[i], &g->texels, &g->texel_count);
+
+    /* Emitters: every packed triangle whose material emits, weighted by power
+     * (area times luminance; the factor pi of a Lambertian emitter is common). */
+    double *mat_y = spt_calloc(g->material_count ? g->material_count : 1, sizeof(double));
+    for (uint32_t i = 0; i < g->material_count; i++)
+        if (g->materials[i].flags & SPT_MAT_EMISSIVE)
+            mat_y[i] = emission_luminance(&g->materials[i], g->spectra);
+    float *weights = NULL;
+    float *areas = NULL;
+    g->tri_light_pdf = spt_calloc(n ? n : 1, sizeof(float));
+    const BvhTri *tris = bvh_tris(&g->bvh);
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t m = g->tri_shade[i].material;
+        if (!(m < g->material_count && (g->materials[m].flags & SPT_MAT_EMISSIVE)))
+            continue;
+        vec3 a, b, c;
+        bvh_tri_vertices(tris, i, &a, &b, &c);
+        float area = 0.5f * v3_length(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+        float w = (float)(area * mat_y[m]);
+        if (!(w > 0.0f))
+            continue;
+        g->emitters = spt_realloc(g->emitters, (g->emitter_count + 1) * sizeof(uint32_t));
+        weights = spt_realloc(weights, (g->emitter_count + 1) * sizeof(float));
+        areas = spt_realloc(areas, (g->emitter_count + 1) * sizeof(float));
+        g->emitters[g->emitter_count] = i;
+        weights[g->emitter_count] = w;
+        areas[g->emitter_count] = area;
+        g->emitter_count++;
+    }
+    distrib_build(&g->emitter_distrib, weights, g->emitter_count);
+    for (uint32_t k = 0; k < g->emitter_count; k++)
+        g->tri_light_pdf[g->emitters[k]] = distrib_prob(&g->emitter_distrib, k) / areas[k];
+    free(weights);
+    free(areas);
+    free(mat_y);
+    return 0;
+}
+
+void gpu_scene_free(GpuScene *g)
+{
+    bvh_free(&g->bvh);
+    free(g->tri_shade);
+    free(g->materials);
+    free(g->spectra);
+    free(g->textures);
+    free(g->texels);
+    free(g->emitters);
+    distrib_free(&g->emitter_distrib);
+    free(g->tri_light_pdf);
+    memset(g, 0, sizeof *g);
+}
+
+/* Byte sizes of the scene buffers, never 0 (OpenCL refuses empty buffers). */
+static size_t NZ(size_t x) { return x ? x : 16; }
+static size_t scene_buffer_bytes(const GpuScene *g, const char *name)
+{
+    uint32_t n = g->bvh.prim_count;
+    if (!strcmp(name, "nodes")) return NZ((size_t)g->bvh.node_count * sizeof(BvhNode));
+    if (!strcmp(name, "tris")) return NZ(g->bvh.tri_data_bytes);
+    if (!strcmp(name, "tri_shade")) return NZ((size_t)n * sizeof(TriShade));
+    if (!strcmp(name, "vtx_normal")) return NZ((size_t)g->vertex_count * 3 * sizeof(float));
+    if (!strcmp(name, "vtx_uv")) return NZ((size_t)g->vertex_count * 2 * sizeof(float));
+    if (!strcmp(name, "materials")) return NZ((size_t)g->material_count * sizeof(GpuMaterial));
+    if (!strcmp(name, "spectra")) return NZ((size_t)g->spectra_count * sizeof(float));
+    if (!strcmp(name, "textures")) return NZ((size_t)g->texture_count * sizeof(GpuTexture));
+    if (!strcmp(name, "texels")) return NZ(g->texel_count * 4 * sizeof(float));
+    if (!strcmp(name, "emitters")) return NZ((size_t)g->emitter_count * sizeof(uint32_t));
+    if (!strcmp(name, "emitter_cdf")) return NZ(((size_t)g->emitter_count + 1) * sizeof(float));
+    if (!strcmp(name, "tri_light_pdf")) return NZ((size_t)n * sizeof(float));
+    return 16;
+}
+
+static const void *scene_buffer_data(const GpuScene *g, const char *name)
+{
+    if (!strcmp(name, "nodes")) return g->bvh.nodes;
+    if (!strcmp(name, "tris")) return g->bvh.tri_data;
+    if (!strcmp(name, "tri_shade")) return g->tri_shade;
+    if (!strcmp(name, "vtx_normal")) return g->vtx_normal;
+    if (!strcmp(name, "vtx_uv")) return g->vtx_uv;
+    if (!strcmp(name, "materials")) return g->materials;
+    if (!strcmp(name, "spectra")) return g->spectra;
+    if (!strcmp(name, "textures")) return g->textures;
+    if (!strcmp(name, "texels")) return g->texels;
+    if (!strcmp(name, "emitters")) return g->emitters;
+    if (!strcmp(name, "emitter_cdf")) return g->emitter_distrib.cdf;
+    if (!strcmp(name, "tri_light_pdf")) return g->tri_light_pdf;
+    return NULL;
+}
+
+size_t gpu_scene_bytes(const GpuScene *g)
+{
+    size_t total = 0;
+#define ADD(type, name) total += scene_buffer_bytes(g, #name);
+    SPT_SCENE_BUFFERS(ADD)
+#undef ADD
+    return total;
+}
+
+/* ---- The wavefront loop ------------------------------------------------------ */
+
+enum { K_GENERATE, K_EXTEND, K_SHADE, K_CONNECT, K_ACCUMULATE, K_COUNT };
+static const char *const kernel_names[K_COUNT] = {"k_generate", "k_extend", "k_shade",
+                                                  "k_connect", "k_accumulate"};
+
+/* Every device buffer, named once through the lists of kernels/render_types.h. */
+typedef struct Buffers {
+#define MEMBER(type, name) cl_mem name;
+#define PS_MEMBER(type, name) cl_mem ps_##name;
+#define SH_MEMBER(type, name) cl_mem sh_##name;
+    SPT_SCENE_BUFFERS(MEMBER)
+    SPT_WORK_BUFFERS(MEMBER)
+    SPT_PATH_STATE(PS_MEMBER)
+    SPT_SHADOW_STATE(SH_MEMBER)
+#undef MEMBER
+#undef PS_MEMBER
+#undef SH_MEMBER
+} Buffers;
+
+typedef struct Wavefront {
+    ClDevice dev;
+    cl_program program;
+    cl_kernel k[K_COUNT];
+    Buffers b;
+    uint32_t pool;
+    uint32_t chunk_spp;
+} Wavefront;
+
+static void wavefront_free(Wavefront *w)
+{
+#define REL(type, name) if (w->b.name) clReleaseMemObject(w->b.name);
+#define PS_REL(type, name) if (w->b.ps_##name) clReleaseMemObject(w->b.ps_##name);
+#define SH_REL(type, name) if (w->b.sh_##name) clReleaseMemObject(w->b.sh_##name);
+    SPT_SCENE_BUFFERS(REL)
+    SPT_WORK_BUFFERS(REL)
+    SPT_PATH_STATE(PS_REL)
+    SPT_SHADOW_STATE(SH_REL)
+#undef REL
+#undef PS_REL
+#undef SH_REL
+    for (int i = 0; i < K_COUNT; i++)
+        if (w->k[i])
+            clReleaseKernel(w->k[i]);
+    if (w->program)
+        clReleaseProgram(w->program);
+    cl_device_close(&w->dev);
+    memset(w, 0, sizeof *w);
+}
+
+/* Sets every buffer argument of kernel k, in list order, then the params. */
+static int set_args(cl_kernel k, const Buffers *b, const RenderParams *p, SptError *e)
+{
+    cl_uint i = 0;
+#define SET(type, name) SPT_CL_CHECK(e, clSetKernelArg(k, i++, sizeof(cl_mem), &b->name));
+#define PS_SET(type, name) SPT_CL_CHECK(e, clSetKernelArg(k, i++, sizeof(cl_mem), &b->ps_##name));
+#define SH_SET(type, name) SPT_CL_CHECK(e, clSetKernelArg(k, i++, sizeof(cl_mem), &b->sh_##name));
+    SPT_SCENE_BUFFERS(SET)
+    SPT_WORK_BUFFERS(SET)
+    SPT_PATH_STATE(PS_SET)
+    SPT_SHADOW_STATE(SH_SET)
+#undef SET
+#undef PS_SET
+#undef SH_SET
+    SPT_CL_CHECK(e, clSetKernelArg(k, i++, sizeof(RenderParams), p));
+    return 0;
+}
+
+/* Path pool size for a device: enough paths to fill it, bounded by memory. */
+static uint32_t pool_size_for(const ClDeviceInfo *info, uint64_t work)
+{
+    uint64_t pool = (info->type & CL_DEVICE_TYPE_GPU) ? (1u << 20) : (1u << 16);
+    const char *env = getenv("SPECTRACE_POOL");
+    if (env && atoi(env) > 0)
+        pool = (uint64_t)atoi(env);
+    if (pool > work)
+        pool = work;
+    return (uint32_t)(pool ? pool : 1);
+}
+
+static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
+                            const RenderSettings *rs, SptError *e)
+{
+    int rc;
+    memset(w, 0, sizeof *w);
+    uint64_t npix = (uint64_t)rs->width * (uint64_t)rs->height;
+    /* Samples per chunk: the pool several times over, with the per-sample
+     * contribution buffer under 64 MiB. */
+    w->pool = pool_size_for(info, npix * (uint64_t)(rs->spp > 0 ? rs->spp : 1));
+    uint64_t spp = (4ull * w->pool + npix - 1) / npix;
+    uint64_t cap = (64ull << 20) / (npix * 16ull);
+    if (spp > cap)
+        spp = cap;
+    if (spp < 1)
+        spp = 1;
+    if (rs->spp > 0 && spp > (uint64_t)rs->spp)
+        spp = (uint64_t)rs->spp;
+    w->chunk_spp = (uint32_t)spp;
+
+    /* Check everything against the device before allocating. */
+    ClAlloc allocs[64];
+    int na = 0;
+#define PLAN(type, nm) allocs[na].name = #nm; allocs[na++].bytes = scene_buffer_bytes(g, #nm);
+    SPT_SCENE_BUFFERS(PLAN)
+#undef PLAN
+    allocs[na].name = "film contributions";
+    allocs[na++].bytes = (size_t)(npix * w->chunk_spp * 16ull);
+    allocs[na].name = "path state";
+    allocs[na++].bytes = (size_t)w->pool * 160;
+    if ((rc = cl_device_check_memory(info, allocs, na, e)))
+        return rc;
+
+    if ((rc = cl_device_open(&w->dev, info, rs->profile, e)))
+        return rc;
+    /* Test hook: SPECTRACE_TEST_INJECT_NAN=1 makes pixel 0's radiance NaN, to show
+     * that the NaN guard keeps it off the film. */
+    const char *nan_hook = getenv("SPECTRACE_TEST_INJECT_NAN");
+    const char *options = nan_hook && *nan_hook && strcmp(nan_hook, "0") ? "-DSPT_TEST_INJECT_NAN=1" : NULL;
+    if ((rc = cl_program_build(&w->dev, "kernels/wavefront.cl", options, &w->program, e)))
+        return rc;
+    for (int i = 0; i < K_COUNT; i++) {
+        cl_int err;
+        SPT_CL_CHECK(e, (w->k[i] = clCreateKernel(w->program, kernel_names[i], &err), err));
+    }
+#define MAKE_RO(type, name)                                                             \
+    if ((rc = cl_buffer_create(&w->dev, #name, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,   \
+                               scene_buffer_bytes(g, #name),                              \
+                               (void *)(scene_buffer_data(g, #name)                      \
+                                            ? scene_buffer_data(g, #name)                \
+                                            : zeros),                                    \
+                               &w->b.name, e)))                                           \
+        return rc;
+    static const char zeros[16];
+    SPT_SCENE_BUFFERS(MAKE_RO)
+#undef MAKE_RO
+    size_t pool = w->pool;
+#define MAKE_PS(type, name)                                                              \
+    if ((rc = cl_buffer_create(&w->dev, "path " #name, CL_MEM_READ_WRITE, pool * sizeof(type), \
+                               NULL, &w->b.ps_##name, e)))                                 \
+        return rc;
+#define MAKE_SH(type, name)                                                              \
+    if ((rc = cl_buffer_create(&w->dev, "shadow " #name, CL_MEM_READ_WRITE, pool * sizeof(type), \
+                               NULL, &w->b.sh_##name, e)))                                 \
+        return rc;
+    SPT_PATH_STATE(MAKE_PS)
+    SPT_SHADOW_STATE(MAKE_SH)
+#undef MAKE_PS
+#undef MAKE_SH
+    if ((rc = cl_buffer_create(&w->dev, "counters", CL_MEM_READ_WRITE,
+                               SPT_CNT_COUNT * sizeof(cl_uint), NULL, &w->b.counters, e)) ||
+        (rc = cl_buffer_create(&w->dev, "queue_extend", CL_MEM_READ_WRITE,
+                               pool * sizeof(cl_uint), NULL, &w->b.queue_extend, e)) ||
+        (rc = cl_buffer_create(&w->dev, "film contributions", CL_MEM_READ_WRITE,
+                               (size_t)(npix * w->chunk_spp * 16ull), NULL, &w->b.contrib, e)) ||
+        (rc = cl_buffer_create(&w->dev, "chunk sums", CL_MEM_READ_WRITE, (size_t)npix * 16,
+                               NULL, &w->b.chunk_sum, e)))
+        return rc;
+    /* Every slot starts free (SPT_PATH_DEAD = 0). */
+    cl_uint zero = 0;
+    SPT_CL_CHECK(e, clEnqueueFillBuffer(w->dev.queue, w->b.ps_flags, &zero, sizeof zero, 0,
+                                        pool * sizeof(cl_uint), 0, NULL, NULL));
+    return 0;
+}
+
+/* The camera of the kernels: right and up scaled so that screen coordinates in
+ * [-1, 1] span the field of view at the image's aspect ratio. */
+static void camera_params(RenderParams *p, const SceneCamera *c, int width, int height)
+{
+    float t = tanf(0.5f * c->yfov);
+    float aspect = (float)width / (float)height;
+    for (int i = 0; i < 3; i++) {
+        p->cam_pos[i] = c->position[i];
+        p->cam_fwd[i] = c->forward[i];
+        p->cam_right[i] = c->right[i] * t * aspect;
+        p->cam_up[i] = c->up[i] * t;
+    }
+    p->cam_pos[3] = p->cam_fwd[3] = p->cam_right[3] = p->cam_up[3] = 0.0f;
+}
+
+static void progress_print(const RenderSettings *rs, uint32_t done, uint32_t total,
+                           double elapsed, uint64_t paths, int final)
+{
+    if (!rs->progress)
+        return;
+    double frac = total ? (double)done / total : 1.0;
+    double rate = elapsed > 0 ? paths / elapsed : 0.0;
+    double remain = frac > 0 ? elapsed * (1.0 - frac) / frac : 0.0;
+    if (rs->time_limit > 0 && rs->time_limit - elapsed < remain)
+        remain = rs->time_limit - elapsed > 0 ? rs->time_limit - elapsed : 0;
+    int tty = isatty(2);
+    fprintf(stderr, "%srender: %5.1f%%  %u/%u spp  %.2f Mpaths/s  %.1f s elapsed  %.1f s left%s",
+            tty ? "\r" : "", 100.0 * frac, done, total, rate * 1e-6, elapsed, remain,
+            tty ? (final ? "\n" : "   ") : "\n");
+    fflush(stderr);
+}
+
+static double event_seconds(cl_event ev)
+{
+    cl_ulong a = 0, b = 0;
+    clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof a, &a, NULL);
+    clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof b, &b, NULL);
+    return b > a ? (double)(b - a) * 1e-9 : 0.0;
+}
+
+/* Enqueues kernel k over n work-items (rounded up); with profiling, adds its
+ * device time to *acc. */
+static int run_kernel(Wavefront *w, int k, size_t n, double *acc, SptError *e)
+{
+    cl_event ev = NULL;
+    size_t local = 64;
+    size_t global = (n + local - 1) / local * local;
+    SPT_CL_CHECK(e, clEnqueueNDRangeKernel(w->dev.queue, w->k[k], 1, NULL, &global, NULL, 0,
+                                           NULL, acc ? &ev : NULL));
+    if (ev) {
+        clWaitForEvents(1, &ev);
+        *acc += event_seconds(ev);
+        clReleaseEvent(ev);
+    }
+    return 0;
+}
+
+static int render_chunks(Wavefront *w, const GpuScene *g, const SceneCamera *cam,
+                         const RenderSettings *rs, Film *film, RenderStats *st, SptError *e)
+{
+    RenderParams p;
+    memset(&p, 0, sizeof p);
+    camera_params(&p, cam, rs->width, rs->height);
+    p.width = rs->width;
+    p.height = rs->height;
+    p.seed = rs->seed;
+    p.max_depth = rs->max_depth;
+    p.pool_size = w->pool;
+    p.emitter_count = g->emitter_count;
+    p.emitter_total = (float)g->emitter_distrib.total;
+    p.node_count = g->bvh.node_count;
+    p.rr_depth = 3;
+    uint32_t npix = (uint32_t)(rs->width * rs->height);
+    float *sums = spt_malloc((size_t)npix * 4 * sizeof(float));
+    double t0 = spt_now();
+    uint32_t done = 0;
+    int rc = 0;
+    while (done < (uint32_t)rs->spp) {
+        if (rs->stop && *rs->stop)
+            break;
+        if (rs->time_limit > 0 && spt_now() - t0 >= rs->time_limit)
+            break;
+        uint32_t n = (uint32_t)rs->spp - done;
+        if (n > w->chunk_spp)
+            n = w->chunk_spp;
+        p.sample_begin = rs->sample_begin + done;
+        p.work_begin = 0;
+        p.work_end = n * npix;
+        cl_uint counters[SPT_CNT_COUNT] = {0};
+        SPT_CL_CHECK_GOTO(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0,
+                                                  sizeof counters, counters, 0, NULL, NULL),
+                          rc, out);
+        for (int k = 0; k < K_COUNT; k++)
+            if ((rc = set_args(w->k[k], &w->b, &p, e)))
+                goto out;
+        for (;;) {
+            static const cl_uint two_zeros[2] = {0, 0};
+            SPT_CL_CHECK_GOTO(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_FALSE, 0,
+                                                      sizeof two_zeros, two_zeros, 0, NULL, NULL),
+                              rc, out);
+            double *acc = rs->profile ? st->stage_seconds : NULL;
+            if ((rc = run_kernel(w, K_GENERATE, w->pool, acc ? acc + 0 : NULL, e)) ||
+                (rc = run_kernel(w, K_EXTEND, w->pool, acc ? acc + 1 : NULL, e)) ||
+                (rc = run_kernel(w, K_SHADE, w->pool, acc ? acc + 2 : NULL, e)) ||
+                (rc = run_kernel(w, K_CONNECT, w->pool, acc ? acc + 3 : NULL, e)))
+                goto out;
+            SPT_CL_CHECK_GOTO(e, clEnqueueReadBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0,
+                                                     sizeof counters, counters, 0, NULL, NULL),
+                              rc, out);
+            st->rays_extend += counters[SPT_CNT_EXTEND];
+            st->rays_shadow += counters[SPT_CNT_SHADOW];
+            if (counters[SPT_CNT_DONE] >= p.work_end)
+                break;
+        }
+        if ((rc = run_kernel(w, K_ACCUMULATE, npix, rs->profile ? st->stage_seconds + 4 : NULL, e)))
+            goto out;
+        SPT_CL_CHECK_GOTO(e, clEnqueueReadBuffer(w->dev.queue, w->b.chunk_sum, CL_TRUE, 0,
+                                                 (size_t)npix * 16, sums, 0, NULL, NULL),
+                          rc, out);
+        film_add_chunk(film, sums);
+        st->nan_dropped += counters[SPT_CNT_NAN];
+        st->paths += p.work_end;
+        done += n;
+        progress_print(rs, done, (uint32_t)rs->spp, spt_now() - t0, st->paths, 0);
+    }
+    st->spp_done = done;
+    st->seconds = spt_now() - t0;
+    progress_print(rs, done, (uint32_t)rs->spp, st->seconds, st->paths, 1);
+out:
+    free(sums);
+    return rc;
+}
+
+int render_device(const ClDeviceInfo *info, const GpuScene *g, const SceneCamera *cam,
+                  const RenderSettings *rs, Film *film, RenderStats *stats, SptError *e)
+{
+    Wavefront w;
+    memset(stats, 0, sizeof *stats);
+    int rc = wavefront_create(&w, info, g, rs, e);
+    stats->build_seconds = w.dev.last_build_seconds;
+    if (!rc)
+        rc = render_chunks(&w, g, cam, rs, film, stats, e);
+    if (rc && w.dev.build_log)
+        cl_device_report(&w.dev, e), e->code = rc, e->msg[0] = 0;
+    wavefront_free(&w);
+    return rc;
+}

@@ -1,0 +1,78 @@
+/* The renderer on one OpenCL device: the scene turned into device arrays
+ * (GpuScene), and the wavefront loop that renders chunks of samples into a Film. */
+#ifndef SPT_RENDER_H
+#define SPT_RENDER_H
+
+#include <signal.h>
+#include <stdint.h>
+
+#include "bvh.h"
+#include "cl_device.h"
+#include "distrib.h"
+#include "film.h"
+#include "scene.h"
+#include "util.h"
+#include "../kernels/render_types.h"
+
+typedef struct RenderSettings {
+    int width, height;
+    int spp;                 /* samples per pixel to reach (counting from sample_begin) */
+    double time_limit;       /* seconds, 0 = none; stops at a chunk boundary */
+    int max_depth;           /* path segments from the camera; <= 0 unlimited */
+    uint32_t seed;
+    uint32_t sample_begin;   /* first sample index (a resumed render starts later) */
+    int progress;            /* print progress to stderr */
+    int profile;             /* time the stages with OpenCL profiling events */
+    volatile sig_atomic_t *stop; /* when set non-zero: finish the current chunk, stop */
+} RenderSettings;
+
+/* Times and counts of a render. */
+typedef struct RenderStats {
+    double seconds;          /* wall time of the sample loop */
+    double build_seconds;    /* program build (or cache load) */
+    uint64_t paths;          /* camera paths traced */
+    uint64_t rays_extend;    /* closest-hit rays (k_extend) */
+    uint64_t rays_shadow;    /* shadow rays (k_connect) */
+    uint64_t nan_dropped;    /* samples whose radiance was NaN/Inf */
+    uint32_t spp_done;       /* samples per pixel completed */
+    double stage_seconds[5]; /* generate, extend, shade, connect, accumulate (profile) */
+} RenderStats;
+
+/* The scene as the kernels read it: packed triangles in BVH order and their
+ * shading data, materials with spectra, coefficient textures, emitters. */
+typedef struct GpuScene {
+    Bvh bvh;
+    TriShade *tri_shade;     /* per packed triangle */
+    float *vtx_normal;       /* borrowed from the Scene */
+    float *vtx_uv;           /* borrowed from the Scene */
+    uint32_t vertex_count;
+    GpuMaterial *materials;
+    uint32_t material_count;
+    float *spectra;          /* SPT_CIE_SAMPLES floats per tabulated spectrum */
+    uint32_t spectra_count;  /* floats */
+    GpuTexture *textures;
+    uint32_t texture_count;
+    float *texels;           /* 4 floats per texel: sigmoid coefficients and scale */
+    size_t texel_count;
+    uint32_t *emitters;      /* packed triangle index per emitter */
+    uint32_t emitter_count;
+    Distrib emitter_distrib; /* selection by power */
+    float *tri_light_pdf;    /* per packed triangle: P(select) / area, 0 if not emitting */
+} GpuScene;
+
+/* Builds the BVH and the device arrays of s. Returns 0 or an exit code. */
+int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e);
+void gpu_scene_free(GpuScene *g);
+
+/* Bytes of device memory the scene arrays need (for `info` and limit checks). */
+size_t gpu_scene_bytes(const GpuScene *g);
+
+/* Renders samples [rs->sample_begin, rs->sample_begin + rs->spp) of every pixel
+ * of g with camera cam on device info, adding them to film (which must be
+ * rs->width x rs->height). Stops early, at a chunk boundary, when rs->stop is set
+ * or the time limit passes; stats->spp_done says how far it got (the film then
+ * holds exactly that many samples per pixel). Returns 0 or an exit code. */
+int render_device(const ClDeviceInfo *info, const GpuScene *g, const SceneCamera *cam,
+                  const RenderSettings *rs, Film *film, RenderStats *stats, SptError *e);
+
+#endif
