@@ -48,23 +48,22 @@ SPT_FN float spt_d65_norm(float lambda) { SPT_TABLE_LERP(SPT_D65_NORM, lambda); 
  * exactly with atanh. */
 #define SPT_WL_K 0.0072f
 #define SPT_WL_CENTER 538.0f
+/* tanh(k (360 - 538)) and tanh(k (830 - 538)), the CDF's ends (computed in double). */
+#define SPT_WL_T0 (-0.856910625469828f)
+#define SPT_WL_T1 0.970591346940270f
 
 SPT_FN float spt_wavelength_pdf(float lambda)
 {
     if (!(lambda >= (float)SPT_CIE_LAMBDA_MIN && lambda <= (float)SPT_CIE_LAMBDA_MAX))
         return 0.0f;
-    float t0 = tanhf(SPT_WL_K * ((float)SPT_CIE_LAMBDA_MIN - SPT_WL_CENTER));
-    float t1 = tanhf(SPT_WL_K * ((float)SPT_CIE_LAMBDA_MAX - SPT_WL_CENTER));
     float c = coshf(SPT_WL_K * (lambda - SPT_WL_CENTER));
-    return SPT_WL_K / ((t1 - t0) * c * c);
+    return SPT_WL_K / ((SPT_WL_T1 - SPT_WL_T0) * c * c);
 }
 
 /* The wavelength (nm) of CDF value u in [0, 1). */
 SPT_FN float spt_sample_wavelength(float u)
 {
-    float t0 = tanhf(SPT_WL_K * ((float)SPT_CIE_LAMBDA_MIN - SPT_WL_CENTER));
-    float t1 = tanhf(SPT_WL_K * ((float)SPT_CIE_LAMBDA_MAX - SPT_WL_CENTER));
-    float l = SPT_WL_CENTER + atanhf(t0 + u * (t1 - t0)) / SPT_WL_K;
+    float l = SPT_WL_CENTER + atanhf(SPT_WL_T0 + u * (SPT_WL_T1 - SPT_WL_T0)) / SPT_WL_K;
     return fminf(fmaxf(l, (float)SPT_CIE_LAMBDA_MIN), (float)SPT_CIE_LAMBDA_MAX);
 }
 

@@ -31,16 +31,43 @@
     SPT_PATH_STATE(PS_PARAM)   \
     SPT_SHADOW_STATE(SH_PARAM) \
     const RenderParams P
+#define ARG(type, name) name,
+#define PS_ARG(type, name) ps_##name,
+#define SH_ARG(type, name) sh_##name,
+#define ALL_ARGS                 \
+    SPT_SCENE_BUFFERS(ARG)       \
+    SPT_WORK_BUFFERS(ARG)        \
+    SPT_PATH_STATE(PS_ARG)       \
+    SPT_SHADOW_STATE(SH_ARG)     \
+    P
 
 #define NO_HIT 0xffffffffu
 
+/* Work-group aggregated queue slots: every work-item of the group calls this
+ * with want = 0 or 1 (all must call it: it has barriers); it returns the index
+ * in the queue whose counter is *counter for those that want one, from one
+ * global atomic per group instead of one per item. */
+static uint group_queue_slot(int want, __global uint *counter, __local uint *l_count,
+                             __local uint *l_base)
+{
+    if (get_local_id(0) == 0)
+        *l_count = 0u;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    uint mine = want ? atomic_inc(l_count) : 0u;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    if (get_local_id(0) == 0)
+        *l_base = *l_count ? atomic_add(counter, *l_count) : 0u;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    return *l_base + mine;
+}
+
 __kernel void k_generate(ALL_BUFFERS)
 {
+    __local uint l_count, l_base;
     uint i = get_global_id(0);
-    if (i >= P.pool_size)
-        return;
-    uint flags = ps_flags[i];
-    if (flags == SPT_PATH_FINISHED) {
+    uint flags = i < P.pool_size ? ps_flags[i] : SPT_PATH_ALIVE + 100u;
+    int finished = flags == SPT_PATH_FINISHED;
+    if (finished) {
         /* Write the finished path's XYZ into its own contribution slot. */
         float4 rad = ps_radiance[i];
 #ifdef SPT_TEST_INJECT_NAN
@@ -56,14 +83,15 @@ __kernel void k_generate(ALL_BUFFERS)
             xyz = (float4)(0.0f); /* w = 0: the sample is dropped, not counted */
         }
         contrib[ps_work[i]] = xyz;
-        atomic_inc(&counters[SPT_CNT_DONE]);
         flags = SPT_PATH_DEAD;
         ps_flags[i] = flags;
     }
-    if (flags == SPT_PATH_DEAD) {
-        uint w = atomic_inc(&counters[SPT_CNT_WORK]);
-        if (w >= P.work_end - P.work_begin)
-            return;
+    group_queue_slot(finished, &counters[SPT_CNT_DONE], &l_count, &l_base);
+    /* Free slots take the next work items of the chunk. */
+    uint total = P.work_end - P.work_begin;
+    int wants = flags == SPT_PATH_DEAD && counters[SPT_CNT_WORK] < total;
+    uint w = group_queue_slot(wants, &counters[SPT_CNT_WORK], &l_count, &l_base);
+    if (wants && w < total) {
         uint npix = (uint)(P.width * P.height);
         uint pixel = w % npix;
         uint sample = P.sample_begin + w / npix;
@@ -84,10 +112,12 @@ __kernel void k_generate(ALL_BUFFERS)
         ps_work[i] = w;
         ps_depth[i] = 0;
         ps_bsdf_pdf[i] = 0.0f; /* camera ray: emission seen directly has MIS weight 1 */
-        ps_flags[i] = SPT_PATH_ALIVE;
+        flags = SPT_PATH_ALIVE;
+        ps_flags[i] = flags;
     }
-    uint q = atomic_inc(&counters[SPT_CNT_EXTEND]);
-    queue_extend[q] = i;
+    uint q = group_queue_slot(flags == SPT_PATH_ALIVE, &counters[SPT_CNT_EXTEND], &l_count, &l_base);
+    if (flags == SPT_PATH_ALIVE)
+        queue_extend[q] = i;
 }
 
 __kernel void k_extend(ALL_BUFFERS)
@@ -124,18 +154,17 @@ static float4 material_emission(const __global GpuMaterial *m, float2 uv, float4
     return le;
 }
 
-__kernel void k_shade(ALL_BUFFERS)
+/* Shades path i at its hit; returns 1 and fills the shadow ray (origin, direction
+ * with tmax in w, contribution) when next-event estimation wants one. */
+static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFERS)
 {
-    uint g = get_global_id(0);
-    if (g >= counters[SPT_CNT_EXTEND])
-        return;
-    uint i = queue_extend[g];
+    int shadow = 0;
     float4 hit = ps_hit[i];
     uint prim = as_uint(hit.w);
     uint depth = ps_depth[i] + 1u; /* segments including the one just traced */
     if (prim == NO_HIT) {
         ps_flags[i] = SPT_PATH_FINISHED;
-        return;
+        return 0;
     }
     float4 lam = ps_lambda[i];
     float4 beta = ps_throughput[i];
@@ -166,7 +195,7 @@ __kernel void k_shade(ALL_BUFFERS)
     if (P.max_depth > 0 && depth >= (uint)P.max_depth) {
         ps_radiance[i] = L;
         ps_flags[i] = SPT_PATH_FINISHED;
-        return;
+        return 0;
     }
 
     /* The surface as seen from the incoming side. */
@@ -225,11 +254,10 @@ __kernel void k_shade(ALL_BUFFERS)
                 float4 le = material_emission(lm, luv, lam, spectra, textures, texels);
                 float4 cn = beta * albedo * (SPT_INV_PI * cos_s * wgt / light_pdf) * le;
                 if (max4(cn) > 0.0f) {
-                    uint s = atomic_inc(&counters[SPT_CNT_SHADOW]);
-                    sh_ray_o[s] = (float4)(po, 0.0f);
-                    sh_ray_d[s] = (float4)(wi, dist * (1.0f - 1e-4f));
-                    sh_contrib[s] = cn;
-                    sh_path[s] = i;
+                    *sh_o = (float4)(po, 0.0f);
+                    *sh_d = (float4)(wi, dist * (1.0f - 1e-4f));
+                    *sh_c = cn;
+                    shadow = 1;
                 }
             }
         }
@@ -258,13 +286,34 @@ __kernel void k_shade(ALL_BUFFERS)
     ps_radiance[i] = L;
     if (!alive) {
         ps_flags[i] = SPT_PATH_FINISHED;
-        return;
+        return shadow;
     }
     ps_throughput[i] = beta;
     ps_ray_o[i] = (float4)(po, 0.0f);
     ps_ray_d[i] = (float4)(wo, 0.0f);
     ps_bsdf_pdf[i] = pdf;
     ps_depth[i] = depth;
+    return shadow;
+}
+
+__kernel void k_shade(ALL_BUFFERS)
+{
+    __local uint l_count, l_base;
+    uint g = get_global_id(0);
+    float4 so, sd, sc;
+    int shadow = 0;
+    uint i = 0;
+    if (g < counters[SPT_CNT_EXTEND]) {
+        i = queue_extend[g];
+        shadow = shade_path(i, &so, &sd, &sc, ALL_ARGS);
+    }
+    uint s = group_queue_slot(shadow, &counters[SPT_CNT_SHADOW], &l_count, &l_base);
+    if (shadow) {
+        sh_ray_o[s] = so;
+        sh_ray_d[s] = sd;
+        sh_contrib[s] = sc;
+        sh_path[s] = i;
+    }
 }
 
 __kernel void k_connect(ALL_BUFFERS)

@@ -256,6 +256,7 @@ typedef struct Wavefront {
     cl_program program;
     cl_kernel k[K_COUNT];
     Buffers b;
+    size_t local[K_COUNT]; /* work-group size of each kernel */
     uint32_t pool;
     uint32_t chunk_spp;
 } Wavefront;
@@ -354,6 +355,12 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
     for (int i = 0; i < K_COUNT; i++) {
         cl_int err;
         SPT_CL_CHECK(e, (w->k[i] = clCreateKernel(w->program, kernel_names[i], &err), err));
+        /* 64 work-items per group where the kernel allows it: the queues take
+         * one global atomic per group. */
+        size_t max_wg = 1;
+        SPT_CL_CHECK(e, clGetKernelWorkGroupInfo(w->k[i], w->dev.info.id, CL_KERNEL_WORK_GROUP_SIZE,
+                                                 sizeof max_wg, &max_wg, NULL));
+        w->local[i] = max_wg < 64 ? max_wg : 64;
     }
 #define MAKE_RO(type, name)                                                             \
     if ((rc = cl_buffer_create(&w->dev, #name, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,   \
@@ -440,9 +447,9 @@ static double event_seconds(cl_event ev)
 static int run_kernel(Wavefront *w, int k, size_t n, double *acc, SptError *e)
 {
     cl_event ev = NULL;
-    size_t local = 64;
+    size_t local = w->local[k];
     size_t global = (n + local - 1) / local * local;
-    SPT_CL_CHECK(e, clEnqueueNDRangeKernel(w->dev.queue, w->k[k], 1, NULL, &global, NULL, 0,
+    SPT_CL_CHECK(e, clEnqueueNDRangeKernel(w->dev.queue, w->k[k], 1, NULL, &global, &local, 0,
                                            NULL, acc ? &ev : NULL));
     if (ev) {
         clWaitForEvents(1, &ev);
