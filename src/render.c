@@ -417,20 +417,26 @@ static void camera_params(RenderParams *p, const SceneCamera *c, int width, int 
     p->cam_pos[3] = p->cam_fwd[3] = p->cam_right[3] = p->cam_up[3] = 0.0f;
 }
 
+/* The progress display: one line rewritten in place on a terminal, else a plain
+ * line at every tenth of the work. */
 static void progress_print(const RenderSettings *rs, uint32_t done, uint32_t total,
-                           double elapsed, uint64_t paths, int final)
+                           double elapsed, uint64_t paths, int *last_decile)
 {
     if (!rs->progress)
         return;
     double frac = total ? (double)done / total : 1.0;
+    int tty = isatty(2);
+    int decile = (int)(frac * 10.0);
+    if (!tty && decile == *last_decile)
+        return;
+    *last_decile = decile;
     double rate = elapsed > 0 ? paths / elapsed : 0.0;
     double remain = frac > 0 ? elapsed * (1.0 - frac) / frac : 0.0;
     if (rs->time_limit > 0 && rs->time_limit - elapsed < remain)
         remain = rs->time_limit - elapsed > 0 ? rs->time_limit - elapsed : 0;
-    int tty = isatty(2);
     fprintf(stderr, "%srender: %5.1f%%  %u/%u spp  %.2f Mpaths/s  %.1f s elapsed  %.1f s left%s",
             tty ? "\r" : "", 100.0 * frac, done, total, rate * 1e-6, elapsed, remain,
-            tty ? (final ? "\n" : "   ") : "\n");
+            tty ? "   " : "\n");
     fflush(stderr);
 }
 
@@ -478,7 +484,7 @@ static int render_chunks(Wavefront *w, const GpuScene *g, const SceneCamera *cam
     float *sums = spt_malloc((size_t)npix * 4 * sizeof(float));
     double t0 = spt_now();
     uint32_t done = 0;
-    int rc = 0;
+    int rc = 0, decile = -1;
     while (done < (uint32_t)rs->spp) {
         if (rs->stop && *rs->stop)
             break;
@@ -525,11 +531,12 @@ static int render_chunks(Wavefront *w, const GpuScene *g, const SceneCamera *cam
         st->nan_dropped += counters[SPT_CNT_NAN];
         st->paths += p.work_end;
         done += n;
-        progress_print(rs, done, (uint32_t)rs->spp, spt_now() - t0, st->paths, 0);
+        progress_print(rs, done, (uint32_t)rs->spp, spt_now() - t0, st->paths, &decile);
     }
     st->spp_done = done;
     st->seconds = spt_now() - t0;
-    progress_print(rs, done, (uint32_t)rs->spp, st->seconds, st->paths, 1);
+    if (rs->progress && isatty(2) && done > 0)
+        fputc('\n', stderr);
 out:
     free(sums);
     return rc;
