@@ -4,6 +4,7 @@
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -72,12 +73,87 @@ int read_opened(ImageInput *in, TextureImage *img, char *why, size_t why_size)
     return 0;
 }
 
+uint32_t be32(const unsigned char *p)
+{
+    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
+
+// CRC-32 of the PNG specification (ISO 3309, reflected, polynomial 0xEDB88320).
+uint32_t png_crc(const unsigned char *p, size_t n)
+{
+    static uint32_t table[256];
+    static bool ready = false;
+    if (!ready) {
+        for (uint32_t i = 0; i < 256; i++) {
+            uint32_t c = i;
+            for (int k = 0; k < 8; k++) c = c & 1 ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+            table[i] = c;
+        }
+        ready = true;
+    }
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0; i < n; i++) c = table[(c ^ p[i]) & 0xFF] ^ (c >> 8);
+    return c ^ 0xFFFFFFFFu;
+}
+
+// Checks a PNG's chunk structure (IHDR first, every chunk inside the data with a
+// correct CRC, IDAT present, IEND reached) before libpng sees it: libpng reports
+// such damage by longjmp out of OpenImageIO's reader, which leaks its state.
+bool png_structure_ok(const unsigned char *b, size_t size, char *why, size_t why_size)
+{
+    size_t pos = 8;
+    bool first = true, idat = false;
+    while (pos + 12 <= size) {
+        uint32_t len = be32(b + pos);
+        if (len > size - pos - 12) break;
+        const unsigned char *type = b + pos + 4;
+        if (png_crc(type, (size_t)len + 4) != be32(b + pos + 8 + len)) {
+            say(why, why_size, std::string("corrupt PNG: bad CRC in chunk ") +
+                                   std::string((const char *)type, 4));
+            return false;
+        }
+        if (first && (memcmp(type, "IHDR", 4) || len != 13)) break;
+        first = false;
+        if (!memcmp(type, "IDAT", 4)) idat = true;
+        if (!memcmp(type, "IEND", 4)) {
+            if (idat) return true;
+            break;
+        }
+        pos += (size_t)len + 12;
+    }
+    say(why, why_size, "truncated or corrupt PNG");
+    return false;
+}
+
 } // namespace
 
 extern "C" int texture_io_load_file(const char *path, TextureImage *img, char *why,
                                     size_t why_size)
 {
     memset(img, 0, sizeof *img);
+    // PNG and JPEG go through memory (and the PNG check); other formats (EXR, HDR,
+    // TIFF...) are opened by name so OpenImageIO picks the reader.
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        say(why, why_size, strerror(errno));
+        return -1;
+    }
+    unsigned char head[8] = {0};
+    size_t got = fread(head, 1, sizeof head, f);
+    bool png = got == 8 && !memcmp(head, "\x89PNG\r\n\x1a\n", 8);
+    bool jpeg = got >= 3 && head[0] == 0xFF && head[1] == 0xD8 && head[2] == 0xFF;
+    if (png || jpeg) {
+        std::string bytes((const char *)head, got);
+        char chunk[65536];
+        size_t n;
+        while ((n = fread(chunk, 1, sizeof chunk, f)) > 0) {
+            bytes.append(chunk, n);
+            if (bytes.size() > SPT_TEXTURE_MAX_BYTES) break;
+        }
+        fclose(f);
+        return texture_io_load_memory(bytes.data(), bytes.size(), nullptr, img, why, why_size);
+    }
+    fclose(f);
     auto in = ImageInput::open(path);
     if (!in) {
         say(why, why_size, oiio_reason(nullptr, "cannot open the image"));
@@ -108,6 +184,7 @@ extern "C" int texture_io_load_memory(const void *data, size_t size, const char 
         say(why, why_size, "not a PNG or JPEG image");
         return -1;
     }
+    if (!strcmp(name, "memory.png") && !png_structure_ok(b, size, why, why_size)) return -1;
     Filesystem::IOMemReader proxy(data, size);
     // No config spec: with one, OpenImageIO 2.4 ignores the proxy argument.
     auto in = ImageInput::open(name, nullptr, &proxy);
