@@ -334,7 +334,7 @@ def render(scene_path, width, height, spp, max_depth, variant="auto", seed=0, pa
                 print("  warm-up (1 spp, kernel compilation): %.2f s" % (time.time() - t0), file=sys.stderr)
         for w in scene["warnings"]:
             print("warning: %s" % w, file=sys.stderr)
-        t0 = time.time()
+        t0, c0 = time.time(), time.process_time()
         for k, s in enumerate(passes):
             img = np.array(mi.render(msc, seed=seed * 100003 + k, spp=s), dtype=np.float64)[..., :3]
             acc += img * s
@@ -344,10 +344,12 @@ def render(scene_path, width, height, spp, max_depth, variant="auto", seed=0, pa
                                                        " ".join("%.5f" % v for v in img.mean(axis=(0, 1)))),
                       file=sys.stderr)
         t_render = time.time() - t0
+        c_render = time.process_time() - c0
     img = acc / spp
     info = {"variant": mi.variant(), "mitsuba_version": mi.__version__, "spp": spp, "width": width,
             "height": height, "max_depth": max_depth, "passes": len(passes), "load_s": t_load,
             "render_s": t_render, "paths_per_s": width * height * spp / t_render,
+            "cpu_s": c_render, "paths_per_cpu_s": width * height * spp / max(c_render, 1e-9),
             "mean": img.mean(axis=(0, 1)).tolist()}
     if len(passes) >= 4 and len(set(s for s, _ in means)) == 1:
         pm = np.array([m for _, m in means])
@@ -450,8 +452,9 @@ def main(argv=None):
         print("mean linear sRGB: %.6f %.6f %.6f" % tuple(info["mean"]))
         if "stderr_of_mean" in info:
             print("standard error:   %.6f %.6f %.6f" % tuple(info["stderr_of_mean"]))
-        print("render %.2f s (%d passes, load %.2f s): %.3f M paths/s"
-              % (info["render_s"], info["passes"], info["load_s"], info["paths_per_s"] / 1e6))
+        print("render %.2f s (%d passes, load %.2f s): %.3f M paths/s; CPU time %.2f s: %.3f M paths per CPU-second"
+              % (info["render_s"], info["passes"], info["load_s"], info["paths_per_s"] / 1e6, info["cpu_s"],
+                 info["paths_per_cpu_s"] / 1e6))
     return 0
 
 
