@@ -24,6 +24,22 @@ static const char info_usage[] =
 
 static double mib(double bytes) { return bytes / (1024.0 * 1024.0); }
 
+/* Prints a byte count with a unit that keeps small scenes readable. */
+static void print_bytes(double bytes)
+{
+    if (bytes < 1024)
+        printf("%.0f B", bytes);
+    else if (bytes < 1024 * 1024)
+        printf("%.1f KiB", bytes / 1024.0);
+    else if (bytes < 1024.0 * 1024 * 1024)
+        printf("%.2f MiB", mib(bytes));
+    else
+        printf("%.2f GiB", bytes / (1024.0 * 1024 * 1024));
+}
+
+/* -0 prints as 0. */
+static double z(float v) { return v == 0.0f ? 0.0 : (double)v; }
+
 static const char *wrap_name(int w)
 {
     return w == SPT_WRAP_CLAMP ? "clamp" : w == SPT_WRAP_MIRROR ? "mirror" : "repeat";
@@ -55,14 +71,20 @@ static void print_materials(const Scene *s)
 static double print_textures(const Scene *s)
 {
     double bytes = 0;
-    printf("textures     %u\n", s->texture_count);
+    printf("textures     %u", s->texture_count);
+    if (s->stats.unusable_images)
+        printf(" (%u image(s) missing, corrupt or outside the scene folder: factors used)",
+               s->stats.unusable_images);
+    printf("\n");
     for (uint32_t i = 0; i < s->texture_count; i++) {
         const SceneTexture *t = &s->textures[i];
         double b = (double)t->width * t->height * t->channels * sizeof(float);
         bytes += b;
-        printf("  [%u] %-24s %dx%d, %d channel(s), %s, wrap %s/%s, %.2f MiB\n", i, t->name,
-               t->width, t->height, t->channels, t->srgb_decoded ? "sRGB->linear" : "linear",
-               wrap_name(t->wrap_s), wrap_name(t->wrap_t), mib(b));
+        printf("  [%u] %-24s %dx%d, %d channel(s), %s, wrap %s/%s, ", i, t->name, t->width,
+               t->height, t->channels, t->srgb_decoded ? "sRGB->linear" : "linear",
+               wrap_name(t->wrap_s), wrap_name(t->wrap_t));
+        print_bytes(b);
+        printf("\n");
     }
     return bytes;
 }
@@ -98,8 +120,8 @@ static void print_camera(const SceneCamera *c)
            c->is_default ? " (default: the file has none)" : "");
     if (c->zfar > 0) printf("             zfar %g\n", c->zfar);
     printf("             at %.4g %.4g %.4g, forward %.3g %.3g %.3g, up %.3g %.3g %.3g\n",
-           c->position[0], c->position[1], c->position[2], c->forward[0], c->forward[1],
-           c->forward[2], c->up[0], c->up[1], c->up[2]);
+           z(c->position[0]), z(c->position[1]), z(c->position[2]), z(c->forward[0]),
+           z(c->forward[1]), z(c->forward[2]), z(c->up[0]), z(c->up[1]), z(c->up[2]));
 }
 
 int cmd_info(int argc, char **argv)
@@ -177,8 +199,12 @@ int cmd_info(int argc, char **argv)
         bytes += (double)s.tri_count * 9 * sizeof(float); /* at least the positions */
     }
     if (rc == SPT_EXIT_OK)
-        printf("device mem   ~%.2f MiB for the scene%s (film and path state come on top)\n",
-               mib(bytes), want_bvh ? "" : " without the BVH");
+    {
+        printf("device mem   ~");
+        print_bytes(bytes);
+        printf(" for the scene%s (film and path state come on top)\n",
+               want_bvh ? "" : " without the BVH");
+    }
     scene_free(&s);
     return rc;
 }
