@@ -9,6 +9,7 @@
 #define SPT_LAYOUT_LIST_H
 
 #include "shared.h"
+#include "render_types.h"
 
 /* A probe of the rules in kernels/shared.h (mixed 32-bit scalars, a fixed
  * array, hand padding), so the check has something to compare even before any
@@ -22,13 +23,26 @@ typedef struct LayoutProbe {
 } LayoutProbe; /* 32 bytes */
 
 /* X(Type) for each shared struct. */
-#define SPT_LAYOUT_STRUCTS(X) \
-    X(LayoutProbe)
+#define SPT_LAYOUT_STRUCTS(X)     \
+    X(LayoutProbe)                \
+    X(SpecRef)                    \
+    X(GpuMaterial)                \
+    X(GpuTexture)                 \
+    X(TriShade)                   \
+    X(RenderParams)
 
 /* X(Type, field) for each field whose offset is checked. */
-#define SPT_LAYOUT_FIELDS(X) \
-    X(LayoutProbe, v)        \
-    X(LayoutProbe, count)    \
-    X(LayoutProbe, pad)
+#define SPT_LAYOUT_FIELDS(X)      \
+    X(LayoutProbe, v)             \
+    X(LayoutProbe, count)         \
+    X(LayoutProbe, pad)           \
+    X(SpecRef, kind)              \
+    X(GpuMaterial, emission)      \
+    X(GpuMaterial, base_tex)      \
+    X(GpuMaterial, pad)           \
+    X(GpuTexture, pad)            \
+    X(RenderParams, width)        \
+    X(RenderParams, sample_begin) \
+    X(RenderParams, rr_depth)
 
 #endif
