@@ -9,9 +9,10 @@
 #include "chi2.h"
 #include "distrib.h"
 #include "sampling.h"
+#include "../kernels/spectrum.h"
 
 /* Chi-square tests expected to pass in this binary, for the Sidak correction. */
-#define SAMPLING_CHI2_TESTS 7
+#define SAMPLING_CHI2_TESTS 8
 
 /* SplitMix64 (Steele, Lea and Flood 2014) of i, as a float in [0, 1) from its top
  * 24 bits. */
@@ -613,6 +614,93 @@ static void test_distrib_large(void **state)
     free(w);
 }
 
+/* ---- Wavelengths (kernels/spectrum.h) ------------------------------------------- */
+
+/* The visible-wavelength density written out in double precision from its
+ * definition: k / ((tanh(k (830 - 538)) - tanh(k (360 - 538))) cosh^2(k (l - 538)))
+ * on [360, 830] nm, k = 0.0072. */
+static double wavelength_pdf_ref(double l)
+{
+    const double k = 0.0072, c = 538.0;
+    if (l < 360.0 || l > 830.0)
+        return 0.0;
+    double norm = tanh(k * (830.0 - c)) - tanh(k * (360.0 - c));
+    double ch = cosh(k * (l - c));
+    return k / (norm * ch * ch);
+}
+
+/* Sample i: one of the four hero wavelengths (i % 4) of path i / 4, as (l, 0.5). */
+static int wavelength_sample(void *ctx, uint32_t i, double p[3])
+{
+    (void)ctx;
+    float lambda[SPT_NUM_LAMBDA], pdf[SPT_NUM_LAMBDA];
+    spt_sample_wavelengths(test_uniform(((uint64_t)8 << 40) + i / SPT_NUM_LAMBDA), lambda, pdf);
+    p[0] = lambda[i % SPT_NUM_LAMBDA];
+    p[1] = 0.5;
+    return 1;
+}
+
+/* The wavelength density at p[0]. */
+static double wavelength_pdf(void *ctx, const double p[3])
+{
+    (void)ctx;
+    return wavelength_pdf_ref(p[0]);
+}
+
+/* Chi-square of the hero wavelengths against the density (every one of the four
+ * is distributed by it); the kernel's pdf equals the density and integrates to 1;
+ * the pdfs returned are those of the wavelengths; the four sit at CDF values
+ * u, u + 1/4, u + 1/2, u + 3/4 (mod 1), so they are stratified. */
+static void test_wavelength_sampling(void **state)
+{
+    (void)state;
+    Chi2Grid g = {0};
+    g.name = "hero wavelengths";
+    g.domain = CHI2_PLANE;
+    g.x0 = 360.0;
+    g.x1 = 830.0;
+    g.y0 = 0.0;
+    g.y1 = 1.0;
+    g.res_x = 235;
+    g.res_y = 1;
+    g.num_tests = SAMPLING_CHI2_TESTS;
+    g.sample = wavelength_sample;
+    g.pdf = wavelength_pdf;
+    Chi2Result r;
+    chi2_grid_run(&g, &r);
+    require_pass(&r);
+    assert_close(r.integral, 1.0, 1e-9);
+    /* The kernel's pdf: pointwise, and its integral (Simpson, 0.1 nm). */
+    double sum = 0.0;
+    for (int j = 0; j <= 4700; j++) {
+        double l = 360.0 + 0.1 * j;
+        float pk = spt_wavelength_pdf((float)l);
+        assert_close_rel(pk, wavelength_pdf_ref((float)l), 1e-4);
+        sum += (j == 0 || j == 4700 ? 1.0 : (j % 2 ? 4.0 : 2.0)) * pk;
+    }
+    assert_close(sum * 0.1 / 3.0, 1.0, 1e-4);
+    assert_close(spt_wavelength_pdf(359.0f), 0.0, 0.0);
+    assert_close(spt_wavelength_pdf(831.0f), 0.0, 0.0);
+    for (uint32_t i = 0; i < 1000; i++) {
+        float lambda[SPT_NUM_LAMBDA], pdf[SPT_NUM_LAMBDA];
+        float u = test_uniform(((uint64_t)9 << 40) + i);
+        spt_sample_wavelengths(u, lambda, pdf);
+        for (int k = 0; k < SPT_NUM_LAMBDA; k++) {
+            assert_close_rel(pdf[k], wavelength_pdf_ref(lambda[k]), 1e-4);
+            /* The CDF at lambda (tanh closed form) is (u + k/4) mod 1, up to the
+             * wrap-around (circular distance). */
+            double cdf = (tanh(0.0072 * (lambda[k] - 538.0)) - tanh(0.0072 * (360.0 - 538.0))) /
+                         (tanh(0.0072 * (830.0 - 538.0)) - tanh(0.0072 * (360.0 - 538.0)));
+            double want = fmod((double)u + (double)k / SPT_NUM_LAMBDA, 1.0);
+            double dist = fabs(cdf - want);
+            dist = fmin(dist, 1.0 - dist);
+            if (!(dist < 1e-4))
+                fail_msg("u = %.7f, wavelength %d = %.4f nm: CDF %.6f, expected %.6f", u, k,
+                         lambda[k], cdf, want);
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -630,6 +718,7 @@ int main(void)
         cmocka_unit_test(test_distrib_edges),
         cmocka_unit_test(test_discrete_matches_linear_scan),
         cmocka_unit_test(test_distrib_large),
+        cmocka_unit_test(test_wavelength_sampling),
     };
     return cmocka_run_group_tests_name("sampling", tests, NULL, NULL);
 }
