@@ -354,6 +354,25 @@ static void test_output_check_failures(void **state)
     assert_non_null(strstr(e.msg, under_file));
     assert_non_null(strstr(e.msg, "not a folder"));
 
+    /* Sizes, once the resolution is known. */
+    assert_int_equal(image_output_check_size(in_dir("a.exr"), 100000, 2, &e), SPT_EXIT_OK);
+    assert_int_equal(image_output_check_size(in_dir("a.jpg"), 65500, 65500, &e), SPT_EXIT_OK);
+    assert_int_equal(image_output_check_size(in_dir("a.jpg"), 65501, 1, &e), SPT_EXIT_OUTPUT);
+    assert_int_equal(image_output_check_size(in_dir("a.png"), 0, 5, &e), SPT_EXIT_OUTPUT);
+    assert_int_equal(image_output_check_size(in_dir("a.gif"), 5, 5, &e), SPT_EXIT_USAGE);
+
+    /* Bad checkpoint definitions are refused before any file is made. */
+    float one = 1.0f;
+    ExrChannel twice[2] = {{"n", SPT_EXR_FLOAT, &one, 1}, {"n", SPT_EXR_FLOAT, &one, 1}};
+    assert_int_equal(exr_write_layers(in_dir("twice.exr"), 1, 1, twice, 2, NULL, 0, &e),
+                     SPT_EXIT_OUTPUT);
+    assert_non_null(strstr(e.msg, "given twice"));
+
+    ImageMeta meta = {0};
+    for (int i = 0; i < SPT_IMAGE_META_MAX_EXTRA; ++i)
+        assert_int_equal(image_meta_add(&meta, "k", "v"), 0);
+    assert_int_equal(image_meta_add(&meta, "k", "v"), -1);
+
     assert_int_equal(mkdir(in_dir("folder.png"), 0755), 0);
     assert_int_equal(image_output_check(in_dir("folder.png"), &e), SPT_EXIT_OUTPUT);
     assert_non_null(strstr(e.msg, "is a folder"));
