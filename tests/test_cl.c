@@ -348,6 +348,28 @@ static void test_no_platform_says_how_to_install(void **state)
     assert_int_equal(count_lines(out), 1);
 }
 
+static void test_devices_command_lists_and_marks(void **state)
+{
+    (void)state;
+    const char *exe = getenv("SPECTRACE_EXE");
+    if (!exe || access(exe, X_OK) != 0)
+        skip(); /* only under tests/run_tests.sh, which builds the program */
+    char cmd[5000], out[8192], want[600];
+    snprintf(cmd, sizeof cmd, "'%s' devices --device 0 2>&1", exe);
+    assert_int_equal(run_capture(cmd, out, sizeof out), 0);
+    snprintf(want, sizeof want, " *[0] %s\n", g_list.devices[0].name);
+    if (!strstr(out, want) || !strstr(out, "selected: 0\n") || !strstr(out, "fp64 "))
+        fail_msg("spectrace devices printed:\n%s", out);
+    snprintf(cmd, sizeof cmd, "'%s' devices --device %d 2>&1", exe, g_list.count);
+    assert_int_equal(run_capture(cmd, out, sizeof out), SPT_EXIT_DEVICE);
+    /* The listing, then exactly one error line at the end. */
+    const char *err = strstr(out, "error: ");
+    assert_non_null(err);
+    assert_non_null(strstr(err, "out of range"));
+    assert_int_equal(count_lines(err), 1);
+    assert_non_null(strstr(out, "  [0] "));
+}
+
 /* ---- sources and builds ------------------------------------------------------ */
 
 static void test_includes_resolve_once_with_line_markers(void **state)
@@ -757,6 +779,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_select_no_match_lists_devices),
         cmocka_unit_test(test_two_pocl_devices_all_and_lists),
         cmocka_unit_test(test_no_platform_says_how_to_install),
+        cmocka_unit_test(test_devices_command_lists_and_marks),
         cmocka_unit_test(test_includes_resolve_once_with_line_markers),
         cmocka_unit_test(test_embedded_sources_resolve),
         cmocka_unit_test(test_build_error_reports_device_and_log),
