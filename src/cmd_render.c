@@ -30,8 +30,9 @@ static const char render_usage[] =
     "                         light, ...; -1 unlimited, ended by Russian roulette (default -1)\n"
     "      --seed S           random seed (default 0); the same seed on the same device\n"
     "                         gives the same image bit for bit\n"
-    "      --device SEL       OpenCL device: index, name substring, cpu or gpu\n"
-    "                         (default: SPECTRACE_DEVICE, else the first GPU, else CPU)\n"
+    "      --device SEL       OpenCL device(s): index, name substring, cpu or gpu, a comma\n"
+    "                         list, or all (default: SPECTRACE_DEVICE, else the first GPU,\n"
+    "                         else the CPU); several devices share the samples\n"
     "      --exposure EV      display outputs (PNG, JPEG) are scaled by 2^EV\n"
     "      --tonemap MODE     display tone map: none (default) or neutral (Khronos PBR Neutral)\n"
     "      --profile          time the kernel stages and print where the time went\n"
@@ -217,9 +218,14 @@ int cmd_render(int argc, char **argv)
         spt_report(&e);
         goto done;
     }
-    const ClDeviceInfo *dev = &devices.devices[sel[0]];
-    if (!quiet)
-        fprintf(stderr, "device: %s (%s, %s)\n", dev->name, dev->platform_name, dev->driver_version);
+    const ClDeviceInfo *devs[64];
+    for (int i = 0; i < nsel; i++) {
+        devs[i] = &devices.devices[sel[i]];
+        if (!quiet)
+            fprintf(stderr, "device %d: %s (%s, %s)\n", sel[i], devs[i]->name,
+                    devs[i]->platform_name, devs[i]->driver_version);
+    }
+    const ClDeviceInfo *dev = devs[0];
     if ((rc = gpu_scene_build(&gpu, &scene, &e))) {
         spt_report(&e);
         goto done;
@@ -246,7 +252,8 @@ int cmd_render(int argc, char **argv)
     sigaction(SIGTERM, &sa, &old_term);
     film_init(&film, rs.width, rs.height);
     RenderStats st;
-    rc = render_device(dev, &gpu, cam, &rs, &film, &st, &e);
+    RenderDeviceStats per_dev[64];
+    rc = render_devices(devs, nsel, &gpu, cam, &rs, &film, &st, per_dev, &e);
     sigaction(SIGINT, &old_int, NULL);
     sigaction(SIGTERM, &old_term, NULL);
     if (rc) {
@@ -285,8 +292,22 @@ int cmd_render(int argc, char **argv)
     memset(&meta, 0, sizeof meta);
     meta.spp = (int)st.spp_done;
     meta.render_seconds = st.seconds;
-    char devdesc[600], depth_s[32], nan_s[32];
-    snprintf(devdesc, sizeof devdesc, "%s (%s)", dev->name, dev->platform_name);
+    char devdesc[4096], depth_s[32], nan_s[32];
+    if (nsel == 1) {
+        snprintf(devdesc, sizeof devdesc, "%s (%s)", dev->name, dev->platform_name);
+    } else {
+        /* Every device with the samples it rendered and its speed. */
+        size_t len = 0;
+        devdesc[0] = 0;
+        for (int i = 0; i < nsel && len < sizeof devdesc; i++)
+            len += (size_t)snprintf(devdesc + len, sizeof devdesc - len,
+                                    "%s%s (%s): %u spp, %.3f Mpaths/s%s", i ? "; " : "",
+                                    devs[i]->name, devs[i]->platform_name, per_dev[i].samples,
+                                    per_dev[i].paths_per_second * 1e-6,
+                                    per_dev[i].failed ? ", failed" : "");
+        if (!quiet)
+            fprintf(stderr, "devices: %s\n", devdesc);
+    }
     meta.device = devdesc;
     meta.seed = (uint32_t)seed;
     meta.scene = scene_path;

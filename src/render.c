@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <pthread.h>
 #include <unistd.h>
 
 #include "../kernels/cie_data.h"
@@ -465,94 +466,300 @@ static int run_kernel(Wavefront *w, int k, size_t n, double *acc, SptError *e)
     return 0;
 }
 
-static int render_chunks(Wavefront *w, const GpuScene *g, const SceneCamera *cam,
-                         const RenderSettings *rs, Film *film, RenderStats *st, SptError *e)
+/* Renders samples [sample_begin, sample_begin + n) of every pixel on w and adds
+ * their per-pixel sums to film. */
+static int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, uint32_t n,
+                        int profile, float *sums, Film *film, RenderStats *st, SptError *e)
 {
+    RenderParams p = *base;
+    uint32_t npix = (uint32_t)(p.width * p.height);
+    p.sample_begin = sample_begin;
+    p.work_begin = 0;
+    p.work_end = n * npix;
+    cl_uint counters[SPT_CNT_COUNT] = {0};
+    SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0, sizeof counters,
+                                         counters, 0, NULL, NULL));
+    int rc;
+    for (int k = 0; k < K_COUNT; k++)
+        if ((rc = set_args(w->k[k], &w->b, &p, e)))
+            return rc;
+    double *acc = profile ? st->stage_seconds : NULL;
+    for (;;) {
+        static const cl_uint two_zeros[2] = {0, 0};
+        SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_FALSE, 0,
+                                             sizeof two_zeros, two_zeros, 0, NULL, NULL));
+        if ((rc = run_kernel(w, K_GENERATE, w->pool, acc ? acc + 0 : NULL, e)) ||
+            (rc = run_kernel(w, K_EXTEND, w->pool, acc ? acc + 1 : NULL, e)) ||
+            (rc = run_kernel(w, K_SHADE, w->pool, acc ? acc + 2 : NULL, e)) ||
+            (rc = run_kernel(w, K_CONNECT, w->pool, acc ? acc + 3 : NULL, e)))
+            return rc;
+        SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0,
+                                            sizeof counters, counters, 0, NULL, NULL));
+        st->rays_extend += counters[SPT_CNT_EXTEND];
+        st->rays_shadow += counters[SPT_CNT_SHADOW];
+        if (counters[SPT_CNT_DONE] >= p.work_end)
+            break;
+    }
+    if ((rc = run_kernel(w, K_ACCUMULATE, npix, acc ? acc + 4 : NULL, e)))
+        return rc;
+    SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.chunk_sum, CL_TRUE, 0,
+                                        (size_t)npix * 16, sums, 0, NULL, NULL));
+    film_add_chunk(film, sums);
+    st->nan_dropped += counters[SPT_CNT_NAN];
+    st->paths += p.work_end;
+    return 0;
+}
+
+/* Hands out chunks of sample indices to the devices, in order, and takes back
+ * the chunks of devices that failed. Every field is guarded by lock. */
+typedef struct Scheduler {
+    pthread_mutex_t lock;
+    const RenderSettings *rs;
+    uint32_t next;            /* next sample index (relative to sample_begin) to hand out */
+    uint32_t total;           /* samples per pixel asked for */
+    uint32_t *ret_begin, *ret_n; /* chunks given back by failed devices */
+    int active;               /* workers rendering a chunk right now */
+    int ret_count;
+    unsigned char *done;      /* per relative sample index: rendered into a film */
+    uint32_t done_count;
+    uint64_t paths;
+    double t0;
+    int decile;
+} Scheduler;
+
+/* Takes up to want samples into [*begin, *begin + *n); 0 when nothing is left or
+ * the render must stop (signal, time limit). */
+static int sched_take(Scheduler *s, uint32_t want, uint32_t *begin, uint32_t *n)
+{
+    int ok = 0;
+    const RenderSettings *rs = s->rs;
+    pthread_mutex_lock(&s->lock);
+    /* Nothing to hand out while another device still renders: wait, since a
+     * failure there gives its chunk back. */
+    while (s->ret_count == 0 && s->next >= s->total && s->active > 0 && !(rs->stop && *rs->stop)) {
+        pthread_mutex_unlock(&s->lock);
+        usleep(2000);
+        pthread_mutex_lock(&s->lock);
+    }
+    int stopping = (rs->stop && *rs->stop) ||
+                   (rs->time_limit > 0 && spt_now() - s->t0 >= rs->time_limit);
+    if (!stopping) {
+        if (s->ret_count > 0) {
+            s->ret_count--;
+            *begin = s->ret_begin[s->ret_count];
+            *n = s->ret_n[s->ret_count];
+            ok = 1;
+        } else if (s->next < s->total) {
+            *begin = s->next;
+            *n = s->total - s->next < want ? s->total - s->next : want;
+            s->next += *n;
+            ok = 1;
+        }
+    }
+    s->active += ok;
+    pthread_mutex_unlock(&s->lock);
+    return ok;
+}
+
+static void sched_give_back(Scheduler *s, uint32_t begin, uint32_t n)
+{
+    pthread_mutex_lock(&s->lock);
+    s->ret_begin = spt_realloc(s->ret_begin, (size_t)(s->ret_count + 1) * sizeof(uint32_t));
+    s->ret_n = spt_realloc(s->ret_n, (size_t)(s->ret_count + 1) * sizeof(uint32_t));
+    s->ret_begin[s->ret_count] = begin;
+    s->ret_n[s->ret_count] = n;
+    s->ret_count++;
+    s->active--;
+    pthread_mutex_unlock(&s->lock);
+}
+
+static void sched_done(Scheduler *s, uint32_t begin, uint32_t n, uint64_t paths)
+{
+    pthread_mutex_lock(&s->lock);
+    for (uint32_t i = 0; i < n; i++)
+        s->done[begin + i] = 1;
+    s->done_count += n;
+    s->active--;
+    s->paths += paths;
+    progress_print(s->rs, s->done_count, s->total, spt_now() - s->t0, s->paths, &s->decile);
+    pthread_mutex_unlock(&s->lock);
+}
+
+/* Test hooks, documented in README.md ("Several devices"): SPECTRACE_TEST_FAIL_DEVICE
+ * = "I:N" makes the I-th selected device fail when it starts its (N+1)-th chunk;
+ * SPECTRACE_TEST_SLOW_DEVICE = "I:MS" delays each of its chunks by MS ms. */
+static int test_hook(const char *name, int device, int *value)
+{
+    const char *v = getenv(name);
+    int d, x;
+    if (!v || sscanf(v, "%d:%d", &d, &x) != 2 || d != device)
+        return 0;
+    *value = x;
+    return 1;
+}
+
+typedef struct Worker {
+    int index;                 /* position in the selection */
+    const ClDeviceInfo *info;
+    const GpuScene *g;
+    const SceneCamera *cam;
+    Scheduler *s;
+    Film film;
+    RenderStats st;
+    double busy_seconds;       /* time spent rendering chunks */
+    uint32_t samples;          /* samples per pixel it rendered */
+    int rc;
+    SptError e;
+    char *build_log;
+} Worker;
+
+static void *worker_main(void *arg)
+{
+    Worker *wk = arg;
+    const RenderSettings *rs = wk->s->rs;
+    Wavefront w;
+    wk->rc = wavefront_create(&w, wk->info, wk->g, rs, &wk->e);
+    wk->st.build_seconds = w.dev.last_build_seconds;
+    if (wk->rc) {
+        if (w.dev.build_log)
+            wk->build_log = spt_strdup(w.dev.build_log);
+        wavefront_free(&w);
+        return NULL;
+    }
     RenderParams p;
     memset(&p, 0, sizeof p);
-    camera_params(&p, cam, rs->width, rs->height);
+    camera_params(&p, wk->cam, rs->width, rs->height);
     p.width = rs->width;
     p.height = rs->height;
     p.seed = rs->seed;
     p.max_depth = rs->max_depth;
-    p.pool_size = w->pool;
-    p.emitter_count = g->emitter_count;
-    p.emitter_total = (float)g->emitter_distrib.total;
-    p.node_count = g->bvh.node_count;
+    p.pool_size = w.pool;
+    p.emitter_count = wk->g->emitter_count;
+    p.emitter_total = (float)wk->g->emitter_distrib.total;
+    p.node_count = wk->g->bvh.node_count;
     p.rr_depth = 3;
-    uint32_t npix = (uint32_t)(rs->width * rs->height);
-    float *sums = spt_malloc((size_t)npix * 4 * sizeof(float));
-    double t0 = spt_now();
-    uint32_t done = 0;
-    int rc = 0, decile = -1;
-    while (done < (uint32_t)rs->spp) {
-        if (rs->stop && *rs->stop)
-            break;
-        if (rs->time_limit > 0 && spt_now() - t0 >= rs->time_limit)
-            break;
-        uint32_t n = (uint32_t)rs->spp - done;
-        if (n > w->chunk_spp)
-            n = w->chunk_spp;
-        p.sample_begin = rs->sample_begin + done;
-        p.work_begin = 0;
-        p.work_end = n * npix;
-        cl_uint counters[SPT_CNT_COUNT] = {0};
-        SPT_CL_CHECK_GOTO(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0,
-                                                  sizeof counters, counters, 0, NULL, NULL),
-                          rc, out);
-        for (int k = 0; k < K_COUNT; k++)
-            if ((rc = set_args(w->k[k], &w->b, &p, e)))
-                goto out;
-        for (;;) {
-            static const cl_uint two_zeros[2] = {0, 0};
-            SPT_CL_CHECK_GOTO(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_FALSE, 0,
-                                                      sizeof two_zeros, two_zeros, 0, NULL, NULL),
-                              rc, out);
-            double *acc = rs->profile ? st->stage_seconds : NULL;
-            if ((rc = run_kernel(w, K_GENERATE, w->pool, acc ? acc + 0 : NULL, e)) ||
-                (rc = run_kernel(w, K_EXTEND, w->pool, acc ? acc + 1 : NULL, e)) ||
-                (rc = run_kernel(w, K_SHADE, w->pool, acc ? acc + 2 : NULL, e)) ||
-                (rc = run_kernel(w, K_CONNECT, w->pool, acc ? acc + 3 : NULL, e)))
-                goto out;
-            SPT_CL_CHECK_GOTO(e, clEnqueueReadBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0,
-                                                     sizeof counters, counters, 0, NULL, NULL),
-                              rc, out);
-            st->rays_extend += counters[SPT_CNT_EXTEND];
-            st->rays_shadow += counters[SPT_CNT_SHADOW];
-            if (counters[SPT_CNT_DONE] >= p.work_end)
-                break;
+    float *sums = spt_malloc((size_t)rs->width * rs->height * 4 * sizeof(float));
+    int fail_after = -1, slow_ms = 0, chunks = 0;
+    test_hook("SPECTRACE_TEST_FAIL_DEVICE", wk->index, &fail_after);
+    test_hook("SPECTRACE_TEST_SLOW_DEVICE", wk->index, &slow_ms);
+    uint32_t begin, n;
+    while (sched_take(wk->s, w.chunk_spp, &begin, &n)) {
+        double t = spt_now();
+        if (chunks == fail_after) {
+            wk->rc = spt_fail(&wk->e, SPT_EXIT_DEVICE, "injected failure (SPECTRACE_TEST_FAIL_DEVICE)");
+        } else {
+            if (slow_ms > 0)
+                usleep((useconds_t)slow_ms * 1000u);
+            uint64_t before = wk->st.paths;
+            wk->rc = render_chunk(&w, &p, rs->sample_begin + begin, n, rs->profile, sums,
+                                  &wk->film, &wk->st, &wk->e);
+            if (!wk->rc) {
+                wk->busy_seconds += spt_now() - t;
+                wk->samples += n;
+                sched_done(wk->s, begin, n, wk->st.paths - before);
+            }
         }
-        if ((rc = run_kernel(w, K_ACCUMULATE, npix, rs->profile ? st->stage_seconds + 4 : NULL, e)))
-            goto out;
-        SPT_CL_CHECK_GOTO(e, clEnqueueReadBuffer(w->dev.queue, w->b.chunk_sum, CL_TRUE, 0,
-                                                 (size_t)npix * 16, sums, 0, NULL, NULL),
-                          rc, out);
-        film_add_chunk(film, sums);
-        st->nan_dropped += counters[SPT_CNT_NAN];
-        st->paths += p.work_end;
-        done += n;
-        progress_print(rs, done, (uint32_t)rs->spp, spt_now() - t0, st->paths, &decile);
+        if (wk->rc) {
+            sched_give_back(wk->s, begin, n);
+            break;
+        }
+        chunks++;
     }
-    st->spp_done = done;
-    st->seconds = spt_now() - t0;
-    if (rs->progress && isatty(2) && done > 0)
-        fputc('\n', stderr);
-out:
     free(sums);
+    wavefront_free(&w);
+    return NULL;
+}
+
+int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
+                   const SceneCamera *cam, const RenderSettings *rs, Film *film,
+                   RenderStats *stats, RenderDeviceStats *per_device, SptError *e)
+{
+    memset(stats, 0, sizeof *stats);
+    Scheduler s;
+    memset(&s, 0, sizeof s);
+    pthread_mutex_init(&s.lock, NULL);
+    s.rs = rs;
+    s.total = rs->spp > 0 ? (uint32_t)rs->spp : 0;
+    s.done = spt_calloc(s.total ? s.total : 1, 1);
+    s.decile = -1;
+    s.t0 = spt_now();
+    Worker *wk = spt_calloc((size_t)count, sizeof(Worker));
+    pthread_t *th = spt_calloc((size_t)count, sizeof(pthread_t));
+    for (int i = 0; i < count; i++) {
+        wk[i].index = i;
+        wk[i].info = infos[i];
+        wk[i].g = g;
+        wk[i].cam = cam;
+        wk[i].s = &s;
+        film_init(&wk[i].film, rs->width, rs->height);
+    }
+    if (count == 1) {
+        worker_main(&wk[0]);
+    } else {
+        for (int i = 0; i < count; i++)
+            pthread_create(&th[i], NULL, worker_main, &wk[i]);
+        for (int i = 0; i < count; i++)
+            pthread_join(th[i], NULL);
+    }
+    stats->seconds = spt_now() - s.t0;
+    if (rs->progress && isatty(2) && s.done_count > 0)
+        fputc('\n', stderr);
+    int failed = 0, rc = 0;
+    for (int i = 0; i < count; i++) {
+        film_add(film, &wk[i].film);
+        stats->paths += wk[i].st.paths;
+        stats->rays_extend += wk[i].st.rays_extend;
+        stats->rays_shadow += wk[i].st.rays_shadow;
+        stats->nan_dropped += wk[i].st.nan_dropped;
+        if (wk[i].st.build_seconds > stats->build_seconds)
+            stats->build_seconds = wk[i].st.build_seconds;
+        for (int k = 0; k < 5; k++)
+            stats->stage_seconds[k] += wk[i].st.stage_seconds[k];
+        if (per_device) {
+            per_device[i].samples = wk[i].samples;
+            per_device[i].paths_per_second =
+                wk[i].busy_seconds > 0 ? wk[i].st.paths / wk[i].busy_seconds : 0.0;
+            per_device[i].failed = wk[i].rc != 0;
+        }
+        if (wk[i].rc) {
+            failed++;
+            if (count > 1)
+                spt_warn("device %d (%s) dropped: %s%s", i, infos[i]->name, wk[i].e.msg,
+                         wk[i].build_log ? " (build log follows)" : "");
+            if (wk[i].build_log)
+                fprintf(stderr, "%s\n", wk[i].build_log);
+            if (!rc) {
+                rc = wk[i].rc;
+                *e = wk[i].e;
+            }
+        }
+    }
+    int stopped = (rs->stop && *rs->stop) ||
+                  (rs->time_limit > 0 && spt_now() - s.t0 >= rs->time_limit);
+    if (failed == count && count > 1)
+        rc = spt_fail(e, SPT_EXIT_DEVICE, "every device failed; the last error: %s", e->msg);
+    else if (failed < count && s.done_count < s.total && !stopped)
+        rc = spt_fail(e, SPT_EXIT_FAILURE, "render incomplete: %u of %u samples per pixel done",
+                      s.done_count, s.total);
+    else if (failed < count)
+        rc = 0; /* the other devices carried the render to its end */
+    stats->spp_done = s.done_count;
+    for (int i = 0; i < count; i++) {
+        film_free(&wk[i].film);
+        free(wk[i].build_log);
+    }
+    free(wk);
+    free(th);
+    free(s.done);
+    free(s.ret_begin);
+    free(s.ret_n);
+    pthread_mutex_destroy(&s.lock);
     return rc;
 }
 
 int render_device(const ClDeviceInfo *info, const GpuScene *g, const SceneCamera *cam,
                   const RenderSettings *rs, Film *film, RenderStats *stats, SptError *e)
 {
-    Wavefront w;
-    memset(stats, 0, sizeof *stats);
-    int rc = wavefront_create(&w, info, g, rs, e);
-    stats->build_seconds = w.dev.last_build_seconds;
-    if (!rc)
-        rc = render_chunks(&w, g, cam, rs, film, stats, e);
-    if (rc && w.dev.build_log)
-        cl_device_report(&w.dev, e), e->code = rc, e->msg[0] = 0;
-    wavefront_free(&w);
-    return rc;
+    const ClDeviceInfo *one[1] = {info};
+    return render_devices(one, 1, g, cam, rs, film, stats, NULL, e);
 }

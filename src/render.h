@@ -67,6 +67,23 @@ void gpu_scene_free(GpuScene *g);
 /* Bytes of device memory the scene arrays need (for `info` and limit checks). */
 size_t gpu_scene_bytes(const GpuScene *g);
 
+/* What one device of a multi-device render did. */
+typedef struct RenderDeviceStats {
+    uint32_t samples;        /* samples per pixel it rendered */
+    double paths_per_second; /* while rendering */
+    int failed;              /* dropped after an error */
+} RenderDeviceStats;
+
+/* Renders on count devices at once: each has its own context, program, path
+ * pool and film, and takes chunks of samples from a shared counter, so a faster
+ * device takes more; a device that fails is dropped with one warning and its
+ * chunk goes back to the others. The films are summed in double precision.
+ * per_device (may be NULL) receives count entries. Fails only when every
+ * device failed. */
+int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
+                   const SceneCamera *cam, const RenderSettings *rs, Film *film,
+                   RenderStats *stats, RenderDeviceStats *per_device, SptError *e);
+
 /* Renders samples [rs->sample_begin, rs->sample_begin + rs->spp) of every pixel
  * of g with camera cam on device info, adding them to film (which must be
  * rs->width x rs->height). Stops early, at a chunk boundary, when rs->stop is set

@@ -1,0 +1,151 @@
+/* Several devices in one process (issue "Scale"): PoCL exposes two CPU devices of
+ * one compute unit each (POCL_DEVICES="pthread pthread", set before any OpenCL
+ * call). The image must not depend on how the samples were split. */
+#include "test_util.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "cl_device.h"
+#include "film.h"
+#include "render.h"
+#include "scene.h"
+
+static ClDeviceList devices;
+static Scene scene;
+static GpuScene gpu;
+
+static int setup(void **state)
+{
+    (void)state;
+    SptError e = {0};
+    if (cl_device_list(&devices, &e) || devices.count < 2) {
+        fprintf(stderr, "need two PoCL devices: %s\n", e.msg);
+        return -1;
+    }
+    if (scene_load_gltf(&scene, "scenes/cornell_box.gltf", &e) || gpu_scene_build(&gpu, &scene, &e)) {
+        fprintf(stderr, "%s\n", e.msg);
+        return -1;
+    }
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    gpu_scene_free(&gpu);
+    scene_free(&scene);
+    cl_device_list_free(&devices);
+    return 0;
+}
+
+/* Renders the Cornell box at 24x24, 32 spp on the devices listed in `which`. */
+static int render_on(const int *which, int n, Film *film, RenderDeviceStats *per, SptError *e)
+{
+    const ClDeviceInfo *infos[4];
+    for (int i = 0; i < n; i++)
+        infos[i] = &devices.devices[which[i]];
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = rs.height = 24;
+    rs.spp = 32;
+    rs.max_depth = -1;
+    rs.seed = 11;
+    film_init(film, rs.width, rs.height);
+    RenderStats st;
+    return render_devices(infos, n, &gpu, &scene.camera, &rs, film, &st, per, e);
+}
+
+/* Every pixel's XYZ means agree within 1e-4 of the pixel's largest channel. */
+static void assert_same_image(const Film *a, const Film *b)
+{
+    size_t n = (size_t)a->width * a->height;
+    for (size_t i = 0; i < n; i++) {
+        assert_true(a->count[i] == b->count[i]);
+        double m = 1e-12;
+        for (int c = 0; c < 3; c++)
+            m = fmax(m, fabs(a->xyz[3 * i + c]));
+        for (int c = 0; c < 3; c++)
+            if (fabs(a->xyz[3 * i + c] - b->xyz[3 * i + c]) > 1e-4 * m)
+                fail_msg("pixel %zu channel %d: %.9g vs %.9g", i, c, a->xyz[3 * i + c],
+                         b->xyz[3 * i + c]);
+    }
+}
+
+static void test_split_invariance(void **state)
+{
+    (void)state;
+    Film one, two;
+    SptError e = {0};
+    RenderDeviceStats per[2];
+    const int d0[1] = {0}, d01[2] = {0, 1};
+    assert_int_equal(render_on(d0, 1, &one, NULL, &e), 0);
+    assert_int_equal(render_on(d01, 2, &two, per, &e), 0);
+    printf("two devices: %u and %u spp\n", per[0].samples, per[1].samples);
+    assert_int_equal(per[0].samples + per[1].samples, 32);
+    assert_true(per[0].samples > 0 && per[1].samples > 0);
+    assert_same_image(&one, &two);
+    film_free(&one);
+    film_free(&two);
+}
+
+/* A device slowed down by the test hook takes fewer chunks. */
+static void test_balance(void **state)
+{
+    (void)state;
+    Film f;
+    SptError e = {0};
+    RenderDeviceStats per[2];
+    const int d01[2] = {0, 1};
+    setenv("SPECTRACE_TEST_SLOW_DEVICE", "1:300", 1);
+    int rc = render_on(d01, 2, &f, per, &e);
+    unsetenv("SPECTRACE_TEST_SLOW_DEVICE");
+    assert_int_equal(rc, 0);
+    printf("fast device %u spp, slowed device %u spp\n", per[0].samples, per[1].samples);
+    assert_true(per[1].samples < per[0].samples);
+    assert_int_equal(per[0].samples + per[1].samples, 32);
+    film_free(&f);
+}
+
+/* A device failing after its first chunk is dropped; its chunk goes to the other
+ * and the image equals the one-device image. */
+static void test_device_failure(void **state)
+{
+    (void)state;
+    Film one, f;
+    SptError e = {0};
+    RenderDeviceStats per[2];
+    const int d0[1] = {0}, d01[2] = {0, 1};
+    assert_int_equal(render_on(d0, 1, &one, NULL, &e), 0);
+    setenv("SPECTRACE_TEST_FAIL_DEVICE", "1:1", 1);
+    int rc = render_on(d01, 2, &f, per, &e);
+    unsetenv("SPECTRACE_TEST_FAIL_DEVICE");
+    assert_int_equal(rc, 0);
+    assert_true(per[1].failed);
+    assert_false(per[0].failed);
+    assert_same_image(&one, &f);
+    film_free(&one);
+    film_free(&f);
+    /* Both failing: the render fails. */
+    setenv("SPECTRACE_TEST_FAIL_DEVICE", "0:0", 1);
+    const int d0only[1] = {0};
+    rc = render_on(d0only, 1, &f, per, &e);
+    unsetenv("SPECTRACE_TEST_FAIL_DEVICE");
+    assert_int_equal(rc, SPT_EXIT_DEVICE);
+    film_free(&f);
+}
+
+int main(void)
+{
+    /* Two PoCL CPU devices of one compute unit each, and small chunks (a small
+     * path pool) so the work splits into many chunks. */
+    setenv("POCL_DEVICES", "pthread pthread", 1);
+    setenv("POCL_MAX_PTHREAD_COUNT", "1", 1);
+    setenv("SPECTRACE_POOL", "512", 1);
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_split_invariance),
+        cmocka_unit_test(test_balance),
+        cmocka_unit_test(test_device_failure),
+    };
+    return cmocka_run_group_tests_name("multidevice", tests, setup, teardown);
+}
