@@ -407,12 +407,65 @@ int Loader::diagnose_parse_failure(const unsigned char *json, size_t size, const
     if (!j.contains("asset") || !j["asset"].is_object()) return bad("asset: missing");
     if (!j["asset"].contains("version") || !j["asset"]["version"].is_string())
         return bad("asset.version: missing");
+    // Top-level arrays whose elements must be objects, and the properties tinygltf
+    // requires of them ('n': a number, 's': a string, 'a': an array).
+    static const struct {
+        const char *array, *props;
+    } k_required[] = {
+        {"accessors", "componentType:n count:n type:s"}, {"buffers", "byteLength:n"},
+        {"bufferViews", "buffer:n byteLength:n"},        {"meshes", "primitives:a"},
+        {"cameras", "type:s"},                           {"nodes", ""},
+        {"materials", ""},                               {"images", ""},
+        {"textures", ""},                                {"samplers", ""},
+        {"scenes", ""},                                  {"skins", ""},
+        {"animations", ""},
+    };
+    for (const auto &r : k_required) {
+        if (!j.contains(r.array)) continue;
+        const auto &arr = j[r.array];
+        if (!arr.is_array()) return bad("%s: not a JSON array", r.array);
+        for (size_t i = 0; i < arr.size(); i++) {
+            if (!arr[i].is_object()) return bad("%s[%zu]: not a JSON object", r.array, i);
+            std::string props = r.props;
+            size_t p = 0;
+            while (p < props.size()) {
+                size_t sp = props.find(' ', p), colon = props.find(':', p);
+                if (sp == std::string::npos) sp = props.size();
+                std::string key = props.substr(p, colon - p);
+                char kind = props[colon + 1];
+                p = sp + 1;
+                const char *what = kind == 'n' ? "a number" : kind == 's' ? "a string" : "an array";
+                if (!arr[i].contains(key))
+                    return bad("%s[%zu].%s: missing (required)", r.array, i, key.c_str());
+                const auto &v = arr[i][key];
+                if ((kind == 'n' && !v.is_number()) || (kind == 's' && !v.is_string()) ||
+                    (kind == 'a' && !v.is_array()))
+                    return bad("%s[%zu].%s: not %s", r.array, i, key.c_str(), what);
+            }
+        }
+    }
+    if (j.contains("images") && j["images"].is_array())
+        for (size_t i = 0; i < j["images"].size(); i++) {
+            const auto &im = j["images"][i];
+            if (im.contains("uri") && im.contains("bufferView"))
+                return bad("images[%zu]: has both uri and bufferView", i);
+            if (!im.contains("uri") && !im.contains("bufferView"))
+                return bad("images[%zu]: has neither uri nor bufferView", i);
+            if (im.contains("uri") && im["uri"].is_string() &&
+                im["uri"].get<std::string>().compare(0, 5, "data:") == 0 &&
+                err.find("image[" + std::to_string(i) + "]") != std::string::npos)
+                return bad("images[%zu].uri: not a valid base64 data URI", i);
+        }
     if (j.contains("buffers") && j["buffers"].is_array()) {
         for (size_t i = 0; i < j["buffers"].size(); i++) {
             const auto &b = j["buffers"][i];
             if (!b.is_object() || !b.contains("uri") || !b["uri"].is_string()) continue;
             std::string uri = b["uri"];
-            if (uri.compare(0, 5, "data:") == 0) continue;
+            if (uri.compare(0, 5, "data:") == 0) {
+                if (err.find("Failed to decode 'uri' : " + uri) != std::string::npos)
+                    return bad("buffers[%zu].uri: not a base64 data URI of byteLength bytes", i);
+                continue;
+            }
             std::string path = dir + "/" + uri_decode(uri);
             struct stat st;
             if (stat(path.c_str(), &st) != 0)

@@ -362,6 +362,10 @@ def bad_files():
     bad("bad_buffer_missing.gltf", lambda d: d["buffers"][0].update(uri="missing.bin"))
     bad("bad_buffer_escape.gltf", lambda d: d["buffers"][0].update(uri="../../../README.md"))
     bad("bad_buffer_size.gltf", lambda d: d["buffers"][0].update(uri="tri_external.bin", byteLength=8))
+    # Required properties and JSON types that tinygltf checks (named by us).
+    bad("bad_accessor_no_type.gltf", set_(["accessors", 2, "componentType"], DELETE))
+    bad("bad_node_not_object.gltf", set_(["nodes", 0], 3))
+    bad("bad_buffer_datauri.gltf", lambda d: d["buffers"][0].update(byteLength=d["buffers"][0]["byteLength"] + 4))
     # Spectral extras.
     def extras(x):
         def f(d):
