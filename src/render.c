@@ -469,7 +469,7 @@ static int run_kernel(Wavefront *w, int k, size_t n, double *acc, SptError *e)
 /* Renders samples [sample_begin, sample_begin + n) of every pixel on w and adds
  * their per-pixel sums to film. */
 static int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, uint32_t n,
-                        int profile, float *sums, Film *film, RenderStats *st, SptError *e)
+                        int profile, float *sums, RenderStats *st, SptError *e)
 {
     RenderParams p = *base;
     uint32_t npix = (uint32_t)(p.width * p.height);
@@ -504,7 +504,6 @@ static int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_
         return rc;
     SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.chunk_sum, CL_TRUE, 0,
                                         (size_t)npix * 16, sums, 0, NULL, NULL));
-    film_add_chunk(film, sums);
     st->nan_dropped += counters[SPT_CNT_NAN];
     st->paths += p.work_end;
     return 0;
@@ -525,6 +524,7 @@ typedef struct Scheduler {
     uint64_t paths;
     double t0;
     int decile;
+    Film *film;               /* every completed chunk is added here */
 } Scheduler;
 
 /* Takes up to want samples into [*begin, *begin + *n); 0 when nothing is left or
@@ -536,7 +536,8 @@ static int sched_take(Scheduler *s, uint32_t want, uint32_t *begin, uint32_t *n)
     pthread_mutex_lock(&s->lock);
     /* Nothing to hand out while another device still renders: wait, since a
      * failure there gives its chunk back. */
-    while (s->ret_count == 0 && s->next >= s->total && s->active > 0 && !(rs->stop && *rs->stop)) {
+    while (s->ret_count == 0 && s->next >= s->total && !rs->take_chunk && s->active > 0 &&
+           !(rs->stop && *rs->stop)) {
         pthread_mutex_unlock(&s->lock);
         usleep(2000);
         pthread_mutex_lock(&s->lock);
@@ -549,11 +550,21 @@ static int sched_take(Scheduler *s, uint32_t want, uint32_t *begin, uint32_t *n)
             *begin = s->ret_begin[s->ret_count];
             *n = s->ret_n[s->ret_count];
             ok = 1;
-        } else if (s->next < s->total) {
-            *begin = s->next;
-            *n = s->total - s->next < want ? s->total - s->next : want;
-            s->next += *n;
-            ok = 1;
+        } else if (rs->take_chunk) {
+            ok = rs->take_chunk(rs->chunk_ctx, want, begin, n);
+        } else {
+            /* The next run of samples not done yet, at most want long. */
+            while (s->next < s->total && s->done[s->next])
+                s->next++;
+            if (s->next < s->total) {
+                uint32_t k = 0;
+                while (k < want && s->next + k < s->total && !s->done[s->next + k])
+                    k++;
+                *begin = s->next;
+                *n = k;
+                s->next += k;
+                ok = 1;
+            }
         }
     }
     s->active += ok;
@@ -564,6 +575,12 @@ static int sched_take(Scheduler *s, uint32_t want, uint32_t *begin, uint32_t *n)
 static void sched_give_back(Scheduler *s, uint32_t begin, uint32_t n)
 {
     pthread_mutex_lock(&s->lock);
+    if (s->rs->give_back) {
+        s->rs->give_back(s->rs->chunk_ctx, begin, n);
+        s->active--;
+        pthread_mutex_unlock(&s->lock);
+        return;
+    }
     s->ret_begin = spt_realloc(s->ret_begin, (size_t)(s->ret_count + 1) * sizeof(uint32_t));
     s->ret_n = spt_realloc(s->ret_n, (size_t)(s->ret_count + 1) * sizeof(uint32_t));
     s->ret_begin[s->ret_count] = begin;
@@ -573,15 +590,18 @@ static void sched_give_back(Scheduler *s, uint32_t begin, uint32_t n)
     pthread_mutex_unlock(&s->lock);
 }
 
-static void sched_done(Scheduler *s, uint32_t begin, uint32_t n, uint64_t paths)
+static void sched_done(Scheduler *s, uint32_t begin, uint32_t n, uint64_t paths, const float *sums)
 {
     pthread_mutex_lock(&s->lock);
+    film_add_chunk(s->film, sums);
     for (uint32_t i = 0; i < n; i++)
         s->done[begin + i] = 1;
     s->done_count += n;
     s->active--;
     s->paths += paths;
     progress_print(s->rs, s->done_count, s->total, spt_now() - s->t0, s->paths, &s->decile);
+    if (s->rs->on_chunk)
+        s->rs->on_chunk(s->rs->on_chunk_ctx, s->film, s->done, s->total);
     pthread_mutex_unlock(&s->lock);
 }
 
@@ -604,7 +624,6 @@ typedef struct Worker {
     const GpuScene *g;
     const SceneCamera *cam;
     Scheduler *s;
-    Film film;
     RenderStats st;
     double busy_seconds;       /* time spent rendering chunks */
     uint32_t samples;          /* samples per pixel it rendered */
@@ -652,11 +671,11 @@ static void *worker_main(void *arg)
                 usleep((useconds_t)slow_ms * 1000u);
             uint64_t before = wk->st.paths;
             wk->rc = render_chunk(&w, &p, rs->sample_begin + begin, n, rs->profile, sums,
-                                  &wk->film, &wk->st, &wk->e);
+                                  &wk->st, &wk->e);
             if (!wk->rc) {
                 wk->busy_seconds += spt_now() - t;
                 wk->samples += n;
-                sched_done(wk->s, begin, n, wk->st.paths - before);
+                sched_done(wk->s, begin, n, wk->st.paths - before, sums);
             }
         }
         if (wk->rc) {
@@ -683,6 +702,13 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
     s.done = spt_calloc(s.total ? s.total : 1, 1);
     s.decile = -1;
     s.t0 = spt_now();
+    s.film = film;
+    if (rs->done_in)
+        for (uint32_t i = 0; i < s.total; i++)
+            if (rs->done_in[i]) {
+                s.done[i] = 1;
+                s.done_count++;
+            }
     Worker *wk = spt_calloc((size_t)count, sizeof(Worker));
     pthread_t *th = spt_calloc((size_t)count, sizeof(pthread_t));
     for (int i = 0; i < count; i++) {
@@ -691,7 +717,6 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
         wk[i].g = g;
         wk[i].cam = cam;
         wk[i].s = &s;
-        film_init(&wk[i].film, rs->width, rs->height);
     }
     if (count == 1) {
         worker_main(&wk[0]);
@@ -706,7 +731,6 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
         fputc('\n', stderr);
     int failed = 0, rc = 0;
     for (int i = 0; i < count; i++) {
-        film_add(film, &wk[i].film);
         stats->paths += wk[i].st.paths;
         stats->rays_extend += wk[i].st.rays_extend;
         stats->rays_shadow += wk[i].st.rays_shadow;
@@ -738,16 +762,14 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
                   (rs->time_limit > 0 && spt_now() - s.t0 >= rs->time_limit);
     if (failed == count && count > 1)
         rc = spt_fail(e, SPT_EXIT_DEVICE, "every device failed; the last error: %s", e->msg);
-    else if (failed < count && s.done_count < s.total && !stopped)
+    else if (failed < count && s.done_count < s.total && !stopped && !rs->take_chunk)
         rc = spt_fail(e, SPT_EXIT_FAILURE, "render incomplete: %u of %u samples per pixel done",
                       s.done_count, s.total);
     else if (failed < count)
         rc = 0; /* the other devices carried the render to its end */
     stats->spp_done = s.done_count;
-    for (int i = 0; i < count; i++) {
-        film_free(&wk[i].film);
+    for (int i = 0; i < count; i++)
         free(wk[i].build_log);
-    }
     free(wk);
     free(th);
     free(s.done);

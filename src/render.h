@@ -24,6 +24,21 @@ typedef struct RenderSettings {
     int progress;            /* print progress to stderr */
     int profile;             /* time the stages with OpenCL profiling events */
     volatile sig_atomic_t *stop; /* when set non-zero: finish the current chunk, stop */
+    /* Optional hooks for other schedulers and for checkpoints (all NULL = off):
+     * - done_in: rs->spp flags, one per relative sample index; samples already in
+     *   the film (a resumed render) are not rendered again.
+     * - take_chunk: hands out the next chunk [*begin, *begin + *n) of relative
+     *   sample indices (at most want), 0 when there is none left; replaces the
+     *   built-in counter (MPI ranks ask rank 0). Called with the scheduler's lock
+     *   held, so calls are serialised. give_back returns a failed device's chunk.
+     * - on_chunk: called with the lock held after every completed chunk, with the
+     *   film (all samples done so far) and the per-sample done flags. */
+    const unsigned char *done_in;
+    int (*take_chunk)(void *ctx, uint32_t want, uint32_t *begin, uint32_t *n);
+    void (*give_back)(void *ctx, uint32_t begin, uint32_t n);
+    void *chunk_ctx;
+    void (*on_chunk)(void *ctx, const Film *film, const unsigned char *done, uint32_t total);
+    void *on_chunk_ctx;
 } RenderSettings;
 
 /* Times and counts of a render. */
@@ -74,10 +89,10 @@ typedef struct RenderDeviceStats {
     int failed;              /* dropped after an error */
 } RenderDeviceStats;
 
-/* Renders on count devices at once: each has its own context, program, path
- * pool and film, and takes chunks of samples from a shared counter, so a faster
- * device takes more; a device that fails is dropped with one warning and its
- * chunk goes back to the others. The films are summed in double precision.
+/* Renders on count devices at once: each has its own context, program and path
+ * pool, and takes chunks of samples from a shared counter, so a faster device
+ * takes more; a device that fails is dropped with one warning and its chunk goes
+ * back to the others. Chunk sums are added to film in double precision.
  * per_device (may be NULL) receives count entries. Fails only when every
  * device failed. */
 int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
