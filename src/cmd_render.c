@@ -1,6 +1,7 @@
 /* spectrace render: load a glTF scene, render it on an OpenCL device, write the
  * outputs. */
 #include <getopt.h>
+#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -35,6 +36,15 @@ static const char render_usage[] =
     "                         else the CPU); several devices share the samples\n"
     "      --exposure EV      display outputs (PNG, JPEG) are scaled by 2^EV\n"
     "      --tonemap MODE     display tone map: none (default) or neutral (Khronos PBR Neutral)\n"
+    "      --env FILE         equirectangular environment map (.hdr, .exr) lighting the scene\n"
+    "      --env-rotation DEG rotate the environment about +Y (default 0)\n"
+    "      --env-intensity X  scale the environment (default 1)\n"
+    "      --background SKY   uniform sky: R,G,B (linear sRGB, upsampled as an illuminant),\n"
+    "                         an SPD (name, blackbody:K, CSV), or black. Default: a scene\n"
+    "                         without lights gets a white (D65, radiance 1) sky\n"
+    "      --aperture R       thin-lens radius in metres (default 0: pinhole)\n"
+    "      --focus-distance D focus distance in metres (default: the distance at the\n"
+    "                         image centre)\n"
     "      --profile          time the kernel stages and print where the time went\n"
     "  -q, --quiet            no progress display\n"
     "  -h, --help             this text\n"
@@ -85,7 +95,7 @@ static void scene_stem(const char *path, char *out, size_t n)
 int cmd_render(int argc, char **argv)
 {
     enum { O_SPP = 256, O_TIME, O_WIDTH, O_HEIGHT, O_DEPTH, O_SEED, O_DEVICE, O_EXPOSURE,
-           O_TONEMAP, O_PROFILE };
+           O_TONEMAP, O_PROFILE, O_ENV, O_ENV_ROT, O_ENV_INT, O_BACKGROUND, O_APERTURE, O_FOCUS };
     static const struct option opts[] = {
         {"output", required_argument, 0, 'o'},  {"spp", required_argument, 0, O_SPP},
         {"time", required_argument, 0, O_TIME}, {"width", required_argument, 0, O_WIDTH},
@@ -93,13 +103,19 @@ int cmd_render(int argc, char **argv)
         {"seed", required_argument, 0, O_SEED}, {"device", required_argument, 0, O_DEVICE},
         {"exposure", required_argument, 0, O_EXPOSURE},
         {"tonemap", required_argument, 0, O_TONEMAP}, {"profile", no_argument, 0, O_PROFILE},
+        {"env", required_argument, 0, O_ENV}, {"env-rotation", required_argument, 0, O_ENV_ROT},
+        {"env-intensity", required_argument, 0, O_ENV_INT},
+        {"background", required_argument, 0, O_BACKGROUND},
+        {"aperture", required_argument, 0, O_APERTURE},
+        {"focus-distance", required_argument, 0, O_FOCUS},
         {"quiet", no_argument, 0, 'q'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
     const char *outputs[16];
     int n_out = 0;
     long spp = 16, width = 0, height = 0, depth = -1, seed = 0;
     double time_limit = 0, exposure = 0;
     int tonemap = SPT_TONEMAP_NONE, quiet = 0, profile = 0, spp_given = 0;
-    const char *device_sel = NULL;
+    const char *device_sel = NULL, *env_path = NULL, *background = NULL;
+    double env_rot = 0, env_int = 1, aperture = 0, focus = 0;
     int c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "o:qh", opts, NULL)) != -1) {
@@ -163,6 +179,28 @@ int cmd_render(int argc, char **argv)
         case O_PROFILE:
             profile = 1;
             break;
+        case O_ENV:
+            env_path = optarg;
+            break;
+        case O_BACKGROUND:
+            background = optarg;
+            break;
+        case O_ENV_ROT:
+        case O_ENV_INT:
+        case O_APERTURE:
+        case O_FOCUS: {
+            double *dst = c == O_ENV_ROT ? &env_rot : c == O_ENV_INT ? &env_int
+                        : c == O_APERTURE ? &aperture : &focus;
+            static const char *names[] = {"env-rotation", "env-intensity", "aperture", "focus-distance"};
+            const char *nm = names[c == O_ENV_ROT ? 0 : c == O_ENV_INT ? 1 : c == O_APERTURE ? 2 : 3];
+            if (parse_double(optarg, dst) || !isfinite(*dst) ||
+                (c != O_ENV_ROT && *dst < 0)) {
+                spt_error("render: --%s '%s': expected a %snumber", nm, optarg,
+                          c == O_ENV_ROT ? "" : "non-negative ");
+                return SPT_EXIT_USAGE;
+            }
+            break;
+        }
         case 'q':
             quiet = 1;
             break;
@@ -243,6 +281,12 @@ int cmd_render(int argc, char **argv)
     rs.seed = (uint32_t)seed;
     rs.progress = !quiet;
     rs.profile = profile;
+    rs.env_path = env_path;
+    rs.env_rotation_deg = (float)env_rot;
+    rs.env_intensity = (float)env_int;
+    rs.background = background;
+    rs.aperture = (float)aperture;
+    rs.focus_distance = (float)focus;
     rs.stop = &stop_requested;
     stop_requested = 0;
     struct sigaction sa, old_int, old_term;

@@ -24,6 +24,13 @@ typedef struct RenderSettings {
     int progress;            /* print progress to stderr */
     int profile;             /* time the stages with OpenCL profiling events */
     volatile sig_atomic_t *stop; /* when set non-zero: finish the current chunk, stop */
+    /* Lighting and camera options of the command line. */
+    const char *env_path;    /* --env: equirectangular HDR/EXR map, NULL = none */
+    float env_rotation_deg;  /* --env-rotation: about +Y */
+    float env_intensity;     /* --env-intensity: scale (default 1) */
+    const char *background;  /* --background: "R,G,B", an SPD, "black", NULL = default */
+    float aperture;          /* --aperture: lens radius in metres, 0 = pinhole */
+    float focus_distance;    /* --focus-distance: metres, 0 = distance at the image centre */
     /* Optional hooks for other schedulers and for checkpoints (all NULL = off):
      * - done_in: rs->spp flags, one per relative sample index; samples already in
      *   the film (a resumed render) are not rendered again.
