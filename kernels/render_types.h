@@ -72,6 +72,13 @@ typedef struct RenderParams {
     float emitter_total;    /* sum of emitter weights, for pdfs */
     spt_u32 node_count;
     spt_u32 rr_depth;       /* Russian roulette from this many segments on */
+    /* Thin lens: radius (0 = pinhole) and focus distance along the view axis. */
+    float lens_radius;
+    float focus_distance;
+    float pad_[2];
+    /* Radiance of rays that leave the scene (a uniform sky); kind NONE = black.
+     * A table lives in the bg_table buffer (offset 0). */
+    SpecRef background;
 } RenderParams;
 
 /* Counters, one uint each in the counters buffer; the host reads them back. */
@@ -129,6 +136,7 @@ typedef struct RenderParams {
     X(uint, counters)                 \
     X(uint, queue_extend)             \
     X(float4, contrib)                \
-    X(float4, chunk_sum)
+    X(float4, chunk_sum)              \
+    X(const float, bg_table)
 
 #endif

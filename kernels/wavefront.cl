@@ -99,9 +99,20 @@ __kernel void k_generate(ALL_BUFFERS)
         float py = (float)(pixel / (uint)P.width) + spt_sample_1d(P.seed, pixel, sample, SPT_DIM_PIXEL_Y);
         float sx = 2.0f * px / (float)P.width - 1.0f;
         float sy = 1.0f - 2.0f * py / (float)P.height;
-        float3 d = vload4(0, P.cam_fwd).xyz + sx * vload4(0, P.cam_right).xyz +
-                   sy * vload4(0, P.cam_up).xyz;
-        ps_ray_o[i] = (float4)(vload4(0, P.cam_pos).xyz, 0.0f);
+        float3 fwd = vload4(0, P.cam_fwd).xyz, right = vload4(0, P.cam_right).xyz,
+               up = vload4(0, P.cam_up).xyz, org = vload4(0, P.cam_pos).xyz;
+        float3 d = fwd + sx * right + sy * up;
+        if (P.lens_radius > 0.0f) {
+            /* Thin lens: a point on the lens aperture, aimed at the point of the
+             * pinhole ray on the plane of focus (perpendicular to fwd). */
+            vec3 disk = spt_sample_concentric_disk(
+                spt_sample_1d(P.seed, pixel, sample, SPT_DIM_LENS_U),
+                spt_sample_1d(P.seed, pixel, sample, SPT_DIM_LENS_V));
+            float3 focus = org + d * P.focus_distance; /* dot(d, fwd) = 1 */
+            org += P.lens_radius * (disk.x * normalize(right) + disk.y * normalize(up));
+            d = focus - org;
+        }
+        ps_ray_o[i] = (float4)(org, 0.0f);
         ps_ray_d[i] = (float4)(normalize(d), 0.0f);
         float lam[4], pdf[4];
         spt_sample_wavelengths(spt_sample_1d(P.seed, pixel, sample, SPT_DIM_WAVELENGTH), lam, pdf);
@@ -163,6 +174,9 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     uint prim = as_uint(hit.w);
     uint depth = ps_depth[i] + 1u; /* segments including the one just traced */
     if (prim == NO_HIT) {
+        /* The sky: reached by BSDF sampling only, so its weight is 1. */
+        if (P.background.kind != SPT_SPEC_NONE)
+            ps_radiance[i] += ps_throughput[i] * spec_eval_private(&P.background, ps_lambda[i], bg_table);
         ps_flags[i] = SPT_PATH_FINISHED;
         return 0;
     }

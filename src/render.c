@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <pthread.h>
 #include <unistd.h>
 
@@ -124,6 +125,7 @@ int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
     }
     g->vtx_normal = s->vtx_normal;
     g->vtx_uv = s->vtx_uv;
+    g->light_count = s->light_count;
     g->vertex_count = s->vertex_count;
 
     g->material_count = s->material_count;
@@ -314,7 +316,7 @@ static uint32_t pool_size_for(const ClDeviceInfo *info, uint64_t work)
 }
 
 static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
-                            const RenderSettings *rs, SptError *e)
+                            const RenderSettings *rs, const float *bg_table, SptError *e)
 {
     int rc;
     memset(w, 0, sizeof *w);
@@ -394,7 +396,9 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
         (rc = cl_buffer_create(&w->dev, "film contributions", CL_MEM_READ_WRITE,
                                (size_t)(npix * w->chunk_spp * 16ull), NULL, &w->b.contrib, e)) ||
         (rc = cl_buffer_create(&w->dev, "chunk sums", CL_MEM_READ_WRITE, (size_t)npix * 16,
-                               NULL, &w->b.chunk_sum, e)))
+                               NULL, &w->b.chunk_sum, e)) ||
+        (rc = cl_buffer_create(&w->dev, "background", CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                               SPT_CIE_SAMPLES * sizeof(float), (void *)bg_table, &w->b.bg_table, e)))
         return rc;
     /* Every slot starts free (SPT_PATH_DEAD = 0). */
     cl_uint zero = 0;
@@ -620,6 +624,8 @@ static int test_hook(const char *name, int device, int *value)
 
 typedef struct Worker {
     int index;                 /* position in the selection */
+    const RenderParams *base;  /* the parameters every chunk shares */
+    const float *bg_table;
     const ClDeviceInfo *info;
     const GpuScene *g;
     const SceneCamera *cam;
@@ -637,7 +643,7 @@ static void *worker_main(void *arg)
     Worker *wk = arg;
     const RenderSettings *rs = wk->s->rs;
     Wavefront w;
-    wk->rc = wavefront_create(&w, wk->info, wk->g, rs, &wk->e);
+    wk->rc = wavefront_create(&w, wk->info, wk->g, rs, wk->bg_table, &wk->e);
     wk->st.build_seconds = w.dev.last_build_seconds;
     if (wk->rc) {
         if (w.dev.build_log)
@@ -645,18 +651,8 @@ static void *worker_main(void *arg)
         wavefront_free(&w);
         return NULL;
     }
-    RenderParams p;
-    memset(&p, 0, sizeof p);
-    camera_params(&p, wk->cam, rs->width, rs->height);
-    p.width = rs->width;
-    p.height = rs->height;
-    p.seed = rs->seed;
-    p.max_depth = rs->max_depth;
+    RenderParams p = *wk->base;
     p.pool_size = w.pool;
-    p.emitter_count = wk->g->emitter_count;
-    p.emitter_total = (float)wk->g->emitter_distrib.total;
-    p.node_count = wk->g->bvh.node_count;
-    p.rr_depth = 3;
     float *sums = spt_malloc((size_t)rs->width * rs->height * 4 * sizeof(float));
     int fail_after = -1, slow_ms = 0, chunks = 0;
     test_hook("SPECTRACE_TEST_FAIL_DEVICE", wk->index, &fail_after);
@@ -689,6 +685,80 @@ static void *worker_main(void *arg)
     return NULL;
 }
 
+/* The sky of a render (see RenderSettings.background): a SpecRef, with a table in
+ * bg_table when it is one. A scene with no light at all gets the default sky,
+ * D65 of radiance 1 (linear sRGB 1, 1, 1), with a note. */
+static int background_setup(const RenderSettings *rs, const GpuScene *g, SpecRef *out,
+                            float *bg_table, SptError *e)
+{
+    memset(out, 0, sizeof *out);
+    memset(bg_table, 0, SPT_CIE_SAMPLES * sizeof(float));
+    const char *bg = rs->background;
+    float rgb[3];
+    char extra;
+    if (!bg) {
+        if (g->emitter_count > 0 || g->light_count > 0 || rs->env_path)
+            return 0;
+        spt_note("the scene has no lights: it is lit by a uniform white sky (D65, radiance 1); "
+                 "use --env FILE or --background R,G,B|SPD|black to change it");
+        bg = "1,1,1";
+    }
+    if (!strcasecmp(bg, "black") || !strcasecmp(bg, "none"))
+        return 0;
+    if (sscanf(bg, "%f,%f,%f%c", &rgb[0], &rgb[1], &rgb[2], &extra) == 3) {
+        if (!(rgb[0] >= 0 && rgb[1] >= 0 && rgb[2] >= 0) || !isfinite(rgb[0] + rgb[1] + rgb[2]))
+            return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': colour components must be finite and >= 0", bg);
+        out->kind = SPT_SPEC_SIGMOID;
+        out->flags = SPT_SPEC_ILLUMINANT;
+        rgb_illuminant_coeffs(rgb, out->c, &out->scale);
+        if (out->scale == 0.0f)
+            out->kind = SPT_SPEC_NONE;
+        return 0;
+    }
+    /* An SPD, normalised to luminance Y = 1. */
+    Spd spd;
+    SptError e2 = {0};
+    if (spd_parse(&spd, bg, &e2))
+        return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': %s", bg, e2.msg);
+    double xyz[3];
+    spd_to_xyz(&spd, xyz);
+    spd_to_grid(&spd, bg_table);
+    spd_free(&spd);
+    if (!(xyz[1] > 0))
+        return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': the SPD has no luminance", bg);
+    out->kind = SPT_SPEC_TABLE;
+    out->scale = (float)(SPT_CIE_Y_INTEGRAL / xyz[1]);
+    out->offset = 0;
+    return 0;
+}
+
+/* The parameters every chunk of a render shares. */
+static int base_params(RenderParams *p, float *bg_table, const GpuScene *g, const SceneCamera *cam,
+                       const RenderSettings *rs, SptError *e)
+{
+    memset(p, 0, sizeof *p);
+    camera_params(p, cam, rs->width, rs->height);
+    p->width = rs->width;
+    p->height = rs->height;
+    p->seed = rs->seed;
+    p->max_depth = rs->max_depth;
+    p->emitter_count = g->emitter_count;
+    p->emitter_total = (float)g->emitter_distrib.total;
+    p->node_count = g->bvh.node_count;
+    p->rr_depth = 3;
+    p->lens_radius = rs->aperture;
+    p->focus_distance = rs->focus_distance;
+    if (rs->aperture > 0 && !(rs->focus_distance > 0)) {
+        /* Focus at the distance seen at the image centre (1 km when nothing is there). */
+        BvhHit hit;
+        vec3 o = v3(cam->position[0], cam->position[1], cam->position[2]);
+        vec3 d = v3(cam->forward[0], cam->forward[1], cam->forward[2]);
+        p->focus_distance = g->bvh.prim_count && bvh_intersect(g->bvh.nodes, bvh_tris(&g->bvh), o, d, 1e30f, &hit)
+                                ? hit.t : 1000.0f;
+    }
+    return background_setup(rs, g, &p->background, bg_table, e);
+}
+
 int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
                    const SceneCamera *cam, const RenderSettings *rs, Film *film,
                    RenderStats *stats, RenderDeviceStats *per_device, SptError *e)
@@ -709,6 +779,14 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
                 s.done[i] = 1;
                 s.done_count++;
             }
+    RenderParams base;
+    float bg_table[SPT_CIE_SAMPLES];
+    int rc0 = base_params(&base, bg_table, g, cam, rs, e);
+    if (rc0) {
+        free(s.done);
+        pthread_mutex_destroy(&s.lock);
+        return rc0;
+    }
     Worker *wk = spt_calloc((size_t)count, sizeof(Worker));
     pthread_t *th = spt_calloc((size_t)count, sizeof(pthread_t));
     for (int i = 0; i < count; i++) {
@@ -717,6 +795,8 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
         wk[i].g = g;
         wk[i].cam = cam;
         wk[i].s = &s;
+        wk[i].base = &base;
+        wk[i].bg_table = bg_table;
     }
     if (count == 1) {
         worker_main(&wk[0]);

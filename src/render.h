@@ -80,6 +80,7 @@ typedef struct GpuScene {
     uint32_t emitter_count;
     Distrib emitter_distrib; /* selection by power */
     float *tri_light_pdf;    /* per packed triangle: P(select) / area, 0 if not emitting */
+    uint32_t light_count;    /* punctual lights of the scene */
 } GpuScene;
 
 /* Builds the BVH and the device arrays of s. Returns 0 or an exit code. */

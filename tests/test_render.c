@@ -282,6 +282,88 @@ static void test_cornell_box_vs_mitsuba(void **state)
     film_free(&f);
 }
 
+
+/* A scene built in code: a sphere of radius 1 at the origin (a convex
+ * polyhedron, so no point sees another), albedo `albedo`, no light; camera at
+ * +Z 4 looking toward -Z. */
+static void sphere_scene(Scene *s, float albedo)
+{
+    memset(s, 0, sizeof *s);
+    uint32_t n = 0;
+    const float c[3] = {0, 0, 0};
+    s->tri_pos = bvh_gen_sphere(48, 96, 1.0f, c, 0.0f, &n);
+    s->tri_count = n;
+    s->vertex_count = 3 * n;
+    s->tri_vidx = malloc(sizeof(uint32_t) * 3 * n);
+    s->tri_mat = calloc(n, sizeof(uint32_t));
+    s->vtx_normal = calloc((size_t)9 * n, sizeof(float));
+    s->vtx_uv = calloc((size_t)6 * n, sizeof(float));
+    for (uint32_t i = 0; i < 3 * n; i++)
+        s->tri_vidx[i] = i;
+    s->material_count = 1;
+    s->materials = calloc(1, sizeof(SceneMaterial));
+    scene_material_default(&s->materials[0]);
+    for (int k = 0; k < 3; k++)
+        s->materials[0].base_color[k] = albedo;
+    s->camera.position[2] = 4.0f;
+    s->camera.forward[2] = -1.0f;
+    s->camera.up[1] = 1.0f;
+    s->camera.right[0] = 1.0f;
+    s->camera.yfov = 0.6f;
+    s->camera.aspect = 1.0f;
+    scene_update_bounds(s);
+}
+
+/* With no light at all, the default sky (D65, radiance 1) lights the scene: a
+ * Lambertian surface of albedo rho open to the whole sky shows rho, the sky
+ * itself shows 1; --background black keeps it dark. */
+static void test_default_sky(void **state)
+{
+    (void)state;
+    Scene s;
+    GpuScene g;
+    SptError e = {0};
+    sphere_scene(&s, 0.5f);
+    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = rs.height = 32;
+    rs.spp = 64;
+    rs.max_depth = -1;
+    Film f;
+    RenderStats st;
+    film_init(&f, 32, 32);
+    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    float *rgb = malloc(32 * 32 * 3 * sizeof(float));
+    film_to_linear_srgb(&f, rgb);
+    /* The central 8x8 pixels see the sphere's front, the corners the sky. */
+    double centre[3] = {0, 0, 0}, corner[3] = {0, 0, 0};
+    for (int y = 12; y < 20; y++)
+        for (int x = 12; x < 20; x++)
+            for (int c = 0; c < 3; c++)
+                centre[c] += rgb[3 * (y * 32 + x) + c] / 64.0;
+    for (int c = 0; c < 3; c++)
+        corner[c] = rgb[c];
+    printf("default sky: sphere (%.4f, %.4f, %.4f), sky (%.4f, %.4f, %.4f)\n", centre[0], centre[1],
+           centre[2], corner[0], corner[1], corner[2]);
+    for (int c = 0; c < 3; c++) {
+        assert_close_rel(centre[c], 0.5, 0.02);
+        assert_close_rel(corner[c], 1.0, 0.01);
+    }
+    film_free(&f);
+    /* --background black: no light at all. */
+    rs.background = "black";
+    film_init(&f, 32, 32);
+    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    film_to_linear_srgb(&f, rgb);
+    for (int i = 0; i < 32 * 32 * 3; i++)
+        assert_true(rgb[i] == 0.0f);
+    film_free(&f);
+    free(rgb);
+    gpu_scene_free(&g);
+    scene_free(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -291,6 +373,7 @@ int main(void)
         cmocka_unit_test(test_determinism),
         cmocka_unit_test(test_nan_guard),
         cmocka_unit_test(test_cornell_box_vs_mitsuba),
+        cmocka_unit_test(test_default_sky),
     };
     return cmocka_run_group_tests_name("render", tests, setup, teardown);
 }
