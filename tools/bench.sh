@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# `make bench`: the benchmarks, on the device SPECTRACE_DEVICE selects (default:
+# the first GPU, else the CPU). Each block prints medians of several runs.
+# Usage: tools/bench.sh BUILD_DIR
+set -u
+build=${1:-build}
+cd "$(dirname "$0")/.."
+export SPECTRACE_CACHE_DIR=${SPECTRACE_CACHE_DIR:-$PWD/$build/cache}
+status=0
+
+# ---- renderer: paths/s on the Cornell box, extend-stage rays/s on ~1M triangles ----
+echo "== renderer (tools/bench_render.c)"
+"$build/tools/bench_render" 3 || status=1
+
+exit $status
