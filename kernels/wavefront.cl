@@ -195,7 +195,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     float2 uv = tri_uv(tri_shade, vtx_uv, prim, bu, bv);
 
     /* Emission on the front face, weighted against light sampling by MIS. */
-    if ((m->flags & SPT_MAT_EMISSIVE) && front) {
+    if ((m->flags & SPT_MAT_EMISSIVE) && (front || (m->flags & SPT_MAT_DOUBLE_SIDED_EMISSION))) {
         float4 le = material_emission(m, uv, lam, spectra, textures, texels);
         float w = 1.0f;
         float prev_pdf = ps_bsdf_pdf[i];
@@ -258,6 +258,8 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
             wi /= dist;
             nl = normalize(nl);
             float cos_l = -dot(nl, wi);
+            if (materials[tri_shade[lt].material].flags & SPT_MAT_DOUBLE_SIDED_EMISSION)
+                cos_l = fabs(cos_l);
             float cos_s = dot(ns, wi);
             if (cos_l > 0.0f && cos_s > 0.0f && dot(n, wi) > 0.0f) {
                 float light_pdf = tri_light_pdf[lt] * dist2 / cos_l;

@@ -66,6 +66,22 @@ static void material_upload(GpuMaterial *gm, const SceneMaterial *m, float **spe
         rgb_to_coeffs(m->base_color, gm->reflectance.c);
     }
     float strength = m->emissive_strength;
+    if (m->unlit) {
+        /* KHR_materials_unlit: the surface shows its base colour whatever the
+         * lighting: an emitter of that colour that reflects nothing. */
+        gm->reflectance.scale = 0.0f;
+        float rgb[3] = {m->base_color[0], m->base_color[1], m->base_color[2]};
+        if (rgb[0] > 0.0f || rgb[1] > 0.0f || rgb[2] > 0.0f) {
+            gm->emission.kind = SPT_SPEC_SIGMOID;
+            gm->emission.flags = SPT_SPEC_ILLUMINANT;
+            rgb_illuminant_coeffs(rgb, gm->emission.c, &gm->emission.scale);
+            gm->flags |= SPT_MAT_EMISSIVE | SPT_MAT_DOUBLE_SIDED_EMISSION;
+        }
+        gm->base_tex = -1;
+        gm->emissive_tex = m->base_color_tex;
+        gm->alpha_cutoff = m->alpha_cutoff;
+        return;
+    }
     if (m->emission_spd.count > 0 || m->emission_spd.line_count > 0) {
         /* Spectral extras are absolute radiance and override factor and strength. */
         gm->emission = spec_from_spd(&m->emission_spd, 1.0f, spectra, count);

@@ -364,6 +364,46 @@ static void test_default_sky(void **state)
     scene_free(&s);
 }
 
+
+/* KHR_materials_unlit: the surface shows its base colour (upsampled as an
+ * illuminant, so it comes back as the same linear sRGB), lit or not. */
+static void test_unlit(void **state)
+{
+    (void)state;
+    Scene s;
+    GpuScene g;
+    SptError e = {0};
+    sphere_scene(&s, 0.0f);
+    const float want[3] = {0.2f, 0.5f, 0.8f};
+    for (int k = 0; k < 3; k++)
+        s.materials[0].base_color[k] = want[k];
+    s.materials[0].unlit = 1;
+    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = rs.height = 16;
+    rs.spp = 64;
+    rs.max_depth = -1;
+    Film f;
+    RenderStats st;
+    film_init(&f, 16, 16);
+    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    float rgb[16 * 16 * 3];
+    film_to_linear_srgb(&f, rgb);
+    double c[3] = {0, 0, 0};
+    for (int y = 6; y < 10; y++)
+        for (int x = 6; x < 10; x++)
+            for (int k = 0; k < 3; k++)
+                c[k] += rgb[3 * (y * 16 + x) + k] / 16.0;
+    printf("unlit: (%.4f, %.4f, %.4f)\n", c[0], c[1], c[2]);
+    for (int k = 0; k < 3; k++)
+        assert_close(c[k], want[k], 0.01);
+    assert_true(rgb[0] == 0.0f); /* a corner sees the black background */
+    film_free(&f);
+    gpu_scene_free(&g);
+    scene_free(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -374,6 +414,7 @@ int main(void)
         cmocka_unit_test(test_nan_guard),
         cmocka_unit_test(test_cornell_box_vs_mitsuba),
         cmocka_unit_test(test_default_sky),
+        cmocka_unit_test(test_unlit),
     };
     return cmocka_run_group_tests_name("render", tests, setup, teardown);
 }
