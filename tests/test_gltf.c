@@ -6,6 +6,8 @@
 #include <dirent.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "scene.h"
 
@@ -475,10 +477,53 @@ static void test_fuzz_regressions(void **state)
     assert_true(count > 0);
 }
 
+/* Runs `spectrace ARGS` (SPECTRACE_EXE, set by tests/run_tests.sh) with stdout and
+ * stderr into out; returns the exit status, or -1 when there is no program. */
+static int run_spectrace(const char *args, char *out, size_t out_size)
+{
+    const char *exe = getenv("SPECTRACE_EXE");
+    if (!exe || access(exe, X_OK)) return -1;
+    char cmd[1024];
+    snprintf(cmd, sizeof cmd, "'%s' %s 2>&1", exe, args);
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    size_t n = fread(out, 1, out_size - 1, p);
+    out[n] = 0;
+    int st = pclose(p);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128;
+}
+
+static void test_info_command(void **state)
+{
+    (void)state;
+    static char out[65536];
+    int rc = run_spectrace("info --no-bvh tests/data/gltf/modes.gltf", out, sizeof out);
+    if (rc < 0) skip();
+    if (rc != 0) fail_msg("info modes.gltf exited %d:\n%s", rc, out);
+    /* Counts derived by hand in test_strips_fans_index_types. */
+    assert_non_null(strstr(out, "triangles    10 kept, 0 dropped"));
+    assert_non_null(strstr(out, "2 skipped"));
+    assert_non_null(strstr(out, "1 instance(s), 18 vertices"));
+    assert_non_null(strstr(out, "(default: the file has none)"));
+    rc = run_spectrace("info tests/data/gltf/garbage.gltf", out, sizeof out);
+    assert_int_equal(rc, 0);
+    assert_non_null(strstr(out, "1 kept, 5 dropped (3 NaN/Inf/huge coordinates, 2 degenerate)"));
+    assert_non_null(strstr(out, "bvh "));
+    rc = run_spectrace("info tests/data/gltf/bad_two_parents.gltf", out, sizeof out);
+    assert_int_equal(rc, SPT_EXIT_INPUT);
+    const char *want = "error: tests/data/gltf/bad_two_parents.gltf: nodes[1]";
+    if (strncmp(out, want, strlen(want)) ||
+        strchr(out, '\n') != out + strlen(out) - 1)
+        fail_msg("expected one error line naming nodes[1], got:\n%s", out);
+    assert_int_equal(run_spectrace("info", out, sizeof out), SPT_EXIT_USAGE);
+    assert_int_equal(run_spectrace("info --help", out, sizeof out), 0);
+    assert_non_null(strstr(out, "usage: spectrace info SCENE"));
+}
+
 int main(void)
 {
     enum { NBAD = sizeof bad_cases / sizeof bad_cases[0] };
-    struct CMUnitTest tests[12 + NBAD] = {
+    struct CMUnitTest tests[13 + NBAD] = {
         cmocka_unit_test(test_external_bin_translation),
         cmocka_unit_test(test_data_uri_matrix),
         cmocka_unit_test(test_glb_trs),
@@ -491,11 +536,12 @@ int main(void)
         cmocka_unit_test(test_deep_hierarchy),
         cmocka_unit_test(test_default_camera_frames_box),
         cmocka_unit_test(test_fuzz_regressions),
+        cmocka_unit_test(test_info_command),
     };
     for (int i = 0; i < NBAD; i++) {
         struct CMUnitTest t = {bad_cases[i].file, test_bad_file, NULL, NULL,
                                (void *)&bad_cases[i]};
-        tests[12 + i] = t;
+        tests[13 + i] = t;
     }
-    return _cmocka_run_group_tests("gltf", tests, 12 + NBAD, NULL, NULL);
+    return _cmocka_run_group_tests("gltf", tests, 13 + NBAD, NULL, NULL);
 }
