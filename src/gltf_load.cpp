@@ -953,9 +953,7 @@ int Loader::texture_ref(int tex, int texcoord, bool srgb, const std::string &obj
     } else if (t.sampler < -1) {
         return bad("textures[%d].sampler: samplers[%d] does not exist", tex, t.sampler);
     }
-    if (texcoord != 0 && !texcoord_warned++)
-        spt_warn("%s: %s: texCoord %d is not supported; TEXCOORD_0 is used", file, obj.c_str(),
-                 texcoord);
+    if (texcoord != 0) texcoord_warned++;
     auto key = std::make_tuple(t.source, srgb ? 1 : 0, ws, wt);
     auto it = texture_of.find(key);
     if (it != texture_of.end()) {
@@ -1372,6 +1370,10 @@ int Loader::finish(Scene *s)
         spt_warn("%s: %u TRIANGLES primitive(s) have a vertex count that is not a multiple of 3; "
                  "the extra vertices were ignored",
                  file, leftover_indices);
+    if (texcoord_warned)
+        spt_warn("%s: %u texture reference(s) use a texCoord set other than 0; TEXCOORD_0 is "
+                 "used instead",
+                 file, texcoord_warned);
     if (stats.dropped_nonfinite)
         spt_warn("%s: dropped %u triangle(s) with NaN, infinite or huge (>= 1e18) coordinates",
                  file, stats.dropped_nonfinite);
