@@ -90,7 +90,7 @@ static float4 texture_texel(const __global GpuTexture *textures, const __global 
 /* Spectrum of a texel of a coefficient texture at lam. */
 static float4 texel_spectrum(float4 texel, float4 lam)
 {
-    return texel.w * spec_sigmoid4(texel.x, texel.y, texel.z, lam);
+    return spec_sigmoid4(texel.x, texel.y, texel.z, lam);
 }
 
 /* A ray origin moved off the surface at p along n (pointing to the side the ray

@@ -28,6 +28,8 @@ typedef struct SpecRef {
 /* Material flags. */
 #define SPT_MAT_EMISSIVE 1u
 #define SPT_MAT_DOUBLE_SIDED_EMISSION 2u
+#define SPT_MAT_ALPHA_MASK 4u    /* glTF alphaMode MASK: cut out below the cutoff */
+#define SPT_MAT_ALPHA_BLEND 8u   /* glTF alphaMode BLEND: stochastic opacity alpha */
 
 typedef struct GpuMaterial {
     SpecRef reflectance;   /* diffuse albedo */
@@ -35,12 +37,13 @@ typedef struct GpuMaterial {
     spt_i32 base_tex;      /* texture index or -1: coefficients texture, multiplies reflectance */
     spt_i32 emissive_tex;  /* texture index or -1: coefficients texture, multiplies emission */
     spt_u32 flags;
-    float alpha_cutoff;
-    float pad[4];
+    float alpha_cutoff;    /* SPT_MAT_ALPHA_MASK: opaque where alpha >= cutoff */
+    float alpha;           /* base colour alpha factor */
+    float pad[3];
 } GpuMaterial; /* 96 bytes */
 
 /* A texture in the texels buffer: width*height float4 texels from offset. Each
- * texel holds sigmoid coefficients (c0, c1, c2) and a scale in w. */
+ * texel holds sigmoid coefficients (c0, c1, c2) of its RGB and its alpha in w. */
 typedef struct GpuTexture {
     spt_u32 offset;
     spt_i32 width, height;
@@ -72,6 +75,8 @@ typedef struct RenderParams {
     float emitter_total;    /* sum of emitter weights, for pdfs */
     spt_u32 node_count;
     spt_u32 rr_depth;       /* Russian roulette from this many segments on */
+    spt_u32 has_alpha;      /* some material is MASK or BLEND: shadow rays test alpha */
+    spt_u32 pad0_[3];
     /* Thin lens: radius (0 = pinhole) and focus distance along the view axis. */
     float lens_radius;
     float focus_distance;
@@ -108,6 +113,7 @@ typedef struct RenderParams {
     X(uint, work)           \
     X(uint, depth)          \
     X(uint, flags)          \
+    X(uint, passes)         \
     X(float, bsdf_pdf)
 
 /* Shadow-ray queue entries, one buffer per field. */

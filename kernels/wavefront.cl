@@ -122,6 +122,7 @@ __kernel void k_generate(ALL_BUFFERS)
         ps_radiance[i] = (float4)(0.0f);
         ps_work[i] = w;
         ps_depth[i] = 0;
+        ps_passes[i] = 0;
         ps_bsdf_pdf[i] = 0.0f; /* camera ray: emission seen directly has MIS weight 1 */
         flags = SPT_PATH_ALIVE;
         ps_flags[i] = flags;
@@ -152,6 +153,23 @@ static float2 tri_uv(const __global TriShade *ts, const __global float *vtx_uv, 
     TriShade s = ts[prim];
     float2 a = vload2(s.v[0], vtx_uv), b = vload2(s.v[1], vtx_uv), c = vload2(s.v[2], vtx_uv);
     return (1.0f - u - v) * a + u * b + v * c;
+}
+
+/* Opacity of material m at uv: 1 for opaque materials; 0 or 1 for alphaMode MASK
+ * (alpha against the cutoff); alpha itself for BLEND. alpha = the base colour's
+ * alpha factor times the base colour texture's alpha. */
+static float material_opacity(const __global GpuMaterial *m, float2 uv,
+                              const __global GpuTexture *textures, const __global float4 *texels)
+{
+    uint f = m->flags;
+    if (!(f & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND)))
+        return 1.0f;
+    float a = m->alpha;
+    if (m->base_tex >= 0)
+        a *= texture_texel(textures, texels, m->base_tex, uv).w;
+    if (f & SPT_MAT_ALPHA_MASK)
+        return a >= m->alpha_cutoff ? 1.0f : 0.0f;
+    return clamp(a, 0.0f, 1.0f);
 }
 
 /* Emitted radiance of material m at uv, at the four wavelengths. */
@@ -194,6 +212,26 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     const __global GpuMaterial *m = materials + ts.material;
     float2 uv = tri_uv(tri_shade, vtx_uv, prim, bu, bv);
 
+    /* Cut-out (MASK) and blended (BLEND) surfaces: with probability 1 - opacity the
+     * path passes through unchanged, without counting a segment. */
+    if (m->flags & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND)) {
+        float op = material_opacity(m, uv, textures, texels);
+        uint passes = ps_passes[i];
+        if (op < 1.0f && passes < 64u) {
+            uint npx = (uint)(P.width * P.height);
+            uint wk = ps_work[i];
+            float u = spt_rand(P.seed ^ 0x9e3779b9u, wk % npx, P.sample_begin + wk / npx,
+                               depth * 64u + passes);
+            if (u >= op) {
+                ps_passes[i] = passes + 1u;
+                /* w carries the distance from the last real vertex, for MIS. */
+                float3 o2 = offset_origin(p, front ? -ng : ng);
+                ps_ray_o[i] = (float4)(o2, ps_ray_o[i].w + dot(o2 - ps_ray_o[i].xyz, rd));
+                return 0; /* same direction, depth and MIS state */
+            }
+        }
+    }
+
     /* Emission on the front face, weighted against light sampling by MIS. */
     if ((m->flags & SPT_MAT_EMISSIVE) && (front || (m->flags & SPT_MAT_DOUBLE_SIDED_EMISSION))) {
         float4 le = material_emission(m, uv, lam, spectra, textures, texels);
@@ -201,7 +239,8 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
         float prev_pdf = ps_bsdf_pdf[i];
         if (prev_pdf > 0.0f) {
             float cos_l = fabs(dot(ng, rd));
-            float light_pdf = tri_light_pdf[prim] * hit.x * hit.x / fmax(cos_l, 1e-8f);
+            float dist = hit.x + ps_ray_o[i].w; /* w: distance passed through alpha */
+            float light_pdf = tri_light_pdf[prim] * dist * dist / fmax(cos_l, 1e-8f);
             w = spt_power_heuristic(prev_pdf, light_pdf);
         }
         L += beta * le * w;
@@ -338,11 +377,39 @@ __kernel void k_connect(ALL_BUFFERS)
     if (g >= counters[SPT_CNT_SHADOW])
         return;
     float4 d = sh_ray_d[g];
-    if (P.node_count > 0u && bvh_occluded(nodes, tris, sh_ray_o[g].xyz, d.xyz, d.w))
-        return;
+    float transmit = 1.0f;
+    if (P.node_count > 0u && !P.has_alpha) {
+        if (bvh_occluded(nodes, tris, sh_ray_o[g].xyz, d.xyz, d.w))
+            return;
+    } else if (P.node_count > 0u) {
+        /* Surfaces with alpha let light through: walk the hits along the shadow
+         * ray, multiplying by 1 - opacity (the expected transmission of the
+         * stochastic opacity camera rays see). */
+        float3 o = sh_ray_o[g].xyz;
+        float tmax = d.w;
+        for (int k = 0; k < 16; k++) {
+            BvhHit h;
+            if (!bvh_intersect(nodes, tris, o, d.xyz, tmax, &h))
+                break;
+            const __global GpuMaterial *m = materials + tri_shade[h.prim].material;
+            float op = material_opacity(m, tri_uv(tri_shade, vtx_uv, h.prim, h.u, h.v), textures, texels);
+            transmit *= 1.0f - op;
+            if (!(transmit > 0.0f) || k == 15)
+                return;
+            vec3 a, b, c;
+            bvh_tri_vertices(tris, h.prim, &a, &b, &c);
+            float3 ng = normalize(cross(b - a, c - a));
+            float3 q = o + h.t * d.xyz;
+            float3 o2 = offset_origin(q, dot(ng, d.xyz) > 0.0f ? ng : -ng);
+            tmax -= dot(o2 - o, d.xyz);
+            o = o2;
+            if (!(tmax > 0.0f))
+                break;
+        }
+    }
     /* A path queues at most one shadow ray per iteration: no race on its radiance. */
     uint i = sh_path[g];
-    ps_radiance[i] += sh_contrib[g];
+    ps_radiance[i] += transmit * sh_contrib[g];
 }
 
 /* Sums the chunk's per-sample contributions of each pixel, in sample order, into

@@ -99,10 +99,15 @@ static void material_upload(GpuMaterial *gm, const SceneMaterial *m, float **spe
     gm->base_tex = m->base_color_tex;
     gm->emissive_tex = (gm->flags & SPT_MAT_EMISSIVE) ? m->emissive_tex : -1;
     gm->alpha_cutoff = m->alpha_cutoff;
+    gm->alpha = m->base_color[3];
+    if (m->alpha_mode == SPT_ALPHA_MASK)
+        gm->flags |= SPT_MAT_ALPHA_MASK;
+    else if (m->alpha_mode == SPT_ALPHA_BLEND && !(m->base_color[3] >= 1.0f && m->base_color_tex < 0))
+        gm->flags |= SPT_MAT_ALPHA_BLEND;
 }
 
-/* A coefficient texture from a scene texture: each texel's RGB (alpha ignored)
- * becomes sigmoid coefficients with scale 1. */
+/* A coefficient texture from a scene texture: each texel's RGB becomes sigmoid
+ * coefficients, its alpha (1 without an alpha channel) is kept in w. */
 static void texture_upload(GpuTexture *gt, const SceneTexture *t, float **texels, size_t *count)
 {
     size_t n = (size_t)t->width * (size_t)t->height;
@@ -120,7 +125,7 @@ static void texture_upload(GpuTexture *gt, const SceneTexture *t, float **texels
         for (int c = 0; c < 3; c++)
             rgb[c] = px[t->channels >= 3 ? c : 0];
         rgb_to_coeffs(rgb, out + 4 * i);
-        out[4 * i + 3] = 1.0f;
+        out[4 * i + 3] = t->channels == 4 ? px[3] : 1.0f;
     }
     *count += n;
 }
@@ -762,6 +767,9 @@ static int base_params(RenderParams *p, float *bg_table, const GpuScene *g, cons
     p->emitter_total = (float)g->emitter_distrib.total;
     p->node_count = g->bvh.node_count;
     p->rr_depth = 3;
+    for (uint32_t i = 0; i < g->material_count; i++)
+        if (g->materials[i].flags & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND))
+            p->has_alpha = 1;
     p->lens_radius = rs->aperture;
     p->focus_distance = rs->focus_distance;
     if (rs->aperture > 0 && !(rs->focus_distance > 0)) {

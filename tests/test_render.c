@@ -404,6 +404,73 @@ static void test_unlit(void **state)
     scene_free(&s);
 }
 
+
+/* Appends the quad y = height over [-6, 6]^2 (two triangles) with a new material
+ * to s; returns the material. */
+static SceneMaterial *append_quad(Scene *s, float height)
+{
+    uint32_t t0 = s->tri_count, v0 = s->vertex_count;
+    s->tri_count += 2;
+    s->vertex_count += 6;
+    s->tri_pos = realloc(s->tri_pos, sizeof(float) * 9 * s->tri_count);
+    s->tri_vidx = realloc(s->tri_vidx, sizeof(uint32_t) * 3 * s->tri_count);
+    s->tri_mat = realloc(s->tri_mat, sizeof(uint32_t) * s->tri_count);
+    s->vtx_normal = realloc(s->vtx_normal, sizeof(float) * 3 * s->vertex_count);
+    s->vtx_uv = realloc(s->vtx_uv, sizeof(float) * 2 * s->vertex_count);
+    const float q[2][9] = {{-6, height, -6, -6, height, 6, 6, height, 6},
+                           {-6, height, -6, 6, height, 6, 6, height, -6}};
+    memcpy(s->tri_pos + 9 * t0, q, sizeof q);
+    for (uint32_t k = 0; k < 6; k++) {
+        s->tri_vidx[3 * t0 + k] = v0 + k;
+        s->vtx_normal[3 * (v0 + k)] = s->vtx_normal[3 * (v0 + k) + 1] = s->vtx_normal[3 * (v0 + k) + 2] = 0;
+        s->vtx_uv[2 * (v0 + k)] = s->vtx_uv[2 * (v0 + k) + 1] = 0;
+    }
+    s->materials = realloc(s->materials, sizeof(SceneMaterial) * (s->material_count + 1));
+    SceneMaterial *m = &s->materials[s->material_count];
+    scene_material_default(m);
+    s->tri_mat[t0] = s->tri_mat[t0 + 1] = s->material_count++;
+    return m;
+}
+
+/* alphaMode BLEND: a black plane of alpha 0.5 between the emitter and the lit
+ * plane of plane_irradiance.gltf transmits half the light (camera and shadow
+ * rays both); alphaMode MASK below its cutoff transmits all of it. */
+static void test_alpha_blend_and_mask(void **state)
+{
+    (void)state;
+    const double open = 0.96833700; /* tests/data/scenes/README.md: rho L0 mean(F) */
+    for (int mode = 0; mode < 2; mode++) {
+        Scene s;
+        GpuScene g;
+        SptError e = {0};
+        assert_int_equal(scene_load_gltf(&s, "tests/data/scenes/plane_irradiance.gltf", &e), 0);
+        SceneMaterial *m = append_quad(&s, 0.75f);
+        m->base_color[0] = m->base_color[1] = m->base_color[2] = 0.0f;
+        m->base_color[3] = mode == 0 ? 0.5f : 0.3f;
+        m->alpha_mode = mode == 0 ? SPT_ALPHA_BLEND : SPT_ALPHA_MASK;
+        m->alpha_cutoff = 0.5f;
+        assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+        RenderSettings rs;
+        memset(&rs, 0, sizeof rs);
+        rs.width = rs.height = 16;
+        rs.spp = 128;
+        rs.max_depth = -1;
+        Film f;
+        RenderStats st;
+        film_init(&f, 16, 16);
+        assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+        double mean[3];
+        film_mean(&f, mean);
+        double want = mode == 0 ? 0.5 * open : open;
+        printf("%s plane: mean %.4f, expected %.4f\n", mode == 0 ? "blend 0.5" : "mask (cut out)", mean[1], want);
+        for (int c = 0; c < 3; c++)
+            assert_close_rel(mean[c], want, 0.02);
+        film_free(&f);
+        gpu_scene_free(&g);
+        scene_free(&s);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -415,6 +482,7 @@ int main(void)
         cmocka_unit_test(test_cornell_box_vs_mitsuba),
         cmocka_unit_test(test_default_sky),
         cmocka_unit_test(test_unlit),
+        cmocka_unit_test(test_alpha_blend_and_mask),
     };
     return cmocka_run_group_tests_name("render", tests, setup, teardown);
 }
