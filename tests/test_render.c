@@ -10,6 +10,9 @@
 #include "film.h"
 #include "render.h"
 #include "scene.h"
+#include "spectrum.h"
+#include "../kernels/cie_data.h"
+#define SPT_CIE_Y_INTEGRAL_HOST ((double)SPT_CIE_Y_INTEGRAL)
 
 static ClDeviceList devices;
 static const ClDeviceInfo *device;
@@ -471,6 +474,67 @@ static void test_alpha_blend_and_mask(void **state)
     }
 }
 
+
+/* The plane of plane_irradiance.gltf lit by an emitter whose radiance is a named
+ * SPD normalised to Y = 1 (illuminant A, the mercury lamp's lines): the plane's
+ * XYZ is rho * mean(F) times the SPD's XYZ from the colour science (what
+ * `spectrace color` prints), per channel. */
+static void test_named_light_spectra(void **state)
+{
+    (void)state;
+    const double rho_f = 0.5 * 0.96833700;
+    const char *names[2] = {"A", "mercury"};
+    const int spp[2] = {64, 512};
+    const double tol[2] = {0.015, 0.03};
+    for (int k = 0; k < 2; k++) {
+        Scene s;
+        GpuScene g;
+        SptError e = {0};
+        assert_int_equal(scene_load_gltf(&s, "tests/data/scenes/plane_irradiance.gltf", &e), 0);
+        Spd spd;
+        assert_int_equal(spd_named(&spd, names[k], &e), 0);
+        double xyz[3];
+        spd_to_xyz(&spd, xyz);
+        /* Normalise to Y = 1 in the film's units (XYZ = sum cmf P / sum ybar). */
+        double scale = SPT_CIE_Y_INTEGRAL_HOST / xyz[1];
+        for (int i = 0; i < spd.count; i++)
+            spd.value[i] *= scale;
+        for (int i = 0; i < spd.line_count; i++)
+            spd.line_power[i] *= scale;
+        int emitters = 0;
+        for (uint32_t m = 0; m < s.material_count; m++)
+            if (s.materials[m].emissive[0] > 0) {
+                spd_free(&s.materials[m].emission_spd);
+                spd_copy(&s.materials[m].emission_spd, &spd);
+                emitters++;
+            }
+        assert_int_equal(emitters, 1);
+        assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+        RenderSettings rs;
+        memset(&rs, 0, sizeof rs);
+        rs.width = rs.height = 8;
+        rs.spp = spp[k];
+        rs.max_depth = -1;
+        Film f;
+        RenderStats st;
+        film_init(&f, 8, 8);
+        assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+        double got[3] = {0, 0, 0};
+        for (int i = 0; i < 64; i++)
+            for (int c = 0; c < 3; c++)
+                got[c] += f.xyz[3 * i + c] / f.count[i] / 64.0;
+        printf("%s: plane XYZ (%.4f, %.4f, %.4f), expected (%.4f, %.4f, %.4f)\n", names[k], got[0],
+               got[1], got[2], rho_f * xyz[0] * scale / SPT_CIE_Y_INTEGRAL_HOST, rho_f,
+               rho_f * xyz[2] * scale / SPT_CIE_Y_INTEGRAL_HOST);
+        for (int c = 0; c < 3; c++)
+            assert_close_rel(got[c], rho_f * xyz[c] * scale / SPT_CIE_Y_INTEGRAL_HOST, tol[k]);
+        spd_free(&spd);
+        film_free(&f);
+        gpu_scene_free(&g);
+        scene_free(&s);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -483,6 +547,7 @@ int main(void)
         cmocka_unit_test(test_default_sky),
         cmocka_unit_test(test_unlit),
         cmocka_unit_test(test_alpha_blend_and_mask),
+        cmocka_unit_test(test_named_light_spectra),
     };
     return cmocka_run_group_tests_name("render", tests, setup, teardown);
 }
