@@ -23,9 +23,9 @@ clang -std=c11 $san $flags -c tools/fuzz/fuzz_gltf.c -o "$out/obj/fuzz_gltf.o"
 clang++ -fsanitize=fuzzer,address,undefined -o "$out/fuzz_gltf" "$out"/obj/*.o "$lib/libspectrace.a" \
   $(pkg-config --libs tinygltf OpenImageIO OpenCL OpenEXR) -lm -lpthread
 cp -n tests/data/gltf/*.gltf tests/data/gltf/*.glb tests/data/gltf/regress/* "$out/corpus/" 2>/dev/null || true
-# One job on the shared machine; stderr closed (the loader's warnings are noise:
+# One process (no -jobs: that forks and logs to fuzz-N.log); stderr closed (the loader's warnings are noise:
 # reproduce a crash with "$out/fuzz_gltf CRASH_FILE" to see its report).
-"$out/fuzz_gltf" "$out/corpus" -dict=tools/fuzz/gltf.dict -max_total_time="$secs" -jobs=1 -workers=1 \
+"$out/fuzz_gltf" "$out/corpus" -dict=tools/fuzz/gltf.dict -max_total_time="$secs" \
   -timeout=10 -rss_limit_mb=2048 -max_len=65536 -close_fd_mask=2 -artifact_prefix="$out/" \
   -print_final_stats=1 2>&1 | tail -20 || true
 ls "$out"/crash-* "$out"/leak-* "$out"/timeout-* "$out"/oom-* 2>/dev/null || echo "no crashing inputs"
