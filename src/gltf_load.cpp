@@ -25,6 +25,7 @@
 
 extern "C" {
 #include "scene.h"
+#include "../kernels/cie_data.h"
 #include "texture_io.h"
 }
 
@@ -1027,6 +1028,20 @@ int Loader::spectral_extras(const Value &extras, SceneMaterial *sm, const std::s
     int rc;
     if (sp.Has("emission") && (rc = parse_spd(sp.Get("emission"), &sm->emission_spd, o + ".emission")))
         return rc;
+    if (sp.Has("emission") && sp.Get("emission").IsString()) {
+        /* A named emission SPD is a shape, not a level: scale it to the luminance
+         * of emissive (1, 1, 1), Y = 1 in the film's units (sum cmf P / sum ybar),
+         * times KHR_materials_emissive_strength. Inline tables are absolute. */
+        double xyz[3];
+        spd_to_xyz(&sm->emission_spd, xyz);
+        if (!(xyz[1] > 0))
+            return bad("%s.emission: the SPD has no luminance (nothing visible in 360-830 nm)", o.c_str());
+        double scale = sm->emissive_strength * (double)SPT_CIE_Y_INTEGRAL / xyz[1];
+        for (int i = 0; i < sm->emission_spd.count; i++)
+            sm->emission_spd.value[i] *= scale;
+        for (int i = 0; i < sm->emission_spd.line_count; i++)
+            sm->emission_spd.line_power[i] *= scale;
+    }
     if (sp.Has("reflectance") &&
         (rc = parse_spd(sp.Get("reflectance"), &sm->reflectance_spd, o + ".reflectance")))
         return rc;
