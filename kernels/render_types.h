@@ -76,7 +76,8 @@ typedef struct RenderParams {
     spt_u32 node_count;
     spt_u32 rr_depth;       /* Russian roulette from this many segments on */
     spt_u32 has_alpha;      /* some material is MASK or BLEND: shadow rays test alpha */
-    spt_u32 pad0_[3];
+    spt_u32 orthographic;   /* 1: parallel rays along cam_fwd from the image plane */
+    spt_u32 pad0_[2];
     /* Thin lens: radius (0 = pinhole) and focus distance along the view axis. */
     float lens_radius;
     float focus_distance;

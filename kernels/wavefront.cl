@@ -102,7 +102,10 @@ __kernel void k_generate(ALL_BUFFERS)
         float3 fwd = vload4(0, P.cam_fwd).xyz, right = vload4(0, P.cam_right).xyz,
                up = vload4(0, P.cam_up).xyz, org = vload4(0, P.cam_pos).xyz;
         float3 d = fwd + sx * right + sy * up;
-        if (P.lens_radius > 0.0f) {
+        if (P.orthographic) {
+            org += sx * right + sy * up;
+            d = fwd;
+        } else if (P.lens_radius > 0.0f) {
             /* Thin lens: a point on the lens aperture, aimed at the point of the
              * pinhole ray on the plane of focus (perpendicular to fwd). */
             vec3 disk = spt_sample_concentric_disk(

@@ -434,11 +434,16 @@ static void camera_params(RenderParams *p, const SceneCamera *c, int width, int 
 {
     float t = tanf(0.5f * c->yfov);
     float aspect = (float)width / (float)height;
+    /* Orthographic (glTF xmag/ymag: half the view's width and height): right and up
+     * span the image plane itself; the image's aspect follows ymag. */
+    float sx = c->orthographic ? c->ymag * aspect : t * aspect;
+    float sy = c->orthographic ? c->ymag : t;
+    p->orthographic = c->orthographic ? 1u : 0u;
     for (int i = 0; i < 3; i++) {
         p->cam_pos[i] = c->position[i];
         p->cam_fwd[i] = c->forward[i];
-        p->cam_right[i] = c->right[i] * t * aspect;
-        p->cam_up[i] = c->up[i] * t;
+        p->cam_right[i] = c->right[i] * sx;
+        p->cam_up[i] = c->up[i] * sy;
     }
     p->cam_pos[3] = p->cam_fwd[3] = p->cam_right[3] = p->cam_up[3] = 0.0f;
 }

@@ -535,6 +535,40 @@ static void test_named_light_spectra(void **state)
     }
 }
 
+
+/* An orthographic camera (ymag 2: the view spans [-2, 2]^2) sees a unit sphere of
+ * unlit white as a disc covering pi / 16 of the image. */
+static void test_orthographic(void **state)
+{
+    (void)state;
+    Scene s;
+    GpuScene g;
+    SptError e = {0};
+    sphere_scene(&s, 1.0f);
+    s.materials[0].unlit = 1;
+    s.camera.orthographic = 1;
+    s.camera.xmag = s.camera.ymag = 2.0f;
+    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = rs.height = 64;
+    rs.spp = 16;
+    rs.max_depth = -1;
+    Film f;
+    RenderStats st;
+    film_init(&f, 64, 64);
+    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    double m[3];
+    film_mean(&f, m);
+    /* The polyhedral sphere's silhouette is a 96-gon inscribed in the unit circle. */
+    double want = 96 * 0.5 * sin(2 * M_PI / 96) / 16.0;
+    printf("orthographic: mean %.4f, expected %.4f\n", m[1], want);
+    assert_close_rel(m[1], want, 0.02);
+    film_free(&f);
+    gpu_scene_free(&g);
+    scene_free(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -548,6 +582,7 @@ int main(void)
         cmocka_unit_test(test_unlit),
         cmocka_unit_test(test_alpha_blend_and_mask),
         cmocka_unit_test(test_named_light_spectra),
+        cmocka_unit_test(test_orthographic),
     };
     return cmocka_run_group_tests_name("render", tests, setup, teardown);
 }
