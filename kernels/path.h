@@ -87,6 +87,12 @@ static float4 texture_texel(const __global GpuTexture *textures, const __global 
     return texels[t->offset + (uint)(y * t->width + x)];
 }
 
+/* uv transformed by a 2x3 row-major affine matrix (KHR_texture_transform). */
+static float2 uv_apply(const __global float *m, float2 uv)
+{
+    return (float2)(m[0] * uv.x + m[1] * uv.y + m[2], m[3] * uv.x + m[4] * uv.y + m[5]);
+}
+
 /* Spectrum of a texel of a coefficient texture at lam. */
 static float4 texel_spectrum(float4 texel, float4 lam)
 {

@@ -40,7 +40,9 @@ typedef struct GpuMaterial {
     float alpha_cutoff;    /* SPT_MAT_ALPHA_MASK: opaque where alpha >= cutoff */
     float alpha;           /* base colour alpha factor */
     float pad[3];
-} GpuMaterial; /* 96 bytes */
+    float base_uv[8];      /* KHR_texture_transform of the base colour texture: 2x3, padded */
+    float emissive_uv[8];  /* the same for the emissive texture */
+} GpuMaterial; /* 160 bytes */
 
 /* A texture in the texels buffer: width*height float4 texels from offset. Each
  * texel holds sigmoid coefficients (c0, c1, c2) of its RGB and its alpha in w. */

@@ -169,7 +169,7 @@ static float material_opacity(const __global GpuMaterial *m, float2 uv,
         return 1.0f;
     float a = m->alpha;
     if (m->base_tex >= 0)
-        a *= texture_texel(textures, texels, m->base_tex, uv).w;
+        a *= texture_texel(textures, texels, m->base_tex, uv_apply(m->base_uv, uv)).w;
     if (f & SPT_MAT_ALPHA_MASK)
         return a >= m->alpha_cutoff ? 1.0f : 0.0f;
     return clamp(a, 0.0f, 1.0f);
@@ -182,7 +182,7 @@ static float4 material_emission(const __global GpuMaterial *m, float2 uv, float4
 {
     float4 le = spec_eval(&m->emission, lam, spectra);
     if (m->emissive_tex >= 0)
-        le *= texel_spectrum(texture_texel(textures, texels, m->emissive_tex, uv), lam);
+        le *= texel_spectrum(texture_texel(textures, texels, m->emissive_tex, uv_apply(m->emissive_uv, uv)), lam);
     return le;
 }
 
@@ -269,7 +269,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     }
     float4 albedo = spec_eval(&m->reflectance, lam, spectra);
     if (m->base_tex >= 0)
-        albedo *= texel_spectrum(texture_texel(textures, texels, m->base_tex, uv), lam);
+        albedo *= texel_spectrum(texture_texel(textures, texels, m->base_tex, uv_apply(m->base_uv, uv)), lam);
     albedo = clamp(albedo, 0.0f, 1.0f);
 
     uint npix = (uint)(P.width * P.height);

@@ -58,6 +58,9 @@ static void material_upload(GpuMaterial *gm, const SceneMaterial *m, float **spe
                             uint32_t *count)
 {
     memset(gm, 0, sizeof *gm);
+    memcpy(gm->base_uv, m->uv_transform[SPT_SLOT_BASE], 6 * sizeof(float));
+    memcpy(gm->emissive_uv, m->uv_transform[m->unlit ? SPT_SLOT_BASE : SPT_SLOT_EMISSIVE],
+           6 * sizeof(float));
     if (m->reflectance_spd.count > 0 || m->reflectance_spd.line_count > 0) {
         gm->reflectance = spec_from_spd(&m->reflectance_spd, 1.0f, spectra, count);
     } else {

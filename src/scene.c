@@ -25,6 +25,10 @@ void scene_material_default(SceneMaterial *m)
     for (int i = 0; i < 3; i++) m->attenuation_color[i] = 1.0f;
     m->alpha_mode = SPT_ALPHA_OPAQUE;
     m->alpha_cutoff = 0.5f;
+    for (int k = 0; k < 4; k++) {
+        m->uv_transform[k][0] = 1.0f;
+        m->uv_transform[k][4] = 1.0f;
+    }
 }
 
 void scene_update_bounds(Scene *s)

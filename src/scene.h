@@ -52,7 +52,12 @@ typedef struct SceneMaterial {
     Spd reflectance_spd;
     Spd emission_spd;
     char conductor[16];         /* "" or a conductor name such as "Au" */
+    /* KHR_texture_transform per texture slot (SPT_SLOT_*): uv' = M (u, v, 1), M a
+     * 2x3 row-major affine matrix, identity when absent. */
+    float uv_transform[4][6];
 } SceneMaterial;
+
+enum { SPT_SLOT_BASE = 0, SPT_SLOT_METALLIC_ROUGHNESS = 1, SPT_SLOT_NORMAL = 2, SPT_SLOT_EMISSIVE = 3 };
 
 enum { SPT_LIGHT_POINT = 0, SPT_LIGHT_SPOT = 1, SPT_LIGHT_DIRECTIONAL = 2 };
 
