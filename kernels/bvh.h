@@ -74,6 +74,19 @@ SPT_FN void bvh_tri_vertices(const SPT_GLOBAL BvhTri *tris, spt_u32 i, vec3 *v0,
     *v2 = v3(p[6], p[7], p[8]);
 }
 
+/* min/max for the box test: the device's fmin/fmax are instructions, while on the
+ * host fminf/fmaxf are library calls unless -ffast-math, so use compares there.
+ * A NaN operand may make a box count as hit, never a triangle. */
+#if SPT_DEVICE
+#define BVH_MIN(a, b) fmin(a, b)
+#define BVH_MAX(a, b) fmax(a, b)
+#else
+SPT_FN float bvh_min_(float a, float b) { return a < b ? a : b; }
+SPT_FN float bvh_max_(float a, float b) { return a > b ? a : b; }
+#define BVH_MIN(a, b) bvh_min_(a, b)
+#define BVH_MAX(a, b) bvh_max_(a, b)
+#endif
+
 /* 1/d with |d| clamped away from 0, so the slab test never forms 0 * inf. */
 SPT_FN float bvh_safe_rcp(float d)
 {
@@ -112,9 +125,9 @@ SPT_FN float bvh_box_enter(const SPT_GLOBAL BvhNode *n, const BvhRay *r, float t
     float x0 = (n->lo[0] - r->ox) * r->ix, x1 = (n->hi[0] - r->ox) * r->ix;
     float y0 = (n->lo[1] - r->oy) * r->iy, y1 = (n->hi[1] - r->oy) * r->iy;
     float z0 = (n->lo[2] - r->oz) * r->iz, z1 = (n->hi[2] - r->oz) * r->iz;
-    float tn = fmaxf(fmaxf(fminf(x0, x1), fminf(y0, y1)), fmaxf(fminf(z0, z1), 0.0f));
-    float tf = fminf(fminf(fmaxf(x0, x1), fmaxf(y0, y1)), fmaxf(z0, z1)) * 1.00000036f;
-    tf = fminf(tf, tbest);
+    float tn = BVH_MAX(BVH_MAX(BVH_MIN(x0, x1), BVH_MIN(y0, y1)), BVH_MAX(BVH_MIN(z0, z1), 0.0f));
+    float tf = BVH_MIN(BVH_MIN(BVH_MAX(x0, x1), BVH_MAX(y0, y1)), BVH_MAX(z0, z1)) * 1.00000036f;
+    tf = BVH_MIN(tf, tbest);
     return tn <= tf ? tn : -1.0f;
 }
 
@@ -144,14 +157,16 @@ SPT_FN int bvh_tri_intersect(const SPT_GLOBAL BvhTri *tris, spt_u32 i, const Bvh
     float det = eu + ev + ew;
     if (det == 0.0f)
         return 0;
-    float tt = (eu * az + ev * bz + ew * cz) * r->sz;
+    /* Normalising before the sum keeps t finite for coordinates up to 1e18, where
+     * the paper's unnormalised T = U az + V bz + W cz would overflow. */
     float rcp = 1.0f / det;
-    float t = tt * rcp;
+    float w0 = eu * rcp, w1 = ev * rcp, w2 = ew * rcp;
+    float t = (w0 * az + w1 * bz + w2 * cz) * r->sz;
     if (!(t > 0.0f && t < tbest))
         return 0;
     hit->t = t;
-    hit->u = ev * rcp;
-    hit->v = ew * rcp;
+    hit->u = w1;
+    hit->v = w2;
     hit->prim = i;
     return 1;
 }

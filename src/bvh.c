@@ -7,6 +7,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 /* Below this depth splits follow the SAH; from it on they are object medians,
  * which halve the triangle count, so 2^32 triangles still end in leaves at depth
@@ -22,6 +25,10 @@ typedef struct PrimRef {
     float hi[3];
     float pad;
 } PrimRef;
+
+/* Compare-based min/max: fminf/fmaxf are library calls without -ffast-math. */
+static inline float minf(float a, float b) { return a < b ? a : b; }
+static inline float maxf(float a, float b) { return a > b ? a : b; }
 
 typedef struct Box {
     float lo[3], hi[3];
@@ -58,6 +65,8 @@ BvhOptions bvh_default_options(void)
     o.bins = 16;
     o.max_leaf = 8;
     o.full_sweep = 0;
+    o.cost_node = 2.0f;
+    o.cost_tri = 1.0f;
     return o;
 }
 
@@ -72,16 +81,16 @@ static void box_empty(Box *b)
 static void box_grow_box(Box *b, const Box *o)
 {
     for (int a = 0; a < 3; a++) {
-        b->lo[a] = fminf(b->lo[a], o->lo[a]);
-        b->hi[a] = fmaxf(b->hi[a], o->hi[a]);
+        b->lo[a] = minf(b->lo[a], o->lo[a]);
+        b->hi[a] = maxf(b->hi[a], o->hi[a]);
     }
 }
 
 static void box_grow_ref(Box *b, const PrimRef *r)
 {
     for (int a = 0; a < 3; a++) {
-        b->lo[a] = fminf(b->lo[a], r->lo[a]);
-        b->hi[a] = fmaxf(b->hi[a], r->hi[a]);
+        b->lo[a] = minf(b->lo[a], r->lo[a]);
+        b->hi[a] = maxf(b->hi[a], r->hi[a]);
     }
 }
 
@@ -89,8 +98,8 @@ static void box_grow_centroid(Box *b, const PrimRef *r)
 {
     for (int a = 0; a < 3; a++) {
         float c = r->lo[a] + r->hi[a];
-        b->lo[a] = fminf(b->lo[a], c);
-        b->hi[a] = fmaxf(b->hi[a], c);
+        b->lo[a] = minf(b->lo[a], c);
+        b->hi[a] = maxf(b->hi[a], c);
     }
 }
 
@@ -115,10 +124,10 @@ static void refs_bounds(const PrimRef *refs, uint32_t begin, uint32_t end, Box *
 }
 
 /* SAH cost of splitting a node of half area `area` into the two sides. */
-static float sah_split_cost(float area, float la, uint32_t ln, float ra, uint32_t rn)
+static float sah_split_cost(const BvhOptions *o, float area, float la, uint32_t ln, float ra,
+                            uint32_t rn)
 {
-    return (float)BVH_SAH_TRAVERSAL +
-           (float)BVH_SAH_INTERSECT * (la * (float)ln + ra * (float)rn) / area;
+    return o->cost_node + o->cost_tri * (la * (float)ln + ra * (float)rn) / area;
 }
 
 typedef struct Bin {
@@ -131,7 +140,9 @@ typedef struct Bin {
 static int split_binned(Builder *bd, uint32_t begin, uint32_t end, const Box *bounds,
                         const Box *cb, Split *s, float *cost)
 {
-    const int nb = bd->opt.bins;
+    /* Few bins for small nodes: there are many of them and little to gain. */
+    uint32_t cnt = end - begin;
+    const int nb = cnt < (uint32_t)bd->opt.bins ? (cnt < 4 ? 4 : (int)cnt) : bd->opt.bins;
     Bin bins[3][BVH_MAX_BINS];
     float scale[3];
     int usable = 0;
@@ -148,6 +159,44 @@ static int split_binned(Builder *bd, uint32_t begin, uint32_t end, const Box *bo
     if (!usable)
         return 0;
     PrimRef *refs = bd->refs;
+#ifdef __SSE2__
+    /* The same bin expression as the scalar loop and the partition, 4 lanes at a
+     * time; lane 3 (the id bits) is ignored. */
+    __m128 blo[3][BVH_MAX_BINS], bhi[3][BVH_MAX_BINS];
+    uint32_t bn[3][BVH_MAX_BINS];
+    for (int a = 0; a < 3; a++) {
+        for (int k = 0; k < nb; k++) {
+            blo[a][k] = _mm_set1_ps(FLT_MAX);
+            bhi[a][k] = _mm_set1_ps(-FLT_MAX);
+            bn[a][k] = 0;
+        }
+    }
+    const __m128 vmin = _mm_setr_ps(cb->lo[0], cb->lo[1], cb->lo[2], 0.0f);
+    const __m128 vscale = _mm_setr_ps(scale[0], scale[1], scale[2], 0.0f);
+    for (uint32_t i = begin; i < end; i++) {
+        const PrimRef *r = &refs[i];
+        __m128 lo = _mm_loadu_ps(r->lo), hi = _mm_loadu_ps(r->hi);
+        __m128 kf = _mm_mul_ps(_mm_sub_ps(_mm_add_ps(lo, hi), vmin), vscale);
+        int32_t k[4];
+        _mm_storeu_si128((__m128i *)k, _mm_cvttps_epi32(kf));
+        for (int a = 0; a < 3; a++) {
+            int kk = k[a] < nb - 1 ? k[a] : nb - 1;
+            blo[a][kk] = _mm_min_ps(blo[a][kk], lo);
+            bhi[a][kk] = _mm_max_ps(bhi[a][kk], hi);
+            bn[a][kk]++;
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        for (int k = 0; k < nb; k++) {
+            float l4[4], h4[4];
+            _mm_storeu_ps(l4, blo[a][k]);
+            _mm_storeu_ps(h4, bhi[a][k]);
+            memcpy(bins[a][k].b.lo, l4, sizeof bins[a][k].b.lo);
+            memcpy(bins[a][k].b.hi, h4, sizeof bins[a][k].b.hi);
+            bins[a][k].n = bn[a][k];
+        }
+    }
+#else
     for (uint32_t i = begin; i < end; i++) {
         const PrimRef *r = &refs[i];
         for (int a = 0; a < 3; a++) {
@@ -156,11 +205,12 @@ static int split_binned(Builder *bd, uint32_t begin, uint32_t end, const Box *bo
             Bin *bin = &bins[a][k];
             bin->n++;
             for (int c = 0; c < 3; c++) {
-                bin->b.lo[c] = fminf(bin->b.lo[c], r->lo[c]);
-                bin->b.hi[c] = fmaxf(bin->b.hi[c], r->hi[c]);
+                bin->b.lo[c] = minf(bin->b.lo[c], r->lo[c]);
+                bin->b.hi[c] = maxf(bin->b.hi[c], r->hi[c]);
             }
         }
     }
+#endif
     float area = box_half_area(bounds);
     float best = FLT_MAX;
     int best_axis = -1, best_k = -1;
@@ -185,7 +235,7 @@ static int split_binned(Builder *bd, uint32_t begin, uint32_t end, const Box *bo
             n += bins[a][k].n;
             if (n == 0 || rcount[k + 1] == 0)
                 continue;
-            float c = sah_split_cost(area, box_half_area(&acc), n, rarea[k + 1], rcount[k + 1]);
+            float c = sah_split_cost(&bd->opt, area, box_half_area(&acc), n, rarea[k + 1], rcount[k + 1]);
             if (c < best) {
                 best = c;
                 best_axis = a;
@@ -320,7 +370,7 @@ static int split_sweep(Builder *bd, uint32_t begin, uint32_t end, const Box *bou
         box_empty(&acc);
         for (uint32_t i = 1; i < n; i++) {
             box_grow_ref(&acc, &bd->refs[bd->keys[i - 1].ref]);
-            float c = sah_split_cost(area, box_half_area(&acc), i, bd->right_area[i], n - i);
+            float c = sah_split_cost(&bd->opt, area, box_half_area(&acc), i, bd->right_area[i], n - i);
             if (c < best) {
                 best = c;
                 best_axis = a;
@@ -363,7 +413,7 @@ static void build_node(Builder *bd, uint32_t begin, uint32_t end, const Box *bou
             ok = bd->opt.full_sweep ? split_sweep(bd, begin, end, bounds, &s, &cost)
                                     : split_binned(bd, begin, end, bounds, cb, &s, &cost);
         }
-        if ((int)count <= bd->opt.max_leaf && (!ok || (float)BVH_SAH_INTERSECT * count <= cost))
+        if ((int)count <= bd->opt.max_leaf && (!ok || bd->opt.cost_tri * count <= cost))
             leaf = 1;
         else if (!ok)
             split_median(bd, begin, end, cb, &s);
@@ -406,7 +456,7 @@ static int tri_zero_area(const float *p)
 }
 
 /* Area-weighted SAH cost, leaf statistics and memory use of a finished tree. */
-static void bvh_compute_stats(Bvh *bvh)
+static void bvh_compute_stats(Bvh *bvh, const BvhOptions *o)
 {
     BvhStats *st = &bvh->stats;
     st->node_count = bvh->node_count;
@@ -428,9 +478,9 @@ static void bvh_compute_stats(Bvh *bvh)
             st->leaf_count++;
             if (c > st->max_leaf_size)
                 st->max_leaf_size = c;
-            cost += area * BVH_SAH_INTERSECT * c;
+            cost += area * o->cost_tri * c;
         } else {
-            cost += area * BVH_SAH_TRAVERSAL;
+            cost += area * o->cost_node;
         }
     }
     st->sah_cost = root_area > 0.0 ? cost / root_area : 0.0;
@@ -454,7 +504,7 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
     memset(&bd, 0, sizeof bd);
     bd.opt = opt ? *opt : bvh_default_options();
     if (bd.opt.bins < 2 || bd.opt.bins > BVH_MAX_BINS || bd.opt.max_leaf < 1 ||
-        bd.opt.max_leaf > BVH_MAX_LEAF)
+        bd.opt.max_leaf > BVH_MAX_LEAF || !(bd.opt.cost_node > 0.0f) || !(bd.opt.cost_tri > 0.0f))
         return spt_fail(e, SPT_EXIT_USAGE, "bvh: invalid options (bins %d, max_leaf %d)",
                         bd.opt.bins, bd.opt.max_leaf);
 
@@ -476,8 +526,8 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         }
         PrimRef *r = &bd.refs[kept++];
         for (int a = 0; a < 3; a++) {
-            r->lo[a] = fminf(fminf(p[a], p[3 + a]), p[6 + a]);
-            r->hi[a] = fmaxf(fmaxf(p[a], p[3 + a]), p[6 + a]);
+            r->lo[a] = minf(minf(p[a], p[3 + a]), p[6 + a]);
+            r->hi[a] = maxf(maxf(p[a], p[3 + a]), p[6 + a]);
         }
         r->id = i;
         r->pad = 0.0f;
@@ -529,7 +579,7 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
     }
     free(bd.refs);
     bvh->stats.max_depth = bd.max_depth;
-    bvh_compute_stats(bvh);
+    bvh_compute_stats(bvh, &bd.opt);
     bvh->stats.build_seconds = spt_now() - t0;
     return SPT_EXIT_OK;
 }

@@ -18,9 +18,9 @@ typedef struct BvhStats {
     uint32_t max_depth;        /* root = 0 */
     uint32_t max_leaf_size;
     double avg_leaf_size;      /* triangles per leaf */
-    double sah_cost;           /* sum over nodes of area/root area times the cost
-                                  (BVH_SAH_TRAVERSAL per interior node,
-                                  BVH_SAH_INTERSECT per triangle in a leaf) */
+    double sah_cost;           /* sum over nodes of area / root area times the cost
+                                  (options cost_node per interior node, cost_tri
+                                  per triangle in a leaf) */
     double build_seconds;
     double bytes_per_tri;      /* (nodes + packed triangles) / kept triangles */
     uint32_t dropped;          /* dropped_nonfinite + dropped_degenerate */
@@ -40,16 +40,14 @@ typedef struct Bvh {
     BvhStats stats;
 } Bvh;
 
-/* Relative SAH costs of one node visit and one triangle test. */
-#define BVH_SAH_TRAVERSAL 1.0
-#define BVH_SAH_INTERSECT 1.0
-
 /* Build settings; bvh_build uses bvh_default_options(). */
 typedef struct BvhOptions {
     int bins;           /* SAH bins per axis, 2..BVH_MAX_BINS */
     int max_leaf;       /* most triangles per leaf, 1..BVH_MAX_LEAF */
     int full_sweep;     /* 1: exact (unbinned) SAH by sorting, O(n log^2 n): a
                            quality reference for the benchmark, not for scenes */
+    float cost_node;    /* SAH cost of visiting an interior node (> 0) */
+    float cost_tri;     /* SAH cost of one triangle test (> 0) */
 } BvhOptions;
 
 #define BVH_MAX_BINS 64

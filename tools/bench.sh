@@ -12,4 +12,9 @@ status=0
 echo "== renderer (tools/bench_render.c)"
 "$build/tools/bench_render" 3 || status=1
 
+# ---- bvh: build speed, SAH against the full sweep, bytes/triangle, host traversal ----
+echo "== bvh (tools/bench_bvh.c)"
+"$build/tools/bench_bvh" 5 || status=1
+# ---- end bvh ----
+
 exit $status

@@ -1,0 +1,465 @@
+/* src/bvh.c and kernels/bvh.h: tree structure, closest and any hit against an
+ * independent double-precision brute force, watertightness, garbage input. */
+#include "test_util.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "bvh.h"
+
+/* splitmix64: a small deterministic generator for the test data. */
+static uint64_t rng_state = 1;
+static double rnd(void)
+{
+    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+}
+static double rnd_range(double a, double b) { return a + (b - a) * rnd(); }
+
+static void rnd_dir(double d[3])
+{
+    double z = rnd_range(-1, 1), phi = rnd_range(0, 2 * M_PI), s = sqrt(1 - z * z);
+    d[0] = s * cos(phi);
+    d[1] = s * sin(phi);
+    d[2] = z;
+}
+
+/* Moller-Trumbore in double: 1 when the ray hits triangle p with t > 0 and all
+ * barycentrics >= -eps; *t and *margin (smallest barycentric) filled. */
+static int ref_tri(const float *p, const double o[3], const double d[3], double eps, double *t,
+                   double *margin)
+{
+    double v0[3], e1[3], e2[3], pv[3], tv[3], qv[3];
+    for (int a = 0; a < 3; a++) {
+        v0[a] = p[a];
+        e1[a] = (double)p[3 + a] - p[a];
+        e2[a] = (double)p[6 + a] - p[a];
+    }
+    pv[0] = d[1] * e2[2] - d[2] * e2[1];
+    pv[1] = d[2] * e2[0] - d[0] * e2[2];
+    pv[2] = d[0] * e2[1] - d[1] * e2[0];
+    double det = e1[0] * pv[0] + e1[1] * pv[1] + e1[2] * pv[2];
+    if (det == 0.0)
+        return 0;
+    double inv = 1.0 / det;
+    for (int a = 0; a < 3; a++)
+        tv[a] = o[a] - v0[a];
+    double u = (tv[0] * pv[0] + tv[1] * pv[1] + tv[2] * pv[2]) * inv;
+    qv[0] = tv[1] * e1[2] - tv[2] * e1[1];
+    qv[1] = tv[2] * e1[0] - tv[0] * e1[2];
+    qv[2] = tv[0] * e1[1] - tv[1] * e1[0];
+    double v = (d[0] * qv[0] + d[1] * qv[1] + d[2] * qv[2]) * inv;
+    double tt = (e2[0] * qv[0] + e2[1] * qv[1] + e2[2] * qv[2]) * inv;
+    double m = fmin(fmin(u, v), 1.0 - u - v);
+    if (m < -eps || !(tt > 0.0))
+        return 0;
+    *t = tt;
+    *margin = m;
+    return 1;
+}
+
+typedef struct RefHit {
+    int hit;
+    double t, margin;
+    uint32_t id;
+} RefHit;
+
+/* Closest hit over every triangle whose keep[] flag is set (all when NULL). */
+static RefHit ref_closest(const float *tris, uint32_t n, const unsigned char *keep,
+                          const double o[3], const double d[3])
+{
+    RefHit h = {0, INFINITY, 0, 0};
+    for (uint32_t i = 0; i < n; i++) {
+        double t, m;
+        if (keep && !keep[i])
+            continue;
+        if (ref_tri(tris + (size_t)i * 9, o, d, 0.0, &t, &m) && t < h.t) {
+            h.hit = 1;
+            h.t = t;
+            h.margin = m;
+            h.id = i;
+        }
+    }
+    return h;
+}
+
+/* Fires rays (origins uniform in [lo, hi]^3, uniform directions) and compares
+ * closest hit (hit/miss, t, triangle) and any hit with the brute force. Near-ties
+ * (a ray within 1e-5 barycentric of an edge, or two triangles at the same t) may
+ * legitimately differ between float and double; at most 1 in 1000 rays may be
+ * such a tie, and a tie still needs the BVH's triangle to be hit at its t. */
+static void check_rays(const Bvh *bvh, const float *tris, uint32_t n, const unsigned char *keep,
+                       int rays, double lo, double hi)
+{
+    int ties = 0, hits = 0;
+    for (int r = 0; r < rays; r++) {
+        double o[3], d[3];
+        for (int a = 0; a < 3; a++)
+            o[a] = rnd_range(lo, hi);
+        rnd_dir(d);
+        vec3 org = v3((float)o[0], (float)o[1], (float)o[2]);
+        vec3 dir = v3((float)d[0], (float)d[1], (float)d[2]);
+        for (int a = 0; a < 3; a++) { /* the reference sees the float ray */
+            o[a] = (a == 0 ? org.x : a == 1 ? org.y : org.z);
+            d[a] = (a == 0 ? dir.x : a == 1 ? dir.y : dir.z);
+        }
+        RefHit ref = ref_closest(tris, n, keep, o, d);
+        BvhHit h = {0, 0, 0, 0};
+        int got = bvh_intersect(bvh->nodes, bvh_tris(bvh), org, dir, 1e30f, &h);
+        hits += got;
+        int tie = 0;
+        if (got) {
+            assert_true(h.prim < bvh->prim_count);
+            uint32_t id = bvh->prim_index[h.prim];
+            double tb, mb;
+            int on_tri = ref_tri(tris + (size_t)id * 9, o, d, 1e-5, &tb, &mb);
+            if (!on_tri || fabs(tb - h.t) > 1e-4 * fmax(1.0, tb))
+                fail_msg("ray %d: BVH hit triangle %u at t=%.9g, which the reference puts at "
+                         "%s %.9g", r, id, h.t, on_tri ? "t =" : "a miss,", on_tri ? tb : 0.0);
+            /* barycentrics reproduce the hit point */
+            vec3 v0, v1, v2;
+            bvh_tri_vertices(bvh_tris(bvh), h.prim, &v0, &v1, &v2);
+            vec3 p = v3_add(v3_add(v3_scale(v0, 1 - h.u - h.v), v3_scale(v1, h.u)),
+                            v3_scale(v2, h.v));
+            vec3 q = v3_add(org, v3_scale(dir, h.t));
+            assert_close(v3_length(v3_sub(p, q)), 0.0, 1e-3 * fmax(1.0, h.t));
+            if (!ref.hit) {
+                tie = 1;
+            } else if (id != ref.id || fabs(h.t - ref.t) > 1e-4 * fmax(1.0, ref.t)) {
+                if (fabs(tb - ref.t) > 1e-4 * fmax(1.0, ref.t))
+                    fail_msg("ray %d: BVH t=%.9g (triangle %u), brute force t=%.9g (triangle "
+                             "%u)", r, h.t, id, ref.t, ref.id);
+                tie = 1;
+            }
+        } else if (ref.hit) {
+            if (ref.margin > 1e-5)
+                fail_msg("ray %d: BVH missed, brute force hit triangle %u at t=%.9g "
+                         "(margin %.3g)", r, ref.id, ref.t, ref.margin);
+            tie = 1;
+        }
+        ties += tie;
+        /* any hit with a random tmax agrees with the closest hit */
+        float tmax = (float)rnd_range(0.01, 2.0 * (hi - lo));
+        int occ = bvh_occluded(bvh->nodes, bvh_tris(bvh), org, dir, tmax);
+        int want = ref.hit && ref.t < tmax;
+        if (occ != want && !tie && !(ref.hit && fabs(ref.t - tmax) < 1e-4 * tmax))
+            fail_msg("ray %d: occluded(tmax=%.9g) = %d, brute force closest t = %.9g", r, tmax,
+                     occ, ref.hit ? ref.t : -1.0);
+    }
+    if (ties > rays / 1000)
+        fail_msg("%d of %d rays were near-ties, more than 1 in 1000", ties, rays);
+    /* the rays must exercise hits as well as misses */
+    assert_true(hits > rays / 20);
+    assert_true(hits < rays);
+}
+
+/* Checks the tree: every node reached once, children inside parents, leaves
+ * bound their triangles, every kept triangle in exactly one leaf, packed data
+ * equal to the input, depth within the traversal stack. keep may be NULL. */
+static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
+                            const unsigned char *keep)
+{
+    uint32_t want_kept = 0;
+    for (uint32_t i = 0; i < n; i++)
+        want_kept += keep ? keep[i] : 1;
+    assert_int_equal(bvh->prim_count, want_kept);
+    unsigned char *seen = calloc(bvh->prim_count + 1, 1);
+    unsigned char *seen_in = calloc(n + 1, 1);
+    unsigned char *visited = calloc(bvh->node_count, 1);
+    uint32_t stack[256], depth[256];
+    int sp = 0;
+    stack[sp] = 0;
+    depth[sp++] = 0;
+    uint32_t visits = 0, leaves = 0, max_depth = 0;
+    const BvhTri *pt = bvh_tris(bvh);
+    while (sp) {
+        sp--;
+        uint32_t i = stack[sp], dep = depth[sp];
+        assert_true(i < bvh->node_count);
+        assert_false(visited[i]);
+        visited[i] = 1;
+        visits++;
+        max_depth = dep > max_depth ? dep : max_depth;
+        assert_true(dep < BVH_MAX_DEPTH);
+        const BvhNode *nd = &bvh->nodes[i];
+        for (int a = 0; a < 3; a++) {
+            assert_true(isfinite(nd->lo[a]) && isfinite(nd->hi[a]));
+            assert_true(nd->lo[a] <= nd->hi[a]);
+        }
+        if (nd->count & BVH_LEAF_BIT) {
+            leaves++;
+            uint32_t c = nd->count & ~BVH_LEAF_BIT;
+            assert_true(c >= 1);
+            assert_true(nd->offset + c <= bvh->prim_count);
+            for (uint32_t k = nd->offset; k < nd->offset + c; k++) {
+                assert_false(seen[k]);
+                seen[k] = 1;
+                uint32_t id = bvh->prim_index[k];
+                assert_true(id < n);
+                assert_true(keep == NULL || keep[id]);
+                assert_false(seen_in[id]);
+                seen_in[id] = 1;
+                assert_memory_equal(pt[k].v, tris + (size_t)id * 9, 36);
+                for (int v = 0; v < 3; v++)
+                    for (int a = 0; a < 3; a++) {
+                        assert_true(pt[k].v[v * 3 + a] >= nd->lo[a]);
+                        assert_true(pt[k].v[v * 3 + a] <= nd->hi[a]);
+                    }
+            }
+        } else {
+            uint32_t ch[2] = {i + 1, nd->offset};
+            for (int c = 0; c < 2; c++) {
+                assert_true(ch[c] < bvh->node_count);
+                const BvhNode *cn = &bvh->nodes[ch[c]];
+                for (int a = 0; a < 3; a++) {
+                    assert_true(cn->lo[a] >= nd->lo[a]);
+                    assert_true(cn->hi[a] <= nd->hi[a]);
+                }
+                assert_true(sp < 256);
+                stack[sp] = ch[c];
+                depth[sp++] = dep + 1;
+            }
+        }
+    }
+    assert_int_equal(visits, bvh->node_count);
+    assert_int_equal(leaves, bvh->stats.leaf_count);
+    assert_int_equal(max_depth, bvh->stats.max_depth);
+    for (uint32_t k = 0; k < bvh->prim_count; k++)
+        assert_true(seen[k]);
+    free(seen);
+    free(seen_in);
+    free(visited);
+}
+
+/* n random triangles of size up to `size` inside [-1, 1]^3. */
+static float *make_soup(uint32_t n, double size)
+{
+    float *t = malloc((size_t)n * 9 * sizeof *t);
+    for (uint32_t i = 0; i < n; i++) {
+        double c[3];
+        for (int a = 0; a < 3; a++)
+            c[a] = rnd_range(-1, 1);
+        for (int k = 0; k < 9; k++)
+            t[i * 9 + k] = (float)(c[k % 3] + rnd_range(-size, size));
+    }
+    return t;
+}
+
+static void test_soup_matches_brute_force(void **state)
+{
+    (void)state;
+    rng_state = 11;
+    uint32_t n = 1000;
+    float *t = make_soup(n, 0.15);
+    Bvh bvh;
+    assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
+    assert_int_equal(bvh.stats.dropped, 0);
+    check_structure(&bvh, t, n, NULL);
+    check_rays(&bvh, t, n, NULL, 40000, -1.5, 1.5);
+    bvh_free(&bvh);
+    free(t);
+}
+
+static void test_sphere_matches_brute_force(void **state)
+{
+    (void)state;
+    rng_state = 12;
+    uint32_t n;
+    const float c[3] = {0.3f, -0.2f, 0.1f};
+    float *t = bvh_gen_sphere(40, 50, 1.0f, c, 0.2f, &n);
+    assert_int_equal(n, 4000);
+    Bvh bvh;
+    assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
+    check_structure(&bvh, t, n, NULL);
+    check_rays(&bvh, t, n, NULL, 40000, -1.5, 1.5);
+    bvh_free(&bvh);
+    free(t);
+}
+
+/* The full-sweep reference builder makes a valid tree too, with SAH cost no
+ * higher than the binned one's by more than rounding (it searches a superset). */
+static void test_full_sweep_builder(void **state)
+{
+    (void)state;
+    rng_state = 13;
+    uint32_t n = 2000;
+    float *t = make_soup(n, 0.1);
+    Bvh a, b;
+    BvhOptions o = bvh_default_options();
+    assert_int_equal(bvh_build_ex(&a, t, n, &o, NULL), 0);
+    o.full_sweep = 1;
+    assert_int_equal(bvh_build_ex(&b, t, n, &o, NULL), 0);
+    check_structure(&b, t, n, NULL);
+    check_rays(&b, t, n, NULL, 10000, -1.5, 1.5);
+    assert_true(b.stats.sah_cost <= a.stats.sah_cost * 1.02);
+    bvh_free(&a);
+    bvh_free(&b);
+    free(t);
+}
+
+static void test_million_triangles(void **state)
+{
+    (void)state;
+    rng_state = 14;
+    uint32_t n;
+    const float c[3] = {0, 0, 0};
+    float *t = bvh_gen_sphere(500, 1000, 1.0f, c, 0.3f, &n);
+    assert_int_equal(n, 1000000);
+    Bvh bvh;
+    assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
+    assert_int_equal(bvh.prim_count, n);
+    assert_true(bvh.stats.max_depth < BVH_MAX_DEPTH);
+    assert_true(bvh.stats.bytes_per_tri <= 64.0);
+    check_rays(&bvh, t, n, NULL, 40, -1.0, 1.0);
+    bvh_free(&bvh);
+    free(t);
+}
+
+/* Rays from inside a closed mesh must all hit, also far from the origin. */
+static void test_watertight(void **state)
+{
+    (void)state;
+    rng_state = 15;
+    const double offsets[3] = {0.0, 1e4, 1e5};
+    const float radius[3] = {1.0f, 4.0f, 4.0f};
+    int rays = 50000, misses = 0;
+    for (int k = 0; k < 3; k++) {
+        uint32_t n;
+        float c[3] = {(float)offsets[k], (float)(-0.7 * offsets[k]), (float)(0.3 * offsets[k])};
+        float *t = bvh_gen_sphere(100, 200, radius[k], c, 0.2f, &n);
+        Bvh bvh;
+        assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
+        int miss_here = 0;
+        for (int r = 0; r < rays; r++) {
+            double d[3];
+            rnd_dir(d);
+            vec3 org = v3(c[0] + (float)rnd_range(-0.3, 0.3) * radius[k],
+                          c[1] + (float)rnd_range(-0.3, 0.3) * radius[k],
+                          c[2] + (float)rnd_range(-0.3, 0.3) * radius[k]);
+            vec3 dir = v3((float)d[0], (float)d[1], (float)d[2]);
+            BvhHit h;
+            if (!bvh_intersect(bvh.nodes, bvh_tris(&bvh), org, dir, 1e30f, &h))
+                miss_here++;
+            else
+                assert_true(h.t > 0.2f * radius[k] && h.t < 1.8f * radius[k]);
+        }
+        if (miss_here)
+            print_message("offset %g: %d of %d rays from inside missed\n", offsets[k], miss_here,
+                          rays);
+        misses += miss_here;
+        bvh_free(&bvh);
+        free(t);
+    }
+    assert_true(misses <= (int)(2e-5 * 3 * rays));
+}
+
+/* Bad triangles are dropped and counted; the rest is indexed and traced. */
+static void test_garbage_dropped(void **state)
+{
+    (void)state;
+    rng_state = 16;
+    uint32_t good = 500, n = good + 8;
+    float *t = make_soup(n, 0.2);
+    unsigned char *keep = malloc(n);
+    memset(keep, 1, n);
+    uint32_t g = good;
+    t[g * 9 + 4] = NAN; keep[g++] = 0;
+    t[g * 9 + 0] = INFINITY; keep[g++] = 0;
+    t[g * 9 + 8] = -INFINITY; keep[g++] = 0;
+    t[g * 9 + 3] = 1e18f; keep[g++] = 0;
+    t[g * 9 + 7] = -3e20f; keep[g++] = 0;
+    /* collinear: v2 = 2 v1 - v0 exactly (small integers) */
+    for (int a = 0; a < 3; a++) {
+        t[g * 9 + a] = (float)a;
+        t[g * 9 + 3 + a] = (float)(a + 1) * 0.5f;
+        t[g * 9 + 6 + a] = 2 * t[g * 9 + 3 + a] - t[g * 9 + a];
+    }
+    keep[g++] = 0;
+    memcpy(t + g * 9 + 3, t + g * 9, 3 * sizeof *t); /* two equal vertices */
+    keep[g++] = 0;
+    for (int k = 0; k < 9; k++) /* a huge but valid triangle is kept */
+        t[g * 9 + k] = (float)((k % 3 == k / 3) ? 9e17 : 0.0);
+    keep[g++] = 1;
+    assert_int_equal(g, n);
+    Bvh bvh;
+    assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
+    assert_int_equal(bvh.stats.dropped_nonfinite, 5);
+    assert_int_equal(bvh.stats.dropped_degenerate, 2);
+    assert_int_equal(bvh.stats.dropped, 7);
+    check_structure(&bvh, t, n, keep);
+    check_rays(&bvh, t, n, keep, 10000, -1.5, 1.5);
+    bvh_free(&bvh);
+    free(keep);
+    free(t);
+}
+
+/* 100,000 identical triangles: no SAH split exists; the tree stays shallow. */
+static void test_identical_triangles(void **state)
+{
+    (void)state;
+    uint32_t n = 100000;
+    float *t = malloc((size_t)n * 9 * sizeof *t);
+    const float tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    for (uint32_t i = 0; i < n; i++)
+        memcpy(t + (size_t)i * 9, tri, sizeof tri);
+    Bvh bvh;
+    assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
+    check_structure(&bvh, t, n, NULL);
+    /* halving down to leaves of at most 8: ceil(log2(100000 / 8)) = 14 levels */
+    assert_true(bvh.stats.max_depth <= 14);
+    assert_true(bvh.stats.build_seconds < 5.0);
+    BvhHit h;
+    assert_true(bvh_intersect(bvh.nodes, bvh_tris(&bvh), v3(0.25f, 0.25f, 2.0f),
+                              v3(0, 0, -1), 1e30f, &h));
+    assert_close(h.t, 2.0, 1e-6);
+    assert_close(h.u, 0.25, 1e-6);
+    assert_close(h.v, 0.25, 1e-6);
+    assert_false(bvh_occluded(bvh.nodes, bvh_tris(&bvh), v3(0.25f, 0.25f, 2.0f), v3(0, 0, -1),
+                              1.999f));
+    bvh_free(&bvh);
+    free(t);
+}
+
+/* No triangles, or only bad ones: a tree every ray misses. */
+static void test_empty_scene(void **state)
+{
+    (void)state;
+    rng_state = 17;
+    float bad[9] = {NAN, 0, 0, 1, 0, 0, 0, 1, 0};
+    for (int k = 0; k < 2; k++) {
+        Bvh bvh;
+        assert_int_equal(bvh_build(&bvh, k ? bad : NULL, k, NULL), 0);
+        assert_int_equal(bvh.prim_count, 0);
+        assert_int_equal(bvh.node_count, 1);
+        assert_true(bvh.tri_data_bytes > 0);
+        assert_int_equal(bvh.stats.dropped, k);
+        for (int r = 0; r < 1000; r++) {
+            double d[3];
+            rnd_dir(d);
+            vec3 o = v3((float)rnd_range(-1, 1), (float)rnd_range(-1, 1), (float)rnd_range(-1, 1));
+            vec3 dir = v3((float)d[0], (float)d[1], (float)d[2]);
+            BvhHit h;
+            assert_false(bvh_intersect(bvh.nodes, bvh_tris(&bvh), o, dir, 1e30f, &h));
+            assert_false(bvh_occluded(bvh.nodes, bvh_tris(&bvh), o, dir, 1e30f));
+        }
+        bvh_free(&bvh);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_soup_matches_brute_force),
+        cmocka_unit_test(test_sphere_matches_brute_force),
+        cmocka_unit_test(test_full_sweep_builder),
+        cmocka_unit_test(test_million_triangles),
+        cmocka_unit_test(test_watertight),
+        cmocka_unit_test(test_garbage_dropped),
+        cmocka_unit_test(test_identical_triangles),
+        cmocka_unit_test(test_empty_scene),
+    };
+    return cmocka_run_group_tests_name("bvh", tests, NULL, NULL);
+}
