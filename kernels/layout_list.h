@@ -9,6 +9,7 @@
 #define SPT_LAYOUT_LIST_H
 
 #include "shared.h"
+#include "bvh.h"
 #include "render_types.h"
 
 /* A probe of the rules in kernels/shared.h (mixed 32-bit scalars, a fixed
@@ -29,7 +30,10 @@ typedef struct LayoutProbe {
     X(GpuMaterial)                \
     X(GpuTexture)                 \
     X(TriShade)                   \
-    X(RenderParams)
+    X(RenderParams)               \
+    X(BvhNode)                    \
+    X(BvhTri)                     \
+    X(BvhHit)
 
 /* X(Type, field) for each field whose offset is checked. */
 #define SPT_LAYOUT_FIELDS(X)      \
@@ -43,6 +47,10 @@ typedef struct LayoutProbe {
     X(GpuTexture, pad)            \
     X(RenderParams, width)        \
     X(RenderParams, sample_begin) \
-    X(RenderParams, rr_depth)
+    X(RenderParams, rr_depth)     \
+    X(BvhNode, offset)            \
+    X(BvhNode, hi)                \
+    X(BvhNode, count)             \
+    X(BvhHit, prim)
 
 #endif
