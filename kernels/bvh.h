@@ -2,10 +2,12 @@
  * builder (src/bvh.c) writes, and the traversal. Valid C99 and OpenCL C 1.2, so the
  * host tests and benchmarks run exactly the code the kernels run.
  *
- * Layout: a flat array of 32-byte binary nodes in depth-first order. An interior
- * node's first child is the next node in the array and its second child is at
- * `offset`; a leaf holds the contiguous triangles [offset, offset + count). Node 0
- * is the root. Triangles are packed in leaf order as 9 floats (v0, v1, v2).
+ * Layout: a flat array of 32-byte binary nodes. Node 0 is the root and node 1 is
+ * unused; the two children of an interior node are the adjacent pair at
+ * [offset, offset + 1] (offset even, so with a 64-byte aligned buffer both child
+ * boxes arrive in one cache line), pairs laid out depth first. A leaf holds the
+ * contiguous triangles [offset, offset + count). Triangles are packed in leaf
+ * order as 9 floats (v0, v1, v2).
  *
  * Depth: the builder never makes a node deeper than BVH_MAX_DEPTH - 1 (root =
  * depth 0), so the traversal stack of BVH_MAX_DEPTH entries cannot overflow: a
@@ -34,7 +36,8 @@
 
 typedef struct BvhNode {
     float lo[3];
-    spt_u32 offset; /* interior: index of the second child; leaf: first triangle */
+    spt_u32 offset; /* interior: index of the first child (the second follows it);
+                       leaf: first triangle */
     float hi[3];
     spt_u32 count;  /* leaf: BVH_LEAF_BIT | triangle count; interior: 0 */
 } BvhNode;
@@ -202,7 +205,7 @@ SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL BvhTri
                 }
             }
         } else {
-            spt_u32 c0 = idx + 1, c1 = n->offset;
+            spt_u32 c0 = n->offset, c1 = c0 + 1;
             float d0 = bvh_box_enter(&nodes[c0], &r, best);
             float d1 = bvh_box_enter(&nodes[c1], &r, best);
             if (d0 >= 0.0f && d1 >= 0.0f) {

@@ -391,11 +391,11 @@ static int split_sweep(Builder *bd, uint32_t begin, uint32_t end, const Box *bou
     return 1;
 }
 
-/* Builds the subtree over refs[begin, end) (non-empty) at the next free node. */
-static void build_node(Builder *bd, uint32_t begin, uint32_t end, const Box *bounds,
-                       const Box *cb, uint32_t depth)
+/* Builds the subtree over refs[begin, end) (non-empty) into node idx; its
+ * children, if any, become the next free (even-aligned) pair of nodes. */
+static void build_node(Builder *bd, uint32_t idx, uint32_t begin, uint32_t end,
+                       const Box *bounds, const Box *cb, uint32_t depth)
 {
-    uint32_t idx = bd->node_count++;
     BvhNode *node = &bd->nodes[idx];
     for (int a = 0; a < 3; a++) {
         node->lo[a] = bounds->lo[a];
@@ -424,9 +424,11 @@ static void build_node(Builder *bd, uint32_t begin, uint32_t end, const Box *bou
         return;
     }
     node->count = 0;
-    build_node(bd, begin, s.mid, &s.lb, &s.lcb, depth + 1);
-    bd->nodes[idx].offset = bd->node_count;
-    build_node(bd, s.mid, end, &s.rb, &s.rcb, depth + 1);
+    uint32_t pair = bd->node_count;
+    bd->node_count += 2;
+    node->offset = pair;
+    build_node(bd, pair, begin, s.mid, &s.lb, &s.lcb, depth + 1);
+    build_node(bd, pair + 1, s.mid, end, &s.rb, &s.rcb, depth + 1);
 }
 
 /* 1 when every coordinate is finite with magnitude below 1e18. */
@@ -554,17 +556,25 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         bvh->prim_index = spt_calloc(1, sizeof *bvh->prim_index);
         bvh->prim_count = 0;
     } else {
-        bd.nodes = spt_malloc((2 * (size_t)kept - 1) * sizeof *bd.nodes);
+        /* Root at 0, an unused zeroed node at 1, then sibling pairs from 2. */
+        bd.nodes = spt_calloc(2 * (size_t)kept, sizeof *bd.nodes);
+        bd.node_count = 2;
         if (bd.opt.full_sweep) {
             bd.keys = spt_malloc(kept * sizeof *bd.keys);
             bd.right_area = spt_malloc(kept * sizeof *bd.right_area);
             bd.tmp = spt_malloc(kept * sizeof *bd.tmp);
         }
-        build_node(&bd, 0, kept, &bounds, &cb, 0);
+        build_node(&bd, 0, 0, kept, &bounds, &cb, 0);
         free(bd.keys);
         free(bd.right_area);
         free(bd.tmp);
-        bvh->nodes = spt_realloc(bd.nodes, bd.node_count * sizeof *bd.nodes);
+        /* 64-byte aligned, so each sibling pair is one cache line. */
+        size_t bytes = ((bd.node_count * sizeof(BvhNode) + 63) / 64) * 64;
+        bvh->nodes = aligned_alloc(64, bytes);
+        if (!bvh->nodes)
+            bvh->nodes = spt_malloc(bytes);
+        memcpy(bvh->nodes, bd.nodes, bd.node_count * sizeof *bd.nodes);
+        free(bd.nodes);
         bvh->node_count = bd.node_count;
         BvhTri *tris = spt_malloc(kept * sizeof *tris);
         bvh->prim_index = spt_malloc(kept * sizeof *bvh->prim_index);
