@@ -14,7 +14,7 @@ endif
 CC ?= cc
 CXX ?= g++
 OPT ?= -O2
-PKGS := OpenCL OpenImageIO OpenEXR tinygltf
+PKGS := OpenCL OpenImageIO OpenEXR tinygltf draco
 # Recursive (=) so pkg-config runs when a recipe needs it, after install_deps.
 PKG_CFLAGS = $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 PKG_LIBS = $(shell pkg-config --libs $(PKGS) 2>/dev/null)
@@ -22,7 +22,7 @@ CPPFLAGS := -Isrc -Ikernels -I$(BUILD)/gen -DCL_TARGET_OPENCL_VERSION=120 -D_GNU
 CFLAGS := -std=c11 $(OPT) -g -Wall -Wextra -MMD -MP $(SANFLAGS)
 CXXFLAGS := -std=c++17 $(OPT) -g -Wall -Wextra -MMD -MP $(SANFLAGS) -I/usr/include/stb -I/usr/include/nlohmann
 LDFLAGS := $(SANFLAGS)
-LDLIBS = $(PKG_LIBS) -lm -lpthread
+LDLIBS = $(PKG_LIBS) -lmeshoptimizer -lm -lpthread
 
 ifeq ($(V),1)
 Q :=

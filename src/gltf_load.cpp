@@ -16,7 +16,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <algorithm>
 #include <map>
+#include <memory>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -26,6 +28,7 @@
 extern "C" {
 #include "scene.h"
 #include "../kernels/cie_data.h"
+#include "mesh_decode.h"
 #include "texture_io.h"
 }
 
@@ -34,10 +37,19 @@ namespace {
 using tinygltf::Value;
 
 // Extensions whose meaning we implement; only these may be in extensionsRequired.
+// Keep in sync with the code that reads them and the README's loader section.
 const char *const k_supported_ext[] = {
     "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_transmission",
     "KHR_materials_dispersion", "KHR_materials_volume", "KHR_materials_unlit",
-    "KHR_lights_punctual",
+    "KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_pbrSpecularGlossiness",
+    "KHR_mesh_quantization", "EXT_meshopt_compression", "KHR_draco_mesh_compression",
+    "EXT_texture_webp",
+};
+
+// Material extensions we know and deliberately ignore (one warning each, listing
+// the materials): a file that requires one is refused like an unknown one.
+const char *const k_ignored_material_ext[] = {
+    "KHR_materials_specular", "KHR_materials_clearcoat", "KHR_materials_sheen",
 };
 
 // Conductors the spectral extras may name (complex IOR tables in the renderer).
@@ -230,6 +242,9 @@ struct Loader {
     SceneStats stats = {};
     int default_material = -1;
     uint32_t modes_skipped = 0, no_position = 0, texcoord_warned = 0, leftover_indices = 0;
+    uint32_t transform_unused = 0, specgloss_textures = 0, meshopt_views = 0, draco_primitives = 0;
+    bool quantization = false; // KHR_mesh_quantization in extensionsUsed
+    std::map<std::string, std::vector<std::string>> ignored_ext; // extension -> materials
 
     std::vector<std::vector<PrimData>> prim; // [mesh][primitive]
     std::vector<int> decoded_state;          // per image: 0 untried, 1 ok, -1 failed
@@ -253,17 +268,23 @@ struct Loader {
     int check_version_and_extensions();
     int check_buffer_views();
     int check_accessor(int index, const std::string &obj, int want_components,
-                       const std::vector<int> &types, bool normalized_ok, bool *zeros);
+                       const std::vector<int> &types, int normalized_ok, bool *zeros);
     int read_floats(int index, int ncomp, std::vector<float> &out);
     int read_indices(int index, std::vector<uint32_t> &out);
     int node_local(int n, Mat4 *out);
     int traverse();
     int material(int index);
-    int texture_ref(int tex, int texcoord, bool srgb, const std::string &obj, int *out);
+    int texture_ref(int tex, int texcoord, bool srgb, const std::string &obj, int *out,
+                    const tinygltf::ExtensionMap *ext = nullptr, float *uv_transform = nullptr);
+    int texture_transform(const tinygltf::ExtensionMap *ext, int *texcoord,
+                          const std::string &obj, float *uv_transform);
+    int spec_gloss(const Value &x, SceneMaterial *sm, const std::string &obj);
     int decode_image(int image);
     int spectral_extras(const Value &extras, SceneMaterial *sm, const std::string &obj);
     int parse_spd(const Value &v, Spd *out, const std::string &obj);
     int read_primitive(int mesh, int p);
+    int read_draco(int mesh, int p, const Value &ext, std::vector<uint32_t> &idx);
+    int decode_meshopt_views();
     int emit_instance(int mesh, const Mat4 &world);
     int camera_from(int cam, const Mat4 &world, int node);
     int light_from(int light, const Mat4 &world, int node);
@@ -344,6 +365,36 @@ bool keep_image_bytes(tinygltf::Image *image, const int index, std::string *, st
 // ---------------------------------------------------------------------------
 // Parsing
 
+// EXT_meshopt_compression's fallback buffers may have no uri (their bytes are
+// never needed when the extension is decoded), which tinygltf refuses in a
+// .gltf and reads past the BIN chunk in a .glb. Such buffers get a 4-byte data
+// URI instead; *out is the rewritten JSON. False when nothing was rewritten.
+bool rewrite_fallback_buffers(const unsigned char *json, size_t size, std::string *out)
+{
+    static const char key[] = "EXT_meshopt_compression";
+    if (std::search(json, json + size, key, key + sizeof key - 1) == json + size) return false;
+    nlohmann::json j;
+    try {
+        j = nlohmann::json::parse(json, json + size);
+    } catch (const std::exception &) {
+        return false; // reported by the normal parse
+    }
+    if (!j.is_object() || !j.contains("buffers") || !j["buffers"].is_array()) return false;
+    bool changed = false;
+    for (auto &b : j["buffers"]) {
+        if (!b.is_object() || b.contains("uri") || !b.contains("extensions")) continue;
+        const auto &x = b["extensions"];
+        if (!x.is_object() || !x.contains(key) || !x[key].is_object()) continue;
+        const auto &fb = x[key];
+        if (!fb.contains("fallback") || fb["fallback"] != true) continue;
+        b["uri"] = "data:application/octet-stream;base64,AAAAAA==";
+        b["byteLength"] = 4;
+        changed = true;
+    }
+    if (changed) *out = j.dump();
+    return changed;
+}
+
 int Loader::parse(const unsigned char *data, size_t size)
 {
     if (size == 0) return bad("empty file (not glTF)");
@@ -380,12 +431,31 @@ int Loader::parse(const unsigned char *data, size_t size)
         }
         json = data + 20;
         json_size = h[3];
-        ok = gltf.LoadBinaryFromMemory(&m, &err, &warn, data, h[2], dir,
-                                       tinygltf::REQUIRE_VERSION);
+        std::string fixed;
+        if (rewrite_fallback_buffers(json, json_size, &fixed)) {
+            // The same container around the rewritten JSON chunk.
+            while (fixed.size() % 4) fixed += ' ';
+            std::vector<unsigned char> glb(20);
+            uint32_t hdr[5] = {h[0], 2, 0, (uint32_t)fixed.size(), 0x4E4F534A};
+            glb.insert(glb.end(), fixed.begin(), fixed.end());
+            glb.insert(glb.end(), data + 20 + h[3], data + h[2]);
+            hdr[2] = (uint32_t)glb.size();
+            memcpy(glb.data(), hdr, 20);
+            ok = gltf.LoadBinaryFromMemory(&m, &err, &warn, glb.data(), (unsigned)glb.size(), dir,
+                                           tinygltf::REQUIRE_VERSION);
+        } else {
+            ok = gltf.LoadBinaryFromMemory(&m, &err, &warn, data, h[2], dir,
+                                           tinygltf::REQUIRE_VERSION);
+        }
     } else {
         if (size > UINT_MAX) return bad("a .gltf file of 4 GiB or more is not supported");
-        ok = gltf.LoadASCIIFromString(&m, &err, &warn, (const char *)data, (unsigned)size, dir,
-                                      tinygltf::REQUIRE_VERSION);
+        std::string fixed;
+        if (rewrite_fallback_buffers(data, size, &fixed))
+            ok = gltf.LoadASCIIFromString(&m, &err, &warn, fixed.data(), (unsigned)fixed.size(),
+                                          dir, tinygltf::REQUIRE_VERSION);
+        else
+            ok = gltf.LoadASCIIFromString(&m, &err, &warn, (const char *)data, (unsigned)size,
+                                          dir, tinygltf::REQUIRE_VERSION);
     }
     if (!ok) return diagnose_parse_failure(json, json_size, err);
     return 0;
@@ -502,8 +572,15 @@ int Loader::check_version_and_extensions()
         if (!supported(x)) missing.push_back(x);
     if (!missing.empty())
         return bad("extensionsRequired: not supported: %s", join_names(missing).c_str());
-    for (const auto &x : m.extensionsUsed)
-        if (!supported(x)) unknown.push_back(x);
+    auto ignored = [](const std::string &name) {
+        for (const char *s : k_ignored_material_ext)
+            if (name == s) return true;
+        return false;
+    };
+    for (const auto &x : m.extensionsUsed) {
+        if (!supported(x) && !ignored(x)) unknown.push_back(x);
+        if (x == "KHR_mesh_quantization") quantization = true;
+    }
     if (!unknown.empty())
         spt_warn("%s: extensionsUsed: %zu extension(s) not supported, ignored: %s", file,
                  unknown.size(), join_names(unknown).c_str());
@@ -531,9 +608,10 @@ int Loader::check_buffer_views()
 
 // Checks accessors[index] for use as obj: existence, type, component type, count,
 // and that every element lies inside its buffer view. *zeros: no bufferView (all
-// elements are zero, glTF 2.0 3.6.2.3).
+// elements are zero, glTF 2.0 3.6.2.3). normalized_ok: 0 integers must not be
+// normalized, 1 they must be, 2 either (KHR_mesh_quantization).
 int Loader::check_accessor(int index, const std::string &obj, int want_components,
-                           const std::vector<int> &types, bool normalized_ok, bool *zeros)
+                           const std::vector<int> &types, int normalized_ok, bool *zeros)
 {
     const char *o = obj.c_str();
     if (index < 0 || (size_t)index >= m.accessors.size())
@@ -552,7 +630,7 @@ int Loader::check_accessor(int index, const std::string &obj, int want_component
                    component_name(a.componentType));
     if (a.normalized && !normalized_ok)
         return bad("%s (accessors[%d]): normalized integers are not allowed here", o, index);
-    if (!a.normalized && normalized_ok && a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
+    if (!a.normalized && normalized_ok == 1 && a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
         return bad("%s (accessors[%d]): integer components must be normalized here", o, index);
     *zeros = a.bufferView < 0;
     if (*zeros) return 0;
@@ -575,7 +653,9 @@ int Loader::check_accessor(int index, const std::string &obj, int want_component
     return 0;
 }
 
-// Reads a checked float (or normalised unsigned integer) accessor.
+// Reads a checked accessor as floats: float components as they are, normalised
+// integers mapped to [0,1] or [-1,1] (glTF 2.0 3.11, max(c / 127, -1) for
+// signed ones), plain integers (KHR_mesh_quantization) as their values.
 int Loader::read_floats(int index, int ncomp, std::vector<float> &out)
 {
     const auto &a = m.accessors[index];
@@ -589,14 +669,34 @@ int Loader::read_floats(int index, int ncomp, std::vector<float> &out)
         for (int c = 0; c < ncomp; c++) {
             const unsigned char *p = base + i * stride + (size_t)c * cs;
             float v;
-            if (a.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT) {
-                memcpy(&v, p, 4);
-            } else if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) {
-                v = (float)p[0] / 255.0f;
-            } else {
+            switch (a.componentType) {
+            case TINYGLTF_COMPONENT_TYPE_FLOAT: memcpy(&v, p, 4); break;
+            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+                v = a.normalized ? (float)p[0] / 255.0f : (float)p[0];
+                break;
+            case TINYGLTF_COMPONENT_TYPE_BYTE: {
+                int8_t b;
+                memcpy(&b, p, 1);
+                v = a.normalized ? fmaxf((float)b / 127.0f, -1.0f) : (float)b;
+                break;
+            }
+            case TINYGLTF_COMPONENT_TYPE_SHORT: {
+                int16_t h;
+                memcpy(&h, p, 2);
+                v = a.normalized ? fmaxf((float)h / 32767.0f, -1.0f) : (float)h;
+                break;
+            }
+            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
                 uint16_t u;
                 memcpy(&u, p, 2);
-                v = (float)u / 65535.0f;
+                v = a.normalized ? (float)u / 65535.0f : (float)u;
+                break;
+            }
+            default: { // UNSIGNED_INT (not allowed for attributes, kept total)
+                uint32_t u;
+                memcpy(&u, p, 4);
+                v = (float)u;
+            }
             }
             out[i * (size_t)ncomp + (size_t)c] = v;
         }
@@ -929,19 +1029,81 @@ int Loader::decode_image(int image)
 // Resolves a material's reference to textures[tex] into a SceneTexture index
 // (*out, -1 when the image is unusable, with a warning), decoded for colour
 // (srgb) or as data. Dangling references are errors.
-int Loader::texture_ref(int tex, int texcoord, bool srgb, const std::string &obj, int *out)
+// KHR_texture_transform of a texture reference (ext: its extensions), as the
+// extension defines it: uv' = T * R * S * (u, v, 1) with T the offset, R the
+// rotation by `rotation` radians counter-clockwise in UV space (matrix rows
+// (cos, sin), (-sin, cos), since v points down the image) and S the scale. The
+// result goes to uv_transform (2x3 row-major) when given, else it is counted as
+// unused (a slot the renderer has no transform for). texCoord overrides *texcoord.
+int Loader::texture_transform(const tinygltf::ExtensionMap *ext, int *texcoord,
+                              const std::string &obj, float *uv_transform)
+{
+    if (!ext) return 0;
+    auto it = ext->find("KHR_texture_transform");
+    if (it == ext->end()) return 0;
+    const Value &x = it->second;
+    std::string o = obj + ".extensions.KHR_texture_transform";
+    if (!x.IsObject()) return bad("%s: not a JSON object", o.c_str());
+    double off[2] = {0, 0}, scale[2] = {1, 1}, rot = 0;
+    const char *pair_keys[2] = {"offset", "scale"};
+    double *pairs[2] = {off, scale};
+    for (int k = 0; k < 2; k++) {
+        if (!x.Has(pair_keys[k])) continue;
+        const Value &a = x.Get(pair_keys[k]);
+        if (!a.IsArray() || a.ArrayLen() != 2 || !a.Get(0).IsNumber() || !a.Get(1).IsNumber() ||
+            !std::isfinite(a.Get(0).GetNumberAsDouble()) ||
+            !std::isfinite(a.Get(1).GetNumberAsDouble()))
+            return bad("%s.%s: expected 2 finite numbers", o.c_str(), pair_keys[k]);
+        pairs[k][0] = a.Get(0).GetNumberAsDouble();
+        pairs[k][1] = a.Get(1).GetNumberAsDouble();
+    }
+    int rc;
+    if ((rc = ext_number(this, x, "rotation", &rot, o))) return rc;
+    if (x.Has("texCoord")) {
+        const Value &t = x.Get("texCoord");
+        if (!t.IsInt() || t.GetNumberAsInt() < 0)
+            return bad("%s.texCoord: not an index >= 0", o.c_str());
+        *texcoord = t.GetNumberAsInt();
+    }
+    if (!uv_transform) {
+        transform_unused++;
+        return 0;
+    }
+    double c = cos(rot), sn = sin(rot);
+    float M[6] = {(float)(c * scale[0]), (float)(sn * scale[1]), (float)off[0],
+                  (float)(-sn * scale[0]), (float)(c * scale[1]), (float)off[1]};
+    memcpy(uv_transform, M, sizeof M);
+    return 0;
+}
+
+int Loader::texture_ref(int tex, int texcoord, bool srgb, const std::string &obj, int *out,
+                        const tinygltf::ExtensionMap *ext, float *uv_transform)
 {
     *out = -1;
     if (tex < 0) return 0;
+    int rc;
+    if ((rc = texture_transform(ext, &texcoord, obj, uv_transform))) return rc;
     if ((size_t)tex >= m.textures.size())
         return bad("%s.index: textures[%d] does not exist", obj.c_str(), tex);
     const auto &t = m.textures[tex];
-    if (t.source < 0) {
+    int source = t.source;
+    // EXT_texture_webp: its source (decoded by OpenImageIO) wins over the fallback.
+    auto wit = t.extensions.find("EXT_texture_webp");
+    if (wit != t.extensions.end()) {
+        const Value &src = wit->second.IsObject() ? wit->second.Get("source") : Value();
+        if (!src.IsInt() || src.GetNumberAsInt() < 0 ||
+            (size_t)src.GetNumberAsInt() >= m.images.size())
+            return bad("textures[%d].extensions.EXT_texture_webp.source: not an index into the "
+                       "file's %zu images",
+                       tex, m.images.size());
+        source = src.GetNumberAsInt();
+    }
+    if (source < 0) {
         spt_warn("%s: textures[%d]: has no source image; using the factor", file, tex);
         return 0;
     }
-    if ((size_t)t.source >= m.images.size())
-        return bad("textures[%d].source: images[%d] does not exist", tex, t.source);
+    if ((size_t)source >= m.images.size())
+        return bad("textures[%d].source: images[%d] does not exist", tex, source);
     int ws = SPT_WRAP_REPEAT, wt = SPT_WRAP_REPEAT;
     if (t.sampler >= 0) {
         if ((size_t)t.sampler >= m.samplers.size())
@@ -955,20 +1117,20 @@ int Loader::texture_ref(int tex, int texcoord, bool srgb, const std::string &obj
         return bad("textures[%d].sampler: samplers[%d] does not exist", tex, t.sampler);
     }
     if (texcoord != 0) texcoord_warned++;
-    auto key = std::make_tuple(t.source, srgb ? 1 : 0, ws, wt);
+    auto key = std::make_tuple(source, srgb ? 1 : 0, ws, wt);
     auto it = texture_of.find(key);
     if (it != texture_of.end()) {
         *out = it->second;
         return 0;
     }
-    if (!decode_image(t.source)) return 0;
-    const TextureImage &ti = decoded[t.source];
+    if (!decode_image(source)) return 0;
+    const TextureImage &ti = decoded[source];
     SceneTexture st = {};
-    const auto &im = m.images[t.source];
+    const auto &im = m.images[source];
     std::string name = !im.name.empty() ? im.name
                        : (!im.uri.empty() && im.uri.compare(0, 5, "data:") != 0)
                            ? im.uri
-                           : "images[" + std::to_string(t.source) + "]";
+                           : "images[" + std::to_string(source) + "]";
     snprintf(st.name, sizeof st.name, "%s", name.c_str());
     st.width = ti.width;
     st.height = ti.height;
@@ -1058,6 +1220,83 @@ int Loader::spectral_extras(const Value &extras, SceneMaterial *sm, const std::s
     return 0;
 }
 
+// Perceived brightness of a linear RGB colour, as in the conversion below.
+double perceived_brightness(const double c[3])
+{
+    return sqrt(0.299 * c[0] * c[0] + 0.587 * c[1] * c[1] + 0.114 * c[2] * c[2]);
+}
+
+// KHR_materials_pbrSpecularGlossiness (legacy) to metallic-roughness, by the
+// method of the extension's own example converter (KhronosGroup/glTF,
+// extensions/2.0/Archived/KHR_materials_pbrSpecularGlossiness/examples/
+// convert-between-workflows, js/three.pbrUtilities.js, by Babylon.js authors):
+// metallic solves a quadratic in the perceived brightness of diffuse and
+// specular with a dielectric F0 of 0.04; the base colour blends the colour
+// implied by the diffuse and by the specular with metallic^2; roughness is
+// 1 - glossiness; alpha is the diffuse alpha. The diffuse texture becomes the
+// base colour texture (times the converted factor); the specularGlossiness
+// texture cannot be converted per texel and is ignored (counted in a warning).
+int Loader::spec_gloss(const Value &x, SceneMaterial *sm, const std::string &obj)
+{
+    if (!x.IsObject()) return bad("%s: not a JSON object", obj.c_str());
+    double diffuse[4] = {1, 1, 1, 1}, specular[3] = {1, 1, 1}, gloss = 1;
+    const struct {
+        const char *key;
+        double *v;
+        int n;
+    } arrays[2] = {{"diffuseFactor", diffuse, 4}, {"specularFactor", specular, 3}};
+    for (const auto &a : arrays) {
+        if (!x.Has(a.key)) continue;
+        const Value &v = x.Get(a.key);
+        if (!v.IsArray() || (int)v.ArrayLen() != a.n)
+            return bad("%s.%s: expected %d numbers", obj.c_str(), a.key, a.n);
+        for (int k = 0; k < a.n; k++) {
+            if (!v.Get(k).IsNumber() || !std::isfinite(v.Get(k).GetNumberAsDouble()))
+                return bad("%s.%s: not a number", obj.c_str(), a.key);
+            a.v[k] = fmin(fmax(v.Get(k).GetNumberAsDouble(), 0), 1);
+        }
+    }
+    int rc;
+    if ((rc = ext_number(this, x, "glossinessFactor", &gloss, obj))) return rc;
+    gloss = fmin(fmax(gloss, 0), 1);
+    const double f0 = 0.04, eps = 1e-6;
+    double spec_strength = fmax(specular[0], fmax(specular[1], specular[2]));
+    double one_minus = 1 - spec_strength;
+    double pd = perceived_brightness(diffuse), ps = perceived_brightness(specular);
+    double metallic = 0;
+    if (ps >= f0) {
+        double a = f0, b = pd * one_minus / (1 - f0) + ps - 2 * f0, c = f0 - ps;
+        double D = b * b - 4 * a * c;
+        metallic = fmin(fmax((-b + sqrt(fmax(D, 0))) / (2 * a), 0), 1);
+    }
+    for (int k = 0; k < 3; k++) {
+        double from_diffuse = diffuse[k] * one_minus / (1 - f0) / fmax(1 - metallic, eps);
+        double from_specular = (specular[k] - f0 * (1 - metallic)) / fmax(metallic, eps);
+        double w = metallic * metallic;
+        sm->base_color[k] = (float)fmin(fmax(from_diffuse + (from_specular - from_diffuse) * w, 0), 1);
+    }
+    sm->base_color[3] = (float)diffuse[3];
+    sm->metallic = (float)metallic;
+    sm->roughness = (float)(1 - gloss);
+    sm->metallic_roughness_tex = -1;
+    if (x.Has("diffuseTexture")) {
+        const Value &t = x.Get("diffuseTexture");
+        const Value &ix = t.IsObject() ? t.Get("index") : Value();
+        if (!ix.IsInt()) return bad("%s.diffuseTexture: no index", obj.c_str());
+        int tc = t.Get("texCoord").IsInt() ? t.Get("texCoord").GetNumberAsInt() : 0;
+        tinygltf::ExtensionMap em;
+        const Value &ev = t.Get("extensions");
+        if (ev.IsObject())
+            for (const auto &k : ev.Keys()) em[k] = ev.Get(k);
+        for (int k = 0; k < 6; k++) sm->uv_transform[SPT_SLOT_BASE][k] = k == 0 || k == 4;
+        if ((rc = texture_ref(ix.GetNumberAsInt(), tc, true, obj + ".diffuseTexture",
+                              &sm->base_color_tex, &em, sm->uv_transform[SPT_SLOT_BASE])))
+            return rc;
+    }
+    if (x.Has("specularGlossinessTexture")) specgloss_textures++;
+    return 0;
+}
+
 // Converts materials[index] (index -1: the glTF default material) and returns its
 // position in mats, or a negative exit code.
 int Loader::material(int index)
@@ -1079,15 +1318,19 @@ int Loader::material(int index)
     sm.roughness = (float)fmin(fmax(pbr.roughnessFactor, 0), 1);
     int rc;
     if ((rc = texture_ref(pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord, true,
-                          obj + ".pbrMetallicRoughness.baseColorTexture", &sm.base_color_tex)) ||
+                          obj + ".pbrMetallicRoughness.baseColorTexture", &sm.base_color_tex,
+                          &pbr.baseColorTexture.extensions, sm.uv_transform[SPT_SLOT_BASE])) ||
         (rc = texture_ref(pbr.metallicRoughnessTexture.index,
                           pbr.metallicRoughnessTexture.texCoord, false,
                           obj + ".pbrMetallicRoughness.metallicRoughnessTexture",
-                          &sm.metallic_roughness_tex)) ||
+                          &sm.metallic_roughness_tex, &pbr.metallicRoughnessTexture.extensions,
+                          sm.uv_transform[SPT_SLOT_METALLIC_ROUGHNESS])) ||
         (rc = texture_ref(mat.emissiveTexture.index, mat.emissiveTexture.texCoord, true,
-                          obj + ".emissiveTexture", &sm.emissive_tex)) ||
+                          obj + ".emissiveTexture", &sm.emissive_tex,
+                          &mat.emissiveTexture.extensions, sm.uv_transform[SPT_SLOT_EMISSIVE])) ||
         (rc = texture_ref(mat.normalTexture.index, mat.normalTexture.texCoord, false,
-                          obj + ".normalTexture", &sm.normal_tex)))
+                          obj + ".normalTexture", &sm.normal_tex, &mat.normalTexture.extensions,
+                          sm.uv_transform[SPT_SLOT_NORMAL])))
         return -rc;
     sm.normal_scale = (float)mat.normalTexture.scale;
     if (!mat.emissiveFactor.empty()) {
@@ -1136,6 +1379,9 @@ int Loader::material(int index)
             if (!ix.IsNumber())
                 return -bad("%sKHR_materials_transmission.transmissionTexture: no index", eo.c_str());
             int tc = ti.Get("texCoord").IsNumber() ? ti.Get("texCoord").GetNumberAsInt() : 0;
+            if (ti.Get("extensions").IsObject() &&
+                ti.Get("extensions").Has("KHR_texture_transform"))
+                transform_unused++;
             if ((rc = texture_ref(ix.GetNumberAsInt(), tc, false,
                                   eo + "KHR_materials_transmission.transmissionTexture",
                                   &sm.transmission_tex)))
@@ -1171,6 +1417,10 @@ int Loader::material(int index)
         }
     }
     if (ext("KHR_materials_unlit")) sm.unlit = 1;
+    if (const Value *x = ext("KHR_materials_pbrSpecularGlossiness"))
+        if ((rc = spec_gloss(*x, &sm, eo + "KHR_materials_pbrSpecularGlossiness"))) return -rc;
+    for (const char *ig : k_ignored_material_ext)
+        if (ext(ig)) ignored_ext[ig].push_back(sm.name);
     if ((rc = spectral_extras(mat.extras, &sm, obj))) {
         spd_free(&sm.emission_spd);
         spd_free(&sm.reflectance_spd);
@@ -1205,17 +1455,35 @@ int Loader::read_primitive(int mi, int pi)
         no_position++;
         return 0;
     }
-    const int f = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    const int f = TINYGLTF_COMPONENT_TYPE_FLOAT, i8 = TINYGLTF_COMPONENT_TYPE_BYTE,
+              u8 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, i16 = TINYGLTF_COMPONENT_TYPE_SHORT,
+              u16 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    // KHR_mesh_quantization (when the file uses it) widens the attribute types:
+    // POSITION and TEXCOORD_n any 8/16-bit integer, normalised or not; NORMAL
+    // normalised signed 8/16-bit. Node transforms dequantise positions.
+    std::vector<int> pos_types = {f}, nrm_types = {f}, uv_types = {f, u8, u16};
+    if (quantization) {
+        pos_types = {f, i8, u8, i16, u16};
+        nrm_types = {f, i8, i16};
+        uv_types = {f, i8, u8, i16, u16};
+    }
     bool zeros;
     int rc;
-    if ((rc = check_accessor(pit->second, obj + ".attributes.POSITION", 3, {f}, false, &zeros)))
+    std::vector<uint32_t> idx;
+    auto dit = p.extensions.find("KHR_draco_mesh_compression");
+    if (dit != p.extensions.end()) {
+        if ((rc = read_draco(mi, pi, dit->second, idx))) return rc;
+    } else if ((rc = [&]() -> int {
+    if ((rc = check_accessor(pit->second, obj + ".attributes.POSITION", 3, pos_types,
+                             quantization ? 2 : 0, &zeros)))
         return rc;
     size_t nv = m.accessors[pit->second].count;
     if (nv > UINT32_MAX) return bad("%s: more than 2^32 vertices", o);
     read_floats(pit->second, 3, pd.pos);
     auto nit = p.attributes.find("NORMAL");
     if (nit != p.attributes.end()) {
-        if ((rc = check_accessor(nit->second, obj + ".attributes.NORMAL", 3, {f}, false, &zeros)))
+        if ((rc = check_accessor(nit->second, obj + ".attributes.NORMAL", 3, nrm_types,
+                                 quantization ? 1 : 0, &zeros)))
             return rc;
         if (m.accessors[nit->second].count != nv)
             return bad("%s.attributes.NORMAL (accessors[%d]): count %zu differs from POSITION's %zu",
@@ -1224,10 +1492,8 @@ int Loader::read_primitive(int mi, int pi)
     }
     auto tit = p.attributes.find("TEXCOORD_0");
     if (tit != p.attributes.end()) {
-        if ((rc = check_accessor(tit->second, obj + ".attributes.TEXCOORD_0", 2,
-                                 {f, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
-                                  TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
-                                 true, &zeros)))
+        if ((rc = check_accessor(tit->second, obj + ".attributes.TEXCOORD_0", 2, uv_types,
+                                 quantization ? 2 : 1, &zeros)))
             return rc;
         if (m.accessors[tit->second].count != nv)
             return bad("%s.attributes.TEXCOORD_0 (accessors[%d]): count %zu differs from "
@@ -1235,7 +1501,6 @@ int Loader::read_primitive(int mi, int pi)
                        o, tit->second, m.accessors[tit->second].count, nv);
         read_floats(tit->second, 2, pd.uv);
     }
-    std::vector<uint32_t> idx;
     if (p.indices >= 0) {
         if ((rc = check_accessor(p.indices, obj + ".indices", 1,
                                  {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
@@ -1255,6 +1520,9 @@ int Loader::read_primitive(int mi, int pi)
         idx.resize(nv);
         for (size_t i = 0; i < nv; i++) idx[i] = (uint32_t)i;
     }
+    return 0;
+    }()))
+        return rc;
     size_t n = idx.size();
     if (mode == TINYGLTF_MODE_TRIANGLES) {
         if (n % 3) leftover_indices++;
@@ -1280,6 +1548,129 @@ int Loader::read_primitive(int mi, int pi)
     } else {
         pd.material = (uint32_t)p.material; // materials are converted first, same order
     }
+    return 0;
+}
+
+// EXT_meshopt_compression: every compressed buffer view is decoded into a new
+// buffer and the view pointed at it, so the rest of the loader (and its range
+// checks) sees plain data.
+int Loader::decode_meshopt_views()
+{
+    size_t nviews = m.bufferViews.size();
+    for (size_t i = 0; i < nviews; i++) {
+        auto &bv = m.bufferViews[i];
+        auto it = bv.extensions.find("EXT_meshopt_compression");
+        if (it == bv.extensions.end()) continue;
+        const Value &x = it->second;
+        std::string o = "bufferViews[" + std::to_string(i) + "].extensions.EXT_meshopt_compression";
+        if (!x.IsObject()) return bad("%s: not a JSON object", o.c_str());
+        double num[5] = {-1, 0, -1, -1, -1}; // buffer, byteOffset, byteLength, byteStride, count
+        const char *keys[5] = {"buffer", "byteOffset", "byteLength", "byteStride", "count"};
+        for (int k = 0; k < 5; k++) {
+            if (!x.Has(keys[k])) {
+                if (k == 1) continue;
+                return bad("%s.%s: missing (required)", o.c_str(), keys[k]);
+            }
+            const Value &v = x.Get(keys[k]);
+            if (!v.IsNumber() || !(v.GetNumberAsDouble() >= 0) ||
+                v.GetNumberAsDouble() > 9e15 || v.GetNumberAsDouble() != floor(v.GetNumberAsDouble()))
+                return bad("%s.%s: not an integer >= 0", o.c_str(), keys[k]);
+            num[k] = v.GetNumberAsDouble();
+        }
+        size_t buf = (size_t)num[0], off = (size_t)num[1], len = (size_t)num[2],
+               stride = (size_t)num[3], count = (size_t)num[4];
+        if (buf >= m.buffers.size())
+            return bad("%s.buffer: buffers[%zu] does not exist", o.c_str(), buf);
+        size_t blen = m.buffers[buf].data.size();
+        if (off > blen || len > blen - off)
+            return bad("%s: bytes %zu..%zu run past the end of buffers[%zu] (%zu bytes)", o.c_str(),
+                       off, off + len, buf, blen);
+        std::string mode = x.Get("mode").IsString() ? x.Get("mode").Get<std::string>() : "";
+        std::string filter = x.Get("filter").IsString() ? x.Get("filter").Get<std::string>() : "NONE";
+        int md = mode == "ATTRIBUTES" ? SPT_MESHOPT_ATTRIBUTES
+                 : mode == "TRIANGLES" ? SPT_MESHOPT_TRIANGLES
+                 : mode == "INDICES"   ? SPT_MESHOPT_INDICES
+                                       : -1;
+        int fl = filter == "NONE"          ? SPT_MESHOPT_NONE
+                 : filter == "OCTAHEDRAL"  ? SPT_MESHOPT_OCTAHEDRAL
+                 : filter == "QUATERNION"  ? SPT_MESHOPT_QUATERNION
+                 : filter == "EXPONENTIAL" ? SPT_MESHOPT_EXPONENTIAL
+                                           : -1;
+        if (md < 0)
+            return bad("%s.mode: '%s' is not ATTRIBUTES, TRIANGLES or INDICES", o.c_str(),
+                       mode.c_str());
+        if (fl < 0)
+            return bad("%s.filter: '%s' is not NONE, OCTAHEDRAL, QUATERNION or EXPONENTIAL",
+                       o.c_str(), filter.c_str());
+        size_t total;
+        if (count == 0 || __builtin_mul_overflow(count, stride, &total) ||
+            total > ((size_t)1 << 32))
+            return bad("%s: count %zu x byteStride %zu is 0 or above 4 GiB", o.c_str(), count,
+                       stride);
+        tinygltf::Buffer out;
+        out.data.resize(total);
+        char why[200] = "";
+        if (mesh_meshopt_decode(out.data.data(), count, stride, m.buffers[buf].data.data() + off,
+                                len, md, fl, why, sizeof why))
+            return bad("%s: %s", o.c_str(), why);
+        m.buffers.push_back(std::move(out));
+        auto &v = m.bufferViews[i]; // push_back above may not move views, but be safe
+        v.buffer = (int)m.buffers.size() - 1;
+        v.byteOffset = 0;
+        v.byteLength = total;
+        if (md != SPT_MESHOPT_ATTRIBUTES) v.byteStride = 0;
+        else if (v.byteStride == 0) v.byteStride = stride;
+        meshopt_views++;
+    }
+    return 0;
+}
+
+// KHR_draco_mesh_compression: the primitive's attributes and triangles come from
+// the Draco mesh in the extension's bufferView (the accessors only describe it).
+int Loader::read_draco(int mi, int pi, const Value &x, std::vector<uint32_t> &idx)
+{
+    PrimData &pd = prim[mi][pi];
+    const auto &p = m.meshes[mi].primitives[pi];
+    std::string o = "meshes[" + std::to_string(mi) + "].primitives[" + std::to_string(pi) +
+                    "].extensions.KHR_draco_mesh_compression";
+    if (!x.IsObject()) return bad("%s: not a JSON object", o.c_str());
+    int mode = p.mode < 0 ? TINYGLTF_MODE_TRIANGLES : p.mode;
+    if (mode != TINYGLTF_MODE_TRIANGLES)
+        return bad("%s: only TRIANGLES primitives are supported with Draco", o.c_str());
+    const Value &bvv = x.Get("bufferView");
+    if (!bvv.IsInt() || bvv.GetNumberAsInt() < 0 ||
+        (size_t)bvv.GetNumberAsInt() >= m.bufferViews.size())
+        return bad("%s.bufferView: not an index into the file's %zu buffer views", o.c_str(),
+                   m.bufferViews.size());
+    const Value &attrs = x.Get("attributes");
+    if (!attrs.IsObject() || !attrs.Get("POSITION").IsInt())
+        return bad("%s.attributes: no POSITION id", o.c_str());
+    const auto &bv = m.bufferViews[bvv.GetNumberAsInt()];
+    char why[300] = "";
+    DracoDecoded *d = mesh_draco_decode(m.buffers[bv.buffer].data.data() + bv.byteOffset,
+                                        bv.byteLength, why, sizeof why);
+    if (!d) return bad("%s: %s", o.c_str(), why);
+    std::unique_ptr<DracoDecoded, void (*)(DracoDecoded *)> guard(d, mesh_draco_free);
+    size_t np = mesh_draco_points(d), nf = mesh_draco_faces(d);
+    if (np == 0 || nf == 0) return bad("%s: the Draco mesh is empty", o.c_str());
+    const struct {
+        const char *name;
+        int ncomp;
+        std::vector<float> *out;
+    } want[3] = {{"POSITION", 3, &pd.pos}, {"NORMAL", 3, &pd.nrm}, {"TEXCOORD_0", 2, &pd.uv}};
+    for (const auto &w : want) {
+        const Value &id = attrs.Get(w.name);
+        if (!id.IsInt()) continue;
+        w.out->resize(np * (size_t)w.ncomp);
+        if (mesh_draco_attribute(d, id.GetNumberAsInt(), w.ncomp, w.out->data()))
+            return bad("%s.attributes.%s: no Draco attribute %d with %d components", o.c_str(),
+                       w.name, id.GetNumberAsInt(), w.ncomp);
+    }
+    idx.resize(nf * 3);
+    mesh_draco_indices(d, idx.data());
+    for (size_t i = 0; i < idx.size(); i++)
+        if (idx[i] >= np) return bad("%s: a face refers to point %u of %zu", o.c_str(), idx[i], np);
+    draco_primitives++;
     return 0;
 }
 
@@ -1389,6 +1780,17 @@ int Loader::finish(Scene *s)
         spt_warn("%s: %u texture reference(s) use a texCoord set other than 0; TEXCOORD_0 is "
                  "used instead",
                  file, texcoord_warned);
+    if (transform_unused)
+        spt_warn("%s: %u KHR_texture_transform(s) on texture slots without a transform "
+                 "(transmission) were ignored",
+                 file, transform_unused);
+    if (specgloss_textures)
+        spt_warn("%s: %u KHR_materials_pbrSpecularGlossiness specularGlossinessTexture(s) "
+                 "ignored (only the factors are converted)",
+                 file, specgloss_textures);
+    for (const auto &ig : ignored_ext)
+        spt_warn("%s: %s is not rendered; ignored on %zu material(s): %s", file,
+                 ig.first.c_str(), ig.second.size(), join_names(ig.second).c_str());
     if (stats.dropped_nonfinite)
         spt_warn("%s: dropped %u triangle(s) with NaN, infinite or huge (>= 1e18) coordinates",
                  file, stats.dropped_nonfinite);
@@ -1443,7 +1845,7 @@ int load(Scene *s, const unsigned char *data, size_t size, const char *name, Spt
     int rc = 0;
     try {
         if ((rc = L.parse(data, size)) || (rc = L.check_version_and_extensions()) ||
-            (rc = L.check_buffer_views()))
+            (rc = L.decode_meshopt_views()) || (rc = L.check_buffer_views()))
             goto out;
         L.prim.resize(L.m.meshes.size());
         for (size_t i = 0; i < L.m.meshes.size(); i++)

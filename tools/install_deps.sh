@@ -10,6 +10,7 @@ packages=(
   libtinygltf-dev libstb-dev nlohmann-json3-dev
   libopenimageio-dev libopenexr-dev
   libcmocka-dev
+  libdraco-dev libmeshoptimizer-dev
 )
 # Extra groups, asked for by name: "mpi" for build/spectrace-mpi.
 for group in "$@"; do
