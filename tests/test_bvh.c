@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <CL/cl.h>
+
 #include "bvh.h"
 
 /* splitmix64: a small deterministic generator for the test data. */
@@ -272,8 +274,8 @@ static void test_sphere_matches_brute_force(void **state)
     rng_state = 12;
     uint32_t n;
     const float c[3] = {0.3f, -0.2f, 0.1f};
-    float *t = bvh_gen_sphere(40, 50, 1.0f, c, 0.2f, &n);
-    assert_int_equal(n, 4000);
+    float *t = bvh_gen_sphere(30, 50, 1.0f, c, 0.2f, &n);
+    assert_int_equal(n, 3000);
     Bvh bvh;
     assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
     check_structure(&bvh, t, n, NULL);
@@ -328,7 +330,7 @@ static void test_watertight(void **state)
     rng_state = 15;
     const double offsets[3] = {0.0, 1e4, 1e5};
     const float radius[3] = {1.0f, 4.0f, 4.0f};
-    int rays = 50000, misses = 0;
+    int rays = 35000, misses = 0;
     for (int k = 0; k < 3; k++) {
         uint32_t n;
         float c[3] = {(float)offsets[k], (float)(-0.7 * offsets[k]), (float)(0.3 * offsets[k])};
@@ -452,6 +454,124 @@ static void test_empty_scene(void **state)
     }
 }
 
+/* The kernels run this traversal: compiled by the OpenCL device from kernels/
+ * (without fast-math options), it reports the host's struct sizes and returns
+ * bit-identical hits to the host build for the same rays. Skipped without an
+ * OpenCL device. */
+static const char *k_device_src =
+    "#include \"bvh.h\"\n"
+    "__kernel void k_bvh_test(__global const BvhNode *nodes, __global const BvhTri *tris,\n"
+    "                         __global const float *rays, __global float *out, int n)\n"
+    "{\n"
+    "    int i = get_global_id(0);\n"
+    "    if (i >= n) return;\n"
+    "    vec3 o = v3(rays[i * 6], rays[i * 6 + 1], rays[i * 6 + 2]);\n"
+    "    vec3 d = v3(rays[i * 6 + 3], rays[i * 6 + 4], rays[i * 6 + 5]);\n"
+    "    BvhHit h;\n"
+    "    int hit = bvh_intersect(nodes, tris, o, d, 1e30f, &h);\n"
+    "    out[i * 4] = hit ? h.t : -1.0f;\n"
+    "    out[i * 4 + 1] = hit ? (float)h.prim : -1.0f;\n"
+    "    out[i * 4 + 2] = (float)bvh_occluded(nodes, tris, o, d, 1e30f);\n"
+    "    out[i * 4 + 3] = (float)(sizeof(BvhNode) * 1000 + sizeof(BvhTri));\n"
+    "}\n";
+
+static void test_device_matches_host(void **state)
+{
+    (void)state;
+    cl_platform_id plat;
+    cl_device_id dev;
+    cl_uint np = 0;
+    if (clGetPlatformIDs(1, &plat, &np) != CL_SUCCESS || np == 0 ||
+        clGetDeviceIDs(plat, CL_DEVICE_TYPE_ALL, 1, &dev, NULL) != CL_SUCCESS) {
+        print_message("no OpenCL device: skipped\n");
+        skip();
+    }
+    cl_int err;
+    cl_context ctx = clCreateContext(NULL, 1, &dev, NULL, NULL, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_command_queue q = clCreateCommandQueue(ctx, dev, 0, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_program prog = clCreateProgramWithSource(ctx, 1, &k_device_src, NULL, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    err = clBuildProgram(prog, 1, &dev, "-I kernels -cl-std=CL1.2", NULL, NULL);
+    if (err != CL_SUCCESS) {
+        char log[8192] = "";
+        clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, NULL);
+        fail_msg("kernels/bvh.h does not build as OpenCL C: %s", log);
+    }
+    rng_state = 18;
+    uint32_t n;
+    const float c[3] = {0.1f, 0.2f, -0.3f};
+    float *t = bvh_gen_sphere(60, 120, 1.0f, c, 0.3f, &n);
+    Bvh bvh;
+    assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
+    int nr = 20000;
+    float *rays = malloc((size_t)nr * 6 * sizeof *rays), *out = malloc((size_t)nr * 4 * sizeof *out);
+    for (int i = 0; i < nr; i++) {
+        double d[3];
+        rnd_dir(d);
+        for (int a = 0; a < 3; a++) {
+            rays[i * 6 + a] = (float)rnd_range(-1.4, 1.4);
+            rays[i * 6 + 3 + a] = (float)d[a];
+        }
+    }
+    cl_mem bn = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                               bvh.node_count * sizeof(BvhNode), bvh.nodes, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_mem bt = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bvh.tri_data_bytes,
+                               bvh.tri_data, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_mem br = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                               (size_t)nr * 6 * sizeof *rays, rays, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_mem bo = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, (size_t)nr * 4 * sizeof *out, NULL, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_kernel k = clCreateKernel(prog, "k_bvh_test", &err);
+    assert_int_equal(err, CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 0, sizeof bn, &bn), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 1, sizeof bt, &bt), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 2, sizeof br, &br), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 3, sizeof bo, &bo), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 4, sizeof nr, &nr), CL_SUCCESS);
+    size_t global = (size_t)nr;
+    assert_int_equal(clEnqueueNDRangeKernel(q, k, 1, NULL, &global, NULL, 0, NULL, NULL),
+                     CL_SUCCESS);
+    assert_int_equal(clEnqueueReadBuffer(q, bo, CL_TRUE, 0, (size_t)nr * 4 * sizeof *out, out, 0,
+                                         NULL, NULL),
+                     CL_SUCCESS);
+    assert_close(out[3], sizeof(BvhNode) * 1000 + sizeof(BvhTri), 0);
+    int hits = 0, differ = 0;
+    for (int i = 0; i < nr; i++) {
+        vec3 o = v3(rays[i * 6], rays[i * 6 + 1], rays[i * 6 + 2]);
+        vec3 d = v3(rays[i * 6 + 3], rays[i * 6 + 4], rays[i * 6 + 5]);
+        BvhHit h;
+        int hit = bvh_intersect(bvh.nodes, bvh_tris(&bvh), o, d, 1e30f, &h);
+        int occ = bvh_occluded(bvh.nodes, bvh_tris(&bvh), o, d, 1e30f);
+        hits += hit;
+        if (out[i * 4] != (hit ? h.t : -1.0f) || out[i * 4 + 1] != (hit ? (float)h.prim : -1.0f) ||
+            out[i * 4 + 2] != (float)occ) {
+            if (differ++ < 5)
+                print_message("ray %d: device t=%.9g prim=%g occ=%g, host t=%.9g prim=%d occ=%d\n",
+                              i, out[i * 4], out[i * 4 + 1], out[i * 4 + 2], hit ? h.t : -1.0f,
+                              hit ? (int)h.prim : -1, occ);
+        }
+    }
+    assert_true(hits > nr / 4);
+    assert_int_equal(differ, 0);
+    clReleaseKernel(k);
+    clReleaseMemObject(bn);
+    clReleaseMemObject(bt);
+    clReleaseMemObject(br);
+    clReleaseMemObject(bo);
+    clReleaseProgram(prog);
+    clReleaseCommandQueue(q);
+    clReleaseContext(ctx);
+    bvh_free(&bvh);
+    free(rays);
+    free(out);
+    free(t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -463,6 +583,7 @@ int main(void)
         cmocka_unit_test(test_garbage_dropped),
         cmocka_unit_test(test_identical_triangles),
         cmocka_unit_test(test_empty_scene),
+        cmocka_unit_test(test_device_matches_host),
     };
     return cmocka_run_group_tests_name("bvh", tests, NULL, NULL);
 }
