@@ -369,18 +369,39 @@ bool keep_image_bytes(tinygltf::Image *image, const int index, std::string *, st
 // never needed when the extension is decoded), which tinygltf refuses in a
 // .gltf and reads past the BIN chunk in a .glb. Such buffers get a 4-byte data
 // URI instead; *out is the rewritten JSON. False when nothing was rewritten.
+// Likewise KHR_draco_mesh_compression primitives' indices accessors have no
+// bufferView (the faces are in the Draco data), which tinygltf refuses: their
+// "indices" is dropped (the loader takes the faces from Draco).
 bool rewrite_fallback_buffers(const unsigned char *json, size_t size, std::string *out)
 {
-    static const char key[] = "EXT_meshopt_compression";
-    if (std::search(json, json + size, key, key + sizeof key - 1) == json + size) return false;
+    static const char key[] = "EXT_meshopt_compression", draco[] = "KHR_draco_mesh_compression";
+    if (std::search(json, json + size, key, key + sizeof key - 1) == json + size &&
+        std::search(json, json + size, draco, draco + sizeof draco - 1) == json + size)
+        return false;
     nlohmann::json j;
     try {
         j = nlohmann::json::parse(json, json + size);
     } catch (const std::exception &) {
         return false; // reported by the normal parse
     }
-    if (!j.is_object() || !j.contains("buffers") || !j["buffers"].is_array()) return false;
+    if (!j.is_object()) return false;
     bool changed = false;
+    if (j.contains("meshes") && j["meshes"].is_array())
+        for (auto &mesh : j["meshes"]) {
+            if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array())
+                continue;
+            for (auto &p : mesh["primitives"]) {
+                if (!p.is_object() || !p.contains("extensions") || !p["extensions"].is_object() ||
+                    !p["extensions"].contains(draco) || !p.contains("indices"))
+                    continue;
+                p.erase("indices");
+                changed = true;
+            }
+        }
+    if (!j.contains("buffers") || !j["buffers"].is_array()) {
+        if (changed) *out = j.dump();
+        return changed;
+    }
     for (auto &b : j["buffers"]) {
         if (!b.is_object() || b.contains("uri") || !b.contains("extensions")) continue;
         const auto &x = b["extensions"];

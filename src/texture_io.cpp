@@ -176,12 +176,14 @@ extern "C" int texture_io_load_memory(const void *data, size_t size, const char 
         name = "memory.png";
     else if (size >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF)
         name = "memory.jpg";
+    else if (size >= 12 && !memcmp(b, "RIFF", 4) && !memcmp(b + 8, "WEBP", 4))
+        name = "memory.webp"; // EXT_texture_webp
     else if (mime_type && !strcmp(mime_type, "image/png"))
         name = "memory.png";
     else if (mime_type && !strcmp(mime_type, "image/jpeg"))
         name = "memory.jpg";
     if (!name || size == 0) {
-        say(why, why_size, "not a PNG or JPEG image");
+        say(why, why_size, "not a PNG, JPEG or WebP image");
         return -1;
     }
     if (!strcmp(name, "memory.png") && !png_structure_ok(b, size, why, why_size)) return -1;

@@ -1,5 +1,5 @@
 /* Texture image decoding for the scene loader: image files or encoded bytes in
- * memory (PNG, JPEG and whatever else OpenImageIO reads) into float texels. The
+ * memory (PNG, JPEG, WebP and whatever else OpenImageIO reads) into float texels. The
  * only OpenImageIO code of the loader lives in src/texture_io.cpp. */
 #ifndef SPT_TEXTURE_IO_H
 #define SPT_TEXTURE_IO_H
@@ -27,7 +27,7 @@ typedef struct TextureImage {
  * name) in why; img is then empty. */
 int texture_io_load_file(const char *path, TextureImage *img, char *why, size_t why_size);
 
-/* Decodes an encoded image held in memory (PNG, JPEG, ...; the format is found
+/* Decodes an encoded image held in memory (PNG, JPEG, WebP; the format is found
  * from its first bytes, mime_type is a hint and may be NULL). Same contract as
  * texture_io_load_file. */
 int texture_io_load_memory(const void *data, size_t size, const char *mime_type,

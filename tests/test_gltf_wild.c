@@ -1,0 +1,286 @@
+/* src/gltf_load.cpp, src/mesh_decode.cpp, src/texture_io.cpp: glTF files "from
+ * the wild" (tests/data/gltf/wild_*, written by tools/gen_wild_tests.py):
+ * texture transforms against hand-computed matrices, the specular-glossiness
+ * conversion against hand-solved values, warnings and refusals of extensions,
+ * quantised, meshopt and Draco copies of one mesh against the plain copy, and a
+ * WebP texture against its known texels. */
+#include "test_util.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "scene.h"
+
+#define DATA(f) SPT_TEST_DATA("gltf/" f)
+
+/* Loads path with stderr captured into err (NUL-terminated); returns the code. */
+static int load_capture(Scene *s, const char *path, SptError *e, char *err, size_t err_size)
+{
+    fflush(stderr);
+    FILE *tmp = tmpfile();
+    assert_non_null(tmp);
+    int saved = dup(2);
+    dup2(fileno(tmp), 2);
+    int rc = scene_load_gltf(s, path, e);
+    fflush(stderr);
+    dup2(saved, 2);
+    close(saved);
+    rewind(tmp);
+    size_t n = fread(err, 1, err_size - 1, tmp);
+    err[n] = 0;
+    fclose(tmp);
+    return rc;
+}
+
+static void load_ok(Scene *s, const char *path)
+{
+    SptError e = {0};
+    int rc = scene_load_gltf(s, path, &e);
+    if (rc) fail_msg("loading %s failed (%d): %s", path, rc, e.msg);
+}
+
+/* Number of lines of text that start with "warning:" and contain every needle. */
+static int count_warnings(const char *text, const char *n1, const char *n2)
+{
+    int count = 0;
+    for (const char *line = text; *line;) {
+        const char *end = strchr(line, '\n');
+        size_t len = end ? (size_t)(end - line) : strlen(line);
+        char buf[1024];
+        snprintf(buf, sizeof buf, "%.*s", (int)len, line);
+        if (!strncmp(buf, "warning:", 8) && strstr(buf, n1) && (!n2 || strstr(buf, n2))) count++;
+        line += len + (end ? 1 : 0);
+    }
+    return count;
+}
+
+static void assert_matrix(const float *m, const double want[6])
+{
+    for (int k = 0; k < 6; k++)
+        if (fabs(m[k] - want[k]) > 1e-6)
+            fail_msg("uv_transform[%d] is %g, expected %g", k, m[k], want[k]);
+}
+
+static void test_texture_transform(void **state)
+{
+    (void)state;
+    Scene s;
+    SptError e = {0};
+    static char err[8192];
+    int rc = load_capture(&s, DATA("wild_texture_transform.gltf"), &e, err, sizeof err);
+    if (rc) fail_msg("%s", e.msg);
+    assert_int_equal(s.material_count, 2);
+    const SceneMaterial *m = &s.materials[0];
+    /* KHR_texture_transform: M = T R S, R = [[cos, sin], [-sin, cos]]. Base:
+     * offset (0.25, 0.5), rotation pi/6 (cos 0.8660254, sin 0.5), scale (2, 3). */
+    const double c = 0.86602540378, sn = 0.5;
+    const double base[6] = {2 * c, 3 * sn, 0.25, -2 * sn, 3 * c, 0.5};
+    assert_matrix(m->uv_transform[SPT_SLOT_BASE], base);
+    /* The corner uv (1, 0) goes to (2 cos + 0.25, -2 sin + 0.5) = (1.982, -0.5). */
+    const float *b = m->uv_transform[SPT_SLOT_BASE];
+    assert_close(b[0] * 1 + b[1] * 0 + b[2], 1.98205080757, 1e-6);
+    assert_close(b[3] * 1 + b[4] * 0 + b[5], -0.5, 1e-6);
+    const double mr[6] = {4, 0, 0, 0, 0.5, 0};
+    assert_matrix(m->uv_transform[SPT_SLOT_METALLIC_ROUGHNESS], mr);
+    const double em[6] = {1, 0, -1, 0, 1, 2};
+    assert_matrix(m->uv_transform[SPT_SLOT_EMISSIVE], em);
+    /* Rotation pi/2 alone: (u, v) -> (v, -u). */
+    const double nr[6] = {0, 1, 0, -1, 0, 0};
+    assert_matrix(m->uv_transform[SPT_SLOT_NORMAL], nr);
+    const double id[6] = {1, 0, 0, 0, 1, 0};
+    for (int k = 0; k < 4; k++) assert_matrix(s.materials[1].uv_transform[k], id);
+    assert_true(m->base_color_tex >= 0 && m->normal_tex >= 0 && m->emissive_tex >= 0);
+    /* The normal texture's texCoord 1 (from the transform) is warned about. */
+    assert_int_equal(count_warnings(err, "texCoord set other than 0", NULL), 1);
+    scene_free(&s);
+}
+
+static void test_spec_gloss_and_ignored(void **state)
+{
+    (void)state;
+    Scene s;
+    SptError e = {0};
+    static char err[8192];
+    int rc = load_capture(&s, DATA("wild_specgloss.gltf"), &e, err, sizeof err);
+    if (rc) fail_msg("%s", e.msg);
+    assert_int_equal(s.material_count, 5);
+    /* Specular (0,0,0) < 0.04: metallic 0, base = diffuse (1 - 0) / (1 - 0.04). */
+    const SceneMaterial *d = &s.materials[0];
+    assert_close(d->metallic, 0, 1e-6);
+    for (int k = 0; k < 3; k++) assert_close(d->base_color[k], 0.5 / 0.96, 1e-6);
+    assert_close(d->base_color[3], 0.8, 1e-6);
+    assert_close(d->roughness, 0.7, 1e-6);
+    /* Specular (1,1,1), diffuse 0: b = 1 - 0.08, c = 0.04 - 1, D = 1, metallic
+     * = (-0.92 + 1) / 0.08 = 1; base = (1 - 0) / 1 = 1; roughness 1 - 0.8. */
+    const SceneMaterial *mt = &s.materials[1];
+    assert_close(mt->metallic, 1, 1e-6);
+    for (int k = 0; k < 3; k++) assert_close(mt->base_color[k], 1, 1e-6);
+    assert_close(mt->roughness, 0.2, 1e-6);
+    /* One warning per ignored extension, naming its materials; one for the
+     * unknown extensions, naming both. */
+    assert_int_equal(count_warnings(err, "KHR_materials_sheen", "velvet, carpaint"), 1);
+    assert_int_equal(count_warnings(err, "KHR_materials_clearcoat", "carpaint"), 1);
+    assert_int_equal(count_warnings(err, "KHR_materials_specular", "plastic"), 1);
+    assert_int_equal(count_warnings(err, "EXT_spectrace_unknown", "EXT_other_unknown"), 1);
+    assert_int_equal(count_warnings(err, "KHR_materials_pbrSpecularGlossiness", NULL), 0);
+    scene_free(&s);
+}
+
+/* A file that requires an ignored or unknown extension: one error line naming
+ * all of them and none of the supported ones. */
+static void test_required_refused(void **state)
+{
+    (void)state;
+    const char *json =
+        "{\"asset\":{\"version\":\"2.0\"},\"extensionsUsed\":[\"KHR_materials_clearcoat\","
+        "\"KHR_texture_transform\",\"EXT_foo\",\"EXT_meshopt_compression\"],"
+        "\"extensionsRequired\":[\"KHR_materials_clearcoat\",\"KHR_texture_transform\","
+        "\"EXT_foo\",\"EXT_meshopt_compression\"]}";
+    Scene s;
+    SptError e = {0};
+    int rc = scene_load_gltf_memory(&s, json, strlen(json), "tests/data/gltf/req.gltf", &e);
+    assert_int_equal(rc, SPT_EXIT_INPUT);
+    assert_non_null(strstr(e.msg, "extensionsRequired"));
+    assert_non_null(strstr(e.msg, "KHR_materials_clearcoat"));
+    assert_non_null(strstr(e.msg, "EXT_foo"));
+    assert_null(strstr(e.msg, "KHR_texture_transform"));
+    assert_null(strstr(e.msg, "EXT_meshopt"));
+    assert_null(strchr(e.msg, '\n'));
+}
+
+/* Loads a compressed copy and compares it with the plain one, triangle by
+ * triangle: positions within pos_tol, vertex normals within nrm_tol, uvs within
+ * uv_tol. */
+static void compare_with_plain(const char *file, double pos_tol, double nrm_tol, double uv_tol)
+{
+    Scene p, c;
+    load_ok(&p, DATA("wild_plain.gltf"));
+    load_ok(&c, file);
+    assert_int_equal(p.tri_count, 32);
+    assert_int_equal(c.tri_count, p.tri_count);
+    double dp = 0, dn = 0, du = 0;
+    for (uint32_t t = 0; t < p.tri_count; t++) {
+        /* The meshopt index codec may rotate a triangle's vertices (keeping its
+         * winding): match the rotation that fits best. */
+        int rot = 0;
+        double best = INFINITY;
+        for (int q = 0; q < 3; q++) {
+            double d = 0;
+            for (int k = 0; k < 3; k++)
+                for (int r = 0; r < 3; r++)
+                    d = fmax(d, fabs(p.tri_pos[t * 9 + k * 3 + r] -
+                                     c.tri_pos[t * 9 + (k + q) % 3 * 3 + r]));
+            if (d < best) best = d, rot = q;
+        }
+        for (int k = 0; k < 3; k++) {
+            int kc = (k + rot) % 3;
+            for (int r = 0; r < 3; r++)
+                dp = fmax(dp, fabs(p.tri_pos[t * 9 + k * 3 + r] - c.tri_pos[t * 9 + kc * 3 + r]));
+            uint32_t vp = p.tri_vidx[t * 3 + k], vc = c.tri_vidx[t * 3 + kc];
+            for (int r = 0; r < 3; r++)
+                dn = fmax(dn, fabs(p.vtx_normal[vp * 3 + r] - c.vtx_normal[vc * 3 + r]));
+            for (int r = 0; r < 2; r++)
+                du = fmax(du, fabs(p.vtx_uv[vp * 2 + r] - c.vtx_uv[vc * 2 + r]));
+        }
+    }
+    if (dp > pos_tol || dn > nrm_tol || du > uv_tol)
+        fail_msg("%s: largest differences: position %g (tolerance %g), normal %g (%g), uv %g (%g)",
+                 file, dp, pos_tol, dn, nrm_tol, du, uv_tol);
+    /* Bounds span [-1, 1] x [-1, 1] x [0, 0.3] in every copy. */
+    assert_close(c.bounds_min[0], -1, pos_tol + 1e-6);
+    assert_close(c.bounds_max[2], 0.3, pos_tol + 1e-6);
+    scene_free(&p);
+    scene_free(&c);
+}
+
+static void test_quantized_matches_plain(void **state)
+{
+    (void)state;
+    /* int16 steps of 2/32767 (half a step of rounding error), int8 normals
+     * (1/127, then renormalised), uint16 uvs (1/65535). */
+    compare_with_plain(DATA("wild_quantized.gltf"), 0.5 * 2 / 32767 + 1e-6, 1.5 / 127, 1e-5);
+}
+
+static void test_meshopt_matches_plain(void **state)
+{
+    (void)state;
+    /* The meshopt codecs are lossless on floats. */
+    compare_with_plain(DATA("wild_meshopt.gltf"), 0, 0, 0);
+}
+
+static void test_draco_matches_plain(void **state)
+{
+    (void)state;
+    /* 14-bit positions over a range of 2, 10-bit (octahedral) normals, 12-bit uvs. */
+    compare_with_plain(DATA("wild_draco.gltf"), 2.0 / 16383, 4.0 / 1023, 1.0 / 4095);
+}
+
+/* Damaged meshopt data: one error naming the buffer view. */
+static void test_meshopt_damaged(void **state)
+{
+    (void)state;
+    FILE *f = fopen(DATA("wild_meshopt.gltf"), "rb");
+    assert_non_null(f);
+    static char text[16384], copy[16384];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[n] = 0;
+    static const struct {
+        const char *from, *to, *want;
+    } cases[] = {
+        {"\"mode\":\"ATTRIBUTES\"", "\"mode\":\"BOGUSXXXXX\"",
+         "bufferViews[0].extensions.EXT_meshopt_compression.mode"},
+        {"\"byteStride\":12,\"count\":25", "\"byteStride\":12,\"count\":99",
+         "bufferViews[0].extensions.EXT_meshopt_compression: corrupt"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        const char *at = strstr(text, cases[i].from);
+        assert_non_null(at);
+        assert_int_equal(strlen(cases[i].from), strlen(cases[i].to));
+        memcpy(copy, text, n + 1);
+        memcpy(copy + (at - text), cases[i].to, strlen(cases[i].to));
+        Scene s;
+        SptError e = {0};
+        int rc = scene_load_gltf_memory(&s, copy, n, "tests/data/gltf/damaged.gltf", &e);
+        assert_int_equal(rc, SPT_EXIT_INPUT);
+        if (!strstr(e.msg, cases[i].want)) fail_msg("case %zu: got '%s'", i, e.msg);
+    }
+}
+
+static double srgb_to_linear(double x)
+{
+    return x <= 0.04045 ? x / 12.92 : pow((x + 0.055) / 1.055, 2.4);
+}
+
+static void test_webp_texture(void **state)
+{
+    (void)state;
+    Scene s;
+    load_ok(&s, DATA("wild_webp.glb"));
+    assert_int_equal(s.texture_count, 1);
+    const SceneTexture *t = &s.textures[0];
+    /* The WebP source wins over the 1x1 PNG fallback. */
+    assert_int_equal(t->width, 2);
+    assert_int_equal(t->height, 2);
+    assert_int_equal(t->channels, 3);
+    static const int want[12] = {0, 64, 128, 255, 255, 255, 128, 0, 255, 10, 20, 30};
+    for (int i = 0; i < 12; i++) assert_close(t->texels[i], srgb_to_linear(want[i] / 255.0), 1e-5);
+    scene_free(&s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_texture_transform),
+        cmocka_unit_test(test_spec_gloss_and_ignored),
+        cmocka_unit_test(test_required_refused),
+        cmocka_unit_test(test_quantized_matches_plain),
+        cmocka_unit_test(test_meshopt_matches_plain),
+        cmocka_unit_test(test_draco_matches_plain),
+        cmocka_unit_test(test_meshopt_damaged),
+        cmocka_unit_test(test_webp_texture),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
