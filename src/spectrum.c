@@ -135,16 +135,41 @@ void spd_to_xyz(const Spd *s, double xyz[3])
     }
 }
 
+void spd_reflectance_to_xyz(const Spd *s, double xyz[3])
+{
+    Spd d65;
+    spd_named(&d65, "D65", NULL);
+    double norm = 0.0;
+    xyz[0] = xyz[1] = xyz[2] = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        double l = SPT_CIE_LAMBDA_MIN + i, e = spd_eval(&d65, l), v = spd_eval(s, l) * e;
+        xyz[0] += SPT_CIE_X[i] * v;
+        xyz[1] += SPT_CIE_Y[i] * v;
+        xyz[2] += SPT_CIE_Z[i] * v;
+        norm += SPT_CIE_Y[i] * e;
+    }
+    for (int k = 0; k < 3; k++)
+        xyz[k] /= norm;
+    spd_free(&d65);
+}
+
 double spd_luminous_efficacy(const Spd *s)
 {
-    double xyz[3], p = 0.0;
-    spd_to_xyz(s, xyz);
-    for (int i = 0; i < SPT_CIE_SAMPLES; i++)
-        p += spd_eval(s, SPT_CIE_LAMBDA_MIN + i);
+    /* Trapezoidal integrals over the 1 nm grid (the CIE definition of an
+     * integral over tabulated data), plus the lines inside 360-830 nm. */
+    double y = 0.0, p = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        double w = (i == 0 || i == SPT_CIE_SAMPLES - 1) ? 0.5 : 1.0;
+        double v = spd_eval(s, SPT_CIE_LAMBDA_MIN + i);
+        y += w * SPT_CIE_Y[i] * v;
+        p += w * v;
+    }
     for (int k = 0; k < s->line_count; k++)
-        if (s->line_nm[k] >= SPT_CIE_LAMBDA_MIN && s->line_nm[k] <= SPT_CIE_LAMBDA_MAX)
+        if (s->line_nm[k] >= SPT_CIE_LAMBDA_MIN && s->line_nm[k] <= SPT_CIE_LAMBDA_MAX) {
+            y += spt_cie_y((float)s->line_nm[k]) * s->line_power[k];
             p += s->line_power[k];
-    return p > 0 ? 683.0 * xyz[1] / p : 0.0;
+        }
+    return p > 0 ? 683.0 * y / p : 0.0;
 }
 
 void spd_to_grid(const Spd *s, float *grid)
@@ -384,121 +409,59 @@ int spd_parse(Spd *out, const char *text, SptError *e)
 
 /* ---- RGB upsampling (Jakob and Hanika 2019) ----------------------------------- */
 
-/* Linear sRGB of sigmoid spectrum (normalised-wavelength coefficients a) seen as
- * a reflectance under D65 with Y(D65) = 1, i.e. the colour of D65 * s. */
-static void sigmoid_rgb(const double a[3], double rgb[3])
-{
-    double xyz[3] = {0, 0, 0};
-    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
-        double t = (double)i / (SPT_CIE_SAMPLES - 1);
-        double x = (a[0] * t + a[1]) * t + a[2];
-        double s = 0.5 + x / (2.0 * sqrt(1.0 + x * x));
-        double w = s * SPT_D65_NORM[i];
-        xyz[0] += w * SPT_CIE_X[i];
-        xyz[1] += w * SPT_CIE_Y[i];
-        xyz[2] += w * SPT_CIE_Z[i];
-    }
-    for (int k = 0; k < 3; k++)
-        xyz[k] /= SPT_CIE_Y_INTEGRAL;
-    xyz_to_linear_srgb(xyz, rgb);
-}
-
-/* Solves the 3x3 system m x = b (Cramer); returns 0 when singular. */
-static int solve3(double m[3][3], const double b[3], double x[3])
-{
-    double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
-                 m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-                 m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-    if (!(fabs(det) > 1e-300))
-        return 0;
-    for (int c = 0; c < 3; c++) {
-        double t[3][3];
-        memcpy(t, m, sizeof t);
-        for (int r = 0; r < 3; r++)
-            t[r][c] = b[r];
-        x[c] = (t[0][0] * (t[1][1] * t[2][2] - t[1][2] * t[2][1]) -
-                t[0][1] * (t[1][0] * t[2][2] - t[1][2] * t[2][0]) +
-                t[0][2] * (t[1][0] * t[2][1] - t[1][1] * t[2][0])) / det;
-    }
-    return 1;
-}
-
-/* Gauss-Newton (with step halving) from a toward the coefficients whose colour is
- * target; continuation from grey keeps it in the basin of saturated colours. */
-static void fit_sigmoid(const double target[3], double a[3])
-{
-    const int steps = 8;
-    double grey = (target[0] + target[1] + target[2]) / 3.0;
-    for (int k = 1; k <= steps; k++) {
-        double tk[3];
-        for (int c = 0; c < 3; c++)
-            tk[c] = grey + (target[c] - grey) * k / steps;
-        for (int it = 0; it < 30; it++) {
-            double r0[3], res[3];
-            sigmoid_rgb(a, r0);
-            double err = 0;
-            for (int c = 0; c < 3; c++) {
-                res[c] = r0[c] - tk[c];
-                err += res[c] * res[c];
-            }
-            if (err < 1e-14)
-                break;
-            double J[3][3];
-            for (int j = 0; j < 3; j++) {
-                double b[3] = {a[0], a[1], a[2]}, r1[3];
-                double h = 1e-6 * (1.0 + fabs(a[j]));
-                b[j] += h;
-                sigmoid_rgb(b, r1);
-                for (int c = 0; c < 3; c++)
-                    J[c][j] = (r1[c] - r0[c]) / h;
-            }
-            double d[3];
-            if (!solve3(J, res, d))
-                break;
-            double lambda = 1.0;
-            for (int tries = 0; tries < 20; tries++, lambda *= 0.5) {
-                double b[3] = {a[0] - lambda * d[0], a[1] - lambda * d[1], a[2] - lambda * d[2]}, r1[3];
-                sigmoid_rgb(b, r1);
-                double e1 = 0;
-                for (int c = 0; c < 3; c++)
-                    e1 += (r1[c] - tk[c]) * (r1[c] - tk[c]);
-                if (e1 < err) {
-                    memcpy(a, b, sizeof b);
-                    break;
-                }
-            }
-        }
-    }
-}
-
-/* Coefficients in nm of the polynomial a0 t^2 + a1 t + a2, t = (l - 360) / 470. */
-static void to_nm_coeffs(const double a[3], float c[3])
-{
-    const double l0 = SPT_CIE_LAMBDA_MIN, w = SPT_CIE_LAMBDA_MAX - SPT_CIE_LAMBDA_MIN;
-    c[0] = (float)(a[0] / (w * w));
-    c[1] = (float)(a[1] / w - 2.0 * a[0] * l0 / (w * w));
-    c[2] = (float)(a[0] * l0 * l0 / (w * w) - a[1] * l0 / w + a[2]);
-}
+/* The table fitted at build time by tools/rgb2spec/rgb2spec_opt.c (BUILD/gen/
+ * rgb2spec_data.c): res^3 cells per largest channel, z spacing in scale[], nm
+ * coefficients at [m][z][y][x][3]. */
+extern const int spt_rgb2spec_res;
+extern const float spt_rgb2spec_scale[];
+extern const float spt_rgb2spec_data[];
 
 void rgb_to_coeffs(const float rgb_in[3], float coeffs[3])
 {
-    double rgb[3];
+    float rgb[3];
     for (int c = 0; c < 3; c++) {
-        double v = rgb_in[c];
-        rgb[c] = v > 0 ? (v < 1 ? v : 1) : 0; /* NaN -> 0 */
+        float v = rgb_in[c];
+        rgb[c] = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; /* NaN -> 0 */
     }
     if (rgb[0] == rgb[1] && rgb[1] == rgb[2]) {
+        /* Grey: a constant spectrum, exactly 0 or 1 for black and white. */
         double v = rgb[0];
         coeffs[0] = coeffs[1] = 0.0f;
         coeffs[2] = v <= 0 ? -1e20f : v >= 1 ? 1e20f : (float)((v - 0.5) / sqrt(v * (1.0 - v)));
         return;
     }
-    /* The fit cannot reach exactly 0 or 1 on a channel; keep a small margin. */
-    for (int c = 0; c < 3; c++)
-        rgb[c] = 1e-4 + rgb[c] * (1.0 - 2e-4);
-    double a[3] = {0, 0, 0};
-    fit_sigmoid(rgb, a);
-    to_nm_coeffs(a, coeffs);
+    const int res = spt_rgb2spec_res;
+    int m = rgb[0] >= rgb[1] ? (rgb[0] >= rgb[2] ? 0 : 2) : (rgb[1] >= rgb[2] ? 1 : 2);
+    float z = rgb[m];
+    float x = rgb[(m + 1) % 3] / z * (float)(res - 1), y = rgb[(m + 2) % 3] / z * (float)(res - 1);
+    int xi = (int)x, yi = (int)y, zi = 0;
+    if (xi > res - 2)
+        xi = res - 2;
+    if (yi > res - 2)
+        yi = res - 2;
+    /* The last scale[] interval that starts at or below z (scale is increasing). */
+    int lo = 0, hi = res - 1;
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if (spt_rgb2spec_scale[mid] <= z)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    zi = lo;
+    float fx = x - (float)xi, fy = y - (float)yi;
+    float fz = (z - spt_rgb2spec_scale[zi]) / (spt_rgb2spec_scale[zi + 1] - spt_rgb2spec_scale[zi]);
+    for (int c = 0; c < 3; c++) {
+        double v = 0.0;
+        for (int dz = 0; dz < 2; dz++)
+            for (int dy = 0; dy < 2; dy++)
+                for (int dx = 0; dx < 2; dx++) {
+                    size_t idx = ((((size_t)m * res + zi + dz) * res + yi + dy) * res + xi + dx) * 3 + c;
+                    double w = (dx ? fx : 1.0f - fx) * (dy ? fy : 1.0f - fy) * (dz ? fz : 1.0f - fz);
+                    v += w * spt_rgb2spec_data[idx];
+                }
+        coeffs[c] = (float)v;
+    }
 }
 
 void rgb_illuminant_coeffs(const float rgb[3], float coeffs[3], float *scale)

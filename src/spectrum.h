@@ -44,6 +44,10 @@ double spd_eval(const Spd *s, double nm);
  * xbar(l) P(l) (likewise Y, Z), plus sum over lines of cmf(line) * power. */
 void spd_to_xyz(const Spd *s, double xyz[3]);
 
+/* XYZ of a reflectance s under CIE D65, by the same 1 nm sums, normalised so that
+ * a perfect white reflector (s = 1) has Y = 1; lines are ignored. */
+void spd_reflectance_to_xyz(const Spd *s, double xyz[3]);
+
 /* Luminous efficacy in lm/W: 683 * integral(ybar P) / integral(P) over 360-830 nm. */
 double spd_luminous_efficacy(const Spd *s);
 
