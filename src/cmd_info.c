@@ -182,6 +182,7 @@ int cmd_info(int argc, char **argv)
     double bytes = (double)s.vertex_count * 5 * sizeof(float) + (double)s.tri_count * 4 * 4 +
                    tex_bytes + (double)(s.material_count + s.light_count) * 512;
     int rc = SPT_EXIT_OK;
+    double bvh_bytes_per_tri = 9 * sizeof(float); /* without the BVH: the positions */
     if (want_bvh) {
         Bvh bvh = {0};
         if (bvh_build(&bvh, s.tri_pos, s.tri_count, &e)) {
@@ -193,6 +194,7 @@ int cmd_info(int argc, char **argv)
                    b->node_count, b->leaf_count, b->max_depth, b->avg_leaf_size,
                    b->max_leaf_size, b->sah_cost, b->bytes_per_tri, b->build_seconds * 1e3);
             bytes += (double)bvh.node_count * sizeof(BvhNode) + (double)bvh.tri_data_bytes;
+            bvh_bytes_per_tri = b->bytes_per_tri;
             bvh_free(&bvh);
         }
     } else {
@@ -204,6 +206,15 @@ int cmd_info(int argc, char **argv)
         print_bytes(bytes);
         printf(" for the scene%s (film and path state come on top)\n",
                want_bvh ? "" : " without the BVH");
+        /* Instancing is flattened (one copy of the triangles per node): its cost. */
+        if (st->instanced_meshes) {
+            printf("instancing   %u mesh(es) on several nodes, flattened: %u triangles and %u "
+                   "vertices are copies, ~",
+                   st->instanced_meshes, st->flattened_triangles, st->flattened_vertices);
+            print_bytes((double)st->flattened_triangles * (4 * 4 + bvh_bytes_per_tri) +
+                        (double)st->flattened_vertices * 5 * sizeof(float));
+            printf(" of the device memory\n");
+        }
     }
     scene_free(&s);
     return rc;

@@ -217,6 +217,10 @@ const char *type_name(int n)
 struct PrimData {
     bool read = false, skip = false;
     std::vector<float> pos, nrm, uv; // per vertex, in the mesh's space
+    // Primitives with the same POSITION, NORMAL and TEXCOORD_0 accessors (as
+    // exporters write multi-material meshes) share one copy of the vertices:
+    // vsrc is the primitive holding them (nullptr: this one).
+    const PrimData *vsrc = nullptr;
     std::vector<uint32_t> tris;      // 3 local vertex indices per triangle, file winding
     uint32_t material = 0;
 };
@@ -247,6 +251,8 @@ struct Loader {
     std::map<std::string, std::vector<std::string>> ignored_ext; // extension -> materials
 
     std::vector<std::vector<PrimData>> prim; // [mesh][primitive]
+    std::map<std::tuple<int, int, int>, const PrimData *> vertex_owner; // accessors -> data
+    std::vector<uint32_t> mesh_emitted;      // instances emitted so far, per mesh
     std::vector<int> decoded_state;          // per image: 0 untried, 1 ok, -1 failed
     std::vector<TextureImage> decoded;
     std::map<std::tuple<int, int, int, int>, int> texture_of; // (image,srgb,ws,wt)
@@ -1500,7 +1506,6 @@ int Loader::read_primitive(int mi, int pi)
         return rc;
     size_t nv = m.accessors[pit->second].count;
     if (nv > UINT32_MAX) return bad("%s: more than 2^32 vertices", o);
-    read_floats(pit->second, 3, pd.pos);
     auto nit = p.attributes.find("NORMAL");
     if (nit != p.attributes.end()) {
         if ((rc = check_accessor(nit->second, obj + ".attributes.NORMAL", 3, nrm_types,
@@ -1509,7 +1514,6 @@ int Loader::read_primitive(int mi, int pi)
         if (m.accessors[nit->second].count != nv)
             return bad("%s.attributes.NORMAL (accessors[%d]): count %zu differs from POSITION's %zu",
                        o, nit->second, m.accessors[nit->second].count, nv);
-        read_floats(nit->second, 3, pd.nrm);
     }
     auto tit = p.attributes.find("TEXCOORD_0");
     if (tit != p.attributes.end()) {
@@ -1520,7 +1524,17 @@ int Loader::read_primitive(int mi, int pi)
             return bad("%s.attributes.TEXCOORD_0 (accessors[%d]): count %zu differs from "
                        "POSITION's %zu",
                        o, tit->second, m.accessors[tit->second].count, nv);
-        read_floats(tit->second, 2, pd.uv);
+    }
+    auto vkey = std::make_tuple(pit->second, nit != p.attributes.end() ? nit->second : -1,
+                                tit != p.attributes.end() ? tit->second : -1);
+    auto own = vertex_owner.find(vkey);
+    if (own != vertex_owner.end()) {
+        pd.vsrc = own->second;
+    } else {
+        vertex_owner[vkey] = &pd;
+        read_floats(pit->second, 3, pd.pos);
+        if (nit != p.attributes.end()) read_floats(nit->second, 3, pd.nrm);
+        if (tit != p.attributes.end()) read_floats(tit->second, 2, pd.uv);
     }
     if (p.indices >= 0) {
         if ((rc = check_accessor(p.indices, obj + ".indices", 1,
@@ -1701,35 +1715,49 @@ int Loader::emit_instance(int mi, const Mat4 &world)
 {
     const auto &mesh = m.meshes[mi];
     stats.instances++;
+    bool repeat = mesh_emitted[mi]++ > 0; // a further instance: flattened copy
+    if (mesh_emitted[mi] == 2) stats.instanced_meshes++;
+    uint64_t tris_before = tri_mat.size(), verts_before = vertex_count;
     double det = det3(world), cof[9];
     cofactor3(world, cof);
     bool mirrored = det < 0;
+    // Vertices already emitted for this instance: shared vertex data -> base, world
+    // positions.
+    std::map<const PrimData *, std::pair<uint64_t, std::vector<double>>> emitted;
     for (size_t pi = 0; pi < mesh.primitives.size(); pi++) {
         PrimData &pd = prim[mi][pi];
         int rc;
         if (!pd.read && (rc = read_primitive(mi, (int)pi))) return rc;
         if (pd.skip) continue;
         stats.primitives++;
-        size_t nv = pd.pos.size() / 3;
-        if (vertex_count + nv > k_max_vertices) return bad("more than 2^31 vertices in the scene");
-        uint64_t base = vertex_count;
-        std::vector<double> wp(nv * 3);
-        for (size_t v = 0; v < nv; v++) {
-            double p[3] = {pd.pos[v * 3], pd.pos[v * 3 + 1], pd.pos[v * 3 + 2]};
-            mat_point(world, p, &wp[v * 3]);
-            double nw[3] = {0, 0, 0};
-            if (!pd.nrm.empty()) {
-                const float *n = &pd.nrm[v * 3];
-                for (int r = 0; r < 3; r++)
-                    nw[r] = (cof[r * 3] * n[0] + cof[r * 3 + 1] * n[1] + cof[r * 3 + 2] * n[2]) *
-                            (mirrored ? -1.0 : 1.0);
-                if (!normalize3(nw)) nw[0] = nw[1] = nw[2] = 0;
+        const PrimData &vd = pd.vsrc ? *pd.vsrc : pd;
+        size_t nv = vd.pos.size() / 3;
+        auto done = emitted.find(&vd);
+        if (done == emitted.end()) {
+            if (vertex_count + nv > k_max_vertices)
+                return bad("more than 2^31 vertices in the scene");
+            done = emitted.emplace(&vd, std::make_pair(vertex_count, std::vector<double>())).first;
+            std::vector<double> &wp = done->second.second;
+            wp.resize(nv * 3);
+            for (size_t v = 0; v < nv; v++) {
+                double p[3] = {vd.pos[v * 3], vd.pos[v * 3 + 1], vd.pos[v * 3 + 2]};
+                mat_point(world, p, &wp[v * 3]);
+                double nw[3] = {0, 0, 0};
+                if (!vd.nrm.empty()) {
+                    const float *n = &vd.nrm[v * 3];
+                    for (int r = 0; r < 3; r++)
+                        nw[r] = (cof[r * 3] * n[0] + cof[r * 3 + 1] * n[1] + cof[r * 3 + 2] * n[2]) *
+                                (mirrored ? -1.0 : 1.0);
+                    if (!normalize3(nw)) nw[0] = nw[1] = nw[2] = 0;
+                }
+                for (int r = 0; r < 3; r++) vtx_normal.push_back((float)nw[r]);
+                vtx_uv.push_back(vd.uv.empty() ? 0.0f : vd.uv[v * 2]);
+                vtx_uv.push_back(vd.uv.empty() ? 0.0f : vd.uv[v * 2 + 1]);
             }
-            for (int r = 0; r < 3; r++) vtx_normal.push_back((float)nw[r]);
-            vtx_uv.push_back(pd.uv.empty() ? 0.0f : pd.uv[v * 2]);
-            vtx_uv.push_back(pd.uv.empty() ? 0.0f : pd.uv[v * 2 + 1]);
+            vertex_count += nv;
         }
-        vertex_count += nv;
+        uint64_t base = done->second.first;
+        const std::vector<double> &wp = done->second.second;
         const SceneMaterial &sm = mats[pd.material];
         bool emissive = sm.emission_spd.count > 0 ||
                         (sm.emissive_strength > 0 &&
@@ -1775,6 +1803,10 @@ int Loader::emit_instance(int mi, const Mat4 &world)
             tri_mat.push_back(pd.material);
             if (emissive) stats.emissive_triangles++;
         }
+    }
+    if (repeat) {
+        stats.flattened_triangles += (uint32_t)(tri_mat.size() - tris_before);
+        stats.flattened_vertices += (uint32_t)(vertex_count - verts_before);
     }
     return 0;
 }
@@ -1871,6 +1903,7 @@ int load(Scene *s, const unsigned char *data, size_t size, const char *name, Spt
         L.prim.resize(L.m.meshes.size());
         for (size_t i = 0; i < L.m.meshes.size(); i++)
             L.prim[i].resize(L.m.meshes[i].primitives.size());
+        L.mesh_emitted.assign(L.m.meshes.size(), 0);
         L.decoded_state.assign(L.m.images.size(), 0);
         L.decoded.assign(L.m.images.size(), TextureImage());
         for (size_t i = 0; i < L.m.materials.size(); i++) {

@@ -92,6 +92,10 @@ typedef struct SceneStats {
     uint32_t emissive_triangles;
     uint32_t unusable_images;     /* missing, corrupt or outside the scene folder:
                                      the material factors are used instead */
+    /* Instancing is flattened: meshes placed on more than one node, and the
+     * triangles and vertices their second and later instances added. */
+    uint32_t instanced_meshes;
+    uint32_t flattened_triangles, flattened_vertices;
 } SceneStats;
 
 typedef struct Scene {

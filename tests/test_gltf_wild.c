@@ -249,6 +249,45 @@ static void test_meshopt_damaged(void **state)
     }
 }
 
+/* Primitives sharing vertex accessors share one copy of the vertices per
+ * instance; the flattened instances are counted. */
+static void test_shared_vertices_and_instances(void **state)
+{
+    (void)state;
+    Scene s;
+    load_ok(&s, DATA("wild_instanced.gltf"));
+    assert_int_equal(s.tri_count, 6);
+    assert_int_equal(s.vertex_count, 12); /* 4 per instance, not 6 */
+    assert_int_equal(s.stats.instances, 3);
+    assert_int_equal(s.stats.instanced_meshes, 1);
+    assert_int_equal(s.stats.flattened_triangles, 4);
+    assert_int_equal(s.stats.flattened_vertices, 8);
+    /* Both triangles of the third instance use its own 4 vertices, at x + 4. */
+    for (int k = 0; k < 6; k++) {
+        uint32_t v = s.tri_vidx[4 * 3 + k];
+        assert_true(v >= 8 && v < 12);
+    }
+    assert_int_equal(s.tri_mat[4], 0);
+    assert_int_equal(s.tri_mat[5], 1);
+    assert_close(s.tri_pos[5 * 9 + 3], 5, 0); /* (1, 1, 0) + (4, 0, 0) */
+    assert_close(s.vtx_uv[s.tri_vidx[5 * 3 + 2] * 2 + 1], 1, 0); /* vertex 3: uv (0, 1) */
+    scene_free(&s);
+    /* `spectrace info` states the cost of the flattening. */
+    const char *exe = getenv("SPECTRACE_EXE");
+    if (!exe || access(exe, X_OK)) return;
+    char cmd[1024];
+    snprintf(cmd, sizeof cmd, "'%s' info --no-bvh %s 2>&1", exe, DATA("wild_instanced.gltf"));
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    static char out[16384];
+    size_t n = fread(out, 1, sizeof out - 1, p);
+    out[n] = 0;
+    assert_int_equal(pclose(p), 0);
+    if (!strstr(out, "instancing   1 mesh(es) on several nodes, flattened: 4 triangles and 8 "
+                     "vertices are copies"))
+        fail_msg("no instancing line in:\n%s", out);
+}
+
 static double srgb_to_linear(double x)
 {
     return x <= 0.04045 ? x / 12.92 : pow((x + 0.055) / 1.055, 2.4);
@@ -281,6 +320,7 @@ int main(void)
         cmocka_unit_test(test_draco_matches_plain),
         cmocka_unit_test(test_meshopt_damaged),
         cmocka_unit_test(test_webp_texture),
+        cmocka_unit_test(test_shared_vertices_and_instances),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -88,6 +88,21 @@ def material_files():
     g.gltf("wild_specgloss.gltf")
 
 
+def instanced_file():
+    # One mesh of two primitives that share their vertex accessors (two materials),
+    # on three nodes.
+    g = G()
+    quad = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+    pa, ta = g.floats(quad, "VEC3"), g.floats([(0, 0), (1, 0), (1, 1), (0, 1)], "VEC2")
+    g.doc["materials"] = [{"name": "a"}, {"name": "b"}]
+    prims = [{"attributes": {"POSITION": pa, "TEXCOORD_0": ta}, "indices": g.indices(ix), "material": k}
+             for k, ix in enumerate([[0, 1, 2], [0, 2, 3]])]
+    m = g.mesh(prims)
+    for x in range(3):
+        g.node(mesh=m, translation=[2 * x, 0, 0])
+    g.gltf("wild_instanced.gltf")
+
+
 def mesh_files():
     import numpy as np
     pos, nrm, uv, idx = grid()
@@ -213,5 +228,6 @@ def webp_file():
 if __name__ == "__main__":
     os.makedirs(OUT, exist_ok=True)
     material_files()
+    instanced_file()
     mesh_files()
     webp_file()
