@@ -20,7 +20,7 @@ echo "== bvh (tools/bench_bvh.c)"
 # ---- load (wild): a generated 10M-triangle .glb in a temporary folder (removed
 # after): scene_load_gltf, bvh_build and total seconds; target < 30 s on 2 cores ----
 echo "== load (tools/bench_load.c)"
-"$build/tools/bench_load" "${SPECTRACE_BENCH_LOAD_TRIANGLES:-10e6}" 2>/dev/null || status=1
+"$build/tools/bench_load" "${SPECTRACE_BENCH_LOAD_TRIANGLES:-10e6}" || status=1
 # ---- end load ----
 
 exit $status
