@@ -16,12 +16,13 @@ san="-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined
 flags="-Isrc -Ikernels -I$lib/gen -D_GNU_SOURCE -DCL_TARGET_OPENCL_VERSION=120"
 clang++ -std=c++17 $san $flags -I/usr/include/nlohmann -c src/gltf_load.cpp -o "$out/obj/gltf_load.o"
 clang++ -std=c++17 $san $flags -c src/texture_io.cpp -o "$out/obj/texture_io.o"
+clang++ -std=c++17 $san $flags -c src/mesh_decode.cpp -o "$out/obj/mesh_decode.o"
 clang -std=c11 $san $flags -c src/scene.c -o "$out/obj/scene.o"
 clang -std=c11 $san $flags -c tools/fuzz/fuzz_gltf.c -o "$out/obj/fuzz_gltf.o"
 # Our instrumented objects come first; the library supplies the rest (util,
 # spectrum) uninstrumented.
 clang++ -fsanitize=fuzzer,address,undefined -o "$out/fuzz_gltf" "$out"/obj/*.o "$lib/libspectrace.a" \
-  $(pkg-config --libs tinygltf OpenImageIO OpenCL OpenEXR) -lm -lpthread
+  $(pkg-config --libs tinygltf OpenImageIO OpenCL OpenEXR draco) -lmeshoptimizer -lm -lpthread
 cp -n tests/data/gltf/*.gltf tests/data/gltf/*.glb tests/data/gltf/regress/* "$out/corpus/" 2>/dev/null || true
 # One process (no -jobs: that forks and logs to fuzz-N.log); stderr closed (the loader's warnings are noise:
 # reproduce a crash with "$out/fuzz_gltf CRASH_FILE" to see its report).
