@@ -1642,6 +1642,12 @@ int Loader::decode_meshopt_views()
             total > ((size_t)1 << 32))
             return bad("%s: count %zu x byteStride %zu is 0 or above 4 GiB", o.c_str(), count,
                        stride);
+        // The codecs spend at least 2 bits per 16 bytes of output (vertex) or a
+        // byte per triangle (index): anything larger is corrupt, and refusing it
+        // here avoids allocating for it.
+        if (total / 64 > len + 1024)
+            return bad("%s: corrupt compressed data (%zu bytes cannot hold %zu)", o.c_str(), len,
+                       total);
         tinygltf::Buffer out;
         out.data.resize(total);
         char why[200] = "";
