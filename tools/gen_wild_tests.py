@@ -5,7 +5,7 @@
 
 Files "from the wild": texture transforms, legacy specular-glossiness, ignored
 material extensions, one small bumpy grid mesh as a plain, a quantised
-(KHR_mesh_quantization), a meshopt (EXT_meshopt_compression) and a Draco
+(KHR_mesh_quantization), a meshopt (EXT_meshopt_compression, octahedral normals) and a Draco
 (KHR_draco_mesh_compression) copy, and a WebP texture (EXT_texture_webp). Each
 file is a few KB. Needs numpy and the PyPI packages meshoptimizer, DracoPy and Pillow
 (pip install meshoptimizer DracoPy pillow); the test compares the copies with each other, so the encoders
@@ -88,6 +88,24 @@ def material_files():
     g.gltf("wild_specgloss.gltf")
 
 
+def snorm(v, bits):
+    scale = (1 << (bits - 1)) - 1
+    v = max(-1.0, min(1.0, v))
+    return int(v * scale + (0.5 if v >= 0 else -0.5))
+
+
+def oct_encode(n):
+    """meshopt_encodeFilterOct for one unit vector, 8 bits, stride 4 (the
+    encoder of meshoptimizer's src/vertexfilter.cpp): u, v, 1, w as snorm8."""
+    nx, ny, nz = n
+    nl = abs(nx) + abs(ny) + abs(nz)
+    ns = 0 if nl == 0 else 1 / nl
+    nx, ny = nx * ns, ny * ns
+    u = nx if nz >= 0 else (1 - abs(ny)) * (1 if nx >= 0 else -1)
+    v = ny if nz >= 0 else (1 - abs(nx)) * (1 if ny >= 0 else -1)
+    return [snorm(u, 8), snorm(v, 8), snorm(1, 8), 0]
+
+
 def instanced_file():
     # One mesh of two primitives that share their vertex accessors (two materials),
     # on three nodes.
@@ -157,7 +175,16 @@ def mesh_files():
         return len(views) - 1
     arrays = [(np.array(pos, dtype=np.float32), "VEC3"), (np.array(nrm, dtype=np.float32), "VEC3"),
               (np.array(uv, dtype=np.float32), "VEC2")]
-    for arr, typ in arrays:
+    for k, (arr, typ) in enumerate(arrays):
+        if k == 1:
+            # Normals: 8-bit octahedral (filter OCTAHEDRAL), stored as normalised
+            # int8 x4 (KHR_mesh_quantization), as gltfpack writes them.
+            oct_ = np.array([oct_encode(n) for n in nrm], dtype=np.int8)
+            v = add(oct_.tobytes(), len(oct_), 4, "ATTRIBUTES", mo.encode_vertex_buffer(oct_, len(oct_), 4))
+            views[v]["extensions"]["EXT_meshopt_compression"]["filter"] = "OCTAHEDRAL"
+            accs.append({"bufferView": v, "componentType": I8, "normalized": True, "count": len(arr),
+                         "type": "VEC3"})
+            continue
         v = add(arr.tobytes(), len(arr), arr.shape[1] * 4, "ATTRIBUTES",
                 mo.encode_vertex_buffer(arr, len(arr), arr.shape[1] * 4))
         accs.append({"bufferView": v, "componentType": FLOAT, "count": len(arr), "type": typ})
@@ -167,7 +194,8 @@ def mesh_files():
     accs.append({"bufferView": v, "componentType": U16, "count": len(ia), "type": "SCALAR"})
     accs[0]["min"], accs[0]["max"] = lo, hi
     d = {"asset": {"version": "2.0", "generator": "tools/gen_wild_tests.py"},
-         "extensionsUsed": ["EXT_meshopt_compression"], "extensionsRequired": ["EXT_meshopt_compression"],
+         "extensionsUsed": ["EXT_meshopt_compression", "KHR_mesh_quantization"],
+         "extensionsRequired": ["EXT_meshopt_compression", "KHR_mesh_quantization"],
          "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
          "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3}]}],
          "accessors": accs, "bufferViews": views,
