@@ -24,6 +24,7 @@ void spd_free(Spd *s)
     memset(s, 0, sizeof *s);
 }
 
+/* A malloc'd copy of n doubles, NULL for none. */
 static double *dup_doubles(const double *p, int n)
 {
     if (n <= 0 || !p)
@@ -51,6 +52,7 @@ typedef struct Pair {
     double nm, v;
 } Pair;
 
+/* qsort order of (nm, value) pairs by wavelength. */
 static int cmp_pair(const void *a, const void *b)
 {
     double x = ((const Pair *)a)->nm, y = ((const Pair *)b)->nm;
@@ -242,6 +244,7 @@ int srgb_to_8bit(double linear)
 
 /* ---- Named SPDs ----------------------------------------------------------------- */
 
+/* An SPD from a regularly spaced published table. */
 static void spd_from_table(Spd *out, double start, double step, int count, const double *v)
 {
     double *nm = spt_malloc((size_t)count * sizeof(double));
@@ -376,6 +379,10 @@ int spd_read_csv(Spd *out, const char *path, SptError *e)
         v[n] = b;
         n++;
     }
+    if (ferror(f)) {
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: cannot read: %s", path, strerror(errno));
+        goto done;
+    }
     if (n == 0) {
         rc = spt_fail(e, SPT_EXIT_INPUT, "%s: no samples (expected lines of 'wavelength_nm,value')", path);
         goto done;
@@ -397,13 +404,15 @@ int spd_parse(Spd *out, const char *text, SptError *e)
     SptError e1 = {0};
     if (!spd_named(out, text, &e1))
         return 0;
+    /* Text that looks like a path, or names a file that exists, is read as a CSV
+     * (so an unreadable file says why); anything else is an unknown name. */
+    size_t n = strlen(text);
+    int path_like = strchr(text, '/') || (n > 4 && !strcasecmp(text + n - 4, ".csv"));
     FILE *f = fopen(text, "r");
-    if (!f) {
-        if (!strncasecmp(text, "blackbody:", 10))
-            return spt_fail(e, SPT_EXIT_INPUT, "%s", e1.msg);
+    if (f)
+        fclose(f);
+    else if (!path_like && errno == ENOENT)
         return spt_fail(e, SPT_EXIT_INPUT, "%s", e1.msg);
-    }
-    fclose(f);
     return spd_read_csv(out, text, e);
 }
 
@@ -416,6 +425,9 @@ extern const int spt_rgb2spec_res;
 extern const float spt_rgb2spec_scale[];
 extern const float spt_rgb2spec_data[];
 
+/* Greys analytically (exact 0 and 1 for black and white); other colours by
+ * trilinear interpolation of the fitted table in the cell of the largest channel
+ * (z) and the other two divided by it (x, y), as Jakob and Hanika's lookup. */
 void rgb_to_coeffs(const float rgb_in[3], float coeffs[3])
 {
     float rgb[3];
