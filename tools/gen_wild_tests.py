@@ -203,6 +203,13 @@ def mesh_files():
                       + base64.b64encode(bytes(comp)).decode()},
                      {"byteLength": fallback, "extensions": {"EXT_meshopt_compression": {"fallback": True}}}]}
     gg.write("wild_meshopt.gltf", json.dumps(d, separators=(",", ":")).encode())
+    # The same as .glb: buffer 0 is the BIN chunk, the fallback has no uri.
+    d["buffers"][0] = {"byteLength": len(comp)}
+    binary = bytes(comp) + b"\0" * (-len(comp) % 4)
+    js = json.dumps(d, separators=(",", ":")).encode()
+    js += b" " * (-len(js) % 4)
+    body = struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(binary), 0x004E4942) + binary
+    gg.write("wild_meshopt.glb", struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body)
 
     # KHR_draco_mesh_compression, 14-bit positions, order preserved.
     import DracoPy
