@@ -1500,63 +1500,63 @@ int Loader::read_primitive(int mi, int pi)
     auto dit = p.extensions.find("KHR_draco_mesh_compression");
     if (dit != p.extensions.end()) {
         if ((rc = read_draco(mi, pi, dit->second, idx))) return rc;
-    } else if ((rc = [&]() -> int {
-    if ((rc = check_accessor(pit->second, obj + ".attributes.POSITION", 3, pos_types,
-                             quantization ? 2 : 0, &zeros)))
-        return rc;
-    size_t nv = m.accessors[pit->second].count;
-    if (nv > UINT32_MAX) return bad("%s: more than 2^32 vertices", o);
-    auto nit = p.attributes.find("NORMAL");
-    if (nit != p.attributes.end()) {
-        if ((rc = check_accessor(nit->second, obj + ".attributes.NORMAL", 3, nrm_types,
-                                 quantization ? 1 : 0, &zeros)))
+    } else if ((rc = [&]() -> int { // the plain (accessor) attributes and indices
+        if ((rc = check_accessor(pit->second, obj + ".attributes.POSITION", 3, pos_types,
+                                 quantization ? 2 : 0, &zeros)))
             return rc;
-        if (m.accessors[nit->second].count != nv)
-            return bad("%s.attributes.NORMAL (accessors[%d]): count %zu differs from POSITION's %zu",
-                       o, nit->second, m.accessors[nit->second].count, nv);
-    }
-    auto tit = p.attributes.find("TEXCOORD_0");
-    if (tit != p.attributes.end()) {
-        if ((rc = check_accessor(tit->second, obj + ".attributes.TEXCOORD_0", 2, uv_types,
-                                 quantization ? 2 : 1, &zeros)))
-            return rc;
-        if (m.accessors[tit->second].count != nv)
-            return bad("%s.attributes.TEXCOORD_0 (accessors[%d]): count %zu differs from "
-                       "POSITION's %zu",
-                       o, tit->second, m.accessors[tit->second].count, nv);
-    }
-    auto vkey = std::make_tuple(pit->second, nit != p.attributes.end() ? nit->second : -1,
-                                tit != p.attributes.end() ? tit->second : -1);
-    auto own = vertex_owner.find(vkey);
-    if (own != vertex_owner.end()) {
-        pd.vsrc = own->second;
-    } else {
-        vertex_owner[vkey] = &pd;
-        read_floats(pit->second, 3, pd.pos);
-        if (nit != p.attributes.end()) read_floats(nit->second, 3, pd.nrm);
-        if (tit != p.attributes.end()) read_floats(tit->second, 2, pd.uv);
-    }
-    if (p.indices >= 0) {
-        if ((rc = check_accessor(p.indices, obj + ".indices", 1,
-                                 {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
-                                  TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
-                                  TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT},
-                                 false, &zeros)))
-            return rc;
-        read_indices(p.indices, idx);
-        for (size_t i = 0; i < idx.size(); i++)
-            if (idx[i] >= nv)
-                return bad("%s.indices (accessors[%d]): element %zu is %u, but POSITION has only "
-                           "%zu vertices",
-                           o, p.indices, i, idx[i], nv);
-    } else if (p.indices < -1) {
-        return bad("%s.indices: accessors[%d] does not exist", o, p.indices);
-    } else {
-        idx.resize(nv);
-        for (size_t i = 0; i < nv; i++) idx[i] = (uint32_t)i;
-    }
-    return 0;
-    }()))
+        size_t nv = m.accessors[pit->second].count;
+        if (nv > UINT32_MAX) return bad("%s: more than 2^32 vertices", o);
+        auto nit = p.attributes.find("NORMAL");
+        if (nit != p.attributes.end()) {
+            if ((rc = check_accessor(nit->second, obj + ".attributes.NORMAL", 3, nrm_types,
+                                     quantization ? 1 : 0, &zeros)))
+                return rc;
+            if (m.accessors[nit->second].count != nv)
+                return bad("%s.attributes.NORMAL (accessors[%d]): count %zu differs from POSITION's %zu",
+                           o, nit->second, m.accessors[nit->second].count, nv);
+        }
+        auto tit = p.attributes.find("TEXCOORD_0");
+        if (tit != p.attributes.end()) {
+            if ((rc = check_accessor(tit->second, obj + ".attributes.TEXCOORD_0", 2, uv_types,
+                                     quantization ? 2 : 1, &zeros)))
+                return rc;
+            if (m.accessors[tit->second].count != nv)
+                return bad("%s.attributes.TEXCOORD_0 (accessors[%d]): count %zu differs from "
+                           "POSITION's %zu",
+                           o, tit->second, m.accessors[tit->second].count, nv);
+        }
+        auto vkey = std::make_tuple(pit->second, nit != p.attributes.end() ? nit->second : -1,
+                                    tit != p.attributes.end() ? tit->second : -1);
+        auto own = vertex_owner.find(vkey);
+        if (own != vertex_owner.end()) {
+            pd.vsrc = own->second;
+        } else {
+            vertex_owner[vkey] = &pd;
+            read_floats(pit->second, 3, pd.pos);
+            if (nit != p.attributes.end()) read_floats(nit->second, 3, pd.nrm);
+            if (tit != p.attributes.end()) read_floats(tit->second, 2, pd.uv);
+        }
+        if (p.indices >= 0) {
+            if ((rc = check_accessor(p.indices, obj + ".indices", 1,
+                                     {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                                      TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+                                      TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT},
+                                     false, &zeros)))
+                return rc;
+            read_indices(p.indices, idx);
+            for (size_t i = 0; i < idx.size(); i++)
+                if (idx[i] >= nv)
+                    return bad("%s.indices (accessors[%d]): element %zu is %u, but POSITION has only "
+                               "%zu vertices",
+                               o, p.indices, i, idx[i], nv);
+        } else if (p.indices < -1) {
+            return bad("%s.indices: accessors[%d] does not exist", o, p.indices);
+        } else {
+            idx.resize(nv);
+            for (size_t i = 0; i < nv; i++) idx[i] = (uint32_t)i;
+        }
+        return 0;
+        }()))
         return rc;
     size_t n = idx.size();
     if (mode == TINYGLTF_MODE_TRIANGLES) {
