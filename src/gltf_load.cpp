@@ -653,8 +653,12 @@ int Loader::check_accessor(int index, const std::string &obj, int want_component
     bool type_ok = false;
     for (int t : types) type_ok |= a.componentType == t;
     if (!type_ok)
-        return bad("%s (accessors[%d]): component type %s is not allowed here", o, index,
-                   component_name(a.componentType));
+        return bad("%s (accessors[%d]): component type %s is not allowed here%s", o, index,
+                   component_name(a.componentType),
+                   !quantization && obj.find(".attributes.") != std::string::npos &&
+                           a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT
+                       ? " (integer attributes need KHR_mesh_quantization in extensionsUsed)"
+                       : "");
     if (a.normalized && !normalized_ok)
         return bad("%s (accessors[%d]): normalized integers are not allowed here", o, index);
     if (!a.normalized && normalized_ok == 1 && a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)

@@ -203,6 +203,27 @@ static void test_quantized_matches_plain(void **state)
     compare_with_plain(DATA("wild_quantized.gltf"), 0.5 * 2 / 32767 + 1e-6, 1.5 / 127, 1e-5);
 }
 
+/* The same file without KHR_mesh_quantization declared: refused, with a hint. */
+static void test_quantized_needs_extension(void **state)
+{
+    (void)state;
+    FILE *f = fopen(DATA("wild_quantized.gltf"), "rb");
+    assert_non_null(f);
+    static char text[16384];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[n] = 0;
+    char *at;
+    while ((at = strstr(text, "KHR_mesh_quantization"))) memcpy(at, "KHR_texture_transform", 21);
+    Scene s;
+    SptError e = {0};
+    int rc = scene_load_gltf_memory(&s, text, n, "tests/data/gltf/q.gltf", &e);
+    assert_int_equal(rc, SPT_EXIT_INPUT);
+    if (!strstr(e.msg, "meshes[0].primitives[0].attributes.POSITION") ||
+        !strstr(e.msg, "SHORT") || !strstr(e.msg, "need KHR_mesh_quantization"))
+        fail_msg("got '%s'", e.msg);
+}
+
 static void test_meshopt_matches_plain(void **state)
 {
     (void)state;
@@ -319,6 +340,7 @@ int main(void)
         cmocka_unit_test(test_spec_gloss_and_ignored),
         cmocka_unit_test(test_required_refused),
         cmocka_unit_test(test_quantized_matches_plain),
+        cmocka_unit_test(test_quantized_needs_extension),
         cmocka_unit_test(test_meshopt_matches_plain),
         cmocka_unit_test(test_draco_matches_plain),
         cmocka_unit_test(test_meshopt_damaged),
