@@ -1,0 +1,699 @@
+/* kernels/lights.h and src/lights.c: punctual lights against the inverse-square
+ * law and the KHR_lights_punctual spot formula, the photometric conversion
+ * against the CIE tables, the environment map's sampling against its pdf
+ * (chi-square), its normalisation and colour, the uniform background's
+ * irradiance, the selection distribution, and the device build of the header. */
+#include "test_util.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include <CL/cl.h>
+
+#include "chi2.h"
+#include "lights.h"
+
+/* Chi-square tests in this binary, for the Sidak correction. */
+#define LIGHTS_CHI2_TESTS 2
+
+/* SplitMix64 of i as a float in [0, 1) (top 24 bits). */
+static float test_uniform(uint64_t i)
+{
+    uint64_t z = i * 0x9e3779b97f4a7c15ull + 0x632be59bd9b4e019ull;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    z ^= z >> 31;
+    return (float)(z >> 40) * (1.0f / 16777216.0f);
+}
+
+/* Four wavelengths spread over the visible range. */
+static const float k_lambda[4] = {412.5f, 503.0f, 587.25f, 701.0f};
+
+/* A scene light with defaults. */
+static SceneLight make_light(int type, float x, float y, float z, float intensity)
+{
+    SceneLight l;
+    memset(&l, 0, sizeof l);
+    strcpy(l.name, "test");
+    l.type = type;
+    l.position[0] = x;
+    l.position[1] = y;
+    l.position[2] = z;
+    l.direction[1] = -1.0f;
+    l.color[0] = l.color[1] = l.color[2] = 1.0f;
+    l.intensity = intensity;
+    return l;
+}
+
+/* A tabulated spectrum's value at lambda (independent linear interpolation). */
+static double table_at(const float *t, double lambda)
+{
+    double x = lambda - SPT_CIE_LAMBDA_MIN;
+    int i = (int)floor(x);
+    double f = x - i;
+    return t[i] * (1.0 - f) + t[i + 1] * f;
+}
+
+/* ---- Punctual lights ------------------------------------------------------- */
+
+/* E = I cos(theta) / r^2 on the plane y = 0 under a point light at (0.3, 2, -0.5). */
+static void test_point_irradiance_on_plane(void **state)
+{
+    (void)state;
+    SceneLight sl = make_light(SPT_LIGHT_POINT, 0.3f, 2.0f, -0.5f, 25.0f);
+    sl.color[0] = 0.8f;
+    sl.color[2] = 0.4f;
+    float table[SPT_CIE_SAMPLES];
+    GpuLight gl;
+    SptError e;
+    assert_int_equal(light_from_scene(&sl, table, 0, &gl, &e), SPT_EXIT_OK);
+    const double pts[5][2] = {{0, 0}, {0.3, -0.5}, {2, 1}, {-3, 0.5}, {5, -4}};
+    for (int k = 0; k < 5; k++) {
+        double dx = 0.3 - pts[k][0], dy = 2.0, dz = -0.5 - pts[k][1];
+        double r2 = dx * dx + dy * dy + dz * dz, r = sqrt(r2), cos_t = dy / r;
+        LightSample s;
+        light_punctual_sample(&gl, table, v3((float)pts[k][0], 0.0f, (float)pts[k][1]), k_lambda, &s);
+        assert_close(s.dist, r, 1e-5 * r);
+        assert_close(s.wi.y, cos_t, 1e-6);
+        assert_int_equal(s.is_delta, 1);
+        for (int i = 0; i < 4; i++) {
+            double want = table_at(table, k_lambda[i]) * cos_t / r2;
+            assert_close_rel(s.value[i] * s.wi.y, want, 1e-5);
+        }
+    }
+}
+
+/* The spot falloff at the axis, the inner cone, between, the outer cone and
+ * outside, against the specification's formula evaluated here in double:
+ * t = clamp((cos a - cos outer) / (cos inner - cos outer), 0, 1), falloff t^2. */
+static void test_spot_falloff(void **state)
+{
+    (void)state;
+    SceneLight sl = make_light(SPT_LIGHT_SPOT, 0.0f, 3.0f, 0.0f, 4.0f);
+    sl.inner_cone = 0.3f;
+    sl.outer_cone = 0.6f;
+    float table[SPT_CIE_SAMPLES];
+    GpuLight gl;
+    SptError e;
+    assert_int_equal(light_from_scene(&sl, table, 0, &gl, &e), SPT_EXIT_OK);
+    const double angles[] = {0.0, 0.15, 0.3, 0.4, 0.45, 0.55, 0.6, 0.7, 1.2};
+    for (size_t k = 0; k < sizeof angles / sizeof angles[0]; k++) {
+        double a = angles[k];
+        double t = (cos(a) - cos(0.6)) / (cos(0.3) - cos(0.6));
+        t = t < 0 ? 0 : (t > 1 ? 1 : t);
+        double want = t * t;
+        assert_close(light_spot_falloff(&gl, (float)cos(a)), want, 2e-5);
+        /* The same through the sampling function: a point at distance 2 at angle a
+         * from the downward axis, rotated about it. */
+        double px = 2.0 * sin(a) * cos(1.0), pz = 2.0 * sin(a) * sin(1.0), py = 3.0 - 2.0 * cos(a);
+        LightSample s;
+        light_punctual_sample(&gl, table, v3((float)px, (float)py, (float)pz), k_lambda, &s);
+        assert_close(s.value[1], table_at(table, k_lambda[1]) * want / 4.0,
+                     2e-5 * table_at(table, k_lambda[1]));
+    }
+    /* At the inner cone exactly 1, at the outer exactly 0 (to float rounding). */
+    assert_close(light_spot_falloff(&gl, cosf(0.3f)), 1.0, 1e-4);
+    assert_close(light_spot_falloff(&gl, cosf(0.6f)), 0.0, 1e-4);
+}
+
+/* A directional light gives its irradiance E(l) at any point, from the direction
+ * opposite to where it shines, at the far distance. */
+static void test_directional(void **state)
+{
+    (void)state;
+    SceneLight sl = make_light(SPT_LIGHT_DIRECTIONAL, 0, 0, 0, 3.0f);
+    sl.direction[0] = 1.0f; /* not unit: normalised by the conversion */
+    sl.direction[1] = -1.0f;
+    float table[SPT_CIE_SAMPLES];
+    GpuLight gl;
+    SptError e;
+    assert_int_equal(light_from_scene(&sl, table, 0, &gl, &e), SPT_EXIT_OK);
+    LightSample s;
+    light_punctual_sample(&gl, table, v3(5.0f, -2.0f, 1.0f), k_lambda, &s);
+    assert_close(s.wi.x, -sqrt(0.5), 1e-6);
+    assert_close(s.wi.y, sqrt(0.5), 1e-6);
+    assert_true(s.dist >= 1e30f);
+    for (int i = 0; i < 4; i++)
+        assert_close_rel(s.value[i], table_at(table, k_lambda[i]), 1e-6);
+    /* 3 lux: 683 * sum(ybar E) = 3. */
+    double y = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+        y += SPT_CIE_Y[i] * table[i];
+    assert_close_rel(683.0 * y, 3.0, 1e-4);
+}
+
+/* White (1,1,1) at 1 cd: radiant intensity 1/K W/sr, K = 683 sum(ybar D65) /
+ * sum(D65) from the CIE tables; a coloured light keeps its candela. */
+static void test_photometric_conversion(void **state)
+{
+    (void)state;
+    double sy = 0.0, sd = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        sy += SPT_CIE_Y[i] * SPT_D65_NORM[i];
+        sd += SPT_D65_NORM[i];
+    }
+    double k = 683.0 * sy / sd;
+    print_message("  luminous efficacy of D65 over 360-830 nm: %.3f lm/W\n", k);
+    assert_true(k > 150.0 && k < 250.0); /* D65 is about 200 lm/W */
+    SceneLight sl = make_light(SPT_LIGHT_POINT, 0, 0, 0, 1.0f);
+    float table[SPT_CIE_SAMPLES];
+    GpuLight gl;
+    SptError e;
+    assert_int_equal(light_from_scene(&sl, table, 17, &gl, &e), SPT_EXIT_OK);
+    assert_int_equal(gl.spectrum.kind, SPT_SPEC_TABLE);
+    assert_int_equal(gl.spectrum.offset, 17);
+    double total = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+        total += table[i];
+    /* The sigmoid of white is 1 up to the fit's residual; sums vs trapezoid: 1e-3. */
+    assert_close_rel(total, 1.0 / k, 2e-3);
+    /* Its shape is D65. */
+    for (int i = 0; i < SPT_CIE_SAMPLES; i += 47)
+        assert_close_rel(table[i] * k * sd, SPT_D65_NORM[i], 2e-3);
+    float kf = (float)light_photometric_table(sl.color, 1.0, table);
+    assert_close_rel(kf, k, 2e-3);
+    const float colours[3][3] = {{1, 0, 0}, {0.1f, 0.9f, 0.3f}, {0.05f, 0.05f, 2.0f}};
+    for (int c = 0; c < 3; c++) {
+        light_photometric_table(colours[c], 50.0, table);
+        double y = 0.0;
+        for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+            y += SPT_CIE_Y[i] * table[i];
+        assert_close_rel(683.0 * y, 50.0, 1e-4);
+    }
+    /* The film's scale: 1 cd/m^2 reads as Y = 1/(683 integral ybar). */
+    double iy = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+        iy += SPT_CIE_Y[i];
+    assert_close_rel(SPT_LIGHT_FILM_Y_PER_NIT, 1.0 / (683.0 * iy), 1e-6);
+}
+
+/* Bad input is refused with the light's name. */
+static void test_bad_lights(void **state)
+{
+    (void)state;
+    float table[SPT_CIE_SAMPLES];
+    GpuLight gl;
+    SptError e;
+    SceneLight sl = make_light(SPT_LIGHT_POINT, 0, 0, 0, -1.0f);
+    assert_int_equal(light_from_scene(&sl, table, 0, &gl, &e), SPT_EXIT_INPUT);
+    assert_non_null(strstr(e.msg, "test"));
+    sl = make_light(SPT_LIGHT_POINT, 0, NAN, 0, 1.0f);
+    assert_int_equal(light_from_scene(&sl, table, 0, &gl, &e), SPT_EXIT_INPUT);
+    sl = make_light(7, 0, 0, 0, 1.0f);
+    assert_int_equal(light_from_scene(&sl, table, 0, &gl, &e), SPT_EXIT_INPUT);
+    sl = make_light(SPT_LIGHT_SPOT, 0, 0, 0, 1.0f);
+    sl.direction[1] = 0.0f;
+    assert_int_equal(light_from_scene(&sl, table, 0, &gl, &e), SPT_EXIT_INPUT);
+}
+
+/* ---- Environment ------------------------------------------------------------- */
+
+#define MAP_W 32
+#define MAP_H 16
+
+/* A 32x16 map: a sky gradient, a bright spot of 3x2 texels near the horizon, a
+ * black band at the bottom. */
+static float *make_map(void)
+{
+    float *rgb = malloc(sizeof(float) * 3 * MAP_W * MAP_H);
+    for (int y = 0; y < MAP_H; y++)
+        for (int x = 0; x < MAP_W; x++) {
+            float *c = rgb + 3 * (y * MAP_W + x);
+            float g = 0.2f + 0.8f * (float)y / MAP_H;
+            c[0] = 0.3f * g + 0.02f * x;
+            c[1] = 0.5f * g;
+            c[2] = 0.9f * g;
+            if (y >= 6 && y <= 7 && x >= 20 && x <= 22) {
+                c[0] = 60.0f;
+                c[1] = 45.0f;
+                c[2] = 20.0f;
+            }
+            if (y == MAP_H - 1)
+                c[0] = c[1] = c[2] = 0.0f;
+        }
+    return rgb;
+}
+
+typedef struct EnvCtx {
+    EnvLight *env;
+    double rot; /* the map's rotation, undone to bin in map coordinates */
+} EnvCtx;
+
+/* Sphere domain: the sampled direction itself. */
+static int env_sample_cb(void *ctx, uint32_t i, double p[3])
+{
+    EnvLight *env = ((EnvCtx *)ctx)->env;
+    float pdf;
+    vec3 d = env_sample(&env->env, env->data, test_uniform(2ull * i + 77), test_uniform(2ull * i + 78),
+                        &pdf);
+    p[0] = d.x;
+    p[1] = d.y;
+    p[2] = d.z;
+    /* The pdf returned with the sample equals env_pdf of the direction. */
+    float q = env_pdf(&env->env, env->data, d);
+    if (!(pdf > 0.0f) || fabsf(pdf - q) > 1e-3f * q)
+        return 0;
+    return 1;
+}
+
+static double env_pdf_cb(void *ctx, const double p[3])
+{
+    EnvLight *env = ((EnvCtx *)ctx)->env;
+    return env_pdf(&env->env, env->data, v3((float)p[0], (float)p[1], (float)p[2]));
+}
+
+/* Plane domain: the sample's map coordinates (u, v), from the documented
+ * convention written out here (undo the rotation about +Y, theta from +Y, phi =
+ * atan2(-x, z)), so cells align with texels and the piecewise-constant density
+ * integrates exactly. */
+static int env_sample_uv_cb(void *ctx, uint32_t i, double p[3])
+{
+    EnvCtx *c = ctx;
+    double d[3];
+    if (!env_sample_cb(ctx, i, d))
+        return 0;
+    double mx = cos(c->rot) * d[0] - sin(c->rot) * d[2], mz = sin(c->rot) * d[0] + cos(c->rot) * d[2];
+    double phi = atan2(-mx, mz);
+    if (phi < 0.0)
+        phi += 2.0 * M_PI;
+    p[0] = phi / (2.0 * M_PI);
+    p[1] = acos(fmax(-1.0, fmin(1.0, d[1]))) / M_PI;
+    return 1;
+}
+
+/* Density in (u, v): env_pdf of the direction times the Jacobian 2 pi^2 sin(theta). */
+static double env_pdf_uv_cb(void *ctx, const double p[3])
+{
+    EnvCtx *c = ctx;
+    double th = M_PI * p[1], ph = 2.0 * M_PI * p[0];
+    double mx = -sin(ph) * sin(th), my = cos(th), mz = cos(ph) * sin(th);
+    vec3 d = v3((float)(cos(c->rot) * mx + sin(c->rot) * mz), (float)my,
+                (float)(-sin(c->rot) * mx + cos(c->rot) * mz));
+    return env_pdf(&c->env->env, c->env->data, d) * 2.0 * M_PI * M_PI * sin(th);
+}
+
+/* Fails with the chi-square report unless r passed; prints it either way. */
+static void require_pass(const Chi2Result *r)
+{
+    if (!r->passed)
+        fail_msg("%s", r->message);
+    print_message("  %s\n", r->message);
+}
+
+/* env_sample against env_pdf: chi-square over the map's (u, v) square (cells of
+ * half a texel), rotated map; the samples come back through the rotation and
+ * the direction convention, the density through env_pdf and the Jacobian. */
+static void test_env_sample_chi2(void **state)
+{
+    (void)state;
+    float *rgb = make_map();
+    EnvLight env;
+    SptError e;
+    assert_int_equal(env_build_map(&env, rgb, MAP_W, MAP_H, 0.7f, 2.0f, "map", &e), SPT_EXIT_OK);
+    EnvCtx ctx = {&env, 0.7};
+    Chi2Grid g;
+    memset(&g, 0, sizeof g);
+    g.name = "env_sample (32x16 map, bright spot), in map coordinates";
+    g.domain = CHI2_PLANE;
+    g.x0 = 0.0;
+    g.x1 = 1.0;
+    g.y0 = 0.0;
+    g.y1 = 1.0;
+    g.res_x = 2 * MAP_W;
+    g.res_y = 2 * MAP_H;
+    g.samples = 400000;
+    g.num_tests = LIGHTS_CHI2_TESTS;
+    g.sample = env_sample_uv_cb;
+    g.pdf = env_pdf_uv_cb;
+    g.ctx = &ctx;
+    Chi2Result r;
+    chi2_grid_run(&g, &r);
+    require_pass(&r);
+    env_free(&env);
+    free(rgb);
+}
+
+/* The uniform background's sampling against its pdf. */
+static void test_uniform_sample_chi2(void **state)
+{
+    (void)state;
+    EnvLight env;
+    const float white[3] = {1, 1, 1};
+    env_build_uniform(&env, white, 1.0f);
+    EnvCtx ctx = {&env, 0.0};
+    Chi2Grid g;
+    memset(&g, 0, sizeof g);
+    g.name = "uniform background sample";
+    g.domain = CHI2_SPHERE;
+    g.res_x = 20;
+    g.res_y = 10;
+    g.samples = 200000;
+    g.num_tests = LIGHTS_CHI2_TESTS;
+    g.sample = env_sample_cb;
+    g.pdf = env_pdf_cb;
+    g.ctx = &ctx;
+    Chi2Result r;
+    chi2_grid_run(&g, &r);
+    require_pass(&r);
+    env_free(&env);
+}
+
+/* env_pdf integrates to 1 over the sphere: midpoint rule in (phi, cos theta) on a
+ * grid much finer than the map. */
+static void test_env_pdf_normalised(void **state)
+{
+    (void)state;
+    float *rgb = make_map();
+    EnvLight env;
+    SptError e;
+    assert_int_equal(env_build_map(&env, rgb, MAP_W, MAP_H, -1.3f, 1.0f, "map", &e), SPT_EXIT_OK);
+    const int np = 1600, nz = 800;
+    double sum = 0.0;
+    for (int j = 0; j < nz; j++) {
+        double z = -1.0 + (j + 0.5) * 2.0 / nz, s = sqrt(1.0 - z * z);
+        for (int i = 0; i < np; i++) {
+            double phi = (i + 0.5) * 2.0 * M_PI / np;
+            sum += env_pdf(&env.env, env.data, v3((float)(s * cos(phi)), (float)z, (float)(s * sin(phi))));
+        }
+    }
+    double integral = sum * (2.0 * M_PI / np) * (2.0 / nz);
+    assert_close(integral, 1.0, 3e-3);
+    env_free(&env);
+    free(rgb);
+}
+
+/* Linear sRGB of a spectral radiance function at direction d through the CIE
+ * tables: XYZ = sum cmf L / sum ybar, then DESIGN.md's matrix. */
+static void env_rgb_at(const EnvLight *env, vec3 d, double rgb[3])
+{
+    double xyz[3] = {0, 0, 0}, ny = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i += 4) {
+        float l[4], v[4];
+        for (int k = 0; k < 4; k++)
+            l[k] = (float)(SPT_CIE_LAMBDA_MIN + (i + k < SPT_CIE_SAMPLES ? i + k : SPT_CIE_SAMPLES - 1));
+        env_eval(&env->env, env->data, d, l, v);
+        for (int k = 0; k < 4 && i + k < SPT_CIE_SAMPLES; k++) {
+            xyz[0] += SPT_CIE_X[i + k] * v[k];
+            xyz[1] += SPT_CIE_Y[i + k] * v[k];
+            xyz[2] += SPT_CIE_Z[i + k] * v[k];
+            ny += SPT_CIE_Y[i + k];
+        }
+    }
+    for (int a = 0; a < 3; a++)
+        xyz[a] /= ny;
+    rgb[0] = 3.2406 * xyz[0] - 1.5372 * xyz[1] - 0.4986 * xyz[2];
+    rgb[1] = -0.9689 * xyz[0] + 1.8758 * xyz[1] + 0.0415 * xyz[2];
+    rgb[2] = 0.0557 * xyz[0] - 0.2040 * xyz[1] + 1.0570 * xyz[2];
+}
+
+/* The world direction of texel centre (x, y) by the documented convention,
+ * written out independently: theta from +Y, phi = 2 pi u, u = 1/2 faces -Z,
+ * then rotated by rot about +Y. */
+static vec3 texel_dir(int x, int y, double rot)
+{
+    double th = M_PI * (y + 0.5) / MAP_H, ph = 2.0 * M_PI * (x + 0.5) / MAP_W;
+    double mx = -sin(ph) * sin(th), my = cos(th), mz = cos(ph) * sin(th);
+    return v3((float)(cos(rot) * mx + sin(rot) * mz), (float)my, (float)(-sin(rot) * mx + cos(rot) * mz));
+}
+
+/* env_eval gives back every texel's colour (times the intensity) within the
+ * upsampling's accuracy; the orientation follows the documented convention. */
+static void test_env_eval_colour(void **state)
+{
+    (void)state;
+    float *rgb = make_map();
+    EnvLight env;
+    SptError e;
+    const double rot = 0.9, scale = 1.5;
+    assert_int_equal(env_build_map(&env, rgb, MAP_W, MAP_H, (float)rot, (float)scale, "map", &e),
+                     SPT_EXIT_OK);
+    double worst = 0.0;
+    for (int y = 0; y < MAP_H; y++)
+        for (int x = 0; x < MAP_W; x++) {
+            double got[3];
+            env_rgb_at(&env, texel_dir(x, y, rot), got);
+            const float *c = rgb + 3 * (y * MAP_W + x);
+            double m = fmax(fmax(c[0], c[1]), fmax(c[2], 1e-3)) * scale;
+            for (int a = 0; a < 3; a++) {
+                double err = fabs(got[a] - c[a] * scale) / m;
+                if (err > worst)
+                    worst = err;
+                if (err > 1e-2)
+                    fail_msg("texel (%d, %d) channel %d: %g, expected %g", x, y, a, got[a],
+                             c[a] * scale);
+            }
+        }
+    print_message("  worst colour error relative to the texel's largest channel: %.2g\n", worst);
+    env_free(&env);
+    /* Orientation: a map bright only in its centre column (u = 1/2) is bright
+     * toward -Z without rotation, dark toward +Z, +X and -X. */
+    float *one = calloc(3 * MAP_W * MAP_H, sizeof(float));
+    for (int y = 0; y < MAP_H; y++)
+        for (int a = 0; a < 3; a++) {
+            one[3 * (y * MAP_W + MAP_W / 2) + a] = 1.0f;
+            one[3 * (y * MAP_W + MAP_W / 2 - 1) + a] = 1.0f;
+        }
+    assert_int_equal(env_build_map(&env, one, MAP_W, MAP_H, 0.0f, 1.0f, "one", &e), SPT_EXIT_OK);
+    float v[4];
+    env_eval(&env.env, env.data, v3(0, 0, -1), k_lambda, v);
+    assert_true(v[1] > 0.5f);
+    const vec3 dark[3] = {v3(0, 0, 1), v3(1, 0, 0), v3(-1, 0, 0)};
+    for (int k = 0; k < 3; k++) {
+        env_eval(&env.env, env.data, dark[k], k_lambda, v);
+        assert_close(v[1], 0.0, 0.0);
+    }
+    /* Rotated by +90 degrees about +Y, -Z turns to -X. */
+    env_free(&env);
+    assert_int_equal(env_build_map(&env, one, MAP_W, MAP_H, (float)(0.5 * M_PI), 1.0f, "one", &e),
+                     SPT_EXIT_OK);
+    env_eval(&env.env, env.data, v3(-1, 0, 0), k_lambda, v);
+    assert_true(v[1] > 0.5f);
+    env_free(&env);
+    free(one);
+    free(rgb);
+}
+
+/* A uniform background of radiance L gives the irradiance pi L on a plane
+ * (quadrature of L cos over the hemisphere with env_eval); it reads as film
+ * Y = 1 for white (1,1,1), and its sampler estimates the same irradiance. */
+static void test_uniform_irradiance(void **state)
+{
+    (void)state;
+    EnvLight env;
+    const float col[3] = {0.2f, 0.7f, 0.4f};
+    env_build_uniform(&env, col, 3.0f);
+    const float lam[4] = {450.0f, 520.0f, 610.0f, 680.0f};
+    float L[4];
+    env_eval(&env.env, env.data, v3(0.3f, 0.8f, 0.52f), lam, L);
+    const int nphi = 64, nz = 400;
+    double E[4] = {0, 0, 0, 0};
+    for (int j = 0; j < nz; j++) {
+        double z = (j + 0.5) / nz, s = sqrt(1.0 - z * z);
+        for (int i = 0; i < nphi; i++) {
+            double phi = (i + 0.5) * 2.0 * M_PI / nphi;
+            float v[4];
+            /* The plane's normal is +Y. */
+            env_eval(&env.env, env.data, v3((float)(s * cos(phi)), (float)z, (float)(s * sin(phi))),
+                     lam, v);
+            for (int k = 0; k < 4; k++)
+                E[k] += v[k] * z * (2.0 * M_PI / nphi) * (1.0 / nz);
+        }
+    }
+    double Emc = 0.0;
+    const int n = 200000;
+    for (int i = 0; i < n; i++) {
+        float pdf, v[4];
+        vec3 d = env_sample(&env.env, env.data, test_uniform(2ull * i + 5), test_uniform(2ull * i + 6), &pdf);
+        env_eval(&env.env, env.data, d, lam, v);
+        if (d.y > 0.0f)
+            Emc += v[1] * d.y / pdf;
+    }
+    Emc /= n;
+    for (int k = 0; k < 4; k++)
+        assert_close_rel(E[k], M_PI * L[k], 1e-4);
+    assert_close_rel(Emc, M_PI * L[1], 1e-2);
+    assert_close(env_pdf(&env.env, env.data, v3(0, -1, 0)), 1.0 / (4.0 * M_PI), 1e-7);
+    env_free(&env);
+    const float white[3] = {1, 1, 1};
+    env_build_uniform(&env, white, 1.0f);
+    assert_close(env.y_mean, 1.0, 2e-3);
+    env_free(&env);
+}
+
+/* ---- Selection ----------------------------------------------------------------- */
+
+/* Probabilities proportional to the documented power formulas, computed here. */
+static void test_selection(void **state)
+{
+    (void)state;
+    float spectra[3 * SPT_CIE_SAMPLES];
+    GpuLight gl[3];
+    SptError e;
+    SceneLight p = make_light(SPT_LIGHT_POINT, 0, 1, 0, 2.0f);
+    SceneLight s = make_light(SPT_LIGHT_SPOT, 0, 1, 0, 8.0f);
+    s.inner_cone = 0.2f;
+    s.outer_cone = 0.6f;
+    SceneLight d = make_light(SPT_LIGHT_DIRECTIONAL, 0, 0, 0, 5.0f);
+    assert_int_equal(light_from_scene(&p, spectra, 0, &gl[0], &e), 0);
+    assert_int_equal(light_from_scene(&s, spectra + SPT_CIE_SAMPLES, SPT_CIE_SAMPLES, &gl[1], &e), 0);
+    assert_int_equal(
+        light_from_scene(&d, spectra + 2 * SPT_CIE_SAMPLES, 2 * SPT_CIE_SAMPLES, &gl[2], &e), 0);
+    EnvLight env;
+    const float white[3] = {1, 1, 1};
+    env_build_uniform(&env, white, 0.5f);
+    const float radius = 3.0f;
+    const float tri[2] = {0.01f, 0.02f};
+    Distrib dist;
+    assert_int_equal(lights_build_selection(&dist, tri, 2, gl, 3, spectra, &env, radius), 1);
+    assert_int_equal(dist.n, 6);
+    /* Film Y of 1 cd is 1/(683 integral ybar) W/sr per... so I_Y = cd / (683 * sum ybar). */
+    double sy = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+        sy += SPT_CIE_Y[i];
+    double y1 = 1.0 / (683.0 * sy);
+    double w[6] = {0.01, 0.02, 4.0 * M_PI * 2.0 * y1, 2.0 * M_PI * (1.0 - cos(0.4)) * 8.0 * y1,
+                   5.0 * y1 * M_PI * 9.0, M_PI * 0.5 * M_PI * 9.0};
+    double total = 0.0;
+    for (int i = 0; i < 6; i++)
+        total += w[i];
+    for (uint32_t i = 0; i < 6; i++)
+        assert_close_rel(distrib_prob(&dist, i), w[i] / total, 3e-3);
+    distrib_free(&dist);
+    env_free(&env);
+}
+
+/* ---- Device ------------------------------------------------------------------- */
+
+/* The header builds as OpenCL C 1.2 and the device's results equal the host's. */
+static const char *k_device_src =
+    "#include \"lights.h\"\n"
+    "__kernel void k_lights_test(__global const GpuLight *lights, __global const float *spectra,\n"
+    "                            __global const GpuEnvMap *envs, __global const float *env_data,\n"
+    "                            __global const float *in, __global float *out, int n)\n"
+    "{\n"
+    "    int i = get_global_id(0);\n"
+    "    if (i >= n) return;\n"
+    "    const __global float *q = in + 8 * i;\n"
+    "    float lam[4] = {q[3], q[4], q[5], q[6]};\n"
+    "    LightSample s;\n"
+    "    light_punctual_sample(lights + (i % 2), spectra, (float3)(q[0], q[1], q[2]), lam, &s);\n"
+    "    GpuEnvMap env = envs[0];\n"
+    "    float pdf;\n"
+    "    float3 d = env_sample(&env, env_data, q[0] * 0.1f + 0.5f, q[7], &pdf);\n"
+    "    float v[4];\n"
+    "    env_eval(&env, env_data, d, lam, v);\n"
+    "    __global float *o = out + 12 * i;\n"
+    "    o[0] = s.value[0]; o[1] = s.value[3]; o[2] = s.dist; o[3] = s.wi.x;\n"
+    "    o[4] = d.x; o[5] = d.y; o[6] = d.z; o[7] = pdf;\n"
+    "    o[8] = v[0]; o[9] = v[2]; o[10] = env_pdf(&env, env_data, d);\n"
+    "    o[11] = (float)(sizeof(GpuLight) * 1000 + sizeof(GpuEnvMap));\n"
+    "}\n";
+
+static void test_device_matches_host(void **state)
+{
+    (void)state;
+    cl_platform_id plat;
+    cl_device_id dev;
+    cl_uint np = 0;
+    if (clGetPlatformIDs(1, &plat, &np) != CL_SUCCESS || np == 0 ||
+        clGetDeviceIDs(plat, CL_DEVICE_TYPE_ALL, 1, &dev, NULL) != CL_SUCCESS) {
+        print_message("no OpenCL device: skipped\n");
+        skip();
+    }
+    cl_int err;
+    cl_context ctx = clCreateContext(NULL, 1, &dev, NULL, NULL, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_command_queue cq = clCreateCommandQueue(ctx, dev, 0, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_program prog = clCreateProgramWithSource(ctx, 1, &k_device_src, NULL, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    err = clBuildProgram(prog, 1, &dev, "-I kernels -cl-std=CL1.2", NULL, NULL);
+    if (err != CL_SUCCESS) {
+        char log[8192] = "";
+        clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, NULL);
+        fail_msg("kernels/lights.h does not build as OpenCL C: %s", log);
+    }
+    float spectra[2 * SPT_CIE_SAMPLES];
+    GpuLight gl[2];
+    SptError e;
+    SceneLight a = make_light(SPT_LIGHT_SPOT, 0, 2, 0, 10.0f);
+    a.inner_cone = 0.4f;
+    a.outer_cone = 0.9f;
+    SceneLight b = make_light(SPT_LIGHT_DIRECTIONAL, 0, 0, 0, 2.0f);
+    assert_int_equal(light_from_scene(&a, spectra, 0, &gl[0], &e), 0);
+    assert_int_equal(light_from_scene(&b, spectra + SPT_CIE_SAMPLES, SPT_CIE_SAMPLES, &gl[1], &e), 0);
+    float *rgb = make_map();
+    EnvLight env;
+    assert_int_equal(env_build_map(&env, rgb, MAP_W, MAP_H, 0.4f, 1.0f, "map", &e), SPT_EXIT_OK);
+    enum { N = 256 };
+    float in[8 * N], out[12 * N];
+    for (int i = 0; i < N; i++) {
+        in[8 * i] = 2.0f * test_uniform(1000 + 8 * i) - 1.0f;
+        in[8 * i + 1] = 2.0f * test_uniform(1001 + 8 * i) - 1.0f;
+        in[8 * i + 2] = 2.0f * test_uniform(1002 + 8 * i) - 1.0f;
+        for (int k = 0; k < 4; k++)
+            in[8 * i + 3 + k] = 380.0f + 400.0f * test_uniform(1003 + 8 * i + k);
+        in[8 * i + 7] = test_uniform(1007 + 8 * i);
+    }
+    cl_mem bl = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof gl, gl, &err);
+    cl_mem bs = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof spectra, spectra, &err);
+    cl_mem be = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof env.env, &env.env, &err);
+    cl_mem bd = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                               env.data_count * sizeof(float), env.data, &err);
+    cl_mem bi = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof in, in, &err);
+    cl_mem bo = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, sizeof out, NULL, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_kernel k = clCreateKernel(prog, "k_lights_test", &err);
+    assert_int_equal(err, CL_SUCCESS);
+    int n = N;
+    cl_mem args[6] = {bl, bs, be, bd, bi, bo};
+    for (int i = 0; i < 6; i++)
+        assert_int_equal(clSetKernelArg(k, (cl_uint)i, sizeof(cl_mem), &args[i]), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 6, sizeof n, &n), CL_SUCCESS);
+    size_t global = N;
+    assert_int_equal(clEnqueueNDRangeKernel(cq, k, 1, NULL, &global, NULL, 0, NULL, NULL), CL_SUCCESS);
+    assert_int_equal(clEnqueueReadBuffer(cq, bo, CL_TRUE, 0, sizeof out, out, 0, NULL, NULL), CL_SUCCESS);
+    assert_close(out[11], sizeof(GpuLight) * 1000 + sizeof(GpuEnvMap), 0);
+    for (int i = 0; i < N; i++) {
+        const float *q = in + 8 * i;
+        LightSample s;
+        light_punctual_sample(&gl[i % 2], spectra, v3(q[0], q[1], q[2]), q + 3, &s);
+        float pdf, v[4];
+        vec3 d = env_sample(&env.env, env.data, q[0] * 0.1f + 0.5f, q[7], &pdf);
+        env_eval(&env.env, env.data, d, q + 3, v);
+        const float want[11] = {s.value[0], s.value[3], s.dist, s.wi.x, d.x, d.y, d.z, pdf,
+                                v[0], v[2], env_pdf(&env.env, env.data, d)};
+        for (int j = 0; j < 11; j++) {
+            float g = out[12 * i + j];
+            if (!(fabsf(g - want[j]) <= 1e-4f * fmaxf(1.0f, fabsf(want[j]))))
+                fail_msg("input %d, output %d: device %.9g, host %.9g", i, j, g, want[j]);
+        }
+    }
+    clReleaseKernel(k);
+    for (int i = 0; i < 6; i++)
+        clReleaseMemObject(args[i]);
+    clReleaseProgram(prog);
+    clReleaseCommandQueue(cq);
+    clReleaseContext(ctx);
+    env_free(&env);
+    free(rgb);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_point_irradiance_on_plane),
+        cmocka_unit_test(test_spot_falloff),
+        cmocka_unit_test(test_directional),
+        cmocka_unit_test(test_photometric_conversion),
+        cmocka_unit_test(test_bad_lights),
+        cmocka_unit_test(test_env_sample_chi2),
+        cmocka_unit_test(test_uniform_sample_chi2),
+        cmocka_unit_test(test_env_pdf_normalised),
+        cmocka_unit_test(test_env_eval_colour),
+        cmocka_unit_test(test_uniform_irradiance),
+        cmocka_unit_test(test_selection),
+        cmocka_unit_test(test_device_matches_host),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
