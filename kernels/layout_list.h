@@ -11,6 +11,7 @@
 #include "shared.h"
 #include "bvh.h"
 #include "render_types.h"
+#include "lights.h"
 
 /* A probe of the rules in kernels/shared.h (mixed 32-bit scalars, a fixed
  * array, hand padding), so the check has something to compare even before any
@@ -33,7 +34,9 @@ typedef struct LayoutProbe {
     X(RenderParams)               \
     X(BvhNode)                    \
     X(BvhTri)                     \
-    X(BvhHit)
+    X(BvhHit)                     \
+    X(GpuLight)                   \
+    X(GpuEnvMap)
 
 /* X(Type, field) for each field whose offset is checked. */
 #define SPT_LAYOUT_FIELDS(X)      \
@@ -51,6 +54,10 @@ typedef struct LayoutProbe {
     X(BvhNode, offset)            \
     X(BvhNode, hi)                \
     X(BvhNode, count)             \
-    X(BvhHit, prim)
+    X(BvhHit, prim)               \
+    X(GpuLight, cos_outer)        \
+    X(GpuLight, spectrum)         \
+    X(GpuEnvMap, rot_cos)         \
+    X(GpuEnvMap, uniform)
 
 #endif
