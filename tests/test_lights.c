@@ -7,10 +7,12 @@
 
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <CL/cl.h>
 
 #include "chi2.h"
+#include "image_out.h"
 #include "lights.h"
 
 /* Chi-square tests in this binary, for the Sidak correction. */
@@ -520,6 +522,36 @@ static void test_uniform_irradiance(void **state)
     env_free(&env);
 }
 
+/* An environment read from an EXR file equals the one built from the same
+ * texels; a missing file and bad texels are refused with the file's name. */
+static void test_env_load_file(void **state)
+{
+    (void)state;
+    float *rgb = make_map();
+    char path[64];
+    snprintf(path, sizeof path, "/tmp/spt_test_env_%d.exr", (int)getpid());
+    SptError e;
+    assert_int_equal(image_write(path, rgb, MAP_W, MAP_H, NULL, NULL, &e), SPT_EXIT_OK);
+    EnvLight a, b;
+    assert_int_equal(env_load_map(&a, path, 0.2f, 1.0f, &e), SPT_EXIT_OK);
+    assert_int_equal(env_build_map(&b, rgb, MAP_W, MAP_H, 0.2f, 1.0f, "map", &e), SPT_EXIT_OK);
+    assert_int_equal(a.data_count, b.data_count);
+    assert_int_equal(a.env.width, MAP_W);
+    assert_int_equal(a.env.height, MAP_H);
+    for (uint32_t i = 0; i < a.data_count; i++)
+        assert_close(a.data[i], b.data[i], 1e-3 * fmax(1.0, fabs(b.data[i])));
+    env_free(&a);
+    env_free(&b);
+    remove(path);
+    assert_int_not_equal(env_load_map(&a, "/nonexistent/env.exr", 0.0f, 1.0f, &e), SPT_EXIT_OK);
+    assert_non_null(strstr(e.msg, "/nonexistent/env.exr"));
+    rgb[5] = NAN;
+    assert_int_equal(env_build_map(&a, rgb, MAP_W, MAP_H, 0.0f, 1.0f, "bad.exr", &e), SPT_EXIT_INPUT);
+    assert_non_null(strstr(e.msg, "bad.exr"));
+    assert_null(a.data);
+    free(rgb);
+}
+
 /* ---- Selection ----------------------------------------------------------------- */
 
 /* Probabilities proportional to the documented power formulas, computed here. */
@@ -692,6 +724,7 @@ int main(void)
         cmocka_unit_test(test_env_pdf_normalised),
         cmocka_unit_test(test_env_eval_colour),
         cmocka_unit_test(test_uniform_irradiance),
+        cmocka_unit_test(test_env_load_file),
         cmocka_unit_test(test_selection),
         cmocka_unit_test(test_device_matches_host),
     };
