@@ -19,7 +19,17 @@
  * Y = Lv / (683 * SPT_CIE_Y_INTEGRAL) = Lv / 72982.3 (SPT_LIGHT_FILM_Y_PER_NIT).
  * Example: a white Lambertian (albedo 1) facing a 1 cd point light at 1 m has
  * Lv = 1/pi cd/m^2, so film Y = 1/(pi 683 * 106.857). An environment texel or a
- * background of linear RGB (1,1,1) becomes D65 normalised to film Y = 1. */
+ * background of linear RGB (1,1,1) becomes D65 normalised to film Y = 1.
+ *
+ * Integration (renderer): src/lights.c lights_build_selection makes one CDF over
+ * [emissive triangles | punctual lights | environment]. Next-event estimation
+ * picks an entry with spt_discrete_sample (probability P). Triangle: as before,
+ * pdf = P / area (converted to solid angle). Punctual: light_punctual_sample,
+ * contribution f cos value / P, no MIS (delta). Environment: env_sample gives wi
+ * and pdf; the light-sampling pdf is P_env * pdf, MIS-weighted against the BSDF
+ * pdf; a BSDF ray that escapes adds env_eval weighted by the power heuristic of
+ * its BSDF pdf against P_env * env_pdf(wi). The GpuEnvMap is passed by pointer
+ * to a private copy (e.g. a kernel parameter or a struct read from a buffer). */
 #ifndef SPT_LIGHTS_H
 #define SPT_LIGHTS_H
 

@@ -75,8 +75,11 @@ int env_load_map(EnvLight *env, const char *path, float rotation_rad, float inte
 void env_build_uniform(EnvLight *env, const float rgb[3], float intensity);
 
 /* The environment's Y-weighted power estimate: pi * mean radiance Y over the
- * sphere * pi r^2 (r = scene_radius): the flux through the bounding disc of a
- * uniform environment of that radiance (irradiance pi L times area). */
+ * sphere * pi r^2 (r = scene_radius): the irradiance pi L a surface receives from
+ * a hemisphere of that radiance, times the bounding disc's area, which is how
+ * a directional light is counted too, so the two compare per receiving point.
+ * (pbrt-v4's UniformInfiniteLight::Phi counts 4 pi^2 r^2 L, the flux through the
+ * whole bounding sphere: 4 times this; either is only a selection weight.) */
 double env_power(const EnvLight *env, float scene_radius);
 
 void env_free(EnvLight *env);
