@@ -418,6 +418,28 @@ static vec3 texel_dir(int x, int y, double rot)
     return v3((float)(cos(rot) * mx + sin(rot) * mz), (float)my, (float)(-sin(rot) * mx + cos(rot) * mz));
 }
 
+/* The sampling weight is luminance times sin(theta): a constant map is then
+ * sampled almost uniformly over the sphere (1/(4 pi) at texel centres, within
+ * the midpoint rule's error over 16 rows, ~0.2%), whatever its colour. */
+static void test_env_constant_map_uniform(void **state)
+{
+    (void)state;
+    float *rgb = malloc(sizeof(float) * 3 * MAP_W * MAP_H);
+    for (int i = 0; i < MAP_W * MAP_H; i++) {
+        rgb[3 * i] = 0.2f;
+        rgb[3 * i + 1] = 0.9f;
+        rgb[3 * i + 2] = 0.5f;
+    }
+    EnvLight env;
+    SptError e;
+    assert_int_equal(env_build_map(&env, rgb, MAP_W, MAP_H, 0.3f, 1.0f, "const", &e), SPT_EXIT_OK);
+    for (int y = 0; y < MAP_H; y++)
+        for (int x = 0; x < MAP_W; x += 5)
+            assert_close_rel(env_pdf(&env.env, env.data, texel_dir(x, y, 0.3)), 1.0 / (4.0 * M_PI), 1e-2);
+    env_free(&env);
+    free(rgb);
+}
+
 /* env_eval gives back every texel's colour (times the intensity) within the
  * upsampling's accuracy; the orientation follows the documented convention. */
 static void test_env_eval_colour(void **state)
@@ -723,6 +745,7 @@ int main(void)
         cmocka_unit_test(test_uniform_sample_chi2),
         cmocka_unit_test(test_env_pdf_normalised),
         cmocka_unit_test(test_env_eval_colour),
+        cmocka_unit_test(test_env_constant_map_uniform),
         cmocka_unit_test(test_uniform_irradiance),
         cmocka_unit_test(test_env_load_file),
         cmocka_unit_test(test_selection),
