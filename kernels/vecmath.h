@@ -48,4 +48,24 @@ SPT_FN void v3_basis(vec3 n, vec3 *t, vec3 *b)
     *b = v3(bb, sign + n.y * n.y * a, -n.y);
 }
 
+/* 4-wide spectral values (the path's SPT_NUM_LAMBDA wavelengths): float4 on the
+ * device, a plain struct on the host, with the same function names. Added for the
+ * BSDF library (kernels/bsdf.h). */
+#if SPT_DEVICE
+typedef float4 vec4;
+SPT_FN vec4 v4(float x, float y, float z, float w) { return (float4)(x, y, z, w); }
+SPT_FN vec4 v4_add(vec4 a, vec4 b) { return a + b; }
+SPT_FN vec4 v4_sub(vec4 a, vec4 b) { return a - b; }
+SPT_FN vec4 v4_mul(vec4 a, vec4 b) { return a * b; }
+SPT_FN vec4 v4_scale(vec4 a, float s) { return a * s; }
+#else
+typedef struct vec4 { float x, y, z, w; } vec4;
+SPT_FN vec4 v4(float x, float y, float z, float w) { vec4 r = {x, y, z, w}; return r; }
+SPT_FN vec4 v4_add(vec4 a, vec4 b) { return v4(a.x + b.x, a.y + b.y, a.z + b.z, a.w + b.w); }
+SPT_FN vec4 v4_sub(vec4 a, vec4 b) { return v4(a.x - b.x, a.y - b.y, a.z - b.z, a.w - b.w); }
+SPT_FN vec4 v4_mul(vec4 a, vec4 b) { return v4(a.x * b.x, a.y * b.y, a.z * b.z, a.w * b.w); }
+SPT_FN vec4 v4_scale(vec4 a, float s) { return v4(a.x * s, a.y * s, a.z * s, a.w * s); }
+#endif
+SPT_FN vec4 v4_splat(float s) { return v4(s, s, s, s); }
+
 #endif

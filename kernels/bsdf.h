@@ -1,0 +1,519 @@
+/* Material models shared by the kernels and host tests (C99 and OpenCL C 1.2).
+ *
+ * Conventions: directions in the local shading frame (z = shading normal, unit
+ * vectors); wo points toward the viewer (previous vertex), wi toward the light /
+ * next vertex. Spectral values are vec4, one per path wavelength (index 0 = hero).
+ * Sampling returns the weight f * |cos(theta_i)| / pdf.
+ *
+ * Models:
+ *  - glTF 2.0 metallic-roughness, Appendix B of the glTF 2.0 specification: GGX
+ *    (Trowbridge-Reitz) D, Smith height-correlated masking-shadowing (Heitz 2014,
+ *    "Understanding the Masking-Shadowing Function"), Schlick Fresnel, Lambertian
+ *    base; fresnel_mix for the dielectric part (F0 from the ior, 0.04 at 1.5),
+ *    conductor_fresnel for the metal part, mixed by metallic. With a measured
+ *    conductor (p.conductor != 0) the metal uses the exact complex Fresnel.
+ *  - KHR_materials_transmission + KHR_materials_ior: the dielectric part's base is
+ *    mix(diffuse, dielectric interface, transmission). The interface uses the exact
+ *    dielectric Fresnel equations; smooth: specular reflection / refraction; rough:
+ *    GGX microfacet transmission (Walter et al. 2007, "Microfacet Models for
+ *    Refraction through Rough Surfaces"). Refracted radiance is scaled by 1/eta^2
+ *    (radiance transport, as pbrt-v4 does).
+ *  - KHR_materials_dispersion: ior(lambda) from the Abbe number (bsdf_dispersion_ior).
+ *
+ * Sampling the visible normals: Heitz 2018, "Sampling the GGX Distribution of
+ * Visible Normals", JCGT 7(4). */
+#ifndef SPT_BSDF_H
+#define SPT_BSDF_H
+
+#include "shared.h"
+#include "vecmath.h"
+
+/* Alpha below which a lobe is treated as perfectly smooth (a delta lobe). */
+#define BSDF_DELTA_ALPHA 1e-3f
+/* Smallest alpha used by a rough lobe. */
+#define BSDF_MIN_ALPHA 1e-3f
+
+/* Per-hit material parameters, built by the renderer (not a buffer struct). */
+typedef struct BsdfParams {
+    vec4 base;          /* base reflectance per wavelength (glTF baseColor upsampled) */
+    vec4 ior;           /* dielectric index per wavelength (KHR_materials_ior/dispersion) */
+    vec4 eta;           /* conductor index, real part, per wavelength */
+    vec4 k;             /* conductor index, imaginary part, per wavelength */
+    float metallic;     /* glTF metallicFactor, 0..1 */
+    float roughness;    /* glTF perceptual roughness; alpha = roughness^2 */
+    float transmission; /* KHR_materials_transmission factor, 0..1 */
+    spt_i32 conductor;  /* nonzero: the metal uses eta, k (exact Fresnel), not base */
+} BsdfParams;
+
+/* Outcome of bsdf_sample. */
+typedef struct BsdfSample {
+    vec3 wi;            /* sampled direction (unit) */
+    vec4 weight;        /* f |cos theta_i| / pdf per wavelength (0 if invalid) */
+    float pdf;          /* solid-angle pdf (the lobe selection probability for delta) */
+    spt_i32 is_delta;   /* the sampled lobe is a delta: no MIS with light sampling */
+    spt_i32 dispersive; /* the refraction depended on wavelength: keep only index 0 */
+    spt_i32 valid;      /* 0: the sample failed (weight 0) */
+} BsdfSample;
+
+/* ---- Small helpers --------------------------------------------------------------- */
+
+/* glTF alpha = roughness^2, clamped to BSDF_MIN_ALPHA from below. */
+SPT_FN float bsdf_alpha(float roughness)
+{
+    return fmaxf(roughness * roughness, BSDF_MIN_ALPHA);
+}
+
+/* Mirror reflection of w about the unit normal n (both pointing away from the
+ * surface): 2 (w.n) n - w. */
+SPT_FN vec3 bsdf_reflect(vec3 w, vec3 n)
+{
+    return v3_sub(v3_scale(n, 2.0f * v3_dot(w, n)), w);
+}
+
+/* Refraction of w (pointing away from the surface, on the side n points to) through
+ * an interface with relative index eta = n_transmitted / n_incident (Snell's law).
+ * Returns 0 on total internal reflection, else 1 with *wt the unit refracted
+ * direction on the other side. */
+SPT_FN int bsdf_refract(vec3 w, vec3 n, float eta, vec3 *wt)
+{
+    float cos_i = v3_dot(w, n);
+    float sin2_t = fmaxf(0.0f, 1.0f - cos_i * cos_i) / (eta * eta);
+    if (sin2_t >= 1.0f)
+        return 0;
+    float cos_t = sqrtf(1.0f - sin2_t);
+    *wt = v3_add(v3_scale(w, -1.0f / eta), v3_scale(n, cos_i / eta - cos_t));
+    return 1;
+}
+
+/* Exact unpolarised Fresnel reflectance of a dielectric interface (Born and Wolf,
+ * Principles of Optics, 1.5.2) for cos_i = cosine of the incident angle measured on
+ * the incident side (negative: the ray comes from inside, the indices swap) and
+ * eta = n_inside / n_outside. Returns 1 under total internal reflection. */
+SPT_FN float bsdf_fresnel_dielectric(float cos_i, float eta)
+{
+    if (cos_i < 0.0f) {
+        eta = 1.0f / eta;
+        cos_i = -cos_i;
+    }
+    cos_i = fminf(cos_i, 1.0f);
+    float sin2_t = (1.0f - cos_i * cos_i) / (eta * eta);
+    if (sin2_t >= 1.0f)
+        return 1.0f;
+    float cos_t = sqrtf(1.0f - sin2_t);
+    float rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    float rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    return 0.5f * (rs * rs + rp * rp);
+}
+
+/* Exact unpolarised Fresnel reflectance of a conductor of complex index eta + i k
+ * (relative to the outside medium) at incidence cosine cos_i in [0, 1]; the closed
+ * form of the complex Fresnel equations used by pbrt-v3 (FrConductor, after
+ * Lazanyi and Szirmay-Kalos 2005). */
+SPT_FN float bsdf_fresnel_conductor(float cos_i, float eta, float k)
+{
+    cos_i = fminf(fmaxf(cos_i, 0.0f), 1.0f);
+    float c2 = cos_i * cos_i, s2 = 1.0f - c2;
+    float e2 = eta * eta, k2 = k * k;
+    float t0 = e2 - k2 - s2;
+    float a2b2 = sqrtf(fmaxf(t0 * t0 + 4.0f * e2 * k2, 0.0f));
+    float t1 = a2b2 + c2;
+    float a = sqrtf(fmaxf(0.5f * (a2b2 + t0), 0.0f));
+    float t2 = 2.0f * cos_i * a;
+    float rs = (t1 - t2) / (t1 + t2);
+    float t3 = c2 * a2b2 + s2 * s2;
+    float t4 = t2 * s2;
+    float rp = rs * (t3 - t4) / (t3 + t4);
+    return 0.5f * (rp + rs);
+}
+
+/* Schlick's approximation f0 + (1 - f0)(1 - c)^5 per wavelength (glTF Appendix B). */
+SPT_FN vec4 bsdf_schlick(vec4 f0, float c)
+{
+    float m = fminf(fmaxf(1.0f - c, 0.0f), 1.0f);
+    float m5 = m * m * m * m * m;
+    return v4_add(f0, v4_scale(v4_sub(v4_splat(1.0f), f0), m5));
+}
+
+/* Index of refraction at wavelength lambda_nm from KHR_materials_dispersion: the
+ * extension stores dispersion = 20 / V_d (Abbe number V_d = (n_d - 1)/(n_F - n_C)
+ * at the Fraunhofer d 587.56, F 486.13, C 656.27 nm lines) and defines
+ *   n(lambda) = n_d + (n_d - 1) / V_d * (523655 / lambda^2 - 1.5168),
+ * a two-term Cauchy law n = A + B / lambda^2 fitted through n_d with
+ * B = (n_d - 1)/V_d / (1/lambda_F^2 - 1/lambda_C^2) (= 523655 nm^2 scaled). With
+ * dispersion 0 the ior is constant. */
+SPT_FN float bsdf_dispersion_ior(float ior, float dispersion, float lambda_nm)
+{
+    if (dispersion <= 0.0f)
+        return ior;
+    float inv_v = dispersion / 20.0f;
+    return ior + (ior - 1.0f) * inv_v * (523655.0f / (lambda_nm * lambda_nm) - 1.5168f);
+}
+
+/* ---- GGX microfacet distribution (isotropic) ------------------------------------ */
+
+/* GGX normal distribution D(h) (Walter et al. 2007, eq. 33) for unit h with h.z > 0. */
+SPT_FN float bsdf_ggx_d(vec3 h, float alpha)
+{
+    if (h.z <= 0.0f)
+        return 0.0f;
+    float a2 = alpha * alpha;
+    float t = h.z * h.z * (a2 - 1.0f) + 1.0f;
+    return a2 / (SPT_PI * t * t);
+}
+
+/* Smith Lambda for GGX (Heitz 2014, eq. 72): (-1 + sqrt(1 + alpha^2 tan^2)) / 2. */
+SPT_FN float bsdf_ggx_lambda(vec3 w, float alpha)
+{
+    float c2 = w.z * w.z;
+    if (c2 <= 0.0f)
+        return 1e30f;
+    float t2 = fmaxf(1.0f - c2, 0.0f) / c2;
+    return 0.5f * (-1.0f + sqrtf(1.0f + alpha * alpha * t2));
+}
+
+/* Smith masking G1(w) = 1 / (1 + Lambda(w)). */
+SPT_FN float bsdf_ggx_g1(vec3 w, float alpha)
+{
+    return 1.0f / (1.0f + bsdf_ggx_lambda(w, alpha));
+}
+
+/* Height-correlated masking-shadowing G2 = 1 / (1 + Lambda(wo) + Lambda(wi)) (Heitz
+ * 2014, eq. 99), the form glTF Appendix B uses. */
+SPT_FN float bsdf_ggx_g2(vec3 wo, vec3 wi, float alpha)
+{
+    return 1.0f / (1.0f + bsdf_ggx_lambda(wo, alpha) + bsdf_ggx_lambda(wi, alpha));
+}
+
+/* Density of visible normals D_wo(h) = G1(wo) max(0, wo.h) D(h) / wo.z (Heitz 2018,
+ * eq. 3), per steradian of h, for wo.z > 0. */
+SPT_FN float bsdf_ggx_vndf_pdf(vec3 wo, vec3 h, float alpha)
+{
+    float c = v3_dot(wo, h);
+    if (wo.z <= 0.0f || c <= 0.0f)
+        return 0.0f;
+    return bsdf_ggx_g1(wo, alpha) * c * bsdf_ggx_d(h, alpha) / wo.z;
+}
+
+/* A microfacet normal distributed as the visible normals of wo (wo.z > 0), from two
+ * uniforms in [0, 1) (Heitz 2018, Listing 1, isotropic alpha). */
+SPT_FN vec3 bsdf_ggx_sample_vndf(vec3 wo, float alpha, float u1, float u2)
+{
+    vec3 vh = v3_normalize(v3(alpha * wo.x, alpha * wo.y, wo.z));
+    float lensq = vh.x * vh.x + vh.y * vh.y;
+    vec3 t1 = lensq > 0.0f ? v3_scale(v3(-vh.y, vh.x, 0.0f), 1.0f / sqrtf(lensq)) : v3(1.0f, 0.0f, 0.0f);
+    vec3 t2 = v3_cross(vh, t1);
+    float r = sqrtf(u1), phi = 2.0f * SPT_PI * u2;
+    float p1 = r * cosf(phi), p2 = r * sinf(phi);
+    float s = 0.5f * (1.0f + vh.z);
+    p2 = (1.0f - s) * sqrtf(fmaxf(0.0f, 1.0f - p1 * p1)) + s * p2;
+    vec3 nh = v3_add(v3_add(v3_scale(t1, p1), v3_scale(t2, p2)),
+                     v3_scale(vh, sqrtf(fmaxf(0.0f, 1.0f - p1 * p1 - p2 * p2))));
+    return v3_normalize(v3(alpha * nh.x, alpha * nh.y, fmaxf(1e-7f, nh.z)));
+}
+
+/* ---- The combined material: lobes and their selection ---------------------------- */
+
+/* Lobe selection probabilities for wo (in the frame where wo.z > 0 for the
+ * reflection lobes): specular reflection (GGX or delta), diffuse, dielectric
+ * interface (transmission). From the lobe weights: metal m, dielectric (1-m) with
+ * specular share estimated by Schlick at wo.z, diffuse by the base's mean, and the
+ * transmission share (1-m) t. Sum to 1. */
+SPT_FN void bsdf_lobe_probs(const BsdfParams *p, vec3 wo, float *p_spec, float *p_diff, float *p_tr)
+{
+    float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
+    float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
+    float c = fabsf(wo.z);
+    float f0d = (p->ior.x - 1.0f) / (p->ior.x + 1.0f);
+    f0d *= f0d;
+    float fd = bsdf_schlick(v4_splat(f0d), c).x;
+    float mean_base = 0.25f * (p->base.x + p->base.y + p->base.z + p->base.w);
+    float ws = m + (1.0f - m) * (1.0f - t) * fd;
+    float wd = (1.0f - m) * (1.0f - t) * (1.0f - fd) * fmaxf(mean_base, 0.0f);
+    float wt = (1.0f - m) * t;
+    if (wo.z <= 0.0f) {
+        /* From inside only the interface responds. */
+        ws = 0.0f;
+        wd = 0.0f;
+    }
+    float sum = ws + wd + wt;
+    if (sum <= 0.0f) {
+        *p_spec = 0.0f;
+        *p_diff = 1.0f;
+        *p_tr = 0.0f;
+        return;
+    }
+    *p_spec = ws / sum;
+    *p_diff = wd / sum;
+    *p_tr = wt / sum;
+}
+
+/* Whether every lobe of the material is a delta (smooth and no diffuse): light
+ * sampling is then useless and MIS must not be applied. */
+SPT_FN int bsdf_is_delta(const BsdfParams *p)
+{
+    float a = p->roughness * p->roughness;
+    float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
+    float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
+    int no_diffuse = m >= 1.0f || t >= 1.0f;
+    return a < BSDF_DELTA_ALPHA && no_diffuse;
+}
+
+/* Whether the material has any delta lobe (smooth), while possibly also a diffuse
+ * one. */
+SPT_FN int bsdf_has_delta(const BsdfParams *p)
+{
+    return p->roughness * p->roughness < BSDF_DELTA_ALPHA;
+}
+
+/* Fresnel of the metal part at cosine c between wo and h, per wavelength: Schlick
+ * with F0 = base (glTF conductor_fresnel), or exact with eta + i k. */
+SPT_FN vec4 bsdf_metal_fresnel(const BsdfParams *p, float c)
+{
+    if (p->conductor)
+        return v4(bsdf_fresnel_conductor(c, p->eta.x, p->k.x), bsdf_fresnel_conductor(c, p->eta.y, p->k.y),
+                  bsdf_fresnel_conductor(c, p->eta.z, p->k.z), bsdf_fresnel_conductor(c, p->eta.w, p->k.w));
+    return bsdf_schlick(p->base, c);
+}
+
+/* The reflection Fresnel weight of the specular layer per wavelength at cosine c
+ * (wo.h): m F_metal + (1-m)(1-t) F_schlick(F0 from ior). */
+SPT_FN vec4 bsdf_spec_fresnel(const BsdfParams *p, float c)
+{
+    float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
+    float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
+    vec4 r = v4_sub(p->ior, v4_splat(1.0f));
+    vec4 s = v4_add(p->ior, v4_splat(1.0f));
+    vec4 f0 = v4(r.x / s.x, r.y / s.y, r.z / s.z, r.w / s.w);
+    f0 = v4_mul(f0, f0);
+    vec4 fd = bsdf_schlick(f0, c);
+    return v4_add(v4_scale(bsdf_metal_fresnel(p, c), m), v4_scale(fd, (1.0f - m) * (1.0f - t)));
+}
+
+/* The diffuse lobe's factor per wavelength, without 1/pi: (1-m)(1-t)(1 - F_schlick)
+ * base (glTF fresnel_mix). */
+SPT_FN vec4 bsdf_diffuse_factor(const BsdfParams *p, float c)
+{
+    float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
+    float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
+    vec4 r = v4_sub(p->ior, v4_splat(1.0f));
+    vec4 s = v4_add(p->ior, v4_splat(1.0f));
+    vec4 f0 = v4(r.x / s.x, r.y / s.y, r.z / s.z, r.w / s.w);
+    f0 = v4_mul(f0, f0);
+    vec4 one_minus = v4_sub(v4_splat(1.0f), bsdf_schlick(f0, c));
+    return v4_scale(v4_mul(one_minus, p->base), (1.0f - m) * (1.0f - t));
+}
+
+/* Generalised half vector of a refraction (Walter et al. 2007, eq. 16), oriented to
+ * +z, for wo, wi on opposite sides and eta = n_inside / n_outside. */
+SPT_FN vec3 bsdf_half_refract(vec3 wo, vec3 wi, float eta)
+{
+    float etap = wo.z > 0.0f ? eta : 1.0f / eta;
+    vec3 h = v3_normalize(v3_add(wo, v3_scale(wi, etap)));
+    return h.z < 0.0f ? v3_scale(h, -1.0f) : h;
+}
+
+/* The rough dielectric interface's f |cos i| contribution and its pdf for the
+ * given wo, wi (Walter et al. 2007 eqs. 20-21 with VNDF sampling; pdf per
+ * steradian of wi), for index eta (hero wavelength's value) and alpha. Fresnel is
+ * the exact dielectric one; transmission is divided by eta'^2 (radiance). */
+SPT_FN float bsdf_interface_eval(vec3 wo, vec3 wi, float eta, float alpha, float *pdf)
+{
+    *pdf = 0.0f;
+    if (wo.z == 0.0f || wi.z == 0.0f)
+        return 0.0f;
+    int reflect = wo.z * wi.z > 0.0f;
+    float etap = 1.0f;
+    vec3 h;
+    if (reflect) {
+        h = v3_normalize(v3_add(wo, wi));
+        if (h.z < 0.0f)
+            h = v3_scale(h, -1.0f);
+    } else {
+        etap = wo.z > 0.0f ? eta : 1.0f / eta;
+        h = bsdf_half_refract(wo, wi, eta);
+    }
+    float dwo = v3_dot(wo, h), dwi = v3_dot(wi, h);
+    /* Backfacing microfacets are discarded. */
+    if (dwo * wo.z <= 0.0f || dwi * wi.z <= 0.0f)
+        return 0.0f;
+    float F = bsdf_fresnel_dielectric(dwo, eta);
+    float D = bsdf_ggx_d(h, alpha);
+    /* VNDF in the frame where wo is above: flip both when wo is inside. */
+    vec3 wo_up = wo.z > 0.0f ? wo : v3_scale(wo, -1.0f);
+    vec3 wi_up = wo.z > 0.0f ? wi : v3_scale(wi, -1.0f);
+    float G = 1.0f / (1.0f + bsdf_ggx_lambda(wo_up, alpha) + bsdf_ggx_lambda(v3(wi_up.x, wi_up.y, fabsf(wi_up.z)), alpha));
+    float vis = bsdf_ggx_vndf_pdf(wo_up, h, alpha);
+    if (reflect) {
+        *pdf = vis / (4.0f * fabsf(dwo)) * F;
+        return D * G * F / (4.0f * fabsf(wo.z));
+    }
+    float denom = dwi + dwo / etap;
+    float jac = fabsf(dwi) / (denom * denom);
+    *pdf = vis * jac * (1.0f - F);
+    float ft = D * G * (1.0f - F) * fabsf(dwi * dwo) / (fabsf(wo.z) * denom * denom);
+    return ft / (etap * etap);
+}
+
+/* Non-delta part of f(wo, wi) |cos theta_i| per wavelength, for wo.z > 0 (the
+ * viewer outside) or, for the transmission lobe, either side. Delta lobes give 0.
+ * The interface uses each wavelength's ior. */
+SPT_FN vec4 bsdf_eval(const BsdfParams *p, vec3 wo, vec3 wi)
+{
+    vec4 r = v4_splat(0.0f);
+    float alpha = bsdf_alpha(p->roughness);
+    int smooth = p->roughness * p->roughness < BSDF_DELTA_ALPHA;
+    float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
+    float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
+    if (wo.z > 0.0f && wi.z > 0.0f) {
+        vec3 h = v3_normalize(v3_add(wo, wi));
+        float c = fabsf(v3_dot(wo, h));
+        r = v4_scale(bsdf_diffuse_factor(p, c), SPT_INV_PI * wi.z);
+        if (!smooth) {
+            float spec = bsdf_ggx_d(h, alpha) * bsdf_ggx_g2(wo, wi, alpha) / (4.0f * wo.z);
+            r = v4_add(r, v4_scale(bsdf_spec_fresnel(p, c), spec));
+        }
+    }
+    float wt = (1.0f - m) * t;
+    if (wt > 0.0f && !smooth) {
+        float pd;
+        r = v4_add(r, v4_scale(v4(bsdf_interface_eval(wo, wi, p->ior.x, alpha, &pd),
+                                  bsdf_interface_eval(wo, wi, p->ior.y, alpha, &pd),
+                                  bsdf_interface_eval(wo, wi, p->ior.z, alpha, &pd),
+                                  bsdf_interface_eval(wo, wi, p->ior.w, alpha, &pd)), wt));
+    }
+    return r;
+}
+
+/* Solid-angle pdf with which bsdf_sample produces wi given wo (non-delta lobes
+ * only; one-sample MIS over the lobes with bsdf_lobe_probs). The interface's pdf
+ * uses the hero wavelength's ior. */
+SPT_FN float bsdf_pdf(const BsdfParams *p, vec3 wo, vec3 wi)
+{
+    if (p->roughness * p->roughness < BSDF_DELTA_ALPHA) {
+        float ps, pd, pt;
+        bsdf_lobe_probs(p, wo, &ps, &pd, &pt);
+        return (wo.z > 0.0f && wi.z > 0.0f) ? pd * wi.z * SPT_INV_PI : 0.0f;
+    }
+    float alpha = bsdf_alpha(p->roughness);
+    float ps, pd, pt;
+    bsdf_lobe_probs(p, wo, &ps, &pd, &pt);
+    float pdf = 0.0f;
+    if (wo.z > 0.0f && wi.z > 0.0f) {
+        vec3 h = v3_normalize(v3_add(wo, wi));
+        pdf += pd * wi.z * SPT_INV_PI;
+        pdf += ps * bsdf_ggx_vndf_pdf(wo, h, alpha) / (4.0f * v3_dot(wo, h));
+    }
+    if (pt > 0.0f) {
+        float pi_;
+        bsdf_interface_eval(wo, wi, p->ior.x, alpha, &pi_);
+        pdf += pt * pi_;
+    }
+    return pdf;
+}
+
+/* Samples wi for wo from uniforms u0 (lobe choice), u1, u2 in [0, 1). Rough
+ * lobes: weight = bsdf_eval / bsdf_pdf (so MIS with light sampling is consistent).
+ * Delta lobes (alpha below BSDF_DELTA_ALPHA): mirror reflection with the Fresnel
+ * weight, or the smooth interface choosing reflection with probability F of the
+ * hero wavelength; is_delta is set. When the ior differs between wavelengths and
+ * the sample refracted (smooth or rough), dispersive is set and only weight.x is
+ * meaningful (the others are set to it; the renderer terminates them). */
+SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, float u2)
+{
+    BsdfSample s;
+    s.wi = v3(0.0f, 0.0f, 1.0f);
+    s.weight = v4_splat(0.0f);
+    s.pdf = 0.0f;
+    s.is_delta = 0;
+    s.dispersive = 0;
+    s.valid = 0;
+    if (wo.z == 0.0f)
+        return s;
+    float ps, pd, pt;
+    bsdf_lobe_probs(p, wo, &ps, &pd, &pt);
+    int smooth = p->roughness * p->roughness < BSDF_DELTA_ALPHA;
+    float alpha = bsdf_alpha(p->roughness);
+    int dispersive_ior = p->ior.x != p->ior.y || p->ior.x != p->ior.z || p->ior.x != p->ior.w;
+    float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
+    float tr = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
+
+    if (u0 < pt) {
+        /* The dielectric interface. */
+        float eta = p->ior.x;
+        float wt = (1.0f - m) * tr;
+        vec3 wo_up = wo.z > 0.0f ? wo : v3_scale(wo, -1.0f);
+        vec3 h = smooth ? v3(0.0f, 0.0f, 1.0f) : bsdf_ggx_sample_vndf(wo_up, alpha, u1, u2);
+        float F = bsdf_fresnel_dielectric(wo.z > 0.0f ? v3_dot(wo, h) : -v3_dot(wo_up, h), eta);
+        /* Reuse u0 for reflect/refract: u0/pt is uniform in [0, 1). */
+        float ur = u0 / pt;
+        int reflect = ur < F;
+        if (reflect) {
+            s.wi = bsdf_reflect(wo, wo.z > 0.0f ? h : v3_scale(h, -1.0f));
+        } else {
+            float etap = wo.z > 0.0f ? eta : 1.0f / eta;
+            vec3 n = wo.z > 0.0f ? h : v3_scale(h, -1.0f);
+            if (!bsdf_refract(wo, n, etap, &s.wi))
+                return s;
+            s.dispersive = dispersive_ior;
+        }
+        if (smooth) {
+            s.is_delta = 1;
+            s.valid = 1;
+            s.pdf = pt * (reflect ? F : 1.0f - F);
+            if (reflect) {
+                /* F of each wavelength over the hero's F. */
+                vec4 fr = v4(bsdf_fresnel_dielectric(wo.z, p->ior.x), bsdf_fresnel_dielectric(wo.z, p->ior.y),
+                             bsdf_fresnel_dielectric(wo.z, p->ior.z), bsdf_fresnel_dielectric(wo.z, p->ior.w));
+                s.weight = v4_scale(fr, wt / s.pdf);
+            } else {
+                float etap = wo.z > 0.0f ? eta : 1.0f / eta;
+                float w = wt * (1.0f - F) / (s.pdf * etap * etap);
+                s.weight = v4_splat(w);
+            }
+            if (s.dispersive)
+                s.weight = v4_splat(s.weight.x);
+            return s;
+        }
+    } else if (u0 < pt + ps) {
+        if (wo.z <= 0.0f)
+            return s;
+        if (smooth) {
+            s.wi = v3(-wo.x, -wo.y, wo.z);
+            s.is_delta = 1;
+            s.valid = 1;
+            s.pdf = ps;
+            s.weight = v4_scale(bsdf_spec_fresnel(p, wo.z), 1.0f / ps);
+            return s;
+        }
+        vec3 h = bsdf_ggx_sample_vndf(wo, alpha, u1, u2);
+        s.wi = bsdf_reflect(wo, h);
+    } else {
+        if (wo.z <= 0.0f)
+            return s;
+        /* Cosine-weighted hemisphere (Malley's method on a concentric disk). */
+        float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f, r, phi;
+        if (a == 0.0f && b == 0.0f) {
+            r = 0.0f;
+            phi = 0.0f;
+        } else if (fabsf(a) > fabsf(b)) {
+            r = a;
+            phi = 0.25f * SPT_PI * (b / a);
+        } else {
+            r = b;
+            phi = 0.5f * SPT_PI - 0.25f * SPT_PI * (a / b);
+        }
+        float x = r * cosf(phi), y = r * sinf(phi);
+        s.wi = v3(x, y, sqrtf(fmaxf(0.0f, 1.0f - x * x - y * y)));
+    }
+    s.pdf = bsdf_pdf(p, wo, s.wi);
+    if (!(s.pdf > 0.0f))
+        return s;
+    vec4 f = bsdf_eval(p, wo, s.wi);
+    s.weight = v4_scale(f, 1.0f / s.pdf);
+    if (s.dispersive)
+        s.weight = v4_splat(s.weight.x);
+    s.valid = 1;
+    return s;
+}
+
+#endif
