@@ -456,6 +456,10 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
                 return s;
             s.dispersive = dispersive_ior;
         }
+        /* A microfacet reflection that leaves through the surface (or a refraction
+         * that stays on wo's side) is not an event of this lobe. */
+        if ((s.wi.z * wo.z > 0.0f) != (reflect != 0))
+            return s;
         if (smooth) {
             s.is_delta = 1;
             s.valid = 1;

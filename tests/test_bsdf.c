@@ -1,0 +1,436 @@
+/* kernels/bsdf.h against independent values: textbook Fresnel forms, the
+ * normal-incidence conductor formula, the KHR_materials_dispersion definition at
+ * the Fraunhofer lines, Snell's law through a prism, chi-square tests of the
+ * samplers against their pdfs (tests/chi2.h), reciprocity and white-furnace
+ * albedos. */
+#include "test_util.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "chi2.h"
+#include "../kernels/bsdf.h"
+
+/* Chi-square tests expected to pass in this binary, for the Sidak correction. */
+#define BSDF_CHI2_TESTS 11
+#define BSDF_CHI2_SAMPLES 200000u
+
+/* SplitMix64 (Steele, Lea and Flood 2014) of i as a float in [0, 1). */
+static float test_uniform(uint64_t i)
+{
+    uint64_t z = i * 0x9e3779b97f4a7c15ull + 0x632be59bd9b4e019ull;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    z ^= z >> 31;
+    return (float)(z >> 40) * (1.0f / 16777216.0f);
+}
+
+/* Fails with the chi-square report unless r passed; prints it either way. */
+static void require_pass(const Chi2Result *r)
+{
+    if (!r->passed)
+        fail_msg("%s", r->message);
+    print_message("  %s\n", r->message);
+}
+
+/* A direction at polar angle theta (degrees) in the xz plane, z up. */
+static vec3 dir_deg(double theta)
+{
+    double t = theta * M_PI / 180.0;
+    return v3((float)sin(t), 0.0f, (float)cos(t));
+}
+
+/* ---- Fresnel ------------------------------------------------------------------ */
+
+/* The dielectric Fresnel against the sine/tangent forms (Hecht, Optics, 4.42-4.43),
+ * a different algebraic route, and against published air-glass numbers. */
+static void test_fresnel_dielectric(void **state)
+{
+    (void)state;
+    const double n = 1.5;
+    assert_close(bsdf_fresnel_dielectric(1.0f, 1.5f), 0.04, 1e-6);
+    /* Brewster's angle: Rp = 0, so R = Rs / 2 = 0.0739 (Hecht). */
+    double tb = atan(n);
+    assert_close(bsdf_fresnel_dielectric((float)cos(tb), 1.5f), 0.5 * pow(sin(tb - asin(sin(tb) / n)) / sin(tb + asin(sin(tb) / n)), 2), 1e-5);
+    for (double deg = 5.0; deg < 89.0; deg += 7.0) {
+        double i = deg * M_PI / 180.0, t = asin(sin(i) / n);
+        double rs = pow(sin(i - t) / sin(i + t), 2), rp = pow(tan(i - t) / tan(i + t), 2);
+        assert_close(bsdf_fresnel_dielectric((float)cos(i), 1.5f), 0.5 * (rs + rp), 2e-6);
+        /* From inside at the refracted angle: the same reflectance (Stokes). */
+        assert_close(bsdf_fresnel_dielectric(-(float)cos(t), 1.5f), 0.5 * (rs + rp), 2e-5);
+    }
+    /* Beyond the critical angle asin(1/1.5) = 41.81 degrees: total reflection. */
+    assert_close(bsdf_fresnel_dielectric(-(float)cos(42.0 * M_PI / 180.0), 1.5f), 1.0, 0.0);
+    assert_true(bsdf_fresnel_dielectric(-(float)cos(41.5 * M_PI / 180.0), 1.5f) < 1.0f);
+}
+
+/* The conductor Fresnel: at normal incidence ((n-1)^2 + k^2) / ((n+1)^2 + k^2);
+ * with k = 0 it equals the dielectric one at every angle; at grazing it tends to 1. */
+static void test_fresnel_conductor(void **state)
+{
+    (void)state;
+    /* (n, k) pairs spanning metals at visible wavelengths (gold-like, silver-like,
+     * aluminium-like, copper-like); the formula is the check, not the values. */
+    const float nk[5][2] = {{0.18f, 3.4f}, {0.05f, 4.3f}, {1.2f, 7.3f}, {0.27f, 3.4f}, {1.5f, 0.0f}};
+    for (int j = 0; j < 5; j++) {
+        double n = nk[j][0], k = nk[j][1];
+        double want = ((n - 1) * (n - 1) + k * k) / ((n + 1) * (n + 1) + k * k);
+        assert_close(bsdf_fresnel_conductor(1.0f, nk[j][0], nk[j][1]), want, 1e-5);
+        assert_true(bsdf_fresnel_conductor(1e-4f, nk[j][0], nk[j][1]) > 0.99f);
+    }
+    for (double c = 0.05; c <= 1.0; c += 0.1)
+        assert_close(bsdf_fresnel_conductor((float)c, 1.5f, 0.0f), bsdf_fresnel_dielectric((float)c, 1.5f), 1e-5);
+}
+
+/* ---- Dispersion and the prism -------------------------------------------------- */
+
+/* KHR_materials_dispersion: n(lambda_d) = ior and (n_d - 1)/(n_F - n_C) = V with
+ * dispersion = 20/V; Fraunhofer d 587.5618, F 486.1327, C 656.2725 nm. */
+static void test_dispersion_ior(void **state)
+{
+    (void)state;
+    const double ld = 587.5618, lf = 486.1327, lc = 656.2725;
+    const double ior = 1.5168, V = 64.17;
+    float disp = (float)(20.0 / V);
+    double nd = bsdf_dispersion_ior((float)ior, disp, (float)ld);
+    double nf = bsdf_dispersion_ior((float)ior, disp, (float)lf);
+    double nc = bsdf_dispersion_ior((float)ior, disp, (float)lc);
+    assert_close(nd, ior, 2e-5);
+    assert_close_rel((nd - 1.0) / (nf - nc), V, 1e-3);
+    assert_true(nf > nd && nd > nc);
+    assert_close(bsdf_dispersion_ior(1.5f, 0.0f, 400.0f), 1.5, 0.0);
+    print_message("  BK7-like: n_F %.5f n_d %.5f n_C %.5f, Abbe %.3f\n", nf, nd, nc, (nd - 1) / (nf - nc));
+}
+
+/* A ray through a 60-degree prism (apex along y) refracted by bsdf_refract at both
+ * faces with each wavelength's ior; deviation against Snell's law in angles:
+ * delta = theta1 + theta4 - A, theta2 = asin(sin theta1 / n), theta3 = A - theta2,
+ * theta4 = asin(n sin theta3). Red is bent least. */
+static void test_prism(void **state)
+{
+    (void)state;
+    const double A = 60.0 * M_PI / 180.0, theta1 = 50.0 * M_PI / 180.0;
+    const float lambdas[3] = {450.0f, 550.0f, 700.0f};
+    double dev[3];
+    /* Face normals (outward) in the xz plane: face 1 at -A/2, face 2 at +A/2 about z. */
+    vec3 n1 = v3((float)-cos(A / 2), 0.0f, (float)sin(A / 2));
+    vec3 n2 = v3((float)cos(A / 2), 0.0f, (float)sin(A / 2));
+    for (int j = 0; j < 3; j++) {
+        double n = bsdf_dispersion_ior(1.5168f, 20.0f / 64.17f, lambdas[j]);
+        /* Incoming direction d at angle theta1 to -n1, in the plane, tilted up. */
+        vec3 t1 = v3((float)sin(A / 2), 0.0f, (float)cos(A / 2)); /* tangent of face 1 */
+        vec3 d = v3_add(v3_scale(n1, (float)-cos(theta1)), v3_scale(t1, (float)sin(theta1)));
+        vec3 w = v3_scale(d, -1.0f), inside = v3(0, 0, 0), out = v3(0, 0, 0);
+        assert_true(bsdf_refract(w, n1, (float)n, &inside));
+        /* At face 2 the ray leaves: w points back inside, the normal is -n2. */
+        assert_true(bsdf_refract(v3_scale(inside, -1.0f), v3_scale(n2, -1.0f), (float)(1.0 / n), &out));
+        double c = v3_dot(d, out);
+        double got = acos(fmin(1.0, c));
+        double th2 = asin(sin(theta1) / n), th3 = A - th2, th4 = asin(n * sin(th3));
+        double want = theta1 + th4 - A;
+        assert_close(got, want, 2e-4);
+        dev[j] = got;
+        print_message("  %.0f nm: n %.5f, deviation %.4f deg (Snell %.4f)\n", lambdas[j], n, got * 180 / M_PI,
+                      want * 180 / M_PI);
+    }
+    assert_true(dev[2] < dev[1] && dev[1] < dev[0]);
+}
+
+/* ---- Chi-square tests ----------------------------------------------------------- */
+
+typedef struct VndfCtx {
+    vec3 wo;
+    float alpha;
+    uint32_t stream;
+    int sphere; /* 1: bin h itself on the sphere (wide lobes) */
+} VndfCtx;
+
+/* Sample i as the microfacet normal's scaled slope-free coordinates (h.x, h.y) /
+ * alpha, so the plane grid resolves the lobe at every alpha. */
+static int vndf_sample(void *ctx, uint32_t i, double p[3])
+{
+    VndfCtx *c = ctx;
+    uint64_t b = ((uint64_t)c->stream << 40) + 2u * (uint64_t)i;
+    vec3 h = bsdf_ggx_sample_vndf(c->wo, c->alpha, test_uniform(b), test_uniform(b + 1));
+    if (c->sphere) {
+        p[0] = h.x;
+        p[1] = h.y;
+        p[2] = h.z;
+        return 1;
+    }
+    p[0] = h.x / c->alpha;
+    p[1] = h.y / c->alpha;
+    return 1;
+}
+
+/* Density of (h.x, h.y) / alpha: D_wo(h) per steradian times d omega / dA =
+ * alpha^2 / h.z (projection of the hemisphere onto the disk). */
+static double vndf_pdf(void *ctx, const double p[3])
+{
+    VndfCtx *c = ctx;
+    if (c->sphere)
+        return bsdf_ggx_vndf_pdf(c->wo, v3((float)p[0], (float)p[1], (float)p[2]), c->alpha);
+    double x = p[0] * c->alpha, y = p[1] * c->alpha, r2 = x * x + y * y;
+    if (r2 >= 1.0)
+        return 0.0;
+    double z = sqrt(1.0 - r2);
+    return bsdf_ggx_vndf_pdf(c->wo, v3((float)x, (float)y, (float)z), c->alpha) * c->alpha * c->alpha / z;
+}
+
+/* Visible-normal sampling against D_wo(h), several alphas and angles; the domain
+ * [-3, 3]^2 in units of alpha for narrow lobes (the tail outside is the pdf's
+ * missing mass), the sphere for wide ones (whose projected density is singular at
+ * the disk's rim). */
+static void test_vndf_chi2(void **state)
+{
+    (void)state;
+    const float alphas[2] = {0.1f, 0.6f};
+    const double thetas[2] = {10.0, 70.0};
+    uint32_t stream = 1;
+    for (int a = 0; a < 2; a++)
+        for (int t = 0; t < 2; t++) {
+            VndfCtx c = {dir_deg(thetas[t]), alphas[a], stream++, alphas[a] > 0.3f};
+            char name[96];
+            snprintf(name, sizeof name, "GGX VNDF alpha %.2f theta_o %.0f", alphas[a], thetas[t]);
+            Chi2Grid g = {0};
+            g.name = name;
+            g.domain = CHI2_PLANE;
+            g.x0 = -3.0;
+            g.x1 = 3.0;
+            g.y0 = -3.0;
+            g.y1 = 3.0;
+            if (c.sphere)
+                g.domain = CHI2_SPHERE;
+            g.res_x = 40;
+            g.res_y = 40;
+            g.samples = BSDF_CHI2_SAMPLES;
+            g.num_tests = BSDF_CHI2_TESTS;
+            g.sample = vndf_sample;
+            g.pdf = vndf_pdf;
+            g.ctx = &c;
+            Chi2Result r;
+            chi2_grid_run(&g, &r);
+            require_pass(&r);
+        }
+}
+
+typedef struct MatCtx {
+    BsdfParams p;
+    vec3 wo;
+    uint32_t stream;
+} MatCtx;
+
+static int mat_sample(void *ctx, uint32_t i, double p[3])
+{
+    MatCtx *c = ctx;
+    uint64_t b = ((uint64_t)c->stream << 40) + 3u * (uint64_t)i;
+    BsdfSample s = bsdf_sample(&c->p, c->wo, test_uniform(b), test_uniform(b + 1), test_uniform(b + 2));
+    if (!s.valid)
+        return 0;
+    p[0] = s.wi.x;
+    p[1] = s.wi.y;
+    p[2] = s.wi.z;
+    return 1;
+}
+
+static double mat_pdf(void *ctx, const double p[3])
+{
+    MatCtx *c = ctx;
+    return bsdf_pdf(&c->p, c->wo, v3((float)p[0], (float)p[1], (float)p[2]));
+}
+
+/* A material with the given parts; ior 1.5 at every wavelength. */
+static BsdfParams make_params(float base, float metallic, float roughness, float transmission)
+{
+    BsdfParams p;
+    memset(&p, 0, sizeof p);
+    p.base = v4_splat(base);
+    p.ior = v4_splat(1.5f);
+    p.metallic = metallic;
+    p.roughness = roughness;
+    p.transmission = transmission;
+    return p;
+}
+
+static void run_mat_chi2(const char *what, BsdfParams p, vec3 wo, uint32_t stream)
+{
+    MatCtx c = {p, wo, stream};
+    char name[128];
+    snprintf(name, sizeof name, "%s rough %.2f theta_o %.0f", what, p.roughness,
+             acos(fabs(wo.z)) * 180 / M_PI);
+    Chi2Grid g = {0};
+    g.name = name;
+    g.domain = CHI2_SPHERE;
+    g.res_x = 64;
+    g.res_y = 64;
+    g.samples = BSDF_CHI2_SAMPLES;
+    g.num_tests = BSDF_CHI2_TESTS;
+    g.sample = mat_sample;
+    g.pdf = mat_pdf;
+    g.ctx = &c;
+    Chi2Result r;
+    chi2_grid_run(&g, &r);
+    require_pass(&r);
+}
+
+/* The full metallic-roughness sampler (diffuse + GGX), a measured conductor and
+ * the rough dielectric (reflection + transmission, from outside and inside). */
+static void test_material_chi2(void **state)
+{
+    (void)state;
+    run_mat_chi2("metallic-roughness m 0.3", make_params(0.8f, 0.3f, 0.5f, 0.0f), dir_deg(30), 101);
+    run_mat_chi2("metallic-roughness m 0.0", make_params(0.5f, 0.0f, 0.45f, 0.0f), dir_deg(75), 102);
+    BsdfParams cu = make_params(1.0f, 1.0f, 0.3f, 0.0f);
+    cu.conductor = 1;
+    cu.eta = v4(0.27f, 0.5f, 1.0f, 1.1f);
+    cu.k = v4(3.4f, 2.6f, 2.5f, 2.4f);
+    run_mat_chi2("conductor", cu, dir_deg(45), 103);
+    run_mat_chi2("rough dielectric (outside)", make_params(1.0f, 0.0f, 0.5f, 1.0f), dir_deg(40), 104);
+    run_mat_chi2("rough dielectric (outside)", make_params(1.0f, 0.0f, 0.45f, 1.0f), dir_deg(70), 105);
+    vec3 in = dir_deg(20);
+    in.z = -in.z;
+    run_mat_chi2("rough dielectric (inside)", make_params(1.0f, 0.0f, 0.4f, 1.0f), in, 106);
+    run_mat_chi2("half transmissive", make_params(0.7f, 0.0f, 0.4f, 0.5f), dir_deg(50), 107);
+}
+
+/* ---- Consistency, reciprocity, energy ------------------------------------------ */
+
+/* For rough materials the sample weight equals eval / pdf at the sampled wi, and
+ * reflection is reciprocal: f(wo, wi) = f(wi, wo), i.e. eval(wo,wi)/wi.z =
+ * eval(wi,wo)/wo.z. */
+static void test_consistency_reciprocity(void **state)
+{
+    (void)state;
+    BsdfParams p = make_params(0.6f, 0.4f, 0.45f, 0.0f);
+    for (uint32_t i = 0; i < 2000; i++) {
+        vec3 wo = v3_normalize(v3(test_uniform(7000 + i) - 0.5f, test_uniform(9000 + i) - 0.5f, test_uniform(11000 + i) + 0.05f));
+        BsdfSample s = bsdf_sample(&p, wo, test_uniform(3 * i), test_uniform(3 * i + 1), test_uniform(3 * i + 2));
+        if (!s.valid)
+            continue;
+        vec4 f = bsdf_eval(&p, wo, s.wi);
+        assert_close_rel(s.weight.x, f.x / bsdf_pdf(&p, wo, s.wi), 1e-4);
+        assert_false(s.is_delta);
+        if (s.wi.z > 0.01f) {
+            vec4 b = bsdf_eval(&p, s.wi, wo);
+            assert_close_rel(f.x / s.wi.z, b.x / wo.z, 1e-3);
+        }
+    }
+    assert_false(bsdf_is_delta(&p));
+    BsdfParams glass = make_params(1.0f, 0.0f, 0.0f, 1.0f);
+    assert_true(bsdf_is_delta(&glass));
+    BsdfParams mirror = make_params(1.0f, 1.0f, 0.0f, 0.0f);
+    assert_true(bsdf_is_delta(&mirror));
+    BsdfParams plastic = make_params(1.0f, 0.0f, 0.0f, 0.0f);
+    assert_false(bsdf_is_delta(&plastic));
+    assert_true(bsdf_has_delta(&plastic));
+}
+
+/* Monte Carlo directional albedo: the mean sample weight (hero wavelength). When
+ * undo_eta is set, refracted samples are multiplied back by eta'^2 (the radiance
+ * scaling), giving the energy balance R + T. */
+static double albedo(const BsdfParams *p, vec3 wo, uint32_t n, uint32_t stream, int undo_eta)
+{
+    double sum = 0.0;
+    for (uint32_t i = 0; i < n; i++) {
+        uint64_t b = ((uint64_t)stream << 40) + 3u * (uint64_t)i;
+        BsdfSample s = bsdf_sample(p, wo, test_uniform(b), test_uniform(b + 1), test_uniform(b + 2));
+        if (!s.valid)
+            continue;
+        double w = s.weight.x;
+        if (undo_eta && s.wi.z * wo.z < 0.0f) {
+            double etap = wo.z > 0.0f ? p->ior.x : 1.0 / p->ior.x;
+            w *= etap * etap;
+        }
+        sum += w;
+    }
+    return sum / n;
+}
+
+/* A white rough metal and a rough dielectric never exceed albedo 1 (single
+ * scattering loses energy at high roughness); the smooth dielectric's R + T is 1. */
+static void test_energy(void **state)
+{
+    (void)state;
+    const float roughs[4] = {0.05f, 0.3f, 0.6f, 1.0f};
+    const double thetas[3] = {0.0, 45.0, 80.0};
+    uint32_t stream = 500;
+    for (int r = 0; r < 4; r++)
+        for (int t = 0; t < 3; t++) {
+            BsdfParams metal = make_params(1.0f, 1.0f, roughs[r], 0.0f);
+            double am = albedo(&metal, dir_deg(thetas[t]), 40000, stream++, 0);
+            BsdfParams diel = make_params(1.0f, 0.0f, roughs[r], 1.0f);
+            double ad = albedo(&diel, dir_deg(thetas[t]), 40000, stream++, 1);
+            print_message("  rough %.2f theta %2.0f: white metal %.4f, dielectric R+T %.4f\n", roughs[r], thetas[t],
+                          am, ad);
+            assert_true(am <= 1.01);
+            assert_true(ad <= 1.01);
+            if (roughs[r] <= 0.05f) {
+                assert_true(am > 0.97);
+                assert_true(ad > 0.97);
+            }
+        }
+    const double smooth_thetas[4] = {0.0, 30.0, 60.0, 85.0};
+    for (int t = 0; t < 4; t++) {
+        BsdfParams glass = make_params(1.0f, 0.0f, 0.0f, 1.0f);
+        double a_out = albedo(&glass, dir_deg(smooth_thetas[t]), 20000, stream++, 1);
+        vec3 in = dir_deg(smooth_thetas[t] * 0.5);
+        in.z = -in.z;
+        double a_in = albedo(&glass, in, 20000, stream++, 1);
+        print_message("  smooth glass theta %2.0f: R+T from outside %.6f, from inside (theta %.0f) %.6f\n",
+                      smooth_thetas[t], a_out, smooth_thetas[t] * 0.5, a_in);
+        assert_close(a_out, 1.0, 1e-5);
+        assert_close(a_in, 1.0, 1e-5);
+    }
+}
+
+/* Smooth dielectric sampling: the reflect fraction equals the Fresnel reflectance,
+ * and the directions obey the mirror law and Snell's law. A dispersive ior sets
+ * the dispersive flag on refraction only. */
+static void test_smooth_dielectric(void **state)
+{
+    (void)state;
+    BsdfParams glass = make_params(1.0f, 0.0f, 0.0f, 1.0f);
+    const double thetas[3] = {0.0, 45.0, 80.0};
+    for (int t = 0; t < 3; t++) {
+        vec3 wo = dir_deg(thetas[t]);
+        double F = bsdf_fresnel_dielectric(wo.z, 1.5f);
+        uint32_t n = 100000, nr = 0;
+        for (uint32_t i = 0; i < n; i++) {
+            BsdfSample s = bsdf_sample(&glass, wo, test_uniform(900000 + i), 0.5f, 0.5f);
+            assert_true(s.valid && s.is_delta);
+            if (s.wi.z > 0.0f) {
+                nr++;
+                assert_close(s.wi.x, -wo.x, 1e-6);
+                assert_close(s.wi.z, wo.z, 1e-6);
+            } else {
+                double sin_t = sqrt(s.wi.x * s.wi.x + s.wi.y * s.wi.y);
+                assert_close(sin_t * 1.5, sin(thetas[t] * M_PI / 180.0), 1e-5);
+            }
+        }
+        double frac = (double)nr / n, sigma = sqrt(F * (1 - F) / n);
+        print_message("  theta %.0f: reflected %.4f, Fresnel %.4f\n", thetas[t], frac, F);
+        assert_close(frac, F, 5 * sigma + 1e-4);
+    }
+    BsdfParams disp = glass;
+    disp.ior = v4(1.52f, 1.51f, 1.50f, 1.53f);
+    BsdfSample s = bsdf_sample(&disp, dir_deg(30), 0.99f, 0.5f, 0.5f);
+    assert_true(s.valid && s.dispersive && s.wi.z < 0.0f);
+    s = bsdf_sample(&disp, dir_deg(30), 0.001f, 0.5f, 0.5f);
+    assert_true(s.valid && !s.dispersive && s.wi.z > 0.0f);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_fresnel_dielectric),
+        cmocka_unit_test(test_fresnel_conductor),
+        cmocka_unit_test(test_dispersion_ior),
+        cmocka_unit_test(test_prism),
+        cmocka_unit_test(test_vndf_chi2),
+        cmocka_unit_test(test_material_chi2),
+        cmocka_unit_test(test_consistency_reciprocity),
+        cmocka_unit_test(test_energy),
+        cmocka_unit_test(test_smooth_dielectric),
+    };
+    return cmocka_run_group_tests_name("bsdf", tests, NULL, NULL);
+}
