@@ -8,6 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <CL/cl.h>
+
 #include "chi2.h"
 #include "../kernels/bsdf.h"
 
@@ -419,6 +421,116 @@ static void test_smooth_dielectric(void **state)
     assert_true(s.valid && !s.dispersive && s.wi.z > 0.0f);
 }
 
+/* ---- The device build ---------------------------------------------------------- */
+
+/* Each work-item samples and evaluates one material for one (wo, u) input. */
+static const char *k_device_src =
+    "#include \"bsdf.h\"\n"
+    "__kernel void k_bsdf_test(__global const float *in, __global float *out, int n)\n"
+    "{\n"
+    "    int i = get_global_id(0);\n"
+    "    if (i >= n) return;\n"
+    "    const __global float *q = in + 10 * i;\n"
+    "    BsdfParams p;\n"
+    "    p.base = (float4)(q[6], q[6], 0.5f, 0.9f);\n"
+    "    p.ior = (float4)(1.5f, 1.51f, 1.52f, 1.49f);\n"
+    "    p.eta = (float4)(0.2f, 0.5f, 1.0f, 1.2f);\n"
+    "    p.k = (float4)(3.0f, 2.6f, 2.5f, 7.0f);\n"
+    "    p.metallic = q[7]; p.roughness = q[8]; p.transmission = q[9]; p.conductor = i % 2;\n"
+    "    float3 wo = normalize((float3)(q[0], q[1], q[2]));\n"
+    "    BsdfSample s = bsdf_sample(&p, wo, q[3], q[4], q[5]);\n"
+    "    float4 f = bsdf_eval(&p, wo, s.wi);\n"
+    "    __global float *o = out + 10 * i;\n"
+    "    o[0] = s.wi.x; o[1] = s.wi.y; o[2] = s.wi.z; o[3] = s.weight.x; o[4] = s.weight.w;\n"
+    "    o[5] = s.pdf; o[6] = (float)(s.valid + 2 * s.is_delta + 4 * s.dispersive);\n"
+    "    o[7] = f.y; o[8] = bsdf_pdf(&p, wo, s.wi); o[9] = (float)bsdf_is_delta(&p);\n"
+    "}\n";
+
+/* The header builds as OpenCL C 1.2 and the device's samples equal the host's. */
+static void test_device_matches_host(void **state)
+{
+    (void)state;
+    cl_platform_id plat;
+    cl_device_id dev;
+    cl_uint np = 0;
+    if (clGetPlatformIDs(1, &plat, &np) != CL_SUCCESS || np == 0 ||
+        clGetDeviceIDs(plat, CL_DEVICE_TYPE_ALL, 1, &dev, NULL) != CL_SUCCESS) {
+        print_message("no OpenCL device: skipped\n");
+        skip();
+    }
+    cl_int err;
+    cl_context ctx = clCreateContext(NULL, 1, &dev, NULL, NULL, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_command_queue cq = clCreateCommandQueue(ctx, dev, 0, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_program prog = clCreateProgramWithSource(ctx, 1, &k_device_src, NULL, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    err = clBuildProgram(prog, 1, &dev, "-I kernels -cl-std=CL1.2", NULL, NULL);
+    if (err != CL_SUCCESS) {
+        char log[8192] = "";
+        clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, NULL);
+        fail_msg("kernels/bsdf.h does not build as OpenCL C: %s", log);
+    }
+    enum { N = 512 };
+    static float in[10 * N], out[10 * N];
+    for (int i = 0; i < N; i++) {
+        float *q = in + 10 * i;
+        for (int j = 0; j < 10; j++)
+            q[j] = test_uniform(77000 + 10 * (uint64_t)i + j);
+        q[0] -= 0.5f;
+        q[1] -= 0.5f;
+        q[2] = (i % 3 == 0) ? -(q[2] + 0.05f) : q[2] + 0.05f;
+        q[8] = (i % 5 == 0) ? 0.0f : 0.1f + 0.9f * q[8];
+    }
+    cl_mem bi = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof in, in, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_mem bo = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, sizeof out, NULL, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_kernel k = clCreateKernel(prog, "k_bsdf_test", &err);
+    assert_int_equal(err, CL_SUCCESS);
+    int n = N;
+    assert_int_equal(clSetKernelArg(k, 0, sizeof(cl_mem), &bi), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 1, sizeof(cl_mem), &bo), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 2, sizeof n, &n), CL_SUCCESS);
+    size_t global = N;
+    assert_int_equal(clEnqueueNDRangeKernel(cq, k, 1, NULL, &global, NULL, 0, NULL, NULL), CL_SUCCESS);
+    assert_int_equal(clEnqueueReadBuffer(cq, bo, CL_TRUE, 0, sizeof out, out, 0, NULL, NULL), CL_SUCCESS);
+    int compared = 0;
+    for (int i = 0; i < N; i++) {
+        const float *q = in + 10 * i;
+        BsdfParams p;
+        p.base = v4(q[6], q[6], 0.5f, 0.9f);
+        p.ior = v4(1.5f, 1.51f, 1.52f, 1.49f);
+        p.eta = v4(0.2f, 0.5f, 1.0f, 1.2f);
+        p.k = v4(3.0f, 2.6f, 2.5f, 7.0f);
+        p.metallic = q[7];
+        p.roughness = q[8];
+        p.transmission = q[9];
+        p.conductor = i % 2;
+        vec3 wo = v3_normalize(v3(q[0], q[1], q[2]));
+        BsdfSample s = bsdf_sample(&p, wo, q[3], q[4], q[5]);
+        vec4 f = bsdf_eval(&p, wo, s.wi);
+        const float want[10] = {s.wi.x, s.wi.y, s.wi.z, s.weight.x, s.weight.w, s.pdf,
+                                (float)(s.valid + 2 * s.is_delta + 4 * s.dispersive), f.y,
+                                bsdf_pdf(&p, wo, s.wi), (float)bsdf_is_delta(&p)};
+        const float *g = out + 10 * i;
+        /* Flags must agree; values to float rounding (the device may contract). */
+        if (g[6] != want[6])
+            fail_msg("input %d: flags device %g, host %g", i, g[6], want[6]);
+        for (int j = 0; j < 10; j++)
+            if (!(fabsf(g[j] - want[j]) <= 2e-3f * fmaxf(1.0f, fabsf(want[j]))))
+                fail_msg("input %d, output %d: device %.9g, host %.9g", i, j, g[j], want[j]);
+        compared += s.valid;
+    }
+    print_message("  %d valid samples agree between device and host\n", compared);
+    clReleaseKernel(k);
+    clReleaseMemObject(bi);
+    clReleaseMemObject(bo);
+    clReleaseProgram(prog);
+    clReleaseCommandQueue(cq);
+    clReleaseContext(ctx);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -431,6 +543,7 @@ int main(void)
         cmocka_unit_test(test_consistency_reciprocity),
         cmocka_unit_test(test_energy),
         cmocka_unit_test(test_smooth_dielectric),
+        cmocka_unit_test(test_device_matches_host),
     };
     return cmocka_run_group_tests_name("bsdf", tests, NULL, NULL);
 }
