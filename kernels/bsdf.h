@@ -27,6 +27,7 @@
 
 #include "shared.h"
 #include "vecmath.h"
+#include "conductors.h"
 
 /* Alpha below which a lobe is treated as perfectly smooth (a delta lobe). */
 #define BSDF_DELTA_ALPHA 1e-3f
@@ -147,6 +148,18 @@ SPT_FN float bsdf_dispersion_ior(float ior, float dispersion, float lambda_nm)
         return ior;
     float inv_v = dispersion / 20.0f;
     return ior + (ior - 1.0f) * inv_v * (523655.0f / (lambda_nm * lambda_nm) - 1.5168f);
+}
+
+/* Makes p's metal a measured conductor (SPT_CONDUCTOR_AU, _AG, _CU, _AL of
+ * kernels/conductors.h) at the path's wavelengths lambda_nm[0..3]: sets conductor,
+ * eta and k. */
+SPT_FN void bsdf_set_conductor(BsdfParams *p, int metal, float l0, float l1, float l2, float l3)
+{
+    p->conductor = 1;
+    p->eta = v4(spt_conductor_lookup(metal, 0, l0), spt_conductor_lookup(metal, 0, l1),
+                spt_conductor_lookup(metal, 0, l2), spt_conductor_lookup(metal, 0, l3));
+    p->k = v4(spt_conductor_lookup(metal, 1, l0), spt_conductor_lookup(metal, 1, l1),
+              spt_conductor_lookup(metal, 1, l2), spt_conductor_lookup(metal, 1, l3));
 }
 
 /* ---- GGX microfacet distribution (isotropic) ------------------------------------ */
