@@ -12,8 +12,13 @@
  *    base; fresnel_mix for the dielectric part (F0 from the ior, 0.04 at 1.5),
  *    conductor_fresnel for the metal part, mixed by metallic. With a measured
  *    conductor (p.conductor != 0) the metal uses the exact complex Fresnel.
- *  - KHR_materials_transmission + KHR_materials_ior: the dielectric part's base is
- *    mix(diffuse, dielectric interface, transmission). The interface uses the exact
+ *  - KHR_materials_transmission + KHR_materials_ior: the dielectric part is
+ *    (1 - t) (GGX Schlick layer over Lambert) + t (dielectric interface), the
+ *    interface's refraction tinted by the base colour as the extension says. This
+ *    departs from the extension's layering (which keeps the Schlick GGX layer over
+ *    a mix(diffuse, btdf, t) base): the interface's own exact Fresnel reflection
+ *    replaces the layer for the transmissive share, so a smooth clear glass has
+ *    R + T = 1 exactly. The interface uses the exact
  *    dielectric Fresnel equations; smooth: specular reflection / refraction; rough:
  *    GGX microfacet transmission (Walter et al. 2007, "Microfacet Models for
  *    Refraction through Rough Surfaces"). Refracted radiance is scaled by 1/eta^2
@@ -389,10 +394,12 @@ SPT_FN vec4 bsdf_eval(const BsdfParams *p, vec3 wo, vec3 wi)
     float wt = (1.0f - m) * t;
     if (wt > 0.0f && !smooth) {
         float pd;
-        r = v4_add(r, v4_scale(v4(bsdf_interface_eval(wo, wi, p->ior.x, alpha, &pd),
-                                  bsdf_interface_eval(wo, wi, p->ior.y, alpha, &pd),
-                                  bsdf_interface_eval(wo, wi, p->ior.z, alpha, &pd),
-                                  bsdf_interface_eval(wo, wi, p->ior.w, alpha, &pd)), wt));
+        vec4 fi = v4(bsdf_interface_eval(wo, wi, p->ior.x, alpha, &pd), bsdf_interface_eval(wo, wi, p->ior.y, alpha, &pd),
+                     bsdf_interface_eval(wo, wi, p->ior.z, alpha, &pd), bsdf_interface_eval(wo, wi, p->ior.w, alpha, &pd));
+        /* KHR_materials_transmission tints the transmitted light by the base colour. */
+        if (wo.z * wi.z < 0.0f)
+            fi = v4_mul(fi, p->base);
+        r = v4_add(r, v4_scale(fi, wt));
     }
     return r;
 }
@@ -485,7 +492,7 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
             } else {
                 float etap = wo.z > 0.0f ? eta : 1.0f / eta;
                 float w = wt * (1.0f - F) / (s.pdf * etap * etap);
-                s.weight = v4_splat(w);
+                s.weight = v4_scale(p->base, w);
             }
             if (s.dispersive)
                 s.weight = v4_splat(s.weight.x);

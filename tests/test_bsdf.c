@@ -476,6 +476,17 @@ static void test_smooth_dielectric(void **state)
         print_message("  theta %.0f: reflected %.4f, Fresnel %.4f\n", thetas[t], frac, F);
         assert_close(frac, F, 5 * sigma + 1e-4);
     }
+    /* A tinted glass (KHR_materials_transmission: the btdf times the base colour):
+     * the refraction weight is base / eta^2, the reflection weight stays 1. */
+    BsdfParams tint = glass;
+    tint.base = v4(0.5f, 0.25f, 1.0f, 0.75f);
+    BsdfSample st = bsdf_sample(&tint, dir_deg(30), 0.99f, 0.5f, 0.5f);
+    assert_true(st.valid && st.wi.z < 0.0f);
+    assert_close(st.weight.x, 0.5 / 2.25, 1e-5);
+    assert_close(st.weight.y, 0.25 / 2.25, 1e-5);
+    st = bsdf_sample(&tint, dir_deg(30), 0.001f, 0.5f, 0.5f);
+    assert_true(st.valid && st.wi.z > 0.0f);
+    assert_close(st.weight.y, 1.0, 1e-5);
     BsdfParams disp = glass;
     disp.ior = v4(1.52f, 1.51f, 1.50f, 1.53f);
     BsdfSample s = bsdf_sample(&disp, dir_deg(30), 0.99f, 0.5f, 0.5f);
