@@ -159,6 +159,44 @@ def orient_quad(quad, toward):
     return list(quad) if _dot(n, toward) > 0 else list(reversed(quad))
 
 
+def uv_sphere(stacks, slices, radius=1.0, center=(0.0, 0.0, 0.0), smooth=False):
+    """A closed UV sphere with shared vertices (watertight): positions,
+    triangles counter-clockwise seen from outside, and unit normals when smooth
+    (else None: renderers then use the flat geometric normals). stacks >= 2,
+    slices >= 3; the poles are single vertices."""
+    pos, nrm = [], []
+    for i in range(stacks + 1):
+        th = math.pi * i / stacks
+        ring = [(0.0, math.cos(th), 0.0)] if i in (0, stacks) else [
+            (math.sin(th) * math.cos(2 * math.pi * j / slices), math.cos(th),
+             -math.sin(th) * math.sin(2 * math.pi * j / slices)) for j in range(slices)]
+        for d in ring:
+            nrm.append(d)
+            pos.append(tuple(c + radius * v for c, v in zip(center, d)))
+
+    def vid(i, j):   # ring i (0 = north pole), column j
+        if i == 0:
+            return 0
+        if i == stacks:
+            return len(pos) - 1
+        return 1 + (i - 1) * slices + j % slices
+
+    tris = []
+    for i in range(stacks):
+        for j in range(slices):
+            a, b = vid(i, j), vid(i, j + 1)
+            c, d = vid(i + 1, j), vid(i + 1, j + 1)
+            if i > 0:
+                tris.append((a, c, b))
+            if i < stacks - 1:
+                tris.append((b, c, d))
+    # Check the winding once: the first triangle's normal points away from the centre.
+    t = tris[len(tris) // 2]
+    n = _cross(_sub(pos[t[1]], pos[t[0]]), _sub(pos[t[2]], pos[t[0]]))
+    assert _dot(n, _sub(pos[t[0]], center)) > 0, "sphere winding"
+    return pos, tris, (nrm if smooth else None)
+
+
 class GltfBuilder:
     """Collects meshes, materials, nodes and a camera; writes one .gltf with the
     binary data as a base64 data URI."""
@@ -168,7 +206,7 @@ class GltfBuilder:
                     "scene": 0, "scenes": [{"nodes": []}], "nodes": [], "meshes": [],
                     "materials": [], "accessors": [], "bufferViews": [], "buffers": []}
         self.blob = bytearray()
-        self.uses_strength = False
+        self.extensions_used = set()
 
     def _view(self, data, target):
         while len(self.blob) % 4:
@@ -186,20 +224,27 @@ class GltfBuilder:
         return len(self.doc["accessors"]) - 1
 
     def material(self, name, base_rgb, emissive=None, strength=1.0, reflectance=None,
-                 emission=None, double_sided=False):
+                 emission=None, double_sided=False, pure_diffuse=False):
         """A Lambertian material (metallic 0, roughness 1). emissive: RGB factor;
         strength > 1 is written as KHR_materials_emissive_strength. reflectance /
-        emission: [(nm, value)] tables for extras.spectrace."""
+        emission: [(nm, value)] tables for extras.spectrace. pure_diffuse adds
+        KHR_materials_specular with specularFactor 0, which removes glTF's 4%
+        dielectric specular layer: the surface is then exactly Lambertian (what
+        Mitsuba's `diffuse` is)."""
         m = {"name": name, "pbrMetallicRoughness": {
             "baseColorFactor": [float(c) for c in base_rgb] + [1.0],
             "metallicFactor": 0.0, "roughnessFactor": 1.0}}
         if double_sided:
             m["doubleSided"] = True
+        if pure_diffuse:
+            m.setdefault("extensions", {})["KHR_materials_specular"] = {"specularFactor": 0.0}
+            self.extensions_used.add("KHR_materials_specular")
         if emissive is not None:
             m["emissiveFactor"] = [float(c) for c in emissive]
             if strength != 1.0:
-                m["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": float(strength)}}
-                self.uses_strength = True
+                m.setdefault("extensions", {})["KHR_materials_emissive_strength"] = {
+                    "emissiveStrength": float(strength)}
+                self.extensions_used.add("KHR_materials_emissive_strength")
         spec = {}
         if reflectance is not None:
             spec["reflectance"] = [[float(a), float(b)] for a, b in reflectance]
@@ -209,6 +254,62 @@ class GltfBuilder:
             m["extras"] = {"spectrace": spec}
         self.doc["materials"].append(m)
         return len(self.doc["materials"]) - 1
+
+    def pbr_material(self, name, base_rgb=(1.0, 1.0, 1.0), metallic=0.0, roughness=1.0,
+                     extensions=None, spectrace=None):
+        """A glTF metallic-roughness material with the given extensions
+        ({name: object}, each added to extensionsUsed) and extras.spectrace."""
+        m = {"name": name, "pbrMetallicRoughness": {
+            "baseColorFactor": [float(c) for c in base_rgb] + [1.0],
+            "metallicFactor": float(metallic), "roughnessFactor": float(roughness)}}
+        if extensions:
+            m["extensions"] = extensions
+            self.extensions_used.update(extensions)
+        if spectrace:
+            m["extras"] = {"spectrace": spectrace}
+        self.doc["materials"].append(m)
+        return len(self.doc["materials"]) - 1
+
+    def geometry(self, positions, triangles, normals=None):
+        """Writes vertex and index data once; returns (attributes, indices accessor)
+        for mesh_from (several meshes may share them). Indices are u16 when the
+        vertices allow it."""
+        pos = b"".join(struct.pack("<3f", *p) for p in positions)
+        mn = [min(p[k] for p in positions) for k in range(3)]
+        mx = [max(p[k] for p in positions) for k in range(3)]
+        attrs = {"POSITION": self._accessor(self._view(pos, 34962), 5126, len(positions), "VEC3", mn, mx)}
+        if normals is not None:
+            nrm = b"".join(struct.pack("<3f", *n) for n in normals)
+            attrs["NORMAL"] = self._accessor(self._view(nrm, 34962), 5126, len(normals), "VEC3")
+        if len(positions) < 65536:
+            idx = b"".join(struct.pack("<3H", *t) for t in triangles)
+            ind = self._accessor(self._view(idx, 34963), 5123, 3 * len(triangles), "SCALAR")
+        else:
+            idx = b"".join(struct.pack("<3I", *t) for t in triangles)
+            ind = self._accessor(self._view(idx, 34963), 5125, 3 * len(triangles), "SCALAR")
+        return attrs, ind
+
+    def mesh_from(self, name, geometry, material, translation=None, scale=None):
+        """A mesh node of one primitive over geometry() data, placed by a
+        translation and a uniform scale."""
+        attrs, ind = geometry
+        self.doc["meshes"].append({"name": name, "primitives": [
+            {"attributes": dict(attrs), "indices": ind, "material": material, "mode": 4}]})
+        node = {"name": name, "mesh": len(self.doc["meshes"]) - 1}
+        if translation is not None:
+            node["translation"] = [float(c) for c in translation]
+        if scale is not None:
+            node["scale"] = [float(scale)] * 3
+        self.node(node)
+
+    def point_light(self, name, intensity, position, color=(1.0, 1.0, 1.0)):
+        """A KHR_lights_punctual point light of `intensity` candela at position."""
+        ext = self.doc.setdefault("extensions", {}).setdefault("KHR_lights_punctual", {"lights": []})
+        ext["lights"].append({"name": name, "type": "point", "intensity": float(intensity),
+                              "color": [float(c) for c in color]})
+        self.extensions_used.add("KHR_lights_punctual")
+        self.node({"name": name, "translation": [float(c) for c in position],
+                   "extensions": {"KHR_lights_punctual": {"light": len(ext["lights"]) - 1}}})
 
     def mesh(self, name, positions, triangles, material, normals=None):
         """A triangle mesh node. positions: [(x,y,z)], triangles: [(i,j,k)]
@@ -255,8 +356,8 @@ class GltfBuilder:
     def write(self, path, extras=None):
         self.doc["buffers"] = [{"byteLength": len(self.blob), "uri": "data:application/octet-stream;base64,"
                                 + base64.b64encode(bytes(self.blob)).decode("ascii")}]
-        if self.uses_strength:
-            self.doc["extensionsUsed"] = ["KHR_materials_emissive_strength"]
+        if self.extensions_used:
+            self.doc["extensionsUsed"] = sorted(self.extensions_used)
         if extras:
             self.doc["asset"]["extras"] = extras
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
