@@ -6,12 +6,41 @@
 
 Reads the glTF with json + numpy (no other glTF library) and supports what the
 project's scenes use: triangle meshes (mode 4) under node transforms (matrix or
-TRS; a mirroring transform flips the winding back to counter-clockwise),
-Lambertian materials (baseColorFactor, or extras.spectrace.reflectance [[nm, v]]),
-one-sided emission (emissiveFactor * KHR_materials_emissive_strength as an RGB
-illuminant, or extras.spectrace.emission [[nm, v]] / a named SPD), and the first
-perspective camera (yfov, znear). Textures, transmission, metals and punctual
-lights are not converted (a warning names them).
+TRS; a mirroring transform flips the winding back to counter-clockwise), with
+their NORMALs as Mitsuba vertex normals (else flat faces); one-sided emission
+(emissiveFactor * KHR_materials_emissive_strength as an RGB illuminant, or
+extras.spectrace.emission [[nm, v]] / a named SPD); KHR_lights_punctual point
+lights; the first perspective camera (yfov, znear); and the materials that have
+an exact Mitsuba counterpart (material_to_mitsuba):
+
+  glTF material                                           Mitsuba plugin
+  metallic 0, KHR_materials_specular specularFactor 0     diffuse (baseColorFactor
+                                                          or extras reflectance)
+  metallic 1, extras.spectrace.conductor "Au"/"Ag"/"Cu"/"Al"  conductor (roughness 0)
+                                                          or roughconductor (ggx,
+                                                          alpha = roughness^2,
+                                                          sample_visible) with that
+                                                          material's measured eta, k
+  metallic 1, baseColorFactor white, no conductor         the same with material
+                                                          "none" (Schlick with F0 = 1
+                                                          is exactly 1)
+  metallic 0, KHR_materials_transmission 1, white,        dielectric / roughdielectric
+  KHR_materials_ior (default 1.5)                         (int_ior = ior, ext_ior 1,
+                                                          ggx, alpha = roughness^2)
+
+Anything else (glTF's 4% specular layer over diffuse, coloured Schlick metals,
+metallic or transmission between 0 and 1, dispersion, volumes, textures,
+unlit, clearcoat, sheen) is refused with an error naming the material; with
+--approx it is converted to the nearest of the above and a warning says how
+(dispersion: a constant ior, the glTF ior at 587.56 nm).
+
+Lights: with no emissive material and no punctual light, spectrace lights the
+scene with a uniform D65 sky of film Y = 1; so does this converter (a Mitsuba
+`constant` emitter), unless --background says otherwise (black, or R,G,B).
+A point light of intensity Iv candela and linear RGB colour c becomes a Mitsuba
+`point` emitter of RGB intensity c Iv / (683 * integral ybar) (an RGB illuminant,
+D65 times the upsampled colour, in the film's units: kernels/lights.h). Spot
+and directional lights are refused.
 
 Conventions matched with spectrace: Mitsuba's path integrator max_depth counts
 path segments from the camera (1 = emitters only, -1 = unlimited); RGB
@@ -104,7 +133,7 @@ def load_gltf(path):
         doc = json.load(f)
     bufs = _load_buffers(doc, os.path.dirname(os.path.abspath(path)))
     warnings = []
-    shapes, camera = [], None
+    shapes, camera, lights = [], None, []
     scene = doc.get("scenes", [{}])[doc.get("scene", 0)] if doc.get("scenes") else {
         "nodes": list(range(len(doc.get("nodes", []))))}
     stack = [(n, np.eye(4)) for n in scene.get("nodes", [])]
@@ -118,7 +147,10 @@ def load_gltf(path):
         world = parent @ _node_matrix(node)
         stack.extend((c, world) for c in node.get("children", []))
         if "extensions" in node and "KHR_lights_punctual" in node["extensions"]:
-            warnings.append("nodes[%d]: punctual light not converted" % ni)
+            li = node["extensions"]["KHR_lights_punctual"]["light"]
+            light = doc["extensions"]["KHR_lights_punctual"]["lights"][li]
+            lights.append({"index": li, "node": ni, "light": light, "position": world[:3, 3].copy(),
+                           "direction": -world[:3, 2] / np.linalg.norm(world[:3, 2])})
         if "camera" in node and camera is None:
             cam = doc["cameras"][node["camera"]]
             if cam.get("type") == "perspective":
@@ -148,27 +180,21 @@ def load_gltf(path):
             faces = idx[: len(idx) // 3 * 3].reshape(-1, 3)
             if mirror:
                 faces = faces[:, ::-1]
+            nrm = None
+            if "NORMAL" in prim["attributes"]:
+                nrm = _accessor(doc, bufs, prim["attributes"]["NORMAL"]).astype(np.float64)
+                nrm = nrm @ np.linalg.inv(world[:3, :3])   # (M^-T n) as rows
+                nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-30)
             # Drop degenerate triangles (Mitsuba would keep them; they have no area).
             v0, v1, v2 = pos[faces[:, 0]], pos[faces[:, 1]], pos[faces[:, 2]]
             area = np.linalg.norm(np.cross(v1 - v0, v2 - v0), axis=1)
             faces = faces[np.isfinite(area) & (area > 0)]
             name = "%s_%d_%d" % (mesh.get("name", "mesh"), ni, pi)
-            shapes.append((name, pos.astype(np.float32), faces.astype(np.uint32), prim.get("material", -1)))
+            shapes.append((name, pos.astype(np.float32), faces.astype(np.uint32), prim.get("material", -1),
+                           None if nrm is None else nrm.astype(np.float32)))
     mats = doc.get("materials", [])
-    for i, m in enumerate(mats):
-        for key in ("normalTexture", "occlusionTexture", "emissiveTexture"):
-            if key in m:
-                warnings.append("materials[%d]: %s ignored" % (i, key))
-        pbr = m.get("pbrMetallicRoughness", {})
-        if "baseColorTexture" in pbr:
-            warnings.append("materials[%d]: baseColorTexture ignored (factor used)" % i)
-        if pbr.get("metallicFactor", 1.0) != 0.0:
-            warnings.append("materials[%d]: metallicFactor %g treated as 0 (Lambertian only)"
-                            % (i, pbr.get("metallicFactor", 1.0)))
-        for ext in m.get("extensions", {}):
-            if ext != "KHR_materials_emissive_strength":
-                warnings.append("materials[%d]: %s ignored" % (i, ext))
-    return {"shapes": shapes, "materials": mats, "camera": camera, "warnings": warnings, "doc": doc}
+    return {"shapes": shapes, "materials": mats, "camera": camera, "lights": lights,
+            "warnings": warnings, "doc": doc}
 
 
 # ---------------------------------------------------------------------------
@@ -230,17 +256,104 @@ def _spd(value, warnings):
     return _named_spd(value, warnings) if isinstance(value, str) else _spectrum_table(value)
 
 
-def material_to_mitsuba(m, warnings):
-    """(bsdf dict, emitter dict or None) for one glTF material."""
+class NotExact(ValueError):
+    """A material, light or setting without an exact Mitsuba counterpart."""
+
+
+CONDUCTORS = ("Au", "Ag", "Cu", "Al")
+# Extensions that change nothing the converter maps (or that it checks itself).
+_MAPPED_EXTENSIONS = {"KHR_materials_emissive_strength", "KHR_materials_specular", "KHR_materials_transmission",
+                      "KHR_materials_ior", "KHR_materials_dispersion", "KHR_materials_volume"}
+
+
+def _microfacet(kind, roughness):
+    """Mitsuba's smooth plugin for roughness 0, else the rough one with GGX and
+    alpha = roughness^2 (glTF's convention) and visible-normal sampling."""
+    if roughness == 0.0:
+        return {"type": kind}
+    return {"type": "rough" + kind, "distribution": "ggx", "alpha": float(roughness) ** 2, "sample_visible": True}
+
+
+def material_to_mitsuba(m, warnings, where="material", approx=False):
+    """(bsdf dict, emitter dict or None) for one glTF material. A material that
+    Mitsuba cannot render exactly the way spectrace does raises NotExact naming
+    it, or, with approx, is converted to the nearest plugin with a warning."""
+    def inexact(msg):
+        msg = "%s '%s': %s" % (where, m.get("name", ""), msg)
+        if not approx:
+            raise NotExact(msg + " (no exact Mitsuba counterpart; --approx converts it anyway)")
+        warnings.append(msg)
+
     spec = m.get("extras", {}).get("spectrace", {}) if isinstance(m.get("extras"), dict) else {}
     pbr = m.get("pbrMetallicRoughness", {})
-    if "reflectance" in spec:
-        refl = _spd(spec["reflectance"], warnings)
+    ext = m.get("extensions", {})
+    for key in ("normalTexture", "occlusionTexture", "emissiveTexture"):
+        if key in m:
+            inexact("%s not converted" % key)
+    for key in ("baseColorTexture", "metallicRoughnessTexture"):
+        if key in pbr:
+            inexact("%s not converted (the factor is used)" % key)
+    for e in ext:
+        if e not in _MAPPED_EXTENSIONS:
+            inexact("%s not converted" % e)
+    base = [float(c) for c in pbr.get("baseColorFactor", [1, 1, 1, 1])[:3]]
+    metallic = float(pbr.get("metallicFactor", 1.0))
+    roughness = float(pbr.get("roughnessFactor", 1.0))
+    transmission = float(ext.get("KHR_materials_transmission", {}).get("transmissionFactor", 0.0))
+    ior = float(ext.get("KHR_materials_ior", {}).get("ior", 1.5))
+    dispersion = float(ext.get("KHR_materials_dispersion", {}).get("dispersion", 0.0))
+    specular = float(ext.get("KHR_materials_specular", {}).get("specularFactor", 1.0))
+    volume = ext.get("KHR_materials_volume", {})
+    conductor = spec.get("conductor")
+    white = all(c == 1.0 for c in base)
+
+    if metallic not in (0.0, 1.0):
+        inexact("metallicFactor %g (only 0 or 1 map exactly)" % metallic)
+        metallic = round(metallic)
+    if conductor is not None and conductor not in CONDUCTORS:
+        raise NotExact("%s '%s': conductor %r is not one of %s" % (where, m.get("name", ""), conductor,
+                                                                  ", ".join(CONDUCTORS)))
+    if metallic == 1.0:
+        if conductor is None:
+            if not white:
+                inexact("a coloured Schlick metal (baseColorFactor %s) is not Mitsuba's exact Fresnel; "
+                        "converted as a perfect reflector" % base)
+            conductor = "none"
+        bsdf = _microfacet("conductor", roughness)
+        bsdf["material"] = conductor
+    elif transmission > 0.0:
+        if transmission != 1.0:
+            inexact("transmissionFactor %g (only 1 maps exactly)" % transmission)
+        if not white:
+            inexact("tinted transmission (baseColorFactor %s) not converted" % base)
+        if dispersion != 0.0:
+            inexact("dispersion %g converted as a constant ior %g (the value at 587.56 nm)" % (dispersion, ior))
+        if specular != 1.0:
+            inexact("specularFactor %g on a dielectric not converted" % specular)
+        if volume.get("attenuationDistance") is not None or volume.get("attenuationColor") not in (None, [1, 1, 1]):
+            inexact("KHR_materials_volume attenuation not converted")
+        bsdf = _microfacet("dielectric", roughness)
+        bsdf.update({"int_ior": ior, "ext_ior": 1.0})
+        return bsdf, _emitter(m, spec, warnings)
     else:
-        refl = {"type": "rgb", "value": [float(c) for c in pbr.get("baseColorFactor", [1, 1, 1, 1])[:3]]}
-    bsdf = {"type": "diffuse", "reflectance": refl}
+        if conductor is not None:
+            inexact("extras.spectrace.conductor on a material with metallicFactor 0 is unused")
+        if specular != 0.0:
+            inexact("glTF's dielectric specular layer (F0 0.04 x specularFactor %g) over the diffuse base "
+                    "converted as plain diffuse (KHR_materials_specular specularFactor 0 makes it exact)"
+                    % specular)
+        if "reflectance" in spec:
+            refl = _spd(spec["reflectance"], warnings)
+        else:
+            refl = {"type": "rgb", "value": base}
+        bsdf = {"type": "diffuse", "reflectance": refl}
     if m.get("doubleSided"):
         bsdf = {"type": "twosided", "bsdf": bsdf}
+    return bsdf, _emitter(m, spec, warnings)
+
+
+def _emitter(m, spec, warnings):
+    """The area emitter of a material, or None."""
     emitter = None
     if "emission" in spec:
         emitter = {"type": "area", "radiance": _spd(spec["emission"], warnings)}
@@ -249,38 +362,84 @@ def material_to_mitsuba(m, warnings):
         s = float(m.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0))
         if max(e) * s > 0:
             emitter = {"type": "area", "radiance": {"type": "rgb", "value": [c * s for c in e]}}
-    return bsdf, emitter
+    return emitter
 
 
-def _write_ply(path, pos, faces):
+# Film Y of 1 cd/m^2 (kernels/lights.h SPT_LIGHT_FILM_Y_PER_NIT): 1 / (683 * integral ybar).
+CIE_Y_INTEGRAL = 106.856895
+
+
+def light_to_mitsuba(entry, approx=False, warnings=None):
+    """A Mitsuba emitter for one KHR_lights_punctual light (point lights only)."""
+    light = entry["light"]
+    kind = light.get("type")
+    if kind != "point":
+        raise NotExact("lights[%d] '%s': %s lights are not converted" % (entry["index"], light.get("name", ""), kind))
+    col = [float(c) for c in light.get("color", [1, 1, 1])]
+    k = float(light.get("intensity", 1.0)) / (683.0 * CIE_Y_INTEGRAL)
+    return {"type": "point", "position": [float(x) for x in entry["position"]],
+            "intensity": {"type": "rgb", "value": [c * k for c in col]}}
+
+
+def parse_background(text):
+    """None (the default sky), [] (black) or [r, g, b] from --background."""
+    if text is None:
+        return None
+    if text.strip().lower() == "black":
+        return []
+    try:
+        v = [float(x) for x in text.split(",")]
+    except ValueError:
+        v = []
+    if len(v) != 3 or min(v) < 0:
+        raise ValueError("--background: want black or R,G,B (got %r)" % text)
+    return v
+
+
+def _write_ply(path, pos, faces, normals=None):
     with open(path, "wb") as f:
         f.write(("ply\nformat binary_little_endian 1.0\nelement vertex %d\n"
-                 "property float x\nproperty float y\nproperty float z\n"
+                 "property float x\nproperty float y\nproperty float z\n%s"
                  "element face %d\nproperty list uchar uint vertex_indices\nend_header\n"
-                 % (len(pos), len(faces))).encode("ascii"))
-        f.write(np.ascontiguousarray(pos, "<f4").tobytes())
+                 % (len(pos), "property float nx\nproperty float ny\nproperty float nz\n" if normals is not None
+                    else "", len(faces))).encode("ascii"))
+        data = pos if normals is None else np.concatenate([pos, normals], axis=1)
+        f.write(np.ascontiguousarray(data, "<f4").tobytes())
         rec = np.zeros(len(faces), dtype=[("n", "u1"), ("i", "<u4", 3)])
         rec["n"] = 3
         rec["i"] = faces
         f.write(rec.tobytes())
 
 
-def scene_dict(mi, scene, width, height, spp, max_depth, tmpdir, seed=0):
-    """The Mitsuba scene dictionary (meshes written as PLY files into tmpdir)."""
+def scene_dict(mi, scene, width, height, spp, max_depth, tmpdir, seed=0, approx=False, background=None):
+    """The Mitsuba scene dictionary (meshes written as PLY files into tmpdir).
+    Raises NotExact for what has no exact counterpart unless approx.
+    background: None (spectrace's default), [] (black) or [r, g, b]."""
     warnings = scene["warnings"]
     d = {"type": "scene", "integrator": {"type": "path", "max_depth": int(max_depth)}}
-    mats = [material_to_mitsuba(m, warnings) for m in scene["materials"]]
-    default = ({"type": "diffuse", "reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}, None)
-    for k, (name, pos, faces, mat) in enumerate(scene["shapes"]):
+    mats = [material_to_mitsuba(m, warnings, "materials[%d]" % i, approx)
+            for i, m in enumerate(scene["materials"])]
+    # glTF's default material is metallic 1, roughness 1, white: a rough perfect reflector.
+    default = material_to_mitsuba({"name": "(default)"}, warnings, "the default material", approx)
+    emitting = False
+    for k, (name, pos, faces, mat, nrm) in enumerate(scene["shapes"]):
         if len(faces) == 0:
             continue
         ply = os.path.join(tmpdir, "shape%04d.ply" % k)
-        _write_ply(ply, pos, faces)
+        _write_ply(ply, pos, faces, nrm)
         bsdf, emitter = mats[mat] if mat >= 0 else default
-        sh = {"type": "ply", "filename": ply, "face_normals": True, "bsdf": bsdf}
+        sh = {"type": "ply", "filename": ply, "face_normals": nrm is None, "bsdf": bsdf}
         if emitter is not None:
             sh["emitter"] = emitter
+            emitting = True
         d["shape%04d" % k] = sh
+    for k, entry in enumerate(scene.get("lights", [])):
+        d["light%03d" % k] = light_to_mitsuba(entry, approx, warnings)
+        emitting = True
+    if background is None and not emitting:
+        background = [1.0, 1.0, 1.0]   # spectrace's default sky: D65 at film Y = 1
+    if background:
+        d["background"] = {"type": "constant", "radiance": {"type": "rgb", "value": [float(c) for c in background]}}
     cam = scene["camera"]
     if cam is None:
         # As spectrace's default: frame the bounds from +Z looking toward -Z, yfov 45.
@@ -306,7 +465,7 @@ def scene_dict(mi, scene, width, height, spp, max_depth, tmpdir, seed=0):
 
 
 def render(scene_path, width, height, spp, max_depth, variant="auto", seed=0, pass_samples=1 << 24,
-           verbose=True, warmup=False):
+           verbose=True, warmup=False, approx=False, background=None):
     """Renders scene_path with Mitsuba; returns (image HxWx3 float64 linear sRGB,
     info dict). The spp are split into passes of at most pass_samples paths
     (different seeds) to bound the memory of the LLVM wavefront; info carries
@@ -325,7 +484,8 @@ def render(scene_path, width, height, spp, max_depth, variant="auto", seed=0, pa
     means = []
     with tempfile.TemporaryDirectory(prefix="spt_mitsuba_") as tmp:
         t0 = time.time()
-        msc = mi.load_dict(scene_dict(mi, scene, width, height, passes[0], max_depth, tmp))
+        msc = mi.load_dict(scene_dict(mi, scene, width, height, passes[0], max_depth, tmp, approx=approx,
+                                      background=background))
         t_load = time.time() - t0
         if warmup:   # compile the kernel outside the timed passes
             t0 = time.time()
@@ -348,6 +508,7 @@ def render(scene_path, width, height, spp, max_depth, variant="auto", seed=0, pa
     img = acc / spp
     info = {"variant": mi.variant(), "mitsuba_version": mi.__version__, "spp": spp, "width": width,
             "height": height, "max_depth": max_depth, "passes": len(passes), "load_s": t_load,
+            "warnings": list(scene["warnings"]),
             "render_s": t_render, "paths_per_s": width * height * spp / t_render,
             "cpu_s": c_render, "paths_per_cpu_s": width * height * spp / max(c_render, 1e-9),
             "mean": img.mean(axis=(0, 1)).tolist()}
@@ -392,6 +553,8 @@ def record_means(path, scene_path, info, args, img):
     entry.update({"integrator": "path (rr_depth 5), hdrfilm box filter, independent sampler",
                   "mean": [round(v, 7) for v in info["mean"]],
                   "block_means_4x4": block_means(img)})
+    if info.get("warnings"):
+        entry["converter_warnings"] = info["warnings"]
     if "stderr_of_mean" in info:
         entry["stderr_of_mean"] = [float("%.3g" % v) for v in info["stderr_of_mean"]]
         entry["relative_stderr"] = [float("%.3g" % (e / m)) if m else None
@@ -425,6 +588,12 @@ def main(argv=None):
                     help="at most this many paths per mi.render call (default 16777216; 0 = one pass)")
     ap.add_argument("--benchmark", action="store_true",
                     help="time paths/s: a 1 spp warm-up render first, then all spp in one pass")
+    ap.add_argument("--approx", action="store_true",
+                    help="convert materials without an exact Mitsuba counterpart to the nearest one (warned) "
+                         "instead of refusing them")
+    ap.add_argument("--background", metavar="black|R,G,B",
+                    help="uniform sky as spectrace's --background (default: spectrace's rule, a D65 sky of "
+                         "film Y = 1 when the scene has no light)")
     ap.add_argument("--json", action="store_true", help="print the result (means, timing) as JSON")
     ap.add_argument("--means-json", metavar="FILE",
                     help="record the means (with settings, timing and this command) in FILE under the key "
@@ -434,10 +603,14 @@ def main(argv=None):
     try:
         one_pass = a.pass_samples <= 0 or a.benchmark
         img, info = render(a.scene, w, h, a.spp, a.max_depth, a.variant, a.seed,
-                           w * h * a.spp if one_pass else a.pass_samples, warmup=a.benchmark)
+                           w * h * a.spp if one_pass else a.pass_samples, warmup=a.benchmark,
+                           approx=a.approx, background=parse_background(a.background))
     except ImportError:
         print("skip: " + MITSUBA_MISSING)
         return 0
+    except ValueError as e:   # NotExact, a bad --background, an unsupported SPD
+        print("error: %s: %s" % (a.scene, e), file=sys.stderr)
+        return 3
     if a.output:
         import mitsuba as mi
         write_exr(mi, a.output, img)
