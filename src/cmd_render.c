@@ -7,8 +7,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "checkpoint.h"
 #include "cl_device.h"
 #include "commands.h"
+#include "dist.h"
 #include "film.h"
 #include "image_out.h"
 #include "render.h"
@@ -45,12 +47,17 @@ static const char render_usage[] =
     "      --aperture R       thin-lens radius in metres (default 0: pinhole)\n"
     "      --focus-distance D focus distance in metres (default: the distance at the\n"
     "                         image centre)\n"
+    "      --checkpoint FILE  write the resumable film (an EXR) every --checkpoint-every\n"
+    "                         seconds, at the end and when stopped by a signal\n"
+    "      --checkpoint-every SECONDS  (default 60)\n"
+    "      --resume FILE      continue the checkpoint FILE to --spp samples per pixel in\n"
+    "                         total (same scene and settings; keeps checkpointing to FILE)\n"
     "      --profile          time the kernel stages and print where the time went\n"
     "  -q, --quiet            no progress display\n"
     "  -h, --help             this text\n"
     "\n"
     "Ctrl-C (SIGINT) or SIGTERM stops after the current pass and writes the image of\n"
-    "the samples done so far.\n";
+    "the samples done so far (and the checkpoint, with --checkpoint).\n";
 
 static volatile sig_atomic_t stop_requested;
 
@@ -95,7 +102,8 @@ static void scene_stem(const char *path, char *out, size_t n)
 int cmd_render(int argc, char **argv)
 {
     enum { O_SPP = 256, O_TIME, O_WIDTH, O_HEIGHT, O_DEPTH, O_SEED, O_DEVICE, O_EXPOSURE,
-           O_TONEMAP, O_PROFILE, O_ENV, O_ENV_ROT, O_ENV_INT, O_BACKGROUND, O_APERTURE, O_FOCUS };
+           O_TONEMAP, O_PROFILE, O_ENV, O_ENV_ROT, O_ENV_INT, O_BACKGROUND, O_APERTURE, O_FOCUS,
+           O_CHECKPOINT, O_CKPT_EVERY, O_RESUME };
     static const struct option opts[] = {
         {"output", required_argument, 0, 'o'},  {"spp", required_argument, 0, O_SPP},
         {"time", required_argument, 0, O_TIME}, {"width", required_argument, 0, O_WIDTH},
@@ -108,6 +116,9 @@ int cmd_render(int argc, char **argv)
         {"background", required_argument, 0, O_BACKGROUND},
         {"aperture", required_argument, 0, O_APERTURE},
         {"focus-distance", required_argument, 0, O_FOCUS},
+        {"checkpoint", required_argument, 0, O_CHECKPOINT},
+        {"checkpoint-every", required_argument, 0, O_CKPT_EVERY},
+        {"resume", required_argument, 0, O_RESUME},
         {"quiet", no_argument, 0, 'q'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
     const char *outputs[16];
     int n_out = 0;
@@ -116,6 +127,8 @@ int cmd_render(int argc, char **argv)
     int tonemap = SPT_TONEMAP_NONE, quiet = 0, profile = 0, spp_given = 0;
     const char *device_sel = NULL, *env_path = NULL, *background = NULL;
     double env_rot = 0, env_int = 1, aperture = 0, focus = 0;
+    const char *ckpt_path = NULL, *resume_path = NULL;
+    double ckpt_every = 60;
     int c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "o:qh", opts, NULL)) != -1) {
@@ -201,6 +214,18 @@ int cmd_render(int argc, char **argv)
             }
             break;
         }
+        case O_CHECKPOINT:
+            ckpt_path = optarg;
+            break;
+        case O_RESUME:
+            resume_path = optarg;
+            break;
+        case O_CKPT_EVERY:
+            if (parse_double(optarg, &ckpt_every) || !(ckpt_every >= 0) || !isfinite(ckpt_every)) {
+                spt_error("render: --checkpoint-every '%s': expected a number of seconds >= 0", optarg);
+                return SPT_EXIT_USAGE;
+            }
+            break;
         case 'q':
             quiet = 1;
             break;
@@ -231,6 +256,8 @@ int cmd_render(int argc, char **argv)
     for (int i = 0; i < n_out; i++)
         if (image_output_check(outputs[i], &e))
             return spt_report(&e);
+    if ((ckpt_path || resume_path) && checkpoint_path_check(ckpt_path ? ckpt_path : resume_path, &e))
+        return spt_report(&e);
 
     Scene scene;
     int rc = scene_load_gltf(&scene, scene_path, &e);
@@ -249,6 +276,8 @@ int cmd_render(int argc, char **argv)
     GpuScene gpu;
     memset(&gpu, 0, sizeof gpu);
     Film film = {0};
+    CheckpointRun ckpt;
+    memset(&ckpt, 0, sizeof ckpt);
     float *rgb = NULL;
     int sel[64], nsel = 0;
     if ((rc = cl_device_list(&devices, &e)) ||
@@ -289,15 +318,23 @@ int cmd_render(int argc, char **argv)
     rs.focus_distance = (float)focus;
     rs.stop = &stop_requested;
     stop_requested = 0;
+    if ((rc = checkpoint_run_begin(&ckpt, scene_path, ckpt_path, ckpt_every, resume_path, &rs,
+                                   &film, &e))) {
+        spt_report(&e);
+        goto done;
+    }
+    if (ckpt.resumed && !quiet)
+        fprintf(stderr, "resuming %s: %u of %ld samples per pixel done\n", resume_path,
+                ckpt.resumed, spp);
     struct sigaction sa, old_int, old_term;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_signal;
     sigaction(SIGINT, &sa, &old_int);
     sigaction(SIGTERM, &sa, &old_term);
-    film_init(&film, rs.width, rs.height);
     RenderStats st;
     RenderDeviceStats per_dev[64];
-    rc = render_devices(devs, nsel, &gpu, cam, &rs, &film, &st, per_dev, &e);
+    rc = spt_dist_render ? spt_dist_render(devs, nsel, &gpu, &scene, cam, &rs, &film, &st, per_dev, &e)
+                         : render_devices(devs, nsel, &gpu, cam, &rs, &film, &st, per_dev, &e);
     sigaction(SIGINT, &old_int, NULL);
     sigaction(SIGTERM, &old_term, NULL);
     if (rc) {
@@ -368,7 +405,10 @@ int cmd_render(int argc, char **argv)
         if (!quiet)
             fprintf(stderr, "wrote %s\n", outputs[i]);
     }
+    if ((rc = checkpoint_run_end(&ckpt, &film, quiet && !stop_requested, &e)))
+        spt_report(&e);
 done:
+    checkpoint_run_free(&ckpt);
     free(rgb);
     film_free(&film);
     gpu_scene_free(&gpu);
