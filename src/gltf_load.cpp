@@ -43,13 +43,13 @@ const char *const k_supported_ext[] = {
     "KHR_materials_dispersion", "KHR_materials_volume", "KHR_materials_unlit",
     "KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_pbrSpecularGlossiness",
     "KHR_mesh_quantization", "EXT_meshopt_compression", "KHR_draco_mesh_compression",
-    "EXT_texture_webp",
+    "EXT_texture_webp", "KHR_materials_specular",
 };
 
 // Material extensions we know and deliberately ignore (one warning each, listing
 // the materials): a file that requires one is refused like an unknown one.
 const char *const k_ignored_material_ext[] = {
-    "KHR_materials_specular", "KHR_materials_clearcoat", "KHR_materials_sheen",
+    "KHR_materials_clearcoat", "KHR_materials_sheen",
 };
 
 // Conductors the spectral extras may name (complex IOR tables in the renderer).
@@ -1446,6 +1446,28 @@ int Loader::material(int index)
                 sm.attenuation_color[k] = (float)fmin(fmax(c.Get(k).GetNumberAsDouble(), 0), 1);
             }
         }
+    }
+    if (const Value *x = ext("KHR_materials_specular")) {
+        // The factors only; a specular texture is ignored (counted in a warning).
+        std::string so = eo + "KHR_materials_specular";
+        d = 1;
+        if ((rc = ext_number(this, *x, "specularFactor", &d, so))) return -rc;
+        if (!(d >= 0)) return -bad("%s.specularFactor: negative", so.c_str());
+        sm.specular = (float)fmin(d, 1);
+        if (x->Has("specularColorFactor")) {
+            const Value &c = x->Get("specularColorFactor");
+            if (!c.IsArray() || c.ArrayLen() != 3)
+                return -bad("%s.specularColorFactor: expected 3 numbers", so.c_str());
+            for (int k = 0; k < 3; k++) {
+                if (!c.Get(k).IsNumber()) return -bad("%s.specularColorFactor: not a number", so.c_str());
+                double v = c.Get(k).GetNumberAsDouble();
+                if (!(v >= 0) || !std::isfinite(v))
+                    return -bad("%s.specularColorFactor: must be finite and >= 0", so.c_str());
+                sm.specular_color[k] = (float)v;
+            }
+        }
+        if (x->Has("specularTexture") || x->Has("specularColorTexture"))
+            ignored_ext["KHR_materials_specular textures (the factors are used)"].push_back(sm.name);
     }
     if (ext("KHR_materials_unlit")) sm.unlit = 1;
     if (const Value *x = ext("KHR_materials_pbrSpecularGlossiness"))

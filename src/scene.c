@@ -23,6 +23,8 @@ void scene_material_default(SceneMaterial *m)
     m->ior = 1.5f;
     m->transmission_tex = -1;
     for (int i = 0; i < 3; i++) m->attenuation_color[i] = 1.0f;
+    m->specular = 1.0f;
+    for (int i = 0; i < 3; i++) m->specular_color[i] = 1.0f;
     m->alpha_mode = SPT_ALPHA_OPAQUE;
     m->alpha_cutoff = 0.5f;
     for (int k = 0; k < 4; k++) {

@@ -43,6 +43,8 @@ typedef struct SceneMaterial {
     float attenuation_color[3]; /* KHR_materials_volume, default 1,1,1 */
     float attenuation_distance; /* default +inf (stored as 0 = infinite) */
     float thickness;
+    float specular;             /* KHR_materials_specular specularFactor, default 1 */
+    float specular_color[3];    /* specularColorFactor, default 1,1,1 */
     int double_sided;
     int alpha_mode;             /* SPT_ALPHA_* */
     float alpha_cutoff;         /* default 0.5 */

@@ -122,7 +122,10 @@ static void test_spec_gloss_and_ignored(void **state)
      * unknown extensions, naming both. */
     assert_int_equal(count_warnings(err, "KHR_materials_sheen", "velvet, carpaint"), 1);
     assert_int_equal(count_warnings(err, "KHR_materials_clearcoat", "carpaint"), 1);
-    assert_int_equal(count_warnings(err, "KHR_materials_specular", "plastic"), 1);
+    /* KHR_materials_specular is rendered: its factor is read, no warning. */
+    assert_close(s.materials[4].specular, 0.5, 1e-6);
+    for (int k = 0; k < 3; k++) assert_close(s.materials[4].specular_color[k], 1, 1e-6);
+    assert_int_equal(count_warnings(err, "KHR_materials_specular", NULL), 0);
     assert_int_equal(count_warnings(err, "EXT_spectrace_unknown", "EXT_other_unknown"), 1);
     assert_int_equal(count_warnings(err, "KHR_materials_pbrSpecularGlossiness", NULL), 0);
     scene_free(&s);
