@@ -49,6 +49,9 @@ typedef struct BsdfParams {
     float roughness;    /* glTF perceptual roughness; alpha = roughness^2 */
     float transmission; /* KHR_materials_transmission factor, 0..1 */
     spt_i32 conductor;  /* nonzero: the metal uses eta, k (exact Fresnel), not base */
+    vec4 spec_tint;     /* KHR_materials_specular colour per wavelength (1: none) */
+    float specular;     /* KHR_materials_specular factor (1: the plain glTF model;
+                           0 removes the dielectric's specular layer: pure Lambert) */
 } BsdfParams;
 
 /* Outcome of bsdf_sample. */
@@ -231,6 +234,23 @@ SPT_FN vec3 bsdf_ggx_sample_vndf(vec3 wo, float alpha, float u1, float u2)
 
 /* ---- The combined material: lobes and their selection ---------------------------- */
 
+/* Fresnel weight of the dielectric's specular layer per wavelength at cosine c, as
+ * KHR_materials_specular extends glTF's fresnel_mix: f0 = min(((ior - 1)/(ior + 1))^2
+ * tint, 1) s, f90 = s, F = f0 + (f90 - f0)(1 - c)^5 (s = specular factor); the
+ * diffuse base gets 1 - F. With s = 1 and tint 1 this is the core glTF model. */
+SPT_FN vec4 bsdf_dielectric_fresnel(const BsdfParams *p, float c)
+{
+    vec4 r = v4_sub(p->ior, v4_splat(1.0f));
+    vec4 q = v4_add(p->ior, v4_splat(1.0f));
+    vec4 f0 = v4(r.x / q.x, r.y / q.y, r.z / q.z, r.w / q.w);
+    f0 = v4_mul(v4_mul(f0, f0), p->spec_tint);
+    f0 = v4(fminf(f0.x, 1.0f), fminf(f0.y, 1.0f), fminf(f0.z, 1.0f), fminf(f0.w, 1.0f));
+    f0 = v4_scale(f0, p->specular);
+    float m = fminf(fmaxf(1.0f - c, 0.0f), 1.0f);
+    float m5 = m * m * m * m * m;
+    return v4_add(f0, v4_scale(v4_sub(v4_splat(p->specular), f0), m5));
+}
+
 /* Lobe selection probabilities for wo (in the frame where wo.z > 0 for the
  * reflection lobes): specular reflection (GGX or delta), diffuse, dielectric
  * interface (transmission). From the lobe weights: metal m, dielectric (1-m) with
@@ -241,9 +261,8 @@ SPT_FN void bsdf_lobe_probs(const BsdfParams *p, vec3 wo, float *p_spec, float *
     float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
     float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
     float c = fabsf(wo.z);
-    float f0d = (p->ior.x - 1.0f) / (p->ior.x + 1.0f);
-    f0d *= f0d;
-    float fd = bsdf_schlick(v4_splat(f0d), c).x;
+    vec4 fv = bsdf_dielectric_fresnel(p, c);
+    float fd = 0.25f * (fv.x + fv.y + fv.z + fv.w);
     float mean_base = 0.25f * (p->base.x + p->base.y + p->base.z + p->base.w);
     float ws = m + (1.0f - m) * (1.0f - t) * fd;
     float wd = (1.0f - m) * (1.0f - t) * (1.0f - fd) * fmaxf(mean_base, 0.0f);
@@ -294,30 +313,22 @@ SPT_FN vec4 bsdf_metal_fresnel(const BsdfParams *p, float c)
 }
 
 /* The reflection Fresnel weight of the specular layer per wavelength at cosine c
- * (wo.h): m F_metal + (1-m)(1-t) F_schlick(F0 from ior). */
+ * (wo.h): m F_metal + (1-m)(1-t) F_dielectric (bsdf_dielectric_fresnel). */
 SPT_FN vec4 bsdf_spec_fresnel(const BsdfParams *p, float c)
 {
     float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
     float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
-    vec4 r = v4_sub(p->ior, v4_splat(1.0f));
-    vec4 s = v4_add(p->ior, v4_splat(1.0f));
-    vec4 f0 = v4(r.x / s.x, r.y / s.y, r.z / s.z, r.w / s.w);
-    f0 = v4_mul(f0, f0);
-    vec4 fd = bsdf_schlick(f0, c);
+    vec4 fd = bsdf_dielectric_fresnel(p, c);
     return v4_add(v4_scale(bsdf_metal_fresnel(p, c), m), v4_scale(fd, (1.0f - m) * (1.0f - t)));
 }
 
-/* The diffuse lobe's factor per wavelength, without 1/pi: (1-m)(1-t)(1 - F_schlick)
+/* The diffuse lobe's factor per wavelength, without 1/pi: (1-m)(1-t)(1 - F_dielectric)
  * base (glTF fresnel_mix). */
 SPT_FN vec4 bsdf_diffuse_factor(const BsdfParams *p, float c)
 {
     float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
     float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
-    vec4 r = v4_sub(p->ior, v4_splat(1.0f));
-    vec4 s = v4_add(p->ior, v4_splat(1.0f));
-    vec4 f0 = v4(r.x / s.x, r.y / s.y, r.z / s.z, r.w / s.w);
-    f0 = v4_mul(f0, f0);
-    vec4 one_minus = v4_sub(v4_splat(1.0f), bsdf_schlick(f0, c));
+    vec4 one_minus = v4_sub(v4_splat(1.0f), bsdf_dielectric_fresnel(p, c));
     return v4_scale(v4_mul(one_minus, p->base), (1.0f - m) * (1.0f - t));
 }
 

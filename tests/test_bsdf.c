@@ -52,6 +52,8 @@ static BsdfParams make_params(float base, float metallic, float roughness, float
     p.metallic = metallic;
     p.roughness = roughness;
     p.transmission = transmission;
+    p.spec_tint = v4_splat(1.0f);
+    p.specular = 1.0f;
     return p;
 }
 
@@ -511,6 +513,7 @@ static const char *k_device_src =
     "    p.eta = (float4)(0.2f, 0.5f, 1.0f, 1.2f);\n"
     "    p.k = (float4)(3.0f, 2.6f, 2.5f, 7.0f);\n"
     "    p.metallic = q[7]; p.roughness = q[8]; p.transmission = q[9]; p.conductor = i % 2;\n"
+    "    p.spec_tint = (float4)(1.0f, 0.9f, 1.0f, 1.1f); p.specular = 0.75f;\n"
     "    if (i % 4 == 1) bsdf_set_conductor(&p, i % 3, 400.0f + q[3] * 400.0f, 500.0f, 600.0f, 700.0f);\n"
     "    float3 wo = normalize((float3)(q[0], q[1], q[2]));\n"
     "    BsdfSample s = bsdf_sample(&p, wo, q[3], q[4], q[5]);\n"
@@ -582,6 +585,8 @@ static void test_device_matches_host(void **state)
         p.roughness = q[8];
         p.transmission = q[9];
         p.conductor = i % 2;
+        p.spec_tint = v4(1.0f, 0.9f, 1.0f, 1.1f);
+        p.specular = 0.75f;
         if (i % 4 == 1)
             bsdf_set_conductor(&p, i % 3, 400.0f + q[3] * 400.0f, 500.0f, 600.0f, 700.0f);
         vec3 wo = v3_normalize(v3(q[0], q[1], q[2]));
