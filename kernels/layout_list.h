@@ -46,11 +46,15 @@ typedef struct LayoutProbe {
     X(SpecRef, kind)              \
     X(GpuMaterial, emission)      \
     X(GpuMaterial, base_tex)      \
-    X(GpuMaterial, pad)           \
+    X(GpuMaterial, attenuation)   \
+    X(GpuMaterial, conductor)     \
+    X(GpuMaterial, normal_uv)     \
     X(GpuTexture, pad)            \
     X(RenderParams, width)        \
     X(RenderParams, sample_begin) \
     X(RenderParams, rr_depth)     \
+    X(RenderParams, env_prob)     \
+    X(RenderParams, env)          \
     X(BvhNode, offset)            \
     X(BvhNode, hi)                \
     X(BvhNode, count)             \

@@ -48,54 +48,7 @@
  * t_max. */
 #define SPT_LIGHT_FAR 1e30f
 
-#define SPT_PUNCTUAL_POINT 0u
-#define SPT_PUNCTUAL_SPOT 1u
-#define SPT_PUNCTUAL_DIRECTIONAL 2u
-
-/* A punctual light. spectrum: I(l) W/(sr nm) for point/spot, E(l) W/(m^2 nm) for
- * directional (usually SPT_SPEC_TABLE into the spectra buffer). Spot falloff per
- * the KHR_lights_punctual specification's recommended implementation:
- * t = clamp(cos_angle * spot_scale + spot_offset, 0, 1), falloff = t^2, with
- * spot_scale = 1 / max(0.001, cos(inner) - cos(outer)),
- * spot_offset = -cos(outer) * spot_scale. */
-typedef struct GpuLight {
-    float pos[3];      /* world position (point, spot) */
-    spt_u32 type;      /* SPT_PUNCTUAL_* (same values as scene.h SPT_LIGHT_*) */
-    float dir[3];      /* unit direction the light shines toward (spot, directional) */
-    float cos_outer;   /* spot: cos(outerConeAngle), 0 outside the cone */
-    float cos_inner;   /* spot: cos(innerConeAngle), full intensity inside */
-    float spot_scale;
-    float spot_offset;
-    float pad;
-    SpecRef spectrum;
-} GpuLight; /* 80 bytes */
-
-/* Environment kinds. */
-#define SPT_ENV_NONE 0u
-#define SPT_ENV_UNIFORM 1u
-#define SPT_ENV_MAP 2u
-
-/* The environment. Map: width x height texels, rows top (+Y) to bottom, in the
- * env data float buffer from texel_offset, 4 floats each: sigmoid coefficients
- * c0, c1, c2 and a scale, radiance = scale * sigmoid(c)(l) * D65norm(l) (the
- * map's intensity already folded in). marginal_offset: height + 1 floats, the CDF
- * over rows; conditional_offset: height CDFs of width + 1 floats each (row y at
- * conditional_offset + y (width + 1)). Direction of map coordinates (u, v) in
- * [0,1]^2, before rotation: theta = pi v from +Y, phi = 2 pi u,
- * d = (-sin(phi) sin(theta), cos(theta), cos(phi) sin(theta)): the image centre
- * (u = 1/2) faces -Z (where a default glTF camera looks), u = 3/4 faces +X,
- * u = 0 faces +Z. World direction = R_y(rotation) d (right-handed about +Y).
- * Uniform: radiance = uniform (any SpecRef; a table lives in the env data buffer
- * at uniform.offset), sampled uniformly over the sphere. */
-typedef struct GpuEnvMap {
-    spt_u32 kind;          /* SPT_ENV_* */
-    spt_i32 width, height;
-    spt_u32 texel_offset;
-    spt_u32 marginal_offset;
-    spt_u32 conditional_offset;
-    float rot_cos, rot_sin; /* cos and sin of the rotation about +Y */
-    SpecRef uniform;
-} GpuEnvMap; /* 64 bytes */
+/* GpuLight, GpuEnvMap and their kinds are in render_types.h (kernel parameters). */
 
 /* What a light sample gives the shading point: the unit direction toward the
  * light, the distance to it (SPT_LIGHT_FAR when at infinity), the contribution at

@@ -30,22 +30,40 @@ typedef struct SpecRef {
 #define SPT_MAT_DOUBLE_SIDED_EMISSION 2u
 #define SPT_MAT_ALPHA_MASK 4u    /* glTF alphaMode MASK: cut out below the cutoff */
 #define SPT_MAT_ALPHA_BLEND 8u   /* glTF alphaMode BLEND: stochastic opacity alpha */
+#define SPT_MAT_UNLIT 16u        /* KHR_materials_unlit: emits, reflects nothing */
 
+/* A material: glTF metallic-roughness with its extensions (kernels/bsdf.h). */
 typedef struct GpuMaterial {
-    SpecRef reflectance;   /* diffuse albedo */
+    SpecRef reflectance;   /* base colour: diffuse albedo, metal F0, transmission tint */
     SpecRef emission;      /* emitted radiance, one-sided (front face) */
+    SpecRef spec_tint;     /* KHR_materials_specular colour (SIGMOID, scale = its max) */
+    SpecRef attenuation;   /* KHR_materials_volume attenuationColor; NONE = clear */
     spt_i32 base_tex;      /* texture index or -1: coefficients texture, multiplies reflectance */
     spt_i32 emissive_tex;  /* texture index or -1: coefficients texture, multiplies emission */
+    spt_i32 mr_tex;        /* texture index or -1: data texture, G roughness, B metallic */
+    spt_i32 normal_tex;    /* texture index or -1: data texture, tangent-space normal */
     spt_u32 flags;
     float alpha_cutoff;    /* SPT_MAT_ALPHA_MASK: opaque where alpha >= cutoff */
     float alpha;           /* base colour alpha factor */
-    float pad[3];
+    float metallic;
+    float roughness;       /* perceptual; alpha = roughness^2 */
+    float transmission;    /* KHR_materials_transmission */
+    float ior;             /* KHR_materials_ior (at the d line with dispersion) */
+    float dispersion;      /* KHR_materials_dispersion: 20 / Abbe number */
+    float specular;        /* KHR_materials_specular factor */
+    float normal_scale;
+    float attenuation_distance; /* metres; with attenuation */
+    spt_i32 conductor;     /* 0 none, else SPT_CONDUCTOR_* + 1 (measured eta, k) */
     float base_uv[8];      /* KHR_texture_transform of the base colour texture: 2x3, padded */
     float emissive_uv[8];  /* the same for the emissive texture */
-} GpuMaterial; /* 160 bytes */
+    float mr_uv[8];        /* ... the metallic-roughness texture */
+    float normal_uv[8];    /* ... the normal texture */
+} GpuMaterial; /* 320 bytes */
 
-/* A texture in the texels buffer: width*height float4 texels from offset. Each
- * texel holds sigmoid coefficients (c0, c1, c2) of its RGB and its alpha in w. */
+/* A texture in the texels buffer: width*height float4 texels from offset. A
+ * coefficients texture (colours) holds sigmoid coefficients (c0, c1, c2) of each
+ * texel's RGB and its alpha in w; a data texture (metallic-roughness, normals)
+ * holds the linear RGBA values as stored. */
 typedef struct GpuTexture {
     spt_u32 offset;
     spt_i32 width, height;
@@ -58,6 +76,55 @@ typedef struct TriShade {
     spt_u32 v[3];
     spt_u32 material;
 } TriShade; /* 16 bytes */
+
+#define SPT_PUNCTUAL_POINT 0u
+#define SPT_PUNCTUAL_SPOT 1u
+#define SPT_PUNCTUAL_DIRECTIONAL 2u
+
+/* A punctual light. spectrum: I(l) W/(sr nm) for point/spot, E(l) W/(m^2 nm) for
+ * directional (usually SPT_SPEC_TABLE into the spectra buffer). Spot falloff per
+ * the KHR_lights_punctual specification's recommended implementation:
+ * t = clamp(cos_angle * spot_scale + spot_offset, 0, 1), falloff = t^2, with
+ * spot_scale = 1 / max(0.001, cos(inner) - cos(outer)),
+ * spot_offset = -cos(outer) * spot_scale. */
+typedef struct GpuLight {
+    float pos[3];      /* world position (point, spot) */
+    spt_u32 type;      /* SPT_PUNCTUAL_* (same values as scene.h SPT_LIGHT_*) */
+    float dir[3];      /* unit direction the light shines toward (spot, directional) */
+    float cos_outer;   /* spot: cos(outerConeAngle), 0 outside the cone */
+    float cos_inner;   /* spot: cos(innerConeAngle), full intensity inside */
+    float spot_scale;
+    float spot_offset;
+    float pad;
+    SpecRef spectrum;
+} GpuLight; /* 80 bytes */
+
+/* Environment kinds. */
+#define SPT_ENV_NONE 0u
+#define SPT_ENV_UNIFORM 1u
+#define SPT_ENV_MAP 2u
+
+/* The environment. Map: width x height texels, rows top (+Y) to bottom, in the
+ * env data float buffer from texel_offset, 4 floats each: sigmoid coefficients
+ * c0, c1, c2 and a scale, radiance = scale * sigmoid(c)(l) * D65norm(l) (the
+ * map's intensity already folded in). marginal_offset: height + 1 floats, the CDF
+ * over rows; conditional_offset: height CDFs of width + 1 floats each (row y at
+ * conditional_offset + y (width + 1)). Direction of map coordinates (u, v) in
+ * [0,1]^2, before rotation: theta = pi v from +Y, phi = 2 pi u,
+ * d = (-sin(phi) sin(theta), cos(theta), cos(phi) sin(theta)): the image centre
+ * (u = 1/2) faces -Z (where a default glTF camera looks), u = 3/4 faces +X,
+ * u = 0 faces +Z. World direction = R_y(rotation) d (right-handed about +Y).
+ * Uniform: radiance = uniform (any SpecRef; a table lives in the env data buffer
+ * at uniform.offset), sampled uniformly over the sphere. */
+typedef struct GpuEnvMap {
+    spt_u32 kind;          /* SPT_ENV_* */
+    spt_i32 width, height;
+    spt_u32 texel_offset;
+    spt_u32 marginal_offset;
+    spt_u32 conditional_offset;
+    float rot_cos, rot_sin; /* cos and sin of the rotation about +Y */
+    SpecRef uniform;
+} GpuEnvMap; /* 64 bytes */
 
 /* Everything a pass needs besides buffers; passed by value. */
 typedef struct RenderParams {
@@ -73,20 +140,22 @@ typedef struct RenderParams {
     spt_u32 work_begin;     /* first linear work index of this chunk */
     spt_u32 work_end;       /* one past the last */
     spt_u32 sample_begin;   /* sample index of work_begin (work = pixel + W*H*(sample - sample_begin)) */
-    spt_u32 emitter_count;
-    float emitter_total;    /* sum of emitter weights, for pdfs */
+    spt_u32 emitter_count;  /* emissive triangles: the first entries of light_cdf */
+    float emitter_total;    /* sum of the selection weights, for pdfs */
     spt_u32 node_count;
     spt_u32 rr_depth;       /* Russian roulette from this many segments on */
     spt_u32 has_alpha;      /* some material is MASK or BLEND: shadow rays test alpha */
     spt_u32 orthographic;   /* 1: parallel rays along cam_fwd from the image plane */
-    spt_u32 pad0_[2];
+    spt_u32 light_count;    /* punctual lights: light_cdf entries after the triangles */
+    spt_u32 select_count;   /* entries of light_cdf: triangles, punctual, environment */
     /* Thin lens: radius (0 = pinhole) and focus distance along the view axis. */
     float lens_radius;
     float focus_distance;
-    float pad_[2];
-    /* Radiance of rays that leave the scene (a uniform sky); kind NONE = black.
-     * A table lives in the bg_table buffer (offset 0). */
-    SpecRef background;
+    float env_prob;         /* probability that light selection picks the environment */
+    float pad_;
+    /* What rays that leave the scene see (kernels/lights.h): a map, a uniform sky
+     * or nothing; its data (texels, CDFs or a table) in the env_data buffer. */
+    GpuEnvMap env;
 } RenderParams;
 
 /* Counters, one uint each in the counters buffer; the host reads them back. */
@@ -117,6 +186,7 @@ typedef struct RenderParams {
     X(uint, depth)          \
     X(uint, flags)          \
     X(uint, passes)         \
+    X(uint, medium)         \
     X(float, bsdf_pdf)
 
 /* Shadow-ray queue entries, one buffer per field. */
@@ -138,14 +208,15 @@ typedef struct RenderParams {
     X(const GpuTexture, textures)     \
     X(const float4, texels)           \
     X(const uint, emitters)           \
-    X(const float, emitter_cdf)       \
-    X(const float, tri_light_pdf)
+    X(const float, light_cdf)         \
+    X(const float, tri_light_pdf)     \
+    X(const GpuLight, lights)         \
+    X(const float, env_data)
 
 #define SPT_WORK_BUFFERS(X)           \
     X(uint, counters)                 \
     X(uint, queue_extend)             \
     X(float4, contrib)                \
-    X(float4, chunk_sum)              \
-    X(const float, bg_table)
+    X(float4, chunk_sum)
 
 #endif

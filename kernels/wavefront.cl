@@ -19,6 +19,8 @@
 #include "bvh.h"
 #include "render_types.h"
 #include "path.h"
+#include "bsdf.h"
+#include "lights.h"
 
 #define PARAM(type, name) __global type *name,
 #define PS_PARAM(type, name) __global type *ps_##name,
@@ -126,6 +128,7 @@ __kernel void k_generate(ALL_BUFFERS)
         ps_work[i] = w;
         ps_depth[i] = 0;
         ps_passes[i] = 0;
+        ps_medium[i] = 0;
         ps_bsdf_pdf[i] = 0.0f; /* camera ray: emission seen directly has MIS weight 1 */
         flags = SPT_PATH_ALIVE;
         ps_flags[i] = flags;
@@ -186,6 +189,109 @@ static float4 material_emission(const __global GpuMaterial *m, float2 uv, float4
     return le;
 }
 
+/* The four wavelengths of a float4 as an array (for kernels/lights.h). */
+static void lambda_array(float4 lam, float *out)
+{
+    out[0] = lam.x;
+    out[1] = lam.y;
+    out[2] = lam.z;
+    out[3] = lam.w;
+}
+
+/* Beer-Lambert transmittance over distance t inside the volume of material m
+ * (KHR_materials_volume: attenuation colour c reached at attenuation distance d,
+ * sigma = -ln(c) / d per wavelength). */
+static float4 volume_transmittance(const __global GpuMaterial *m, float t, float4 lam,
+                                   const __global float *spectra)
+{
+    float4 c = clamp(spec_eval(&m->attenuation, lam, spectra), 1e-6f, 1.0f);
+    return exp(log(c) * (t / m->attenuation_distance));
+}
+
+/* The shading normal of packed triangle prim at (bu, bv), on the side of the
+ * face normal *ng (the winding's front): the interpolated vertex normal, bent by
+ * the material's normal texture (tangent from the texture coordinates, as the
+ * glTF sample viewer derives it when a mesh has no tangents). With
+ * follow_normals (a transmissive surface, whose outside matters), a vertex
+ * normal that disagrees with the winding wins: *ng is flipped instead. */
+static float3 shading_normal(uint prim, float bu, float bv, float3 *ng, int follow_normals,
+                             float3 v0, float3 v1, float3 v2, const __global GpuMaterial *m,
+                             ALL_BUFFERS)
+{
+    TriShade ts = tri_shade[prim];
+    float3 ns = *ng;
+    float3 a = vload3(ts.v[0], vtx_normal), b = vload3(ts.v[1], vtx_normal),
+           c = vload3(ts.v[2], vtx_normal);
+    float3 si = (1.0f - bu - bv) * a + bu * b + bv * c;
+    float len = length(si);
+    if (len > 1e-6f) {
+        si /= len;
+        if (dot(si, *ng) < 0.0f) {
+            if (follow_normals)
+                *ng = -*ng;
+            else
+                si = -si;
+        }
+        ns = si;
+    }
+    if (m->normal_tex < 0)
+        return ns;
+    float2 t0 = uv_apply(m->normal_uv, vload2(ts.v[0], vtx_uv));
+    float2 t1 = uv_apply(m->normal_uv, vload2(ts.v[1], vtx_uv));
+    float2 t2 = uv_apply(m->normal_uv, vload2(ts.v[2], vtx_uv));
+    float2 d1 = t1 - t0, d2 = t2 - t0;
+    float det = d1.x * d2.y - d2.x * d1.y;
+    if (!(fabs(det) > 1e-12f))
+        return ns;
+    float3 dpdu = ((v1 - v0) * d2.y - (v2 - v0) * d1.y) / det;
+    float3 tg = dpdu - ns * dot(ns, dpdu);
+    float tl = length(tg);
+    if (!(tl > 1e-12f))
+        return ns;
+    tg /= tl;
+    float3 bt = cross(ns, tg);
+    float2 uv = (1.0f - bu - bv) * t0 + bu * t1 + bv * t2;
+    float4 tx = texture_texel(textures, texels, m->normal_tex, uv);
+    float3 nt = (float3)((2.0f * tx.x - 1.0f) * m->normal_scale, (2.0f * tx.y - 1.0f) * m->normal_scale,
+                         2.0f * tx.z - 1.0f);
+    float3 nb = nt.x * tg + nt.y * bt + nt.z * ns;
+    float nl = length(nb);
+    return nl > 1e-6f ? nb / nl : ns;
+}
+
+/* The BSDF parameters of material m at uv for the wavelengths lam. */
+static BsdfParams material_bsdf(const __global GpuMaterial *m, float2 uv, float4 lam,
+                                const __global float *spectra, const __global GpuTexture *textures,
+                                const __global float4 *texels)
+{
+    BsdfParams bp;
+    float4 base = spec_eval(&m->reflectance, lam, spectra);
+    if (m->base_tex >= 0)
+        base *= texel_spectrum(texture_texel(textures, texels, m->base_tex, uv_apply(m->base_uv, uv)), lam);
+    bp.base = clamp(base, 0.0f, 1.0f);
+    bp.metallic = m->metallic;
+    bp.roughness = m->roughness;
+    if (m->mr_tex >= 0) {
+        float4 t = texture_texel(textures, texels, m->mr_tex, uv_apply(m->mr_uv, uv));
+        bp.roughness *= t.y;
+        bp.metallic *= t.z;
+    }
+    bp.metallic = clamp(bp.metallic, 0.0f, 1.0f);
+    bp.roughness = clamp(bp.roughness, 0.0f, 1.0f);
+    bp.transmission = m->transmission;
+    float ior = fmax(m->ior, 1.0f);
+    bp.ior = (float4)(bsdf_dispersion_ior(ior, m->dispersion, lam.x), bsdf_dispersion_ior(ior, m->dispersion, lam.y),
+                      bsdf_dispersion_ior(ior, m->dispersion, lam.z), bsdf_dispersion_ior(ior, m->dispersion, lam.w));
+    bp.eta = (float4)(1.0f);
+    bp.k = (float4)(0.0f);
+    bp.conductor = 0;
+    if (m->conductor > 0)
+        bsdf_set_conductor(&bp, m->conductor - 1, lam.x, lam.y, lam.z, lam.w);
+    bp.spec_tint = m->spec_tint.kind == SPT_SPEC_NONE ? (float4)(1.0f) : spec_eval(&m->spec_tint, lam, spectra);
+    bp.specular = m->specular;
+    return bp;
+}
+
 /* Shades path i at its hit; returns 1 and fills the shadow ray (origin, direction
  * with tmax in w, contribution) when next-event estimation wants one. */
 static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFERS)
@@ -194,15 +300,27 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     float4 hit = ps_hit[i];
     uint prim = as_uint(hit.w);
     uint depth = ps_depth[i] + 1u; /* segments including the one just traced */
+    float4 lam = ps_lambda[i];
+    float4 beta = ps_throughput[i];
+    uint medium = ps_medium[i];
+    if (medium != 0u && prim != NO_HIT)
+        beta *= volume_transmittance(materials + (medium - 1u), hit.x, lam, spectra);
     if (prim == NO_HIT) {
-        /* The sky: reached by BSDF sampling only, so its weight is 1. */
-        if (P.background.kind != SPT_SPEC_NONE)
-            ps_radiance[i] += ps_throughput[i] * spec_eval_private(&P.background, ps_lambda[i], bg_table);
+        /* The environment, weighted against light sampling by MIS. */
+        if (P.env.kind != SPT_ENV_NONE) {
+            float3 d = ps_ray_d[i].xyz;
+            float la[4], le[4];
+            lambda_array(lam, la);
+            env_eval(&P.env, env_data, d, la, le);
+            float w = 1.0f;
+            float prev_pdf = ps_bsdf_pdf[i];
+            if (prev_pdf > 0.0f && P.env_prob > 0.0f)
+                w = spt_power_heuristic(prev_pdf, P.env_prob * env_pdf(&P.env, env_data, d));
+            ps_radiance[i] += beta * (float4)(le[0], le[1], le[2], le[3]) * w;
+        }
         ps_flags[i] = SPT_PATH_FINISHED;
         return 0;
     }
-    float4 lam = ps_lambda[i];
-    float4 beta = ps_throughput[i];
     float4 L = ps_radiance[i];
     float3 rd = ps_ray_d[i].xyz;
     vec3 v0, v1, v2;
@@ -230,6 +348,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
                 /* w carries the distance from the last real vertex, for MIS. */
                 float3 o2 = offset_origin(p, front ? -ng : ng);
                 ps_ray_o[i] = (float4)(o2, ps_ray_o[i].w + dot(o2 - ps_ray_o[i].xyz, rd));
+                ps_throughput[i] = beta;
                 return 0; /* same direction, depth and MIS state */
             }
         }
@@ -248,89 +367,135 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
         }
         L += beta * le * w;
     }
-    if (P.max_depth > 0 && depth >= (uint)P.max_depth) {
+    if ((P.max_depth > 0 && depth >= (uint)P.max_depth) || (m->flags & SPT_MAT_UNLIT)) {
         ps_radiance[i] = L;
         ps_flags[i] = SPT_PATH_FINISHED;
         return 0;
     }
 
-    /* The surface as seen from the incoming side. */
-    float3 n = front ? ng : -ng;
-    float3 ns = n;
-    {
-        float3 a = vload3(ts.v[0], vtx_normal), b = vload3(ts.v[1], vtx_normal),
-               c = vload3(ts.v[2], vtx_normal);
-        float3 si = (1.0f - bu - bv) * a + bu * b + bv * c;
-        float len = length(si);
-        if (len > 1e-6f) {
-            si /= len;
-            ns = dot(si, n) < 0.0f ? -si : si;
-        }
+    /* The shading frame. A transmissive surface keeps its outside (the winding's
+     * front) as +z, so the BSDF knows which side the path is on; an opaque one is
+     * shaded from whichever side the path arrives. */
+    BsdfParams bp = material_bsdf(m, uv, lam, spectra, textures, texels);
+    int two_sided_bsdf = bp.transmission > 0.0f && bp.metallic < 1.0f;
+    float3 ngf = ng;
+    float3 ns = shading_normal(prim, bu, bv, &ngf, two_sided_bsdf, v0, v1, v2, m, ALL_ARGS);
+    if (!two_sided_bsdf && !front) {
+        ns = -ns;
+        ngf = -ng;
     }
-    float4 albedo = spec_eval(&m->reflectance, lam, spectra);
-    if (m->base_tex >= 0)
-        albedo *= texel_spectrum(texture_texel(textures, texels, m->base_tex, uv_apply(m->base_uv, uv)), lam);
-    albedo = clamp(albedo, 0.0f, 1.0f);
+    float3 wo = -rd;
+    /* A shading normal that puts wo on the other side than the face does is not
+     * used (it would leak light through the surface). */
+    if (dot(wo, ns) * dot(wo, ngf) <= 0.0f)
+        ns = ngf;
+    vec3 tg, bt;
+    v3_basis(ns, &tg, &bt);
+    float3 wo_l = (float3)(dot(wo, tg), dot(wo, bt), dot(wo, ns));
+    float wo_side = dot(wo, ngf);
 
     uint npix = (uint)(P.width * P.height);
     uint w_item = ps_work[i];
     uint pixel = w_item % npix;
     uint sample = P.sample_begin + w_item / npix;
     uint bounce = depth - 1u;
-    float3 po = offset_origin(p, n);
 
-    /* Next-event estimation: an emitter triangle chosen by power, a point on it. */
-    if (P.emitter_count > 0u && (P.max_depth <= 0 || depth + 1u <= (uint)P.max_depth)) {
+    /* Next-event estimation: one light chosen in proportion to power among the
+     * emissive triangles, the punctual lights and the environment. */
+    if (P.select_count > 0u && (P.max_depth <= 0 || depth + 1u <= (uint)P.max_depth) &&
+        !bsdf_is_delta(&bp)) {
         float prob;
-        int e = spt_discrete_sample(emitter_cdf, P.emitter_count,
+        int e = spt_discrete_sample(light_cdf, P.select_count,
                                     spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_LIGHT_SELECT)),
                                     &prob, 0);
-        if (e >= 0) {
+        float ul = spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_LIGHT_U));
+        float vl = spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_LIGHT_V));
+        float3 wi = (float3)(0.0f, 0.0f, 1.0f);
+        float dist = 0.0f, light_pdf = 0.0f;
+        float4 le = (float4)(0.0f);
+        int delta = 0;
+        if (e >= 0 && (uint)e < P.emitter_count) {
             uint lt = emitters[e];
             vec3 a, b, c;
             bvh_tri_vertices(tris, lt, &a, &b, &c);
-            vec3 bary = spt_sample_triangle_bary(
-                spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_LIGHT_U)),
-                spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_LIGHT_V)));
+            vec3 bary = spt_sample_triangle_bary(ul, vl);
             float3 q = bary.x * a + bary.y * b + bary.z * c;
-            float3 nl = cross(b - a, c - a);
-            float3 wi = q - po;
-            float dist2 = dot(wi, wi);
-            float dist = sqrt(dist2);
-            wi /= dist;
-            nl = normalize(nl);
+            float3 nl = normalize(cross(b - a, c - a));
+            float3 dq = q - p;
+            float dist2 = dot(dq, dq);
+            dist = sqrt(dist2);
+            wi = dq / dist;
             float cos_l = -dot(nl, wi);
-            if (materials[tri_shade[lt].material].flags & SPT_MAT_DOUBLE_SIDED_EMISSION)
+            const __global GpuMaterial *lm = materials + tri_shade[lt].material;
+            if (lm->flags & SPT_MAT_DOUBLE_SIDED_EMISSION)
                 cos_l = fabs(cos_l);
-            float cos_s = dot(ns, wi);
-            if (cos_l > 0.0f && cos_s > 0.0f && dot(n, wi) > 0.0f) {
-                float light_pdf = tri_light_pdf[lt] * dist2 / cos_l;
-                float bsdf_pdf = cos_s * SPT_INV_PI;
-                float wgt = spt_power_heuristic(light_pdf, bsdf_pdf);
+            if (cos_l > 0.0f && dist > 0.0f) {
+                light_pdf = tri_light_pdf[lt] * dist2 / cos_l;
                 float2 luv = tri_uv(tri_shade, vtx_uv, lt, bary.y, bary.z);
-                const __global GpuMaterial *lm = materials + tri_shade[lt].material;
-                float4 le = material_emission(lm, luv, lam, spectra, textures, texels);
-                float4 cn = beta * albedo * (SPT_INV_PI * cos_s * wgt / light_pdf) * le;
-                if (max4(cn) > 0.0f) {
-                    *sh_o = (float4)(po, 0.0f);
-                    *sh_d = (float4)(wi, dist * (1.0f - 1e-4f));
-                    *sh_c = cn;
-                    shadow = 1;
-                }
+                le = material_emission(lm, luv, lam, spectra, textures, texels);
+            }
+        } else if (e >= 0 && (uint)e < P.emitter_count + P.light_count) {
+            float la[4];
+            lambda_array(lam, la);
+            LightSample ls;
+            light_punctual_sample(lights + ((uint)e - P.emitter_count), spectra, p, la, &ls);
+            wi = ls.wi;
+            dist = ls.dist;
+            le = (float4)(ls.value[0], ls.value[1], ls.value[2], ls.value[3]);
+            light_pdf = prob;
+            delta = 1;
+        } else if (e >= 0) {
+            float epdf;
+            wi = env_sample(&P.env, env_data, ul, vl, &epdf);
+            dist = SPT_LIGHT_FAR;
+            light_pdf = prob * epdf;
+            if (light_pdf > 0.0f) {
+                float la[4], lv[4];
+                lambda_array(lam, la);
+                env_eval(&P.env, env_data, wi, la, lv);
+                le = (float4)(lv[0], lv[1], lv[2], lv[3]);
+            }
+        }
+        float wi_side = dot(wi, ngf);
+        float3 wi_l = (float3)(dot(wi, tg), dot(wi, bt), dot(wi, ns));
+        /* The geometric and shading sides of wi must agree. */
+        if (light_pdf > 0.0f && dist > 0.0f && wi_side * wi_l.z > 0.0f && max4(le) > 0.0f &&
+            (two_sided_bsdf || wi_side > 0.0f)) {
+            float4 f = bsdf_eval(&bp, wo_l, wi_l);
+            float wgt = delta ? 1.0f : spt_power_heuristic(light_pdf, bsdf_pdf(&bp, wo_l, wi_l));
+            float4 cn = beta * f * le * (wgt / light_pdf);
+            if (max4(cn) > 0.0f) {
+                float3 so = offset_origin(p, wi_side > 0.0f ? ngf : -ngf);
+                *sh_o = (float4)(so, 0.0f);
+                *sh_d = (float4)(wi, dist >= SPT_LIGHT_FAR ? SPT_LIGHT_FAR : dist * (1.0f - 1e-4f));
+                *sh_c = cn;
+                shadow = 1;
             }
         }
     }
 
-    /* Lambertian BSDF sampling: cosine-weighted, so beta *= albedo. */
-    vec3 lw = spt_sample_cosine_hemisphere(
-        spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_BSDF_U)),
-        spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_BSDF_V)));
-    vec3 t, bt;
-    v3_basis(ns, &t, &bt);
-    float3 wo = lw.x * t + lw.y * bt + lw.z * ns;
-    float pdf = lw.z * SPT_INV_PI;
-    beta *= albedo;
-    int alive = dot(wo, n) > 0.0f && pdf > 0.0f && max4(beta) > 0.0f;
+    /* BSDF sampling. */
+    BsdfSample bs = bsdf_sample(&bp, wo_l,
+                                spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_BSDF_LOBE)),
+                                spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_BSDF_U)),
+                                spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_BSDF_V)));
+    float3 wn = bs.wi.x * tg + bs.wi.y * bt + bs.wi.z * ns;
+    float wn_side = dot(wn, ngf);
+    /* Reflection stays on wo's side of the face, refraction crosses it. */
+    int reflect = bs.wi.z * wo_l.z > 0.0f;
+    int alive = bs.valid && (reflect ? wn_side * wo_side > 0.0f : wn_side * wo_side < 0.0f);
+    if (alive) {
+        beta *= bs.weight;
+        if (bs.dispersive && ps_lambda_pdf[i].y > 0.0f) {
+            /* The refraction split the wavelengths: only the hero carries on
+             * (pbrt-v4's TerminateSecondary); its pdf becomes 1/4 of what it was. */
+            float4 lp = ps_lambda_pdf[i];
+            ps_lambda_pdf[i] = (float4)(0.25f * lp.x, 0.0f, 0.0f, 0.0f);
+        }
+        if (!(ps_lambda_pdf[i].y > 0.0f))
+            beta = (float4)(beta.x, 0.0f, 0.0f, 0.0f);
+        alive = max4(beta) > 0.0f;
+    }
 
     /* Russian roulette on the largest wavelength throughput. */
     if (alive && depth >= P.rr_depth) {
@@ -346,10 +511,13 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
         ps_flags[i] = SPT_PATH_FINISHED;
         return shadow;
     }
+    /* Entering or leaving a volume (refraction through a transmissive surface). */
+    if (!reflect && two_sided_bsdf)
+        ps_medium[i] = wn_side < 0.0f && m->attenuation.kind != SPT_SPEC_NONE ? ts.material + 1u : 0u;
     ps_throughput[i] = beta;
-    ps_ray_o[i] = (float4)(po, 0.0f);
-    ps_ray_d[i] = (float4)(wo, 0.0f);
-    ps_bsdf_pdf[i] = pdf;
+    ps_ray_o[i] = (float4)(offset_origin(p, wn_side > 0.0f ? ngf : -ngf), 0.0f);
+    ps_ray_d[i] = (float4)(wn, 0.0f);
+    ps_bsdf_pdf[i] = bs.is_delta ? 0.0f : bs.pdf;
     ps_depth[i] = depth;
     return shadow;
 }

@@ -54,13 +54,47 @@ static double emission_luminance(const GpuMaterial *m, const float *spectra)
     return s->scale * y / SPT_CIE_Y_INTEGRAL;
 }
 
-static void material_upload(GpuMaterial *gm, const SceneMaterial *m, float **spectra,
-                            uint32_t *count)
+/* Index (0..SPT_CONDUCTOR_COUNT-1) of a conductor name of the spectral extras,
+ * -1 when unknown. The loader accepts only the names of kernels/conductors.h. */
+static int conductor_id(const char *name)
 {
+    /* The order of SPT_CONDUCTOR_AU, _AG, _CU, _AL in kernels/conductors.h. */
+    static const char *const names[4] = {"Au", "Ag", "Cu", "Al"};
+    for (int i = 0; i < 4; i++)
+        if (!strcmp(name, names[i]))
+            return i;
+    return -1;
+}
+
+/* A reflectance-like spectrum of linear RGB rgb (components >= 0, possibly above
+ * 1): sigmoid coefficients of rgb / max, scaled by max. */
+static SpecRef spec_from_rgb_scaled(const float rgb[3])
+{
+    SpecRef r;
+    memset(&r, 0, sizeof r);
+    float mx = fmaxf(rgb[0], fmaxf(rgb[1], rgb[2]));
+    r.kind = SPT_SPEC_SIGMOID;
+    r.scale = mx > 0.0f ? mx : 0.0f;
+    float c[3] = {mx > 0 ? rgb[0] / mx : 0, mx > 0 ? rgb[1] / mx : 0, mx > 0 ? rgb[2] / mx : 0};
+    rgb_to_coeffs(c, r.c);
+    return r;
+}
+
+/* col_tex / data_tex: the device texture of each scene texture as a colour
+ * (coefficients) or as data (linear values), -1 when not used that way. */
+static void material_upload(GpuMaterial *gm, const SceneMaterial *m, const int *col_tex,
+                            const int *data_tex, float **spectra, uint32_t *count)
+{
+#define COL(t) ((t) >= 0 ? col_tex[t] : -1)
+#define DATA(t) ((t) >= 0 ? data_tex[t] : -1)
     memset(gm, 0, sizeof *gm);
     memcpy(gm->base_uv, m->uv_transform[SPT_SLOT_BASE], 6 * sizeof(float));
     memcpy(gm->emissive_uv, m->uv_transform[m->unlit ? SPT_SLOT_BASE : SPT_SLOT_EMISSIVE],
            6 * sizeof(float));
+    memcpy(gm->mr_uv, m->uv_transform[SPT_SLOT_METALLIC_ROUGHNESS], 6 * sizeof(float));
+    memcpy(gm->normal_uv, m->uv_transform[SPT_SLOT_NORMAL], 6 * sizeof(float));
+    gm->mr_tex = -1;
+    gm->normal_tex = -1;
     if (m->reflectance_spd.count > 0 || m->reflectance_spd.line_count > 0) {
         gm->reflectance = spec_from_spd(&m->reflectance_spd, 1.0f, spectra, count);
     } else {
@@ -73,6 +107,7 @@ static void material_upload(GpuMaterial *gm, const SceneMaterial *m, float **spe
         /* KHR_materials_unlit: the surface shows its base colour whatever the
          * lighting: an emitter of that colour that reflects nothing. */
         gm->reflectance.scale = 0.0f;
+        gm->flags |= SPT_MAT_UNLIT;
         float rgb[3] = {m->base_color[0], m->base_color[1], m->base_color[2]};
         if (rgb[0] > 0.0f || rgb[1] > 0.0f || rgb[2] > 0.0f) {
             gm->emission.kind = SPT_SPEC_SIGMOID;
@@ -81,7 +116,7 @@ static void material_upload(GpuMaterial *gm, const SceneMaterial *m, float **spe
             gm->flags |= SPT_MAT_EMISSIVE | SPT_MAT_DOUBLE_SIDED_EMISSION;
         }
         gm->base_tex = -1;
-        gm->emissive_tex = m->base_color_tex;
+        gm->emissive_tex = COL(m->base_color_tex);
         gm->alpha_cutoff = m->alpha_cutoff;
         return;
     }
@@ -99,19 +134,45 @@ static void material_upload(GpuMaterial *gm, const SceneMaterial *m, float **spe
             gm->flags |= SPT_MAT_EMISSIVE;
         }
     }
-    gm->base_tex = m->base_color_tex;
-    gm->emissive_tex = (gm->flags & SPT_MAT_EMISSIVE) ? m->emissive_tex : -1;
+    gm->base_tex = COL(m->base_color_tex);
+    gm->emissive_tex = (gm->flags & SPT_MAT_EMISSIVE) ? COL(m->emissive_tex) : -1;
     gm->alpha_cutoff = m->alpha_cutoff;
     gm->alpha = m->base_color[3];
     if (m->alpha_mode == SPT_ALPHA_MASK)
         gm->flags |= SPT_MAT_ALPHA_MASK;
     else if (m->alpha_mode == SPT_ALPHA_BLEND && !(m->base_color[3] >= 1.0f && m->base_color_tex < 0))
         gm->flags |= SPT_MAT_ALPHA_BLEND;
+
+    /* The BSDF (kernels/bsdf.h). */
+    gm->metallic = m->metallic;
+    gm->roughness = m->roughness;
+    gm->mr_tex = DATA(m->metallic_roughness_tex);
+    gm->normal_tex = DATA(m->normal_tex);
+    gm->normal_scale = m->normal_scale;
+    gm->transmission = m->transmission;
+    gm->ior = m->ior >= 1.0f ? m->ior : 1.5f;
+    gm->dispersion = m->dispersion;
+    gm->specular = m->specular;
+    if (m->specular_color[0] != 1.0f || m->specular_color[1] != 1.0f || m->specular_color[2] != 1.0f)
+        gm->spec_tint = spec_from_rgb_scaled(m->specular_color);
+    int cid = m->conductor[0] ? conductor_id(m->conductor) : -1;
+    gm->conductor = cid >= 0 ? cid + 1 : 0;
+    const float *ac = m->attenuation_color;
+    if (m->attenuation_distance > 0.0f && (ac[0] < 1.0f || ac[1] < 1.0f || ac[2] < 1.0f)) {
+        gm->attenuation.kind = SPT_SPEC_SIGMOID;
+        gm->attenuation.scale = 1.0f;
+        rgb_to_coeffs(ac, gm->attenuation.c);
+        gm->attenuation_distance = m->attenuation_distance;
+    }
+#undef COL
+#undef DATA
 }
 
-/* A coefficient texture from a scene texture: each texel's RGB becomes sigmoid
- * coefficients, its alpha (1 without an alpha channel) is kept in w. */
-static void texture_upload(GpuTexture *gt, const SceneTexture *t, float **texels, size_t *count)
+/* A device texture from a scene texture: as a colour, each texel's RGB becomes
+ * sigmoid coefficients and its alpha (1 without an alpha channel) is kept in w; as
+ * data, the RGBA values are kept as they are (missing channels 0, alpha 1). */
+static void texture_upload(GpuTexture *gt, const SceneTexture *t, int as_colour, float **texels,
+                           size_t *count)
 {
     size_t n = (size_t)t->width * (size_t)t->height;
     memset(gt, 0, sizeof *gt);
@@ -127,7 +188,12 @@ static void texture_upload(GpuTexture *gt, const SceneTexture *t, float **texels
         float rgb[3];
         for (int c = 0; c < 3; c++)
             rgb[c] = px[t->channels >= 3 ? c : 0];
-        rgb_to_coeffs(rgb, out + 4 * i);
+        if (as_colour) {
+            rgb_to_coeffs(rgb, out + 4 * i);
+        } else {
+            for (int c = 0; c < 3; c++)
+                out[4 * i + c] = rgb[c];
+        }
         out[4 * i + 3] = t->channels == 4 ? px[3] : 1.0f;
     }
     *count += n;
@@ -149,27 +215,49 @@ int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
     }
     g->vtx_normal = s->vtx_normal;
     g->vtx_uv = s->vtx_uv;
-    g->light_count = s->light_count;
     g->vertex_count = s->vertex_count;
 
+    /* Textures: a colour use (base colour, emissive) needs sigmoid coefficients,
+     * a data use (metallic-roughness, normal) the values themselves; a texture
+     * used both ways is uploaded twice. */
+    uint32_t nt = s->texture_count;
+    int *col_tex = spt_malloc(sizeof(int) * (nt ? nt : 1));
+    int *data_tex = spt_malloc(sizeof(int) * (nt ? nt : 1));
+    unsigned char *use = spt_calloc(nt ? nt : 1, 1);
+    for (uint32_t i = 0; i < nt; i++)
+        col_tex[i] = data_tex[i] = -1;
+    for (uint32_t i = 0; i < s->material_count; i++) {
+        const SceneMaterial *m = &s->materials[i];
+        int col[2] = {m->base_color_tex, m->emissive_tex};
+        int dat[2] = {m->metallic_roughness_tex, m->normal_tex};
+        for (int k = 0; k < 2; k++) {
+            if (col[k] >= 0 && (uint32_t)col[k] < nt) use[col[k]] |= 1;
+            if (dat[k] >= 0 && (uint32_t)dat[k] < nt) use[dat[k]] |= 2;
+        }
+    }
+    g->textures = spt_calloc(2 * (size_t)(nt ? nt : 1), sizeof(GpuTexture));
+    for (uint32_t i = 0; i < nt; i++)
+        for (int k = 1; k <= 2; k++)
+            if (use[i] & k) {
+                texture_upload(&g->textures[g->texture_count], &s->textures[i], k == 1, &g->texels,
+                               &g->texel_count);
+                (k == 1 ? col_tex : data_tex)[i] = (int)g->texture_count++;
+            }
     g->material_count = s->material_count;
     g->materials = spt_calloc(s->material_count ? s->material_count : 1, sizeof(GpuMaterial));
     for (uint32_t i = 0; i < s->material_count; i++)
-        material_upload(&g->materials[i], &s->materials[i], &g->spectra, &g->spectra_count);
-    g->texture_count = s->texture_count;
-    g->textures = spt_calloc(s->texture_count ? s->texture_count : 1, sizeof(GpuTexture));
-    for (uint32_t i = 0; i < s->texture_count; i++)
-        texture_upload(&g->textures[i], &s->textures[i], &g->texels, &g->texel_count);
+        material_upload(&g->materials[i], &s->materials[i], col_tex, data_tex, &g->spectra,
+                        &g->spectra_count);
+    free(col_tex);
+    free(data_tex);
+    free(use);
 
-    /* Emitters: every packed triangle whose material emits, weighted by power
-     * (area times luminance; the factor pi of a Lambertian emitter is common). */
+    /* Emitters: every packed triangle whose material emits, weighted by its
+     * Y-weighted power pi * area * Y(Le) (kernels/lights.h's selection units). */
     double *mat_y = spt_calloc(g->material_count ? g->material_count : 1, sizeof(double));
     for (uint32_t i = 0; i < g->material_count; i++)
         if (g->materials[i].flags & SPT_MAT_EMISSIVE)
             mat_y[i] = emission_luminance(&g->materials[i], g->spectra);
-    float *weights = NULL;
-    float *areas = NULL;
-    g->tri_light_pdf = spt_calloc(n ? n : 1, sizeof(float));
     const BvhTri *tris = bvh_tris(&g->bvh);
     for (uint32_t i = 0; i < n; i++) {
         uint32_t m = g->tri_shade[i].material;
@@ -178,23 +266,38 @@ int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
         vec3 a, b, c;
         bvh_tri_vertices(tris, i, &a, &b, &c);
         float area = 0.5f * v3_length(v3_cross(v3_sub(b, a), v3_sub(c, a)));
-        float w = (float)(area * mat_y[m]);
+        float w = (float)(M_PI * area * mat_y[m]);
         if (!(w > 0.0f))
             continue;
         g->emitters = spt_realloc(g->emitters, (g->emitter_count + 1) * sizeof(uint32_t));
-        weights = spt_realloc(weights, (g->emitter_count + 1) * sizeof(float));
-        areas = spt_realloc(areas, (g->emitter_count + 1) * sizeof(float));
+        g->emitter_power = spt_realloc(g->emitter_power, (g->emitter_count + 1) * sizeof(float));
+        g->emitter_area = spt_realloc(g->emitter_area, (g->emitter_count + 1) * sizeof(float));
         g->emitters[g->emitter_count] = i;
-        weights[g->emitter_count] = w;
-        areas[g->emitter_count] = area;
+        g->emitter_power[g->emitter_count] = w;
+        g->emitter_area[g->emitter_count] = area;
         g->emitter_count++;
     }
-    distrib_build(&g->emitter_distrib, weights, g->emitter_count);
-    for (uint32_t k = 0; k < g->emitter_count; k++)
-        g->tri_light_pdf[g->emitters[k]] = distrib_prob(&g->emitter_distrib, k) / areas[k];
-    free(weights);
-    free(areas);
     free(mat_y);
+
+    /* Punctual lights, their spectra appended to the spectra table. */
+    float r2 = 0.0f;
+    for (int k = 0; k < 3; k++) {
+        float d = s->bounds_max[k] - s->bounds_min[k];
+        r2 += d > 0.0f ? d * d : 0.0f;
+    }
+    g->scene_radius = r2 > 0.0f ? 0.5f * sqrtf(r2) : 1.0f;
+    g->lights = spt_calloc(s->light_count ? s->light_count : 1, sizeof(GpuLight));
+    for (uint32_t i = 0; i < s->light_count; i++) {
+        g->spectra = spt_realloc(g->spectra, (g->spectra_count + SPT_CIE_SAMPLES) * sizeof(float));
+        rc = light_from_scene(&s->lights[i], g->spectra + g->spectra_count, g->spectra_count,
+                              &g->lights[g->light_count], e);
+        if (rc) {
+            gpu_scene_free(g);
+            return rc;
+        }
+        g->spectra_count += SPT_CIE_SAMPLES;
+        g->light_count++;
+    }
     return 0;
 }
 
@@ -207,14 +310,34 @@ void gpu_scene_free(GpuScene *g)
     free(g->textures);
     free(g->texels);
     free(g->emitters);
-    distrib_free(&g->emitter_distrib);
-    free(g->tri_light_pdf);
+    free(g->emitter_power);
+    free(g->emitter_area);
+    free(g->lights);
     memset(g, 0, sizeof *g);
 }
 
-/* Byte sizes of the scene buffers, never 0 (OpenCL refuses empty buffers). */
+/* The lights of one render: the scene's emitters and punctual lights plus the
+ * environment of the render settings, and the one distribution that picks among
+ * them in proportion to power. */
+typedef struct RenderLights {
+    EnvLight env;
+    Distrib select;          /* [emitters | punctual lights | environment] */
+    float *tri_light_pdf;    /* per packed triangle: P(select) / area, 0 if not emitting */
+    float env_prob;
+} RenderLights;
+
+static void render_lights_free(RenderLights *L)
+{
+    env_free(&L->env);
+    distrib_free(&L->select);
+    free(L->tri_light_pdf);
+    memset(L, 0, sizeof *L);
+}
+
+/* Byte sizes of the scene buffers, never 0 (OpenCL refuses empty buffers). L may
+ * be NULL (an estimate for `info`: no environment). */
 static size_t NZ(size_t x) { return x ? x : 16; }
-static size_t scene_buffer_bytes(const GpuScene *g, const char *name)
+static size_t scene_buffer_bytes(const GpuScene *g, const RenderLights *L, const char *name)
 {
     uint32_t n = g->bvh.prim_count;
     if (!strcmp(name, "nodes")) return NZ((size_t)g->bvh.node_count * sizeof(BvhNode));
@@ -227,12 +350,16 @@ static size_t scene_buffer_bytes(const GpuScene *g, const char *name)
     if (!strcmp(name, "textures")) return NZ((size_t)g->texture_count * sizeof(GpuTexture));
     if (!strcmp(name, "texels")) return NZ(g->texel_count * 4 * sizeof(float));
     if (!strcmp(name, "emitters")) return NZ((size_t)g->emitter_count * sizeof(uint32_t));
-    if (!strcmp(name, "emitter_cdf")) return NZ(((size_t)g->emitter_count + 1) * sizeof(float));
+    if (!strcmp(name, "light_cdf"))
+        return L ? (L->select.n ? ((size_t)L->select.n + 1) * sizeof(float) : 16)
+                 : ((size_t)g->emitter_count + g->light_count + 2) * sizeof(float);
     if (!strcmp(name, "tri_light_pdf")) return NZ((size_t)n * sizeof(float));
+    if (!strcmp(name, "lights")) return NZ((size_t)g->light_count * sizeof(GpuLight));
+    if (!strcmp(name, "env_data")) return NZ(L ? (size_t)L->env.data_count * sizeof(float) : 0);
     return 16;
 }
 
-static const void *scene_buffer_data(const GpuScene *g, const char *name)
+static const void *scene_buffer_data(const GpuScene *g, const RenderLights *L, const char *name)
 {
     if (!strcmp(name, "nodes")) return g->bvh.nodes;
     if (!strcmp(name, "tris")) return g->bvh.tri_data;
@@ -244,15 +371,17 @@ static const void *scene_buffer_data(const GpuScene *g, const char *name)
     if (!strcmp(name, "textures")) return g->textures;
     if (!strcmp(name, "texels")) return g->texels;
     if (!strcmp(name, "emitters")) return g->emitters;
-    if (!strcmp(name, "emitter_cdf")) return g->emitter_distrib.cdf;
-    if (!strcmp(name, "tri_light_pdf")) return g->tri_light_pdf;
+    if (!strcmp(name, "light_cdf")) return L && L->select.n ? L->select.cdf : NULL;
+    if (!strcmp(name, "tri_light_pdf")) return L ? L->tri_light_pdf : NULL;
+    if (!strcmp(name, "lights")) return g->lights;
+    if (!strcmp(name, "env_data")) return L ? L->env.data : NULL;
     return NULL;
 }
 
 size_t gpu_scene_bytes(const GpuScene *g)
 {
     size_t total = 0;
-#define ADD(type, name) total += scene_buffer_bytes(g, #name);
+#define ADD(type, name) total += scene_buffer_bytes(g, NULL, #name);
     SPT_SCENE_BUFFERS(ADD)
 #undef ADD
     return total;
@@ -340,7 +469,7 @@ static uint32_t pool_size_for(const ClDeviceInfo *info, uint64_t work)
 }
 
 static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
-                            const RenderSettings *rs, const float *bg_table, SptError *e)
+                            const RenderSettings *rs, const RenderLights *L, SptError *e)
 {
     int rc;
     memset(w, 0, sizeof *w);
@@ -361,7 +490,7 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
     /* Check everything against the device before allocating. */
     ClAlloc allocs[64];
     int na = 0;
-#define PLAN(type, nm) allocs[na].name = #nm; allocs[na++].bytes = scene_buffer_bytes(g, #nm);
+#define PLAN(type, nm) allocs[na].name = #nm; allocs[na++].bytes = scene_buffer_bytes(g, L, #nm);
     SPT_SCENE_BUFFERS(PLAN)
 #undef PLAN
     allocs[na].name = "film contributions";
@@ -391,9 +520,9 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
     }
 #define MAKE_RO(type, name)                                                             \
     if ((rc = cl_buffer_create(&w->dev, #name, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,   \
-                               scene_buffer_bytes(g, #name),                              \
-                               (void *)(scene_buffer_data(g, #name)                      \
-                                            ? scene_buffer_data(g, #name)                \
+                               scene_buffer_bytes(g, L, #name),                           \
+                               (void *)(scene_buffer_data(g, L, #name)                   \
+                                            ? scene_buffer_data(g, L, #name)             \
                                             : zeros),                                    \
                                &w->b.name, e)))                                           \
         return rc;
@@ -420,9 +549,7 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
         (rc = cl_buffer_create(&w->dev, "film contributions", CL_MEM_READ_WRITE,
                                (size_t)(npix * w->chunk_spp * 16ull), NULL, &w->b.contrib, e)) ||
         (rc = cl_buffer_create(&w->dev, "chunk sums", CL_MEM_READ_WRITE, (size_t)npix * 16,
-                               NULL, &w->b.chunk_sum, e)) ||
-        (rc = cl_buffer_create(&w->dev, "background", CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                               SPT_CIE_SAMPLES * sizeof(float), (void *)bg_table, &w->b.bg_table, e)))
+                               NULL, &w->b.chunk_sum, e)))
         return rc;
     /* Every slot starts free (SPT_PATH_DEAD = 0). */
     cl_uint zero = 0;
@@ -654,7 +781,7 @@ static int test_hook(const char *name, int device, int *value)
 typedef struct Worker {
     int index;                 /* position in the selection */
     const RenderParams *base;  /* the parameters every chunk shares */
-    const float *bg_table;
+    const RenderLights *lights;
     const ClDeviceInfo *info;
     const GpuScene *g;
     const SceneCamera *cam;
@@ -672,7 +799,7 @@ static void *worker_main(void *arg)
     Worker *wk = arg;
     const RenderSettings *rs = wk->s->rs;
     Wavefront w;
-    wk->rc = wavefront_create(&w, wk->info, wk->g, rs, wk->bg_table, &wk->e);
+    wk->rc = wavefront_create(&w, wk->info, wk->g, rs, wk->lights, &wk->e);
     wk->st.build_seconds = w.dev.last_build_seconds;
     if (wk->rc) {
         if (w.dev.build_log)
@@ -714,19 +841,27 @@ static void *worker_main(void *arg)
     return NULL;
 }
 
-/* The sky of a render (see RenderSettings.background): a SpecRef, with a table in
- * bg_table when it is one. A scene with no light at all gets the default sky,
- * D65 of radiance 1 (linear sRGB 1, 1, 1), with a note. */
-static int background_setup(const RenderSettings *rs, const GpuScene *g, SpecRef *out,
-                            float *bg_table, SptError *e)
+/* The environment of a render (RenderSettings env_path, background): a map from
+ * --env, a uniform sky from --background (linear sRGB upsampled as an illuminant,
+ * or an SPD normalised to luminance Y = 1), nothing for "black", and for a scene
+ * with no light at all the default sky, D65 of radiance 1 (linear sRGB 1, 1, 1),
+ * with a note. */
+static int env_setup(const RenderSettings *rs, const GpuScene *g, EnvLight *env, SptError *e)
 {
-    memset(out, 0, sizeof *out);
-    memset(bg_table, 0, SPT_CIE_SAMPLES * sizeof(float));
+    memset(env, 0, sizeof *env);
+    env->env.rot_cos = 1.0f;
     const char *bg = rs->background;
     float rgb[3];
     char extra;
+    if (rs->env_path && bg)
+        return spt_fail(e, SPT_EXIT_USAGE, "--env and --background both set the sky; give one of them");
+    if (!(rs->env_intensity >= 0.0f) || !isfinite(rs->env_intensity))
+        return spt_fail(e, SPT_EXIT_USAGE, "--env-intensity must be finite and >= 0");
+    if (rs->env_path)
+        return env_load_map(env, rs->env_path, rs->env_rotation_deg * (float)(M_PI / 180.0),
+                            rs->env_intensity, e);
     if (!bg) {
-        if (g->emitter_count > 0 || g->light_count > 0 || rs->env_path)
+        if (g->emitter_count > 0 || g->light_count > 0)
             return 0;
         spt_note("the scene has no lights: it is lit by a uniform white sky (D65, radiance 1); "
                  "use --env FILE or --background R,G,B|SPD|black to change it");
@@ -737,33 +872,55 @@ static int background_setup(const RenderSettings *rs, const GpuScene *g, SpecRef
     if (sscanf(bg, "%f,%f,%f%c", &rgb[0], &rgb[1], &rgb[2], &extra) == 3) {
         if (!(rgb[0] >= 0 && rgb[1] >= 0 && rgb[2] >= 0) || !isfinite(rgb[0] + rgb[1] + rgb[2]))
             return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': colour components must be finite and >= 0", bg);
-        out->kind = SPT_SPEC_SIGMOID;
-        out->flags = SPT_SPEC_ILLUMINANT;
-        rgb_illuminant_coeffs(rgb, out->c, &out->scale);
-        if (out->scale == 0.0f)
-            out->kind = SPT_SPEC_NONE;
+        if (rgb[0] > 0 || rgb[1] > 0 || rgb[2] > 0)
+            env_build_uniform(env, rgb, 1.0f);
         return 0;
     }
-    /* An SPD, normalised to luminance Y = 1. */
+    /* An SPD, normalised to luminance Y = 1: a table in the environment's data. */
     Spd spd;
     SptError e2 = {0};
     if (spd_parse(&spd, bg, &e2))
         return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': %s", bg, e2.msg);
     double xyz[3];
     spd_to_xyz(&spd, xyz);
-    spd_to_grid(&spd, bg_table);
+    env->data = spt_calloc(SPT_CIE_SAMPLES, sizeof(float));
+    env->data_count = SPT_CIE_SAMPLES;
+    spd_to_grid(&spd, env->data);
     spd_free(&spd);
-    if (!(xyz[1] > 0))
+    if (!(xyz[1] > 0)) {
+        env_free(env);
         return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': the SPD has no luminance", bg);
-    out->kind = SPT_SPEC_TABLE;
-    out->scale = (float)(SPT_CIE_Y_INTEGRAL / xyz[1]);
-    out->offset = 0;
+    }
+    env->env.kind = SPT_ENV_UNIFORM;
+    env->env.uniform.kind = SPT_SPEC_TABLE;
+    env->env.uniform.scale = (float)(SPT_CIE_Y_INTEGRAL / xyz[1]);
+    env->env.uniform.offset = 0;
+    env->y_mean = 1.0;
+    return 0;
+}
+
+/* The lights of a render and the selection among them. */
+static int render_lights_setup(RenderLights *L, const GpuScene *g, const RenderSettings *rs,
+                               SptError *e)
+{
+    memset(L, 0, sizeof *L);
+    int rc = env_setup(rs, g, &L->env, e);
+    if (rc)
+        return rc;
+    lights_build_selection(&L->select, g->emitter_power, g->emitter_count, g->lights, g->light_count,
+                           g->spectra, &L->env, g->scene_radius);
+    uint32_t n = g->bvh.prim_count;
+    L->tri_light_pdf = spt_calloc(n ? n : 1, sizeof(float));
+    for (uint32_t k = 0; k < g->emitter_count; k++)
+        L->tri_light_pdf[g->emitters[k]] = distrib_prob(&L->select, k) / g->emitter_area[k];
+    if (L->env.env.kind != SPT_ENV_NONE && L->select.n > 0)
+        L->env_prob = distrib_prob(&L->select, L->select.n - 1);
     return 0;
 }
 
 /* The parameters every chunk of a render shares. */
-static int base_params(RenderParams *p, float *bg_table, const GpuScene *g, const SceneCamera *cam,
-                       const RenderSettings *rs, SptError *e)
+static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *g,
+                        const SceneCamera *cam, const RenderSettings *rs)
 {
     memset(p, 0, sizeof *p);
     camera_params(p, cam, rs->width, rs->height);
@@ -772,7 +929,11 @@ static int base_params(RenderParams *p, float *bg_table, const GpuScene *g, cons
     p->seed = rs->seed;
     p->max_depth = rs->max_depth;
     p->emitter_count = g->emitter_count;
-    p->emitter_total = (float)g->emitter_distrib.total;
+    p->light_count = g->light_count;
+    p->select_count = L->select.n;
+    p->emitter_total = (float)L->select.total;
+    p->env = L->env.env;
+    p->env_prob = L->env_prob;
     p->node_count = g->bvh.node_count;
     p->rr_depth = 3;
     for (uint32_t i = 0; i < g->material_count; i++)
@@ -788,7 +949,6 @@ static int base_params(RenderParams *p, float *bg_table, const GpuScene *g, cons
         p->focus_distance = g->bvh.prim_count && bvh_intersect(g->bvh.nodes, bvh_tris(&g->bvh), o, d, 1e30f, &hit)
                                 ? hit.t : 1000.0f;
     }
-    return background_setup(rs, g, &p->background, bg_table, e);
 }
 
 int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
@@ -812,9 +972,12 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
                 s.done_count++;
             }
     RenderParams base;
-    float bg_table[SPT_CIE_SAMPLES];
-    int rc0 = base_params(&base, bg_table, g, cam, rs, e);
+    RenderLights lights;
+    int rc0 = render_lights_setup(&lights, g, rs, e);
+    if (!rc0)
+        base_params(&base, &lights, g, cam, rs);
     if (rc0) {
+        render_lights_free(&lights);
         free(s.done);
         pthread_mutex_destroy(&s.lock);
         return rc0;
@@ -828,7 +991,7 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
         wk[i].cam = cam;
         wk[i].s = &s;
         wk[i].base = &base;
-        wk[i].bg_table = bg_table;
+        wk[i].lights = &lights;
     }
     if (count == 1) {
         worker_main(&wk[0]);
@@ -887,6 +1050,7 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
     free(s.done);
     free(s.ret_begin);
     free(s.ret_n);
+    render_lights_free(&lights);
     pthread_mutex_destroy(&s.lock);
     return rc;
 }

@@ -12,6 +12,7 @@
 #include "film.h"
 #include "scene.h"
 #include "util.h"
+#include "lights.h"
 #include "../kernels/render_types.h"
 
 typedef struct RenderSettings {
@@ -78,9 +79,11 @@ typedef struct GpuScene {
     size_t texel_count;
     uint32_t *emitters;      /* packed triangle index per emitter */
     uint32_t emitter_count;
-    Distrib emitter_distrib; /* selection by power */
-    float *tri_light_pdf;    /* per packed triangle: P(select) / area, 0 if not emitting */
-    uint32_t light_count;    /* punctual lights of the scene */
+    float *emitter_power;    /* per emitter: pi * area * Y(Le), its selection weight */
+    float *emitter_area;
+    GpuLight *lights;        /* punctual lights (spectra tables in spectra) */
+    uint32_t light_count;
+    float scene_radius;      /* of the bounding sphere, for light power estimates */
 } GpuScene;
 
 /* Builds the BVH and the device arrays of s. Returns 0 or an exit code. */

@@ -306,6 +306,9 @@ static void sphere_scene(Scene *s, float albedo)
     s->material_count = 1;
     s->materials = calloc(1, sizeof(SceneMaterial));
     scene_material_default(&s->materials[0]);
+    /* Lambertian: metallic 0 and no specular layer (KHR_materials_specular 0). */
+    s->materials[0].metallic = 0.0f;
+    s->materials[0].specular = 0.0f;
     for (int k = 0; k < 3; k++)
         s->materials[0].base_color[k] = albedo;
     s->camera.position[2] = 4.0f;
@@ -431,6 +434,8 @@ static SceneMaterial *append_quad(Scene *s, float height)
     s->materials = realloc(s->materials, sizeof(SceneMaterial) * (s->material_count + 1));
     SceneMaterial *m = &s->materials[s->material_count];
     scene_material_default(m);
+    m->metallic = 0.0f;
+    m->specular = 0.0f;
     s->tri_mat[t0] = s->tri_mat[t0 + 1] = s->material_count++;
     return m;
 }

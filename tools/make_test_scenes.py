@@ -11,6 +11,8 @@ Scenes:
                          and emission 1 at every wavelength (360-830 nm)
   plane_irradiance.gltf  Lambertian plane (albedo 0.5) under a parallel coaxial
                          emissive square (radiance 2), camera framing the centre
+Every material is pure Lambertian (KHR_materials_specular specularFactor 0, which
+removes glTF's dielectric specular layer), as the analytic values assume.
 Plain Python (json, struct, base64, math); no numpy needed.
 """
 import json
@@ -65,9 +67,10 @@ def furnace(path, spectral):
     a = FURNACE_ALBEDO
     if spectral:
         mat = g.material("furnace_spectral", (a, a, a), emissive=(1.0, 1.0, 1.0),
-                         reflectance=[(360.0, a), (830.0, a)], emission=[(360.0, 1.0), (830.0, 1.0)])
+                         reflectance=[(360.0, a), (830.0, a)], emission=[(360.0, 1.0), (830.0, 1.0)],
+                         pure_diffuse=True)
     else:
-        mat = g.material("furnace", (a, a, a), emissive=(1.0, 1.0, 1.0))
+        mat = g.material("furnace", (a, a, a), emissive=(1.0, 1.0, 1.0), pure_diffuse=True)
     v, t = cube_inward(FURNACE_HALF)
     g.mesh("cube", v, t, mat)
     g.camera("camera", math.radians(FURNACE_YFOV_DEG), (0.0, 0.0, 0.0))
@@ -76,8 +79,9 @@ def furnace(path, spectral):
 
 def plane_irradiance(path):
     g = GltfBuilder("spectrace tools/make_test_scenes.py")
-    plane = g.material("plane", (PLANE_ALBEDO,) * 3)
-    light = g.material("emitter", (0.0, 0.0, 0.0), emissive=(1.0, 1.0, 1.0), strength=PLANE_L0)
+    plane = g.material("plane", (PLANE_ALBEDO,) * 3, pure_diffuse=True)
+    light = g.material("emitter", (0.0, 0.0, 0.0), emissive=(1.0, 1.0, 1.0), strength=PLANE_L0,
+                       pure_diffuse=True)
     p, s, h = PLANE_HALF, PLANE_S, PLANE_H
     # Plane at y = 0 facing +y; emitter at y = h facing -y (both counter-clockwise).
     g.mesh("plane", [(-p, 0, -p), (-p, 0, p), (p, 0, p), (p, 0, -p)], [(0, 1, 2), (0, 2, 3)], plane,
