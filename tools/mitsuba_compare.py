@@ -12,7 +12,11 @@ by more than the tolerance (relative, default 2%). Exit 0 with a "skip:" line
 when mitsuba is not installed; 2 for a usage error or unreadable input.
 
 --max-depth must be the one the EXR was rendered with (spectrace's --max-depth;
-same convention: segments from the camera, -1 unlimited).
+same convention: segments from the camera, -1 unlimited), and --background the
+one it was rendered with (spectrace's default: a D65 sky of film Y = 1 when the
+scene has no light). Materials without an exact Mitsuba counterpart are
+refused (exit 2, the reason named) unless --approx (tools/scene_to_mitsuba.py
+lists the mapping).
 """
 import argparse
 import json
@@ -65,6 +69,9 @@ def main(argv=None):
                     help="largest relative difference of a channel mean that passes (default 0.02)")
     ap.add_argument("--variant", default="auto", help="Mitsuba variant (default: llvm_ad_spectral if possible)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--approx", action="store_true",
+                    help="convert materials without an exact Mitsuba counterpart to the nearest one (warned)")
+    ap.add_argument("--background", metavar="black|R,G,B", help="as spectrace's --background")
     ap.add_argument("--flip", action="store_true", help="also print the mean FLIP error (flip-evaluator)")
     ap.add_argument("--save-mitsuba", metavar="EXR", help="write Mitsuba's image here")
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
@@ -83,7 +90,12 @@ def main(argv=None):
         print("error: %s: cannot read: %s" % (a.exr, e), file=sys.stderr)
         return 2
     h, w = ours.shape[:2]
-    ref, info = s2m.render(a.scene, w, h, a.spp, a.max_depth, a.variant, a.seed, verbose=False)
+    try:
+        ref, info = s2m.render(a.scene, w, h, a.spp, a.max_depth, a.variant, a.seed, verbose=False,
+                               approx=a.approx, background=s2m.parse_background(a.background))
+    except ValueError as e:   # a material Mitsuba cannot render exactly, a bad --background
+        print("error: %s: %s" % (a.scene, e), file=sys.stderr)
+        return 2
     if a.save_mitsuba:
         s2m.write_exr(mi, a.save_mitsuba, ref)
     m_ours, m_ref = ours.mean(axis=(0, 1)), ref.mean(axis=(0, 1))
@@ -97,6 +109,8 @@ def main(argv=None):
               "mean_spectrace": m_ours.tolist(), "mean_mitsuba": m_ref.tolist(),
               "relative_difference": rel.tolist(), "tolerance": a.tolerance,
               "nonfinite_pixels": nonfinite, "pass": ok}
+    if info.get("warnings"):
+        result["converter_warnings"] = info["warnings"]
     if "stderr_of_mean" in info:
         result["mitsuba_stderr_of_mean"] = info["stderr_of_mean"]
     if a.flip:
