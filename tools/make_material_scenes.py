@@ -14,6 +14,13 @@ the flat geometric normals) in the middle, the camera inside the box:
   mat_dielectric.gltf      smooth glass, KHR_materials_transmission 1, ior 1.5
   mat_roughdielectric.gltf the same glass with roughnessFactor 0.5
 
+White furnace (no light: spectrace's default uniform D65 sky of radiance 1):
+
+  mat_furnace_roughglass.gltf  a glass sphere (ior 1.5, roughnessFactor 0.5) of
+                           radius 1 at the origin, camera at +Z 4 (yfov 0.6 rad):
+                           the energy single-scattering microfacets lose, to
+                           compare with Mitsuba's roughdielectric
+
 Analytic scene:
 
   mat_point_light.gltf     a Lambertian plane (albedo 0.5, specularFactor 0)
@@ -97,6 +104,16 @@ def sphere_scene(path, name, spec):
     g.write(path, extras={"about": "material test scene (tests/data/scenes/README.md)", "units": "metres"})
 
 
+def furnace_scene(path):
+    g = GltfBuilder(GEN)
+    mat = g.pbr_material("rough_glass", (1.0, 1.0, 1.0), 0.0, 0.5, extensions={
+        "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5}})
+    pos, tris, _ = uv_sphere(48, 96, 1.0)
+    g.mesh_from("sphere", g.geometry(pos, tris), mat)
+    g.camera("camera", 0.6, (0.0, 0.0, 4.0))
+    g.write(path, extras={"about": "white furnace test scene (tests/data/scenes/README.md)", "units": "metres"})
+
+
 def point_light_scene(path):
     g = GltfBuilder(GEN)
     plane = g.material("plane", (PL_ALBEDO,) * 3, pure_diffuse=True)
@@ -116,6 +133,9 @@ def main(argv):
         p = os.path.join(out, name + ".gltf")
         sphere_scene(p, name, spec)
         print("wrote %s (%d bytes)" % (p, os.path.getsize(p)))
+    p = os.path.join(out, "mat_furnace_roughglass.gltf")
+    furnace_scene(p)
+    print("wrote %s (%d bytes)" % (p, os.path.getsize(p)))
     p = os.path.join(out, "mat_point_light.gltf")
     point_light_scene(p)
     print("wrote %s (%d bytes)" % (p, os.path.getsize(p)))
