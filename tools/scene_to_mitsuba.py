@@ -366,7 +366,7 @@ def _emitter(m, spec, warnings):
 
 
 # Film Y of 1 cd/m^2 (kernels/lights.h SPT_LIGHT_FILM_Y_PER_NIT): 1 / (683 * integral ybar).
-CIE_Y_INTEGRAL = 106.856895
+CIE_Y_INTEGRAL = 106.8569171   # kernels/cie_data.h SPT_CIE_Y_INTEGRAL
 
 
 def light_to_mitsuba(entry, approx=False, warnings=None):
