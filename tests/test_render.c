@@ -444,6 +444,109 @@ static SceneMaterial *append_quad(Scene *s, float height)
     return m;
 }
 
+/* KHR_lights_punctual in the renderer, units included: a pure Lambertian plane
+ * (albedo 0.5) under a spot light of 100 cd pointing down from 2 m (cones 0.3
+ * and 0.5 rad), then under the spot and a directional light of 1000 lux at 45
+ * degrees at once (one light picked per sample by power). Each pixel's radiance
+ * is rho/pi times the illuminance, E = E_dir cos(45) + I cos(theta) falloff / r^2
+ * (the extension's smooth cone falloff), in film units Y = Lv / (683
+ * integral(ybar)); the lights are white (D65), so every channel of linear sRGB
+ * equals Y. */
+static void render_punctual(int with_directional, float *rgb, int w)
+{
+    Scene s;
+    memset(&s, 0, sizeof s);
+    SceneMaterial *m = append_quad(&s, 0.0f);
+    for (int k = 0; k < 3; k++)
+        m->base_color[k] = 0.5f;
+    s.camera.position[1] = 3.0f;
+    s.camera.forward[1] = -1.0f;
+    s.camera.up[2] = -1.0f;
+    s.camera.right[0] = 1.0f;
+    s.camera.yfov = 1.0f;
+    s.camera.aspect = 1.0f;
+    s.light_count = with_directional ? 2 : 1;
+    s.lights = calloc(2, sizeof(SceneLight));
+    SceneLight *sp = &s.lights[0], *dl = &s.lights[1];
+    sp->type = SPT_LIGHT_SPOT;
+    sp->position[1] = 2.0f;
+    sp->direction[1] = -1.0f;
+    sp->intensity = 100.0f;
+    sp->inner_cone = 0.3f;
+    sp->outer_cone = 0.5f;
+    dl->type = SPT_LIGHT_DIRECTIONAL;
+    dl->direction[1] = dl->direction[2] = -(float)sqrt(0.5);
+    dl->intensity = 1000.0f;
+    for (int k = 0; k < 3; k++)
+        dl->color[k] = sp->color[k] = 1.0f;
+    scene_update_bounds(&s);
+    GpuScene g;
+    SptError e = {0};
+    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = rs.height = w;
+    rs.spp = with_directional ? 256 : 32;
+    rs.max_depth = -1;
+    rs.seed = 5;
+    Film f;
+    RenderStats st;
+    film_init(&f, w, w);
+    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    film_to_linear_srgb(&f, rgb);
+    film_free(&f);
+    gpu_scene_free(&g);
+    scene_free(&s);
+}
+
+static void test_punctual_lights(void **state)
+{
+    (void)state;
+    enum { W = 48 };
+    float *rgb = malloc(W * W * 3 * sizeof(float));
+    const double to_film = 1.0 / (683.0 * SPT_CIE_Y_INTEGRAL);
+    const double ci = cos(0.3), co = cos(0.5), t = tan(0.5);
+    for (int both = 0; both < 2; both++) {
+        render_punctual(both, rgb, W);
+        double got = 0, want = 0, got_in = 0, want_in = 0, got_edge = 0, want_edge = 0;
+        int n_in = 0;
+        for (int py = 0; py < W; py++)
+            for (int px = 0; px < W; px++) {
+                double sx = 2.0 * (px + 0.5) / W - 1.0, sy = 1.0 - 2.0 * (py + 0.5) / W;
+                double X = 3.0 * sx * t, Z = -3.0 * sy * t;
+                double r2 = X * X + Z * Z + 4.0, r = sqrt(r2);
+                double c = 2.0 / r; /* incidence and angle from the spot's axis */
+                double tt = fmin(fmax((c - co) / (ci - co), 0.0), 1.0);
+                double E = (both ? 1000.0 * sqrt(0.5) : 0.0) + 100.0 * c * tt * tt / r2;
+                double L = 0.5 / M_PI * E * to_film;
+                for (int k = 0; k < 3; k++) {
+                    double v = rgb[3 * (py * W + px) + k];
+                    got += v;
+                    want += L;
+                    if (tt >= 1.0) {
+                        got_in += v;
+                        want_in += L;
+                    } else if (tt > 0.0) {
+                        got_edge += v;
+                        want_edge += L;
+                    }
+                }
+                n_in += tt >= 1.0;
+            }
+        printf("punctual (%s): image mean %.6g, predicted %.6g; inner cone %.6g, predicted %.6g (%d "
+               "pixels); falloff ring %.6g, predicted %.6g\n", both ? "spot + directional" : "spot",
+               got / (3 * W * W), want / (3 * W * W), got_in / (3 * n_in), want_in / (3 * n_in), n_in,
+               got_edge, want_edge);
+        assert_true(n_in > 50);
+        assert_close_rel(got, want, 0.01);
+        if (!both) {
+            assert_close_rel(got_in, want_in, 0.01);
+            assert_close_rel(got_edge, want_edge, 0.02);
+        }
+    }
+    free(rgb);
+}
+
 /* alphaMode BLEND: a black plane of alpha 0.5 between the emitter and the lit
  * plane of plane_irradiance.gltf transmits half the light (camera and shadow
  * rays both); alphaMode MASK below its cutoff transmits all of it. */
@@ -764,6 +867,7 @@ int main(void)
         cmocka_unit_test(test_default_sky),
         cmocka_unit_test(test_env_map),
         cmocka_unit_test(test_env_missing),
+        cmocka_unit_test(test_punctual_lights),
         cmocka_unit_test(test_unlit),
         cmocka_unit_test(test_alpha_blend_and_mask),
         cmocka_unit_test(test_named_light_spectra),
