@@ -41,13 +41,22 @@ LIB := $(BUILD)/libspectrace.a
 PROG := $(BUILD)/spectrace
 TEST_SRCS := $(wildcard tests/test_*.c)
 TEST_BINS := $(TEST_SRCS:tests/%.c=$(BUILD)/tests/%)
+# build/spectrace-mpi (`make mpi`): the same command line over MPI ranks
+# (src/mpi/); only this program links Open MPI. Not built with sanitizers.
+MPICC ?= mpicc
+MPI_PROG := $(BUILD)/spectrace-mpi
+MPI_LIBS = $(shell $(MPICC) --showme:link 2>/dev/null)
 TOOL_BINS := $(patsubst tools/%.c,$(BUILD)/tools/%,$(wildcard tools/*.c))
 
-.PHONY: all deps render test test-san tests bench clean
+.PHONY: all deps render test test-san tests bench mpi clean
 all: $(PROG) $(TEST_BINS)
 
+# The "mpi" group too: the tests run build/spectrace-mpi under mpirun.
 deps:
-	@tools/install_deps.sh
+	@tools/install_deps.sh mpi
+
+mpi: deps
+	@$(MAKE) --no-print-directory $(MPI_PROG)
 
 # The main job: install what is missing, build, render the default scene.
 render: deps
@@ -64,15 +73,30 @@ test-san: deps
 	@$(MAKE) --no-print-directory SAN=1 tests
 	@tests/run_tests.sh build-san
 
-tests: $(PROG) $(TEST_BINS)
+tests: $(PROG) $(TEST_BINS) $(if $(filter 1,$(SAN)),,$(MPI_PROG))
 
 bench: deps
-	@$(MAKE) --no-print-directory OPT=-O3 $(PROG) $(TOOL_BINS)
+	@$(MAKE) --no-print-directory OPT=-O3 $(PROG) $(MPI_PROG) $(TOOL_BINS)
 	@tools/bench.sh $(BUILD)
 
 $(PROG): $(BUILD)/obj/main.o $(LIB)
 	@echo "LINK $@"
 	$(Q)$(CXX) $(LDFLAGS) -o $@ $^ $(LDLIBS)
+
+$(MPI_PROG): $(BUILD)/obj/mpi/mpi_main.o $(BUILD)/obj/mpi/cli_main.o $(LIB)
+	@echo "LINK $@"
+	$(Q)$(CXX) $(LDFLAGS) -o $@ $^ $(LDLIBS) $(MPI_LIBS)
+
+$(BUILD)/obj/mpi/mpi_main.o: src/mpi/mpi_main.c
+	@mkdir -p $(dir $@)
+	@echo "MPICC $<"
+	$(Q)$(MPICC) $(CPPFLAGS) $(CFLAGS) $(PKG_CFLAGS) -c -o $@ $<
+
+# src/main.c once more with its main() renamed: spectrace-mpi's main calls it.
+$(BUILD)/obj/mpi/cli_main.o: src/main.c
+	@mkdir -p $(dir $@)
+	@echo "CC   $< (as spectrace_main)"
+	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) -Dmain=spectrace_main -c -o $@ $<
 
 $(LIB): $(LIB_OBJS)
 	@echo "AR   $@"

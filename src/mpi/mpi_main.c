@@ -1,0 +1,616 @@
+/* build/spectrace-mpi: the command line of build/spectrace, with `render` spread
+ * over the ranks of an MPI job (`mpirun -n N build/spectrace-mpi render ...`).
+ *
+ * Rank 0 runs the ordinary command line (src/main.c, compiled here as
+ * spectrace_main): it alone reads the scene, the checkpoint and writes files and
+ * progress. When cmd_render reaches the render, spt_dist_render (below) sends
+ * every other rank the job (the settings and the loaded scene, packed by
+ * src/scene_pack.c, so buffers and textures need not exist on the other
+ * machines), then renders on its own devices while a server thread hands out
+ * chunks of sample indices to the ranks that ask and adds the sums of every
+ * chunk they finish to the one film, which is also what checkpoints save. A
+ * chunk counts as done only once its sums are in rank 0's film.
+ *
+ * The other ranks wait for the job, select their own devices (their --device,
+ * else SPECTRACE_DEVICE), build the scene and render with render_devices whose
+ * hooks ask rank 0 for chunks and send each finished chunk's sums back, then
+ * report their status. Any rank that fails fails the run: rank 0 prints one
+ * `error:` line naming the rank and the reason, and writes no image.
+ *
+ * MPI calls are made by one thread at a time (MPI_THREAD_SERIALIZED): on rank 0
+ * by the server thread during the render, elsewhere under the render's
+ * scheduler lock. Waits poll with short sleeps instead of blocking in MPI,
+ * because Open MPI's blocking calls spin a core that the renderer needs. */
+#include <mpi.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "cl_device.h"
+#include "dist.h"
+#include "film.h"
+#include "render.h"
+#include "scene.h"
+#include "scene_pack.h"
+#include "util.h"
+
+int spectrace_main(int argc, char **argv); /* src/main.c's main, renamed by the Makefile */
+
+enum { TAG_JOB = 1, TAG_REQ, TAG_CHUNK, TAG_DONE, TAG_FILM, TAG_BACK, TAG_FINISH };
+
+/* The settings of a render as they travel to the other ranks (every field of
+ * RenderSettings that changes what a sample computes, and the camera). */
+typedef struct JobSettings {
+    int32_t width, height, spp, max_depth, profile, has_env, has_background;
+    uint32_t seed, sample_begin;
+    double time_limit;
+    float env_rotation_deg, env_intensity, aperture, focus_distance;
+    char env_path[1024];
+    char background[1024];
+    SceneCamera cam;
+} JobSettings;
+
+typedef struct DoneMsg {
+    uint32_t begin, n;
+} DoneMsg;
+
+typedef struct FinishMsg {
+    int32_t rc;
+    uint32_t samples;
+    uint64_t paths, rays_extend, rays_shadow, nan_dropped;
+    char msg[1024];
+} FinishMsg;
+
+static int g_rank, g_size, g_job_sent;
+
+/* Polls until a message from src with tag arrives; fills st. */
+static void wait_message(int src, int tag, MPI_Status *st)
+{
+    int flag = 0;
+    for (;;) {
+        MPI_Iprobe(src, tag, MPI_COMM_WORLD, &flag, st);
+        if (flag)
+            return;
+        usleep(300);
+    }
+}
+
+/* ---- chunks in flight on this rank ---------------------------------------- */
+
+typedef struct Inflight {
+    uint32_t *begin, *n;
+    int count, cap;
+} Inflight;
+
+static void inflight_add(Inflight *f, uint32_t begin, uint32_t n)
+{
+    if (f->count == f->cap) {
+        f->cap = f->cap ? 2 * f->cap : 8;
+        f->begin = spt_realloc(f->begin, (size_t)f->cap * sizeof(uint32_t));
+        f->n = spt_realloc(f->n, (size_t)f->cap * sizeof(uint32_t));
+    }
+    f->begin[f->count] = begin;
+    f->n[f->count] = n;
+    f->count++;
+}
+
+/* Removes and returns the chunk whose first sample is now marked done (the one
+ * chunk render_devices just finished); 0 when none is. */
+static int inflight_pop_done(Inflight *f, const unsigned char *done, uint32_t *begin, uint32_t *n)
+{
+    for (int i = 0; i < f->count; i++)
+        if (done[f->begin[i]]) {
+            *begin = f->begin[i];
+            *n = f->n[i];
+            f->count--;
+            f->begin[i] = f->begin[f->count];
+            f->n[i] = f->n[f->count];
+            return 1;
+        }
+    return 0;
+}
+
+static void inflight_remove(Inflight *f, uint32_t begin)
+{
+    for (int i = 0; i < f->count; i++)
+        if (f->begin[i] == begin) {
+            f->count--;
+            f->begin[i] = f->begin[f->count];
+            f->n[i] = f->n[f->count];
+            return;
+        }
+}
+
+/* ---- rank 0 ----------------------------------------------------------------- */
+
+typedef struct Global {
+    pthread_mutex_t lock;
+    const RenderSettings *rs;
+    Film *film;                /* the output film: every rank's finished chunks */
+    unsigned char *done;       /* per sample index: in film (or resumed) */
+    unsigned char *handed;     /* per sample index: handed out (or done) */
+    uint32_t total, next, done_count;
+    uint32_t *ret_begin, *ret_n; /* chunks given back by failed devices */
+    int ret_count, abort;      /* abort: a rank failed, hand out nothing more */
+    double t0;
+    uint64_t paths;
+    int decile;
+    Inflight local;            /* chunks on rank 0's own devices */
+    Film local_film;           /* rank 0's devices render into this */
+    FinishMsg *finish;         /* per rank */
+    int finished;              /* ranks other than 0 that reported */
+} Global;
+
+/* Takes up to want samples (G locked); 0 when nothing is left or stopping. */
+static int g_take(Global *G, uint32_t want, uint32_t *begin, uint32_t *n)
+{
+    const RenderSettings *rs = G->rs;
+    if (G->abort || (rs->stop && *rs->stop) ||
+        (rs->time_limit > 0 && spt_now() - G->t0 >= rs->time_limit))
+        return 0;
+    if (G->ret_count > 0) {
+        G->ret_count--;
+        *begin = G->ret_begin[G->ret_count];
+        *n = G->ret_n[G->ret_count];
+        return 1;
+    }
+    while (G->next < G->total && G->handed[G->next])
+        G->next++;
+    if (G->next >= G->total)
+        return 0;
+    uint32_t k = 0;
+    while (k < want && G->next + k < G->total && !G->handed[G->next + k])
+        G->handed[G->next + k++] = 1;
+    *begin = G->next;
+    *n = k;
+    return 1;
+}
+
+static void g_give_back(Global *G, uint32_t begin, uint32_t n)
+{
+    G->ret_begin = spt_realloc(G->ret_begin, (size_t)(G->ret_count + 1) * sizeof(uint32_t));
+    G->ret_n = spt_realloc(G->ret_n, (size_t)(G->ret_count + 1) * sizeof(uint32_t));
+    G->ret_begin[G->ret_count] = begin;
+    G->ret_n[G->ret_count] = n;
+    G->ret_count++;
+}
+
+static void g_progress(Global *G)
+{
+    const RenderSettings *rs = G->rs;
+    if (!rs->progress)
+        return;
+    double frac = G->total ? (double)G->done_count / G->total : 1.0;
+    int tty = isatty(2), decile = (int)(frac * 10.0);
+    if (!tty && decile == G->decile)
+        return;
+    G->decile = decile;
+    double el = spt_now() - G->t0;
+    fprintf(stderr, "%srender: %5.1f%%  %u/%u spp  %.2f Mpaths/s  %.1f s elapsed  %d ranks%s",
+            tty ? "\r" : "", 100.0 * frac, G->done_count, G->total,
+            el > 0 ? G->paths / el * 1e-6 : 0.0, el, g_size, tty ? "   " : "\n");
+    fflush(stderr);
+}
+
+/* A finished chunk (G locked): sums are added, the samples marked done, and the
+ * caller's on_chunk (the checkpoint writer) sees the whole film. */
+static void g_chunk_done(Global *G, uint32_t begin, uint32_t n, const Film *sums)
+{
+    film_add(G->film, sums);
+    for (uint32_t i = 0; i < n; i++)
+        G->done[begin + i] = 1;
+    G->done_count += n;
+    G->paths += (uint64_t)n * G->film->width * G->film->height;
+    g_progress(G);
+    if (G->rs->on_chunk)
+        G->rs->on_chunk(G->rs->on_chunk_ctx, G->film, G->done, G->total);
+}
+
+/* Hooks of rank 0's own render_devices (called under its scheduler lock). */
+static int local_take(void *ctx, uint32_t want, uint32_t *begin, uint32_t *n)
+{
+    Global *G = ctx;
+    pthread_mutex_lock(&G->lock);
+    int ok = g_take(G, want, begin, n);
+    if (ok)
+        inflight_add(&G->local, *begin, *n);
+    pthread_mutex_unlock(&G->lock);
+    return ok;
+}
+
+static void local_back(void *ctx, uint32_t begin, uint32_t n)
+{
+    Global *G = ctx;
+    pthread_mutex_lock(&G->lock);
+    inflight_remove(&G->local, begin);
+    g_give_back(G, begin, n);
+    pthread_mutex_unlock(&G->lock);
+}
+
+static void local_done(void *ctx, const Film *film, const unsigned char *done, uint32_t total)
+{
+    (void)film;
+    (void)total;
+    Global *G = ctx;
+    pthread_mutex_lock(&G->lock);
+    uint32_t begin, n;
+    if (inflight_pop_done(&G->local, done, &begin, &n)) {
+        g_chunk_done(G, begin, n, &G->local_film);
+        size_t np = (size_t)G->local_film.width * G->local_film.height;
+        memset(G->local_film.xyz, 0, 3 * np * sizeof(double));
+        memset(G->local_film.count, 0, np * sizeof(double));
+    }
+    pthread_mutex_unlock(&G->lock);
+}
+
+/* Serves the other ranks until every one has reported its end. */
+static void *server_main(void *arg)
+{
+    Global *G = arg;
+    size_t np = (size_t)G->film->width * G->film->height;
+    Film in;
+    film_init(&in, G->film->width, G->film->height);
+    double *buf = spt_malloc(4 * np * sizeof(double));
+    while (G->finished < g_size - 1) {
+        MPI_Status st;
+        int flag = 0;
+        MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
+        if (!flag) {
+            usleep(300);
+            continue;
+        }
+        int src = st.MPI_SOURCE;
+        if (st.MPI_TAG == TAG_REQ) {
+            uint32_t want, reply[3] = {0, 0, 0};
+            MPI_Recv(&want, 1, MPI_UINT32_T, src, TAG_REQ, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            pthread_mutex_lock(&G->lock);
+            reply[0] = (uint32_t)g_take(G, want, &reply[1], &reply[2]);
+            pthread_mutex_unlock(&G->lock);
+            MPI_Send(reply, 3, MPI_UINT32_T, src, TAG_CHUNK, MPI_COMM_WORLD);
+        } else if (st.MPI_TAG == TAG_DONE) {
+            DoneMsg d;
+            MPI_Recv(&d, (int)sizeof d, MPI_BYTE, src, TAG_DONE, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            MPI_Recv(buf, (int)(4 * np), MPI_DOUBLE, src, TAG_FILM, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            memcpy(in.xyz, buf, 3 * np * sizeof(double));
+            memcpy(in.count, buf + 3 * np, np * sizeof(double));
+            pthread_mutex_lock(&G->lock);
+            if (d.begin < G->total && d.n <= G->total - d.begin)
+                g_chunk_done(G, d.begin, d.n, &in);
+            pthread_mutex_unlock(&G->lock);
+        } else if (st.MPI_TAG == TAG_BACK) {
+            DoneMsg d;
+            MPI_Recv(&d, (int)sizeof d, MPI_BYTE, src, TAG_BACK, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            pthread_mutex_lock(&G->lock);
+            g_give_back(G, d.begin, d.n);
+            pthread_mutex_unlock(&G->lock);
+        } else if (st.MPI_TAG == TAG_FINISH) {
+            FinishMsg f;
+            MPI_Recv(&f, (int)sizeof f, MPI_BYTE, src, TAG_FINISH, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            f.msg[sizeof f.msg - 1] = 0;
+            pthread_mutex_lock(&G->lock);
+            G->finish[src] = f;
+            G->finished++;
+            if (f.rc)
+                G->abort = 1; /* a failed rank fails the run: hand out nothing more */
+            pthread_mutex_unlock(&G->lock);
+        } else {
+            /* Not ours: drain it so the loop goes on. */
+            int count = 0;
+            MPI_Get_count(&st, MPI_BYTE, &count);
+            char *junk = spt_malloc(count > 0 ? (size_t)count : 1);
+            MPI_Recv(junk, count, MPI_BYTE, src, st.MPI_TAG, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            free(junk);
+        }
+    }
+    free(buf);
+    film_free(&in);
+    return NULL;
+}
+
+/* Sends the job (settings and packed scene) to every other rank. */
+static void send_job(const RenderSettings *rs, const Scene *scene, const SceneCamera *cam)
+{
+    JobSettings js;
+    memset(&js, 0, sizeof js);
+    js.width = rs->width;
+    js.height = rs->height;
+    js.spp = rs->spp;
+    js.max_depth = rs->max_depth;
+    js.profile = rs->profile;
+    js.seed = rs->seed;
+    js.sample_begin = rs->sample_begin;
+    js.time_limit = rs->time_limit;
+    js.env_rotation_deg = rs->env_rotation_deg;
+    js.env_intensity = rs->env_intensity;
+    js.aperture = rs->aperture;
+    js.focus_distance = rs->focus_distance;
+    js.has_env = rs->env_path != NULL;
+    js.has_background = rs->background != NULL;
+    if (rs->env_path)
+        snprintf(js.env_path, sizeof js.env_path, "%s", rs->env_path);
+    if (rs->background)
+        snprintf(js.background, sizeof js.background, "%s", rs->background);
+    js.cam = *cam;
+    size_t n;
+    unsigned char *packed = scene_pack(scene, &n);
+    unsigned char *msg = spt_malloc(sizeof js + n);
+    memcpy(msg, &js, sizeof js);
+    memcpy(msg + sizeof js, packed, n);
+    free(packed);
+    for (int r = 1; r < g_size; r++)
+        MPI_Send(msg, (int)(sizeof js + n), MPI_BYTE, r, TAG_JOB, MPI_COMM_WORLD);
+    free(msg);
+    g_job_sent = 1;
+}
+
+static int mpi_render(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
+                      const Scene *scene, const SceneCamera *cam, const RenderSettings *rs,
+                      Film *film, RenderStats *stats, RenderDeviceStats *per_device, SptError *e)
+{
+    send_job(rs, scene, cam);
+    Global G;
+    memset(&G, 0, sizeof G);
+    pthread_mutex_init(&G.lock, NULL);
+    G.rs = rs;
+    G.film = film;
+    G.total = rs->spp > 0 ? (uint32_t)rs->spp : 0;
+    G.done = spt_calloc(G.total ? G.total : 1, 1);
+    G.handed = spt_calloc(G.total ? G.total : 1, 1);
+    if (rs->done_in)
+        for (uint32_t i = 0; i < G.total; i++)
+            if (rs->done_in[i]) {
+                G.done[i] = G.handed[i] = 1;
+                G.done_count++;
+            }
+    G.decile = -1;
+    G.t0 = spt_now();
+    G.finish = spt_calloc((size_t)g_size, sizeof(FinishMsg));
+    film_init(&G.local_film, film->width, film->height);
+    pthread_t server;
+    pthread_create(&server, NULL, server_main, &G);
+
+    RenderSettings lrs = *rs;
+    lrs.progress = 0;
+    lrs.done_in = NULL;
+    lrs.take_chunk = local_take;
+    lrs.give_back = local_back;
+    lrs.chunk_ctx = &G;
+    lrs.on_chunk = local_done;
+    lrs.on_chunk_ctx = &G;
+    RenderStats lst;
+    SptError le = {0};
+    int rc0 = render_devices(infos, count, g, cam, &lrs, &G.local_film, &lst, per_device, &le);
+    if (rc0) {
+        pthread_mutex_lock(&G.lock);
+        G.abort = 1;
+        pthread_mutex_unlock(&G.lock);
+    }
+    pthread_join(server, NULL);
+    if (rs->progress && isatty(2))
+        fputc('\n', stderr);
+
+    *stats = lst;
+    stats->seconds = spt_now() - G.t0;
+    stats->spp_done = G.done_count;
+    int rc = 0;
+    if (rc0)
+        rc = spt_fail(e, rc0, "rank 0: %s", le.msg);
+    for (int r = 1; r < g_size; r++) {
+        stats->paths += G.finish[r].paths;
+        stats->rays_extend += G.finish[r].rays_extend;
+        stats->rays_shadow += G.finish[r].rays_shadow;
+        stats->nan_dropped += G.finish[r].nan_dropped;
+        if (G.finish[r].rc && !rc)
+            rc = spt_fail(e, G.finish[r].rc, "rank %d: %s", r, G.finish[r].msg);
+    }
+    int stopped = (rs->stop && *rs->stop) ||
+                  (rs->time_limit > 0 && spt_now() - G.t0 >= rs->time_limit);
+    if (!rc && G.done_count < G.total && !stopped)
+        rc = spt_fail(e, SPT_EXIT_FAILURE, "render incomplete: %u of %u samples per pixel done on %d ranks",
+                      G.done_count, G.total, g_size);
+    if (rs->progress && !rc) {
+        fprintf(stderr, "ranks:");
+        for (int r = 0; r < g_size; r++)
+            fprintf(stderr, " %d: %u spp%s", r,
+                    r ? G.finish[r].samples : (uint32_t)(lst.paths / ((uint64_t)film->width * film->height)),
+                    r + 1 < g_size ? "," : "\n");
+    }
+    film_free(&G.local_film);
+    free(G.done);
+    free(G.handed);
+    free(G.ret_begin);
+    free(G.ret_n);
+    free(G.finish);
+    free(G.local.begin);
+    free(G.local.n);
+    pthread_mutex_destroy(&G.lock);
+    return rc;
+}
+
+/* ---- the other ranks ---------------------------------------------------------- */
+
+typedef struct Worker {
+    Inflight inflight;
+    Film film;            /* one chunk's sums at a time */
+    double *buf;
+    uint32_t samples;
+} Worker;
+
+static int remote_take(void *ctx, uint32_t want, uint32_t *begin, uint32_t *n)
+{
+    Worker *w = ctx;
+    MPI_Send(&want, 1, MPI_UINT32_T, 0, TAG_REQ, MPI_COMM_WORLD);
+    MPI_Status st;
+    wait_message(0, TAG_CHUNK, &st);
+    uint32_t reply[3];
+    MPI_Recv(reply, 3, MPI_UINT32_T, 0, TAG_CHUNK, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    if (!reply[0])
+        return 0;
+    *begin = reply[1];
+    *n = reply[2];
+    inflight_add(&w->inflight, *begin, *n);
+    return 1;
+}
+
+static void remote_back(void *ctx, uint32_t begin, uint32_t n)
+{
+    Worker *w = ctx;
+    inflight_remove(&w->inflight, begin);
+    DoneMsg d = {begin, n};
+    MPI_Send(&d, (int)sizeof d, MPI_BYTE, 0, TAG_BACK, MPI_COMM_WORLD);
+}
+
+static void remote_done(void *ctx, const Film *film, const unsigned char *done, uint32_t total)
+{
+    (void)film;
+    (void)total;
+    Worker *w = ctx;
+    DoneMsg d;
+    if (!inflight_pop_done(&w->inflight, done, &d.begin, &d.n))
+        return;
+    size_t np = (size_t)w->film.width * w->film.height;
+    memcpy(w->buf, w->film.xyz, 3 * np * sizeof(double));
+    memcpy(w->buf + 3 * np, w->film.count, np * sizeof(double));
+    memset(w->film.xyz, 0, 3 * np * sizeof(double));
+    memset(w->film.count, 0, np * sizeof(double));
+    MPI_Send(&d, (int)sizeof d, MPI_BYTE, 0, TAG_DONE, MPI_COMM_WORLD);
+    MPI_Send(w->buf, (int)(4 * np), MPI_DOUBLE, 0, TAG_FILM, MPI_COMM_WORLD);
+    w->samples += d.n;
+}
+
+/* This rank's --device (the last one given, as getopt does), else NULL. */
+static const char *device_arg(int argc, char **argv)
+{
+    const char *sel = NULL;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--device") && i + 1 < argc)
+            sel = argv[++i];
+        else if (!strncmp(argv[i], "--device=", 9))
+            sel = argv[i] + 9;
+    }
+    return sel;
+}
+
+/* Renders one job for rank 0; every failure goes to rank 0 in the finish message. */
+static int worker_run(const unsigned char *job, size_t len, const char *device_sel, FinishMsg *fin)
+{
+    SptError e = {0};
+    JobSettings js;
+    Scene scene;
+    memset(&scene, 0, sizeof scene);
+    ClDeviceList devices = {0};
+    GpuScene gpu;
+    memset(&gpu, 0, sizeof gpu);
+    Worker w;
+    memset(&w, 0, sizeof w);
+    int rc;
+    if (len < sizeof js) {
+        rc = spt_fail(&e, SPT_EXIT_FAILURE, "job message too short (%zu bytes)", len);
+        goto out;
+    }
+    memcpy(&js, job, sizeof js);
+    js.env_path[sizeof js.env_path - 1] = js.background[sizeof js.background - 1] = 0;
+    if ((rc = scene_unpack(&scene, job + sizeof js, len - sizeof js, "the scene from rank 0", &e)))
+        goto out;
+    int sel[64], nsel = 0;
+    if ((rc = cl_device_list(&devices, &e)) ||
+        (rc = cl_device_select(&devices, device_sel, sel, &nsel, &e)) ||
+        (rc = gpu_scene_build(&gpu, &scene, &e)))
+        goto out;
+    const ClDeviceInfo *devs[64];
+    for (int i = 0; i < nsel && i < 64; i++)
+        devs[i] = &devices.devices[sel[i]];
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = js.width;
+    rs.height = js.height;
+    rs.spp = js.spp;
+    rs.time_limit = js.time_limit;
+    rs.max_depth = js.max_depth;
+    rs.seed = js.seed;
+    rs.sample_begin = js.sample_begin;
+    rs.profile = js.profile;
+    rs.env_path = js.has_env ? js.env_path : NULL;
+    rs.env_rotation_deg = js.env_rotation_deg;
+    rs.env_intensity = js.env_intensity;
+    rs.background = js.has_background ? js.background : NULL;
+    rs.aperture = js.aperture;
+    rs.focus_distance = js.focus_distance;
+    rs.take_chunk = remote_take;
+    rs.give_back = remote_back;
+    rs.chunk_ctx = &w;
+    rs.on_chunk = remote_done;
+    rs.on_chunk_ctx = &w;
+    film_init(&w.film, rs.width, rs.height);
+    w.buf = spt_malloc((size_t)rs.width * rs.height * 4 * sizeof(double));
+    RenderStats st;
+    rc = render_devices(devs, nsel, &gpu, &js.cam, &rs, &w.film, &st, NULL, &e);
+    fin->paths = st.paths;
+    fin->rays_extend = st.rays_extend;
+    fin->rays_shadow = st.rays_shadow;
+    fin->nan_dropped = st.nan_dropped;
+out:
+    fin->rc = rc;
+    fin->samples = w.samples;
+    snprintf(fin->msg, sizeof fin->msg, "%s", rc ? e.msg : "");
+    free(w.buf);
+    free(w.inflight.begin);
+    free(w.inflight.n);
+    film_free(&w.film);
+    gpu_scene_free(&gpu);
+    cl_device_list_free(&devices);
+    scene_free(&scene);
+    return rc;
+}
+
+/* Waits for rank 0's job (or its word that there is none) and runs it. */
+static void worker_main(int argc, char **argv)
+{
+    MPI_Status st;
+    wait_message(0, TAG_JOB, &st);
+    int len = 0;
+    MPI_Get_count(&st, MPI_BYTE, &len);
+    unsigned char *job = spt_malloc(len > 0 ? (size_t)len : 1);
+    MPI_Recv(job, len, MPI_BYTE, 0, TAG_JOB, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    if (len > 0) {
+        FinishMsg fin;
+        memset(&fin, 0, sizeof fin);
+        worker_run(job, (size_t)len, device_arg(argc, argv), &fin);
+        MPI_Send(&fin, (int)sizeof fin, MPI_BYTE, 0, TAG_FINISH, MPI_COMM_WORLD);
+    }
+    free(job);
+}
+
+int main(int argc, char **argv)
+{
+    int provided = 0;
+    if (MPI_Init_thread(&argc, &argv, MPI_THREAD_SERIALIZED, &provided) != MPI_SUCCESS) {
+        spt_error("spectrace-mpi: MPI_Init_thread failed");
+        return SPT_EXIT_FAILURE;
+    }
+    MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &g_size);
+    if (provided < MPI_THREAD_SERIALIZED) {
+        if (g_rank == 0)
+            spt_error("spectrace-mpi: the MPI library does not support MPI_THREAD_SERIALIZED");
+        MPI_Finalize();
+        return SPT_EXIT_FAILURE;
+    }
+    int rc = 0;
+    if (g_rank == 0) {
+        if (g_size > 1)
+            spt_dist_render = mpi_render;
+        rc = spectrace_main(argc, argv);
+        /* The command ended without a render (another command, or a failure
+         * before it): the other ranks are told there is no job. */
+        if (!g_job_sent)
+            for (int r = 1; r < g_size; r++)
+                MPI_Send(NULL, 0, MPI_BYTE, r, TAG_JOB, MPI_COMM_WORLD);
+    } else {
+        worker_main(argc, argv);
+    }
+    MPI_Finalize();
+    return rc;
+}

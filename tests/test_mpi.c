@@ -1,0 +1,263 @@
+/* build/spectrace-mpi under mpirun on this machine (issue "Scale", several
+ * machines): two ranks give the image of one process, also when resuming a
+ * checkpoint; only rank 0 needs the scene files and writes; a failing rank fails
+ * the run with one error line naming it. Two ranks of one PoCL compute unit each;
+ * the program is $SPECTRACE_EXE with "-mpi" appended (tests/run_tests.sh). */
+#include "test_util.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "checkpoint.h"
+#include "exr.h"
+#include "film.h"
+
+#define SCENE "scenes/cornell_box.gltf"
+#define COMMON "--width 32 --height 32 --seed 5 --device 0"
+/* mpirun on one machine: as root (CI), more ranks than cores. Each rank's chunks
+ * are slowed a little so both ranks take a share of a render this small. */
+#define MPIRUN "mpirun --allow-run-as-root --oversubscribe -x SPECTRACE_TEST_SLOW_DEVICE=0:25"
+
+static char dir[64], exe[512], mpi_exe[512];
+
+/* Runs cmd (a shell command line) with stderr captured into out; returns the exit status. */
+static int run(const char *cmd, char *out, size_t cap)
+{
+    char full[4096];
+    snprintf(full, sizeof full, "%s 2>&1 >/dev/null", cmd);
+    FILE *p = popen(full, "r");
+    assert_non_null(p);
+    size_t n = fread(out, 1, cap - 1, p);
+    out[n] = 0;
+    int st = pclose(p);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+static const char *path_in(const char *name)
+{
+    static char buf[8][256];
+    static int k;
+    k = (k + 1) % 8;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name);
+    return buf[k];
+}
+
+static int exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+static uint32_t load_checkpoint(const char *path, uint32_t spp, Film *film)
+{
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = rs.height = 32;
+    rs.max_depth = -1;
+    rs.seed = 5;
+    rs.env_intensity = 1;
+    CheckpointKey k;
+    SptError e = {0};
+    unsigned char *done;
+    if (checkpoint_key(&k, SCENE, &rs, &e) || checkpoint_read(path, &k, spp, film, &done, &e))
+        fail_msg("%s", e.msg);
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < spp; i++)
+        n += done[i];
+    free(done);
+    return n;
+}
+
+/* Every pixel's XYZ sums within 1e-4 of the pixel's largest channel; same counts. */
+static void assert_same_film(const Film *a, const Film *b)
+{
+    size_t n = (size_t)a->width * a->height;
+    for (size_t i = 0; i < n; i++) {
+        if (a->count[i] != b->count[i])
+            fail_msg("pixel %zu: %g vs %g samples", i, a->count[i], b->count[i]);
+        double m = 1e-12;
+        for (int c = 0; c < 3; c++)
+            m = fmax(m, fabs(a->xyz[3 * i + c]));
+        for (int c = 0; c < 3; c++)
+            if (fabs(a->xyz[3 * i + c] - b->xyz[3 * i + c]) > 1e-4 * m)
+                fail_msg("pixel %zu channel %d: %.9g vs %.9g", i, c, a->xyz[3 * i + c],
+                         b->xyz[3 * i + c]);
+    }
+}
+
+static void assert_same_exr(const char *pa, const char *pb)
+{
+    static const char *rgb[3] = {"R", "G", "B"};
+    ExrLayers a, b;
+    SptError e = {0};
+    if (exr_read_layers(pa, rgb, 3, &a, &e) || exr_read_layers(pb, rgb, 3, &b, &e))
+        fail_msg("%s", e.msg);
+    size_t n = (size_t)a.width * a.height;
+    assert_int_equal(n, (size_t)b.width * b.height);
+    for (size_t i = 0; i < n; i++) {
+        double m = 1e-12;
+        for (int c = 0; c < 3; c++)
+            m = fmax(m, fabs(((const float *)exr_layers_channel(&a, rgb[c])->data)[i]));
+        for (int c = 0; c < 3; c++) {
+            double x = ((const float *)exr_layers_channel(&a, rgb[c])->data)[i];
+            double y = ((const float *)exr_layers_channel(&b, rgb[c])->data)[i];
+            if (fabs(x - y) > 1e-4 * m)
+                fail_msg("%s vs %s: pixel %zu %s: %.9g vs %.9g", pa, pb, i, rgb[c], x, y);
+        }
+    }
+    exr_layers_free(&a);
+    exr_layers_free(&b);
+}
+
+/* The one-process reference: 64 spp with its checkpoint (rendered once). */
+static void reference(void)
+{
+    static int done;
+    if (done)
+        return;
+    char cmd[2048], out[8192];
+    snprintf(cmd, sizeof cmd, "'%s' render " SCENE " " COMMON " -q --spp 64 -o %s --checkpoint %s", exe,
+             path_in("one.exr"), path_in("one_ck.exr"));
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    done = 1;
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    const char *e = getenv("SPECTRACE_EXE");
+    if (!e)
+        return -1;
+    snprintf(exe, sizeof exe, "%s", e);
+    snprintf(mpi_exe, sizeof mpi_exe, "%s-mpi", e);
+    snprintf(dir, sizeof dir, "/tmp/spt-mpi-XXXXXX");
+    return mkdtemp(dir) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+/* Skips (with the reason) where the MPI program cannot run. */
+static int mpi_unavailable(void)
+{
+#if defined(__SANITIZE_ADDRESS__)
+    printf("skipped: build/spectrace-mpi is built without sanitizers (Open MPI and its "
+           "transports keep allocations alive at exit that LeakSanitizer would report); "
+           "the MPI tests run in the plain build\n");
+    return 1;
+#else
+    if (!exists(mpi_exe) || system("command -v mpirun >/dev/null 2>&1")) {
+        printf("skipped: %s or mpirun missing (make mpi; tools/install_deps.sh mpi)\n", mpi_exe);
+        return 1;
+    }
+    return 0;
+#endif
+}
+
+/* Two ranks, rank 1 started in a folder where the scene's relative path does not
+ * exist (it gets the scene from rank 0), give the one-process image; only rank 0
+ * prints and writes. */
+static void test_two_ranks_same_image(void **state)
+{
+    (void)state;
+    if (mpi_unavailable())
+        skip();
+    reference();
+    char cmd[4096], out[8192], args[512];
+    snprintf(args, sizeof args, "render " SCENE " " COMMON " --spp 64 -o %s --checkpoint %s",
+             path_in("two.exr"), path_in("two_ck.exr"));
+    snprintf(cmd, sizeof cmd, MPIRUN " -n 1 '%s' %s : -wdir %s -n 1 '%s' %s", mpi_exe, args, dir, mpi_exe,
+             args);
+    int rc = run(cmd, out, sizeof out);
+    printf("%s", out);
+    assert_int_equal(rc, 0);
+    unsigned r0, r1;
+    const char *ranks = strstr(out, "ranks: 0: ");
+    assert_non_null(ranks);
+    assert_int_equal(sscanf(ranks, "ranks: 0: %u spp, 1: %u spp", &r0, &r1), 2);
+    assert_int_equal(r0 + r1, 64);
+    assert_true(r0 > 0 && r1 > 0);
+    /* One device line: rank 1 prints nothing. */
+    const char *d = strstr(out, "device 0:");
+    assert_non_null(d);
+    assert_null(strstr(d + 1, "device 0:"));
+    Film a, b;
+    assert_int_equal(load_checkpoint(path_in("one_ck.exr"), 64, &a), 64);
+    assert_int_equal(load_checkpoint(path_in("two_ck.exr"), 64, &b), 64);
+    assert_same_film(&a, &b);
+    assert_same_exr(path_in("one.exr"), path_in("two.exr"));
+    film_free(&a);
+    film_free(&b);
+}
+
+/* A one-process checkpoint of 32 spp resumed to 64 on two ranks. */
+static void test_resume_on_two_ranks(void **state)
+{
+    (void)state;
+    if (mpi_unavailable())
+        skip();
+    reference();
+    char cmd[4096], out[8192];
+    snprintf(cmd, sizeof cmd, "'%s' render " SCENE " " COMMON " -q --spp 32 -o %s --checkpoint %s", exe,
+             path_in("half.exr"), path_in("half_ck.exr"));
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    snprintf(cmd, sizeof cmd, MPIRUN " -n 2 '%s' render " SCENE " " COMMON " -q --spp 64 -o %s --resume %s",
+             mpi_exe, path_in("resumed.exr"), path_in("half_ck.exr"));
+    int rc = run(cmd, out, sizeof out);
+    printf("%s", out);
+    assert_int_equal(rc, 0);
+    Film a, b;
+    assert_int_equal(load_checkpoint(path_in("one_ck.exr"), 64, &a), 64);
+    assert_int_equal(load_checkpoint(path_in("half_ck.exr"), 64, &b), 64);
+    assert_same_film(&a, &b);
+    assert_same_exr(path_in("one.exr"), path_in("resumed.exr"));
+    film_free(&a);
+    film_free(&b);
+}
+
+/* Rank 1's device fails (test hook) or cannot be selected: the run fails with
+ * one error line naming rank 1, and no image. */
+static void test_failing_rank(void **state)
+{
+    (void)state;
+    if (mpi_unavailable())
+        skip();
+    static const char *extra[2] = {"-x SPECTRACE_TEST_FAIL_DEVICE=0:1", ""};
+    static const char *arg1[2] = {"", "--device 9"};
+    static const char *says[2] = {"error: rank 1: injected failure", "error: rank 1: device selection '9'"};
+    for (int k = 0; k < 2; k++) {
+        char cmd[4096], out[8192], args[512];
+        snprintf(args, sizeof args, "render " SCENE " " COMMON " -q --spp 64 -o %s", path_in("fail.exr"));
+        snprintf(cmd, sizeof cmd, MPIRUN " -n 1 '%s' %s : %s -n 1 '%s' %s %s", mpi_exe, args, extra[k],
+                 mpi_exe, args, arg1[k]);
+        int rc = run(cmd, out, sizeof out);
+        printf("%s", out);
+        assert_int_equal(rc, SPT_EXIT_DEVICE);
+        const char *first = strstr(out, "error: ");
+        assert_non_null(first);
+        assert_true(!strncmp(first, says[k], strlen(says[k])));
+        assert_null(strstr(first + 1, "error: "));
+        assert_false(exists(path_in("fail.exr")));
+    }
+}
+
+int main(void)
+{
+    setenv("POCL_DEVICES", "pthread", 1);
+    setenv("POCL_MAX_PTHREAD_COUNT", "1", 1);
+    setenv("SPECTRACE_POOL", "512", 1);
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_two_ranks_same_image),
+        cmocka_unit_test(test_resume_on_two_ranks),
+        cmocka_unit_test(test_failing_rank),
+    };
+    return cmocka_run_group_tests_name("mpi", tests, setup, teardown);
+}
