@@ -547,6 +547,96 @@ static void test_punctual_lights(void **state)
     free(rgb);
 }
 
+/* Normal maps: a Lambertian plane (facing +Y, u along +X, v along +Z) whose
+ * normal texture tilts the normal by 30 degrees, once toward the tangent (+u: +X)
+ * and once toward the bitangent (+Y of the texture = -v: -Z, the glTF
+ * convention), lit by a directional light of 1000 lux from 30 degrees off the
+ * zenith on that side, so the bent normal faces the light: L = rho/pi E. With the
+ * light on the other side, L = rho/pi E cos(60 degrees). */
+static double render_normal_mapped(int toward_bitangent, double light_sign)
+{
+    enum { W = 8 };
+    const double a = M_PI / 6.0;
+    Scene s;
+    memset(&s, 0, sizeof s);
+    SceneMaterial *m = append_quad(&s, 0.0f);
+    for (int k = 0; k < 3; k++)
+        m->base_color[k] = 0.5f;
+    for (uint32_t v = 0; v < s.vertex_count; v++) {
+        uint32_t t = v / 3, c = v % 3;
+        const float *p = s.tri_pos + 9 * t + 3 * c;
+        s.vtx_uv[2 * v] = (p[0] + 6.0f) / 12.0f;
+        s.vtx_uv[2 * v + 1] = (p[2] + 6.0f) / 12.0f;
+    }
+    s.texture_count = 1;
+    s.textures = calloc(1, sizeof(SceneTexture));
+    SceneTexture *tx = &s.textures[0];
+    tx->width = tx->height = 2;
+    tx->channels = 3;
+    tx->wrap_s = tx->wrap_t = SPT_WRAP_REPEAT;
+    tx->texels = malloc(sizeof(float) * 12);
+    float n[3] = {toward_bitangent ? 0.0f : (float)sin(a), toward_bitangent ? (float)sin(a) : 0.0f,
+                  (float)cos(a)};
+    for (int i = 0; i < 4; i++)
+        for (int k = 0; k < 3; k++)
+            tx->texels[3 * i + k] = 0.5f * (n[k] + 1.0f);
+    m->normal_tex = 0;
+    s.camera.position[1] = 3.0f;
+    s.camera.forward[1] = -1.0f;
+    s.camera.up[2] = -1.0f;
+    s.camera.right[0] = 1.0f;
+    s.camera.yfov = 0.2f;
+    s.camera.aspect = 1.0f;
+    s.light_count = 1;
+    s.lights = calloc(1, sizeof(SceneLight));
+    SceneLight *dl = &s.lights[0];
+    dl->type = SPT_LIGHT_DIRECTIONAL;
+    /* The light travels toward -(side) and down; side = +X or -Z. */
+    double side = light_sign * sin(a);
+    dl->direction[0] = toward_bitangent ? 0.0f : (float)-side;
+    dl->direction[2] = toward_bitangent ? (float)side : 0.0f;
+    dl->direction[1] = (float)-cos(a);
+    dl->intensity = 1000.0f;
+    for (int k = 0; k < 3; k++)
+        dl->color[k] = 1.0f;
+    scene_update_bounds(&s);
+    GpuScene g;
+    SptError e = {0};
+    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = rs.height = W;
+    rs.spp = 16;
+    rs.max_depth = 2;
+    rs.seed = 9;
+    Film f;
+    RenderStats st;
+    film_init(&f, W, W);
+    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    float rgb[W * W * 3];
+    film_to_linear_srgb(&f, rgb);
+    double mean = 0;
+    for (int i = 0; i < W * W * 3; i++)
+        mean += rgb[i] / (W * W * 3);
+    film_free(&f);
+    gpu_scene_free(&g);
+    scene_free(&s);
+    return mean;
+}
+
+static void test_normal_map(void **state)
+{
+    (void)state;
+    const double full = 0.5 / M_PI * 1000.0 / (683.0 * SPT_CIE_Y_INTEGRAL);
+    for (int b = 0; b < 2; b++) {
+        double toward = render_normal_mapped(b, 1.0), away = render_normal_mapped(b, -1.0);
+        printf("normal map (tilt toward the %s): facing the light %.6g (expected %.6g), "
+               "away %.6g (expected %.6g)\n", b ? "bitangent" : "tangent", toward, full, away, 0.5 * full);
+        assert_close_rel(toward, full, 0.01);
+        assert_close_rel(away, 0.5 * full, 0.01);
+    }
+}
+
 /* alphaMode BLEND: a black plane of alpha 0.5 between the emitter and the lit
  * plane of plane_irradiance.gltf transmits half the light (camera and shadow
  * rays both); alphaMode MASK below its cutoff transmits all of it. */
@@ -868,6 +958,7 @@ int main(void)
         cmocka_unit_test(test_env_map),
         cmocka_unit_test(test_env_missing),
         cmocka_unit_test(test_punctual_lights),
+        cmocka_unit_test(test_normal_map),
         cmocka_unit_test(test_unlit),
         cmocka_unit_test(test_alpha_blend_and_mask),
         cmocka_unit_test(test_named_light_spectra),
