@@ -30,6 +30,125 @@ typedef struct PrimRef {
 static inline float minf(float a, float b) { return a < b ? a : b; }
 static inline float maxf(float a, float b) { return a > b ? a : b; }
 
+/* 4-lane float vectors for the binning hot loops: SSE where the compiler offers
+ * it (every x86-64), plain arrays elsewhere; both give the same results, lane by
+ * lane, since each lane is one IEEE operation. Lane 3 is don't-care. */
+#ifdef __SSE2__
+typedef __m128 L4;
+/* Lanes 0..2 of p; lane 3 (a PrimRef's id bits, maybe a denormal or NaN as a
+ * float) reads as 0, so it never slows or poisons the arithmetic. */
+static inline L4 l4_load(const float *p)
+{
+    return _mm_and_ps(_mm_loadu_ps(p), _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0)));
+}
+static inline L4 l4_set1(float a) { return _mm_set1_ps(a); }
+static inline L4 l4_set3(float a, float b, float c) { return _mm_setr_ps(a, b, c, 0.0f); }
+static inline L4 l4_add(L4 a, L4 b) { return _mm_add_ps(a, b); }
+static inline L4 l4_sub(L4 a, L4 b) { return _mm_sub_ps(a, b); }
+static inline L4 l4_mul(L4 a, L4 b) { return _mm_mul_ps(a, b); }
+static inline L4 l4_min(L4 a, L4 b) { return _mm_min_ps(a, b); }
+static inline L4 l4_max(L4 a, L4 b) { return _mm_max_ps(a, b); }
+/* Truncates lanes 0..2 (non-negative, < 2^31) to integers. */
+static inline void l4_trunc3(L4 a, int32_t k[3])
+{
+    __m128i i = _mm_cvttps_epi32(a);
+    k[0] = _mm_cvtsi128_si32(i);
+    k[1] = _mm_cvtsi128_si32(_mm_shuffle_epi32(i, _MM_SHUFFLE(1, 1, 1, 1)));
+    k[2] = _mm_cvtsi128_si32(_mm_shuffle_epi32(i, _MM_SHUFFLE(2, 2, 2, 2)));
+}
+/* Half the surface area of the box [lo, hi] (lanes 0..2), which must not be empty. */
+static inline float l4_half_area(L4 lo, L4 hi)
+{
+    __m128 d = _mm_sub_ps(hi, lo);
+    __m128 p = _mm_mul_ps(d, _mm_shuffle_ps(d, d, _MM_SHUFFLE(3, 0, 2, 1)));
+    return _mm_cvtss_f32(_mm_add_ss(_mm_add_ss(p, _mm_shuffle_ps(p, p, 1)),
+                                    _mm_shuffle_ps(p, p, 2)));
+}
+static inline void l4_store(float *p, L4 a) { _mm_storeu_ps(p, a); }
+static inline L4 l4_abs(L4 a) { return _mm_and_ps(a, _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff))); }
+/* (a1, a2, a3, a3). */
+static inline L4 l4_shift_down(L4 a) { return _mm_shuffle_ps(a, a, _MM_SHUFFLE(3, 3, 2, 1)); }
+/* Raw 16-byte moves (lane 3 included, bit for bit) and lane 3 cleared. */
+static inline L4 l4_loadu(const void *p) { return _mm_loadu_ps((const float *)p); }
+static inline void l4_storeu(void *p, L4 a) { _mm_storeu_ps((float *)p, a); }
+static inline L4 l4_clear3(L4 a) { return _mm_and_ps(a, _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0))); }
+/* 1 when a < b in every lane. */
+static inline int l4_all_lt(L4 a, L4 b) { return _mm_movemask_ps(_mm_cmplt_ps(a, b)) == 15; }
+/* Masks: all ones in the lanes where a < b. */
+static inline L4 l4_lt(L4 a, L4 b) { return _mm_cmplt_ps(a, b); }
+static inline L4 l4_and(L4 a, L4 b) { return _mm_and_ps(a, b); }
+/* Lanes of a where m is all ones, of b where it is zero. */
+static inline L4 l4_select(L4 m, L4 a, L4 b) { return _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b)); }
+static inline L4 l4_mask(int on) { return _mm_castsi128_ps(_mm_set1_epi32(-on)); }
+/* The half areas of three boxes (lo[i], hi[i]) in lanes 0..2. */
+static inline L4 l4_half_area3(const L4 lo[3], const L4 hi[3])
+{
+    __m128 x = _mm_sub_ps(hi[0], lo[0]), y = _mm_sub_ps(hi[1], lo[1]);
+    __m128 z = _mm_sub_ps(hi[2], lo[2]), w = _mm_setzero_ps();
+    _MM_TRANSPOSE4_PS(x, y, z, w);
+    return _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, y), _mm_mul_ps(y, z)), _mm_mul_ps(z, x));
+}
+#else
+typedef struct L4 {
+    float f[4];
+} L4;
+static inline L4 l4_load(const float *p) { L4 r = {{p[0], p[1], p[2], 0.0f}}; return r; }
+static inline L4 l4_set1(float a) { L4 r = {{a, a, a, a}}; return r; }
+static inline L4 l4_set3(float a, float b, float c) { L4 r = {{a, b, c, 0.0f}}; return r; }
+#define L4_OP(name, expr)                                                 \
+    static inline L4 name(L4 a, L4 b)                                     \
+    {                                                                     \
+        L4 r;                                                             \
+        for (int i = 0; i < 4; i++) r.f[i] = (expr);                      \
+        return r;                                                         \
+    }
+L4_OP(l4_add, a.f[i] + b.f[i])
+L4_OP(l4_sub, a.f[i] - b.f[i])
+L4_OP(l4_mul, a.f[i] * b.f[i])
+L4_OP(l4_min, a.f[i] < b.f[i] ? a.f[i] : b.f[i])
+L4_OP(l4_max, a.f[i] > b.f[i] ? a.f[i] : b.f[i])
+static inline void l4_trunc3(L4 a, int32_t k[3])
+{
+    for (int i = 0; i < 3; i++) k[i] = (int32_t)a.f[i];
+}
+static inline float l4_half_area(L4 lo, L4 hi)
+{
+    float dx = hi.f[0] - lo.f[0], dy = hi.f[1] - lo.f[1], dz = hi.f[2] - lo.f[2];
+    return dx * dy + dy * dz + dz * dx;
+}
+static inline void l4_store(float *p, L4 a) { memcpy(p, a.f, sizeof a.f); }
+static inline L4 l4_loadu(const void *p) { L4 r; memcpy(r.f, p, sizeof r.f); return r; }
+static inline L4 l4_shift_down(L4 a) { L4 r = {{a.f[1], a.f[2], a.f[3], a.f[3]}}; return r; }
+static inline L4 l4_abs(L4 a)
+{
+    for (int i = 0; i < 4; i++) a.f[i] = fabsf(a.f[i]);
+    return a;
+}
+static inline void l4_storeu(void *p, L4 a) { memcpy(p, a.f, sizeof a.f); }
+static inline L4 l4_clear3(L4 a) { a.f[3] = 0.0f; return a; }
+static inline int l4_all_lt(L4 a, L4 b)
+{
+    return a.f[0] < b.f[0] && a.f[1] < b.f[1] && a.f[2] < b.f[2] && a.f[3] < b.f[3];
+}
+/* Masks are lanes of 1 (on) or 0 (off) here. */
+L4_OP(l4_lt, a.f[i] < b.f[i] ? 1.0f : 0.0f)
+L4_OP(l4_and, a.f[i] != 0.0f && b.f[i] != 0.0f ? 1.0f : 0.0f)
+#undef L4_OP
+static inline L4 l4_select(L4 m, L4 a, L4 b)
+{
+    L4 r;
+    for (int i = 0; i < 4; i++) r.f[i] = m.f[i] != 0.0f ? a.f[i] : b.f[i];
+    return r;
+}
+static inline L4 l4_mask(int on) { return l4_set1(on ? 1.0f : 0.0f); }
+static inline L4 l4_half_area3(const L4 lo[3], const L4 hi[3])
+{
+    L4 r = l4_set1(0.0f);
+    for (int i = 0; i < 3; i++) r.f[i] = l4_half_area(lo[i], hi[i]);
+    return r;
+}
+#endif
+
 typedef struct Box {
     float lo[3], hi[3];
 } Box;
@@ -37,8 +156,6 @@ typedef struct Box {
 /* A chosen split of refs[begin, end): [begin, mid) left, [mid, end) right. */
 typedef struct Split {
     uint32_t mid;
-    Box lb, rb;   /* child bounds */
-    Box lcb, rcb; /* child centroid bounds (doubled centroids) */
 } Split;
 
 typedef struct SweepKey {
@@ -78,28 +195,11 @@ static void box_empty(Box *b)
     }
 }
 
-static void box_grow_box(Box *b, const Box *o)
-{
-    for (int a = 0; a < 3; a++) {
-        b->lo[a] = minf(b->lo[a], o->lo[a]);
-        b->hi[a] = maxf(b->hi[a], o->hi[a]);
-    }
-}
-
 static void box_grow_ref(Box *b, const PrimRef *r)
 {
     for (int a = 0; a < 3; a++) {
         b->lo[a] = minf(b->lo[a], r->lo[a]);
         b->hi[a] = maxf(b->hi[a], r->hi[a]);
-    }
-}
-
-static void box_grow_centroid(Box *b, const PrimRef *r)
-{
-    for (int a = 0; a < 3; a++) {
-        float c = r->lo[a] + r->hi[a];
-        b->lo[a] = minf(b->lo[a], c);
-        b->hi[a] = maxf(b->hi[a], c);
     }
 }
 
@@ -115,12 +215,19 @@ static float box_half_area(const Box *b)
 /* Bounds and centroid bounds of refs[begin, end). */
 static void refs_bounds(const PrimRef *refs, uint32_t begin, uint32_t end, Box *b, Box *cb)
 {
-    box_empty(b);
-    box_empty(cb);
+    L4 lo = l4_set1(FLT_MAX), hi = l4_set1(-FLT_MAX), clo = lo, chi = hi;
     for (uint32_t i = begin; i < end; i++) {
-        box_grow_ref(b, &refs[i]);
-        box_grow_centroid(cb, &refs[i]);
+        L4 rl = l4_load(refs[i].lo), rh = l4_load(refs[i].hi), c = l4_add(rl, rh);
+        lo = l4_min(lo, rl);
+        hi = l4_max(hi, rh);
+        clo = l4_min(clo, c);
+        chi = l4_max(chi, c);
     }
+    float t[4];
+    l4_store(t, lo); memcpy(b->lo, t, sizeof b->lo);
+    l4_store(t, hi); memcpy(b->hi, t, sizeof b->hi);
+    l4_store(t, clo); memcpy(cb->lo, t, sizeof cb->lo);
+    l4_store(t, chi); memcpy(cb->hi, t, sizeof cb->hi);
 }
 
 /* SAH cost of splitting a node of half area `area` into the two sides. */
@@ -130,20 +237,65 @@ static float sah_split_cost(const BvhOptions *o, float area, float la, uint32_t 
     return o->cost_node + o->cost_tri * (la * (float)ln + ra * (float)rn) / area;
 }
 
-typedef struct Bin {
-    Box b;
-    uint32_t n;
-} Bin;
+/* A binned SAH split of refs[begin, end): the centroid bins along axis ... <= k
+ * go left. */
+typedef struct BinSplit {
+    int axis, k, nb;
+    float cmin, scale; /* bin of a ref = min((centroid - cmin) * scale, nb - 1) */
+} BinSplit;
 
-/* Binned SAH split of refs[begin, end) with centroid bounds cb. Returns 1 with s
- * and *cost filled, or 0 when the centroids cannot be told apart. */
+/* Refs binned at a large node (see split_binned). */
+#define BVH_SAMPLE 1024u
+
+/* Bin index along each axis of the doubled centroid lo + hi, by the one
+ * expression that the binning and the partition share (so a ref's side always
+ * matches the bins whose union became the child's bounds). */
+static inline L4 bin_coord(L4 lo, L4 hi, L4 vmin, L4 vscale, L4 vlast)
+{
+    return l4_min(l4_mul(l4_sub(l4_add(lo, hi), vmin), vscale), vlast);
+}
+
+/* Per bin and axis: the bounds of the refs whose centroid falls in it, and
+ * their number (lane 3 of n is 0). */
+typedef struct BinSet {
+    L4 lo[BVH_MAX_BINS][3], hi[BVH_MAX_BINS][3];
+    uint32_t n[BVH_MAX_BINS][4];
+} BinSet;
+
+static void binset_clear(BinSet *b, int nb)
+{
+    const L4 empty_lo = l4_set1(FLT_MAX), empty_hi = l4_set1(-FLT_MAX);
+    for (int k = 0; k < nb; k++) {
+        for (int a = 0; a < 3; a++) {
+            b->lo[k][a] = empty_lo;
+            b->hi[k][a] = empty_hi;
+        }
+        memset(b->n[k], 0, sizeof b->n[k]);
+    }
+}
+
+static inline void binset_add(BinSet *b, const PrimRef *r, L4 vmin, L4 vscale, L4 vlast)
+{
+    L4 lo = l4_load(r->lo), hi = l4_load(r->hi);
+    int32_t k[3];
+    l4_trunc3(bin_coord(lo, hi, vmin, vscale, vlast), k);
+    for (int a = 0; a < 3; a++) {
+        b->lo[k[a]][a] = l4_min(b->lo[k[a]][a], lo);
+        b->hi[k[a]][a] = l4_max(b->hi[k[a]][a], hi);
+        b->n[k[a]][a]++;
+    }
+}
+
+/* Binned SAH split of refs[begin, end) (count >= 2) with bounds and centroid
+ * bounds cb. Returns 1 with bs and *cost filled, or 0 when the centroids cannot
+ * be told apart. */
 static int split_binned(Builder *bd, uint32_t begin, uint32_t end, const Box *bounds,
-                        const Box *cb, Split *s, float *cost)
+                        const Box *cb, BinSplit *bs, float *cost)
 {
     /* Few bins for small nodes: there are many of them and little to gain. */
     uint32_t cnt = end - begin;
-    const int nb = cnt < (uint32_t)bd->opt.bins ? (cnt < 4 ? 4 : (int)cnt) : bd->opt.bins;
-    Bin bins[3][BVH_MAX_BINS];
+    int nb = cnt < 16 ? 4 : cnt < 64 ? 8 : bd->opt.bins;
+    nb = nb < bd->opt.bins ? nb : bd->opt.bins;
     float scale[3];
     int usable = 0;
     for (int a = 0; a < 3; a++) {
@@ -151,129 +303,128 @@ static int split_binned(Builder *bd, uint32_t begin, uint32_t end, const Box *bo
         float sc = ext > 0.0f ? (float)nb * 0.99999f / ext : 0.0f;
         scale[a] = sc < FLT_MAX ? sc : 0.0f; /* a subnormal extent cannot be binned */
         usable |= scale[a] > 0.0f;
-        for (int k = 0; k < nb; k++) {
-            box_empty(&bins[a][k].b);
-            bins[a][k].n = 0;
-        }
     }
     if (!usable)
         return 0;
-    PrimRef *refs = bd->refs;
-#ifdef __SSE2__
-    /* The same bin expression as the scalar loop and the partition, 4 lanes at a
-     * time; lane 3 (the id bits) is ignored. */
-    __m128 blo[3][BVH_MAX_BINS], bhi[3][BVH_MAX_BINS];
-    uint32_t bn[3][BVH_MAX_BINS];
-    for (int a = 0; a < 3; a++) {
+    const L4 vmin = l4_set3(cb->lo[0], cb->lo[1], cb->lo[2]);
+    const L4 vscale = l4_set3(scale[0], scale[1], scale[2]);
+    const L4 vlast = l4_set1((float)(nb - 1));
+    const PrimRef *refs = bd->refs;
+    BinSet bins[2];
+    binset_clear(&bins[0], nb);
+    /* Large nodes bin an evenly strided sample of about BVH_SAMPLE refs: it
+     * places the plane as well as all of them would, and the partition then
+     * measures the children's bounds exactly. */
+    const uint32_t stride = cnt >= 2 * BVH_SAMPLE ? cnt / BVH_SAMPLE : 1;
+    if (cnt >= 64) {
+        /* Neighbouring refs tend to share bins; alternating two sets halves the
+         * chains of dependent updates through memory. */
+        binset_clear(&bins[1], nb);
+        uint32_t i = begin;
+        for (; i + stride < end; i += 2 * stride) {
+            binset_add(&bins[0], &refs[i], vmin, vscale, vlast);
+            binset_add(&bins[1], &refs[i + stride], vmin, vscale, vlast);
+        }
+        if (i < end)
+            binset_add(&bins[0], &refs[i], vmin, vscale, vlast);
         for (int k = 0; k < nb; k++) {
-            blo[a][k] = _mm_set1_ps(FLT_MAX);
-            bhi[a][k] = _mm_set1_ps(-FLT_MAX);
-            bn[a][k] = 0;
-        }
-    }
-    const __m128 vmin = _mm_setr_ps(cb->lo[0], cb->lo[1], cb->lo[2], 0.0f);
-    const __m128 vscale = _mm_setr_ps(scale[0], scale[1], scale[2], 0.0f);
-    for (uint32_t i = begin; i < end; i++) {
-        const PrimRef *r = &refs[i];
-        __m128 lo = _mm_loadu_ps(r->lo), hi = _mm_loadu_ps(r->hi);
-        __m128 kf = _mm_mul_ps(_mm_sub_ps(_mm_add_ps(lo, hi), vmin), vscale);
-        int32_t k[4];
-        _mm_storeu_si128((__m128i *)k, _mm_cvttps_epi32(kf));
-        for (int a = 0; a < 3; a++) {
-            int kk = k[a] < nb - 1 ? k[a] : nb - 1;
-            blo[a][kk] = _mm_min_ps(blo[a][kk], lo);
-            bhi[a][kk] = _mm_max_ps(bhi[a][kk], hi);
-            bn[a][kk]++;
-        }
-    }
-    for (int a = 0; a < 3; a++) {
-        for (int k = 0; k < nb; k++) {
-            float l4[4], h4[4];
-            _mm_storeu_ps(l4, blo[a][k]);
-            _mm_storeu_ps(h4, bhi[a][k]);
-            memcpy(bins[a][k].b.lo, l4, sizeof bins[a][k].b.lo);
-            memcpy(bins[a][k].b.hi, h4, sizeof bins[a][k].b.hi);
-            bins[a][k].n = bn[a][k];
-        }
-    }
-#else
-    for (uint32_t i = begin; i < end; i++) {
-        const PrimRef *r = &refs[i];
-        for (int a = 0; a < 3; a++) {
-            int k = (int)((r->lo[a] + r->hi[a] - cb->lo[a]) * scale[a]);
-            k = k < nb - 1 ? k : nb - 1;
-            Bin *bin = &bins[a][k];
-            bin->n++;
-            for (int c = 0; c < 3; c++) {
-                bin->b.lo[c] = minf(bin->b.lo[c], r->lo[c]);
-                bin->b.hi[c] = maxf(bin->b.hi[c], r->hi[c]);
+            for (int a = 0; a < 3; a++) {
+                bins[0].lo[k][a] = l4_min(bins[0].lo[k][a], bins[1].lo[k][a]);
+                bins[0].hi[k][a] = l4_max(bins[0].hi[k][a], bins[1].hi[k][a]);
+                bins[0].n[k][a] += bins[1].n[k][a];
             }
         }
+    } else {
+        for (uint32_t i = begin; i < end; i++)
+            binset_add(&bins[0], &refs[i], vmin, vscale, vlast);
     }
-#endif
-    float area = box_half_area(bounds);
-    float best = FLT_MAX;
-    int best_axis = -1, best_k = -1;
+    const BinSet *b = &bins[0];
+    /* Sweep the three axes at once (lane a = axis a): right-side areas and
+     * counts from the end, then the left side. The cost compared is
+     * area_l n_l + area_r n_r, the SAH cost up to constants. */
+    L4 rarea[BVH_MAX_BINS], rcount[BVH_MAX_BINS];
+    const L4 empty_lo = l4_set1(FLT_MAX), empty_hi = l4_set1(-FLT_MAX), zero = l4_set1(0.0f);
+    L4 alo[3] = {empty_lo, empty_lo, empty_lo}, ahi[3] = {empty_hi, empty_hi, empty_hi};
+    uint32_t n[3] = {0, 0, 0};
+    for (int k = nb - 1; k > 0; k--) {
+        for (int a = 0; a < 3; a++) {
+            alo[a] = l4_min(alo[a], b->lo[k][a]);
+            ahi[a] = l4_max(ahi[a], b->hi[k][a]);
+            n[a] += b->n[k][a];
+        }
+        rarea[k] = l4_half_area3(alo, ahi);
+        rcount[k] = l4_set3((float)n[0], (float)n[1], (float)n[2]);
+    }
     for (int a = 0; a < 3; a++) {
-        if (scale[a] == 0.0f)
-            continue;
-        float rarea[BVH_MAX_BINS];
-        uint32_t rcount[BVH_MAX_BINS];
-        Box acc;
-        box_empty(&acc);
-        uint32_t n = 0;
-        for (int k = nb - 1; k > 0; k--) {
-            box_grow_box(&acc, &bins[a][k].b);
-            n += bins[a][k].n;
-            rarea[k] = box_half_area(&acc);
-            rcount[k] = n;
-        }
-        box_empty(&acc);
-        n = 0;
-        for (int k = 0; k < nb - 1; k++) {
-            box_grow_box(&acc, &bins[a][k].b);
-            n += bins[a][k].n;
-            if (n == 0 || rcount[k + 1] == 0)
-                continue;
-            float c = sah_split_cost(&bd->opt, area, box_half_area(&acc), n, rarea[k + 1], rcount[k + 1]);
-            if (c < best) {
-                best = c;
-                best_axis = a;
-                best_k = k;
-            }
-        }
+        alo[a] = empty_lo;
+        ahi[a] = empty_hi;
+        n[a] = 0;
     }
-    if (best_axis < 0)
+    L4 best = l4_set1(FLT_MAX), best_k = zero;
+    for (int k = 0; k < nb - 1; k++) {
+        for (int a = 0; a < 3; a++) {
+            alo[a] = l4_min(alo[a], b->lo[k][a]);
+            ahi[a] = l4_max(ahi[a], b->hi[k][a]);
+            n[a] += b->n[k][a];
+        }
+        L4 lcount = l4_set3((float)n[0], (float)n[1], (float)n[2]);
+        L4 c = l4_add(l4_mul(l4_half_area3(alo, ahi), lcount), l4_mul(rarea[k + 1], rcount[k + 1]));
+        /* Both sides non-empty and cheaper (the first of equal costs wins). */
+        L4 better = l4_and(l4_and(l4_lt(zero, lcount), l4_lt(zero, rcount[k + 1])), l4_lt(c, best));
+        best = l4_select(better, c, best);
+        best_k = l4_select(better, l4_set1((float)k), best_k);
+    }
+    float bc[4], bk[4];
+    l4_store(bc, best);
+    l4_store(bk, best_k);
+    int a = -1;
+    for (int ax = 0; ax < 3; ax++) {
+        if (bc[ax] < FLT_MAX && (a < 0 || bc[ax] < bc[a]))
+            a = ax;
+    }
+    if (a < 0)
         return 0;
-    int a = best_axis;
-    box_empty(&s->lb);
-    box_empty(&s->rb);
-    for (int k = 0; k < nb; k++)
-        box_grow_box(k <= best_k ? &s->lb : &s->rb, &bins[a][k].b);
-    /* Partition with the same bin expression as above, so the sides match the
-     * bins whose bounds became the child bounds. */
-    box_empty(&s->lcb);
-    box_empty(&s->rcb);
-    uint32_t lo = begin, hi = end;
-    const float cmin = cb->lo[a], sc = scale[a];
-    while (lo < hi) {
-        PrimRef *r = &refs[lo];
-        int k = (int)((r->lo[a] + r->hi[a] - cmin) * sc);
-        k = k < nb - 1 ? k : nb - 1;
-        if (k <= best_k) {
-            box_grow_centroid(&s->lcb, r);
-            lo++;
-        } else {
-            hi--;
-            box_grow_centroid(&s->rcb, r);
-            PrimRef t = *r;
-            *r = refs[hi];
-            refs[hi] = t;
-        }
+    const int best_k_a = (int)bk[a];
+    bs->axis = a;
+    bs->k = best_k_a;
+    bs->nb = nb;
+    bs->cmin = cb->lo[a];
+    bs->scale = scale[a];
+    *cost = bd->opt.cost_node + bd->opt.cost_tri * bc[a] / box_half_area(bounds);
+    return 1;
+}
+
+/* Partitions refs[begin, end) by bs and sets s->mid. Branch-free (Lomuto):
+ * which side a ref goes to is hard to predict once the order no longer follows
+ * the split axis. Returns 1 when both sides are non-empty (always, when bs came
+ * from split_binned on this range). */
+static int partition_binned(Builder *bd, uint32_t begin, uint32_t end, const BinSplit *bs,
+                            Split *s)
+{
+    PrimRef *refs = bd->refs;
+    const int a = bs->axis;
+    /* Lane a of the binning's bin_coord before its clamp, and 0 in the other
+     * lanes; a ref goes left when its bin, trunc(min(x, nb - 1)), is <= k,
+     * that is when x < k + 1 (x >= 0, k + 1 <= nb - 1). */
+    float m3[3] = {0.0f, 0.0f, 0.0f}, s3[3] = {0.0f, 0.0f, 0.0f};
+    m3[a] = bs->cmin;
+    s3[a] = bs->scale;
+    const L4 vmin = l4_set3(m3[0], m3[1], m3[2]), vscale = l4_set3(s3[0], s3[1], s3[2]);
+    const L4 vk1 = l4_set1((float)(bs->k + 1));
+    uint32_t l = begin;
+    for (uint32_t i = begin; i < end; i++) {
+        /* Whole refs move as two raw 16-byte halves (the id rides in lane 3). */
+        L4 r0 = l4_loadu(refs[i].lo), r1 = l4_loadu(refs[i].hi);
+        L4 c = l4_add(l4_clear3(r0), l4_clear3(r1));
+        int left = l4_all_lt(l4_mul(l4_sub(c, vmin), vscale), vk1);
+        l4_storeu(refs[i].lo, l4_loadu(refs[l].lo));
+        l4_storeu(refs[i].hi, l4_loadu(refs[l].hi));
+        l4_storeu(refs[l].lo, r0);
+        l4_storeu(refs[l].hi, r1);
+        l += (uint32_t)left;
     }
-    s->mid = lo;
-    *cost = best;
-    return lo > begin && lo < end;
+    s->mid = l;
+    return l > begin && l < end;
 }
 
 /* Centroid (doubled) of r along axis a. */
@@ -324,8 +475,6 @@ static void split_median(Builder *bd, uint32_t begin, uint32_t end, const Box *c
     if (ext > 0.0f)
         select_nth(bd->refs, begin, end, mid, a);
     s->mid = mid;
-    refs_bounds(bd->refs, begin, mid, &s->lb, &s->lcb);
-    refs_bounds(bd->refs, mid, end, &s->rb, &s->rcb);
 }
 
 static int sweep_key_cmp(const void *pa, const void *pb)
@@ -385,38 +534,53 @@ static int split_sweep(Builder *bd, uint32_t begin, uint32_t end, const Box *bou
         bd->tmp[i] = bd->refs[bd->keys[i].ref];
     memcpy(&bd->refs[begin], bd->tmp, n * sizeof *bd->tmp);
     s->mid = begin + best_i;
-    refs_bounds(bd->refs, begin, s->mid, &s->lb, &s->lcb);
-    refs_bounds(bd->refs, s->mid, end, &s->rb, &s->rcb);
     *cost = best;
     return 1;
 }
 
 /* Builds the subtree over refs[begin, end) (non-empty) into node idx; its
  * children, if any, become the next free (even-aligned) pair of nodes. */
-static void build_node(Builder *bd, uint32_t idx, uint32_t begin, uint32_t end,
-                       const Box *bounds, const Box *cb, uint32_t depth)
+static void build_node(Builder *bd, uint32_t idx, uint32_t begin, uint32_t end, uint32_t depth)
 {
     BvhNode *node = &bd->nodes[idx];
+    Box bounds, cb;
+    refs_bounds(bd->refs, begin, end, &bounds, &cb);
     for (int a = 0; a < 3; a++) {
-        node->lo[a] = bounds->lo[a];
-        node->hi[a] = bounds->hi[a];
+        node->lo[a] = bounds.lo[a];
+        node->hi[a] = bounds.hi[a];
     }
     if (depth > bd->max_depth)
         bd->max_depth = depth;
     uint32_t count = end - begin;
-    int leaf = count == 1;
-    Split s;
+    /* A split costs at least cost_node, so a node whose triangles cost no more
+     * is a leaf without looking for one. */
+    int leaf = count == 1 || ((int)count <= bd->opt.max_leaf &&
+                              bd->opt.cost_tri * (float)count <= bd->opt.cost_node);
+    if (!leaf && (int)count <= bd->opt.max_leaf) {
+        /* Each child box holds its triangles' boxes, so a split costs at least
+         * cost_node + cost_tri * (sum of their areas) / area: when that is no
+         * cheaper than a leaf, skip the search. */
+        float sum = 0.0f;
+        for (uint32_t i = begin; i < end; i++)
+            sum += l4_half_area(l4_load(bd->refs[i].lo), l4_load(bd->refs[i].hi));
+        leaf = bd->opt.cost_tri * (float)count <=
+               bd->opt.cost_node + bd->opt.cost_tri * sum / box_half_area(&bounds);
+    }
+    Split s = {0};
     if (!leaf) {
         float cost = 0.0f;
         int ok = 0;
+        BinSplit bs;
         if (depth < BVH_MEDIAN_DEPTH) {
-            ok = bd->opt.full_sweep ? split_sweep(bd, begin, end, bounds, &s, &cost)
-                                    : split_binned(bd, begin, end, bounds, cb, &s, &cost);
+            ok = bd->opt.full_sweep ? split_sweep(bd, begin, end, &bounds, &s, &cost)
+                                    : split_binned(bd, begin, end, &bounds, &cb, &bs, &cost);
         }
-        if ((int)count <= bd->opt.max_leaf && (!ok || bd->opt.cost_tri * count <= cost))
+        if ((int)count <= bd->opt.max_leaf && (!ok || bd->opt.cost_tri * (float)count <= cost))
             leaf = 1;
-        else if (!ok)
-            split_median(bd, begin, end, cb, &s);
+        else if (ok && !bd->opt.full_sweep)
+            ok = partition_binned(bd, begin, end, &bs, &s);
+        if (!leaf && !ok)
+            split_median(bd, begin, end, &cb, &s);
     }
     if (leaf) {
         node->offset = begin;
@@ -427,18 +591,8 @@ static void build_node(Builder *bd, uint32_t idx, uint32_t begin, uint32_t end,
     uint32_t pair = bd->node_count;
     bd->node_count += 2;
     node->offset = pair;
-    build_node(bd, pair, begin, s.mid, &s.lb, &s.lcb, depth + 1);
-    build_node(bd, pair + 1, s.mid, end, &s.rb, &s.rcb, depth + 1);
-}
-
-/* 1 when every coordinate is finite with magnitude below 1e18. */
-static int tri_finite(const float *p)
-{
-    for (int i = 0; i < 9; i++) {
-        if (!(fabsf(p[i]) < 1e18f))
-            return 0;
-    }
-    return 1;
+    build_node(bd, pair, begin, s.mid, depth + 1);
+    build_node(bd, pair + 1, s.mid, end, depth + 1);
 }
 
 /* 1 when the cross product of the edges (in float, as the renderer computes a
@@ -513,12 +667,16 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
     /* Keep the valid triangles as references with their bounds. */
     bd.refs = spt_malloc((tri_count ? tri_count : 1) * sizeof *bd.refs);
     uint32_t kept = 0;
-    Box bounds, cb;
-    box_empty(&bounds);
-    box_empty(&cb);
     for (uint32_t i = 0; i < tri_count; i++) {
         const float *p = tri_pos + (size_t)i * 9;
-        if (!tri_finite(p)) {
+        /* Lanes 0..2 of (p[0..3]), (p[3..6]) and (p[5..8] shifted down one)
+         * are the three vertices; nothing past p[8] is read. */
+        L4 v0 = l4_loadu(p), v1 = l4_loadu(p + 3), v2 = l4_shift_down(l4_loadu(p + 5));
+        const L4 big = l4_set1(1e18f);
+        /* Every coordinate finite with magnitude below 1e18 (NaN compares
+         * false). */
+        if (!(l4_all_lt(l4_abs(v0), big) && l4_all_lt(l4_abs(v1), big) &&
+              l4_all_lt(l4_abs(v2), big))) {
             bvh->stats.dropped_nonfinite++;
             continue;
         }
@@ -527,14 +685,10 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
             continue;
         }
         PrimRef *r = &bd.refs[kept++];
-        for (int a = 0; a < 3; a++) {
-            r->lo[a] = minf(minf(p[a], p[3 + a]), p[6 + a]);
-            r->hi[a] = maxf(maxf(p[a], p[3 + a]), p[6 + a]);
-        }
+        l4_storeu(r->lo, l4_min(l4_min(v0, v1), v2));
+        l4_storeu(r->hi, l4_max(l4_max(v0, v1), v2));
         r->id = i;
         r->pad = 0.0f;
-        box_grow_ref(&bounds, r);
-        box_grow_centroid(&cb, r);
     }
     bvh->stats.dropped = bvh->stats.dropped_nonfinite + bvh->stats.dropped_degenerate;
     if (kept > BVH_MAX_TRIS) {
@@ -557,28 +711,33 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         bvh->prim_count = 0;
     } else {
         /* Root at 0, an unused zeroed node at 1, then sibling pairs from 2. */
-        bd.nodes = spt_calloc(2 * (size_t)kept, sizeof *bd.nodes);
+        /* A binary tree over kept >= 1 leaves has at most 2 kept - 1 nodes, plus
+         * the unused node 1. The array stays at that capacity (no shrinking
+         * copy): pages never written are never touched, so they cost address
+         * space, not memory. 64-byte aligned, so each sibling pair is one cache
+         * line. */
+        bd.nodes = aligned_alloc(64, 2 * (size_t)kept * sizeof *bd.nodes);
+        if (!bd.nodes)
+            bd.nodes = spt_malloc(2 * (size_t)kept * sizeof *bd.nodes);
+        memset(&bd.nodes[1], 0, sizeof bd.nodes[1]);
         bd.node_count = 2;
         if (bd.opt.full_sweep) {
             bd.keys = spt_malloc(kept * sizeof *bd.keys);
             bd.right_area = spt_malloc(kept * sizeof *bd.right_area);
             bd.tmp = spt_malloc(kept * sizeof *bd.tmp);
         }
-        build_node(&bd, 0, 0, kept, &bounds, &cb, 0);
+        build_node(&bd, 0, 0, kept, 0);
         free(bd.keys);
         free(bd.right_area);
         free(bd.tmp);
-        /* 64-byte aligned, so each sibling pair is one cache line. */
-        size_t bytes = ((bd.node_count * sizeof(BvhNode) + 63) / 64) * 64;
-        bvh->nodes = aligned_alloc(64, bytes);
-        if (!bvh->nodes)
-            bvh->nodes = spt_malloc(bytes);
-        memcpy(bvh->nodes, bd.nodes, bd.node_count * sizeof *bd.nodes);
-        free(bd.nodes);
+        bvh->nodes = bd.nodes;
         bvh->node_count = bd.node_count;
         BvhTri *tris = spt_malloc(kept * sizeof *tris);
         bvh->prim_index = spt_malloc(kept * sizeof *bvh->prim_index);
         for (uint32_t i = 0; i < kept; i++) {
+            /* The gather is the slow part: ask for a later triangle early. */
+            if (i + 16 < kept)
+                __builtin_prefetch(tri_pos + (size_t)bd.refs[i + 16].id * 9);
             uint32_t id = bd.refs[i].id;
             bvh->prim_index[i] = id;
             memcpy(tris[i].v, tri_pos + (size_t)id * 9, sizeof tris[i].v);
