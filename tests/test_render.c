@@ -739,6 +739,51 @@ static void test_volume_absorption(void **state)
     scene_free(&s);
 }
 
+/* KHR_materials_dispersion in a white furnace: a smooth glass sphere (ior 1.5,
+ * dispersion 3, i.e. Abbe number 6.7) in the default sky of radiance 1 must look
+ * exactly like the sky, whatever the wavelengths do: paths that refract keep
+ * only their hero wavelength (pbrt-v4's TerminateSecondary), which must stay
+ * unbiased, so the sphere's pixels average 1 in every channel. */
+static void test_dispersion_furnace(void **state)
+{
+    (void)state;
+    enum { W = 24 };
+    Scene s;
+    GpuScene g;
+    SptError e = {0};
+    sphere_scene(&s, 1.0f);
+    SceneMaterial *m = &s.materials[0];
+    m->transmission = 1.0f;
+    m->roughness = 0.0f;
+    m->specular = 1.0f;
+    m->dispersion = 3.0f;
+    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = rs.height = W;
+    rs.spp = 256;
+    rs.max_depth = -1;
+    rs.seed = 12;
+    Film f;
+    RenderStats st;
+    film_init(&f, W, W);
+    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    float *rgb = malloc(W * W * 3 * sizeof(float));
+    film_to_linear_srgb(&f, rgb);
+    double c[3] = {0, 0, 0};
+    for (int y = 8; y < 16; y++)
+        for (int x = 8; x < 16; x++)
+            for (int k = 0; k < 3; k++)
+                c[k] += rgb[3 * (y * W + x) + k] / 64.0;
+    printf("dispersive glass furnace: (%.4f, %.4f, %.4f), expected 1\n", c[0], c[1], c[2]);
+    for (int k = 0; k < 3; k++)
+        assert_close(c[k], 1.0, 0.02);
+    free(rgb);
+    film_free(&f);
+    gpu_scene_free(&g);
+    scene_free(&s);
+}
+
 /* alphaMode BLEND: a black plane of alpha 0.5 between the emitter and the lit
  * plane of plane_irradiance.gltf transmits half the light (camera and shadow
  * rays both); alphaMode MASK below its cutoff transmits all of it. */
@@ -1062,6 +1107,7 @@ int main(void)
         cmocka_unit_test(test_punctual_lights),
         cmocka_unit_test(test_normal_map),
         cmocka_unit_test(test_volume_absorption),
+        cmocka_unit_test(test_dispersion_furnace),
         cmocka_unit_test(test_unlit),
         cmocka_unit_test(test_alpha_blend_and_mask),
         cmocka_unit_test(test_named_light_spectra),
