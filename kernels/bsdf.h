@@ -397,7 +397,8 @@ SPT_FN vec4 bsdf_eval(const BsdfParams *p, vec3 wo, vec3 wi)
         vec3 h = v3_normalize(v3_add(wo, wi));
         float c = fabsf(v3_dot(wo, h));
         r = v4_scale(bsdf_diffuse_factor(p, c), SPT_INV_PI * wi.z);
-        if (!smooth) {
+        /* The specular layer: skipped when it has no weight (a pure Lambertian). */
+        if (!smooth && (m > 0.0f || (p->specular > 0.0f && t < 1.0f))) {
             float spec = bsdf_ggx_d(h, alpha) * bsdf_ggx_g2(wo, wi, alpha) / (4.0f * wo.z);
             r = v4_add(r, v4_scale(bsdf_spec_fresnel(p, c), spec));
         }
@@ -432,7 +433,8 @@ SPT_FN float bsdf_pdf(const BsdfParams *p, vec3 wo, vec3 wi)
     if (wo.z > 0.0f && wi.z > 0.0f) {
         vec3 h = v3_normalize(v3_add(wo, wi));
         pdf += pd * wi.z * SPT_INV_PI;
-        pdf += ps * bsdf_ggx_vndf_pdf(wo, h, alpha) / (4.0f * v3_dot(wo, h));
+        if (ps > 0.0f)
+            pdf += ps * bsdf_ggx_vndf_pdf(wo, h, alpha) / (4.0f * v3_dot(wo, h));
     }
     if (pt > 0.0f) {
         float pi_;
