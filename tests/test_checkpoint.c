@@ -41,6 +41,14 @@ static int run(const char *args, char *out, size_t cap)
     return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
 
+/* run() that must succeed; prints the program's messages when it does not. */
+static void run_ok(const char *args, char *out, size_t cap)
+{
+    int rc = run(args, out, cap);
+    if (rc)
+        fail_msg("exit code %d from spectrace %s:\n%s", rc, args, out);
+}
+
 static const char *path_in(const char *name)
 {
     static char buf[8][256];
@@ -203,10 +211,10 @@ static void test_resume_split_invariance(void **state)
     char cmd[1024], out[4096];
     snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device 0 --spp 64 -o %s --checkpoint %s",
              path_in("full.exr"), path_in("full_ck.exr"));
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    run_ok(cmd, out, sizeof out);
     snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device 0 --spp 32 -o %s --checkpoint %s",
              path_in("half.exr"), path_in("half_ck.exr"));
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    run_ok(cmd, out, sizeof out);
     Film a, b;
     assert_int_equal(load_checkpoint(path_in("half_ck.exr"), 64, &b), 32);
     film_free(&b);
@@ -256,7 +264,7 @@ static void test_resume_refusals(void **state)
     snprintf(txt, sizeof txt, "%s", path_in("notes.exr"));
     snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device 0 --spp 8 -o %s --checkpoint %s",
              img, ck);
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    run_ok(cmd, out, sizeof out);
     refused(OTHER_SCENE " " COMMON, ck, SPT_EXIT_INPUT, "another scene");
     refused(SCENE " --width 32 --height 32 --seed 4 -q", ck, SPT_EXIT_INPUT, "seed 4 here, 3 in the checkpoint");
     refused(SCENE " --width 40 --height 32 --seed 3 -q", ck, SPT_EXIT_INPUT, "width 40 here, 32 in the checkpoint");
@@ -352,7 +360,7 @@ static void test_sigint_then_resume(void **state)
         fail_msg("resume failed: %s", out);
     snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device 0 --spp 128 -o %s --checkpoint %s",
              path_in("straight.exr"), path_in("straight_ck.exr"));
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    run_ok(cmd, out, sizeof out);
     Film a, b;
     assert_int_equal(load_checkpoint(ck, 128, &a), 128);
     assert_int_equal(load_checkpoint(path_in("straight_ck.exr"), 128, &b), 128);

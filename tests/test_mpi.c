@@ -14,6 +14,7 @@
 #include "checkpoint.h"
 #include "exr.h"
 #include "film.h"
+#include "scene_pack.h"
 
 #define SCENE "scenes/cornell_box.gltf"
 #define COMMON "--width 32 --height 32 --seed 5 --device 0"
@@ -121,7 +122,9 @@ static void reference(void)
     char cmd[2048], out[8192];
     snprintf(cmd, sizeof cmd, "'%s' render " SCENE " " COMMON " -q --spp 64 -o %s --checkpoint %s", exe,
              path_in("one.exr"), path_in("one_ck.exr"));
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    int rc0 = run(cmd, out, sizeof out);
+    if (rc0)
+        fail_msg("exit code %d from %s:\n%s", rc0, cmd, out);
     done = 1;
 }
 
@@ -208,7 +211,9 @@ static void test_resume_on_two_ranks(void **state)
     char cmd[4096], out[8192];
     snprintf(cmd, sizeof cmd, "'%s' render " SCENE " " COMMON " -q --spp 32 -o %s --checkpoint %s", exe,
              path_in("half.exr"), path_in("half_ck.exr"));
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    int rc0 = run(cmd, out, sizeof out);
+    if (rc0)
+        fail_msg("exit code %d from %s:\n%s", rc0, cmd, out);
     snprintf(cmd, sizeof cmd, MPIRUN " -n 2 '%s' render " SCENE " " COMMON " -q --spp 64 -o %s --resume %s",
              mpi_exe, path_in("resumed.exr"), path_in("half_ck.exr"));
     int rc = run(cmd, out, sizeof out);
@@ -249,12 +254,57 @@ static void test_failing_rank(void **state)
     }
 }
 
+/* What rank 1 gets: a scene with textures and spectral extras survives
+ * scene_pack/scene_unpack with every array equal (and packs to the same bytes). */
+static void test_scene_pack_round_trip(void **state)
+{
+    (void)state;
+    static const char *files[2] = {"tests/data/gltf/materials.gltf", "tests/data/scenes/furnace_spectral.gltf"};
+    for (int f = 0; f < 2; f++) {
+        Scene a, b;
+        SptError e = {0};
+        if (scene_load_gltf(&a, files[f], &e))
+            fail_msg("%s", e.msg);
+        size_t n, m;
+        void *bytes = scene_pack(&a, &n);
+        assert_int_equal(scene_unpack(&b, bytes, n, "test", &e), 0);
+        void *again = scene_pack(&b, &m);
+        assert_int_equal(n, m);
+        assert_int_equal(b.tri_count, a.tri_count);
+        assert_memory_equal(b.tri_pos, a.tri_pos, (size_t)a.tri_count * 9 * sizeof(float));
+        assert_memory_equal(b.tri_mat, a.tri_mat, (size_t)a.tri_count * sizeof(uint32_t));
+        assert_int_equal(b.texture_count, a.texture_count);
+        for (uint32_t i = 0; i < a.texture_count; i++)
+            if (a.textures[i].texels)
+                assert_memory_equal(b.textures[i].texels, a.textures[i].texels,
+                                    (size_t)a.textures[i].width * a.textures[i].height *
+                                        a.textures[i].channels * sizeof(float));
+        for (uint32_t i = 0; i < a.material_count; i++) {
+            const Spd *x = &a.materials[i].reflectance_spd, *y = &b.materials[i].reflectance_spd;
+            assert_int_equal(x->count, y->count);
+            if (x->count)
+                assert_memory_equal(x->value, y->value, (size_t)x->count * sizeof(double));
+        }
+        assert_string_equal(a.path, b.path);
+        printf("%s: %zu bytes, %u triangles, %u textures, %u materials\n", files[f], n, a.tri_count,
+               a.texture_count, a.material_count);
+        /* A truncated block is refused. */
+        Scene c;
+        assert_int_equal(scene_unpack(&c, bytes, n / 2, "half", &e), SPT_EXIT_INPUT);
+        free(bytes);
+        free(again);
+        scene_free(&a);
+        scene_free(&b);
+    }
+}
+
 int main(void)
 {
     setenv("POCL_DEVICES", "pthread", 1);
     setenv("POCL_MAX_PTHREAD_COUNT", "1", 1);
     setenv("SPECTRACE_POOL", "512", 1);
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_scene_pack_round_trip),
         cmocka_unit_test(test_two_ranks_same_image),
         cmocka_unit_test(test_resume_on_two_ranks),
         cmocka_unit_test(test_failing_rank),
