@@ -23,4 +23,10 @@ echo "== load (tools/bench_load.c)"
 "$build/tools/bench_load" "${SPECTRACE_BENCH_LOAD_TRIANGLES:-10e6}" || status=1
 # ---- end load ----
 
+# ---- scale: two devices against one of twice the compute units, mpirun -n 2
+# against one process (tools/bench_scale.sh) ----
+echo "== scale (tools/bench_scale.sh)"
+tools/bench_scale.sh "$build" || status=1
+# ---- end scale ----
+
 exit $status
