@@ -2,7 +2,7 @@
 """Writes the default scene, the Cornell box, as a self-contained glTF 2.0 file.
 
     python3 tools/make_cornell_box.py                       # -> scenes/cornell_box.gltf
-    python3 tools/make_cornell_box.py --rgb-only out.gltf   # no spectral extras
+    python3 tools/make_cornell_box.py --rgb-only --classic tests/data/scenes/cornell_box_rgb.gltf
 
 Geometry, camera, reflectances and light spectrum are the Cornell Program of
 Computer Graphics' published data for the physical box
@@ -11,6 +11,15 @@ The scene keeps the classic frame (x from the green wall at x=0 to the red wall
 at x~0.55, y up, z from the open side at 0 to the back wall at 0.559); the camera
 node is rotated 180 degrees about +Y so that its -Z looks along +z, and its +X
 (image right) is world -x: red wall on the left, green on the right.
+
+The walls, blocks and the light are pure Lambertian (KHR_materials_specular
+specularFactor 0: no glTF dielectric specular layer), so Mitsuba's `diffuse`
+renders them exactly. The default scene replaces the short block with two
+objects that show the materials: a smooth sphere of measured gold
+(extras.spectrace.conductor "Au") and a dispersive glass sphere
+(KHR_materials_transmission 1, KHR_materials_ior 1.5, KHR_materials_dispersion
+2, i.e. Abbe number 10) whose caustic on the floor splits the light into
+colours; --classic keeps the two published blocks instead.
 
 Also a small glTF writer used by tools/make_test_scenes.py. Needs only the
 Python standard library (kernels/cie_data.h is read for the light's RGB).
@@ -83,6 +92,13 @@ RED_REFL = [
     0.063, 0.067, 0.068, 0.072, 0.080, 0.090, 0.099, 0.124, 0.154, 0.192, 0.255, 0.287, 0.349,
     0.402, 0.443, 0.487, 0.513, 0.558, 0.584, 0.620, 0.606, 0.609, 0.651, 0.612, 0.610, 0.650,
     0.638, 0.627, 0.620, 0.630, 0.628, 0.642, 0.639, 0.657, 0.639, 0.635, 0.642]
+# The material objects of the default scene (mm, on the floor where the short
+# block stands, and in front of the tall block).
+GLASS_CENTER_MM, GLASS_RADIUS_MM = (186.0, 100.0, 169.0), 100.0
+GLASS_IOR, GLASS_DISPERSION = 1.5, 2.0
+GOLD_CENTER_MM, GOLD_RADIUS_MM = (400.0, 80.0, 130.0), 80.0
+SPHERE_STACKS, SPHERE_SLICES = 48, 96
+
 # Light: spectral radiance (the page's "light spectrum"), and its reflectance 0.78.
 LIGHT_EMISSION = [(400.0, 0.0), (500.0, 8.0), (600.0, 15.6), (700.0, 18.4)]
 LIGHT_REFL = 0.78
@@ -377,7 +393,7 @@ def light_emission_rgb():
     return [c / s for c in rgb], s
 
 
-def build(rgb_only=False):
+def build(rgb_only=False, classic=False):
     mm = 1e-3
     centre = (278.0, 274.4, 279.6)   # inside the box: walls face it
 
@@ -399,22 +415,36 @@ def build(rgb_only=False):
             out.append(orient_quad(q, d))
         return out
 
-    g = GltfBuilder("spectrace tools/make_cornell_box.py" + (" --rgb-only" if rgb_only else ""))
+    g = GltfBuilder("spectrace tools/make_cornell_box.py" + (" --rgb-only" if rgb_only else "")
+                    + (" --classic" if classic else ""))
     spec = (lambda t: None) if rgb_only else (lambda t: t)
-    white = g.material("white", WHITE_RGB, reflectance=spec(list(zip(WL_4NM, WHITE_REFL))))
-    red = g.material("red", RED_RGB, reflectance=spec(list(zip(WL_4NM, RED_REFL))))
-    green = g.material("green", GREEN_RGB, reflectance=spec(list(zip(WL_4NM, GREEN_REFL))))
+    white = g.material("white", WHITE_RGB, reflectance=spec(list(zip(WL_4NM, WHITE_REFL))), pure_diffuse=True)
+    red = g.material("red", RED_RGB, reflectance=spec(list(zip(WL_4NM, RED_REFL))), pure_diffuse=True)
+    green = g.material("green", GREEN_RGB, reflectance=spec(list(zip(WL_4NM, GREEN_REFL))), pure_diffuse=True)
     factor, strength = light_emission_rgb()
     light = g.material("light", LIGHT_RGB_ALBEDO, emissive=factor, strength=strength,
                        reflectance=spec([(400.0, LIGHT_REFL), (700.0, LIGHT_REFL)]),
-                       emission=spec(LIGHT_EMISSION))
+                       emission=spec(LIGHT_EMISSION), pure_diffuse=True)
 
     g.quads_mesh("floor", [m(toward_centre(FLOOR))], white)
     g.quads_mesh("ceiling", [m(toward_centre(CEILING))], white)
     g.quads_mesh("back_wall", [m(toward_centre(BACK_WALL))], white)
     g.quads_mesh("left_wall_red", [m(toward_centre(LEFT_WALL))], red)
     g.quads_mesh("right_wall_green", [m(toward_centre(RIGHT_WALL))], green)
-    g.quads_mesh("short_block", [m(q) for q in block(SHORT_BLOCK)], white)
+    if classic:
+        g.quads_mesh("short_block", [m(q) for q in block(SHORT_BLOCK)], white)
+    else:
+        # One unit sphere (smooth normals) placed twice by node translation and scale.
+        pos, tris, nrm = uv_sphere(SPHERE_STACKS, SPHERE_SLICES, smooth=True)
+        unit = g.geometry(pos, tris, nrm)
+        gold = g.pbr_material("gold", (1.0, 0.766, 0.336), metallic=1.0, roughness=0.0,
+                              spectrace=None if rgb_only else {"conductor": "Au"})
+        glass = g.pbr_material("dispersive_glass", (1.0, 1.0, 1.0), metallic=0.0, roughness=0.0, extensions={
+            "KHR_materials_transmission": {"transmissionFactor": 1.0},
+            "KHR_materials_ior": {"ior": GLASS_IOR},
+            "KHR_materials_dispersion": {"dispersion": GLASS_DISPERSION}})
+        g.mesh_from("glass_sphere", unit, glass, [c * mm for c in GLASS_CENTER_MM], GLASS_RADIUS_MM * mm)
+        g.mesh_from("gold_sphere", unit, gold, [c * mm for c in GOLD_CENTER_MM], GOLD_RADIUS_MM * mm)
     g.quads_mesh("tall_block", [m(q) for q in block(TALL_BLOCK)], white)
     g.quads_mesh("light", [m(orient_quad(LIGHT, (0.0, -1.0, 0.0)))], light)
     # 180 degrees about +Y: node -Z -> world +z, node +X -> world -x.
@@ -430,11 +460,13 @@ def main(argv=None):
                     help="leave out the spectral extras (RGB materials and emission only)")
     ap.add_argument("--print-light-rgb", action="store_true",
                     help="print the linear sRGB of the Cornell light spectrum and exit")
+    ap.add_argument("--classic", action="store_true",
+                    help="the two published blocks only (no gold and glass spheres)")
     a = ap.parse_args(argv)
     if a.print_light_rgb:
         print("light linear sRGB: %.5f %.5f %.5f" % tuple(spectrum_to_linear_srgb(LIGHT_EMISSION)))
         return 0
-    g = build(a.rgb_only)
+    g = build(a.rgb_only, a.classic)
     g.write(a.output, extras={"source": "Cornell box, https://www.graphics.cornell.edu/online/box/data.html",
                               "units": "metres"})
     print("wrote %s" % a.output)
