@@ -2,16 +2,19 @@
  * builder (src/bvh.c) writes, and the traversal. Valid C99 and OpenCL C 1.2, so the
  * host tests and benchmarks run exactly the code the kernels run.
  *
- * Layout: a flat array of 32-byte binary nodes. Node 0 is the root and node 1 is
- * unused; the two children of an interior node are the adjacent pair at
- * [offset, offset + 1] (offset even, so with a 64-byte aligned buffer both child
- * boxes arrive in one cache line), pairs laid out depth first. A leaf holds the
- * contiguous triangles [offset, offset + count). Triangles are packed in leaf
- * order as 9 floats (v0, v1, v2).
+ * Layout: a flat array of 128-byte 4-wide nodes (the binary SAH tree of
+ * src/bvh.c collapsed, each node taking the up to four largest descendants),
+ * depth first, node 0 the root. A node stores its children's boxes as structure
+ * of arrays, bounds[2 a + 0] = the four low and bounds[2 a + 1] = the four high
+ * coordinates along axis a, so one child test is a handful of float4
+ * operations. Child i is a leaf of count[i] > 0 triangles starting at packed
+ * triangle child[i], or when count[i] == 0 the node child[i] (> 0); an unused
+ * slot has count 0 and an empty box (low +FLT_MAX, high -FLT_MAX) that no ray
+ * enters. Triangles are packed in leaf order as 9 floats (v0, v1, v2).
  *
- * Depth: the builder never makes a node deeper than BVH_MAX_DEPTH - 1 (root =
- * depth 0), so the traversal stack of BVH_MAX_DEPTH entries cannot overflow: a
- * node at depth d has at most d deferred siblings on the stack.
+ * Depth: the binary tree is never deeper than BVH_MAX_DEPTH - 1 and collapsing
+ * never deepens it, and a node pushes at most 3 children, so the traversal
+ * stack of BVH_STACK_SIZE entries cannot overflow.
  *
  * Ray-triangle test: watertight (Woop, Benthin and Wald 2013, "Watertight
  * Ray/Triangle Intersection"): a ray cannot pass between two triangles that share
@@ -28,18 +31,16 @@
 #include "shared.h"
 #include "vecmath.h"
 
-/* Deepest node depth + 1 and the traversal stack size (see the header comment). */
+/* Deepest binary node depth + 1 (the builder's bound) and the traversal stack
+ * size (see the header comment). */
 #define BVH_MAX_DEPTH 64
-#define BVH_STACK_SIZE BVH_MAX_DEPTH
-/* Marks a leaf in BvhNode.count; the low bits are its triangle count. */
-#define BVH_LEAF_BIT 0x80000000u
+#define BVH_WIDTH 4
+#define BVH_STACK_SIZE (3 * BVH_MAX_DEPTH + 1)
 
 typedef struct BvhNode {
-    float lo[3];
-    spt_u32 offset; /* interior: index of the first child (the second follows it);
-                       leaf: first triangle */
-    float hi[3];
-    spt_u32 count;  /* leaf: BVH_LEAF_BIT | triangle count; interior: 0 */
+    float bounds[6][BVH_WIDTH]; /* [2 a] low, [2 a + 1] high along axis a, per child */
+    spt_u32 child[BVH_WIDTH];   /* a node index, or a leaf's first triangle */
+    spt_u32 count[BVH_WIDTH];   /* leaf: its triangle count; 0: a node (or unused) */
 } BvhNode;
 
 /* One triangle, packed: v0, v1, v2 (world space). */
@@ -47,7 +48,7 @@ typedef struct BvhTri {
     float v[9];
 } BvhTri;
 
-SPT_STATIC_ASSERT(sizeof(BvhNode) == 32, "BvhNode must stay 32 bytes (device layout)");
+SPT_STATIC_ASSERT(sizeof(BvhNode) == 128, "BvhNode must stay 128 bytes (device layout)");
 SPT_STATIC_ASSERT(sizeof(BvhTri) == 36, "BvhTri must stay 36 bytes (device layout)");
 
 /* A closest hit: distance t along dir, barycentrics such that the point is
@@ -65,6 +66,7 @@ typedef struct BvhRay {
     int kx, ky, kz;
     float okx, oky, okz; /* the origin permuted to (kx, ky, kz) */
     float sx, sy, sz;
+    int nx, ny, nz; /* per axis, the row of BvhNode.bounds with the near planes */
 } BvhRay;
 
 /* The three vertices of packed triangle i. */
@@ -105,6 +107,10 @@ SPT_FN void bvh_ray_init(BvhRay *r, vec3 org, vec3 dir)
     r->ix = bvh_safe_rcp(dir.x);
     r->iy = bvh_safe_rcp(dir.y);
     r->iz = bvh_safe_rcp(dir.z);
+    /* Along an axis the ray runs down, a box's high plane is the near one. */
+    r->nx = r->ix < 0.0f ? 1 : 0;
+    r->ny = r->iy < 0.0f ? 3 : 2;
+    r->nz = r->iz < 0.0f ? 5 : 4;
     float ax = fabsf(dir.x), ay = fabsf(dir.y), az = fabsf(dir.z);
     int kz = (ax >= ay && ax >= az) ? 0 : (ay >= az ? 1 : 2);
     int kx = kz == 2 ? 0 : kz + 1;
@@ -120,18 +126,43 @@ SPT_FN void bvh_ray_init(BvhRay *r, vec3 org, vec3 dir)
     r->sy = d[ky] * r->sz;
 }
 
-/* Entry distance of the ray into node n's box if it overlaps [0, tbest], else -1.
- * Far distances are widened by 1 + 2 gamma(3) (Ize 2013, "Robust BVH Ray
- * Traversal") so rounding never culls a box the triangle test would hit. */
-SPT_FN float bvh_box_enter(const SPT_GLOBAL BvhNode *n, const BvhRay *r, float tbest)
+#if SPT_DEVICE
+SPT_FN vec4 bvh_v4_load(const SPT_GLOBAL float *p) { return vload4(0, p); }
+SPT_FN vec4 bvh_v4_min(vec4 a, vec4 b) { return fmin(a, b); }
+SPT_FN vec4 bvh_v4_max(vec4 a, vec4 b) { return fmax(a, b); }
+#else
+SPT_FN vec4 bvh_v4_load(const float *p) { return v4(p[0], p[1], p[2], p[3]); }
+SPT_FN vec4 bvh_v4_min(vec4 a, vec4 b)
 {
-    float x0 = (n->lo[0] - r->ox) * r->ix, x1 = (n->hi[0] - r->ox) * r->ix;
-    float y0 = (n->lo[1] - r->oy) * r->iy, y1 = (n->hi[1] - r->oy) * r->iy;
-    float z0 = (n->lo[2] - r->oz) * r->iz, z1 = (n->hi[2] - r->oz) * r->iz;
-    float tn = BVH_MAX(BVH_MAX(BVH_MIN(x0, x1), BVH_MIN(y0, y1)), BVH_MAX(BVH_MIN(z0, z1), 0.0f));
-    float tf = BVH_MIN(BVH_MIN(BVH_MAX(x0, x1), BVH_MAX(y0, y1)), BVH_MAX(z0, z1)) * 1.00000036f;
-    tf = BVH_MIN(tf, tbest);
-    return tn <= tf ? tn : -1.0f;
+    return v4(BVH_MIN(a.x, b.x), BVH_MIN(a.y, b.y), BVH_MIN(a.z, b.z), BVH_MIN(a.w, b.w));
+}
+SPT_FN vec4 bvh_v4_max(vec4 a, vec4 b)
+{
+    return v4(BVH_MAX(a.x, b.x), BVH_MAX(a.y, b.y), BVH_MAX(a.z, b.z), BVH_MAX(a.w, b.w));
+}
+#endif
+
+/* Entry distances of the ray into node n's four child boxes: lane i is child i's
+ * entry distance if its box overlaps [0, tbest], else -1. Far distances are
+ * widened by 1 + 2 gamma(3) (Ize 2013, "Robust BVH Ray Traversal") so rounding
+ * never culls a box the triangle test would hit. */
+SPT_FN vec4 bvh_node_enter(const SPT_GLOBAL BvhNode *n, const BvhRay *r, float tbest)
+{
+    vec4 tnx = v4_scale(v4_sub(bvh_v4_load(n->bounds[r->nx]), v4_splat(r->ox)), r->ix);
+    vec4 tfx = v4_scale(v4_sub(bvh_v4_load(n->bounds[r->nx ^ 1]), v4_splat(r->ox)), r->ix);
+    vec4 tny = v4_scale(v4_sub(bvh_v4_load(n->bounds[r->ny]), v4_splat(r->oy)), r->iy);
+    vec4 tfy = v4_scale(v4_sub(bvh_v4_load(n->bounds[r->ny ^ 1]), v4_splat(r->oy)), r->iy);
+    vec4 tnz = v4_scale(v4_sub(bvh_v4_load(n->bounds[r->nz]), v4_splat(r->oz)), r->iz);
+    vec4 tfz = v4_scale(v4_sub(bvh_v4_load(n->bounds[r->nz ^ 1]), v4_splat(r->oz)), r->iz);
+    vec4 tn = bvh_v4_max(bvh_v4_max(tnx, tny), bvh_v4_max(tnz, v4_splat(0.0f)));
+    vec4 tf = v4_scale(bvh_v4_min(bvh_v4_min(tfx, tfy), tfz), 1.00000036f);
+    tf = bvh_v4_min(tf, v4_splat(tbest));
+#if SPT_DEVICE
+    return select((float4)(-1.0f), tn, tn <= tf);
+#else
+    return v4(tn.x <= tf.x ? tn.x : -1.0f, tn.y <= tf.y ? tn.y : -1.0f,
+              tn.z <= tf.z ? tn.z : -1.0f, tn.w <= tf.w ? tn.w : -1.0f);
+#endif
 }
 
 /* Watertight test of packed triangle i: on a hit with t in (0, tbest) writes hit
@@ -175,8 +206,9 @@ SPT_FN int bvh_tri_intersect(const SPT_GLOBAL BvhTri *tris, spt_u32 i, const Bvh
 }
 
 /* The traversal behind bvh_intersect (any_hit 0: closest hit) and bvh_occluded
- * (any_hit 1: stops at the first hit). Children are visited nearer first and a
- * deferred child is skipped when its entry distance is beyond the best hit. */
+ * (any_hit 1: stops at the first hit). The children a ray enters are visited
+ * nearest first (equal distances in slot order), the others deferred on the
+ * stack and skipped when their entry distance is beyond the best hit. */
 SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL BvhTri *tris,
                         vec3 org, vec3 dir, float tmax, int any_hit, BvhHit *hit)
 {
@@ -184,19 +216,15 @@ SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL BvhTri
     bvh_ray_init(&r, org, dir);
     float best = tmax;
     int found = 0;
-    spt_u32 stack_node[BVH_STACK_SIZE];
+    spt_u32 stack_child[BVH_STACK_SIZE], stack_count[BVH_STACK_SIZE];
     float stack_t[BVH_STACK_SIZE];
     int sp = 0;
-    spt_u32 idx = 0;
-    if (bvh_box_enter(&nodes[0], &r, best) < 0.0f)
-        return 0;
+    /* The current item: node cur (count 0) or the leaf of count triangles
+     * from cur. */
+    spt_u32 cur = 0, count = 0;
     for (;;) {
-        const SPT_GLOBAL BvhNode *n = &nodes[idx];
-        spt_u32 count = n->count;
-        int descend = 0;
-        if (count & BVH_LEAF_BIT) {
-            spt_u32 first = n->offset, end = first + (count & ~BVH_LEAF_BIT);
-            for (spt_u32 i = first; i < end; i++) {
+        if (count) {
+            for (spt_u32 i = cur; i < cur + count; i++) {
                 if (bvh_tri_intersect(tris, i, &r, best, hit)) {
                     best = hit->t;
                     found = 1;
@@ -205,32 +233,46 @@ SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL BvhTri
                 }
             }
         } else {
-            spt_u32 c0 = n->offset, c1 = c0 + 1;
-            float d0 = bvh_box_enter(&nodes[c0], &r, best);
-            float d1 = bvh_box_enter(&nodes[c1], &r, best);
-            if (d0 >= 0.0f && d1 >= 0.0f) {
-                /* Both: go to the nearer, defer the other. */
-                if (d1 < d0) { spt_u32 tc = c0; c0 = c1; c1 = tc; float td = d0; d0 = d1; d1 = td; }
-                stack_node[sp] = c1;
-                stack_t[sp] = d1;
-                sp++;
-                idx = c0;
-                descend = 1;
-            } else if (d0 >= 0.0f) {
-                idx = c0;
-                descend = 1;
-            } else if (d1 >= 0.0f) {
-                idx = c1;
-                descend = 1;
+            const SPT_GLOBAL BvhNode *n = &nodes[cur];
+            vec4 d4 = bvh_node_enter(n, &r, best);
+            float d[BVH_WIDTH];
+            d[0] = d4.x; d[1] = d4.y; d[2] = d4.z; d[3] = d4.w;
+            /* The entered children sorted by distance (insertion, stable). */
+            spt_u32 hc[BVH_WIDTH], hn[BVH_WIDTH];
+            float ht[BVH_WIDTH];
+            int nh = 0;
+            for (int i = 0; i < BVH_WIDTH; i++) {
+                if (d[i] < 0.0f)
+                    continue;
+                int j = nh++;
+                while (j > 0 && ht[j - 1] > d[i]) {
+                    ht[j] = ht[j - 1]; hc[j] = hc[j - 1]; hn[j] = hn[j - 1];
+                    j--;
+                }
+                ht[j] = d[i]; hc[j] = n->child[i]; hn[j] = n->count[i];
+            }
+            if (nh > 0) {
+                /* Defer all but the nearest, farthest first. */
+                for (int j = nh - 1; j > 0; j--) {
+                    stack_child[sp] = hc[j];
+                    stack_count[sp] = hn[j];
+                    stack_t[sp] = ht[j];
+                    sp++;
+                }
+                cur = hc[0];
+                count = hn[0];
+                continue;
             }
         }
-        while (!descend) {
+        /* Next: the nearest deferred item the best hit does not rule out. */
+        for (;;) {
             if (sp == 0)
                 return found;
             sp--;
             if (stack_t[sp] <= best) {
-                idx = stack_node[sp];
-                descend = 1;
+                cur = stack_child[sp];
+                count = stack_count[sp];
+                break;
             }
         }
     }

@@ -55,8 +55,7 @@ typedef struct LayoutProbe {
     X(RenderParams, rr_depth)     \
     X(RenderParams, env_prob)     \
     X(RenderParams, env)          \
-    X(BvhNode, offset)            \
-    X(BvhNode, hi)                \
+    X(BvhNode, child)             \
     X(BvhNode, count)             \
     X(BvhHit, prim)               \
     X(GpuLight, cos_outer)        \

@@ -164,11 +164,21 @@ typedef struct SweepKey {
     uint32_t ref; /* position in refs */
 } SweepKey;
 
+/* A node of the binary tree the SAH build makes, before it is collapsed into
+ * the 4-wide BvhNode layout. Node 0 is the root, node 1 unused, the children of
+ * an interior node the pair [offset, offset + 1]. */
+typedef struct Node2 {
+    float lo[3];
+    uint32_t offset; /* interior: first child; leaf: first triangle */
+    float hi[3];
+    uint32_t count;  /* leaf: NODE2_LEAF | triangle count; interior: 0 */
+} Node2;
+#define NODE2_LEAF 0x80000000u
+
 typedef struct Builder {
     PrimRef *refs;
-    BvhNode *nodes;
+    Node2 *nodes;     /* the binary tree (see Node2) */
     uint32_t node_count;
-    uint32_t max_depth;
     BvhOptions opt;
     /* full-sweep scratch, sized for all refs */
     SweepKey *keys;
@@ -542,15 +552,13 @@ static int split_sweep(Builder *bd, uint32_t begin, uint32_t end, const Box *bou
  * children, if any, become the next free (even-aligned) pair of nodes. */
 static void build_node(Builder *bd, uint32_t idx, uint32_t begin, uint32_t end, uint32_t depth)
 {
-    BvhNode *node = &bd->nodes[idx];
+    Node2 *node = &bd->nodes[idx];
     Box bounds, cb;
     refs_bounds(bd->refs, begin, end, &bounds, &cb);
     for (int a = 0; a < 3; a++) {
         node->lo[a] = bounds.lo[a];
         node->hi[a] = bounds.hi[a];
     }
-    if (depth > bd->max_depth)
-        bd->max_depth = depth;
     uint32_t count = end - begin;
     /* A split costs at least cost_node, so a node whose triangles cost no more
      * is a leaf without looking for one. */
@@ -584,7 +592,7 @@ static void build_node(Builder *bd, uint32_t idx, uint32_t begin, uint32_t end, 
     }
     if (leaf) {
         node->offset = begin;
-        node->count = BVH_LEAF_BIT | count;
+        node->count = NODE2_LEAF | count;
         return;
     }
     node->count = 0;
@@ -611,35 +619,137 @@ static int tri_zero_area(const float *p)
     return nx == 0.0f && ny == 0.0f && nz == 0.0f;
 }
 
-/* Area-weighted SAH cost, leaf statistics and memory use of a finished tree. */
-static void bvh_compute_stats(Bvh *bvh, const BvhOptions *o)
+/* Area-weighted SAH cost of the binary tree (what the build optimises). */
+static double binary_sah(const Node2 *nodes, uint32_t node_count, const BvhOptions *o)
 {
-    BvhStats *st = &bvh->stats;
-    st->node_count = bvh->node_count;
-    st->leaf_count = 0;
-    st->max_leaf_size = 0;
     double cost = 0.0;
     Box root;
-    memcpy(root.lo, bvh->nodes[0].lo, sizeof root.lo);
-    memcpy(root.hi, bvh->nodes[0].hi, sizeof root.hi);
+    memcpy(root.lo, nodes[0].lo, sizeof root.lo);
+    memcpy(root.hi, nodes[0].hi, sizeof root.hi);
     double root_area = box_half_area(&root);
-    for (uint32_t i = 0; i < bvh->node_count; i++) {
-        const BvhNode *n = &bvh->nodes[i];
+    for (uint32_t i = 0; i < node_count; i++) {
+        if (i == 1)
+            continue;
+        const Node2 *n = &nodes[i];
         Box b;
         memcpy(b.lo, n->lo, sizeof b.lo);
         memcpy(b.hi, n->hi, sizeof b.hi);
         double area = box_half_area(&b);
-        if (n->count & BVH_LEAF_BIT) {
-            uint32_t c = n->count & ~BVH_LEAF_BIT;
-            st->leaf_count++;
-            if (c > st->max_leaf_size)
-                st->max_leaf_size = c;
-            cost += area * o->cost_tri * c;
-        } else {
+        if (n->count & NODE2_LEAF)
+            cost += area * o->cost_tri * (n->count & ~NODE2_LEAF);
+        else
             cost += area * o->cost_node;
+    }
+    return root_area > 0.0 ? cost / root_area : 0.0;
+}
+
+/* Collapses the binary subtree under interior Node2 b into 4-wide node w (and
+ * the nodes after *next): the slots start as b's two children, and the largest
+ * interior slot is replaced by its two children while there is room. Leaves
+ * keep their triangle ranges. Updates the leaf and depth statistics. */
+static void collapse_node(const Node2 *bin, uint32_t b, BvhNode *wide, uint32_t w, uint32_t *next,
+                          uint32_t depth, BvhStats *st)
+{
+    uint32_t slot[BVH_WIDTH];
+    int gen[BVH_WIDTH]; /* binary levels below b, to break ties breadth first */
+    int n = 2;
+    slot[0] = bin[b].offset;
+    slot[1] = bin[b].offset + 1;
+    gen[0] = gen[1] = 0;
+    while (n < BVH_WIDTH) {
+        int pick = -1;
+        float pick_area = -1.0f;
+        for (int i = 0; i < n; i++) {
+            const Node2 *c = &bin[slot[i]];
+            if (c->count & NODE2_LEAF)
+                continue;
+            Box bx;
+            memcpy(bx.lo, c->lo, sizeof bx.lo);
+            memcpy(bx.hi, c->hi, sizeof bx.hi);
+            float area = box_half_area(&bx);
+            if (area > pick_area || (area == pick_area && gen[i] < gen[pick])) {
+                pick_area = area;
+                pick = i;
+            }
+        }
+        if (pick < 0)
+            break;
+        uint32_t first = bin[slot[pick]].offset;
+        slot[pick] = first;
+        slot[n] = first + 1;
+        gen[n++] = ++gen[pick];
+    }
+    if (depth > st->max_depth)
+        st->max_depth = depth;
+    BvhNode *node = &wide[w];
+    for (int i = 0; i < BVH_WIDTH; i++) {
+        const Node2 *c = i < n ? &bin[slot[i]] : NULL;
+        for (int a = 0; a < 3; a++) {
+            node->bounds[2 * a][i] = c ? c->lo[a] : FLT_MAX;
+            node->bounds[2 * a + 1][i] = c ? c->hi[a] : -FLT_MAX;
+        }
+        node->child[i] = 0;
+        node->count[i] = 0;
+        if (!c)
+            continue;
+        if (c->count & NODE2_LEAF) {
+            uint32_t cnt = c->count & ~NODE2_LEAF;
+            node->child[i] = c->offset;
+            node->count[i] = cnt;
+            st->leaf_count++;
+            if (cnt > st->max_leaf_size)
+                st->max_leaf_size = cnt;
+        } else {
+            node->child[i] = (*next)++;
         }
     }
-    st->sah_cost = root_area > 0.0 ? cost / root_area : 0.0;
+    for (int i = 0; i < n; i++) {
+        if (node->count[i] == 0)
+            collapse_node(bin, slot[i], wide, node->child[i], next, depth + 1, st);
+    }
+}
+
+/* The 4-wide tree over the binary one (bin_count nodes, root interior or a
+ * leaf): a root always, whose slot 0 is the leaf when the whole tree is one. */
+static void collapse_tree(Bvh *bvh, const Node2 *bin, uint32_t bin_count)
+{
+    /* Every wide node consumes at least one binary interior node. */
+    uint32_t cap = bin_count / 2 + 1;
+    size_t bytes = (size_t)cap * sizeof(BvhNode);
+    BvhNode *wide = aligned_alloc(64, bytes);
+    if (!wide)
+        wide = spt_malloc(bytes);
+    BvhStats *st = &bvh->stats;
+    uint32_t next = 1;
+    if (bin[0].count & NODE2_LEAF) {
+        BvhNode *r = &wide[0];
+        for (int i = 0; i < BVH_WIDTH; i++) {
+            for (int a = 0; a < 3; a++) {
+                r->bounds[2 * a][i] = i == 0 ? bin[0].lo[a] : FLT_MAX;
+                r->bounds[2 * a + 1][i] = i == 0 ? bin[0].hi[a] : -FLT_MAX;
+            }
+            r->child[i] = i == 0 ? bin[0].offset : 0;
+            r->count[i] = i == 0 ? bin[0].count & ~NODE2_LEAF : 0;
+        }
+        st->leaf_count = 1;
+        st->max_leaf_size = r->count[0];
+    } else {
+        collapse_node(bin, 0, wide, 0, &next, 0, st);
+    }
+    /* Exactly sized (64-byte aligned, so a node is two cache lines). */
+    bvh->nodes = aligned_alloc(64, (size_t)next * sizeof(BvhNode));
+    if (!bvh->nodes)
+        bvh->nodes = spt_malloc((size_t)next * sizeof(BvhNode));
+    memcpy(bvh->nodes, wide, (size_t)next * sizeof(BvhNode));
+    free(wide);
+    bvh->node_count = next;
+}
+
+/* Leaf size average and memory use of a finished tree. */
+static void bvh_finish_stats(Bvh *bvh)
+{
+    BvhStats *st = &bvh->stats;
+    st->node_count = bvh->node_count;
     st->avg_leaf_size = st->leaf_count ? (double)bvh->prim_count / st->leaf_count : 0.0;
     st->bytes_per_tri = bvh->prim_count
         ? (double)(bvh->node_count * sizeof(BvhNode) + bvh->tri_data_bytes) / bvh->prim_count
@@ -701,25 +811,25 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
     }
 
     if (kept == 0) {
-        /* One empty leaf; a dummy triangle and index keep the buffers non-empty. */
+        /* A root with no children; a dummy triangle and index keep the buffers
+         * non-empty. */
         bvh->nodes = spt_calloc(1, sizeof *bvh->nodes);
-        bvh->nodes[0].count = BVH_LEAF_BIT;
+        for (int i = 0; i < BVH_WIDTH; i++) {
+            for (int a = 0; a < 3; a++) {
+                bvh->nodes[0].bounds[2 * a][i] = FLT_MAX;
+                bvh->nodes[0].bounds[2 * a + 1][i] = -FLT_MAX;
+            }
+        }
         bvh->node_count = 1;
         bvh->tri_data = spt_calloc(1, sizeof(BvhTri));
         bvh->tri_data_bytes = sizeof(BvhTri);
         bvh->prim_index = spt_calloc(1, sizeof *bvh->prim_index);
         bvh->prim_count = 0;
     } else {
-        /* Root at 0, an unused zeroed node at 1, then sibling pairs from 2. */
-        /* A binary tree over kept >= 1 leaves has at most 2 kept - 1 nodes, plus
-         * the unused node 1. The array stays at that capacity (no shrinking
-         * copy): pages never written are never touched, so they cost address
-         * space, not memory. 64-byte aligned, so each sibling pair is one cache
-         * line. */
-        bd.nodes = aligned_alloc(64, 2 * (size_t)kept * sizeof *bd.nodes);
-        if (!bd.nodes)
-            bd.nodes = spt_malloc(2 * (size_t)kept * sizeof *bd.nodes);
-        memset(&bd.nodes[1], 0, sizeof bd.nodes[1]);
+        /* Root at 0, an unused node at 1, then sibling pairs from 2: a binary
+         * tree over kept >= 1 leaves has at most 2 kept - 1 nodes, plus node 1.
+         * malloc: pages never written are never touched. */
+        bd.nodes = spt_malloc(2 * (size_t)kept * sizeof *bd.nodes);
         bd.node_count = 2;
         if (bd.opt.full_sweep) {
             bd.keys = spt_malloc(kept * sizeof *bd.keys);
@@ -730,8 +840,9 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         free(bd.keys);
         free(bd.right_area);
         free(bd.tmp);
-        bvh->nodes = bd.nodes;
-        bvh->node_count = bd.node_count;
+        bvh->stats.sah_cost = binary_sah(bd.nodes, bd.node_count, &bd.opt);
+        collapse_tree(bvh, bd.nodes, bd.node_count);
+        free(bd.nodes);
         BvhTri *tris = spt_malloc(kept * sizeof *tris);
         bvh->prim_index = spt_malloc(kept * sizeof *bvh->prim_index);
         for (uint32_t i = 0; i < kept; i++) {
@@ -747,10 +858,21 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         bvh->prim_count = kept;
     }
     free(bd.refs);
-    bvh->stats.max_depth = bd.max_depth;
-    bvh_compute_stats(bvh, &bd.opt);
+    bvh_finish_stats(bvh);
     bvh->stats.build_seconds = spt_now() - t0;
     return SPT_EXIT_OK;
+}
+
+void bvh_bounds(const Bvh *bvh, float lo[3], float hi[3])
+{
+    for (int a = 0; a < 3; a++) {
+        lo[a] = FLT_MAX;
+        hi[a] = -FLT_MAX;
+        for (int i = 0; i < BVH_WIDTH && bvh->node_count; i++) {
+            lo[a] = minf(lo[a], bvh->nodes[0].bounds[2 * a][i]);
+            hi[a] = maxf(hi[a], bvh->nodes[0].bounds[2 * a + 1][i]);
+        }
+    }
 }
 
 void bvh_free(Bvh *bvh)

@@ -13,14 +13,15 @@
 
 /* What a build made, for `info`, the benchmark and the tests. */
 typedef struct BvhStats {
-    uint32_t node_count;
+    uint32_t node_count;       /* 4-wide nodes */
     uint32_t leaf_count;
-    uint32_t max_depth;        /* root = 0 */
+    uint32_t max_depth;        /* of the 4-wide nodes, root = 0 */
     uint32_t max_leaf_size;
     double avg_leaf_size;      /* triangles per leaf */
-    double sah_cost;           /* sum over nodes of area / root area times the cost
-                                  (options cost_node per interior node, cost_tri
-                                  per triangle in a leaf) */
+    double sah_cost;           /* of the binary SAH tree before it is collapsed:
+                                  sum over nodes of area / root area times the
+                                  cost (options cost_node per interior node,
+                                  cost_tri per triangle in a leaf) */
     double build_seconds;
     double bytes_per_tri;      /* (nodes + packed triangles) / kept triangles */
     uint32_t dropped;          /* dropped_nonfinite + dropped_degenerate */
@@ -70,6 +71,9 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
 
 /* Frees what bvh_build allocated and zeroes bvh; safe on a zeroed or freed Bvh. */
 void bvh_free(Bvh *bvh);
+
+/* The bounds of everything indexed (lo > hi when nothing is). */
+void bvh_bounds(const Bvh *bvh, float lo[3], float hi[3]);
 
 /* The packed triangles as their device type. */
 static inline const BvhTri *bvh_tris(const Bvh *bvh) { return (const BvhTri *)bvh->tri_data; }

@@ -2,6 +2,7 @@
  * independent double-precision brute force, watertightness, garbage input. */
 #include "test_util.h"
 
+#include <float.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -158,9 +159,10 @@ static void check_rays(const Bvh *bvh, const float *tris, uint32_t n, const unsi
     assert_true(hits < rays);
 }
 
-/* Checks the tree: every node reached once, children inside parents, leaves
- * bound their triangles, every kept triangle in exactly one leaf, packed data
- * equal to the input, depth within the traversal stack. keep may be NULL. */
+/* Checks the tree: every node reached once, child boxes inside their parent's
+ * box, unused slots empty, leaves bound their triangles, every kept triangle in
+ * exactly one leaf, packed data equal to the input, depth within the traversal
+ * stack's bound. keep may be NULL. */
 static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
                             const unsigned char *keep)
 {
@@ -168,18 +170,29 @@ static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
     for (uint32_t i = 0; i < n; i++)
         want_kept += keep ? keep[i] : 1;
     assert_int_equal(bvh->prim_count, want_kept);
+    assert_true(bvh->node_count >= 1);
     unsigned char *seen = calloc(bvh->prim_count + 1, 1);
     unsigned char *seen_in = calloc(n + 1, 1);
     unsigned char *visited = calloc(bvh->node_count, 1);
-    uint32_t stack[256], depth[256];
+    /* each node is pushed once, with its depth and the box its parent gave it */
+    uint32_t *stack = malloc(bvh->node_count * sizeof *stack);
+    uint32_t *depth = malloc(bvh->node_count * sizeof *depth);
+    float(*pbox)[6] = malloc(bvh->node_count * sizeof *pbox);
     int sp = 0;
     stack[sp] = 0;
-    depth[sp++] = 0;
+    depth[sp] = 0;
+    for (int a = 0; a < 3; a++) {
+        pbox[sp][a] = -INFINITY;
+        pbox[sp][3 + a] = INFINITY;
+    }
+    sp++;
     uint32_t visits = 0, leaves = 0, max_depth = 0;
     const BvhTri *pt = bvh_tris(bvh);
     while (sp) {
         sp--;
         uint32_t i = stack[sp], dep = depth[sp];
+        float parent[6];
+        memcpy(parent, pbox[sp], sizeof parent);
         assert_true(i < bvh->node_count);
         assert_false(visited[i]);
         visited[i] = 1;
@@ -187,48 +200,59 @@ static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
         max_depth = dep > max_depth ? dep : max_depth;
         assert_true(dep < BVH_MAX_DEPTH);
         const BvhNode *nd = &bvh->nodes[i];
-        for (int a = 0; a < 3; a++) {
-            assert_true(isfinite(nd->lo[a]) && isfinite(nd->hi[a]));
-            assert_true(nd->lo[a] <= nd->hi[a]);
-        }
-        if (nd->count & BVH_LEAF_BIT) {
-            leaves++;
-            uint32_t c = nd->count & ~BVH_LEAF_BIT;
-            assert_true(c >= 1);
-            assert_true(nd->offset + c <= bvh->prim_count);
-            for (uint32_t k = nd->offset; k < nd->offset + c; k++) {
-                assert_false(seen[k]);
-                seen[k] = 1;
-                uint32_t id = bvh->prim_index[k];
-                assert_true(id < n);
-                assert_true(keep == NULL || keep[id]);
-                assert_false(seen_in[id]);
-                seen_in[id] = 1;
-                assert_memory_equal(pt[k].v, tris + (size_t)id * 9, 36);
-                for (int v = 0; v < 3; v++)
-                    for (int a = 0; a < 3; a++) {
-                        assert_true(pt[k].v[v * 3 + a] >= nd->lo[a]);
-                        assert_true(pt[k].v[v * 3 + a] <= nd->hi[a]);
-                    }
+        for (int c = 0; c < BVH_WIDTH; c++) {
+            float lo[3], hi[3];
+            for (int a = 0; a < 3; a++) {
+                lo[a] = nd->bounds[2 * a][c];
+                hi[a] = nd->bounds[2 * a + 1][c];
             }
-        } else {
-            uint32_t ch[2] = {nd->offset, nd->offset + 1};
-            assert_true(nd->offset % 2 == 0 && nd->offset >= 2);
-            for (int c = 0; c < 2; c++) {
-                assert_true(ch[c] < bvh->node_count);
-                const BvhNode *cn = &bvh->nodes[ch[c]];
+            if (nd->count[c] == 0 && nd->child[c] == 0) {
+                /* unused: an empty box no ray enters */
                 for (int a = 0; a < 3; a++) {
-                    assert_true(cn->lo[a] >= nd->lo[a]);
-                    assert_true(cn->hi[a] <= nd->hi[a]);
+                    assert_true(lo[a] == FLT_MAX);
+                    assert_true(hi[a] == -FLT_MAX);
                 }
-                assert_true(sp < 256);
-                stack[sp] = ch[c];
-                depth[sp++] = dep + 1;
+                continue;
+            }
+            for (int a = 0; a < 3; a++) {
+                assert_true(isfinite(lo[a]) && isfinite(hi[a]));
+                assert_true(lo[a] <= hi[a]);
+                assert_true(lo[a] >= parent[a]);
+                assert_true(hi[a] <= parent[3 + a]);
+            }
+            if (nd->count[c]) {
+                leaves++;
+                uint32_t first = nd->child[c], cnt = nd->count[c];
+                assert_true(first + cnt <= bvh->prim_count);
+                for (uint32_t k = first; k < first + cnt; k++) {
+                    assert_false(seen[k]);
+                    seen[k] = 1;
+                    uint32_t id = bvh->prim_index[k];
+                    assert_true(id < n);
+                    assert_true(keep == NULL || keep[id]);
+                    assert_false(seen_in[id]);
+                    seen_in[id] = 1;
+                    assert_memory_equal(pt[k].v, tris + (size_t)id * 9, 36);
+                    for (int v = 0; v < 3; v++)
+                        for (int a = 0; a < 3; a++) {
+                            assert_true(pt[k].v[v * 3 + a] >= lo[a]);
+                            assert_true(pt[k].v[v * 3 + a] <= hi[a]);
+                        }
+                }
+            } else {
+                assert_true(nd->child[c] > i && nd->child[c] < bvh->node_count);
+                assert_true(sp < (int)bvh->node_count);
+                stack[sp] = nd->child[c];
+                depth[sp] = dep + 1;
+                for (int a = 0; a < 3; a++) {
+                    pbox[sp][a] = lo[a];
+                    pbox[sp][3 + a] = hi[a];
+                }
+                sp++;
             }
         }
     }
-    /* every node but the unused node 1 of a non-empty tree */
-    assert_int_equal(visits, bvh->node_count - (bvh->prim_count ? 1 : 0));
+    assert_int_equal(visits, bvh->node_count);
     assert_true(((uintptr_t)bvh->nodes) % 64 == 0 || bvh->prim_count == 0);
     assert_int_equal(leaves, bvh->stats.leaf_count);
     assert_int_equal(max_depth, bvh->stats.max_depth);
@@ -237,6 +261,9 @@ static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
     free(seen);
     free(seen_in);
     free(visited);
+    free(stack);
+    free(depth);
+    free(pbox);
 }
 
 /* n random triangles of size up to `size` inside [-1, 1]^3. */
@@ -413,8 +440,9 @@ static void test_identical_triangles(void **state)
     Bvh bvh;
     assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
     check_structure(&bvh, t, n, NULL);
-    /* halving down to leaves of at most 8: ceil(log2(100000 / 8)) = 14 levels */
-    assert_true(bvh.stats.max_depth <= 14);
+    /* halving down to leaves of at most 8: ceil(log2(100000 / 8)) = 14 binary
+     * levels, at least two of them per 4-wide level */
+    assert_true(bvh.stats.max_depth <= 7);
     assert_true(bvh.stats.build_seconds < 5.0);
     BvhHit h;
     assert_true(bvh_intersect(bvh.nodes, bvh_tris(&bvh), v3(0.25f, 0.25f, 2.0f),

@@ -104,8 +104,7 @@ static double time_build(Bvh *bvh, const float *t, uint32_t n, const BvhOptions 
 static void bench_rays(const char *name, const Bvh *bvh, int runs, int nrays)
 {
     float lo[3], hi[3];
-    memcpy(lo, bvh->nodes[0].lo, sizeof lo);
-    memcpy(hi, bvh->nodes[0].hi, sizeof hi);
+    bvh_bounds(bvh, lo, hi);
     vec3 *org = malloc(nrays * sizeof *org), *dir = malloc(nrays * sizeof *dir);
     for (int i = 0; i < nrays; i++) {
         org[i] = v3(lo[0] + (hi[0] - lo[0]) * (float)rnd(), lo[1] + (hi[1] - lo[1]) * (float)rnd(),
