@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "image_io.h"
 #include "image_out.h"
 #include "spectrum.h"
 
@@ -197,6 +198,15 @@ int env_load_map(EnvLight *env, const char *path, float rotation_rad, float inte
     int rc = image_read_rgb(path, &rgb, &w, &h, e);
     if (rc != SPT_EXIT_OK)
         return rc;
+    /* An 8- or 16-bit integer file (PNG, JPEG, ...) holds sRGB-encoded display
+     * values: decoded to linear (an LDR map cannot hold the sun's range; HDR or
+     * EXR maps are meant). Float files are linear as stored. */
+    ImageIoInfo info;
+    SptError e2 = {0};
+    if (image_io_info(path, &info, &e2) == SPT_EXIT_OK && strncmp(info.format, "uint", 4) == 0 &&
+        strcmp(info.format_name, "hdr") != 0)
+        for (size_t i = 0; i < (size_t)w * (size_t)h * 3; i++)
+            rgb[i] = (float)srgb_decode(rgb[i]);
     rc = env_build_map(env, rgb, w, h, rotation_rad, intensity, path, e);
     free(rgb);
     return rc;

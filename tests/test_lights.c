@@ -567,6 +567,17 @@ static void test_env_load_file(void **state)
     remove(path);
     assert_int_not_equal(env_load_map(&a, "/nonexistent/env.exr", 0.0f, 1.0f, &e), SPT_EXIT_OK);
     assert_non_null(strstr(e.msg, "/nonexistent/env.exr"));
+    /* An 8-bit PNG holds sRGB-encoded values (image_write encodes them): the map
+     * decodes them back to linear, within the 8-bit quantisation. */
+    float grey[MAP_W * MAP_H * 3];
+    for (int i = 0; i < MAP_W * MAP_H * 3; i++)
+        grey[i] = 0.2f;
+    snprintf(path, sizeof path, "/tmp/spt_test_env_%d.png", (int)getpid());
+    assert_int_equal(image_write(path, grey, MAP_W, MAP_H, NULL, NULL, &e), SPT_EXIT_OK);
+    assert_int_equal(env_load_map(&a, path, 0.0f, 1.0f, &e), SPT_EXIT_OK);
+    remove(path);
+    assert_close(a.y_mean, 0.2, 0.2 * 0.01);
+    env_free(&a);
     rgb[5] = NAN;
     assert_int_equal(env_build_map(&a, rgb, MAP_W, MAP_H, 0.0f, 1.0f, "bad.exr", &e), SPT_EXIT_INPUT);
     assert_non_null(strstr(e.msg, "bad.exr"));
