@@ -5,6 +5,7 @@
  * the program is $SPECTRACE_EXE with "-mpi" appended (tests/run_tests.sh). */
 #include "test_util.h"
 
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -298,6 +299,65 @@ static void test_scene_pack_round_trip(void **state)
     }
 }
 
+/* SIGUSR2 to mpirun (passed on to every rank) stops the render after the
+ * current chunks: the image and checkpoint of the samples done are written, and
+ * resuming in one process gives the one-process image. */
+static void test_sigusr2_then_resume(void **state)
+{
+    (void)state;
+    if (mpi_unavailable())
+        skip();
+    reference();
+    char cmd[4096], ck[256], img[256], log[256];
+    snprintf(ck, sizeof ck, "%s", path_in("usr2_ck.exr"));
+    snprintf(img, sizeof img, "%s", path_in("usr2.exr"));
+    snprintf(log, sizeof log, "%s", path_in("usr2.log"));
+    snprintf(cmd, sizeof cmd,
+             "exec mpirun --allow-run-as-root --oversubscribe -x SPECTRACE_TEST_SLOW_DEVICE=0:100 -n 2 '%s' "
+             "render " SCENE " " COMMON " -q --spp 64 -o %s --checkpoint %s --checkpoint-every 0.05 2>%s",
+             mpi_exe, img, ck, log);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        execl("/bin/sh", "sh", "-c", cmd, (char *)NULL);
+        _exit(127);
+    }
+    for (int i = 0; i < 3000 && !exists(ck); i++)
+        usleep(10000);
+    assert_true(exists(ck));
+    kill(pid, SIGUSR2);
+    int st;
+    assert_int_equal(waitpid(pid, &st, 0), pid);
+    char out[8192];
+    FILE *f = fopen(log, "r");
+    assert_non_null(f);
+    size_t n = fread(out, 1, sizeof out - 1, f);
+    out[n] = 0;
+    fclose(f);
+    printf("%s", out);
+    assert_true(WIFEXITED(st));
+    assert_int_equal(WEXITSTATUS(st), 0);
+    assert_non_null(strstr(out, "stopped by a signal"));
+    assert_true(exists(img));
+    Film part;
+    uint32_t done = load_checkpoint(ck, 64, &part);
+    film_free(&part);
+    printf("stopped after %u of 64 spp\n", done);
+    assert_true(done > 0 && done < 64);
+    snprintf(cmd, sizeof cmd, "'%s' render " SCENE " " COMMON " -q --spp 64 -o %s --resume %s", exe,
+             path_in("usr2_done.exr"), ck);
+    int rc0 = run(cmd, out, sizeof out);
+    if (rc0)
+        fail_msg("exit code %d from %s:\n%s", rc0, cmd, out);
+    Film a, b;
+    assert_int_equal(load_checkpoint(path_in("one_ck.exr"), 64, &a), 64);
+    assert_int_equal(load_checkpoint(ck, 64, &b), 64);
+    assert_same_film(&a, &b);
+    assert_same_exr(path_in("one.exr"), path_in("usr2_done.exr"));
+    film_free(&a);
+    film_free(&b);
+}
+
 int main(void)
 {
     setenv("POCL_DEVICES", "pthread", 1);
@@ -308,6 +368,7 @@ int main(void)
         cmocka_unit_test(test_two_ranks_same_image),
         cmocka_unit_test(test_resume_on_two_ranks),
         cmocka_unit_test(test_failing_rank),
+        cmocka_unit_test(test_sigusr2_then_resume),
     };
     return cmocka_run_group_tests_name("mpi", tests, setup, teardown);
 }

@@ -23,6 +23,7 @@
  * because Open MPI's blocking calls spin a core that the renderer needs. */
 #include <mpi.h>
 #include <pthread.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -64,6 +65,19 @@ typedef struct FinishMsg {
 } FinishMsg;
 
 static int g_rank, g_size, g_job_sent;
+
+/* A request to stop after the current chunks, then write what is done (as
+ * Ctrl-C does for build/spectrace): SIGUSR2 on every rank (mpirun passes SIGUSR1
+ * and SIGUSR2 on to all ranks; on SIGINT or SIGTERM it ends the job itself after
+ * a one-second grace time). Not SIGUSR1: the LLVM that PoCL loads takes SIGUSR1
+ * for itself, while it passes SIGUSR2 on to the handler installed before it. */
+static volatile sig_atomic_t g_stop;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    g_stop = 1;
+}
 
 /* Polls until a message from src with tag arrives; fills st. */
 static void wait_message(int src, int tag, MPI_Status *st)
@@ -147,7 +161,7 @@ typedef struct Global {
 static int g_take(Global *G, uint32_t want, uint32_t *begin, uint32_t *n)
 {
     const RenderSettings *rs = G->rs;
-    if (G->abort || (rs->stop && *rs->stop) ||
+    if (G->abort || g_stop || (rs->stop && *rs->stop) ||
         (rs->time_limit > 0 && spt_now() - G->t0 >= rs->time_limit))
         return 0;
     if (G->ret_count > 0) {
@@ -405,8 +419,11 @@ static int mpi_render(const ClDeviceInfo *const *infos, int count, const GpuScen
         if (G.finish[r].rc && !rc)
             rc = spt_fail(e, G.finish[r].rc, "rank %d: %s", r, G.finish[r].msg);
     }
-    int stopped = (rs->stop && *rs->stop) ||
+    int stopped = g_stop || (rs->stop && *rs->stop) ||
                   (rs->time_limit > 0 && spt_now() - G.t0 >= rs->time_limit);
+    if (!rc && g_stop)
+        spt_note("render: stopped by a signal (SIGUSR2) after %u of %u samples per pixel; writing them",
+                 G.done_count, G.total);
     if (!rc && G.done_count < G.total && !stopped)
         rc = spt_fail(e, SPT_EXIT_FAILURE, "render incomplete: %u of %u samples per pixel done on %d ranks",
                       G.done_count, G.total, g_size);
@@ -538,6 +555,7 @@ static int worker_run(const unsigned char *job, size_t len, const char *device_s
     rs.background = js.has_background ? js.background : NULL;
     rs.aperture = js.aperture;
     rs.focus_distance = js.focus_distance;
+    rs.stop = &g_stop;
     rs.take_chunk = remote_take;
     rs.give_back = remote_back;
     rs.chunk_ctx = &w;
@@ -599,6 +617,10 @@ int main(int argc, char **argv)
         return SPT_EXIT_FAILURE;
     }
     int rc = 0;
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigaction(SIGUSR2, &sa, NULL);
     if (g_rank == 0) {
         if (g_size > 1)
             spt_dist_render = mpi_render;
@@ -609,6 +631,8 @@ int main(int argc, char **argv)
             for (int r = 1; r < g_size; r++)
                 MPI_Send(NULL, 0, MPI_BYTE, r, TAG_JOB, MPI_COMM_WORLD);
     } else {
+        sigaction(SIGINT, &sa, NULL);
+        sigaction(SIGTERM, &sa, NULL);
         worker_main(argc, argv);
     }
     MPI_Finalize();
