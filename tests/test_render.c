@@ -244,7 +244,9 @@ static void test_cornell_box_vs_mitsuba(void **state)
     Film f;
     RenderStats st;
     const int w = 128;
-    assert_int_equal(render_file("scenes/cornell_box.gltf", w, w, 64, 8, 5, &f, &st), 0);
+    /* 256 spp: the block under the glass sphere holds a caustic, whose block mean
+     * is still about 5% noisy at this count (9% at 64 spp). */
+    assert_int_equal(render_file("scenes/cornell_box.gltf", w, w, 256, 8, 5, &f, &st), 0);
     double m[3];
     film_mean(&f, m);
     printf("cornell box depth 8: mean (%.5f, %.5f, %.5f), Mitsuba (%.5f, %.5f, %.5f)\n", m[0], m[1],
