@@ -36,6 +36,8 @@
 #define BVH_MAX_DEPTH 64
 #define BVH_WIDTH 4
 #define BVH_STACK_SIZE (3 * BVH_MAX_DEPTH + 1)
+/* FLT_MAX, a sort key beyond every entry distance (those are <= tmax). */
+#define BVH_FAR 3.402823466e+38f
 
 typedef struct BvhNode {
     float bounds[6][BVH_WIDTH]; /* [2 a] low, [2 a + 1] high along axis a, per child */
@@ -128,8 +130,10 @@ SPT_FN void bvh_ray_init(BvhRay *r, vec3 org, vec3 dir)
 
 #if SPT_DEVICE
 SPT_FN vec4 bvh_v4_load(const SPT_GLOBAL float *p) { return vload4(0, p); }
-SPT_FN vec4 bvh_v4_min(vec4 a, vec4 b) { return fmin(a, b); }
-SPT_FN vec4 bvh_v4_max(vec4 a, vec4 b) { return fmax(a, b); }
+/* Compare-based like the host's, without fmin's NaN handling: no operand of the
+ * box test can be NaN (finite boxes and origins, finite non-zero reciprocals). */
+SPT_FN vec4 bvh_v4_min(vec4 a, vec4 b) { return select(b, a, a < b); }
+SPT_FN vec4 bvh_v4_max(vec4 a, vec4 b) { return select(b, a, a > b); }
 #else
 SPT_FN vec4 bvh_v4_load(const float *p) { return v4(p[0], p[1], p[2], p[3]); }
 SPT_FN vec4 bvh_v4_min(vec4 a, vec4 b)
@@ -205,10 +209,23 @@ SPT_FN int bvh_tri_intersect(const SPT_GLOBAL BvhTri *tris, spt_u32 i, const Bvh
     return 1;
 }
 
+/* Orders the (distance, slot) pairs (ka, sa) and (kb, sb) by distance, without
+ * branches. */
+#define BVH_SWAP_IF(ka, sa, kb, sb)                                              \
+    do {                                                                         \
+        int sw_ = (kb) < (ka);                                                   \
+        float kt_ = sw_ ? (kb) : (ka);                                           \
+        int st_ = sw_ ? (sb) : (sa);                                             \
+        (kb) = sw_ ? (ka) : (kb);                                                \
+        (sb) = sw_ ? (sa) : (sb);                                                \
+        (ka) = kt_;                                                              \
+        (sa) = st_;                                                              \
+    } while (0)
+
 /* The traversal behind bvh_intersect (any_hit 0: closest hit) and bvh_occluded
  * (any_hit 1: stops at the first hit). The children a ray enters are visited
- * nearest first (equal distances in slot order), the others deferred on the
- * stack and skipped when their entry distance is beyond the best hit. */
+ * nearest first, the others deferred on the stack and skipped when their entry
+ * distance is beyond the best hit. */
 SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL BvhTri *tris,
                         vec3 org, vec3 dir, float tmax, int any_hit, BvhHit *hit)
 {
@@ -235,32 +252,33 @@ SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL BvhTri
         } else {
             const SPT_GLOBAL BvhNode *n = &nodes[cur];
             vec4 d4 = bvh_node_enter(n, &r, best);
-            float d[BVH_WIDTH];
-            d[0] = d4.x; d[1] = d4.y; d[2] = d4.z; d[3] = d4.w;
-            /* The entered children sorted by distance (insertion, stable). */
-            spt_u32 hc[BVH_WIDTH], hn[BVH_WIDTH];
-            float ht[BVH_WIDTH];
-            int nh = 0;
-            for (int i = 0; i < BVH_WIDTH; i++) {
-                if (d[i] < 0.0f)
-                    continue;
-                int j = nh++;
-                while (j > 0 && ht[j - 1] > d[i]) {
-                    ht[j] = ht[j - 1]; hc[j] = hc[j - 1]; hn[j] = hn[j - 1];
-                    j--;
-                }
-                ht[j] = d[i]; hc[j] = n->child[i]; hn[j] = n->count[i];
-            }
+            /* Sort the slots by entry distance, misses (-1) last as +big, with
+             * a 4-input sorting network of conditional swaps. */
+            float k0 = d4.x >= 0.0f ? d4.x : BVH_FAR, k1 = d4.y >= 0.0f ? d4.y : BVH_FAR;
+            float k2 = d4.z >= 0.0f ? d4.z : BVH_FAR, k3 = d4.w >= 0.0f ? d4.w : BVH_FAR;
+            int nh = (d4.x >= 0.0f) + (d4.y >= 0.0f) + (d4.z >= 0.0f) + (d4.w >= 0.0f);
+            int s0 = 0, s1 = 1, s2 = 2, s3 = 3;
+            BVH_SWAP_IF(k0, s0, k1, s1);
+            BVH_SWAP_IF(k2, s2, k3, s3);
+            BVH_SWAP_IF(k0, s0, k2, s2);
+            BVH_SWAP_IF(k1, s1, k3, s3);
+            BVH_SWAP_IF(k1, s1, k2, s2);
             if (nh > 0) {
                 /* Defer all but the nearest, farthest first. */
-                for (int j = nh - 1; j > 0; j--) {
-                    stack_child[sp] = hc[j];
-                    stack_count[sp] = hn[j];
-                    stack_t[sp] = ht[j];
-                    sp++;
+                if (nh > 3) {
+                    stack_child[sp] = n->child[s3]; stack_count[sp] = n->count[s3];
+                    stack_t[sp++] = k3;
                 }
-                cur = hc[0];
-                count = hn[0];
+                if (nh > 2) {
+                    stack_child[sp] = n->child[s2]; stack_count[sp] = n->count[s2];
+                    stack_t[sp++] = k2;
+                }
+                if (nh > 1) {
+                    stack_child[sp] = n->child[s1]; stack_count[sp] = n->count[s1];
+                    stack_t[sp++] = k1;
+                }
+                cur = n->child[s0];
+                count = n->count[s0];
                 continue;
             }
         }
