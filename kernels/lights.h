@@ -13,13 +13,16 @@
  * glTF's `range` is ignored: the specification allows a renderer to keep the
  * physical inverse-square falloff everywhere.
  *
- * Image units: the film stores Y = integral(L ybar) / integral(ybar) (L in
- * W/(m^2 sr nm), kernels/path.h path_radiance_to_xyz). A photometric luminance
- * Lv = 683 integral(L ybar) cd/m^2 therefore reads as film
- * Y = Lv / (683 * SPT_CIE_Y_INTEGRAL) = Lv / 72982.3 (SPT_LIGHT_FILM_Y_PER_NIT).
- * Example: a white Lambertian (albedo 1) facing a 1 cd point light at 1 m has
- * Lv = 1/pi cd/m^2, so film Y = 1/(pi 683 * 106.857). An environment texel or a
- * background of linear RGB (1,1,1) becomes D65 normalised to film Y = 1.
+ * Image units: the film's Y is luminance in cd/m^2 (nits), the unit that
+ * KHR_materials_emissive_strength gives glTF's emissive colour (emissive (1,1,1)
+ * is D65 of Y = 1) and that makes KHR_lights_punctual's candela and lux agree
+ * with it (the convention of the Khronos glTF Sample Viewer). The film stores
+ * Y = integral(L ybar) / integral(ybar) (kernels/path.h path_radiance_to_xyz), so
+ * a light's spectra are kept in "film" units: a physical spectral radiance in
+ * W/(m^2 sr nm) is multiplied by 683 lm/W * integral(ybar) = 72982.3
+ * (SPT_LIGHT_FILM_PER_WATT). Example: a white Lambertian (albedo 1) facing a
+ * 1 cd point light at 1 m has Lv = 1/pi cd/m^2 and film Y = 1/pi. An environment
+ * texel or a background of linear RGB (1,1,1) becomes D65 of film Y = 1.
  *
  * Integration (renderer): src/lights.c lights_build_selection makes one CDF over
  * [emissive triangles | punctual lights | environment]. Next-event estimation
@@ -39,8 +42,11 @@
 #include "spectrum.h"
 #include "render_types.h"
 
-/* Film Y of one cd/m^2: 1 / (683 lm/W * integral ybar dl). */
-#define SPT_LIGHT_FILM_Y_PER_NIT (1.0f / (683.0f * SPT_CIE_Y_INTEGRAL))
+/* Film Y of one cd/m^2 (the film's unit is the nit). */
+#define SPT_LIGHT_FILM_Y_PER_NIT 1.0f
+/* Film units of one W/(m^2 sr nm) of spectral radiance (or W/(sr nm), W/(m^2 nm)):
+ * 683 lm/W * integral(ybar dl). */
+#define SPT_LIGHT_FILM_PER_WATT (683.0f * SPT_CIE_Y_INTEGRAL)
 
 /* The distance reported for a directional light or the environment: a finite
  * stand-in for infinity, so code built with -cl-fast-relaxed-math (which may

@@ -107,7 +107,10 @@ int light_from_scene(const SceneLight *sl, float *table, uint32_t table_offset, 
         out->spot_scale = 0.0f;
         out->spot_offset = 1.0f;
     }
+    /* W/(sr nm) or W/(m^2 nm), into the film's units (kernels/lights.h). */
     light_photometric_table(sl->color, sl->intensity, table);
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+        table[i] *= SPT_LIGHT_FILM_PER_WATT;
     out->spectrum.kind = SPT_SPEC_TABLE;
     out->spectrum.scale = 1.0f;
     out->spectrum.offset = table_offset;

@@ -31,7 +31,9 @@ SPT_STATIC_ASSERT(sizeof(GpuEnvMap) == 64, "GpuEnvMap layout");
 double light_photometric_table(const float rgb[3], double photometric, float *table);
 
 /* The device light of scene light sl: geometry copied, spot cone turned into the
- * specification's scale/offset, spectrum written as a table into table
+ * specification's scale/offset, spectrum (light_photometric_table's, times
+ * SPT_LIGHT_FILM_PER_WATT: the film's units, where 1 cd/m^2 reads Y = 1) written
+ * as a table into table
  * (SPT_CIE_SAMPLES floats) which the caller places at table_offset of the
  * renderer's spectra buffer. Returns SPT_EXIT_OK, or SPT_EXIT_INPUT naming the
  * light when its type is unknown or its intensity, colour, position or

@@ -137,11 +137,15 @@ static void test_directional(void **state)
     assert_true(s.dist >= 1e30f);
     for (int i = 0; i < 4; i++)
         assert_close_rel(s.value[i], table_at(table, k_lambda[i]), 1e-6);
-    /* 3 lux: 683 * sum(ybar E) = 3. */
-    double y = 0.0;
-    for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+    /* 3 lux: in film units (the nit) the Y-weighted mean of the table is 3, and
+     * as radiometric W/(m^2 nm), 683 * sum(ybar E) = 3. */
+    double y = 0.0, ny = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
         y += SPT_CIE_Y[i] * table[i];
-    assert_close_rel(683.0 * y, 3.0, 1e-4);
+        ny += SPT_CIE_Y[i];
+    }
+    assert_close_rel(y / ny, 3.0, 1e-3);
+    assert_close_rel(683.0 * y / SPT_LIGHT_FILM_PER_WATT, 3.0, 1e-4);
 }
 
 /* White (1,1,1) at 1 cd: radiant intensity 1/K W/sr, K = 683 sum(ybar D65) /
@@ -164,6 +168,9 @@ static void test_photometric_conversion(void **state)
     assert_int_equal(light_from_scene(&sl, table, 17, &gl, &e), SPT_EXIT_OK);
     assert_int_equal(gl.spectrum.kind, SPT_SPEC_TABLE);
     assert_int_equal(gl.spectrum.offset, 17);
+    /* The device table is in film units: back to W/(sr nm). */
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+        table[i] /= SPT_LIGHT_FILM_PER_WATT;
     double total = 0.0;
     for (int i = 0; i < SPT_CIE_SAMPLES; i++)
         total += table[i];
@@ -182,11 +189,12 @@ static void test_photometric_conversion(void **state)
             y += SPT_CIE_Y[i] * table[i];
         assert_close_rel(683.0 * y, 50.0, 1e-4);
     }
-    /* The film's scale: 1 cd/m^2 reads as Y = 1/(683 integral ybar). */
+    /* The film's scale: 1 cd/m^2 reads as Y = 1, so one W of radiometric
+     * quantity is 683 integral(ybar) film units. */
     double iy = 0.0;
     for (int i = 0; i < SPT_CIE_SAMPLES; i++)
         iy += SPT_CIE_Y[i];
-    assert_close_rel(SPT_LIGHT_FILM_Y_PER_NIT, 1.0 / (683.0 * iy), 1e-6);
+    assert_close_rel(SPT_LIGHT_FILM_PER_WATT, 683.0 * iy, 1e-4);
 }
 
 /* Bad input is refused with the light's name. */
@@ -611,11 +619,8 @@ static void test_selection(void **state)
     Distrib dist;
     assert_int_equal(lights_build_selection(&dist, tri, 2, gl, 3, spectra, &env, radius), 1);
     assert_int_equal(dist.n, 6);
-    /* Film Y of 1 cd is 1/(683 integral ybar) W/sr per... so I_Y = cd / (683 * sum ybar). */
-    double sy = 0.0;
-    for (int i = 0; i < SPT_CIE_SAMPLES; i++)
-        sy += SPT_CIE_Y[i];
-    double y1 = 1.0 / (683.0 * sy);
+    /* The film's unit is the nit: a light of 1 cd has Y-weighted intensity 1. */
+    double y1 = 1.0;
     double w[6] = {0.01, 0.02, 4.0 * M_PI * 2.0 * y1, 2.0 * M_PI * (1.0 - cos(0.4)) * 8.0 * y1,
                    5.0 * y1 * M_PI * 9.0, M_PI * 0.5 * M_PI * 9.0};
     double total = 0.0;

@@ -383,8 +383,8 @@ static void test_furnace_glass(void **state)
 /* A point light of I candela (white: D65-shaped) 1 m above a Lambertian plane
  * of albedo rho, no other light (--background black). At a plane point at
  * distance d from the light, E = I cos / d^2 = I h / d^3 lux, the plane's
- * luminance Lv = rho E / pi cd/m^2, and film Y = Lv / (683 integral ybar)
- * (kernels/lights.h). Numbers from tools/make_material_scenes.py. */
+ * luminance Lv = rho E / pi cd/m^2, and film Y = Lv (the film's unit is the
+ * nit: kernels/lights.h). Numbers from tools/make_material_scenes.py. */
 #define PL_ALBEDO 0.5
 #define PL_INTENSITY 1.0e5
 #define PL_HEIGHT 1.0
@@ -405,7 +405,7 @@ static double point_light_expected_y(int x, int y)
             double d2 = px * px + pz * pz + PL_HEIGHT * PL_HEIGHT, d = sqrt(d2);
             double E = PL_INTENSITY * (PL_HEIGHT / d) / d2;
             double Lv = PL_ALBEDO * E / M_PI;
-            e += Lv / (683.0 * (double)SPT_CIE_Y_INTEGRAL) / 64.0;
+            e += Lv / 64.0; /* film Y = luminance in cd/m^2 (kernels/lights.h) */
         }
     return e;
 }

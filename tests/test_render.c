@@ -451,9 +451,9 @@ static SceneMaterial *append_quad(Scene *s, float height)
  * and 0.5 rad), then under the spot and a directional light of 1000 lux at 45
  * degrees at once (one light picked per sample by power). Each pixel's radiance
  * is rho/pi times the illuminance, E = E_dir cos(45) + I cos(theta) falloff / r^2
- * (the extension's smooth cone falloff), in film units Y = Lv / (683
- * integral(ybar)); the lights are white (D65), so every channel of linear sRGB
- * equals Y. */
+ * (the extension's smooth cone falloff), in film units Y = Lv (the film's
+ * unit is the nit, as for emissive colours); the lights are white (D65), so
+ * every channel of linear sRGB equals Y. */
 static void render_punctual(int with_directional, float *rgb, int w)
 {
     Scene s;
@@ -506,7 +506,7 @@ static void test_punctual_lights(void **state)
     (void)state;
     enum { W = 48 };
     float *rgb = malloc(W * W * 3 * sizeof(float));
-    const double to_film = 1.0 / (683.0 * SPT_CIE_Y_INTEGRAL);
+    const double to_film = 1.0; /* film Y = luminance in cd/m^2 (kernels/lights.h) */
     const double ci = cos(0.3), co = cos(0.5), t = tan(0.5);
     for (int both = 0; both < 2; both++) {
         render_punctual(both, rgb, W);
@@ -629,7 +629,7 @@ static double render_normal_mapped(int toward_bitangent, double light_sign)
 static void test_normal_map(void **state)
 {
     (void)state;
-    const double full = 0.5 / M_PI * 1000.0 / (683.0 * SPT_CIE_Y_INTEGRAL);
+    const double full = 0.5 / M_PI * 1000.0; /* film Y in cd/m^2 */
     for (int b = 0; b < 2; b++) {
         double toward = render_normal_mapped(b, 1.0), away = render_normal_mapped(b, -1.0);
         printf("normal map (tilt toward the %s): facing the light %.6g (expected %.6g), "

@@ -47,8 +47,8 @@ Lights: with no emissive material and no punctual light, spectrace lights the
 scene with a uniform D65 sky of film Y = 1; so does this converter (a Mitsuba
 `constant` emitter), unless --background says otherwise (black, or R,G,B).
 A point light of intensity Iv candela and linear RGB colour c becomes a Mitsuba
-`point` emitter of RGB intensity c Iv / (683 * integral ybar) (an RGB illuminant,
-D65 times the upsampled colour, in the film's units: kernels/lights.h). Spot
+`point` emitter of RGB intensity c Iv (an RGB illuminant, D65 times the
+upsampled colour; the film's unit is the nit: kernels/lights.h). Spot
 and directional lights are refused.
 
 Conventions matched with spectrace: Mitsuba's path integrator max_depth counts
@@ -376,8 +376,8 @@ def _emitter(m, spec, warnings):
     return emitter
 
 
-# Film Y of 1 cd/m^2 (kernels/lights.h SPT_LIGHT_FILM_Y_PER_NIT): 1 / (683 * integral ybar).
-CIE_Y_INTEGRAL = 106.8569171   # kernels/cie_data.h SPT_CIE_Y_INTEGRAL
+# Film Y of 1 cd/m^2 (kernels/lights.h SPT_LIGHT_FILM_Y_PER_NIT): 1, the nit.
+FILM_Y_PER_NIT = 1.0
 
 
 def light_to_mitsuba(entry, approx=False, warnings=None):
@@ -387,7 +387,7 @@ def light_to_mitsuba(entry, approx=False, warnings=None):
     if kind != "point":
         raise NotExact("lights[%d] '%s': %s lights are not converted" % (entry["index"], light.get("name", ""), kind))
     col = [float(c) for c in light.get("color", [1, 1, 1])]
-    k = float(light.get("intensity", 1.0)) / (683.0 * CIE_Y_INTEGRAL)
+    k = float(light.get("intensity", 1.0)) * FILM_Y_PER_NIT
     return {"type": "point", "position": [float(x) for x in entry["position"]],
             "intensity": {"type": "rgb", "value": [c * k for c in col]}}
 
