@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # `make bench`, scale block (issue "Scale"): paths per second of the Cornell box
-# (256x256, 32 spp, max depth 8) rendered by build/spectrace on
+# (256x256, 64 spp, max depth 8) rendered by build/spectrace on
 #   A: one PoCL device of two compute units   (POCL_DEVICES=pthread, 2 threads)
 #   B: two PoCL devices of one compute unit   (POCL_DEVICES="pthread pthread", --device all)
 #   C: one process, one compute unit
@@ -18,7 +18,7 @@ export SPECTRACE_CACHE_DIR=${SPECTRACE_CACHE_DIR:-$PWD/$build/cache}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-args=(render scenes/cornell_box.gltf --width 256 --height 256 --spp 32 --max-depth 8 --seed 1
+args=(render scenes/cornell_box.gltf --width 256 --height 256 --spp 64 --max-depth 8 --seed 1
       -o "$tmp/out.exr")
 
 # Mpaths/s of one run: the "rendered ..." line's figure.
@@ -26,10 +26,10 @@ mpaths() {
   "$@" 2>&1 | sed -n 's/^rendered .*(\([0-9.]*\) Mpaths\/s.*/\1/p' | tail -1
 }
 
-# Median Mpaths/s of $runs runs of the command (one warm-up run first, which
-# fills the program cache).
+# Median Mpaths/s of $runs runs of the command (after a 1-spp warm-up run,
+# which fills the program caches).
 median_of() {
-  mpaths "$@" >/dev/null
+  mpaths "$@" --spp 1 >/dev/null
   local v=()
   for ((i = 0; i < runs; i++)); do v+=("$(mpaths "$@")"); done
   printf '%s\n' "${v[@]}" | sort -g | awk '{a[NR]=$1} END {print (NR%2 ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2)}'
