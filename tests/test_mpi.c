@@ -53,6 +53,26 @@ static int exists(const char *path)
     return stat(path, &st) == 0;
 }
 
+/* The key of path's render: ours, with the file's kernel-source hash, so a test
+ * binary and a program built from different kernel sources (another build) still
+ * read each other's checkpoints; everything else must match. */
+static void key_for(const char *path, CheckpointKey *k)
+{
+    ExrLayers L;
+    SptError e = {0};
+    if (exr_read_layers(path, NULL, 0, &L, &e))
+        fail_msg("%s", e.msg);
+    const ExrAttr *a = exr_layers_attr(&L, "spectrace:settings", SPT_EXR_ATTR_STRING);
+    assert_non_null(a);
+    const char *mine = strstr(k->settings, ";kernels="), *theirs = strstr(a->s, ";kernels=");
+    assert_non_null(mine);
+    assert_non_null(theirs);
+    if (mine - k->settings != theirs - a->s || strncmp(k->settings, a->s, (size_t)(mine - k->settings)))
+        fail_msg("settings differ: %s vs %s", k->settings, a->s);
+    snprintf(k->settings, sizeof k->settings, "%s", a->s);
+    exr_layers_free(&L);
+}
+
 static uint32_t load_checkpoint(const char *path, uint32_t spp, Film *film)
 {
     RenderSettings rs;
@@ -64,7 +84,10 @@ static uint32_t load_checkpoint(const char *path, uint32_t spp, Film *film)
     CheckpointKey k;
     SptError e = {0};
     unsigned char *done;
-    if (checkpoint_key(&k, SCENE, &rs, &e) || checkpoint_read(path, &k, spp, film, &done, &e))
+    if (checkpoint_key(&k, SCENE, &rs, &e))
+        fail_msg("%s", e.msg);
+    key_for(path, &k);
+    if (checkpoint_read(path, &k, spp, film, &done, &e))
         fail_msg("%s", e.msg);
     uint32_t n = 0;
     for (uint32_t i = 0; i < spp; i++)
