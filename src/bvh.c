@@ -164,21 +164,22 @@ typedef struct SweepKey {
     uint32_t ref; /* position in refs */
 } SweepKey;
 
-/* A node of the binary tree the SAH build makes, before it is collapsed into
- * the 4-wide BvhNode layout. Node 0 is the root, node 1 unused, the children of
- * an interior node the pair [offset, offset + 1]. */
-typedef struct Node2 {
-    float lo[3];
-    uint32_t offset; /* interior: first child; leaf: first triangle */
-    float hi[3];
-    uint32_t count;  /* leaf: NODE2_LEAF | triangle count; interior: 0 */
-} Node2;
-#define NODE2_LEAF 0x80000000u
+/* A node of the binary SAH tree, decided but not stored: its refs [begin, end),
+ * its bounds, and unless it is a leaf the split point mid (the refs are already
+ * partitioned). The 4-wide nodes are made from these as the build goes. */
+typedef struct Item {
+    uint32_t begin, end, mid;
+    uint32_t depth; /* in the binary tree, root = 0 */
+    int leaf;
+    Box bounds;
+} Item;
 
 typedef struct Builder {
     PrimRef *refs;
-    Node2 *nodes;     /* the binary tree (see Node2) */
-    uint32_t node_count;
+    BvhNode *wide;      /* the 4-wide nodes made so far */
+    uint32_t wide_count, wide_cap;
+    double sah;         /* the binary tree's SAH cost times its root's area */
+    BvhStats *st;
     BvhOptions opt;
     /* full-sweep scratch, sized for all refs */
     SweepKey *keys;
@@ -548,18 +549,19 @@ static int split_sweep(Builder *bd, uint32_t begin, uint32_t end, const Box *bou
     return 1;
 }
 
-/* Builds the subtree over refs[begin, end) (non-empty) into node idx; its
- * children, if any, become the next free (even-aligned) pair of nodes. */
-static void build_node(Builder *bd, uint32_t idx, uint32_t begin, uint32_t end, uint32_t depth)
+/* Decides the binary node over refs[begin, end) (non-empty) at binary depth
+ * depth: its bounds, and whether it is a leaf or where it splits (partitioning
+ * the refs). Adds its term to the SAH cost. */
+static void decide(Builder *bd, uint32_t begin, uint32_t end, uint32_t depth, Item *it)
 {
-    Node2 *node = &bd->nodes[idx];
-    Box bounds, cb;
-    refs_bounds(bd->refs, begin, end, &bounds, &cb);
-    for (int a = 0; a < 3; a++) {
-        node->lo[a] = bounds.lo[a];
-        node->hi[a] = bounds.hi[a];
-    }
+    Box cb;
+    refs_bounds(bd->refs, begin, end, &it->bounds, &cb);
+    it->begin = begin;
+    it->end = end;
+    it->mid = 0;
+    it->depth = depth;
     uint32_t count = end - begin;
+    const float area = box_half_area(&it->bounds);
     /* A split costs at least cost_node, so a node whose triangles cost no more
      * is a leaf without looking for one. */
     int leaf = count == 1 || ((int)count <= bd->opt.max_leaf &&
@@ -572,7 +574,7 @@ static void build_node(Builder *bd, uint32_t idx, uint32_t begin, uint32_t end, 
         for (uint32_t i = begin; i < end; i++)
             sum += l4_half_area(l4_load(bd->refs[i].lo), l4_load(bd->refs[i].hi));
         leaf = bd->opt.cost_tri * (float)count <=
-               bd->opt.cost_node + bd->opt.cost_tri * sum / box_half_area(&bounds);
+               bd->opt.cost_node + bd->opt.cost_tri * sum / area;
     }
     Split s = {0};
     if (!leaf) {
@@ -580,8 +582,8 @@ static void build_node(Builder *bd, uint32_t idx, uint32_t begin, uint32_t end, 
         int ok = 0;
         BinSplit bs;
         if (depth < BVH_MEDIAN_DEPTH) {
-            ok = bd->opt.full_sweep ? split_sweep(bd, begin, end, &bounds, &s, &cost)
-                                    : split_binned(bd, begin, end, &bounds, &cb, &bs, &cost);
+            ok = bd->opt.full_sweep ? split_sweep(bd, begin, end, &it->bounds, &s, &cost)
+                                    : split_binned(bd, begin, end, &it->bounds, &cb, &bs, &cost);
         }
         if ((int)count <= bd->opt.max_leaf && (!ok || bd->opt.cost_tri * (float)count <= cost))
             leaf = 1;
@@ -590,17 +592,86 @@ static void build_node(Builder *bd, uint32_t idx, uint32_t begin, uint32_t end, 
         if (!leaf && !ok)
             split_median(bd, begin, end, &cb, &s);
     }
-    if (leaf) {
-        node->offset = begin;
-        node->count = NODE2_LEAF | count;
-        return;
+    it->leaf = leaf;
+    it->mid = s.mid;
+    bd->sah += (double)area * (leaf ? bd->opt.cost_tri * (double)count : bd->opt.cost_node);
+}
+
+/* Index of a new 4-wide node (the array grows by doubling). */
+static uint32_t wide_new(Builder *bd)
+{
+    if (bd->wide_count == bd->wide_cap) {
+        uint32_t cap = bd->wide_cap * 2;
+        BvhNode *w = aligned_alloc(64, (size_t)cap * sizeof *w);
+        if (!w)
+            w = spt_malloc((size_t)cap * sizeof *w);
+        memcpy(w, bd->wide, (size_t)bd->wide_count * sizeof *w);
+        free(bd->wide);
+        bd->wide = w;
+        bd->wide_cap = cap;
     }
-    node->count = 0;
-    uint32_t pair = bd->node_count;
-    bd->node_count += 2;
-    node->offset = pair;
-    build_node(bd, pair, begin, s.mid, depth + 1);
-    build_node(bd, pair + 1, s.mid, end, depth + 1);
+    return bd->wide_count++;
+}
+
+/* Fills slot i of 4-wide node w with item it (NULL: unused). */
+static void wide_slot(Builder *bd, uint32_t w, int i, const Item *it)
+{
+    BvhNode *node = &bd->wide[w];
+    for (int a = 0; a < 3; a++) {
+        node->bounds[2 * a][i] = it ? it->bounds.lo[a] : FLT_MAX;
+        node->bounds[2 * a + 1][i] = it ? it->bounds.hi[a] : -FLT_MAX;
+    }
+    node->child[i] = it && it->leaf ? it->begin : 0;
+    node->count[i] = it && it->leaf ? it->end - it->begin : 0;
+    if (it && it->leaf) {
+        bd->st->leaf_count++;
+        if (node->count[i] > bd->st->max_leaf_size)
+            bd->st->max_leaf_size = node->count[i];
+    }
+}
+
+/* Builds 4-wide node w (at depth wdepth) for the interior binary node it: the
+ * slots start as its two children, and the interior slot of largest area
+ * (ties: the fewest binary levels down) is replaced by its two children while
+ * there is room. Then the interior slots are built the same way. */
+static void build_wide(Builder *bd, uint32_t w, const Item *it, uint32_t wdepth)
+{
+    Item slot[BVH_WIDTH];
+    int gen[BVH_WIDTH] = {0};
+    int n = 2;
+    decide(bd, it->begin, it->mid, it->depth + 1, &slot[0]);
+    decide(bd, it->mid, it->end, it->depth + 1, &slot[1]);
+    while (n < BVH_WIDTH) {
+        int pick = -1;
+        float pick_area = -1.0f;
+        for (int i = 0; i < n; i++) {
+            if (slot[i].leaf)
+                continue;
+            float area = box_half_area(&slot[i].bounds);
+            if (area > pick_area || (area == pick_area && gen[i] < gen[pick])) {
+                pick_area = area;
+                pick = i;
+            }
+        }
+        if (pick < 0)
+            break;
+        Item p = slot[pick];
+        decide(bd, p.begin, p.mid, p.depth + 1, &slot[pick]);
+        decide(bd, p.mid, p.end, p.depth + 1, &slot[n]);
+        gen[n++] = ++gen[pick];
+    }
+    if (wdepth > bd->st->max_depth)
+        bd->st->max_depth = wdepth;
+    uint32_t child[BVH_WIDTH];
+    for (int i = 0; i < BVH_WIDTH; i++) {
+        child[i] = i < n && !slot[i].leaf ? wide_new(bd) : 0;
+        wide_slot(bd, w, i, i < n ? &slot[i] : NULL);
+        bd->wide[w].child[i] = i < n && !slot[i].leaf ? child[i] : bd->wide[w].child[i];
+    }
+    for (int i = 0; i < n; i++) {
+        if (!slot[i].leaf)
+            build_wide(bd, child[i], &slot[i], wdepth + 1);
+    }
 }
 
 /* 1 when the cross product of the edges (in float, as the renderer computes a
@@ -617,132 +688,6 @@ static int tri_zero_area(const float *p)
     float ny = e1[2] * e2[0] - e1[0] * e2[2];
     float nz = e1[0] * e2[1] - e1[1] * e2[0];
     return nx == 0.0f && ny == 0.0f && nz == 0.0f;
-}
-
-/* Area-weighted SAH cost of the binary tree (what the build optimises). */
-static double binary_sah(const Node2 *nodes, uint32_t node_count, const BvhOptions *o)
-{
-    double cost = 0.0;
-    Box root;
-    memcpy(root.lo, nodes[0].lo, sizeof root.lo);
-    memcpy(root.hi, nodes[0].hi, sizeof root.hi);
-    double root_area = box_half_area(&root);
-    for (uint32_t i = 0; i < node_count; i++) {
-        if (i == 1)
-            continue;
-        const Node2 *n = &nodes[i];
-        Box b;
-        memcpy(b.lo, n->lo, sizeof b.lo);
-        memcpy(b.hi, n->hi, sizeof b.hi);
-        double area = box_half_area(&b);
-        if (n->count & NODE2_LEAF)
-            cost += area * o->cost_tri * (n->count & ~NODE2_LEAF);
-        else
-            cost += area * o->cost_node;
-    }
-    return root_area > 0.0 ? cost / root_area : 0.0;
-}
-
-/* Collapses the binary subtree under interior Node2 b into 4-wide node w (and
- * the nodes after *next): the slots start as b's two children, and the largest
- * interior slot is replaced by its two children while there is room. Leaves
- * keep their triangle ranges. Updates the leaf and depth statistics. */
-static void collapse_node(const Node2 *bin, uint32_t b, BvhNode *wide, uint32_t w, uint32_t *next,
-                          uint32_t depth, BvhStats *st)
-{
-    uint32_t slot[BVH_WIDTH];
-    int gen[BVH_WIDTH]; /* binary levels below b, to break ties breadth first */
-    int n = 2;
-    slot[0] = bin[b].offset;
-    slot[1] = bin[b].offset + 1;
-    gen[0] = gen[1] = 0;
-    while (n < BVH_WIDTH) {
-        int pick = -1;
-        float pick_area = -1.0f;
-        for (int i = 0; i < n; i++) {
-            const Node2 *c = &bin[slot[i]];
-            if (c->count & NODE2_LEAF)
-                continue;
-            Box bx;
-            memcpy(bx.lo, c->lo, sizeof bx.lo);
-            memcpy(bx.hi, c->hi, sizeof bx.hi);
-            float area = box_half_area(&bx);
-            if (area > pick_area || (area == pick_area && gen[i] < gen[pick])) {
-                pick_area = area;
-                pick = i;
-            }
-        }
-        if (pick < 0)
-            break;
-        uint32_t first = bin[slot[pick]].offset;
-        slot[pick] = first;
-        slot[n] = first + 1;
-        gen[n++] = ++gen[pick];
-    }
-    if (depth > st->max_depth)
-        st->max_depth = depth;
-    BvhNode *node = &wide[w];
-    for (int i = 0; i < BVH_WIDTH; i++) {
-        const Node2 *c = i < n ? &bin[slot[i]] : NULL;
-        for (int a = 0; a < 3; a++) {
-            node->bounds[2 * a][i] = c ? c->lo[a] : FLT_MAX;
-            node->bounds[2 * a + 1][i] = c ? c->hi[a] : -FLT_MAX;
-        }
-        node->child[i] = 0;
-        node->count[i] = 0;
-        if (!c)
-            continue;
-        if (c->count & NODE2_LEAF) {
-            uint32_t cnt = c->count & ~NODE2_LEAF;
-            node->child[i] = c->offset;
-            node->count[i] = cnt;
-            st->leaf_count++;
-            if (cnt > st->max_leaf_size)
-                st->max_leaf_size = cnt;
-        } else {
-            node->child[i] = (*next)++;
-        }
-    }
-    for (int i = 0; i < n; i++) {
-        if (node->count[i] == 0)
-            collapse_node(bin, slot[i], wide, node->child[i], next, depth + 1, st);
-    }
-}
-
-/* The 4-wide tree over the binary one (bin_count nodes, root interior or a
- * leaf): a root always, whose slot 0 is the leaf when the whole tree is one. */
-static void collapse_tree(Bvh *bvh, const Node2 *bin, uint32_t bin_count)
-{
-    /* Every wide node consumes at least one binary interior node. */
-    uint32_t cap = bin_count / 2 + 1;
-    size_t bytes = (size_t)cap * sizeof(BvhNode);
-    BvhNode *wide = aligned_alloc(64, bytes);
-    if (!wide)
-        wide = spt_malloc(bytes);
-    BvhStats *st = &bvh->stats;
-    uint32_t next = 1;
-    if (bin[0].count & NODE2_LEAF) {
-        BvhNode *r = &wide[0];
-        for (int i = 0; i < BVH_WIDTH; i++) {
-            for (int a = 0; a < 3; a++) {
-                r->bounds[2 * a][i] = i == 0 ? bin[0].lo[a] : FLT_MAX;
-                r->bounds[2 * a + 1][i] = i == 0 ? bin[0].hi[a] : -FLT_MAX;
-            }
-            r->child[i] = i == 0 ? bin[0].offset : 0;
-            r->count[i] = i == 0 ? bin[0].count & ~NODE2_LEAF : 0;
-        }
-        st->leaf_count = 1;
-        st->max_leaf_size = r->count[0];
-    } else {
-        collapse_node(bin, 0, wide, 0, &next, 0, st);
-    }
-    /* Exactly sized (64-byte aligned, so a node is two cache lines). */
-    bvh->nodes = aligned_alloc(64, (size_t)next * sizeof(BvhNode));
-    if (!bvh->nodes)
-        bvh->nodes = spt_malloc((size_t)next * sizeof(BvhNode));
-    memcpy(bvh->nodes, wide, (size_t)next * sizeof(BvhNode));
-    free(wide);
-    bvh->node_count = next;
 }
 
 /* Leaf size average and memory use of a finished tree. */
@@ -826,23 +771,36 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         bvh->prim_index = spt_calloc(1, sizeof *bvh->prim_index);
         bvh->prim_count = 0;
     } else {
-        /* Root at 0, an unused node at 1, then sibling pairs from 2: a binary
-         * tree over kept >= 1 leaves has at most 2 kept - 1 nodes, plus node 1.
-         * malloc: pages never written are never touched. */
-        bd.nodes = spt_malloc(2 * (size_t)kept * sizeof *bd.nodes);
-        bd.node_count = 2;
         if (bd.opt.full_sweep) {
             bd.keys = spt_malloc(kept * sizeof *bd.keys);
             bd.right_area = spt_malloc(kept * sizeof *bd.right_area);
             bd.tmp = spt_malloc(kept * sizeof *bd.tmp);
         }
-        build_node(&bd, 0, 0, kept, 0);
+        /* About one 4-wide node per 9 triangles with the default options; the
+         * array doubles when a tree needs more. 64-byte aligned, so a node is
+         * two cache lines. Pages past the last node are never touched. */
+        bd.wide_cap = kept / 4 + 16;
+        bd.wide = aligned_alloc(64, (size_t)bd.wide_cap * sizeof *bd.wide);
+        if (!bd.wide)
+            bd.wide = spt_malloc((size_t)bd.wide_cap * sizeof *bd.wide);
+        bd.st = &bvh->stats;
+        Item root;
+        decide(&bd, 0, kept, 0, &root);
+        uint32_t w = wide_new(&bd);
+        if (root.leaf) {
+            /* The whole tree is one leaf: slot 0 of the root. */
+            for (int i = 0; i < BVH_WIDTH; i++)
+                wide_slot(&bd, w, i, i == 0 ? &root : NULL);
+        } else {
+            build_wide(&bd, w, &root, 0);
+        }
+        float root_area = box_half_area(&root.bounds);
+        bvh->stats.sah_cost = root_area > 0.0f ? bd.sah / root_area : 0.0;
         free(bd.keys);
         free(bd.right_area);
         free(bd.tmp);
-        bvh->stats.sah_cost = binary_sah(bd.nodes, bd.node_count, &bd.opt);
-        collapse_tree(bvh, bd.nodes, bd.node_count);
-        free(bd.nodes);
+        bvh->nodes = bd.wide;
+        bvh->node_count = bd.wide_count;
         BvhTri *tris = spt_malloc(kept * sizeof *tris);
         bvh->prim_index = spt_malloc(kept * sizeof *bvh->prim_index);
         for (uint32_t i = 0; i < kept; i++) {

@@ -2,11 +2,13 @@
  * displaced sphere (binned against the exact full-sweep builder), memory per
  * triangle, and single-thread host traversal speed for incoherent rays on that
  * mesh and on the Stanford bunny (when /work/shared/data or $SPECTRACE_BUNNY
- * has it). Prints medians of several runs.
+ * has it). Prints medians of several runs; the build also as CPU time of the
+ * building thread, which on a shared machine is what one core spent.
  * Usage: bench_bvh [RUNS] [SWEEP_STACKS SWEEP_SLICES] */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "bvh.h"
 
@@ -82,20 +84,35 @@ static float *read_obj(const char *path, uint32_t *tri_count)
     return t;
 }
 
-/* Median build seconds over runs builds; leaves the last build in bvh. */
-static double time_build(Bvh *bvh, const float *t, uint32_t n, const BvhOptions *o, int runs)
+/* CPU seconds used by this thread: what one core spent, whatever else the
+ * (shared) machine was running meanwhile. */
+static double thread_cpu(void)
 {
-    double s[32];
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+/* Median build seconds (wall clock) over runs builds, and in *cpu the median
+ * CPU seconds of this thread; leaves the last build in bvh. */
+static double time_build(Bvh *bvh, const float *t, uint32_t n, const BvhOptions *o, int runs,
+                         double *cpu)
+{
+    double s[32], c[32];
     SptError e;
     for (int r = 0; r < runs; r++) {
         if (r)
             bvh_free(bvh);
+        double c0 = thread_cpu();
         if (bvh_build_ex(bvh, t, n, o, &e)) {
             fprintf(stderr, "bench_bvh: %s\n", e.msg);
             exit(1);
         }
+        c[r] = thread_cpu() - c0;
         s[r] = bvh->stats.build_seconds;
     }
+    if (cpu)
+        *cpu = median(c, runs);
     return median(s, runs);
 }
 
@@ -138,9 +155,10 @@ static void bench_rays(const char *name, const Bvh *bvh, int runs, int nrays)
 static void print_tree(const char *label, const Bvh *b)
 {
     const BvhStats *s = &b->stats;
-    printf("  %s: %u nodes, %u leaves, depth %u, leaf size avg %.2f max %u, SAH cost %.2f, "
-           "%.1f bytes/triangle (nodes + packed triangles; +4 for prim_index)\n",
-           label, s->node_count, s->leaf_count, s->max_depth, s->avg_leaf_size, s->max_leaf_size,
+    printf("  %s: %u %d-wide nodes, %u leaves, depth %u, leaf size avg %.2f max %u, SAH cost "
+           "%.2f (binary tree), %.1f bytes/triangle (nodes + packed triangles; +4 for "
+           "prim_index)\n",
+           label, s->node_count, BVH_WIDTH, s->leaf_count, s->max_depth, s->avg_leaf_size, s->max_leaf_size,
            s->sah_cost, s->bytes_per_tri);
 }
 
@@ -163,20 +181,22 @@ int main(int argc, char **argv)
     if (getenv("BVH_COST_NODE"))
         o.cost_node = (float)atof(getenv("BVH_COST_NODE"));
     Bvh bvh;
-    double sec = time_build(&bvh, mesh, n, &o, runs);
+    double cpu;
+    double sec = time_build(&bvh, mesh, n, &o, runs, &cpu);
     printf("  displaced sphere, %u triangles: binned build (%d bins, leaf <= %d, node cost %.2f) median %.3f s "
-           "= %.2f Mtriangles/s (1 thread, %d runs)\n",
-           n, o.bins, o.max_leaf, o.cost_node, sec, n / sec * 1e-6, runs);
+           "= %.2f Mtriangles/s (1 thread, %d runs); CPU time of the thread: median %.3f s = %.2f "
+           "Mtriangles/s\n",
+           n, o.bins, o.max_leaf, o.cost_node, sec, n / sec * 1e-6, runs, cpu, n / cpu * 1e-6);
     print_tree("binned tree", &bvh);
 
     /* Quality reference: the exact SAH sweep (slow: one run). */
     uint32_t sn;
     float *smesh = bvh_gen_sphere(sw_stacks, sw_slices, 1.0f, c, 0.3f, &sn);
     Bvh bin_s, sweep;
-    time_build(&bin_s, smesh, sn, &o, 1);
+    time_build(&bin_s, smesh, sn, &o, 1, NULL);
     BvhOptions so = o;
     so.full_sweep = 1;
-    double ssec = time_build(&sweep, smesh, sn, &so, 1);
+    double ssec = time_build(&sweep, smesh, sn, &so, 1, NULL);
     printf("  SAH cost on %u triangles: binned %.3f, full sweep %.3f (%.2f s): binned is "
            "%+.1f%%\n",
            sn, bin_s.stats.sah_cost, sweep.stats.sah_cost, ssec,
@@ -196,7 +216,7 @@ int main(int argc, char **argv)
     if (!bt || n == 0) {
         printf("  bunny: %s not found, skipped\n", bunny);
     } else {
-        sec = time_build(&bvh, bt, n, &o, runs);
+        sec = time_build(&bvh, bt, n, &o, runs, NULL);
         printf("  bunny, %u triangles: build median %.3f s\n", n, sec);
         print_tree("bunny tree", &bvh);
         bench_rays("bunny", &bvh, runs > 3 ? 3 : runs, 500000);
