@@ -44,6 +44,9 @@
     P
 
 #define NO_HIT 0xffffffffu
+/* Segments after which a path ends whatever its throughput (a guard; Russian
+ * roulette ends paths long before). */
+#define SPT_MAX_SEGMENTS 1024u
 
 /* Work-group aggregated queue slots: every work-item of the group calls this
  * with want = 0 or 1 (all must call it: it has barriers); it returns the index
@@ -497,9 +500,14 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
         alive = max4(beta) > 0.0f;
     }
 
-    /* Russian roulette on the largest wavelength throughput. */
+    /* Russian roulette on the largest wavelength throughput, surviving with at
+     * most 0.95 (as Mitsuba 3 does): a path whose throughput never drops (total
+     * internal reflection inside a smooth sphere keeps it at exactly 1) must
+     * still end. SPT_MAX_SEGMENTS bounds "unlimited" depth as a last resort. */
+    if (alive && depth >= SPT_MAX_SEGMENTS)
+        alive = 0;
     if (alive && depth >= P.rr_depth) {
-        float qs = fmin(max4(beta), 1.0f);
+        float qs = fmin(max4(beta), 0.95f);
         float u = spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_ROULETTE));
         if (u >= qs)
             alive = 0;
