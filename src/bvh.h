@@ -18,7 +18,7 @@ typedef struct BvhStats {
     uint32_t max_depth;        /* of the 4-wide nodes, root = 0 */
     uint32_t max_leaf_size;
     double avg_leaf_size;      /* triangles per leaf */
-    double sah_cost;           /* of the binary SAH tree before it is collapsed:
+    double sah_cost;           /* of the binary SAH tree the 4-wide one gathers:
                                   sum over nodes of area / root area times the
                                   cost (options cost_node per interior node,
                                   cost_tri per triangle in a leaf) */
