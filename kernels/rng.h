@@ -219,19 +219,42 @@ SPT_FN spt_u32 spt_reverse_bits(spt_u32 x)
 }
 
 /* Point index of the unscrambled Sobol sequence, dim < SPT_SOBOL_DIMS, as a
- * 32-bit fixed-point fraction (natural order, not Gray code). */
-SPT_FN spt_u32 spt_sobol_u32(spt_u32 index, spt_u32 dim)
+ * 32-bit fixed-point fraction with its bits reversed: bit i is the coefficient
+ * of 2^-(i+1) (natural order, not Gray code). The Owen scramble works on
+ * reversed bits, so spt_sobol_owen_u32 saves two reversals by taking this. */
+SPT_FN spt_u32 spt_sobol_rev_u32(spt_u32 index, spt_u32 dim)
 {
     /* Dim 0's matrix is the identity on reversed bits. */
     if (dim == 0u)
-        return spt_reverse_bits(index);
+        return index;
+    /* Dim 1's matrix is Pascal's triangle mod 2: by Lucas' theorem, reversed
+     * output bit j is the XOR of the index bits k whose binary digits include
+     * j's (k & j == j). That superset sum over the 5 bits of a bit position
+     * takes one shift-mask-xor per position bit, instead of one step per index
+     * bit (tests/test_rng.c checks it against the direction numbers). */
+    if (dim == 1u) {
+        spt_u32 x = index;
+        x ^= (x >> 1) & 0x55555555u;
+        x ^= (x >> 2) & 0x33333333u;
+        x ^= (x >> 4) & 0x0f0f0f0fu;
+        x ^= (x >> 8) & 0x00ff00ffu;
+        x ^= (x >> 16) & 0x0000ffffu;
+        return x;
+    }
     spt_u32 x = 0u;
     spt_u32 base = dim * 32u;
     /* Branch-free: shuffled indices have random bits, which defeat a CPU's
      * branch predictor and diverge on a GPU. */
     for (spt_u32 k = 0u; index != 0u; index >>= 1, ++k)
         x ^= SPT_SOBOL_DIRECTIONS[base + k] & (0u - (index & 1u));
-    return x;
+    return spt_reverse_bits(x);
+}
+
+/* Point index of the unscrambled Sobol sequence, dim < SPT_SOBOL_DIMS, as a
+ * 32-bit fixed-point fraction (natural order, not Gray code). */
+SPT_FN spt_u32 spt_sobol_u32(spt_u32 index, spt_u32 dim)
+{
+    return spt_reverse_bits(spt_sobol_rev_u32(index, dim));
 }
 
 /* Laine-Karras style hash (Vegdahl 2021): every operation only lets a bit
@@ -261,8 +284,9 @@ SPT_FN spt_u32 spt_owen_scramble(spt_u32 x, spt_u32 seed)
 SPT_FN spt_u32 spt_sobol_owen_u32(spt_u32 index, spt_u32 dim, spt_u32 seed)
 {
     spt_u32 shuffled = spt_owen_scramble(index, seed);
-    spt_u32 v = spt_sobol_u32(shuffled, dim);
-    return spt_owen_scramble(v, spt_hash_u32(seed ^ (dim * 0x9e3779b9u + 0x3c6ef372u)));
+    spt_u32 v = spt_sobol_rev_u32(shuffled, dim);
+    /* spt_owen_scramble of the unreversed value, whose inner reversal cancels. */
+    return spt_reverse_bits(spt_lk_hash(v, spt_hash_u32(seed ^ (dim * 0x9e3779b9u + 0x3c6ef372u))));
 }
 
 /* As spt_sobol_owen_u32, as a float in [0, 1). */
@@ -271,13 +295,17 @@ SPT_FN float spt_sobol_owen(spt_u32 index, spt_u32 dim, spt_u32 seed)
     return spt_u32_to_unit(spt_sobol_owen_u32(index, dim, seed));
 }
 
+/* The part of spt_sobol_seed shared by all Sobol groups of one pixel. */
+SPT_FN spt_u32 spt_sobol_pixel_key(spt_u32 seed, spt_u32 pixel)
+{
+    return spt_hash_u32(spt_hash_u32(seed ^ 0x510e527fu) ^ pixel);
+}
+
 /* The scramble seed of Sobol group (0: pixel, 1: lens, 2: wavelength) of one
  * pixel: a hash of (seed, pixel, group), independent of the sample. */
 SPT_FN spt_u32 spt_sobol_seed(spt_u32 seed, spt_u32 pixel, spt_u32 group)
 {
-    spt_u32 k = spt_hash_u32(seed ^ 0x510e527fu);
-    k = spt_hash_u32(k ^ pixel);
-    return spt_hash_u32(k ^ group);
+    return spt_hash_u32(spt_sobol_pixel_key(seed, pixel) ^ group);
 }
 
 /* ---- The renderer's sampler -------------------------------------------------- */
@@ -292,6 +320,26 @@ SPT_FN float spt_sample_1d(spt_u32 seed, spt_u32 pixel, spt_u32 sample, spt_u32 
         return spt_sobol_owen(sample, dim & 1u, spt_sobol_seed(seed, pixel, group));
     }
     return spt_rand(seed, pixel, sample, dim);
+}
+
+/* Both dims of Sobol pair group (0: pixel x, y; 1: lens u, v) of a sample, given
+ * its pixel's spt_sobol_pixel_key: exactly spt_sample_1d of dims 2 group and
+ * 2 group + 1, with the group's seed and the index shuffle computed once. */
+SPT_FN void spt_sample_pair(spt_u32 pixel_key, spt_u32 sample, spt_u32 group, float *u0, float *u1)
+{
+    spt_u32 seed = spt_hash_u32(pixel_key ^ group);
+    spt_u32 shuffled = spt_owen_scramble(sample, seed);
+    spt_u32 h0 = spt_hash_u32(seed ^ 0x3c6ef372u);
+    spt_u32 h1 = spt_hash_u32(seed ^ (0x9e3779b9u + 0x3c6ef372u));
+    *u0 = spt_u32_to_unit(spt_reverse_bits(spt_lk_hash(spt_sobol_rev_u32(shuffled, 0u), h0)));
+    *u1 = spt_u32_to_unit(spt_reverse_bits(spt_lk_hash(spt_sobol_rev_u32(shuffled, 1u), h1)));
+}
+
+/* The single Sobol dim of group 2 (the hero wavelength) of a sample, given its
+ * pixel's spt_sobol_pixel_key: exactly spt_sample_1d of SPT_DIM_WAVELENGTH. */
+SPT_FN float spt_sample_wavelength_u(spt_u32 pixel_key, spt_u32 sample)
+{
+    return spt_sobol_owen(sample, 0u, spt_hash_u32(pixel_key ^ 2u));
 }
 
 #endif

@@ -100,8 +100,11 @@ __kernel void k_generate(ALL_BUFFERS)
         uint npix = (uint)(P.width * P.height);
         uint pixel = w % npix;
         uint sample = P.sample_begin + w / npix;
-        float px = (float)(pixel % (uint)P.width) + spt_sample_1d(P.seed, pixel, sample, SPT_DIM_PIXEL_X);
-        float py = (float)(pixel / (uint)P.width) + spt_sample_1d(P.seed, pixel, sample, SPT_DIM_PIXEL_Y);
+        uint pkey = spt_sobol_pixel_key(P.seed, pixel);
+        float jx, jy;
+        spt_sample_pair(pkey, sample, 0u, &jx, &jy); /* SPT_DIM_PIXEL_X, _Y */
+        float px = (float)(pixel % (uint)P.width) + jx;
+        float py = (float)(pixel / (uint)P.width) + jy;
         float sx = 2.0f * px / (float)P.width - 1.0f;
         float sy = 1.0f - 2.0f * py / (float)P.height;
         float3 fwd = vload4(0, P.cam_fwd).xyz, right = vload4(0, P.cam_right).xyz,
@@ -113,9 +116,9 @@ __kernel void k_generate(ALL_BUFFERS)
         } else if (P.lens_radius > 0.0f) {
             /* Thin lens: a point on the lens aperture, aimed at the point of the
              * pinhole ray on the plane of focus (perpendicular to fwd). */
-            vec3 disk = spt_sample_concentric_disk(
-                spt_sample_1d(P.seed, pixel, sample, SPT_DIM_LENS_U),
-                spt_sample_1d(P.seed, pixel, sample, SPT_DIM_LENS_V));
+            float lu, lv;
+            spt_sample_pair(pkey, sample, 1u, &lu, &lv); /* SPT_DIM_LENS_U, _V */
+            vec3 disk = spt_sample_concentric_disk(lu, lv);
             float3 focus = org + d * P.focus_distance; /* dot(d, fwd) = 1 */
             org += P.lens_radius * (disk.x * normalize(right) + disk.y * normalize(up));
             d = focus - org;
@@ -123,7 +126,7 @@ __kernel void k_generate(ALL_BUFFERS)
         ps_ray_o[i] = (float4)(org, 0.0f);
         ps_ray_d[i] = (float4)(normalize(d), 0.0f);
         float lam[4], pdf[4];
-        spt_sample_wavelengths(spt_sample_1d(P.seed, pixel, sample, SPT_DIM_WAVELENGTH), lam, pdf);
+        spt_sample_wavelengths(spt_sample_wavelength_u(pkey, sample), lam, pdf);
         ps_lambda[i] = (float4)(lam[0], lam[1], lam[2], lam[3]);
         ps_lambda_pdf[i] = (float4)(pdf[0], pdf[1], pdf[2], pdf[3]);
         ps_throughput[i] = (float4)(1.0f);
@@ -402,6 +405,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     uint pixel = w_item % npix;
     uint sample = P.sample_begin + w_item / npix;
     uint bounce = depth - 1u;
+    uint key = spt_rng_key(P.seed, pixel, sample); /* spt_rand_key(key, d) = spt_rand(P.seed, pixel, sample, d) */
 
     /* Next-event estimation: one light chosen in proportion to power among the
      * emissive triangles, the punctual lights and the environment. */
@@ -409,10 +413,10 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
         !bsdf_is_delta(&bp)) {
         float prob;
         int e = spt_discrete_sample(light_cdf, P.select_count,
-                                    spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_LIGHT_SELECT)),
+                                    spt_rand_key(key, spt_dim_bounce(bounce, SPT_DIM_LIGHT_SELECT)),
                                     &prob, 0);
-        float ul = spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_LIGHT_U));
-        float vl = spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_LIGHT_V));
+        float ul = spt_rand_key(key, spt_dim_bounce(bounce, SPT_DIM_LIGHT_U));
+        float vl = spt_rand_key(key, spt_dim_bounce(bounce, SPT_DIM_LIGHT_V));
         float3 wi = (float3)(0.0f, 0.0f, 1.0f);
         float dist = 0.0f, light_pdf = 0.0f;
         float4 le = (float4)(0.0f);
@@ -479,9 +483,9 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
 
     /* BSDF sampling. */
     BsdfSample bs = bsdf_sample(&bp, wo_l,
-                                spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_BSDF_LOBE)),
-                                spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_BSDF_U)),
-                                spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_BSDF_V)));
+                                spt_rand_key(key, spt_dim_bounce(bounce, SPT_DIM_BSDF_LOBE)),
+                                spt_rand_key(key, spt_dim_bounce(bounce, SPT_DIM_BSDF_U)),
+                                spt_rand_key(key, spt_dim_bounce(bounce, SPT_DIM_BSDF_V)));
     float3 wn = bs.wi.x * tg + bs.wi.y * bt + bs.wi.z * ns;
     float wn_side = dot(wn, ngf);
     /* Reflection stays on wo's side of the face, refraction crosses it. */
@@ -508,7 +512,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
         alive = 0;
     if (alive && depth >= P.rr_depth) {
         float qs = fmin(max4(beta), 0.95f);
-        float u = spt_rand(P.seed, pixel, sample, spt_dim_bounce(bounce, SPT_DIM_ROULETTE));
+        float u = spt_rand_key(key, spt_dim_bounce(bounce, SPT_DIM_ROULETTE));
         if (u >= qs)
             alive = 0;
         else

@@ -207,6 +207,46 @@ static void test_sobol_directions_match_joe_kuo(void **state)
         assert_true(spt_u32_to_unit(spt_sobol_u32(i, 1)) == first[i]);
 }
 
+/* Sobol dim 1 by its closed form (Pascal's triangle mod 2) equals the XOR of the
+ * direction numbers of the index's bits, for indices with bits everywhere. */
+static void test_sobol_dim1_closed_form(void **state)
+{
+    (void)state;
+    for (spt_u32 i = 0; i < 100000u; i++) {
+        spt_u32 index = i < 50000u ? i : spt_hash_u32(i);
+        spt_u32 want = 0u;
+        for (int k = 0; k < 32; k++)
+            if ((index >> k) & 1u)
+                want ^= SPT_SOBOL_DIRECTIONS[32 + k];
+        spt_u32 got = spt_sobol_u32(index, 1u);
+        if (got != want)
+            fail_msg("Sobol dim 1 of index 0x%08x: 0x%08x, expected 0x%08x", index, got, want);
+    }
+}
+
+/* The kernels' shortcuts spt_sample_pair and spt_sample_wavelength_u give exactly
+ * spt_sample_1d of the dims they stand for. */
+static void test_sample_pair_matches_1d(void **state)
+{
+    (void)state;
+    for (spt_u32 n = 0; n < 20000u; n++) {
+        spt_u32 seed = n % 7u, pixel = spt_hash_u32(n) % 1000003u, sample = n * 37u % 4099u;
+        spt_u32 key = spt_sobol_pixel_key(seed, pixel);
+        for (spt_u32 group = 0; group < 2u; group++) {
+            float u0, u1;
+            spt_sample_pair(key, sample, group, &u0, &u1);
+            if (u0 != spt_sample_1d(seed, pixel, sample, 2u * group) ||
+                u1 != spt_sample_1d(seed, pixel, sample, 2u * group + 1u))
+                fail_msg("pair group %u of (%u, %u, %u): (%.9g, %.9g), spt_sample_1d (%.9g, %.9g)",
+                         group, seed, pixel, sample, u0, u1,
+                         spt_sample_1d(seed, pixel, sample, 2u * group),
+                         spt_sample_1d(seed, pixel, sample, 2u * group + 1u));
+        }
+        assert_true(spt_sample_wavelength_u(key, sample) ==
+                    spt_sample_1d(seed, pixel, sample, SPT_DIM_WAVELENGTH));
+    }
+}
+
 /* Whether points (x[i], y[i]), i < 2^k, form a (0,k,2)-net in base 2: for every
  * a + b = k, each box [i/2^a, (i+1)/2^a) x [j/2^b, (j+1)/2^b) holds one point. */
 static int is_02_net(const float *x, const float *y, int k, char *why, size_t why_len)
@@ -472,6 +512,8 @@ int main(void)
         cmocka_unit_test(test_rand_uniform_1d),
         cmocka_unit_test(test_rand_independent_pairs),
         cmocka_unit_test(test_sobol_directions_match_joe_kuo),
+        cmocka_unit_test(test_sobol_dim1_closed_form),
+        cmocka_unit_test(test_sample_pair_matches_1d),
         cmocka_unit_test(test_sobol_prefixes_are_nets),
         cmocka_unit_test(test_sobol_1d_stratified),
         cmocka_unit_test(test_sobol_scrambles_differ),
