@@ -128,6 +128,22 @@ static float4 path_radiance_to_xyz(float4 L, float4 lam, float4 pdf)
     return xyz * (1.0f / ((float)SPT_NUM_LAMBDA * SPT_CIE_Y_INTEGRAL));
 }
 
+/* spt_sample_wavelengths (kernels/spectrum.h) with less transcendental work, for
+ * the generate kernel: atanh(t) as 0.5 log((1 + t) / (1 - t)), and the pdf from
+ * the same t instead of a cosh of the wavelength. The density is the tanh CDF's
+ * derivative, k / ((T1 - T0) cosh^2(k (l - 538))), and cosh^2(atanh(t)) =
+ * 1 / (1 - t^2), so pdf = k (1 - t^2) / (T1 - T0): the same density, evaluated
+ * exactly where the inverse CDF put the sample. */
+static void path_sample_wavelengths(float u, float4 *lambda, float4 *pdf)
+{
+    float4 ui = u + (float4)(0.0f, 0.25f, 0.5f, 0.75f);
+    ui = select(ui, ui - 1.0f, isgreaterequal(ui, 1.0f));
+    float4 t = SPT_WL_T0 + ui * (SPT_WL_T1 - SPT_WL_T0);
+    float4 l = SPT_WL_CENTER + (0.5f / SPT_WL_K) * log((1.0f + t) / (1.0f - t));
+    *lambda = clamp(l, (float)SPT_CIE_LAMBDA_MIN, (float)SPT_CIE_LAMBDA_MAX);
+    *pdf = (SPT_WL_K / (SPT_WL_T1 - SPT_WL_T0)) * (1.0f - t * t);
+}
+
 /* Largest component of v. */
 static float max4(float4 v)
 {

@@ -125,10 +125,10 @@ __kernel void k_generate(ALL_BUFFERS)
         }
         ps_ray_o[i] = (float4)(org, 0.0f);
         ps_ray_d[i] = (float4)(normalize(d), 0.0f);
-        float lam[4], pdf[4];
-        spt_sample_wavelengths(spt_sample_wavelength_u(pkey, sample), lam, pdf);
-        ps_lambda[i] = (float4)(lam[0], lam[1], lam[2], lam[3]);
-        ps_lambda_pdf[i] = (float4)(pdf[0], pdf[1], pdf[2], pdf[3]);
+        float4 lam, pdf;
+        path_sample_wavelengths(spt_sample_wavelength_u(pkey, sample), &lam, &pdf);
+        ps_lambda[i] = lam;
+        ps_lambda_pdf[i] = pdf;
         ps_throughput[i] = (float4)(1.0f);
         ps_radiance[i] = (float4)(0.0f);
         ps_work[i] = w;
