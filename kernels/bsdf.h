@@ -240,6 +240,10 @@ SPT_FN vec3 bsdf_ggx_sample_vndf(vec3 wo, float alpha, float u1, float u2)
  * diffuse base gets 1 - F. With s = 1 and tint 1 this is the core glTF model. */
 SPT_FN vec4 bsdf_dielectric_fresnel(const BsdfParams *p, float c)
 {
+    /* No specular layer (pure Lambert): what the arithmetic below gives too, for
+     * any finite ior, without its four divisions (called several times a hit). */
+    if (p->specular == 0.0f)
+        return v4_splat(0.0f);
     vec4 r = v4_sub(p->ior, v4_splat(1.0f));
     vec4 q = v4_add(p->ior, v4_splat(1.0f));
     vec4 f0 = v4(r.x / q.x, r.y / q.y, r.z / q.z, r.w / q.w);
