@@ -167,6 +167,14 @@ static float2 tri_uv(const __global TriShade *ts, const __global float *vtx_uv, 
     return (1.0f - u - v) * a + u * b + v * c;
 }
 
+/* Whether material m reads its texture coordinates (a base colour, emissive or
+ * metallic-roughness texture); shading skips fetching them otherwise. The
+ * normal texture computes its own. */
+static int material_uses_uv(const __global GpuMaterial *m)
+{
+    return (m->base_tex | m->emissive_tex | m->mr_tex) >= 0;
+}
+
 /* Opacity of material m at uv: 1 for opaque materials; 0 or 1 for alphaMode MASK
  * (alpha against the cutoff); alpha itself for BLEND. alpha = the base colour's
  * alpha factor times the base colour texture's alpha. */
@@ -337,7 +345,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     int front = dot(ng, rd) < 0.0f;
     TriShade ts = tri_shade[prim];
     const __global GpuMaterial *m = materials + ts.material;
-    float2 uv = tri_uv(tri_shade, vtx_uv, prim, bu, bv);
+    float2 uv = material_uses_uv(m) ? tri_uv(tri_shade, vtx_uv, prim, bu, bv) : (float2)(0.0f);
 
     /* Cut-out (MASK) and blended (BLEND) surfaces: with probability 1 - opacity the
      * path passes through unchanged, without counting a segment. */
@@ -438,7 +446,8 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
                 cos_l = fabs(cos_l);
             if (cos_l > 0.0f && dist > 0.0f) {
                 light_pdf = tri_light_pdf[lt] * dist2 / cos_l;
-                float2 luv = tri_uv(tri_shade, vtx_uv, lt, bary.y, bary.z);
+                float2 luv = lm->emissive_tex >= 0 ? tri_uv(tri_shade, vtx_uv, lt, bary.y, bary.z)
+                                                   : (float2)(0.0f);
                 le = material_emission(lm, luv, lam, spectra, textures, texels);
             }
         } else if (e >= 0 && (uint)e < P.emitter_count + P.light_count) {
@@ -493,13 +502,14 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     int alive = bs.valid && (reflect ? wn_side * wo_side > 0.0f : wn_side * wo_side < 0.0f);
     if (alive) {
         beta *= bs.weight;
-        if (bs.dispersive && ps_lambda_pdf[i].y > 0.0f) {
+        float4 lp = ps_lambda_pdf[i];
+        if (bs.dispersive && lp.y > 0.0f) {
             /* The refraction split the wavelengths: only the hero carries on
              * (pbrt-v4's TerminateSecondary); its pdf becomes 1/4 of what it was. */
-            float4 lp = ps_lambda_pdf[i];
-            ps_lambda_pdf[i] = (float4)(0.25f * lp.x, 0.0f, 0.0f, 0.0f);
+            lp = (float4)(0.25f * lp.x, 0.0f, 0.0f, 0.0f);
+            ps_lambda_pdf[i] = lp;
         }
-        if (!(ps_lambda_pdf[i].y > 0.0f))
+        if (!(lp.y > 0.0f))
             beta = (float4)(beta.x, 0.0f, 0.0f, 0.0f);
         alive = max4(beta) > 0.0f;
     }
