@@ -306,6 +306,16 @@ SPT_FN int bsdf_has_delta(const BsdfParams *p)
     return p->roughness * p->roughness < BSDF_DELTA_ALPHA;
 }
 
+/* Whether the material is Lambert's alone: no metal, no transmission and no
+ * specular layer, so every other lobe has weight 0 and bsdf_eval, bsdf_pdf and
+ * bsdf_sample reduce to base cos / pi, cos / pi and a cosine sample. They take
+ * that shortcut, which gives the same floats as the general arithmetic: the
+ * diffuse factor is base * 1 * 1 and the diffuse lobe's probability wd / wd = 1. */
+SPT_FN int bsdf_is_lambert(const BsdfParams *p)
+{
+    return p->specular == 0.0f && !(p->metallic > 0.0f) && !(p->transmission > 0.0f);
+}
+
 /* Fresnel of the metal part at cosine c between wo and h, per wavelength: Schlick
  * with F0 = base (glTF conductor_fresnel), or exact with eta + i k. */
 SPT_FN vec4 bsdf_metal_fresnel(const BsdfParams *p, float c)
@@ -393,6 +403,8 @@ SPT_FN float bsdf_interface_eval(vec3 wo, vec3 wi, float eta, float alpha, float
 SPT_FN vec4 bsdf_eval(const BsdfParams *p, vec3 wo, vec3 wi)
 {
     vec4 r = v4_splat(0.0f);
+    if (bsdf_is_lambert(p))
+        return wo.z > 0.0f && wi.z > 0.0f ? v4_scale(p->base, SPT_INV_PI * wi.z) : r;
     float alpha = bsdf_alpha(p->roughness);
     int smooth = p->roughness * p->roughness < BSDF_DELTA_ALPHA;
     float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
@@ -425,6 +437,8 @@ SPT_FN vec4 bsdf_eval(const BsdfParams *p, vec3 wo, vec3 wi)
  * uses the hero wavelength's ior. */
 SPT_FN float bsdf_pdf(const BsdfParams *p, vec3 wo, vec3 wi)
 {
+    if (bsdf_is_lambert(p))
+        return (wo.z > 0.0f && wi.z > 0.0f) ? wi.z * SPT_INV_PI : 0.0f;
     if (p->roughness * p->roughness < BSDF_DELTA_ALPHA) {
         float ps, pd, pt;
         bsdf_lobe_probs(p, wo, &ps, &pd, &pt);
@@ -455,6 +469,24 @@ SPT_FN float bsdf_pdf(const BsdfParams *p, vec3 wo, vec3 wi)
  * hero wavelength; is_delta is set. When the ior differs between wavelengths and
  * the sample refracted (smooth or rough), dispersive is set and only weight.x is
  * meaningful (the others are set to it; the renderer terminates them). */
+/* Cosine-weighted hemisphere direction (Malley's method on a concentric disk). */
+SPT_FN vec3 bsdf_sample_cosine(float u1, float u2)
+{
+    float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f, r, phi;
+    if (a == 0.0f && b == 0.0f) {
+        r = 0.0f;
+        phi = 0.0f;
+    } else if (fabsf(a) > fabsf(b)) {
+        r = a;
+        phi = 0.25f * SPT_PI * (b / a);
+    } else {
+        r = b;
+        phi = 0.5f * SPT_PI - 0.25f * SPT_PI * (a / b);
+    }
+    float x = r * cosf(phi), y = r * sinf(phi);
+    return v3(x, y, sqrtf(fmaxf(0.0f, 1.0f - x * x - y * y)));
+}
+
 SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, float u2)
 {
     BsdfSample s;
@@ -466,6 +498,17 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
     s.valid = 0;
     if (wo.z == 0.0f)
         return s;
+    if (bsdf_is_lambert(p)) {
+        if (wo.z <= 0.0f)
+            return s;
+        s.wi = bsdf_sample_cosine(u1, u2);
+        s.pdf = s.wi.z > 0.0f ? s.wi.z * SPT_INV_PI : 0.0f;
+        if (!(s.pdf > 0.0f))
+            return s;
+        s.weight = v4_scale(v4_scale(p->base, SPT_INV_PI * s.wi.z), 1.0f / s.pdf);
+        s.valid = 1;
+        return s;
+    }
     float ps, pd, pt;
     bsdf_lobe_probs(p, wo, &ps, &pd, &pt);
     int smooth = p->roughness * p->roughness < BSDF_DELTA_ALPHA;
@@ -531,20 +574,7 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
     } else {
         if (wo.z <= 0.0f)
             return s;
-        /* Cosine-weighted hemisphere (Malley's method on a concentric disk). */
-        float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f, r, phi;
-        if (a == 0.0f && b == 0.0f) {
-            r = 0.0f;
-            phi = 0.0f;
-        } else if (fabsf(a) > fabsf(b)) {
-            r = a;
-            phi = 0.25f * SPT_PI * (b / a);
-        } else {
-            r = b;
-            phi = 0.5f * SPT_PI - 0.25f * SPT_PI * (a / b);
-        }
-        float x = r * cosf(phi), y = r * sinf(phi);
-        s.wi = v3(x, y, sqrtf(fmaxf(0.0f, 1.0f - x * x - y * y)));
+        s.wi = bsdf_sample_cosine(u1, u2);
     }
     s.pdf = bsdf_pdf(p, wo, s.wi);
     if (!(s.pdf > 0.0f))
