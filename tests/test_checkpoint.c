@@ -13,16 +13,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "checkpoint.h"
-#include "exr.h"
-#include "film.h"
 
 #define SCENE "scenes/cornell_box.gltf"
 #define OTHER_SCENE "tests/data/scenes/furnace.gltf"
 /* Every render of these tests: small, quiet, seed 3. */
 #define COMMON "--width 32 --height 32 --seed 3 -q"
 
-static char dir[64];
+#include "ckpt_test.h"
 
 /* Runs `$SPECTRACE_EXE args` with stderr captured into out; returns the exit status. */
 static int run(const char *args, char *out, size_t cap)
@@ -49,21 +46,6 @@ static void run_ok(const char *args, char *out, size_t cap)
         fail_msg("exit code %d from spectrace %s:\n%s", rc, args, out);
 }
 
-static const char *path_in(const char *name)
-{
-    static char buf[8][256];
-    static int k;
-    k = (k + 1) % 8;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name);
-    return buf[k];
-}
-
-static int exists(const char *path)
-{
-    struct stat st;
-    return stat(path, &st) == 0;
-}
-
 /* The whole file, malloc'd. */
 static char *slurp(const char *path, size_t *n)
 {
@@ -79,96 +61,6 @@ static char *slurp(const char *path, size_t *n)
     b[len] = 0;
     *n = (size_t)len;
     return b;
-}
-
-/* The key of path's render: ours, with the file's kernel-source hash, so a test
- * binary and a program built from different kernel sources (another build) still
- * read each other's checkpoints; everything else must match. */
-static void key_for(const char *path, CheckpointKey *k)
-{
-    ExrLayers L;
-    SptError e = {0};
-    if (exr_read_layers(path, NULL, 0, &L, &e))
-        fail_msg("%s", e.msg);
-    const ExrAttr *a = exr_layers_attr(&L, "spectrace:settings", SPT_EXR_ATTR_STRING);
-    assert_non_null(a);
-    const char *mine = strstr(k->settings, ";kernels="), *theirs = strstr(a->s, ";kernels=");
-    assert_non_null(mine);
-    assert_non_null(theirs);
-    if (mine - k->settings != theirs - a->s || strncmp(k->settings, a->s, (size_t)(mine - k->settings)))
-        fail_msg("settings differ: %s vs %s", k->settings, a->s);
-    snprintf(k->settings, sizeof k->settings, "%s", a->s);
-    exr_layers_free(&L);
-}
-
-/* Reads a checkpoint of this file's renders (32x32, seed 3, SCENE) into film;
- * returns the samples per pixel it holds. */
-static uint32_t load_checkpoint(const char *path, uint32_t spp, Film *film)
-{
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = rs.height = 32;
-    rs.max_depth = -1;
-    rs.seed = 3;
-    rs.env_intensity = 1;
-    CheckpointKey k;
-    SptError e = {0};
-    if (checkpoint_key(&k, SCENE, &rs, &e))
-        fail_msg("%s", e.msg);
-    key_for(path, &k);
-    unsigned char *done;
-    if (checkpoint_read(path, &k, spp, film, &done, &e))
-        fail_msg("%s", e.msg);
-    uint32_t n = 0;
-    for (uint32_t i = 0; i < spp; i++)
-        n += done[i];
-    free(done);
-    return n;
-}
-
-/* Every pixel's XYZ sums agree within 1e-4 of the pixel's largest channel, and
- * the sample counts are equal. */
-static void assert_same_film(const Film *a, const Film *b)
-{
-    assert_int_equal(a->width, b->width);
-    size_t n = (size_t)a->width * a->height;
-    for (size_t i = 0; i < n; i++) {
-        if (a->count[i] != b->count[i])
-            fail_msg("pixel %zu: %g vs %g samples", i, a->count[i], b->count[i]);
-        double m = 1e-12;
-        for (int c = 0; c < 3; c++)
-            m = fmax(m, fabs(a->xyz[3 * i + c]));
-        for (int c = 0; c < 3; c++)
-            if (fabs(a->xyz[3 * i + c] - b->xyz[3 * i + c]) > 1e-4 * m)
-                fail_msg("pixel %zu channel %d: %.9g vs %.9g", i, c, a->xyz[3 * i + c],
-                         b->xyz[3 * i + c]);
-    }
-}
-
-/* The R, G, B channels of two EXR images agree within 1e-4 of each pixel's
- * largest channel. */
-static void assert_same_exr(const char *pa, const char *pb)
-{
-    static const char *rgb[3] = {"R", "G", "B"};
-    ExrLayers a, b;
-    SptError e = {0};
-    if (exr_read_layers(pa, rgb, 3, &a, &e) || exr_read_layers(pb, rgb, 3, &b, &e))
-        fail_msg("%s", e.msg);
-    assert_int_equal(a.width * a.height, b.width * b.height);
-    size_t n = (size_t)a.width * a.height;
-    for (size_t i = 0; i < n; i++) {
-        double m = 1e-12;
-        for (int c = 0; c < 3; c++)
-            m = fmax(m, fabs(((const float *)exr_layers_channel(&a, rgb[c])->data)[i]));
-        for (int c = 0; c < 3; c++) {
-            double x = ((const float *)exr_layers_channel(&a, rgb[c])->data)[i];
-            double y = ((const float *)exr_layers_channel(&b, rgb[c])->data)[i];
-            if (fabs(x - y) > 1e-4 * m)
-                fail_msg("%s vs %s: pixel %zu %s: %.9g vs %.9g", pa, pb, i, rgb[c], x, y);
-        }
-    }
-    exr_layers_free(&a);
-    exr_layers_free(&b);
 }
 
 static int setup(void **state)
@@ -247,14 +139,14 @@ static void test_resume_split_invariance(void **state)
              path_in("half.exr"), path_in("half_ck.exr"));
     run_ok(cmd, out, sizeof out);
     Film a, b;
-    assert_int_equal(load_checkpoint(path_in("half_ck.exr"), 64, &b), 32);
+    assert_int_equal(load_checkpoint(path_in("half_ck.exr"), 3, 64, &b), 32);
     film_free(&b);
     snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device all --spp 64 -o %s --resume %s",
              path_in("resumed.exr"), path_in("half_ck.exr"));
     if (run(cmd, out, sizeof out))
         fail_msg("resume failed: %s", out);
-    assert_int_equal(load_checkpoint(path_in("full_ck.exr"), 64, &a), 64);
-    assert_int_equal(load_checkpoint(path_in("half_ck.exr"), 64, &b), 64);
+    assert_int_equal(load_checkpoint(path_in("full_ck.exr"), 3, 64, &a), 64);
+    assert_int_equal(load_checkpoint(path_in("half_ck.exr"), 3, 64, &b), 64);
     assert_same_film(&a, &b);
     assert_same_exr(path_in("full.exr"), path_in("resumed.exr"));
     film_free(&a);
@@ -362,7 +254,7 @@ static void test_sigint_then_resume(void **state)
     assert_non_null(strstr(text, "stopped by a signal"));
     free(text);
     Film part;
-    uint32_t done = load_checkpoint(ck, 128, &part);
+    uint32_t done = load_checkpoint(ck, 3, 128, &part);
     printf("stopped after %u of 128 spp\n", done);
     assert_true(done > 0 && done < 128);
     /* The image is the checkpoint's samples. */
@@ -393,8 +285,8 @@ static void test_sigint_then_resume(void **state)
              path_in("straight.exr"), path_in("straight_ck.exr"));
     run_ok(cmd, out, sizeof out);
     Film a, b;
-    assert_int_equal(load_checkpoint(ck, 128, &a), 128);
-    assert_int_equal(load_checkpoint(path_in("straight_ck.exr"), 128, &b), 128);
+    assert_int_equal(load_checkpoint(ck, 3, 128, &a), 128);
+    assert_int_equal(load_checkpoint(path_in("straight_ck.exr"), 3, 128, &b), 128);
     assert_same_film(&a, &b);
     assert_same_exr(path_in("int_done.exr"), path_in("straight.exr"));
     film_free(&a);

@@ -12,9 +12,6 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "checkpoint.h"
-#include "exr.h"
-#include "film.h"
 #include "scene_pack.h"
 
 #define SCENE "scenes/cornell_box.gltf"
@@ -23,7 +20,9 @@
  * are slowed a little so both ranks take a share of a render this small. */
 #define MPIRUN "mpirun --allow-run-as-root --oversubscribe -x SPECTRACE_TEST_SLOW_DEVICE=0:25"
 
-static char dir[64], exe[512], mpi_exe[512];
+#include "ckpt_test.h"
+
+static char exe[512], mpi_exe[512];
 
 /* Runs cmd (a shell command line) with stderr captured into out; returns the exit status. */
 static int run(const char *cmd, char *out, size_t cap)
@@ -36,105 +35,6 @@ static int run(const char *cmd, char *out, size_t cap)
     out[n] = 0;
     int st = pclose(p);
     return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
-static const char *path_in(const char *name)
-{
-    static char buf[8][256];
-    static int k;
-    k = (k + 1) % 8;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name);
-    return buf[k];
-}
-
-static int exists(const char *path)
-{
-    struct stat st;
-    return stat(path, &st) == 0;
-}
-
-/* The key of path's render: ours, with the file's kernel-source hash, so a test
- * binary and a program built from different kernel sources (another build) still
- * read each other's checkpoints; everything else must match. */
-static void key_for(const char *path, CheckpointKey *k)
-{
-    ExrLayers L;
-    SptError e = {0};
-    if (exr_read_layers(path, NULL, 0, &L, &e))
-        fail_msg("%s", e.msg);
-    const ExrAttr *a = exr_layers_attr(&L, "spectrace:settings", SPT_EXR_ATTR_STRING);
-    assert_non_null(a);
-    const char *mine = strstr(k->settings, ";kernels="), *theirs = strstr(a->s, ";kernels=");
-    assert_non_null(mine);
-    assert_non_null(theirs);
-    if (mine - k->settings != theirs - a->s || strncmp(k->settings, a->s, (size_t)(mine - k->settings)))
-        fail_msg("settings differ: %s vs %s", k->settings, a->s);
-    snprintf(k->settings, sizeof k->settings, "%s", a->s);
-    exr_layers_free(&L);
-}
-
-static uint32_t load_checkpoint(const char *path, uint32_t spp, Film *film)
-{
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = rs.height = 32;
-    rs.max_depth = -1;
-    rs.seed = 5;
-    rs.env_intensity = 1;
-    CheckpointKey k;
-    SptError e = {0};
-    unsigned char *done;
-    if (checkpoint_key(&k, SCENE, &rs, &e))
-        fail_msg("%s", e.msg);
-    key_for(path, &k);
-    if (checkpoint_read(path, &k, spp, film, &done, &e))
-        fail_msg("%s", e.msg);
-    uint32_t n = 0;
-    for (uint32_t i = 0; i < spp; i++)
-        n += done[i];
-    free(done);
-    return n;
-}
-
-/* Every pixel's XYZ sums within 1e-4 of the pixel's largest channel; same counts. */
-static void assert_same_film(const Film *a, const Film *b)
-{
-    size_t n = (size_t)a->width * a->height;
-    for (size_t i = 0; i < n; i++) {
-        if (a->count[i] != b->count[i])
-            fail_msg("pixel %zu: %g vs %g samples", i, a->count[i], b->count[i]);
-        double m = 1e-12;
-        for (int c = 0; c < 3; c++)
-            m = fmax(m, fabs(a->xyz[3 * i + c]));
-        for (int c = 0; c < 3; c++)
-            if (fabs(a->xyz[3 * i + c] - b->xyz[3 * i + c]) > 1e-4 * m)
-                fail_msg("pixel %zu channel %d: %.9g vs %.9g", i, c, a->xyz[3 * i + c],
-                         b->xyz[3 * i + c]);
-    }
-}
-
-static void assert_same_exr(const char *pa, const char *pb)
-{
-    static const char *rgb[3] = {"R", "G", "B"};
-    ExrLayers a, b;
-    SptError e = {0};
-    if (exr_read_layers(pa, rgb, 3, &a, &e) || exr_read_layers(pb, rgb, 3, &b, &e))
-        fail_msg("%s", e.msg);
-    size_t n = (size_t)a.width * a.height;
-    assert_int_equal(n, (size_t)b.width * b.height);
-    for (size_t i = 0; i < n; i++) {
-        double m = 1e-12;
-        for (int c = 0; c < 3; c++)
-            m = fmax(m, fabs(((const float *)exr_layers_channel(&a, rgb[c])->data)[i]));
-        for (int c = 0; c < 3; c++) {
-            double x = ((const float *)exr_layers_channel(&a, rgb[c])->data)[i];
-            double y = ((const float *)exr_layers_channel(&b, rgb[c])->data)[i];
-            if (fabs(x - y) > 1e-4 * m)
-                fail_msg("%s vs %s: pixel %zu %s: %.9g vs %.9g", pa, pb, i, rgb[c], x, y);
-        }
-    }
-    exr_layers_free(&a);
-    exr_layers_free(&b);
 }
 
 /* The one-process reference: 64 spp with its checkpoint (rendered once). */
@@ -217,8 +117,8 @@ static void test_two_ranks_same_image(void **state)
     assert_non_null(d);
     assert_null(strstr(d + 1, "device 0:"));
     Film a, b;
-    assert_int_equal(load_checkpoint(path_in("one_ck.exr"), 64, &a), 64);
-    assert_int_equal(load_checkpoint(path_in("two_ck.exr"), 64, &b), 64);
+    assert_int_equal(load_checkpoint(path_in("one_ck.exr"), 5, 64, &a), 64);
+    assert_int_equal(load_checkpoint(path_in("two_ck.exr"), 5, 64, &b), 64);
     assert_same_film(&a, &b);
     assert_same_exr(path_in("one.exr"), path_in("two.exr"));
     film_free(&a);
@@ -244,8 +144,8 @@ static void test_resume_on_two_ranks(void **state)
     printf("%s", out);
     assert_int_equal(rc, 0);
     Film a, b;
-    assert_int_equal(load_checkpoint(path_in("one_ck.exr"), 64, &a), 64);
-    assert_int_equal(load_checkpoint(path_in("half_ck.exr"), 64, &b), 64);
+    assert_int_equal(load_checkpoint(path_in("one_ck.exr"), 5, 64, &a), 64);
+    assert_int_equal(load_checkpoint(path_in("half_ck.exr"), 5, 64, &b), 64);
     assert_same_film(&a, &b);
     assert_same_exr(path_in("one.exr"), path_in("resumed.exr"));
     film_free(&a);
@@ -363,7 +263,7 @@ static void test_sigusr2_then_resume(void **state)
     assert_non_null(strstr(out, "stopped by a signal"));
     assert_true(exists(img));
     Film part;
-    uint32_t done = load_checkpoint(ck, 64, &part);
+    uint32_t done = load_checkpoint(ck, 5, 64, &part);
     film_free(&part);
     printf("stopped after %u of 64 spp\n", done);
     assert_true(done > 0 && done < 64);
@@ -373,8 +273,8 @@ static void test_sigusr2_then_resume(void **state)
     if (rc0)
         fail_msg("exit code %d from %s:\n%s", rc0, cmd, out);
     Film a, b;
-    assert_int_equal(load_checkpoint(path_in("one_ck.exr"), 64, &a), 64);
-    assert_int_equal(load_checkpoint(ck, 64, &b), 64);
+    assert_int_equal(load_checkpoint(path_in("one_ck.exr"), 5, 64, &a), 64);
+    assert_int_equal(load_checkpoint(ck, 5, 64, &b), 64);
     assert_same_film(&a, &b);
     assert_same_exr(path_in("one.exr"), path_in("usr2_done.exr"));
     film_free(&a);

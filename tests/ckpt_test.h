@@ -1,0 +1,124 @@
+/* Helpers shared by the checkpoint and MPI tests (tests/test_checkpoint.c,
+ * tests/test_mpi.c): paths in the test's temporary folder `dir` (each file
+ * defines it), checkpoint keys and reads, and film/image comparisons within
+ * 1e-4 of each pixel's largest channel. Include after test_util.h, with SCENE
+ * defined. */
+#ifndef SPT_CKPT_TEST_H
+#define SPT_CKPT_TEST_H
+
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "checkpoint.h"
+#include "exr.h"
+#include "film.h"
+
+static char dir[64];
+
+static const char *path_in(const char *name)
+{
+    static char buf[8][256];
+    static int k;
+    k = (k + 1) % 8;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name); /* dir: the test file's folder */
+    return buf[k];
+}
+
+static int exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+/* The key of path's render: ours, with the file's kernel-source hash, so a test
+ * binary and a program built from different kernel sources (another build) still
+ * read each other's checkpoints; everything else must match. */
+static void key_for(const char *path, CheckpointKey *k)
+{
+    ExrLayers L;
+    SptError e = {0};
+    if (exr_read_layers(path, NULL, 0, &L, &e))
+        fail_msg("%s", e.msg);
+    const ExrAttr *a = exr_layers_attr(&L, "spectrace:settings", SPT_EXR_ATTR_STRING);
+    assert_non_null(a);
+    const char *mine = strstr(k->settings, ";kernels="), *theirs = strstr(a->s, ";kernels=");
+    assert_non_null(mine);
+    assert_non_null(theirs);
+    if (mine - k->settings != theirs - a->s || strncmp(k->settings, a->s, (size_t)(mine - k->settings)))
+        fail_msg("settings differ: %s vs %s", k->settings, a->s);
+    snprintf(k->settings, sizeof k->settings, "%s", a->s);
+    exr_layers_free(&L);
+}
+
+/* Reads a checkpoint of a test render (32x32, seed, SCENE) into film; returns the
+ * samples per pixel it holds. */
+static uint32_t load_checkpoint(const char *path, uint32_t seed, uint32_t spp, Film *film)
+{
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = rs.height = 32;
+    rs.max_depth = -1;
+    rs.seed = seed;
+    rs.env_intensity = 1;
+    CheckpointKey k;
+    SptError e = {0};
+    if (checkpoint_key(&k, SCENE, &rs, &e))
+        fail_msg("%s", e.msg);
+    key_for(path, &k);
+    unsigned char *done;
+    if (checkpoint_read(path, &k, spp, film, &done, &e))
+        fail_msg("%s", e.msg);
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < spp; i++)
+        n += done[i];
+    free(done);
+    return n;
+}
+
+/* Every pixel's XYZ sums agree within 1e-4 of the pixel's largest channel, and
+ * the sample counts are equal. */
+static void assert_same_film(const Film *a, const Film *b)
+{
+    assert_int_equal(a->width, b->width);
+    size_t n = (size_t)a->width * a->height;
+    for (size_t i = 0; i < n; i++) {
+        if (a->count[i] != b->count[i])
+            fail_msg("pixel %zu: %g vs %g samples", i, a->count[i], b->count[i]);
+        double m = 1e-12;
+        for (int c = 0; c < 3; c++)
+            m = fmax(m, fabs(a->xyz[3 * i + c]));
+        for (int c = 0; c < 3; c++)
+            if (fabs(a->xyz[3 * i + c] - b->xyz[3 * i + c]) > 1e-4 * m)
+                fail_msg("pixel %zu channel %d: %.9g vs %.9g", i, c, a->xyz[3 * i + c],
+                         b->xyz[3 * i + c]);
+    }
+}
+
+/* The R, G, B channels of two EXR images agree within 1e-4 of each pixel's
+ * largest channel. */
+static void assert_same_exr(const char *pa, const char *pb)
+{
+    static const char *rgb[3] = {"R", "G", "B"};
+    ExrLayers a, b;
+    SptError e = {0};
+    if (exr_read_layers(pa, rgb, 3, &a, &e) || exr_read_layers(pb, rgb, 3, &b, &e))
+        fail_msg("%s", e.msg);
+    assert_int_equal(a.width * a.height, b.width * b.height);
+    size_t n = (size_t)a.width * a.height;
+    for (size_t i = 0; i < n; i++) {
+        double m = 1e-12;
+        for (int c = 0; c < 3; c++)
+            m = fmax(m, fabs(((const float *)exr_layers_channel(&a, rgb[c])->data)[i]));
+        for (int c = 0; c < 3; c++) {
+            double x = ((const float *)exr_layers_channel(&a, rgb[c])->data)[i];
+            double y = ((const float *)exr_layers_channel(&b, rgb[c])->data)[i];
+            if (fabs(x - y) > 1e-4 * m)
+                fail_msg("%s vs %s: pixel %zu %s: %.9g vs %.9g", pa, pb, i, rgb[c], x, y);
+        }
+    }
+    exr_layers_free(&a);
+    exr_layers_free(&b);
+}
+
+#endif
