@@ -326,6 +326,39 @@ static void sphere_scene(Scene *s, float albedo)
     scene_update_bounds(s);
 }
 
+/* Settings of a w x w render of spp samples at max_depth with seed; the rest
+ * zero (no environment unless set; env_intensity 1 as the command line's). */
+static RenderSettings square_settings(int w, int spp, int depth, uint32_t seed)
+{
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = rs.height = w;
+    rs.spp = spp;
+    rs.max_depth = depth;
+    rs.seed = seed;
+    rs.env_intensity = 1.0f;
+    return rs;
+}
+
+/* Renders scene s with rs on the test device into rgb (linear sRGB, 3 floats
+ * per pixel; may be NULL); returns the render's exit code, e its message. */
+static int render_scene_rgb(const Scene *s, const RenderSettings *rs, float *rgb, SptError *e)
+{
+    GpuScene g;
+    int rc = gpu_scene_build(&g, s, e);
+    if (rc)
+        return rc;
+    Film f;
+    RenderStats st;
+    film_init(&f, rs->width, rs->height);
+    rc = render_device(device, &g, &s->camera, rs, &f, &st, e);
+    if (!rc && rgb)
+        film_to_linear_srgb(&f, rgb);
+    film_free(&f);
+    gpu_scene_free(&g);
+    return rc;
+}
+
 /* With no light at all, the default sky (D65, radiance 1) lights the scene: a
  * Lambertian surface of albedo rho open to the whole sky shows rho, the sky
  * itself shows 1; --background black keeps it dark. */
@@ -482,22 +515,9 @@ static void render_punctual(int with_directional, float *rgb, int w)
     for (int k = 0; k < 3; k++)
         dl->color[k] = sp->color[k] = 1.0f;
     scene_update_bounds(&s);
-    GpuScene g;
     SptError e = {0};
-    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = rs.height = w;
-    rs.spp = with_directional ? 256 : 32;
-    rs.max_depth = -1;
-    rs.seed = 5;
-    Film f;
-    RenderStats st;
-    film_init(&f, w, w);
-    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
-    film_to_linear_srgb(&f, rgb);
-    film_free(&f);
-    gpu_scene_free(&g);
+    RenderSettings rs = square_settings(w, with_directional ? 256 : 32, -1, 5);
+    assert_int_equal(render_scene_rgb(&s, &rs, rgb, &e), 0);
     scene_free(&s);
 }
 
@@ -602,26 +622,13 @@ static double render_normal_mapped(int toward_bitangent, double light_sign)
     for (int k = 0; k < 3; k++)
         dl->color[k] = 1.0f;
     scene_update_bounds(&s);
-    GpuScene g;
     SptError e = {0};
-    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = rs.height = W;
-    rs.spp = 16;
-    rs.max_depth = 2;
-    rs.seed = 9;
-    Film f;
-    RenderStats st;
-    film_init(&f, W, W);
-    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    RenderSettings rs = square_settings(W, 16, 2, 9);
     float rgb[W * W * 3];
-    film_to_linear_srgb(&f, rgb);
+    assert_int_equal(render_scene_rgb(&s, &rs, rgb, &e), 0);
     double mean = 0;
     for (int i = 0; i < W * W * 3; i++)
         mean += rgb[i] / (W * W * 3);
-    film_free(&f);
-    gpu_scene_free(&g);
     scene_free(&s);
     return mean;
 }
@@ -710,21 +717,10 @@ static void test_volume_absorption(void **state)
     s.camera.yfov = 0.4f;
     s.camera.aspect = 1.0f;
     scene_update_bounds(&s);
-    GpuScene g;
     SptError e = {0};
-    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = rs.height = W;
-    rs.spp = 16;
-    rs.max_depth = -1;
-    rs.seed = 4;
-    Film f;
-    RenderStats st;
-    film_init(&f, W, W);
-    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    RenderSettings rs = square_settings(W, 16, -1, 4);
     float rgb[W * W * 3];
-    film_to_linear_srgb(&f, rgb);
+    assert_int_equal(render_scene_rgb(&s, &rs, rgb, &e), 0);
     double got = 0, want = 0, t = tan(0.2);
     for (int py = 0; py < W; py++)
         for (int px = 0; px < W; px++) {
@@ -736,8 +732,6 @@ static void test_volume_absorption(void **state)
         }
     printf("volume: mean %.5f, Beer-Lambert %.5f\n", got / (3 * W * W), want / (3 * W * W));
     assert_close_rel(got, want, 0.01);
-    film_free(&f);
-    gpu_scene_free(&g);
     scene_free(&s);
 }
 
@@ -751,7 +745,6 @@ static void test_dispersion_furnace(void **state)
     (void)state;
     enum { W = 24 };
     Scene s;
-    GpuScene g;
     SptError e = {0};
     sphere_scene(&s, 1.0f);
     /* Smooth vertex normals: inside a smooth sphere a ray keeps its angle of
@@ -769,19 +762,9 @@ static void test_dispersion_furnace(void **state)
     m->roughness = 0.0f;
     m->specular = 1.0f;
     m->dispersion = 3.0f;
-    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = rs.height = W;
-    rs.spp = 256;
-    rs.max_depth = -1;
-    rs.seed = 12;
-    Film f;
-    RenderStats st;
-    film_init(&f, W, W);
-    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
-    float *rgb = malloc(W * W * 3 * sizeof(float));
-    film_to_linear_srgb(&f, rgb);
+    RenderSettings rs = square_settings(W, 256, -1, 12);
+    float rgb[W * W * 3];
+    assert_int_equal(render_scene_rgb(&s, &rs, rgb, &e), 0);
     double c[3] = {0, 0, 0};
     for (int y = 8; y < 16; y++)
         for (int x = 8; x < 16; x++)
@@ -790,9 +773,6 @@ static void test_dispersion_furnace(void **state)
     printf("dispersive glass furnace: (%.4f, %.4f, %.4f), expected 1\n", c[0], c[1], c[2]);
     for (int k = 0; k < 3; k++)
         assert_close(c[k], 1.0, 0.02);
-    free(rgb);
-    film_free(&f);
-    gpu_scene_free(&g);
     scene_free(&s);
 }
 
@@ -968,26 +948,14 @@ static void test_env_map(void **state)
     assert_int_equal(exr_write_rgb(path, map, MW, MH, NULL, 0, &e), 0);
 
     Scene s;
-    GpuScene g;
     sphere_scene(&s, 0.5f);
-    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = rs.height = W;
-    rs.spp = 256;
-    rs.max_depth = -1;
-    rs.seed = 11;
+    RenderSettings rs = square_settings(W, 256, -1, 11);
     rs.env_path = path;
-    rs.env_intensity = 1.0f;
-    Film f;
-    RenderStats st;
-    film_init(&f, W, W);
-    int rc = render_device(device, &g, &s.camera, &rs, &f, &st, &e);
+    float *rgb = malloc(W * W * 3 * sizeof(float));
+    int rc = render_scene_rgb(&s, &rs, rgb, &e);
     unlink(path);
     if (rc)
         fail_msg("%s", e.msg);
-    float *rgb = malloc(W * W * 3 * sizeof(float));
-    film_to_linear_srgb(&f, rgb);
 
     /* Camera rays through pixel centres (sphere_scene: at +Z 4 looking -Z). */
     double t = tan(0.5 * s.camera.yfov);
@@ -1071,8 +1039,6 @@ static void test_env_map(void **state)
         assert_true(fabs(got_sky[k] - want_sky[k]) / n_sky <= 0.015 * sky_max);
     }
     free(rgb);
-    film_free(&f);
-    gpu_scene_free(&g);
     scene_free(&s);
 }
 
@@ -1081,26 +1047,15 @@ static void test_env_missing(void **state)
 {
     (void)state;
     Scene s;
-    GpuScene g;
     SptError e = {0};
     sphere_scene(&s, 0.5f);
-    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = rs.height = 8;
-    rs.spp = 1;
+    RenderSettings rs = square_settings(8, 1, -1, 0);
     rs.env_path = "/nonexistent/sky.exr";
-    rs.env_intensity = 1.0f;
-    Film f;
-    RenderStats st;
-    film_init(&f, 8, 8);
-    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), SPT_EXIT_INPUT);
+    assert_int_equal(render_scene_rgb(&s, &rs, NULL, &e), SPT_EXIT_INPUT);
     assert_non_null(strstr(e.msg, "/nonexistent/sky.exr"));
     /* --env and --background together are refused. */
     rs.background = "1,1,1";
-    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), SPT_EXIT_USAGE);
-    film_free(&f);
-    gpu_scene_free(&g);
+    assert_int_equal(render_scene_rgb(&s, &rs, NULL, &e), SPT_EXIT_USAGE);
     scene_free(&s);
 }
 
