@@ -10,7 +10,17 @@
  * operations. Child i is a leaf of count[i] > 0 triangles starting at packed
  * triangle child[i], or when count[i] == 0 the node child[i] (> 0); an unused
  * slot has count 0 and an empty box (low +FLT_MAX, high -FLT_MAX) that no ray
- * enters. Triangles are packed in leaf order as 9 floats (v0, v1, v2).
+ * enters.
+ *
+ * Triangles are packed in leaf order, 9 floats each (v0, v1, v2), and each leaf's
+ * block is stored as structure of arrays: the leaf of n triangles from packed
+ * triangle b holds row k (vertex k / 3, axis k % 3) of its triangle l at
+ * tris[9 b + k n + l], so a CPU tests up to 8 of a leaf's triangles with one
+ * float8 test (SPT_BVH_SIMD, set by the host for CPU devices) while a GPU, or the
+ * host, loops over them with the same arithmetic lane by lane. tri_lane[i] locates
+ * packed triangle i in its leaf: lane (low 4 bits) and leaf size - 1 (high 4
+ * bits); leaves hold at most BVH_LEAF_MAX triangles. The buffer has BVH_TRI_PAD
+ * floats of padding at its end, as the float8 loads of the last leaf read past it.
  *
  * Depth: the binary tree is never deeper than BVH_MAX_DEPTH - 1 and gathering
  * never deepens it, and a node pushes at most 3 children, so the traversal
@@ -50,13 +60,12 @@ typedef struct BvhNode {
     spt_u32 count[BVH_WIDTH];   /* leaf: its triangle count; 0: a node (or unused) */
 } BvhNode;
 
-/* One triangle, packed: v0, v1, v2 (world space). */
-typedef struct BvhTri {
-    float v[9];
-} BvhTri;
+/* Most triangles in one leaf (tri_lane's 4 bits of size - 1), and the floats of
+ * padding after the packed triangles. */
+#define BVH_LEAF_MAX 16
+#define BVH_TRI_PAD 8
 
 SPT_STATIC_ASSERT(sizeof(BvhNode) == 128, "BvhNode must stay 128 bytes (device layout)");
-SPT_STATIC_ASSERT(sizeof(BvhTri) == 36, "BvhTri must stay 36 bytes (device layout)");
 
 /* A closest hit: distance t along dir, barycentrics such that the point is
  * (1-u-v) v0 + u v1 + v v2, and prim = index of the packed triangle. */
@@ -77,13 +86,14 @@ typedef struct BvhRay {
 } BvhRay;
 
 /* The three vertices of packed triangle i. */
-SPT_FN void bvh_tri_vertices(const SPT_GLOBAL BvhTri *tris, spt_u32 i, vec3 *v0, vec3 *v1,
-                             vec3 *v2)
+SPT_FN void bvh_tri_vertices(const SPT_GLOBAL float *tris, const SPT_GLOBAL spt_u8 *tri_lane,
+                             spt_u32 i, vec3 *v0, vec3 *v1, vec3 *v2)
 {
-    const SPT_GLOBAL float *p = tris[i].v;
-    *v0 = v3(p[0], p[1], p[2]);
-    *v1 = v3(p[3], p[4], p[5]);
-    *v2 = v3(p[6], p[7], p[8]);
+    spt_u32 lane = tri_lane[i] & 15u, n = (tri_lane[i] >> 4) + 1u;
+    const SPT_GLOBAL float *p = tris + 9u * (i - lane) + lane;
+    *v0 = v3(p[0], p[n], p[2 * n]);
+    *v1 = v3(p[3 * n], p[4 * n], p[5 * n]);
+    *v2 = v3(p[6 * n], p[7 * n], p[8 * n]);
 }
 
 /* min/max for the box test: the device's fmin/fmax are instructions, while on the
@@ -195,24 +205,25 @@ SPT_FN vec4 bvh_node_enter(const SPT_GLOBAL BvhNode *n, const BvhRay *r, float t
 #endif
 }
 
-/* Watertight test of packed triangle i: on a hit with t in (0, tbest) writes hit
- * and returns 1, else returns 0 and leaves hit alone. */
-SPT_FN int bvh_tri_intersect(const SPT_GLOBAL BvhTri *tris, spt_u32 i, const BvhRay *r,
-                             float tbest, BvhHit *hit)
+/* Watertight test of triangle (lane) l of the leaf of n triangles whose block
+ * starts at p: on a hit with t in (0, tbest) writes hit (prim = prim) and
+ * returns 1, else returns 0 and leaves hit alone. */
+SPT_FN int bvh_tri_intersect(const SPT_GLOBAL float *p, spt_u32 n, spt_u32 l, spt_u32 prim,
+                             const BvhRay *r, float tbest, BvhHit *hit)
 {
 #if SPT_DEVICE
 #pragma OPENCL FP_CONTRACT OFF
 #endif
-    const SPT_GLOBAL float *p = tris[i].v;
-    int kx = r->kx, ky = r->ky, kz = r->kz;
+    p += l;
+    spt_u32 kx = (spt_u32)r->kx * n, ky = (spt_u32)r->ky * n, kz = (spt_u32)r->kz * n;
     float okx = r->okx, oky = r->oky, okz = r->okz;
-    float az = p[kz] - okz, bz = p[3 + kz] - okz, cz = p[6 + kz] - okz;
+    float az = p[kz] - okz, bz = p[3 * n + kz] - okz, cz = p[6 * n + kz] - okz;
     float ax = (p[kx] - okx) - r->sx * az;
     float ay = (p[ky] - oky) - r->sy * az;
-    float bx = (p[3 + kx] - okx) - r->sx * bz;
-    float by = (p[3 + ky] - oky) - r->sy * bz;
-    float cx = (p[6 + kx] - okx) - r->sx * cz;
-    float cy = (p[6 + ky] - oky) - r->sy * cz;
+    float bx = (p[3 * n + kx] - okx) - r->sx * bz;
+    float by = (p[3 * n + ky] - oky) - r->sy * bz;
+    float cx = (p[6 * n + kx] - okx) - r->sx * cz;
+    float cy = (p[6 * n + ky] - oky) - r->sy * cz;
     float eu = cx * by - cy * bx;
     float ev = ax * cy - ay * cx;
     float ew = bx * ay - by * ax;
@@ -231,8 +242,136 @@ SPT_FN int bvh_tri_intersect(const SPT_GLOBAL BvhTri *tris, spt_u32 i, const Bvh
     hit->t = t;
     hit->u = w1;
     hit->v = w2;
-    hit->prim = i;
+    hit->prim = prim;
     return 1;
+}
+
+#if SPT_DEVICE && defined(SPT_BVH_SIMD)
+/* Lanes [g, g + 8) of the leaf of n triangles at p in one float8 test, the
+ * arithmetic of bvh_tri_intersect lane for lane: the hit distance of each lane
+ * that hits with t in (0, tbest), BVH_FAR for the others and for lanes >= n. */
+SPT_FN float8 bvh_tri8_distances(const __global float *p, uint n, uint g, const BvhRay *r,
+                                 float tbest)
+{
+#pragma OPENCL FP_CONTRACT OFF
+    p += g;
+    uint kx = (uint)r->kx * n, ky = (uint)r->ky * n, kz = (uint)r->kz * n;
+    float8 okx = (float8)(r->okx), oky = (float8)(r->oky), okz = (float8)(r->okz);
+    float8 sx = (float8)(r->sx), sy = (float8)(r->sy);
+    float8 az = vload8(0, p + kz) - okz;
+    float8 bz = vload8(0, p + 3 * n + kz) - okz;
+    float8 cz = vload8(0, p + 6 * n + kz) - okz;
+    float8 ax = (vload8(0, p + kx) - okx) - sx * az;
+    float8 ay = (vload8(0, p + ky) - oky) - sy * az;
+    float8 bx = (vload8(0, p + 3 * n + kx) - okx) - sx * bz;
+    float8 by = (vload8(0, p + 3 * n + ky) - oky) - sy * bz;
+    float8 cx = (vload8(0, p + 6 * n + kx) - okx) - sx * cz;
+    float8 cy = (vload8(0, p + 6 * n + ky) - oky) - sy * cz;
+    float8 eu = cx * by - cy * bx;
+    float8 ev = ax * cy - ay * cx;
+    float8 ew = bx * ay - by * ax;
+    float8 zero = (float8)(0.0f);
+    int8 outside = ((eu < zero) | (ev < zero) | (ew < zero)) & ((eu > zero) | (ev > zero) | (ew > zero));
+    float8 det = eu + ev + ew;
+    float8 rcp = (float8)(1.0f) / det;
+    float8 w0 = eu * rcp, w1 = ev * rcp, w2 = ew * rcp;
+    float8 t = (w0 * az + w1 * bz + w2 * cz) * (float8)(r->sz);
+    int8 lane = (int8)(0, 1, 2, 3, 4, 5, 6, 7) + (int8)((int)g);
+    int8 ok = ~outside & (det != zero) & (t > zero) & (t < (float8)(tbest)) & (lane < (int8)((int)n));
+    return select((float8)(BVH_FAR), t, ok);
+}
+#endif
+
+/* Tests the leaf of count triangles from packed triangle first against the ray:
+ * closest hit (any_hit 0: the nearest below *best, updating *best and hit) or any
+ * hit (stops at the first). Returns 1 when it found a hit. */
+SPT_FN int bvh_leaf_intersect(const SPT_GLOBAL float *tris, spt_u32 first, spt_u32 count,
+                              const BvhRay *r, float *best, int any_hit, BvhHit *hit)
+{
+    const SPT_GLOBAL float *p = tris + 9u * first;
+    int found = 0;
+#if SPT_DEVICE && defined(SPT_BVH_SIMD)
+    for (uint g = 0; g < count; g += 8u) {
+        float8 t = bvh_tri8_distances(p, count, g, r, *best);
+        float4 m4 = fmin(t.lo, t.hi);
+        float2 m2 = fmin(m4.lo, m4.hi);
+        float m = fmin(m2.x, m2.y);
+        if (m < *best) {
+            if (any_hit)
+                return 1;
+            /* The first lane at the minimum, as the lane loop would keep it;
+             * its barycentrics from the scalar test, which computes the same. */
+            int8 at = select((int8)(8), (int8)(0, 1, 2, 3, 4, 5, 6, 7), t == (float8)(m));
+            int4 a4 = min(at.lo, at.hi);
+            int2 a2 = min(a4.lo, a4.hi);
+            uint l = g + (uint)min(a2.x, a2.y);
+            if (bvh_tri_intersect(p, count, l, first + l, r, *best, hit)) {
+                *best = hit->t;
+                found = 1;
+            }
+        }
+    }
+#else
+    for (spt_u32 l = 0; l < count; l++) {
+        if (bvh_tri_intersect(p, count, l, first + l, r, *best, hit)) {
+            *best = hit->t;
+            found = 1;
+            if (any_hit)
+                return 1;
+        }
+    }
+#endif
+    return found;
+}
+
+/* Asks the memory system early for a deferred child (node, or count > 0: leaf
+ * triangles), so its latency overlaps the traversal of the nearer one. Only where
+ * the compiler has the prefetch builtin (host and clang-based CPU devices);
+ * OpenCL's prefetch() is a no-op in PoCL. */
+#if defined(__has_builtin)
+#if __has_builtin(__builtin_prefetch)
+#define BVH_HAVE_PREFETCH 1
+#endif
+#elif !SPT_DEVICE && defined(__GNUC__)
+#define BVH_HAVE_PREFETCH 1
+#endif
+#if SPT_DEVICE
+/* A CPU device's address spaces are one, so a global address is a plain one. */
+#define BVH_PREFETCH(p) __builtin_prefetch((const void *)(uintptr_t)(p))
+#else
+#define BVH_PREFETCH(p) __builtin_prefetch((const void *)(p))
+#endif
+SPT_FN void bvh_prefetch(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
+                         spt_u32 child, spt_u32 count)
+{
+#if defined(BVH_HAVE_PREFETCH) && (!SPT_DEVICE || defined(SPT_BVH_SIMD))
+    if (count) {
+        const SPT_GLOBAL float *p = tris + 9u * child;
+        BVH_PREFETCH(p);
+        BVH_PREFETCH(p + 9u * count - 1u);
+    } else {
+        BVH_PREFETCH(&nodes[child]);
+        BVH_PREFETCH((const SPT_GLOBAL char *)&nodes[child] + 64);
+    }
+#else
+    (void)nodes; (void)tris; (void)child; (void)count;
+#endif
+}
+
+/* Index of the lowest set bit of m (m != 0). */
+SPT_FN spt_u32 bvh_lowest_bit(spt_u32 m)
+{
+#if SPT_DEVICE
+    return 31u - clz(m & (0u - m));
+#else
+    return (spt_u32)__builtin_ctz(m);
+#endif
+}
+
+/* Lane i (0..3) of v. */
+SPT_FN float bvh_lane(vec4 v, spt_u32 i)
+{
+    return i == 0u ? v.x : i == 1u ? v.y : i == 2u ? v.z : v.w;
 }
 
 /* Orders the (distance, slot) pairs (ka, sa) and (kb, sb) by distance, without
@@ -252,7 +391,7 @@ SPT_FN int bvh_tri_intersect(const SPT_GLOBAL BvhTri *tris, spt_u32 i, const Bvh
  * (any_hit 1: stops at the first hit). The children a ray enters are visited
  * nearest first, the others deferred on the stack and skipped when their entry
  * distance is beyond the best hit. */
-SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL BvhTri *tris,
+SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
                         vec3 org, vec3 dir, float tmax, int any_hit, BvhHit *hit)
 {
     BvhRay r;
@@ -267,42 +406,59 @@ SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL BvhTri
     spt_u32 cur = 0, count = 0;
     for (;;) {
         if (count) {
-            for (spt_u32 i = cur; i < cur + count; i++) {
-                if (bvh_tri_intersect(tris, i, &r, best, hit)) {
-                    best = hit->t;
-                    found = 1;
-                    if (any_hit)
-                        return 1;
-                }
+            if (bvh_leaf_intersect(tris, cur, count, &r, &best, any_hit, hit)) {
+                found = 1;
+                if (any_hit)
+                    return 1;
             }
         } else {
             const SPT_GLOBAL BvhNode *n = &nodes[cur];
             vec4 d4 = bvh_node_enter(n, &r, best);
-            /* Sort the slots by entry distance, misses (-1) last as +big, with
-             * a 4-input sorting network of conditional swaps. */
-            float k0 = d4.x >= 0.0f ? d4.x : BVH_FAR, k1 = d4.y >= 0.0f ? d4.y : BVH_FAR;
-            float k2 = d4.z >= 0.0f ? d4.z : BVH_FAR, k3 = d4.w >= 0.0f ? d4.w : BVH_FAR;
-            int nh = (d4.x >= 0.0f) + (d4.y >= 0.0f) + (d4.z >= 0.0f) + (d4.w >= 0.0f);
-            int s0 = 0, s1 = 1, s2 = 2, s3 = 3;
-            BVH_SWAP_IF(k0, s0, k1, s1);
-            BVH_SWAP_IF(k2, s2, k3, s3);
-            BVH_SWAP_IF(k0, s0, k2, s2);
-            BVH_SWAP_IF(k1, s1, k3, s3);
-            BVH_SWAP_IF(k1, s1, k2, s2);
-            if (nh > 0) {
+            spt_u32 mask = (spt_u32)(d4.x >= 0.0f) | (spt_u32)(d4.y >= 0.0f) << 1 |
+                           (spt_u32)(d4.z >= 0.0f) << 2 | (spt_u32)(d4.w >= 0.0f) << 3;
+            if (mask) {
+                spt_u32 a = bvh_lowest_bit(mask), rest = mask & (mask - 1u);
+                if (!rest) {
+                    /* One child entered, the usual case deep in the tree. */
+                    cur = n->child[a];
+                    count = n->count[a];
+                    continue;
+                }
+                if (!(rest & (rest - 1u))) {
+                    /* Two: visit the nearer, defer the other. */
+                    spt_u32 b = bvh_lowest_bit(rest);
+                    float ka = bvh_lane(d4, a), kb = bvh_lane(d4, b);
+                    spt_u32 near = kb < ka ? b : a, far = kb < ka ? a : b;
+                    stack_child[sp] = n->child[far];
+                    stack_count[sp] = n->count[far];
+                    bvh_prefetch(nodes, tris, stack_child[sp], stack_count[sp]);
+                    stack_t[sp++] = kb < ka ? ka : kb;
+                    cur = n->child[near];
+                    count = n->count[near];
+                    continue;
+                }
+                /* Three or four: sort the slots by entry distance, misses (-1)
+                 * last as +big, with a 4-input sorting network of conditional
+                 * swaps. */
+                float k0 = d4.x >= 0.0f ? d4.x : BVH_FAR, k1 = d4.y >= 0.0f ? d4.y : BVH_FAR;
+                float k2 = d4.z >= 0.0f ? d4.z : BVH_FAR, k3 = d4.w >= 0.0f ? d4.w : BVH_FAR;
+                int s0 = 0, s1 = 1, s2 = 2, s3 = 3;
+                BVH_SWAP_IF(k0, s0, k1, s1);
+                BVH_SWAP_IF(k2, s2, k3, s3);
+                BVH_SWAP_IF(k0, s0, k2, s2);
+                BVH_SWAP_IF(k1, s1, k3, s3);
+                BVH_SWAP_IF(k1, s1, k2, s2);
                 /* Defer all but the nearest, farthest first. */
-                if (nh > 3) {
+                if (mask == 15u) {
                     stack_child[sp] = n->child[s3]; stack_count[sp] = n->count[s3];
                     stack_t[sp++] = k3;
                 }
-                if (nh > 2) {
-                    stack_child[sp] = n->child[s2]; stack_count[sp] = n->count[s2];
-                    stack_t[sp++] = k2;
-                }
-                if (nh > 1) {
-                    stack_child[sp] = n->child[s1]; stack_count[sp] = n->count[s1];
-                    stack_t[sp++] = k1;
-                }
+                stack_child[sp] = n->child[s2]; stack_count[sp] = n->count[s2];
+                stack_t[sp++] = k2;
+                stack_child[sp] = n->child[s1]; stack_count[sp] = n->count[s1];
+                stack_t[sp++] = k1;
+                bvh_prefetch(nodes, tris, stack_child[sp - 1], stack_count[sp - 1]);
+                bvh_prefetch(nodes, tris, stack_child[sp - 2], stack_count[sp - 2]);
                 cur = n->child[s0];
                 count = n->count[s0];
                 continue;
@@ -324,14 +480,14 @@ SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL BvhTri
 
 /* Closest hit of the ray org + t dir with t in (0, tmax): returns 1 and fills hit,
  * or returns 0 (hit untouched) on a miss. An empty scene always misses. */
-SPT_FN int bvh_intersect(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL BvhTri *tris,
+SPT_FN int bvh_intersect(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
                          vec3 org, vec3 dir, float tmax, BvhHit *hit)
 {
     return bvh_traverse(nodes, tris, org, dir, tmax, 0, hit);
 }
 
 /* 1 when any triangle is hit with t in (0, tmax) (shadow rays), else 0. */
-SPT_FN int bvh_occluded(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL BvhTri *tris,
+SPT_FN int bvh_occluded(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
                         vec3 org, vec3 dir, float tmax)
 {
     BvhHit h;

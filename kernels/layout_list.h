@@ -33,7 +33,6 @@ typedef struct LayoutProbe {
     X(TriShade)                   \
     X(RenderParams)               \
     X(BvhNode)                    \
-    X(BvhTri)                     \
     X(BvhHit)                     \
     X(GpuLight)                   \
     X(GpuEnvMap)

@@ -199,7 +199,8 @@ typedef struct RenderParams {
 /* Scene buffers (read only) and film/queue buffers. */
 #define SPT_SCENE_BUFFERS(X)          \
     X(const BvhNode, nodes)           \
-    X(const BvhTri, tris)             \
+    X(const float, tris)              \
+    X(const uchar, tri_lane)          \
     X(const TriShade, tri_shade)      \
     X(const float, vtx_normal)        \
     X(const float, vtx_uv)            \

@@ -15,6 +15,7 @@
   #define SPT_GLOBAL __global
   typedef uint spt_u32;
   typedef int spt_i32;
+  typedef uchar spt_u8;
   /* C spellings of the float maths built-ins, so shared code reads the same on
    * both sides. */
   #define sqrtf sqrt
@@ -46,6 +47,7 @@
   #define SPT_GLOBAL
   typedef uint32_t spt_u32;
   typedef int32_t spt_i32;
+  typedef uint8_t spt_u8;
   #define SPT_STATIC_ASSERT(cond, msg) _Static_assert(cond, msg)
 #endif
 

@@ -338,7 +338,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     float4 L = ps_radiance[i];
     float3 rd = ps_ray_d[i].xyz;
     vec3 v0, v1, v2;
-    bvh_tri_vertices(tris, prim, &v0, &v1, &v2);
+    bvh_tri_vertices(tris, tri_lane, prim, &v0, &v1, &v2);
     float bu = hit.y, bv = hit.z;
     float3 p = (1.0f - bu - bv) * v0 + bu * v1 + bv * v2;
     float3 ng = normalize(cross(v1 - v0, v2 - v0));
@@ -432,7 +432,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
         if (e >= 0 && (uint)e < P.emitter_count) {
             uint lt = emitters[e];
             vec3 a, b, c;
-            bvh_tri_vertices(tris, lt, &a, &b, &c);
+            bvh_tri_vertices(tris, tri_lane, lt, &a, &b, &c);
             vec3 bary = spt_sample_triangle_bary(ul, vl);
             float3 q = bary.x * a + bary.y * b + bary.z * c;
             float3 nl = normalize(cross(b - a, c - a));
@@ -590,7 +590,7 @@ __kernel void k_connect(ALL_BUFFERS)
             if (!(transmit > 0.0f) || k == 15)
                 return;
             vec3 a, b, c;
-            bvh_tri_vertices(tris, h.prim, &a, &b, &c);
+            bvh_tri_vertices(tris, tri_lane, h.prim, &a, &b, &c);
             float3 ng = normalize(cross(b - a, c - a));
             float3 q = o + h.t * d.xyz;
             float3 o2 = offset_origin(q, dot(ng, d.xyz) > 0.0f ? ng : -ng);

@@ -7,7 +7,7 @@
 #include <stdint.h>
 
 #include "util.h"
-/* The device layout (BvhNode, BvhTri, bvh_intersect, bvh_occluded). The path is
+/* The device layout (BvhNode, the packed triangles, bvh_intersect, bvh_occluded). The path is
  * explicit because this header is also called bvh.h. */
 #include "../kernels/bvh.h"
 
@@ -32,10 +32,14 @@ typedef struct BvhStats {
 typedef struct Bvh {
     BvhNode *nodes;          /* node_count nodes, root first (device-ready) */
     uint32_t node_count;
-    void *tri_data;          /* BvhTri array in leaf order (device-ready); holds one
+    float *tri_data;         /* packed triangles, 9 floats each in leaf order, each
+                                leaf as structure of arrays, then BVH_TRI_PAD
+                                floats (kernels/bvh.h; device-ready); holds one
                                 zeroed dummy triangle when prim_count is 0, so the
                                 buffer is never empty */
     size_t tri_data_bytes;
+    spt_u8 *tri_lane;        /* per packed triangle: its lane and leaf size - 1
+                                (kernels/bvh.h); one 0 when prim_count is 0 */
     uint32_t *prim_index;    /* prim_index[i] = input index of packed triangle i */
     uint32_t prim_count;     /* triangles kept */
     BvhStats stats;
@@ -52,7 +56,7 @@ typedef struct BvhOptions {
 } BvhOptions;
 
 #define BVH_MAX_BINS 64
-#define BVH_MAX_LEAF 64
+#define BVH_MAX_LEAF BVH_LEAF_MAX
 
 /* The settings bvh_build uses. */
 BvhOptions bvh_default_options(void);
@@ -75,8 +79,11 @@ void bvh_free(Bvh *bvh);
 /* The bounds of everything indexed (lo > hi when nothing is). */
 void bvh_bounds(const Bvh *bvh, float lo[3], float hi[3]);
 
-/* The packed triangles as their device type. */
-static inline const BvhTri *bvh_tris(const Bvh *bvh) { return (const BvhTri *)bvh->tri_data; }
+/* The vertices of packed triangle i. */
+static inline void bvh_vertices(const Bvh *bvh, uint32_t i, vec3 *v0, vec3 *v1, vec3 *v2)
+{
+    bvh_tri_vertices(bvh->tri_data, bvh->tri_lane, i, v0, v1, v2);
+}
 
 /* A closed, star-shaped test mesh: a sphere of the given radius around center
  * with stacks x slices vertices between the poles, radially displaced by

@@ -193,7 +193,7 @@ int cmd_info(int argc, char **argv)
                    "cost %.2f, %.1f bytes/triangle, built in %.1f ms\n",
                    b->node_count, b->leaf_count, b->max_depth, b->avg_leaf_size,
                    b->max_leaf_size, b->sah_cost, b->bytes_per_tri, b->build_seconds * 1e3);
-            bytes += (double)bvh.node_count * sizeof(BvhNode) + (double)bvh.tri_data_bytes;
+            bytes += (double)bvh.node_count * sizeof(BvhNode) + (double)bvh.tri_data_bytes + bvh.prim_count;
             bvh_bytes_per_tri = b->bytes_per_tri;
             bvh_free(&bvh);
         }

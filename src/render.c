@@ -258,13 +258,12 @@ int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
     for (uint32_t i = 0; i < g->material_count; i++)
         if (g->materials[i].flags & SPT_MAT_EMISSIVE)
             mat_y[i] = emission_luminance(&g->materials[i], g->spectra);
-    const BvhTri *tris = bvh_tris(&g->bvh);
     for (uint32_t i = 0; i < n; i++) {
         uint32_t m = g->tri_shade[i].material;
         if (!(m < g->material_count && (g->materials[m].flags & SPT_MAT_EMISSIVE)))
             continue;
         vec3 a, b, c;
-        bvh_tri_vertices(tris, i, &a, &b, &c);
+        bvh_vertices(&g->bvh, i, &a, &b, &c);
         float area = 0.5f * v3_length(v3_cross(v3_sub(b, a), v3_sub(c, a)));
         float w = (float)(M_PI * area * mat_y[m]);
         if (!(w > 0.0f))
@@ -342,6 +341,7 @@ static size_t scene_buffer_bytes(const GpuScene *g, const RenderLights *L, const
     uint32_t n = g->bvh.prim_count;
     if (!strcmp(name, "nodes")) return NZ((size_t)g->bvh.node_count * sizeof(BvhNode));
     if (!strcmp(name, "tris")) return NZ(g->bvh.tri_data_bytes);
+    if (!strcmp(name, "tri_lane")) return NZ(n);
     if (!strcmp(name, "tri_shade")) return NZ((size_t)n * sizeof(TriShade));
     if (!strcmp(name, "vtx_normal")) return NZ((size_t)g->vertex_count * 3 * sizeof(float));
     if (!strcmp(name, "vtx_uv")) return NZ((size_t)g->vertex_count * 2 * sizeof(float));
@@ -363,6 +363,7 @@ static const void *scene_buffer_data(const GpuScene *g, const RenderLights *L, c
 {
     if (!strcmp(name, "nodes")) return g->bvh.nodes;
     if (!strcmp(name, "tris")) return g->bvh.tri_data;
+    if (!strcmp(name, "tri_lane")) return g->bvh.tri_lane;
     if (!strcmp(name, "tri_shade")) return g->tri_shade;
     if (!strcmp(name, "vtx_normal")) return g->vtx_normal;
     if (!strcmp(name, "vtx_uv")) return g->vtx_uv;
@@ -505,7 +506,12 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
     /* Test hook: SPECTRACE_TEST_INJECT_NAN=1 makes pixel 0's radiance NaN, to show
      * that the NaN guard keeps it off the film. */
     const char *nan_hook = getenv("SPECTRACE_TEST_INJECT_NAN");
-    const char *options = nan_hook && *nan_hook && strcmp(nan_hook, "0") ? "-DSPT_TEST_INJECT_NAN=1" : NULL;
+    /* CPUs test a BVH leaf's triangles with float8 operations (kernels/bvh.h);
+     * GPUs, whose work-items are the SIMD lanes, loop over them. */
+    char options[96];
+    snprintf(options, sizeof options, "%s%s",
+             (info->type & CL_DEVICE_TYPE_CPU) ? "-DSPT_BVH_SIMD=1 " : "",
+             nan_hook && *nan_hook && strcmp(nan_hook, "0") ? "-DSPT_TEST_INJECT_NAN=1" : "");
     if ((rc = cl_program_build(&w->dev, "kernels/wavefront.cl", options, &w->program, e)))
         return rc;
     for (int i = 0; i < K_COUNT; i++) {
@@ -946,7 +952,7 @@ static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *
         BvhHit hit;
         vec3 o = v3(cam->position[0], cam->position[1], cam->position[2]);
         vec3 d = v3(cam->forward[0], cam->forward[1], cam->forward[2]);
-        p->focus_distance = g->bvh.prim_count && bvh_intersect(g->bvh.nodes, bvh_tris(&g->bvh), o, d, 1e30f, &hit)
+        p->focus_distance = g->bvh.prim_count && bvh_intersect(g->bvh.nodes, g->bvh.tri_data, o, d, 1e30f, &hit)
                                 ? hit.t : 1000.0f;
     }
 }

@@ -111,7 +111,7 @@ static void check_rays(const Bvh *bvh, const float *tris, uint32_t n, const unsi
         }
         RefHit ref = ref_closest(tris, n, keep, o, d);
         BvhHit h = {0, 0, 0, 0};
-        int got = bvh_intersect(bvh->nodes, bvh_tris(bvh), org, dir, 1e30f, &h);
+        int got = bvh_intersect(bvh->nodes, bvh->tri_data, org, dir, 1e30f, &h);
         hits += got;
         int tie = 0;
         if (got) {
@@ -124,7 +124,7 @@ static void check_rays(const Bvh *bvh, const float *tris, uint32_t n, const unsi
                          "%s %.9g", r, id, h.t, on_tri ? "t =" : "a miss,", on_tri ? tb : 0.0);
             /* barycentrics reproduce the hit point */
             vec3 v0, v1, v2;
-            bvh_tri_vertices(bvh_tris(bvh), h.prim, &v0, &v1, &v2);
+            bvh_vertices(bvh, h.prim, &v0, &v1, &v2);
             vec3 p = v3_add(v3_add(v3_scale(v0, 1 - h.u - h.v), v3_scale(v1, h.u)),
                             v3_scale(v2, h.v));
             vec3 q = v3_add(org, v3_scale(dir, h.t));
@@ -146,7 +146,7 @@ static void check_rays(const Bvh *bvh, const float *tris, uint32_t n, const unsi
         ties += tie;
         /* any hit with a random tmax agrees with the closest hit */
         float tmax = (float)rnd_range(0.01, 2.0 * (hi - lo));
-        int occ = bvh_occluded(bvh->nodes, bvh_tris(bvh), org, dir, tmax);
+        int occ = bvh_occluded(bvh->nodes, bvh->tri_data, org, dir, tmax);
         int want = ref.hit && ref.t < tmax;
         if (occ != want && !tie && !(ref.hit && fabs(ref.t - tmax) < 1e-4 * tmax))
             fail_msg("ray %d: occluded(tmax=%.9g) = %d, brute force closest t = %.9g", r, tmax,
@@ -187,7 +187,6 @@ static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
     }
     sp++;
     uint32_t visits = 0, leaves = 0, max_depth = 0;
-    const BvhTri *pt = bvh_tris(bvh);
     while (sp) {
         sp--;
         uint32_t i = stack[sp], dep = depth[sp];
@@ -232,12 +231,22 @@ static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
                     assert_true(keep == NULL || keep[id]);
                     assert_false(seen_in[id]);
                     seen_in[id] = 1;
-                    assert_memory_equal(pt[k].v, tris + (size_t)id * 9, 36);
-                    for (int v = 0; v < 3; v++)
-                        for (int a = 0; a < 3; a++) {
-                            assert_true(pt[k].v[v * 3 + a] >= lo[a]);
-                            assert_true(pt[k].v[v * 3 + a] <= hi[a]);
-                        }
+                    /* its lane record and its vertices, read through it */
+                    assert_int_equal(bvh->tri_lane[k] & 15, k - first);
+                    assert_int_equal((bvh->tri_lane[k] >> 4) + 1, cnt);
+                    vec3 v[3];
+                    bvh_vertices(bvh, k, &v[0], &v[1], &v[2]);
+                    float pv[9];
+                    for (int j = 0; j < 3; j++) {
+                        pv[3 * j] = v[j].x;
+                        pv[3 * j + 1] = v[j].y;
+                        pv[3 * j + 2] = v[j].z;
+                    }
+                    assert_memory_equal(pv, tris + (size_t)id * 9, 36);
+                    for (int a = 0; a < 9; a++) {
+                        assert_true(pv[a] >= lo[a % 3]);
+                        assert_true(pv[a] <= hi[a % 3]);
+                    }
                 }
             } else {
                 assert_true(nd->child[c] > i && nd->child[c] < bvh->node_count);
@@ -373,7 +382,7 @@ static void test_watertight(void **state)
                           c[2] + (float)rnd_range(-0.3, 0.3) * radius[k]);
             vec3 dir = v3((float)d[0], (float)d[1], (float)d[2]);
             BvhHit h;
-            if (!bvh_intersect(bvh.nodes, bvh_tris(&bvh), org, dir, 1e30f, &h))
+            if (!bvh_intersect(bvh.nodes, bvh.tri_data, org, dir, 1e30f, &h))
                 miss_here++;
             else
                 assert_true(h.t > 0.2f * radius[k] && h.t < 1.8f * radius[k]);
@@ -445,12 +454,12 @@ static void test_identical_triangles(void **state)
     assert_true(bvh.stats.max_depth <= 7);
     assert_true(bvh.stats.build_seconds < 5.0);
     BvhHit h;
-    assert_true(bvh_intersect(bvh.nodes, bvh_tris(&bvh), v3(0.25f, 0.25f, 2.0f),
+    assert_true(bvh_intersect(bvh.nodes, bvh.tri_data, v3(0.25f, 0.25f, 2.0f),
                               v3(0, 0, -1), 1e30f, &h));
     assert_close(h.t, 2.0, 1e-6);
     assert_close(h.u, 0.25, 1e-6);
     assert_close(h.v, 0.25, 1e-6);
-    assert_false(bvh_occluded(bvh.nodes, bvh_tris(&bvh), v3(0.25f, 0.25f, 2.0f), v3(0, 0, -1),
+    assert_false(bvh_occluded(bvh.nodes, bvh.tri_data, v3(0.25f, 0.25f, 2.0f), v3(0, 0, -1),
                               1.999f));
     bvh_free(&bvh);
     free(t);
@@ -475,20 +484,21 @@ static void test_empty_scene(void **state)
             vec3 o = v3((float)rnd_range(-1, 1), (float)rnd_range(-1, 1), (float)rnd_range(-1, 1));
             vec3 dir = v3((float)d[0], (float)d[1], (float)d[2]);
             BvhHit h;
-            assert_false(bvh_intersect(bvh.nodes, bvh_tris(&bvh), o, dir, 1e30f, &h));
-            assert_false(bvh_occluded(bvh.nodes, bvh_tris(&bvh), o, dir, 1e30f));
+            assert_false(bvh_intersect(bvh.nodes, bvh.tri_data, o, dir, 1e30f, &h));
+            assert_false(bvh_occluded(bvh.nodes, bvh.tri_data, o, dir, 1e30f));
         }
         bvh_free(&bvh);
     }
 }
 
 /* The kernels run this traversal: compiled by the OpenCL device from kernels/
- * (without fast-math options), it reports the host's struct sizes and returns
- * bit-identical hits to the host build for the same rays. Skipped without an
- * OpenCL device. */
+ * (without fast-math options), with the lane-by-lane leaf test that GPUs run and
+ * with the float8 one of CPUs (SPT_BVH_SIMD), it reports the host's node size and
+ * returns bit-identical hits to the host build for the same rays. Skipped without
+ * an OpenCL device. */
 static const char *k_device_src =
     "#include \"bvh.h\"\n"
-    "__kernel void k_bvh_test(__global const BvhNode *nodes, __global const BvhTri *tris,\n"
+    "__kernel void k_bvh_test(__global const BvhNode *nodes, __global const float *tris,\n"
     "                         __global const float *rays, __global float *out, int n)\n"
     "{\n"
     "    int i = get_global_id(0);\n"
@@ -500,8 +510,77 @@ static const char *k_device_src =
     "    out[i * 4] = hit ? h.t : -1.0f;\n"
     "    out[i * 4 + 1] = hit ? (float)h.prim : -1.0f;\n"
     "    out[i * 4 + 2] = (float)bvh_occluded(nodes, tris, o, d, 1e30f);\n"
-    "    out[i * 4 + 3] = (float)(sizeof(BvhNode) * 1000 + sizeof(BvhTri));\n"
+    "    out[i * 4 + 3] = (float)sizeof(BvhNode);\n"
     "}\n";
+
+/* Builds k_device_src with options, runs it on the rays and counts the rays whose
+ * hit, prim or occlusion differs from the host traversal. */
+static int device_differences(cl_context ctx, cl_device_id dev, cl_command_queue q,
+                              const char *options, const Bvh *bvh, const float *rays, int nr,
+                              int *hits)
+{
+    cl_int err;
+    cl_program prog = clCreateProgramWithSource(ctx, 1, &k_device_src, NULL, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    err = clBuildProgram(prog, 1, &dev, options, NULL, NULL);
+    if (err != CL_SUCCESS) {
+        char log[8192] = "";
+        clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, NULL);
+        fail_msg("kernels/bvh.h does not build as OpenCL C (%s): %s", options, log);
+    }
+    float *out = malloc((size_t)nr * 4 * sizeof *out);
+    cl_mem bn = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                               bvh->node_count * sizeof(BvhNode), bvh->nodes, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_mem bt = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bvh->tri_data_bytes,
+                               bvh->tri_data, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_mem br = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                               (size_t)nr * 6 * sizeof *rays, (void *)rays, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_mem bo = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, (size_t)nr * 4 * sizeof *out, NULL, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    cl_kernel k = clCreateKernel(prog, "k_bvh_test", &err);
+    assert_int_equal(err, CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 0, sizeof bn, &bn), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 1, sizeof bt, &bt), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 2, sizeof br, &br), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 3, sizeof bo, &bo), CL_SUCCESS);
+    assert_int_equal(clSetKernelArg(k, 4, sizeof nr, &nr), CL_SUCCESS);
+    size_t global = (size_t)nr;
+    assert_int_equal(clEnqueueNDRangeKernel(q, k, 1, NULL, &global, NULL, 0, NULL, NULL),
+                     CL_SUCCESS);
+    assert_int_equal(clEnqueueReadBuffer(q, bo, CL_TRUE, 0, (size_t)nr * 4 * sizeof *out, out, 0,
+                                         NULL, NULL),
+                     CL_SUCCESS);
+    assert_close(out[3], sizeof(BvhNode), 0);
+    int differ = 0;
+    *hits = 0;
+    for (int i = 0; i < nr; i++) {
+        vec3 o = v3(rays[i * 6], rays[i * 6 + 1], rays[i * 6 + 2]);
+        vec3 d = v3(rays[i * 6 + 3], rays[i * 6 + 4], rays[i * 6 + 5]);
+        BvhHit h;
+        int hit = bvh_intersect(bvh->nodes, bvh->tri_data, o, d, 1e30f, &h);
+        int occ = bvh_occluded(bvh->nodes, bvh->tri_data, o, d, 1e30f);
+        *hits += hit;
+        if (out[i * 4] != (hit ? h.t : -1.0f) || out[i * 4 + 1] != (hit ? (float)h.prim : -1.0f) ||
+            out[i * 4 + 2] != (float)occ) {
+            if (differ++ < 5)
+                print_message("%s: ray %d: device t=%.9g prim=%g occ=%g, host t=%.9g prim=%d "
+                              "occ=%d\n",
+                              options, i, out[i * 4], out[i * 4 + 1], out[i * 4 + 2],
+                              hit ? h.t : -1.0f, hit ? (int)h.prim : -1, occ);
+        }
+    }
+    clReleaseKernel(k);
+    clReleaseMemObject(bn);
+    clReleaseMemObject(bt);
+    clReleaseMemObject(br);
+    clReleaseMemObject(bo);
+    clReleaseProgram(prog);
+    free(out);
+    return differ;
+}
 
 static void test_device_matches_host(void **state)
 {
@@ -519,22 +598,15 @@ static void test_device_matches_host(void **state)
     assert_int_equal(err, CL_SUCCESS);
     cl_command_queue q = clCreateCommandQueue(ctx, dev, 0, &err);
     assert_int_equal(err, CL_SUCCESS);
-    cl_program prog = clCreateProgramWithSource(ctx, 1, &k_device_src, NULL, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    err = clBuildProgram(prog, 1, &dev, "-I kernels -cl-std=CL1.2", NULL, NULL);
-    if (err != CL_SUCCESS) {
-        char log[8192] = "";
-        clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, NULL);
-        fail_msg("kernels/bvh.h does not build as OpenCL C: %s", log);
-    }
     rng_state = 18;
     uint32_t n;
     const float c[3] = {0.1f, 0.2f, -0.3f};
     float *t = bvh_gen_sphere(60, 120, 1.0f, c, 0.3f, &n);
-    Bvh bvh;
-    assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
+    /* Leaves of up to 16 triangles, so the float8 test also runs in two groups. */
+    BvhOptions opt = bvh_default_options();
+    const int max_leaf[2] = {opt.max_leaf, BVH_MAX_LEAF};
     int nr = 20000;
-    float *rays = malloc((size_t)nr * 6 * sizeof *rays), *out = malloc((size_t)nr * 4 * sizeof *out);
+    float *rays = malloc((size_t)nr * 6 * sizeof *rays);
     for (int i = 0; i < nr; i++) {
         double d[3];
         rnd_dir(d);
@@ -543,60 +615,25 @@ static void test_device_matches_host(void **state)
             rays[i * 6 + 3 + a] = (float)d[a];
         }
     }
-    cl_mem bn = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                               bvh.node_count * sizeof(BvhNode), bvh.nodes, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_mem bt = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bvh.tri_data_bytes,
-                               bvh.tri_data, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_mem br = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                               (size_t)nr * 6 * sizeof *rays, rays, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_mem bo = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, (size_t)nr * 4 * sizeof *out, NULL, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_kernel k = clCreateKernel(prog, "k_bvh_test", &err);
-    assert_int_equal(err, CL_SUCCESS);
-    assert_int_equal(clSetKernelArg(k, 0, sizeof bn, &bn), CL_SUCCESS);
-    assert_int_equal(clSetKernelArg(k, 1, sizeof bt, &bt), CL_SUCCESS);
-    assert_int_equal(clSetKernelArg(k, 2, sizeof br, &br), CL_SUCCESS);
-    assert_int_equal(clSetKernelArg(k, 3, sizeof bo, &bo), CL_SUCCESS);
-    assert_int_equal(clSetKernelArg(k, 4, sizeof nr, &nr), CL_SUCCESS);
-    size_t global = (size_t)nr;
-    assert_int_equal(clEnqueueNDRangeKernel(q, k, 1, NULL, &global, NULL, 0, NULL, NULL),
-                     CL_SUCCESS);
-    assert_int_equal(clEnqueueReadBuffer(q, bo, CL_TRUE, 0, (size_t)nr * 4 * sizeof *out, out, 0,
-                                         NULL, NULL),
-                     CL_SUCCESS);
-    assert_close(out[3], sizeof(BvhNode) * 1000 + sizeof(BvhTri), 0);
-    int hits = 0, differ = 0;
-    for (int i = 0; i < nr; i++) {
-        vec3 o = v3(rays[i * 6], rays[i * 6 + 1], rays[i * 6 + 2]);
-        vec3 d = v3(rays[i * 6 + 3], rays[i * 6 + 4], rays[i * 6 + 5]);
-        BvhHit h;
-        int hit = bvh_intersect(bvh.nodes, bvh_tris(&bvh), o, d, 1e30f, &h);
-        int occ = bvh_occluded(bvh.nodes, bvh_tris(&bvh), o, d, 1e30f);
-        hits += hit;
-        if (out[i * 4] != (hit ? h.t : -1.0f) || out[i * 4 + 1] != (hit ? (float)h.prim : -1.0f) ||
-            out[i * 4 + 2] != (float)occ) {
-            if (differ++ < 5)
-                print_message("ray %d: device t=%.9g prim=%g occ=%g, host t=%.9g prim=%d occ=%d\n",
-                              i, out[i * 4], out[i * 4 + 1], out[i * 4 + 2], hit ? h.t : -1.0f,
-                              hit ? (int)h.prim : -1, occ);
+    for (int m = 0; m < 2; m++) {
+        Bvh bvh;
+        opt.max_leaf = max_leaf[m];
+        opt.cost_node = m ? 8.0f : opt.cost_node;
+        assert_int_equal(bvh_build_ex(&bvh, t, n, &opt, NULL), 0);
+        if (m)
+            assert_true(bvh.stats.max_leaf_size > 8);
+        const char *options[2] = {"-I kernels -cl-std=CL1.2",
+                                  "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=1"};
+        for (int o = 0; o < 2; o++) {
+            int hits;
+            assert_int_equal(device_differences(ctx, dev, q, options[o], &bvh, rays, nr, &hits), 0);
+            assert_true(hits > nr / 4);
         }
+        bvh_free(&bvh);
     }
-    assert_true(hits > nr / 4);
-    assert_int_equal(differ, 0);
-    clReleaseKernel(k);
-    clReleaseMemObject(bn);
-    clReleaseMemObject(bt);
-    clReleaseMemObject(br);
-    clReleaseMemObject(bo);
-    clReleaseProgram(prog);
     clReleaseCommandQueue(q);
     clReleaseContext(ctx);
-    bvh_free(&bvh);
     free(rays);
-    free(out);
     free(t);
 }
 

@@ -136,11 +136,11 @@ static void bench_rays(const char *name, const Bvh *bvh, int runs, int nrays)
         double t0 = spt_now();
         for (int i = 0; i < nrays; i++) {
             BvhHit h;
-            hits += bvh_intersect(bvh->nodes, bvh_tris(bvh), org[i], dir[i], 1e30f, &h);
+            hits += bvh_intersect(bvh->nodes, bvh->tri_data, org[i], dir[i], 1e30f, &h);
         }
         double t1 = spt_now();
         for (int i = 0; i < nrays; i++)
-            hits += bvh_occluded(bvh->nodes, bvh_tris(bvh), org[i], dir[i], 1e30f);
+            hits += bvh_occluded(bvh->nodes, bvh->tri_data, org[i], dir[i], 1e30f);
         double t2 = spt_now();
         closest[r] = nrays / (t1 - t0) * 1e-6;
         any[r] = nrays / (t2 - t1) * 1e-6;

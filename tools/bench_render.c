@@ -3,7 +3,8 @@
  * generated scene of about one million triangles with incoherent (diffusely
  * bounced) rays, on the selected OpenCL device, with where the time goes measured by
  * OpenCL profiling events. Prints the median of several runs.
- * Usage: bench_render [RUNS] (SPECTRACE_DEVICE selects the device). */
+ * Usage: bench_render [RUNS] (SPECTRACE_DEVICE selects the device;
+ * SPECTRACE_BENCH_ONLY=cornell or =sphere runs one of the two). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -98,14 +99,16 @@ int main(int argc, char **argv)
     const ClDeviceInfo *dev = &list.devices[sel[0]];
     printf("device: %s (%s)\n", dev->name, dev->platform_name);
 
+    const char *only = getenv("SPECTRACE_BENCH_ONLY");
+    int do_cornell = !only || !strcmp(only, "cornell"), do_sphere = !only || !strcmp(only, "sphere");
     Scene cb;
-    if (scene_load_gltf(&cb, "scenes/cornell_box.gltf", &e)) {
+    if (do_cornell && scene_load_gltf(&cb, "scenes/cornell_box.gltf", &e)) {
         fprintf(stderr, "error: %s\n", e.msg);
         return 1;
     }
     double pps[16], stage[5] = {0};
     static const char *names[5] = {"generate", "extend", "shade", "connect", "accumulate"};
-    for (int r = 0; r < runs && r < 16; r++) {
+    for (int r = 0; do_cornell && r < runs && r < 16; r++) {
         RenderStats st;
         if (run(dev, &cb, 512, 512, 64, 8, &st))
             return 1;
@@ -114,15 +117,20 @@ int main(int argc, char **argv)
             stage[k] += st.stage_seconds[k] / runs;
         printf("  cornell run %d: %.3f Mpaths/s (%.2f s)\n", r + 1, pps[r] * 1e-6, st.seconds);
     }
-    double tot = 0;
-    for (int k = 0; k < 5; k++)
-        tot += stage[k];
-    printf("cornell box 512x512 64 spp max depth 8: median %.3f Mpaths/s over %d runs\n",
-           median(pps, runs < 16 ? runs : 16) * 1e-6, runs);
-    for (int k = 0; k < 5; k++)
-        printf("  %-10s %7.3f s  %5.1f%%\n", names[k], stage[k], tot > 0 ? 100 * stage[k] / tot : 0);
-    scene_free(&cb);
-
+    if (do_cornell) {
+        double tot = 0;
+        for (int k = 0; k < 5; k++)
+            tot += stage[k];
+        printf("cornell box 512x512 64 spp max depth 8: median %.3f Mpaths/s over %d runs\n",
+               median(pps, runs < 16 ? runs : 16) * 1e-6, runs);
+        for (int k = 0; k < 5; k++)
+            printf("  %-10s %7.3f s  %5.1f%%\n", names[k], stage[k], tot > 0 ? 100 * stage[k] / tot : 0);
+        scene_free(&cb);
+    }
+    if (!do_sphere) {
+        cl_device_list_free(&list);
+        return 0;
+    }
     Scene sp;
     make_sphere_scene(&sp);
     double rps[16];
