@@ -618,7 +618,7 @@ static void test_device_matches_host(void **state)
     for (int m = 0; m < 2; m++) {
         Bvh bvh;
         opt.max_leaf = max_leaf[m];
-        opt.cost_node = m ? 8.0f : opt.cost_node;
+        opt.cost_node = m ? 16.0f : opt.cost_node;
         assert_int_equal(bvh_build_ex(&bvh, t, n, &opt, NULL), 0);
         if (m)
             assert_true(bvh.stats.max_leaf_size > 8);

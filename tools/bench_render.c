@@ -115,7 +115,10 @@ int main(int argc, char **argv)
         pps[r] = st.paths / st.seconds;
         for (int k = 0; k < 5; k++)
             stage[k] += st.stage_seconds[k] / runs;
-        printf("  cornell run %d: %.3f Mpaths/s (%.2f s)\n", r + 1, pps[r] * 1e-6, st.seconds);
+        printf("  cornell run %d: %.3f Mpaths/s (%.2f s; %.2f extend and %.2f shadow rays per "
+               "path)\n",
+               r + 1, pps[r] * 1e-6, st.seconds, (double)st.rays_extend / st.paths,
+               (double)st.rays_shadow / st.paths);
     }
     if (do_cornell) {
         double tot = 0;
