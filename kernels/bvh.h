@@ -249,9 +249,10 @@ SPT_FN int bvh_tri_intersect(const SPT_GLOBAL float *p, spt_u32 n, spt_u32 l, sp
 #if SPT_DEVICE && defined(SPT_BVH_SIMD)
 /* Lanes [g, g + 8) of the leaf of n triangles at p in one float8 test, the
  * arithmetic of bvh_tri_intersect lane for lane: the hit distance of each lane
- * that hits with t in (0, tbest), BVH_FAR for the others and for lanes >= n. */
+ * that hits with t in (0, tbest), BVH_FAR for the others and for lanes >= n, and
+ * each lane's barycentrics in *u, *v. */
 SPT_FN float8 bvh_tri8_distances(const __global float *p, uint n, uint g, const BvhRay *r,
-                                 float tbest)
+                                 float tbest, float8 *u, float8 *v)
 {
 #pragma OPENCL FP_CONTRACT OFF
     p += g;
@@ -278,7 +279,17 @@ SPT_FN float8 bvh_tri8_distances(const __global float *p, uint n, uint g, const 
     float8 t = (w0 * az + w1 * bz + w2 * cz) * (float8)(r->sz);
     int8 lane = (int8)(0, 1, 2, 3, 4, 5, 6, 7) + (int8)((int)g);
     int8 ok = ~outside & (det != zero) & (t > zero) & (t < (float8)(tbest)) & (lane < (int8)((int)n));
+    *u = w1;
+    *v = w2;
     return select((float8)(BVH_FAR), t, ok);
+}
+
+/* Lane l (0..7) of x, by halving selects (no indexed private array). */
+SPT_FN float bvh_lane8(float8 x, uint l)
+{
+    float4 x4 = (l & 4u) ? x.hi : x.lo;
+    float2 x2 = (l & 2u) ? x4.hi : x4.lo;
+    return (l & 1u) ? x2.y : x2.x;
 }
 #endif
 
@@ -292,23 +303,25 @@ SPT_FN int bvh_leaf_intersect(const SPT_GLOBAL float *tris, spt_u32 first, spt_u
     int found = 0;
 #if SPT_DEVICE && defined(SPT_BVH_SIMD)
     for (uint g = 0; g < count; g += 8u) {
-        float8 t = bvh_tri8_distances(p, count, g, r, *best);
+        float8 u, v;
+        float8 t = bvh_tri8_distances(p, count, g, r, *best, &u, &v);
         float4 m4 = fmin(t.lo, t.hi);
         float2 m2 = fmin(m4.lo, m4.hi);
         float m = fmin(m2.x, m2.y);
         if (m < *best) {
             if (any_hit)
                 return 1;
-            /* The first lane at the minimum, as the lane loop would keep it;
-             * its barycentrics from the scalar test, which computes the same. */
+            /* The first lane at the minimum, as the lane loop would keep it. */
             int8 at = select((int8)(8), (int8)(0, 1, 2, 3, 4, 5, 6, 7), t == (float8)(m));
             int4 a4 = min(at.lo, at.hi);
             int2 a2 = min(a4.lo, a4.hi);
-            uint l = g + (uint)min(a2.x, a2.y);
-            if (bvh_tri_intersect(p, count, l, first + l, r, *best, hit)) {
-                *best = hit->t;
-                found = 1;
-            }
+            uint l = (uint)min(a2.x, a2.y);
+            hit->t = m;
+            hit->u = bvh_lane8(u, l);
+            hit->v = bvh_lane8(v, l);
+            hit->prim = first + g + l;
+            *best = m;
+            found = 1;
         }
     }
 #else
