@@ -359,8 +359,10 @@ SPT_FN void bvh_prefetch(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float
 {
 #if defined(BVH_HAVE_PREFETCH) && (!SPT_DEVICE || defined(SPT_BVH_SIMD))
     if (count) {
+        /* every cache line of the leaf's 9 count floats */
         const SPT_GLOBAL float *p = tris + 9u * child;
-        BVH_PREFETCH(p);
+        for (spt_u32 k = 0; k < 9u * count; k += 16u)
+            BVH_PREFETCH(p + k);
         BVH_PREFETCH(p + 9u * count - 1u);
     } else {
         BVH_PREFETCH(&nodes[child]);
