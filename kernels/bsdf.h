@@ -484,24 +484,21 @@ SPT_FN void bsdf_sincos_pi4(float x, float *s, float *c)
 /* Cosine-weighted hemisphere direction (Malley's method on a concentric disk).
  * The disk angle is phi = pi/4 (b/a), or pi/2 - pi/4 (a/b) on the other
  * wedges; the latter's cos and sin are the sin and cos of pi/4 (a/b), so both
- * take bsdf_sincos_pi4 of an angle in [-pi/4, pi/4]. */
+ * take bsdf_sincos_pi4 of an angle in [-pi/4, pi/4]. Written with selects, not
+ * branches: which wedge a random point falls in is a coin toss, which a CPU's
+ * branch predictor gets wrong half the time. */
 SPT_FN vec3 bsdf_sample_cosine(float u1, float u2)
 {
-    float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f, x, y;
-    if (a == 0.0f && b == 0.0f) {
-        x = 0.0f;
-        y = 0.0f;
-    } else if (fabsf(a) > fabsf(b)) {
-        float s, c;
-        bsdf_sincos_pi4(0.25f * SPT_PI * (b / a), &s, &c);
-        x = a * c;
-        y = a * s;
-    } else {
-        float s, c;
-        bsdf_sincos_pi4(0.25f * SPT_PI * (a / b), &s, &c);
-        x = b * s;
-        y = b * c;
-    }
+    float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f;
+    int wide = fabsf(a) > fabsf(b);
+    float r = wide ? a : b;
+    float s, c;
+    bsdf_sincos_pi4(0.25f * SPT_PI * ((wide ? b : a) / r), &s, &c);
+    float x = r * (wide ? c : s), y = r * (wide ? s : c);
+    /* The centre (a = b = 0) maps to itself (the ratio above is 0/0 there). */
+    int centre = a == 0.0f && b == 0.0f;
+    x = centre ? 0.0f : x;
+    y = centre ? 0.0f : y;
     return v3(x, y, sqrtf(fmaxf(0.0f, 1.0f - x * x - y * y)));
 }
 

@@ -27,6 +27,20 @@ static float table_lookup(const __global float *t, float l)
     return t[i] * (1.0f - f) + t[i + 1] * f;
 }
 
+/* table_lookup at four wavelengths at once: the same arithmetic per lane,
+ * with selects instead of the per-wavelength range branches. */
+static float4 table_lookup4(const __global float *t, float4 l)
+{
+    float4 x = l - (float)SPT_CIE_LAMBDA_MIN;
+    int4 in = isgreaterequal(x, (float4)(0.0f)) & islessequal(x, (float4)(SPT_CIE_SAMPLES - 1));
+    /* Out-of-range lanes read entry 0 and give 0. */
+    int4 i = select((int4)(0), min(convert_int4(select((float4)(0.0f), x, in)), SPT_CIE_SAMPLES - 2), in);
+    float4 f = x - convert_float4(i);
+    float4 a = (float4)(t[i.x], t[i.y], t[i.z], t[i.w]);
+    float4 b = (float4)(t[i.x + 1], t[i.y + 1], t[i.z + 1], t[i.w + 1]);
+    return select((float4)(0.0f), a * (1.0f - f) + b * f, in);
+}
+
 /* The value of spectrum s at the four wavelengths lam. */
 static float4 spec_eval(const __global SpecRef *s, float4 lam, const __global float *spectra)
 {
@@ -39,9 +53,7 @@ static float4 spec_eval(const __global SpecRef *s, float4 lam, const __global fl
         return v;
     }
     if (kind == SPT_SPEC_TABLE) {
-        const __global float *t = spectra + s->offset;
-        return s->scale * (float4)(table_lookup(t, lam.x), table_lookup(t, lam.y),
-                                   table_lookup(t, lam.z), table_lookup(t, lam.w));
+        return s->scale * table_lookup4(spectra + s->offset, lam);
     }
     return (float4)(0.0f);
 }

@@ -151,7 +151,8 @@ SPT_FN spt_i32 spt_discrete_sample(const SPT_GLOBAL float *cdf, spt_u32 n, float
     spt_u32 i = 0u, len = n;
     while (len > 1u) {
         spt_u32 hlen = len >> 1;
-        i = (cdf[i + hlen] <= u) ? i + hlen : i;
+        /* A mask, not a ?: (which the compiler turned back into a branch). */
+        i += hlen & (0u - (spt_u32)(cdf[i + hlen] <= u));
         len -= hlen;
     }
     float p = cdf[i + 1u] - cdf[i];
