@@ -544,6 +544,9 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     return shadow;
 }
 
+/* Prefetch distance of k_shade, in queue entries. */
+#define SPT_SHADE_AHEAD 8u
+
 __kernel void k_shade(ALL_BUFFERS)
 {
     __local uint l_count, l_base;
@@ -551,7 +554,29 @@ __kernel void k_shade(ALL_BUFFERS)
     float4 so, sd, sc;
     int shadow = 0;
     uint i = 0;
-    if (g < counters[SPT_CNT_EXTEND]) {
+    uint n = counters[SPT_CNT_EXTEND];
+    if (g < n) {
+        /* Cache misses hidden behind this path's work: the hit triangle of
+         * the path 2 SPT_SHADE_AHEAD queue entries on is fetched, and the
+         * vertex normals of the one SPT_SHADE_AHEAD on (whose triangle came
+         * in by now). */
+        if (g + 2u * SPT_SHADE_AHEAD < n) {
+            uint pa = as_uint(ps_hit[queue_extend[g + 2u * SPT_SHADE_AHEAD]].w);
+            if (pa != NO_HIT) {
+                SPT_PREFETCH(tris + pa);
+                SPT_PREFETCH((const __global char *)(tris + pa) + sizeof(BvhTri) - 1u);
+                SPT_PREFETCH(tri_shade + pa);
+            }
+        }
+        if (g + SPT_SHADE_AHEAD < n) {
+            uint pb = as_uint(ps_hit[queue_extend[g + SPT_SHADE_AHEAD]].w);
+            if (pb != NO_HIT) {
+                TriShade tb = tri_shade[pb];
+                SPT_PREFETCH(vtx_normal + 3u * tb.v[0]);
+                SPT_PREFETCH(vtx_normal + 3u * tb.v[1]);
+                SPT_PREFETCH(vtx_normal + 3u * tb.v[2]);
+            }
+        }
         i = queue_extend[g];
         shadow = shade_path(i, &so, &sd, &sc, ALL_ARGS);
     }
