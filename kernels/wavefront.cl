@@ -66,9 +66,34 @@ static uint group_queue_slot(int want, __global uint *counter, __local uint *l_c
     return *l_base + mine;
 }
 
+/* group_queue_slot, which also adds the number of work-items of the group with
+ * count != 0 to *count_counter (l_done: a third local word), with the same
+ * barriers. */
+static uint group_queue_slot_count(int want, __global uint *counter, __local uint *l_count,
+                                   __local uint *l_base, int count,
+                                   __global uint *count_counter, __local uint *l_done)
+{
+    if (get_local_id(0) == 0) {
+        *l_count = 0u;
+        *l_done = 0u;
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    uint mine = want ? atomic_inc(l_count) : 0u;
+    if (count)
+        atomic_inc(l_done);
+    barrier(CLK_LOCAL_MEM_FENCE);
+    if (get_local_id(0) == 0) {
+        *l_base = *l_count ? atomic_add(counter, *l_count) : 0u;
+        if (*l_done)
+            atomic_add(count_counter, *l_done);
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    return *l_base + mine;
+}
+
 __kernel void k_generate(ALL_BUFFERS)
 {
-    __local uint l_count, l_base;
+    __local uint l_count, l_base, l_done;
     uint i = get_global_id(0);
     uint flags = i < P.pool_size ? ps_flags[i] : SPT_PATH_ALIVE + 100u;
     int finished = flags == SPT_PATH_FINISHED;
@@ -91,11 +116,12 @@ __kernel void k_generate(ALL_BUFFERS)
         flags = SPT_PATH_DEAD;
         ps_flags[i] = flags;
     }
-    group_queue_slot(finished, &counters[SPT_CNT_DONE], &l_count, &l_base);
-    /* Free slots take the next work items of the chunk. */
+    /* Free slots take the next work items of the chunk; the group's finished
+     * paths are counted in the same round of barriers. */
     uint total = P.work_end - P.work_begin;
     int wants = flags == SPT_PATH_DEAD && counters[SPT_CNT_WORK] < total;
-    uint w = group_queue_slot(wants, &counters[SPT_CNT_WORK], &l_count, &l_base);
+    uint w = group_queue_slot_count(wants, &counters[SPT_CNT_WORK], &l_count, &l_base, finished,
+                                    &counters[SPT_CNT_DONE], &l_done);
     if (wants && w < total) {
         uint npix = (uint)(P.width * P.height);
         uint pixel = w % npix;
