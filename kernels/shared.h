@@ -37,6 +37,8 @@
   #define atanhf atanh
   #define copysignf copysign
   #define SPT_STATIC_ASSERT(cond, msg)
+  /* For a hot helper LLVM's heuristics leave out of line in a kernel. */
+  #define SPT_ALWAYS_INLINE __attribute__((always_inline))
 #else
   #include <math.h>
   #include <stdint.h>
@@ -47,6 +49,7 @@
   typedef uint32_t spt_u32;
   typedef int32_t spt_i32;
   #define SPT_STATIC_ASSERT(cond, msg) _Static_assert(cond, msg)
+  #define SPT_ALWAYS_INLINE
 #endif
 
 #define SPT_PI 3.14159265358979323846f
