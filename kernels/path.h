@@ -9,6 +9,16 @@
 #include "spectrum.h"
 #include "render_types.h"
 
+/* A hint to bring the cache line holding the global address p closer ahead of
+ * its use. On a CPU device (PoCL) the work-items of a group run one after
+ * another, so a work-item can fetch what a later one will read and hide a
+ * cache miss behind its own work. A no-op on other targets. */
+#if defined(__x86_64__) || defined(__aarch64__)
+#define SPT_PREFETCH(p) __builtin_prefetch((const void *)(size_t)(p))
+#else
+#define SPT_PREFETCH(p) ((void)0)
+#endif
+
 /* sigmoid-polynomial spectrum at four wavelengths. */
 static float4 spec_sigmoid4(float c0, float c1, float c2, float4 lam)
 {
@@ -27,6 +37,20 @@ static float table_lookup(const __global float *t, float l)
     return t[i] * (1.0f - f) + t[i + 1] * f;
 }
 
+/* table_lookup at four wavelengths at once: the same arithmetic per lane,
+ * with selects instead of the per-wavelength range branches. */
+static float4 table_lookup4(const __global float *t, float4 l)
+{
+    float4 x = l - (float)SPT_CIE_LAMBDA_MIN;
+    int4 in = isgreaterequal(x, (float4)(0.0f)) & islessequal(x, (float4)(SPT_CIE_SAMPLES - 1));
+    /* Out-of-range lanes read entry 0 and give 0. */
+    int4 i = select((int4)(0), min(convert_int4(select((float4)(0.0f), x, in)), SPT_CIE_SAMPLES - 2), in);
+    float4 f = x - convert_float4(i);
+    float4 a = (float4)(t[i.x], t[i.y], t[i.z], t[i.w]);
+    float4 b = (float4)(t[i.x + 1], t[i.y + 1], t[i.z + 1], t[i.w + 1]);
+    return select((float4)(0.0f), a * (1.0f - f) + b * f, in);
+}
+
 /* The value of spectrum s at the four wavelengths lam. */
 static float4 spec_eval(const __global SpecRef *s, float4 lam, const __global float *spectra)
 {
@@ -39,9 +63,7 @@ static float4 spec_eval(const __global SpecRef *s, float4 lam, const __global fl
         return v;
     }
     if (kind == SPT_SPEC_TABLE) {
-        const __global float *t = spectra + s->offset;
-        return s->scale * (float4)(table_lookup(t, lam.x), table_lookup(t, lam.y),
-                                   table_lookup(t, lam.z), table_lookup(t, lam.w));
+        return s->scale * table_lookup4(spectra + s->offset, lam);
     }
     return (float4)(0.0f);
 }
@@ -108,23 +130,42 @@ static float3 offset_origin(float3 p, float3 n)
     return p + n * (1e-5f * m + 1e-6f);
 }
 
+/* table_lookup4 for the CIE tables (in constant memory), as spt_cie_x etc.
+ * compute it per wavelength. */
+static float4 cie_lookup4(__constant const float *t, float4 l)
+{
+    float4 x = l - (float)SPT_CIE_LAMBDA_MIN;
+    int4 in = isgreaterequal(x, (float4)(0.0f)) & islessequal(x, (float4)(SPT_CIE_SAMPLES - 1));
+    int4 i = select((int4)(0), min(convert_int4(select((float4)(0.0f), x, in)), SPT_CIE_SAMPLES - 2), in);
+    float4 f = x - convert_float4(i);
+    float4 a = (float4)(t[i.x], t[i.y], t[i.z], t[i.w]);
+    float4 b = (float4)(t[i.x + 1], t[i.y + 1], t[i.z + 1], t[i.w + 1]);
+    return select((float4)(0.0f), a * (1.0f - f) + b * f, in);
+}
+
 /* XYZ of a path's spectral radiance L at wavelengths lam with pdfs pdf: the mean
  * over the wavelengths of L cmf / pdf, normalised by the integral of ybar so a
- * flat spectrum of 1 has Y = 1. Wavelengths with pdf 0 (terminated) count 0. */
+ * flat spectrum of 1 has Y = 1. Wavelengths with pdf 0 (terminated) count 0.
+ * The sums run over the wavelengths in order, as a loop over them would, with
+ * a weight of 0 in place of skipping a terminated one (the same sum). */
 static float4 path_radiance_to_xyz(float4 L, float4 lam, float4 pdf)
 {
-    float l[4] = {lam.x, lam.y, lam.z, lam.w};
-    float r[4] = {L.x, L.y, L.z, L.w};
-    float p[4] = {pdf.x, pdf.y, pdf.z, pdf.w};
+    float4 w = select((float4)(0.0f), L / pdf, isgreater(pdf, (float4)(0.0f)));
+    float4 cx = cie_lookup4(SPT_CIE_X, lam), cy = cie_lookup4(SPT_CIE_Y, lam),
+           cz = cie_lookup4(SPT_CIE_Z, lam);
     float4 xyz = (float4)(0.0f);
-    for (int i = 0; i < SPT_NUM_LAMBDA; i++) {
-        if (!(p[i] > 0.0f))
-            continue;
-        float w = r[i] / p[i];
-        xyz.x += w * spt_cie_x(l[i]);
-        xyz.y += w * spt_cie_y(l[i]);
-        xyz.z += w * spt_cie_z(l[i]);
-    }
+    xyz.x += w.x * cx.x;
+    xyz.y += w.x * cy.x;
+    xyz.z += w.x * cz.x;
+    xyz.x += w.y * cx.y;
+    xyz.y += w.y * cy.y;
+    xyz.z += w.y * cz.y;
+    xyz.x += w.z * cx.z;
+    xyz.y += w.z * cy.z;
+    xyz.z += w.z * cz.z;
+    xyz.x += w.w * cx.w;
+    xyz.y += w.w * cy.w;
+    xyz.z += w.w * cz.w;
     return xyz * (1.0f / ((float)SPT_NUM_LAMBDA * SPT_CIE_Y_INTEGRAL));
 }
 

@@ -325,7 +325,7 @@ SPT_FN float spt_sample_1d(spt_u32 seed, spt_u32 pixel, spt_u32 sample, spt_u32 
 /* Both dims of Sobol pair group (0: pixel x, y; 1: lens u, v) of a sample, given
  * its pixel's spt_sobol_pixel_key: exactly spt_sample_1d of dims 2 group and
  * 2 group + 1, with the group's seed and the index shuffle computed once. */
-SPT_FN void spt_sample_pair(spt_u32 pixel_key, spt_u32 sample, spt_u32 group, float *u0, float *u1)
+SPT_FN SPT_ALWAYS_INLINE void spt_sample_pair(spt_u32 pixel_key, spt_u32 sample, spt_u32 group, float *u0, float *u1)
 {
     spt_u32 seed = spt_hash_u32(pixel_key ^ group);
     spt_u32 shuffled = spt_owen_scramble(sample, seed);

@@ -10,6 +10,21 @@
 #include "shared.h"
 #include "vecmath.h"
 
+/* The bits of a float. */
+SPT_FN spt_u32 spt_f32_bits(float f)
+{
+#if SPT_DEVICE
+    return as_uint(f);
+#else
+    union {
+        float f;
+        spt_u32 u;
+    } v;
+    v.f = f;
+    return v.u;
+#endif
+}
+
 /* The largest float below 1 (1 - 2^-24). */
 #define SPT_ONE_MINUS_EPSILON 0.99999994f
 
@@ -151,7 +166,12 @@ SPT_FN spt_i32 spt_discrete_sample(const SPT_GLOBAL float *cdf, spt_u32 n, float
     spt_u32 i = 0u, len = n;
     while (len > 1u) {
         spt_u32 hlen = len >> 1;
-        i = (cdf[i + hlen] <= u) ? i + hlen : i;
+        /* cdf[i + hlen] <= u exactly when u - cdf[i + hlen] is not negative
+         * (an exact zero difference is +0), i.e. its sign bit is clear: a
+         * mask from the sign bit, not a ?: or a comparison, which LLVM turns
+         * back into a branch (a coin toss for the predictor). */
+        float d = u - cdf[i + hlen];
+        i += hlen & ((spt_f32_bits(d) >> 31) - 1u);
         len -= hlen;
     }
     float p = cdf[i + 1u] - cdf[i];

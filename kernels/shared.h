@@ -38,6 +38,8 @@
   #define atanhf atanh
   #define copysignf copysign
   #define SPT_STATIC_ASSERT(cond, msg)
+  /* For a hot helper LLVM's heuristics leave out of line in a kernel. */
+  #define SPT_ALWAYS_INLINE __attribute__((always_inline))
 #else
   #include <math.h>
   #include <stdint.h>
@@ -49,6 +51,7 @@
   typedef int32_t spt_i32;
   typedef uint8_t spt_u8;
   #define SPT_STATIC_ASSERT(cond, msg) _Static_assert(cond, msg)
+  #define SPT_ALWAYS_INLINE
 #endif
 
 #define SPT_PI 3.14159265358979323846f

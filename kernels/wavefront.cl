@@ -48,27 +48,45 @@
  * roulette ends paths long before). */
 #define SPT_MAX_SEGMENTS 1024u
 
+/* The largest work-group the kernels run with (src/render.c: at most 64). */
+#define SPT_GROUP_MAX 64
+
 /* Work-group aggregated queue slots: every work-item of the group calls this
  * with want = 0 or 1 (all must call it: it has barriers); it returns the index
  * in the queue whose counter is *counter for those that want one, from one
- * global atomic per group instead of one per item. */
-static uint group_queue_slot(int want, __global uint *counter, __local uint *l_count,
+ * global atomic per group instead of one per item. The work-items with
+ * count != 0 are added to *count_counter in the same go (count_counter is
+ * only touched when some have). Work-item 0 numbers the wanting items in
+ * local-id order with a scan of l_slot (one word per item, SPT_GROUP_MAX):
+ * two barriers and no local atomics, where a counter bumped with atomic_inc
+ * took three barriers and a locked instruction per item (PoCL runs the items
+ * of a group one after another, and splits their loop at every barrier). */
+static uint group_queue_slot(int want, __global uint *counter, int count,
+                             __global uint *count_counter, __local uint *l_slot,
                              __local uint *l_base)
 {
-    if (get_local_id(0) == 0)
-        *l_count = 0u;
+    uint lid = get_local_id(0);
+    l_slot[lid] = (want ? 1u : 0u) | (count ? 0x10000u : 0u);
     barrier(CLK_LOCAL_MEM_FENCE);
-    uint mine = want ? atomic_inc(l_count) : 0u;
+    if (lid == 0u) {
+        uint n = get_local_size(0), sum = 0u;
+        for (uint k = 0u; k < n; k++) {
+            uint f = l_slot[k];
+            l_slot[k] = sum;
+            sum += f;
+        }
+        uint nwant = sum & 0xffffu, ncount = sum >> 16;
+        *l_base = nwant ? atomic_add(counter, nwant) : 0u;
+        if (ncount)
+            atomic_add(count_counter, ncount);
+    }
     barrier(CLK_LOCAL_MEM_FENCE);
-    if (get_local_id(0) == 0)
-        *l_base = *l_count ? atomic_add(counter, *l_count) : 0u;
-    barrier(CLK_LOCAL_MEM_FENCE);
-    return *l_base + mine;
+    return *l_base + (l_slot[lid] & 0xffffu);
 }
 
 __kernel void k_generate(ALL_BUFFERS)
 {
-    __local uint l_count, l_base;
+    __local uint l_slot[SPT_GROUP_MAX], l_base;
     uint i = get_global_id(0);
     uint flags = i < P.pool_size ? ps_flags[i] : SPT_PATH_ALIVE + 100u;
     int finished = flags == SPT_PATH_FINISHED;
@@ -91,11 +109,12 @@ __kernel void k_generate(ALL_BUFFERS)
         flags = SPT_PATH_DEAD;
         ps_flags[i] = flags;
     }
-    group_queue_slot(finished, &counters[SPT_CNT_DONE], &l_count, &l_base);
-    /* Free slots take the next work items of the chunk. */
+    /* Free slots take the next work items of the chunk; the group's finished
+     * paths are counted in the same round of barriers. */
     uint total = P.work_end - P.work_begin;
     int wants = flags == SPT_PATH_DEAD && counters[SPT_CNT_WORK] < total;
-    uint w = group_queue_slot(wants, &counters[SPT_CNT_WORK], &l_count, &l_base);
+    uint w = group_queue_slot(wants, &counters[SPT_CNT_WORK], finished, &counters[SPT_CNT_DONE],
+                              l_slot, &l_base);
     if (wants && w < total) {
         uint npix = (uint)(P.width * P.height);
         uint pixel = w % npix;
@@ -139,7 +158,8 @@ __kernel void k_generate(ALL_BUFFERS)
         flags = SPT_PATH_ALIVE;
         ps_flags[i] = flags;
     }
-    uint q = group_queue_slot(flags == SPT_PATH_ALIVE, &counters[SPT_CNT_EXTEND], &l_count, &l_base);
+    uint q = group_queue_slot(flags == SPT_PATH_ALIVE, &counters[SPT_CNT_EXTEND], 0, counters,
+                              l_slot, &l_base);
     if (flags == SPT_PATH_ALIVE)
         queue_extend[q] = i;
 }
@@ -544,18 +564,43 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     return shadow;
 }
 
+/* Prefetch distance of k_shade, in queue entries. */
+#define SPT_SHADE_AHEAD 8u
+
 __kernel void k_shade(ALL_BUFFERS)
 {
-    __local uint l_count, l_base;
+    __local uint l_slot[SPT_GROUP_MAX], l_base;
     uint g = get_global_id(0);
     float4 so, sd, sc;
     int shadow = 0;
     uint i = 0;
-    if (g < counters[SPT_CNT_EXTEND]) {
+    uint n = counters[SPT_CNT_EXTEND];
+    if (g < n) {
+        /* Cache misses hidden behind this path's work: the hit triangle of
+         * the path 2 SPT_SHADE_AHEAD queue entries on is fetched, and the
+         * vertex normals of the one SPT_SHADE_AHEAD on (whose triangle came
+         * in by now). */
+        if (g + 2u * SPT_SHADE_AHEAD < n) {
+            uint pa = as_uint(ps_hit[queue_extend[g + 2u * SPT_SHADE_AHEAD]].w);
+            if (pa != NO_HIT) {
+                SPT_PREFETCH(tris + pa);
+                SPT_PREFETCH((const __global char *)(tris + pa) + sizeof(BvhTri) - 1u);
+                SPT_PREFETCH(tri_shade + pa);
+            }
+        }
+        if (g + SPT_SHADE_AHEAD < n) {
+            uint pb = as_uint(ps_hit[queue_extend[g + SPT_SHADE_AHEAD]].w);
+            if (pb != NO_HIT) {
+                TriShade tb = tri_shade[pb];
+                SPT_PREFETCH(vtx_normal + 3u * tb.v[0]);
+                SPT_PREFETCH(vtx_normal + 3u * tb.v[1]);
+                SPT_PREFETCH(vtx_normal + 3u * tb.v[2]);
+            }
+        }
         i = queue_extend[g];
         shadow = shade_path(i, &so, &sd, &sc, ALL_ARGS);
     }
-    uint s = group_queue_slot(shadow, &counters[SPT_CNT_SHADOW], &l_count, &l_base);
+    uint s = group_queue_slot(shadow, &counters[SPT_CNT_SHADOW], 0, counters, l_slot, &l_base);
     if (shadow) {
         sh_ray_o[s] = so;
         sh_ray_d[s] = sd;
