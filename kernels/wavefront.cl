@@ -576,21 +576,21 @@ __kernel void k_shade(ALL_BUFFERS)
     uint i = 0;
     uint n = counters[SPT_CNT_EXTEND];
     if (g < n) {
-        /* Cache misses hidden behind this path's work: the hit triangle of
-         * the path 2 SPT_SHADE_AHEAD queue entries on is fetched, and the
-         * vertex normals of the one SPT_SHADE_AHEAD on (whose triangle came
-         * in by now). */
+        /* Cache misses hidden behind this path's work: the hit triangle's
+         * shading record and leaf lane of the path 2 SPT_SHADE_AHEAD queue
+         * entries on are fetched, and the vertices and vertex normals of the
+         * one SPT_SHADE_AHEAD on (whose records came in by now). */
         if (g + 2u * SPT_SHADE_AHEAD < n) {
             uint pa = as_uint(ps_hit[queue_extend[g + 2u * SPT_SHADE_AHEAD]].w);
             if (pa != NO_HIT) {
-                SPT_PREFETCH(tris + pa);
-                SPT_PREFETCH((const __global char *)(tris + pa) + sizeof(BvhTri) - 1u);
+                SPT_PREFETCH(tri_lane + pa);
                 SPT_PREFETCH(tri_shade + pa);
             }
         }
         if (g + SPT_SHADE_AHEAD < n) {
             uint pb = as_uint(ps_hit[queue_extend[g + SPT_SHADE_AHEAD]].w);
             if (pb != NO_HIT) {
+                bvh_tri_prefetch(tris, tri_lane, pb);
                 TriShade tb = tri_shade[pb];
                 SPT_PREFETCH(vtx_normal + 3u * tb.v[0]);
                 SPT_PREFETCH(vtx_normal + 3u * tb.v[1]);
