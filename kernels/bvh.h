@@ -373,21 +373,6 @@ SPT_FN void bvh_prefetch(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float
 #endif
 }
 
-/* Asks early for the cache lines of packed triangle i's 9 floats (for a stage
- * that will read its vertices); its tri_lane byte must be at hand. */
-SPT_FN void bvh_tri_prefetch(const SPT_GLOBAL float *tris, const SPT_GLOBAL spt_u8 *tri_lane,
-                             spt_u32 i)
-{
-#if defined(BVH_HAVE_PREFETCH) && (!SPT_DEVICE || defined(SPT_BVH_SIMD))
-    spt_u32 lane = tri_lane[i] & 15u, n = (tri_lane[i] >> 4) + 1u;
-    const SPT_GLOBAL float *p = tris + 9u * (i - lane) + lane;
-    for (spt_u32 k = 0; k < 9u; k++)
-        BVH_PREFETCH(p + k * n);
-#else
-    (void)tris; (void)tri_lane; (void)i;
-#endif
-}
-
 /* Index of the lowest set bit of m (m != 0). */
 SPT_FN spt_u32 bvh_lowest_bit(spt_u32 m)
 {

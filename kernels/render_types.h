@@ -200,8 +200,8 @@ typedef struct RenderParams {
 #define SPT_SCENE_BUFFERS(X)          \
     X(const BvhNode, nodes)           \
     X(const float, tris)              \
-    X(const uchar, tri_lane)          \
     X(const TriShade, tri_shade)      \
+    X(const float, vtx_pos)           \
     X(const float, vtx_normal)        \
     X(const float, vtx_uv)            \
     X(const GpuMaterial, materials)   \

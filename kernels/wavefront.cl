@@ -178,6 +178,18 @@ __kernel void k_extend(ALL_BUFFERS)
         ps_hit[i] = (float4)(0.0f, 0.0f, 0.0f, as_float(NO_HIT));
 }
 
+/* The vertices of packed triangle prim, from the vertex positions (the same
+ * floats as the BVH's copy, whose leaf blocks spread a triangle over up to 9
+ * cache lines). */
+static void tri_positions(const __global TriShade *ts, const __global float *vtx_pos, uint prim,
+                          float3 *a, float3 *b, float3 *c)
+{
+    TriShade s = ts[prim];
+    *a = vload3(s.v[0], vtx_pos);
+    *b = vload3(s.v[1], vtx_pos);
+    *c = vload3(s.v[2], vtx_pos);
+}
+
 /* Interpolated texture coordinates of packed triangle prim at barycentrics (u, v). */
 static float2 tri_uv(const __global TriShade *ts, const __global float *vtx_uv, uint prim,
                      float u, float v)
@@ -358,7 +370,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     float4 L = ps_radiance[i];
     float3 rd = ps_ray_d[i].xyz;
     vec3 v0, v1, v2;
-    bvh_tri_vertices(tris, tri_lane, prim, &v0, &v1, &v2);
+    tri_positions(tri_shade, vtx_pos, prim, &v0, &v1, &v2);
     float bu = hit.y, bv = hit.z;
     float3 p = (1.0f - bu - bv) * v0 + bu * v1 + bv * v2;
     float3 ng = normalize(cross(v1 - v0, v2 - v0));
@@ -452,7 +464,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
         if (e >= 0 && (uint)e < P.emitter_count) {
             uint lt = emitters[e];
             vec3 a, b, c;
-            bvh_tri_vertices(tris, tri_lane, lt, &a, &b, &c);
+            tri_positions(tri_shade, vtx_pos, lt, &a, &b, &c);
             vec3 bary = spt_sample_triangle_bary(ul, vl);
             float3 q = bary.x * a + bary.y * b + bary.z * c;
             float3 nl = normalize(cross(b - a, c - a));
@@ -577,21 +589,21 @@ __kernel void k_shade(ALL_BUFFERS)
     uint n = counters[SPT_CNT_EXTEND];
     if (g < n) {
         /* Cache misses hidden behind this path's work: the hit triangle's
-         * shading record and leaf lane of the path 2 SPT_SHADE_AHEAD queue
-         * entries on are fetched, and the vertices and vertex normals of the
-         * one SPT_SHADE_AHEAD on (whose records came in by now). */
+         * shading record of the path 2 SPT_SHADE_AHEAD queue entries on is
+         * fetched, and the vertex positions and normals of the one
+         * SPT_SHADE_AHEAD on (whose record came in by now). */
         if (g + 2u * SPT_SHADE_AHEAD < n) {
             uint pa = as_uint(ps_hit[queue_extend[g + 2u * SPT_SHADE_AHEAD]].w);
-            if (pa != NO_HIT) {
-                SPT_PREFETCH(tri_lane + pa);
+            if (pa != NO_HIT)
                 SPT_PREFETCH(tri_shade + pa);
-            }
         }
         if (g + SPT_SHADE_AHEAD < n) {
             uint pb = as_uint(ps_hit[queue_extend[g + SPT_SHADE_AHEAD]].w);
             if (pb != NO_HIT) {
-                bvh_tri_prefetch(tris, tri_lane, pb);
                 TriShade tb = tri_shade[pb];
+                SPT_PREFETCH(vtx_pos + 3u * tb.v[0]);
+                SPT_PREFETCH(vtx_pos + 3u * tb.v[1]);
+                SPT_PREFETCH(vtx_pos + 3u * tb.v[2]);
                 SPT_PREFETCH(vtx_normal + 3u * tb.v[0]);
                 SPT_PREFETCH(vtx_normal + 3u * tb.v[1]);
                 SPT_PREFETCH(vtx_normal + 3u * tb.v[2]);
@@ -635,7 +647,7 @@ __kernel void k_connect(ALL_BUFFERS)
             if (!(transmit > 0.0f) || k == 15)
                 return;
             vec3 a, b, c;
-            bvh_tri_vertices(tris, tri_lane, h.prim, &a, &b, &c);
+            tri_positions(tri_shade, vtx_pos, h.prim, &a, &b, &c);
             float3 ng = normalize(cross(b - a, c - a));
             float3 q = o + h.t * d.xyz;
             float3 o2 = offset_origin(q, dot(ng, d.xyz) > 0.0f ? ng : -ng);

@@ -216,6 +216,15 @@ int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
     g->vtx_normal = s->vtx_normal;
     g->vtx_uv = s->vtx_uv;
     g->vertex_count = s->vertex_count;
+    /* Vertex positions for shading: a vertex shared by triangles has one
+     * position, the one every kept triangle using it carries. */
+    g->vtx_pos = spt_calloc(s->vertex_count ? (size_t)s->vertex_count * 3 : 1, sizeof(float));
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t t = g->bvh.prim_index[i];
+        for (int k = 0; k < 3; k++)
+            memcpy(g->vtx_pos + 3 * (size_t)s->tri_vidx[3 * (size_t)t + k],
+                   s->tri_pos + 9 * (size_t)t + 3 * k, 3 * sizeof(float));
+    }
 
     /* Textures: a colour use (base colour, emissive) needs sigmoid coefficients,
      * a data use (metallic-roughness, normal) the values themselves; a texture
@@ -304,6 +313,7 @@ void gpu_scene_free(GpuScene *g)
 {
     bvh_free(&g->bvh);
     free(g->tri_shade);
+    free(g->vtx_pos);
     free(g->materials);
     free(g->spectra);
     free(g->textures);
@@ -341,8 +351,8 @@ static size_t scene_buffer_bytes(const GpuScene *g, const RenderLights *L, const
     uint32_t n = g->bvh.prim_count;
     if (!strcmp(name, "nodes")) return NZ((size_t)g->bvh.node_count * sizeof(BvhNode));
     if (!strcmp(name, "tris")) return NZ(g->bvh.tri_data_bytes);
-    if (!strcmp(name, "tri_lane")) return NZ(n);
     if (!strcmp(name, "tri_shade")) return NZ((size_t)n * sizeof(TriShade));
+    if (!strcmp(name, "vtx_pos")) return NZ((size_t)g->vertex_count * 3 * sizeof(float));
     if (!strcmp(name, "vtx_normal")) return NZ((size_t)g->vertex_count * 3 * sizeof(float));
     if (!strcmp(name, "vtx_uv")) return NZ((size_t)g->vertex_count * 2 * sizeof(float));
     if (!strcmp(name, "materials")) return NZ((size_t)g->material_count * sizeof(GpuMaterial));
@@ -363,8 +373,8 @@ static const void *scene_buffer_data(const GpuScene *g, const RenderLights *L, c
 {
     if (!strcmp(name, "nodes")) return g->bvh.nodes;
     if (!strcmp(name, "tris")) return g->bvh.tri_data;
-    if (!strcmp(name, "tri_lane")) return g->bvh.tri_lane;
     if (!strcmp(name, "tri_shade")) return g->tri_shade;
+    if (!strcmp(name, "vtx_pos")) return g->vtx_pos;
     if (!strcmp(name, "vtx_normal")) return g->vtx_normal;
     if (!strcmp(name, "vtx_uv")) return g->vtx_uv;
     if (!strcmp(name, "materials")) return g->materials;

@@ -66,6 +66,7 @@ typedef struct RenderStats {
 typedef struct GpuScene {
     Bvh bvh;
     TriShade *tri_shade;     /* per packed triangle */
+    float *vtx_pos;          /* 3 per vertex: positions, from the Scene's triangles */
     float *vtx_normal;       /* borrowed from the Scene */
     float *vtx_uv;           /* borrowed from the Scene */
     uint32_t vertex_count;

@@ -602,9 +602,11 @@ static void test_device_matches_host(void **state)
     uint32_t n;
     const float c[3] = {0.1f, 0.2f, -0.3f};
     float *t = bvh_gen_sphere(60, 120, 1.0f, c, 0.3f, &n);
-    /* Leaves of up to 16 triangles, so the float8 test also runs in two groups. */
+    /* The default tree (leaves of up to 16 triangles: the float8 test runs in
+     * one and in two groups) and one of leaves of at most 3. */
     BvhOptions opt = bvh_default_options();
-    const int max_leaf[2] = {opt.max_leaf, BVH_MAX_LEAF};
+    const int max_leaf[2] = {opt.max_leaf, 3};
+    const float cost_node[2] = {opt.cost_node, 2.0f};
     int nr = 20000;
     float *rays = malloc((size_t)nr * 6 * sizeof *rays);
     for (int i = 0; i < nr; i++) {
@@ -618,9 +620,9 @@ static void test_device_matches_host(void **state)
     for (int m = 0; m < 2; m++) {
         Bvh bvh;
         opt.max_leaf = max_leaf[m];
-        opt.cost_node = m ? 16.0f : opt.cost_node;
+        opt.cost_node = cost_node[m];
         assert_int_equal(bvh_build_ex(&bvh, t, n, &opt, NULL), 0);
-        if (m)
+        if (m == 0)
             assert_true(bvh.stats.max_leaf_size > 8);
         const char *options[2] = {"-I kernels -cl-std=CL1.2",
                                   "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=1"};
