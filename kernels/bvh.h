@@ -338,39 +338,20 @@ SPT_FN int bvh_leaf_intersect(const SPT_GLOBAL float *tris, spt_u32 first, spt_u
 }
 
 /* Asks the memory system early for a deferred child (node, or count > 0: leaf
- * triangles), so its latency overlaps the traversal of the nearer one. Only where
- * the compiler has the prefetch builtin (host and clang-based CPU devices);
- * OpenCL's prefetch() is a no-op in PoCL. */
-#if defined(__has_builtin)
-#if __has_builtin(__builtin_prefetch)
-#define BVH_HAVE_PREFETCH 1
-#endif
-#elif !SPT_DEVICE && defined(__GNUC__)
-#define BVH_HAVE_PREFETCH 1
-#endif
-#if SPT_DEVICE
-/* A CPU device's address spaces are one, so a global address is a plain one. */
-#define BVH_PREFETCH(p) __builtin_prefetch((const void *)(uintptr_t)(p))
-#else
-#define BVH_PREFETCH(p) __builtin_prefetch((const void *)(p))
-#endif
+ * triangles), so its latency overlaps the traversal of the nearer one. */
 SPT_FN void bvh_prefetch(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
                          spt_u32 child, spt_u32 count)
 {
-#if defined(BVH_HAVE_PREFETCH) && (!SPT_DEVICE || defined(SPT_BVH_SIMD))
     if (count) {
         /* every cache line of the leaf's 9 count floats */
         const SPT_GLOBAL float *p = tris + 9u * child;
         for (spt_u32 k = 0; k < 9u * count; k += 16u)
-            BVH_PREFETCH(p + k);
-        BVH_PREFETCH(p + 9u * count - 1u);
+            SPT_PREFETCH(p + k);
+        SPT_PREFETCH(p + 9u * count - 1u);
     } else {
-        BVH_PREFETCH(&nodes[child]);
-        BVH_PREFETCH((const SPT_GLOBAL char *)&nodes[child] + 64);
+        SPT_PREFETCH(&nodes[child]);
+        SPT_PREFETCH((const SPT_GLOBAL char *)&nodes[child] + 64);
     }
-#else
-    (void)nodes; (void)tris; (void)child; (void)count;
-#endif
 }
 
 /* Index of the lowest set bit of m (m != 0). */

@@ -9,16 +9,6 @@
 #include "spectrum.h"
 #include "render_types.h"
 
-/* A hint to bring the cache line holding the global address p closer ahead of
- * its use. On a CPU device (PoCL) the work-items of a group run one after
- * another, so a work-item can fetch what a later one will read and hide a
- * cache miss behind its own work. A no-op on other targets. */
-#if defined(__x86_64__) || defined(__aarch64__)
-#define SPT_PREFETCH(p) __builtin_prefetch((const void *)(size_t)(p))
-#else
-#define SPT_PREFETCH(p) ((void)0)
-#endif
-
 /* sigmoid-polynomial spectrum at four wavelengths. */
 static float4 spec_sigmoid4(float c0, float c1, float c2, float4 lam)
 {

@@ -59,6 +59,20 @@
 #define SPT_INV_2PI 0.15915494309189533577f
 #define SPT_INV_4PI 0.07957747154594766788f
 
+/* A hint to bring the cache line holding address p closer ahead of its use
+ * (__builtin_prefetch; OpenCL's prefetch() does nothing in PoCL). On a CPU device
+ * the work-items of a group run one after another, so a work-item can fetch what
+ * a later one will read and hide a cache miss behind its own work; its address
+ * spaces are one, so a global address passes as a plain one. A no-op on other
+ * devices. */
+#if SPT_DEVICE && (defined(__x86_64__) || defined(__aarch64__))
+  #define SPT_PREFETCH(p) __builtin_prefetch((const void *)(size_t)(p))
+#elif !SPT_DEVICE && defined(__GNUC__)
+  #define SPT_PREFETCH(p) __builtin_prefetch((const void *)(p))
+#else
+  #define SPT_PREFETCH(p) ((void)0)
+#endif
+
 /* Wavelengths carried by one path (hero wavelength sampling). */
 #define SPT_NUM_LAMBDA 4
 
