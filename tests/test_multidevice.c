@@ -117,9 +117,14 @@ static void test_device_failure(void **state)
     RenderDeviceStats per[2];
     const int d0[1] = {0}, d01[2] = {0, 1};
     assert_int_equal(render_on(d0, 1, &one, NULL, &e), 0);
+    /* Device 1 fails as it starts its second chunk. Device 0 waits 100 ms
+     * before each of its chunks, so that it cannot take all 8 before device 1
+     * has come to its second (without the wait it did, in about 1 run of 8). */
     setenv("SPECTRACE_TEST_FAIL_DEVICE", "1:1", 1);
+    setenv("SPECTRACE_TEST_SLOW_DEVICE", "0:100", 1);
     int rc = render_on(d01, 2, &f, per, &e);
     unsetenv("SPECTRACE_TEST_FAIL_DEVICE");
+    unsetenv("SPECTRACE_TEST_SLOW_DEVICE");
     assert_int_equal(rc, 0);
     assert_true(per[1].failed);
     assert_false(per[0].failed);
