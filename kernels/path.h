@@ -27,15 +27,24 @@ static float table_lookup(const __global float *t, float l)
     return t[i] * (1.0f - f) + t[i + 1] * f;
 }
 
-/* table_lookup at four wavelengths at once: the same arithmetic per lane,
- * with selects instead of the per-wavelength range branches. */
-static float4 table_lookup4(const __global float *t, float4 l)
+/* Where table_lookup reads at four wavelengths l: the entries i and i + 1, the
+ * fraction *f between them, and *in (-1 for lanes inside the table; the others
+ * read entry 0 and must give 0). The same arithmetic per lane, with selects
+ * instead of the per-wavelength range branches. */
+static int4 table_index4(float4 l, float4 *f, int4 *in)
 {
     float4 x = l - (float)SPT_CIE_LAMBDA_MIN;
-    int4 in = isgreaterequal(x, (float4)(0.0f)) & islessequal(x, (float4)(SPT_CIE_SAMPLES - 1));
-    /* Out-of-range lanes read entry 0 and give 0. */
-    int4 i = select((int4)(0), min(convert_int4(select((float4)(0.0f), x, in)), SPT_CIE_SAMPLES - 2), in);
-    float4 f = x - convert_float4(i);
+    *in = isgreaterequal(x, (float4)(0.0f)) & islessequal(x, (float4)(SPT_CIE_SAMPLES - 1));
+    int4 i = select((int4)(0), min(convert_int4(select((float4)(0.0f), x, *in)), SPT_CIE_SAMPLES - 2), *in);
+    *f = x - convert_float4(i);
+    return i;
+}
+
+/* table_lookup at four wavelengths at once. */
+static float4 table_lookup4(const __global float *t, float4 l)
+{
+    float4 f;
+    int4 in, i = table_index4(l, &f, &in);
     float4 a = (float4)(t[i.x], t[i.y], t[i.z], t[i.w]);
     float4 b = (float4)(t[i.x + 1], t[i.y + 1], t[i.z + 1], t[i.w + 1]);
     return select((float4)(0.0f), a * (1.0f - f) + b * f, in);
@@ -124,10 +133,8 @@ static float3 offset_origin(float3 p, float3 n)
  * compute it per wavelength. */
 static float4 cie_lookup4(__constant const float *t, float4 l)
 {
-    float4 x = l - (float)SPT_CIE_LAMBDA_MIN;
-    int4 in = isgreaterequal(x, (float4)(0.0f)) & islessequal(x, (float4)(SPT_CIE_SAMPLES - 1));
-    int4 i = select((int4)(0), min(convert_int4(select((float4)(0.0f), x, in)), SPT_CIE_SAMPLES - 2), in);
-    float4 f = x - convert_float4(i);
+    float4 f;
+    int4 in, i = table_index4(l, &f, &in);
     float4 a = (float4)(t[i.x], t[i.y], t[i.z], t[i.w]);
     float4 b = (float4)(t[i.x + 1], t[i.y + 1], t[i.z + 1], t[i.w + 1]);
     return select((float4)(0.0f), a * (1.0f - f) + b * f, in);
