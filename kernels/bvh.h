@@ -17,9 +17,10 @@
  * triangle b holds row k (vertex k / 3, axis k % 3) of its triangle l at
  * tris[9 b + k n + l], so a CPU tests up to 8 of a leaf's triangles with one
  * float8 test (SPT_BVH_SIMD, set by the host for CPU devices) while a GPU, or the
- * host, loops over them with the same arithmetic lane by lane. tri_lane[i] locates
- * packed triangle i in its leaf: lane (low 4 bits) and leaf size - 1 (high 4
- * bits); leaves hold at most BVH_LEAF_MAX triangles. The buffer has BVH_TRI_PAD
+ * host, loops over them with the same arithmetic lane by lane. tri_lane[i] (a
+ * host array: the kernels shade from a vertex buffer) locates packed triangle i
+ * in its leaf: lane (low 4 bits) and leaf size - 1 (high 4 bits); leaves hold at
+ * most BVH_LEAF_MAX triangles. The buffer has BVH_TRI_PAD
  * floats of padding at its end, as the float8 loads of the last leaf read past it.
  *
  * Depth: the binary tree is never deeper than BVH_MAX_DEPTH - 1 and gathering
