@@ -3,12 +3,10 @@
  * the Fraunhofer lines, Snell's law through a prism, chi-square tests of the
  * samplers against their pdfs (tests/chi2.h), reciprocity and white-furnace
  * albedos. */
-#include "test_util.h"
+#include "test_cl_util.h"
 
 #include <stdlib.h>
 #include <string.h>
-
-#include <CL/cl.h>
 
 #include "chi2.h"
 #include "../kernels/bsdf.h"
@@ -528,19 +526,11 @@ static const char *k_device_src =
 static void test_device_matches_host(void **state)
 {
     (void)state;
-    cl_platform_id plat;
     cl_device_id dev;
-    cl_uint np = 0;
-    if (clGetPlatformIDs(1, &plat, &np) != CL_SUCCESS || np == 0 ||
-        clGetDeviceIDs(plat, CL_DEVICE_TYPE_ALL, 1, &dev, NULL) != CL_SUCCESS) {
-        print_message("no OpenCL device: skipped\n");
-        skip();
-    }
+    cl_context ctx;
+    cl_command_queue cq;
+    test_cl_open_first(&dev, &ctx, &cq);
     cl_int err;
-    cl_context ctx = clCreateContext(NULL, 1, &dev, NULL, NULL, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_command_queue cq = clCreateCommandQueue(ctx, dev, 0, &err);
-    assert_int_equal(err, CL_SUCCESS);
     cl_program prog = clCreateProgramWithSource(ctx, 1, &k_device_src, NULL, &err);
     assert_int_equal(err, CL_SUCCESS);
     err = clBuildProgram(prog, 1, &dev, "-I kernels -cl-std=CL1.2", NULL, NULL);

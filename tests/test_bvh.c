@@ -1,12 +1,10 @@
 /* src/bvh.c and kernels/bvh.h: tree structure, closest and any hit against an
  * independent double-precision brute force, watertightness, garbage input. */
-#include "test_util.h"
+#include "test_cl_util.h"
 
 #include <float.h>
 #include <stdlib.h>
 #include <string.h>
-
-#include <CL/cl.h>
 
 #include "bvh.h"
 
@@ -585,19 +583,10 @@ static int device_differences(cl_context ctx, cl_device_id dev, cl_command_queue
 static void test_device_matches_host(void **state)
 {
     (void)state;
-    cl_platform_id plat;
     cl_device_id dev;
-    cl_uint np = 0;
-    if (clGetPlatformIDs(1, &plat, &np) != CL_SUCCESS || np == 0 ||
-        clGetDeviceIDs(plat, CL_DEVICE_TYPE_ALL, 1, &dev, NULL) != CL_SUCCESS) {
-        print_message("no OpenCL device: skipped\n");
-        skip();
-    }
-    cl_int err;
-    cl_context ctx = clCreateContext(NULL, 1, &dev, NULL, NULL, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_command_queue q = clCreateCommandQueue(ctx, dev, 0, &err);
-    assert_int_equal(err, CL_SUCCESS);
+    cl_context ctx;
+    cl_command_queue q;
+    test_cl_open_first(&dev, &ctx, &q);
     rng_state = 18;
     uint32_t n;
     const float c[3] = {0.1f, 0.2f, -0.3f};

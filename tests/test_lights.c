@@ -3,13 +3,11 @@
  * against the CIE tables, the environment map's sampling against its pdf
  * (chi-square), its normalisation and colour, the uniform background's
  * irradiance, the selection distribution, and the device build of the header. */
-#include "test_util.h"
+#include "test_cl_util.h"
 
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-
-#include <CL/cl.h>
 
 #include "chi2.h"
 #include "image_out.h"
@@ -662,19 +660,11 @@ static const char *k_device_src =
 static void test_device_matches_host(void **state)
 {
     (void)state;
-    cl_platform_id plat;
     cl_device_id dev;
-    cl_uint np = 0;
-    if (clGetPlatformIDs(1, &plat, &np) != CL_SUCCESS || np == 0 ||
-        clGetDeviceIDs(plat, CL_DEVICE_TYPE_ALL, 1, &dev, NULL) != CL_SUCCESS) {
-        print_message("no OpenCL device: skipped\n");
-        skip();
-    }
+    cl_context ctx;
+    cl_command_queue cq;
+    test_cl_open_first(&dev, &ctx, &cq);
     cl_int err;
-    cl_context ctx = clCreateContext(NULL, 1, &dev, NULL, NULL, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_command_queue cq = clCreateCommandQueue(ctx, dev, 0, &err);
-    assert_int_equal(err, CL_SUCCESS);
     cl_program prog = clCreateProgramWithSource(ctx, 1, &k_device_src, NULL, &err);
     assert_int_equal(err, CL_SUCCESS);
     err = clBuildProgram(prog, 1, &dev, "-I kernels -cl-std=CL1.2", NULL, NULL);

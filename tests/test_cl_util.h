@@ -1,0 +1,28 @@
+/* Shared OpenCL set-up for the tests that run kernels/ headers on a device
+ * and compare with the host. */
+#ifndef SPT_TEST_CL_UTIL_H
+#define SPT_TEST_CL_UTIL_H
+
+#include <CL/cl.h>
+
+#include "test_util.h"
+
+/* Opens the first device of the first platform with a context and an in-order
+ * queue; without one, skips the calling test with a message. */
+static void test_cl_open_first(cl_device_id *dev, cl_context *ctx, cl_command_queue *q)
+{
+    cl_platform_id plat;
+    cl_uint np = 0;
+    if (clGetPlatformIDs(1, &plat, &np) != CL_SUCCESS || np == 0 ||
+        clGetDeviceIDs(plat, CL_DEVICE_TYPE_ALL, 1, dev, NULL) != CL_SUCCESS) {
+        print_message("no OpenCL device: skipped\n");
+        skip();
+    }
+    cl_int err;
+    *ctx = clCreateContext(NULL, 1, dev, NULL, NULL, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    *q = clCreateCommandQueue(*ctx, *dev, 0, &err);
+    assert_int_equal(err, CL_SUCCESS);
+}
+
+#endif
