@@ -8,6 +8,7 @@
 
 #include "cl_device.h"
 #include "film.h"
+#include "film_test.h"
 #include "render.h"
 #include "scene.h"
 
@@ -56,22 +57,6 @@ static int render_on(const int *which, int n, Film *film, RenderDeviceStats *per
     return render_devices(infos, n, &gpu, &scene.camera, &rs, film, &st, per, e);
 }
 
-/* Every pixel's XYZ means agree within 1e-4 of the pixel's largest channel. */
-static void assert_same_image(const Film *a, const Film *b)
-{
-    size_t n = (size_t)a->width * a->height;
-    for (size_t i = 0; i < n; i++) {
-        assert_true(a->count[i] == b->count[i]);
-        double m = 1e-12;
-        for (int c = 0; c < 3; c++)
-            m = fmax(m, fabs(a->xyz[3 * i + c]));
-        for (int c = 0; c < 3; c++)
-            if (fabs(a->xyz[3 * i + c] - b->xyz[3 * i + c]) > 1e-4 * m)
-                fail_msg("pixel %zu channel %d: %.9g vs %.9g", i, c, a->xyz[3 * i + c],
-                         b->xyz[3 * i + c]);
-    }
-}
-
 static void test_split_invariance(void **state)
 {
     (void)state;
@@ -84,7 +69,7 @@ static void test_split_invariance(void **state)
     printf("two devices: %u and %u spp\n", per[0].samples, per[1].samples);
     assert_int_equal(per[0].samples + per[1].samples, 32);
     assert_true(per[0].samples > 0 && per[1].samples > 0);
-    assert_same_image(&one, &two);
+    assert_same_film(&one, &two);
     film_free(&one);
     film_free(&two);
 }
@@ -128,7 +113,7 @@ static void test_device_failure(void **state)
     assert_int_equal(rc, 0);
     assert_true(per[1].failed);
     assert_false(per[0].failed);
-    assert_same_image(&one, &f);
+    assert_same_film(&one, &f);
     film_free(&one);
     film_free(&f);
     /* Both failing: the render fails. */
