@@ -176,10 +176,10 @@ int cmd_info(int argc, char **argv)
     else
         printf("bounds       empty (no triangles)\n");
 
-    /* Device buffers: per-vertex normals and uvs, per-triangle vertex indices and
-     * material ids, textures as floats, materials and lights (upper bound of 512
-     * bytes each), plus the BVH nodes and packed triangles. */
-    double bytes = (double)s.vertex_count * 5 * sizeof(float) + (double)s.tri_count * 4 * 4 +
+    /* Device buffers: per-vertex positions, normals and uvs, per-triangle vertex
+     * indices and material ids, textures as floats, materials and lights (upper
+     * bound of 512 bytes each), plus the BVH nodes and packed triangles. */
+    double bytes = (double)s.vertex_count * 8 * sizeof(float) + (double)s.tri_count * 4 * 4 +
                    tex_bytes + (double)(s.material_count + s.light_count) * 512;
     int rc = SPT_EXIT_OK;
     double bvh_bytes_per_tri = 9 * sizeof(float); /* without the BVH: the positions */
@@ -193,7 +193,7 @@ int cmd_info(int argc, char **argv)
                    "cost %.2f, %.1f bytes/triangle, built in %.1f ms\n",
                    b->node_count, b->leaf_count, b->max_depth, b->avg_leaf_size,
                    b->max_leaf_size, b->sah_cost, b->bytes_per_tri, b->build_seconds * 1e3);
-            bytes += (double)bvh.node_count * sizeof(BvhNode) + (double)bvh.tri_data_bytes + bvh.prim_count;
+            bytes += (double)bvh.node_count * sizeof(BvhNode) + (double)bvh.tri_data_bytes;
             bvh_bytes_per_tri = b->bytes_per_tri;
             bvh_free(&bvh);
         }
