@@ -2,12 +2,14 @@
  * builder (src/bvh.c) writes, and the traversal. Valid C99 and OpenCL C 1.2, so the
  * host tests and benchmarks run exactly the code the kernels run.
  *
- * Layout: a flat array of 128-byte 4-wide nodes (the binary SAH tree of
- * src/bvh.c gathered, each node taking up to four of its largest descendants),
+ * Layout: a flat array of 256-byte 8-wide nodes (the binary SAH tree of
+ * src/bvh.c gathered, each node taking up to eight of its largest descendants),
  * depth first, node 0 the root. A node stores its children's boxes as structure
- * of arrays, bounds[2 a + 0] = the four low and bounds[2 a + 1] = the four high
- * coordinates along axis a, so one child test is a handful of float4
- * operations. Child i is a leaf of count[i] > 0 triangles starting at packed
+ * of arrays, bounds[2 a + 0] = the eight low and bounds[2 a + 1] = the eight high
+ * coordinates along axis a, so one test of all children is a handful of float8
+ * operations. Eight-wide nodes make a ray's chain of dependent node loads about
+ * a third shorter than four-wide ones did, and cost the same float8 test on
+ * a CPU. Child i is a leaf of count[i] > 0 triangles starting at packed
  * triangle child[i], or when count[i] == 0 the node child[i] (> 0); an unused
  * slot has count 0 and an empty box (low +FLT_MAX, high -FLT_MAX) that no ray
  * enters.
@@ -24,8 +26,8 @@
  * floats of padding at its end, as the float8 loads of the last leaf read past it.
  *
  * Depth: the binary tree is never deeper than BVH_MAX_DEPTH - 1 and gathering
- * never deepens it, and a node pushes at most 3 children, so the traversal
- * stack of BVH_STACK_SIZE entries cannot overflow. (On GPUs this 2.3 KB
+ * never deepens it, and a node pushes at most 7 children, so the traversal
+ * stack of BVH_STACK_SIZE entries cannot overflow. (On GPUs this 5.4 KB
  * private stack lives in slow memory; a shorter stack with a restart would
  * suit them better.)
  *
@@ -50,8 +52,8 @@
 /* Deepest binary node depth + 1 (the builder's bound) and the traversal stack
  * size (see the header comment). */
 #define BVH_MAX_DEPTH 64
-#define BVH_WIDTH 4
-#define BVH_STACK_SIZE (3 * BVH_MAX_DEPTH + 1)
+#define BVH_WIDTH 8
+#define BVH_STACK_SIZE ((BVH_WIDTH - 1) * BVH_MAX_DEPTH + 1)
 /* FLT_MAX, a sort key beyond every entry distance (those are <= tmax). */
 #define BVH_FAR 3.402823466e+38f
 
@@ -66,7 +68,7 @@ typedef struct BvhNode {
 #define BVH_LEAF_MAX 16
 #define BVH_TRI_PAD 8
 
-SPT_STATIC_ASSERT(sizeof(BvhNode) == 128, "BvhNode must stay 128 bytes (device layout)");
+SPT_STATIC_ASSERT(sizeof(BvhNode) == 256, "BvhNode must stay 256 bytes (device layout)");
 
 /* A closest hit: distance t along dir, barycentrics such that the point is
  * (1-u-v) v0 + u v1 + v v2, and prim = index of the packed triangle. */
@@ -144,67 +146,100 @@ SPT_FN void bvh_ray_init(BvhRay *r, vec3 org, vec3 dir)
     r->sy = d[ky] * r->sz;
 }
 
+/* Entry distances of the ray into a node's BVH_WIDTH child boxes (BvhEnter):
+ * lane i is child i's entry distance if its box overlaps [0, tbest], else -1.
+ * Far distances are widened by 1 + 2 gamma(3) (Ize 2013, "Robust BVH Ray
+ * Traversal") so rounding never culls a box the triangle test would hit. The
+ * min and max are compare-and-select (a < b ? a : b) on the device and the host
+ * alike, without fmin's NaN handling: no operand can be NaN (finite boxes and
+ * origins, finite non-zero reciprocals). */
 #if SPT_DEVICE
-SPT_FN vec4 bvh_v4_load(const SPT_GLOBAL float *p) { return vload4(0, p); }
-/* Compare-based like the host's, without fmin's NaN handling: no operand of the
- * box test can be NaN (finite boxes and origins, finite non-zero reciprocals). */
-SPT_FN vec4 bvh_v4_min(vec4 a, vec4 b) { return select(b, a, a < b); }
-SPT_FN vec4 bvh_v4_max(vec4 a, vec4 b) { return select(b, a, a > b); }
-#else
-SPT_FN vec4 bvh_v4_load(const float *p) { return v4(p[0], p[1], p[2], p[3]); }
-SPT_FN vec4 bvh_v4_min(vec4 a, vec4 b)
-{
-    return v4(BVH_MIN(a.x, b.x), BVH_MIN(a.y, b.y), BVH_MIN(a.z, b.z), BVH_MIN(a.w, b.w));
-}
-SPT_FN vec4 bvh_v4_max(vec4 a, vec4 b)
-{
-    return v4(BVH_MAX(a.x, b.x), BVH_MAX(a.y, b.y), BVH_MAX(a.z, b.z), BVH_MAX(a.w, b.w));
-}
-#endif
+typedef float8 BvhEnter;
+#define BVH_ENTER_LANE(d, i) bvh_lane8(d, i)
 
-/* Entry distances of the ray into node n's four child boxes: lane i is child i's
- * entry distance if its box overlaps [0, tbest], else -1. Far distances are
- * widened by 1 + 2 gamma(3) (Ize 2013, "Robust BVH Ray Traversal") so rounding
- * never culls a box the triangle test would hit. */
-SPT_FN vec4 bvh_node_enter(const SPT_GLOBAL BvhNode *n, const BvhRay *r, float tbest)
+/* Lane l (0..7) of x, by halving selects (no indexed private array). */
+SPT_FN float bvh_lane8(float8 x, uint l)
 {
-#if !SPT_DEVICE && defined(__SSE2__)
-    /* The same operations lane for lane in SSE (minps/maxps are a < b ? a : b
-     * and a > b ? a : b, like bvh_v4_min/max), for host traversal speed. */
+    float4 x4 = (l & 4u) ? x.hi : x.lo;
+    float2 x2 = (l & 2u) ? x4.hi : x4.lo;
+    return (l & 1u) ? x2.y : x2.x;
+}
+
+SPT_FN float8 bvh_v8_min(float8 a, float8 b) { return select(b, a, a < b); }
+SPT_FN float8 bvh_v8_max(float8 a, float8 b) { return select(b, a, a > b); }
+
+SPT_FN float8 bvh_node_enter(const __global BvhNode *n, const BvhRay *r, float tbest)
+{
+    float8 ox = (float8)(r->ox), oy = (float8)(r->oy), oz = (float8)(r->oz);
+    float8 tnx = (vload8(0, n->bounds[r->nx]) - ox) * r->ix;
+    float8 tfx = (vload8(0, n->bounds[r->nx ^ 1]) - ox) * r->ix;
+    float8 tny = (vload8(0, n->bounds[r->ny]) - oy) * r->iy;
+    float8 tfy = (vload8(0, n->bounds[r->ny ^ 1]) - oy) * r->iy;
+    float8 tnz = (vload8(0, n->bounds[r->nz]) - oz) * r->iz;
+    float8 tfz = (vload8(0, n->bounds[r->nz ^ 1]) - oz) * r->iz;
+    float8 tn = bvh_v8_max(bvh_v8_max(tnx, tny), bvh_v8_max(tnz, (float8)(0.0f)));
+    float8 tf = bvh_v8_min(bvh_v8_min(tfx, tfy), tfz) * 1.00000036f;
+    tf = bvh_v8_min(tf, (float8)(tbest));
+    return select((float8)(-1.0f), tn, tn <= tf);
+}
+
+/* Bit i set when child i is entered (lane i >= 0). */
+SPT_FN uint bvh_enter_mask(float8 d)
+{
+    uint8 b = as_uint8(d >= (float8)(0.0f)) & (uint8)(1u, 2u, 4u, 8u, 16u, 32u, 64u, 128u);
+    uint4 b4 = b.lo | b.hi;
+    uint2 b2 = b4.lo | b4.hi;
+    return b2.x | b2.y;
+}
+#else
+typedef struct BvhEnter {
+    float v[BVH_WIDTH];
+} BvhEnter;
+#define BVH_ENTER_LANE(d, i) ((d).v[i])
+
+SPT_FN BvhEnter bvh_node_enter(const BvhNode *n, const BvhRay *r, float tbest)
+{
+    BvhEnter d;
+#if defined(__SSE2__)
+    /* The device's float8 arithmetic, four lanes at a time (minps/maxps are
+     * a < b ? a : b and a > b ? a : b, like the device's selects). */
     __m128 ox = _mm_set1_ps(r->ox), oy = _mm_set1_ps(r->oy), oz = _mm_set1_ps(r->oz);
     __m128 ix = _mm_set1_ps(r->ix), iy = _mm_set1_ps(r->iy), iz = _mm_set1_ps(r->iz);
-    __m128 tnx = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nx]), ox), ix);
-    __m128 tfx = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nx ^ 1]), ox), ix);
-    __m128 tny = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->ny]), oy), iy);
-    __m128 tfy = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->ny ^ 1]), oy), iy);
-    __m128 tnz = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nz]), oz), iz);
-    __m128 tfz = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nz ^ 1]), oz), iz);
-    __m128 tn = _mm_max_ps(_mm_max_ps(tnx, tny), _mm_max_ps(tnz, _mm_setzero_ps()));
-    __m128 tf = _mm_mul_ps(_mm_min_ps(_mm_min_ps(tfx, tfy), tfz), _mm_set1_ps(1.00000036f));
-    tf = _mm_min_ps(tf, _mm_set1_ps(tbest));
-    __m128 in = _mm_cmple_ps(tn, tf);
-    __m128 d = _mm_or_ps(_mm_and_ps(in, tn), _mm_andnot_ps(in, _mm_set1_ps(-1.0f)));
-    float out[4];
-    _mm_storeu_ps(out, d);
-    return v4(out[0], out[1], out[2], out[3]);
+    for (int h = 0; h < BVH_WIDTH; h += 4) {
+        __m128 tnx = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nx] + h), ox), ix);
+        __m128 tfx = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nx ^ 1] + h), ox), ix);
+        __m128 tny = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->ny] + h), oy), iy);
+        __m128 tfy = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->ny ^ 1] + h), oy), iy);
+        __m128 tnz = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nz] + h), oz), iz);
+        __m128 tfz = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nz ^ 1] + h), oz), iz);
+        __m128 tn = _mm_max_ps(_mm_max_ps(tnx, tny), _mm_max_ps(tnz, _mm_setzero_ps()));
+        __m128 tf = _mm_mul_ps(_mm_min_ps(_mm_min_ps(tfx, tfy), tfz), _mm_set1_ps(1.00000036f));
+        tf = _mm_min_ps(tf, _mm_set1_ps(tbest));
+        __m128 in = _mm_cmple_ps(tn, tf);
+        _mm_storeu_ps(d.v + h, _mm_or_ps(_mm_and_ps(in, tn), _mm_andnot_ps(in, _mm_set1_ps(-1.0f))));
+    }
 #else
-    vec4 tnx = v4_scale(v4_sub(bvh_v4_load(n->bounds[r->nx]), v4_splat(r->ox)), r->ix);
-    vec4 tfx = v4_scale(v4_sub(bvh_v4_load(n->bounds[r->nx ^ 1]), v4_splat(r->ox)), r->ix);
-    vec4 tny = v4_scale(v4_sub(bvh_v4_load(n->bounds[r->ny]), v4_splat(r->oy)), r->iy);
-    vec4 tfy = v4_scale(v4_sub(bvh_v4_load(n->bounds[r->ny ^ 1]), v4_splat(r->oy)), r->iy);
-    vec4 tnz = v4_scale(v4_sub(bvh_v4_load(n->bounds[r->nz]), v4_splat(r->oz)), r->iz);
-    vec4 tfz = v4_scale(v4_sub(bvh_v4_load(n->bounds[r->nz ^ 1]), v4_splat(r->oz)), r->iz);
-    vec4 tn = bvh_v4_max(bvh_v4_max(tnx, tny), bvh_v4_max(tnz, v4_splat(0.0f)));
-    vec4 tf = v4_scale(bvh_v4_min(bvh_v4_min(tfx, tfy), tfz), 1.00000036f);
-    tf = bvh_v4_min(tf, v4_splat(tbest));
-#if SPT_DEVICE
-    return select((float4)(-1.0f), tn, tn <= tf);
-#else
-    return v4(tn.x <= tf.x ? tn.x : -1.0f, tn.y <= tf.y ? tn.y : -1.0f,
-              tn.z <= tf.z ? tn.z : -1.0f, tn.w <= tf.w ? tn.w : -1.0f);
+    for (int i = 0; i < BVH_WIDTH; i++) {
+        float tnx = (n->bounds[r->nx][i] - r->ox) * r->ix, tfx = (n->bounds[r->nx ^ 1][i] - r->ox) * r->ix;
+        float tny = (n->bounds[r->ny][i] - r->oy) * r->iy, tfy = (n->bounds[r->ny ^ 1][i] - r->oy) * r->iy;
+        float tnz = (n->bounds[r->nz][i] - r->oz) * r->iz, tfz = (n->bounds[r->nz ^ 1][i] - r->oz) * r->iz;
+        float tn = bvh_max_(bvh_max_(tnx, tny), bvh_max_(tnz, 0.0f));
+        float tf = bvh_min_(bvh_min_(tfx, tfy), tfz) * 1.00000036f;
+        tf = bvh_min_(tf, tbest);
+        d.v[i] = tn <= tf ? tn : -1.0f;
+    }
 #endif
-#endif
+    return d;
 }
+
+SPT_FN spt_u32 bvh_enter_mask(BvhEnter d)
+{
+    spt_u32 m = 0;
+    for (int i = 0; i < BVH_WIDTH; i++)
+        m |= (spt_u32)(d.v[i] >= 0.0f) << i;
+    return m;
+}
+#endif
 
 /* Watertight test of triangle (lane) l of the leaf of n triangles whose block
  * starts at p: on a hit with t in (0, tbest) writes hit (prim = prim) and
@@ -285,13 +320,6 @@ SPT_FN float8 bvh_tri8_distances(const __global float *p, uint n, uint g, const 
     return select((float8)(BVH_FAR), t, ok);
 }
 
-/* Lane l (0..7) of x, by halving selects (no indexed private array). */
-SPT_FN float bvh_lane8(float8 x, uint l)
-{
-    float4 x4 = (l & 4u) ? x.hi : x.lo;
-    float2 x2 = (l & 2u) ? x4.hi : x4.lo;
-    return (l & 1u) ? x2.y : x2.x;
-}
 #endif
 
 /* Tests the leaf of count triangles from packed triangle first against the ray:
@@ -350,8 +378,11 @@ SPT_FN void bvh_prefetch(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float
             SPT_PREFETCH(p + k);
         SPT_PREFETCH(p + 9u * count - 1u);
     } else {
-        SPT_PREFETCH(&nodes[child]);
-        SPT_PREFETCH((const SPT_GLOBAL char *)&nodes[child] + 64);
+        const SPT_GLOBAL char *q = (const SPT_GLOBAL char *)&nodes[child];
+        SPT_PREFETCH(q);
+        SPT_PREFETCH(q + 64);
+        SPT_PREFETCH(q + 128);
+        SPT_PREFETCH(q + 192);
     }
 }
 
@@ -364,25 +395,6 @@ SPT_FN spt_u32 bvh_lowest_bit(spt_u32 m)
     return (spt_u32)__builtin_ctz(m);
 #endif
 }
-
-/* Lane i (0..3) of v. */
-SPT_FN float bvh_lane(vec4 v, spt_u32 i)
-{
-    return i == 0u ? v.x : i == 1u ? v.y : i == 2u ? v.z : v.w;
-}
-
-/* Orders the (distance, slot) pairs (ka, sa) and (kb, sb) by distance, without
- * branches. */
-#define BVH_SWAP_IF(ka, sa, kb, sb)                                              \
-    do {                                                                         \
-        int sw_ = (kb) < (ka);                                                   \
-        float kt_ = sw_ ? (kb) : (ka);                                           \
-        int st_ = sw_ ? (sb) : (sa);                                             \
-        (kb) = sw_ ? (ka) : (kb);                                                \
-        (sb) = sw_ ? (sa) : (sb);                                                \
-        (ka) = kt_;                                                              \
-        (sa) = st_;                                                              \
-    } while (0)
 
 /* The traversal behind bvh_intersect (any_hit 0: closest hit) and bvh_occluded
  * (any_hit 1: stops at the first hit). The children a ray enters are visited
@@ -410,9 +422,8 @@ SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float 
             }
         } else {
             const SPT_GLOBAL BvhNode *n = &nodes[cur];
-            vec4 d4 = bvh_node_enter(n, &r, best);
-            spt_u32 mask = (spt_u32)(d4.x >= 0.0f) | (spt_u32)(d4.y >= 0.0f) << 1 |
-                           (spt_u32)(d4.z >= 0.0f) << 2 | (spt_u32)(d4.w >= 0.0f) << 3;
+            BvhEnter d = bvh_node_enter(n, &r, best);
+            spt_u32 mask = bvh_enter_mask(d);
             if (mask) {
                 spt_u32 a = bvh_lowest_bit(mask), rest = mask & (mask - 1u);
                 if (!rest) {
@@ -424,7 +435,7 @@ SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float 
                 if (!(rest & (rest - 1u))) {
                     /* Two: visit the nearer, defer the other. */
                     spt_u32 b = bvh_lowest_bit(rest);
-                    float ka = bvh_lane(d4, a), kb = bvh_lane(d4, b);
+                    float ka = BVH_ENTER_LANE(d, a), kb = BVH_ENTER_LANE(d, b);
                     spt_u32 near = kb < ka ? b : a, far = kb < ka ? a : b;
                     stack_child[sp] = n->child[far];
                     stack_count[sp] = n->count[far];
@@ -434,30 +445,33 @@ SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float 
                     count = n->count[near];
                     continue;
                 }
-                /* Three or four: sort the slots by entry distance, misses (-1)
-                 * last as +big, with a 4-input sorting network of conditional
-                 * swaps. */
-                float k0 = d4.x >= 0.0f ? d4.x : BVH_FAR, k1 = d4.y >= 0.0f ? d4.y : BVH_FAR;
-                float k2 = d4.z >= 0.0f ? d4.z : BVH_FAR, k3 = d4.w >= 0.0f ? d4.w : BVH_FAR;
-                int s0 = 0, s1 = 1, s2 = 2, s3 = 3;
-                BVH_SWAP_IF(k0, s0, k1, s1);
-                BVH_SWAP_IF(k2, s2, k3, s3);
-                BVH_SWAP_IF(k0, s0, k2, s2);
-                BVH_SWAP_IF(k1, s1, k3, s3);
-                BVH_SWAP_IF(k1, s1, k2, s2);
-                /* Defer all but the nearest, farthest first. */
-                if (mask == 15u) {
-                    stack_child[sp] = n->child[s3]; stack_count[sp] = n->count[s3];
-                    stack_t[sp++] = k3;
+                /* Three or more: insertion-sort the entered slots by entry
+                 * distance, farthest first (of equal distances the higher
+                 * slot counts as nearer), defer all but the nearest. */
+                float kd[BVH_WIDTH];
+                spt_u32 ks[BVH_WIDTH];
+                int k = 0;
+                for (spt_u32 m = mask; m; m &= m - 1u) {
+                    spt_u32 i = bvh_lowest_bit(m);
+                    float di = BVH_ENTER_LANE(d, i);
+                    int j = k++;
+                    while (j > 0 && kd[j - 1] < di) {
+                        kd[j] = kd[j - 1];
+                        ks[j] = ks[j - 1];
+                        j--;
+                    }
+                    kd[j] = di;
+                    ks[j] = i;
                 }
-                stack_child[sp] = n->child[s2]; stack_count[sp] = n->count[s2];
-                stack_t[sp++] = k2;
-                stack_child[sp] = n->child[s1]; stack_count[sp] = n->count[s1];
-                stack_t[sp++] = k1;
+                for (int j = 0; j < k - 1; j++) {
+                    stack_child[sp] = n->child[ks[j]];
+                    stack_count[sp] = n->count[ks[j]];
+                    stack_t[sp++] = kd[j];
+                }
                 bvh_prefetch(nodes, tris, stack_child[sp - 1], stack_count[sp - 1]);
                 bvh_prefetch(nodes, tris, stack_child[sp - 2], stack_count[sp - 2]);
-                cur = n->child[s0];
-                count = n->count[s0];
+                cur = n->child[ks[k - 1]];
+                count = n->count[ks[k - 1]];
                 continue;
             }
         }

@@ -1,7 +1,7 @@
 /* Binned SAH BVH builder (Wald 2007, "On fast Construction of SAH-based Bounding
- * Volume Hierarchies") into the flat 4-wide layout of kernels/bvh.h, with an
+ * Volume Hierarchies") into the flat 8-wide layout of kernels/bvh.h, with an
  * exact full-sweep SAH builder as a quality reference. The binary SAH tree is
- * decided top down and its nodes gathered into 4-wide nodes as it goes; it is
+ * decided top down and its nodes gathered into 8-wide nodes as it goes; it is
  * never stored. One thread, SSE where available: about 7 million triangles per
  * second of one core on the bench's 1M-triangle mesh (default options). */
 #include "bvh.h"
@@ -169,7 +169,7 @@ typedef struct SweepKey {
 
 /* A node of the binary SAH tree, decided but not stored: its refs [begin, end),
  * its bounds, and unless it is a leaf the split point mid (the refs are already
- * partitioned). The 4-wide nodes are made from these as the build goes. */
+ * partitioned). The 8-wide nodes are made from these as the build goes. */
 typedef struct Item {
     uint32_t begin, end, mid;
     uint32_t depth; /* in the binary tree, root = 0 */
@@ -179,7 +179,7 @@ typedef struct Item {
 
 typedef struct Builder {
     PrimRef *refs;
-    BvhNode *wide;      /* the 4-wide nodes made so far */
+    BvhNode *wide;      /* the 8-wide nodes made so far */
     uint32_t wide_count, wide_cap;
     double sah;         /* the binary tree's SAH cost times its root's area */
     BvhStats *st;
@@ -610,7 +610,7 @@ static void decide(Builder *bd, uint32_t begin, uint32_t end, uint32_t depth, It
     bd->sah += (double)area * (leaf ? bd->opt.cost_tri * (double)count : bd->opt.cost_node);
 }
 
-/* Index of a new 4-wide node (the array grows by doubling). */
+/* Index of a new 8-wide node (the array grows by doubling). */
 static uint32_t wide_new(Builder *bd)
 {
     if (bd->wide_count == bd->wide_cap) {
@@ -626,7 +626,7 @@ static uint32_t wide_new(Builder *bd)
     return bd->wide_count++;
 }
 
-/* Fills slot i of 4-wide node w with item it (NULL: unused). */
+/* Fills slot i of 8-wide node w with item it (NULL: unused). */
 static void wide_slot(Builder *bd, uint32_t w, int i, const Item *it)
 {
     BvhNode *node = &bd->wide[w];
@@ -644,7 +644,7 @@ static void wide_slot(Builder *bd, uint32_t w, int i, const Item *it)
     }
 }
 
-/* Builds 4-wide node w (at depth wdepth) for the interior binary node it: the
+/* Builds 8-wide node w (at depth wdepth) for the interior binary node it: the
  * slots start as its two children, and the interior slot of largest area
  * (ties: the fewest binary levels down) is replaced by its two children while
  * there is room. Then the interior slots are built the same way. */
@@ -791,10 +791,10 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
             bd.right_area = spt_malloc(kept * sizeof *bd.right_area);
             bd.tmp = spt_malloc(kept * sizeof *bd.tmp);
         }
-        /* About one 4-wide node per 9 triangles with the default options; the
+        /* About one 8-wide node per 32 triangles with the default options; the
          * array doubles when a tree needs more. 64-byte aligned, so a node is
-         * two cache lines. Pages past the last node are never touched. */
-        bd.wide_cap = kept / 4 + 16;
+         * four cache lines. Pages past the last node are never touched. */
+        bd.wide_cap = kept / 8 + 16;
         bd.wide = aligned_alloc(64, (size_t)bd.wide_cap * sizeof *bd.wide);
         if (!bd.wide)
             bd.wide = spt_malloc((size_t)bd.wide_cap * sizeof *bd.wide);

@@ -13,12 +13,12 @@
 
 /* What a build made, for `info`, the benchmark and the tests. */
 typedef struct BvhStats {
-    uint32_t node_count;       /* 4-wide nodes */
+    uint32_t node_count;       /* 8-wide nodes */
     uint32_t leaf_count;
-    uint32_t max_depth;        /* of the 4-wide nodes, root = 0 */
+    uint32_t max_depth;        /* of the 8-wide nodes, root = 0 */
     uint32_t max_leaf_size;
     double avg_leaf_size;      /* triangles per leaf */
-    double sah_cost;           /* of the binary SAH tree the 4-wide one gathers:
+    double sah_cost;           /* of the binary SAH tree the 8-wide one gathers:
                                   sum over nodes of area / root area times the
                                   cost (options cost_node per interior node,
                                   cost_tri per triangle in a leaf) */

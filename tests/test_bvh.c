@@ -448,7 +448,7 @@ static void test_identical_triangles(void **state)
     assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
     check_structure(&bvh, t, n, NULL);
     /* halving down to leaves of at most 8: ceil(log2(100000 / 8)) = 14 binary
-     * levels, at least two of them per 4-wide level */
+     * levels, at least two of them per wide level */
     assert_true(bvh.stats.max_depth <= 7);
     assert_true(bvh.stats.build_seconds < 5.0);
     BvhHit h;
