@@ -485,10 +485,14 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
     int rc;
     memset(w, 0, sizeof *w);
     uint64_t npix = (uint64_t)rs->width * (uint64_t)rs->height;
-    /* Samples per chunk: the pool several times over, with the per-sample
-     * contribution buffer under 64 MiB. */
+    /* Samples per chunk: the pool 16 times over, with the per-sample
+     * contribution buffer under 64 MiB. A chunk ends with its last paths
+     * running in a near-empty pool and a wait for the host, so fewer, larger
+     * chunks keep the device busier: 16 pools instead of 4 rendered the Cornell
+     * box 6.5% faster (PoCL, 2 cores, median of 16 alternated 512x512 renders),
+     * and a chunk still takes well under a second there. */
     w->pool = pool_size_for(info, npix * (uint64_t)(rs->spp > 0 ? rs->spp : 1));
-    uint64_t spp = (4ull * w->pool + npix - 1) / npix;
+    uint64_t spp = (16ull * w->pool + npix - 1) / npix;
     uint64_t cap = (64ull << 20) / (npix * 16ull);
     if (spp > cap)
         spp = cap;
