@@ -99,17 +99,11 @@ SPT_FN void bvh_tri_vertices(const SPT_GLOBAL float *tris, const SPT_GLOBAL spt_
     *v2 = v3(p[6 * n], p[7 * n], p[8 * n]);
 }
 
-/* min/max for the box test: the device's fmin/fmax are instructions, while on the
- * host fminf/fmaxf are library calls unless -ffast-math, so use compares there.
- * A NaN operand may make a box count as hit, never a triangle. */
-#if SPT_DEVICE
-#define BVH_MIN(a, b) fmin(a, b)
-#define BVH_MAX(a, b) fmax(a, b)
-#else
+#if !SPT_DEVICE
+/* min/max of the host's box test without SSE: compares, as the device's
+ * selects (fminf/fmaxf are library calls unless -ffast-math). */
 SPT_FN float bvh_min_(float a, float b) { return a < b ? a : b; }
 SPT_FN float bvh_max_(float a, float b) { return a > b ? a : b; }
-#define BVH_MIN(a, b) bvh_min_(a, b)
-#define BVH_MAX(a, b) bvh_max_(a, b)
 #endif
 
 /* 1/d with |d| clamped away from 0, so the slab test never forms 0 * inf. */
