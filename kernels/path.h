@@ -40,15 +40,21 @@ static int4 table_index4(float4 l, float4 *f, int4 *in)
     return i;
 }
 
-/* table_lookup at four wavelengths at once. */
-static float4 table_lookup4(const __global float *t, float4 l)
-{
-    float4 f;
-    int4 in, i = table_index4(l, &f, &in);
-    float4 a = (float4)(t[i.x], t[i.y], t[i.z], t[i.w]);
-    float4 b = (float4)(t[i.x + 1], t[i.y + 1], t[i.z + 1], t[i.w + 1]);
-    return select((float4)(0.0f), a * (1.0f - f) + b * f, in);
-}
+/* table_lookup at four wavelengths at once, for a table in address space AS
+ * (OpenCL 1.2 has no generic pointers, so one body serves two functions). */
+#define SPT_TABLE_LOOKUP4(name, AS)                                            \
+    static float4 name(AS const float *t, float4 l)                            \
+    {                                                                          \
+        float4 f;                                                              \
+        int4 in, i = table_index4(l, &f, &in);                                 \
+        float4 a = (float4)(t[i.x], t[i.y], t[i.z], t[i.w]);                   \
+        float4 b = (float4)(t[i.x + 1], t[i.y + 1], t[i.z + 1], t[i.w + 1]);   \
+        return select((float4)(0.0f), a * (1.0f - f) + b * f, in);             \
+    }
+SPT_TABLE_LOOKUP4(table_lookup4, __global)
+/* The same for the CIE tables (in constant memory), as spt_cie_x etc. compute
+ * it per wavelength. */
+SPT_TABLE_LOOKUP4(cie_lookup4, __constant)
 
 /* The value of spectrum s at the four wavelengths lam. */
 static float4 spec_eval(const __global SpecRef *s, float4 lam, const __global float *spectra)
@@ -129,16 +135,6 @@ static float3 offset_origin(float3 p, float3 n)
     return p + n * (1e-5f * m + 1e-6f);
 }
 
-/* table_lookup4 for the CIE tables (in constant memory), as spt_cie_x etc.
- * compute it per wavelength. */
-static float4 cie_lookup4(__constant const float *t, float4 l)
-{
-    float4 f;
-    int4 in, i = table_index4(l, &f, &in);
-    float4 a = (float4)(t[i.x], t[i.y], t[i.z], t[i.w]);
-    float4 b = (float4)(t[i.x + 1], t[i.y + 1], t[i.z + 1], t[i.w + 1]);
-    return select((float4)(0.0f), a * (1.0f - f) + b * f, in);
-}
 
 /* XYZ of a path's spectral radiance L at wavelengths lam with pdfs pdf: the mean
  * over the wavelengths of L cmf / pdf, normalised by the integral of ybar so a
