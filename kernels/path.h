@@ -147,18 +147,10 @@ static float4 path_radiance_to_xyz(float4 L, float4 lam, float4 pdf)
     float4 cx = cie_lookup4(SPT_CIE_X, lam), cy = cie_lookup4(SPT_CIE_Y, lam),
            cz = cie_lookup4(SPT_CIE_Z, lam);
     float4 xyz = (float4)(0.0f);
-    xyz.x += w.x * cx.x;
-    xyz.y += w.x * cy.x;
-    xyz.z += w.x * cz.x;
-    xyz.x += w.y * cx.y;
-    xyz.y += w.y * cy.y;
-    xyz.z += w.y * cz.y;
-    xyz.x += w.z * cx.z;
-    xyz.y += w.z * cy.z;
-    xyz.z += w.z * cz.z;
-    xyz.x += w.w * cx.w;
-    xyz.y += w.w * cy.w;
-    xyz.z += w.w * cz.w;
+    xyz += w.x * (float4)(cx.x, cy.x, cz.x, 0.0f);
+    xyz += w.y * (float4)(cx.y, cy.y, cz.y, 0.0f);
+    xyz += w.z * (float4)(cx.z, cy.z, cz.z, 0.0f);
+    xyz += w.w * (float4)(cx.w, cy.w, cz.w, 0.0f);
     return xyz * (1.0f / ((float)SPT_NUM_LAMBDA * SPT_CIE_Y_INTEGRAL));
 }
 

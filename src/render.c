@@ -461,9 +461,9 @@ static void wavefront_free(Wavefront *w)
  * marked for transparent huge pages before it is first written, so a random
  * read of a 44 MB BVH misses the TLB far less often: the displaced sphere's
  * bounce rays ran 7% faster (median of 8 alternated pairs, all faster), host
- * traversal 8-13%. Linux
- * only gives huge pages to memory so marked when transparent_hugepage is
- * "madvise" (Debian's default) or "always"; elsewhere this is plain memory. */
+ * traversal 8-13%. Linux only gives huge pages to memory so marked when
+ * transparent_hugepage is "madvise" (Debian's default) or "always"; elsewhere
+ * this is plain memory. */
 static int scene_buffer_create(Wavefront *w, const char *name, size_t bytes, const void *data,
                                cl_mem *out, SptError *e)
 {
