@@ -17,19 +17,22 @@
  * Triangles are packed in leaf order, 9 floats each (v0, v1, v2), and each leaf's
  * block is stored as structure of arrays: the leaf of n triangles from packed
  * triangle b holds row k (vertex k / 3, axis k % 3) of its triangle l at
- * tris[9 b + k n + l], so a CPU tests up to 8 of a leaf's triangles with one
- * float8 test (SPT_BVH_SIMD, set by the host for CPU devices) while a GPU, or the
- * host, loops over them with the same arithmetic lane by lane. tri_lane[i] (a
+ * tris[9 b + k n + l], so a CPU tests up to SPT_BVH_SIMD (8 or 16, set by the
+ * host for CPU devices from their native float width) of a leaf's triangles
+ * with one vector test while a GPU, or the host, loops over them with the same
+ * arithmetic lane by lane. tri_lane[i] (a
  * host array: the kernels shade from a vertex buffer) locates packed triangle i
  * in its leaf: lane (low 4 bits) and leaf size - 1 (high 4 bits); leaves hold at
  * most BVH_LEAF_MAX triangles. The buffer has BVH_TRI_PAD
- * floats of padding at its end, as the float8 loads of the last leaf read past it.
+ * floats of padding at its end, as the vector loads of the last leaf read past it.
  *
  * Depth: the binary tree is never deeper than BVH_MAX_DEPTH - 1 and gathering
  * never deepens it, and a node pushes at most 7 children, so the traversal
  * stack of BVH_STACK_SIZE entries cannot overflow. (On GPUs this 5.4 KB
  * private stack lives in slow memory; a shorter stack with a restart would
- * suit them better.)
+ * suit them better. CPUs trace two rays at once, with two stacks, and PoCL
+ * keeps those of a whole work-group on a thread's stack: the kernels run in
+ * groups of 64.)
  *
  * Ray-triangle test: watertight (Woop, Benthin and Wald 2013, "Watertight
  * Ray/Triangle Intersection"): a ray cannot pass between two triangles that share
@@ -66,7 +69,7 @@ typedef struct BvhNode {
 /* Most triangles in one leaf (tri_lane's 4 bits of size - 1), and the floats of
  * padding after the packed triangles. */
 #define BVH_LEAF_MAX 16
-#define BVH_TRI_PAD 8
+#define BVH_TRI_PAD 16
 
 SPT_STATIC_ASSERT(sizeof(BvhNode) == 256, "BvhNode must stay 256 bytes (device layout)");
 
@@ -277,41 +280,90 @@ SPT_FN int bvh_tri_intersect(const SPT_GLOBAL float *p, spt_u32 n, spt_u32 l, sp
 }
 
 #if SPT_DEVICE && defined(SPT_BVH_SIMD)
-/* Lanes [g, g + 8) of the leaf of n triangles at p in one float8 test, the
- * arithmetic of bvh_tri_intersect lane for lane: the hit distance of each lane
- * that hits with t in (0, tbest), BVH_FAR for the others and for lanes >= n, and
- * each lane's barycentrics in *u, *v. */
-SPT_FN float8 bvh_tri8_distances(const __global float *p, uint n, uint g, const BvhRay *r,
-                                 float tbest, float8 *u, float8 *v)
+/* The leaf test's vector width: SPT_BVH_SIMD triangles (8 or 16) per test. */
+#if SPT_BVH_SIMD == 16
+#define BVH_LANES 16
+typedef float16 BvhLeafF;
+typedef int16 BvhLeafI;
+#define bvh_leaf_load vload16
+#define BVH_LANE_IDS ((int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
+#else
+#define BVH_LANES 8
+typedef float8 BvhLeafF;
+typedef int8 BvhLeafI;
+#define bvh_leaf_load vload8
+#define BVH_LANE_IDS ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
+#endif
+
+/* The smallest lane of x, and lane l of x, by halving. */
+SPT_FN float bvh_leaf_min(BvhLeafF x)
+{
+#if BVH_LANES == 16
+    float8 m8 = fmin(x.lo, x.hi);
+#else
+    float8 m8 = x;
+#endif
+    float4 m4 = fmin(m8.lo, m8.hi);
+    float2 m2 = fmin(m4.lo, m4.hi);
+    return fmin(m2.x, m2.y);
+}
+
+SPT_FN int bvh_leaf_min_i(BvhLeafI x)
+{
+#if BVH_LANES == 16
+    int8 m8 = min(x.lo, x.hi);
+#else
+    int8 m8 = x;
+#endif
+    int4 m4 = min(m8.lo, m8.hi);
+    int2 m2 = min(m4.lo, m4.hi);
+    return min(m2.x, m2.y);
+}
+
+SPT_FN float bvh_leaf_lane(BvhLeafF x, uint l)
+{
+#if BVH_LANES == 16
+    return bvh_lane8((l & 8u) ? x.hi : x.lo, l & 7u);
+#else
+    return bvh_lane8(x, l);
+#endif
+}
+
+/* Lanes [g, g + BVH_LANES) of the leaf of n triangles at p in one vector test,
+ * the arithmetic of bvh_tri_intersect lane for lane: the hit distance of each
+ * lane that hits with t in (0, tbest), BVH_FAR for the others and for lanes
+ * >= n, and each lane's barycentrics in *u, *v. */
+SPT_FN BvhLeafF bvh_tri_distances(const __global float *p, uint n, uint g, const BvhRay *r,
+                                  float tbest, BvhLeafF *u, BvhLeafF *v)
 {
 #pragma OPENCL FP_CONTRACT OFF
     p += g;
     uint kx = (uint)r->kx * n, ky = (uint)r->ky * n, kz = (uint)r->kz * n;
-    float8 okx = (float8)(r->okx), oky = (float8)(r->oky), okz = (float8)(r->okz);
-    float8 sx = (float8)(r->sx), sy = (float8)(r->sy);
-    float8 az = vload8(0, p + kz) - okz;
-    float8 bz = vload8(0, p + 3 * n + kz) - okz;
-    float8 cz = vload8(0, p + 6 * n + kz) - okz;
-    float8 ax = (vload8(0, p + kx) - okx) - sx * az;
-    float8 ay = (vload8(0, p + ky) - oky) - sy * az;
-    float8 bx = (vload8(0, p + 3 * n + kx) - okx) - sx * bz;
-    float8 by = (vload8(0, p + 3 * n + ky) - oky) - sy * bz;
-    float8 cx = (vload8(0, p + 6 * n + kx) - okx) - sx * cz;
-    float8 cy = (vload8(0, p + 6 * n + ky) - oky) - sy * cz;
-    float8 eu = cx * by - cy * bx;
-    float8 ev = ax * cy - ay * cx;
-    float8 ew = bx * ay - by * ax;
-    float8 zero = (float8)(0.0f);
-    int8 outside = ((eu < zero) | (ev < zero) | (ew < zero)) & ((eu > zero) | (ev > zero) | (ew > zero));
-    float8 det = eu + ev + ew;
-    float8 rcp = (float8)(1.0f) / det;
-    float8 w0 = eu * rcp, w1 = ev * rcp, w2 = ew * rcp;
-    float8 t = (w0 * az + w1 * bz + w2 * cz) * (float8)(r->sz);
-    int8 lane = (int8)(0, 1, 2, 3, 4, 5, 6, 7) + (int8)((int)g);
-    int8 ok = ~outside & (det != zero) & (t > zero) & (t < (float8)(tbest)) & (lane < (int8)((int)n));
+    BvhLeafF okx = (BvhLeafF)(r->okx), oky = (BvhLeafF)(r->oky), okz = (BvhLeafF)(r->okz);
+    BvhLeafF sx = (BvhLeafF)(r->sx), sy = (BvhLeafF)(r->sy);
+    BvhLeafF az = bvh_leaf_load(0, p + kz) - okz;
+    BvhLeafF bz = bvh_leaf_load(0, p + 3 * n + kz) - okz;
+    BvhLeafF cz = bvh_leaf_load(0, p + 6 * n + kz) - okz;
+    BvhLeafF ax = (bvh_leaf_load(0, p + kx) - okx) - sx * az;
+    BvhLeafF ay = (bvh_leaf_load(0, p + ky) - oky) - sy * az;
+    BvhLeafF bx = (bvh_leaf_load(0, p + 3 * n + kx) - okx) - sx * bz;
+    BvhLeafF by = (bvh_leaf_load(0, p + 3 * n + ky) - oky) - sy * bz;
+    BvhLeafF cx = (bvh_leaf_load(0, p + 6 * n + kx) - okx) - sx * cz;
+    BvhLeafF cy = (bvh_leaf_load(0, p + 6 * n + ky) - oky) - sy * cz;
+    BvhLeafF eu = cx * by - cy * bx;
+    BvhLeafF ev = ax * cy - ay * cx;
+    BvhLeafF ew = bx * ay - by * ax;
+    BvhLeafF zero = (BvhLeafF)(0.0f);
+    BvhLeafI outside = ((eu < zero) | (ev < zero) | (ew < zero)) & ((eu > zero) | (ev > zero) | (ew > zero));
+    BvhLeafF det = eu + ev + ew;
+    BvhLeafF rcp = (BvhLeafF)(1.0f) / det;
+    BvhLeafF w0 = eu * rcp, w1 = ev * rcp, w2 = ew * rcp;
+    BvhLeafF t = (w0 * az + w1 * bz + w2 * cz) * (BvhLeafF)(r->sz);
+    BvhLeafI lane = BVH_LANE_IDS + (BvhLeafI)((int)g);
+    BvhLeafI ok = ~outside & (det != zero) & (t > zero) & (t < (BvhLeafF)(tbest)) & (lane < (BvhLeafI)((int)n));
     *u = w1;
     *v = w2;
-    return select((float8)(BVH_FAR), t, ok);
+    return select((BvhLeafF)(BVH_FAR), t, ok);
 }
 
 #endif
@@ -325,23 +377,18 @@ SPT_FN int bvh_leaf_intersect(const SPT_GLOBAL float *tris, spt_u32 first, spt_u
     const SPT_GLOBAL float *p = tris + 9u * first;
     int found = 0;
 #if SPT_DEVICE && defined(SPT_BVH_SIMD)
-    for (uint g = 0; g < count; g += 8u) {
-        float8 u, v;
-        float8 t = bvh_tri8_distances(p, count, g, r, *best, &u, &v);
-        float4 m4 = fmin(t.lo, t.hi);
-        float2 m2 = fmin(m4.lo, m4.hi);
-        float m = fmin(m2.x, m2.y);
+    for (uint g = 0; g < count; g += BVH_LANES) {
+        BvhLeafF u, v;
+        BvhLeafF t = bvh_tri_distances(p, count, g, r, *best, &u, &v);
+        float m = bvh_leaf_min(t);
         if (m < *best) {
             if (any_hit)
                 return 1;
             /* The first lane at the minimum, as the lane loop would keep it. */
-            int8 at = select((int8)(8), (int8)(0, 1, 2, 3, 4, 5, 6, 7), t == (float8)(m));
-            int4 a4 = min(at.lo, at.hi);
-            int2 a2 = min(a4.lo, a4.hi);
-            uint l = (uint)min(a2.x, a2.y);
+            uint l = (uint)bvh_leaf_min_i(select((BvhLeafI)(BVH_LANES), BVH_LANE_IDS, t == (BvhLeafF)(m)));
             hit->t = m;
-            hit->u = bvh_lane8(u, l);
-            hit->v = bvh_lane8(v, l);
+            hit->u = bvh_leaf_lane(u, l);
+            hit->v = bvh_leaf_lane(v, l);
             hit->prim = first + g + l;
             *best = m;
             found = 1;
@@ -390,97 +437,127 @@ SPT_FN spt_u32 bvh_lowest_bit(spt_u32 m)
 #endif
 }
 
-/* The traversal behind bvh_intersect (any_hit 0: closest hit) and bvh_occluded
- * (any_hit 1: stops at the first hit). The children a ray enters are visited
+/* One ray's traversal in progress: the ray, its best hit so far, the current
+ * item (node cur when count is 0, else the leaf of count triangles from cur)
+ * and the deferred items with their entry distances. */
+typedef struct BvhTrav {
+    BvhRay r;
+    float best;
+    int found, sp;
+    spt_u32 cur, count;
+    BvhHit hit;
+    spt_u32 stack_child[BVH_STACK_SIZE], stack_count[BVH_STACK_SIZE];
+    float stack_t[BVH_STACK_SIZE];
+} BvhTrav;
+
+/* Starts s at the root for the ray org + t dir, t in (0, tmax). */
+SPT_FN_INLINE void bvh_trav_init(BvhTrav *s, vec3 org, vec3 dir, float tmax)
+{
+    bvh_ray_init(&s->r, org, dir);
+    s->best = tmax;
+    s->found = 0;
+    s->sp = 0;
+    s->cur = 0;
+    s->count = 0;
+}
+
+/* One step of the traversal behind bvh_intersect (any_hit 0: closest hit) and
+ * bvh_occluded (any_hit 1: stops at the first hit): tests the current item and
+ * moves to the next. Returns 1 while there is more to do, 0 when s is finished
+ * (s->found and s->hit hold the result). The children a ray enters are visited
  * nearest first, the others deferred on the stack and skipped when their entry
  * distance is beyond the best hit. */
+SPT_FN_INLINE int bvh_trav_step(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
+                         BvhTrav *s, int any_hit)
+{
+    if (s->count) {
+        if (bvh_leaf_intersect(tris, s->cur, s->count, &s->r, &s->best, any_hit, &s->hit)) {
+            s->found = 1;
+            if (any_hit)
+                return 0;
+        }
+    } else {
+        const SPT_GLOBAL BvhNode *n = &nodes[s->cur];
+        BvhEnter d = bvh_node_enter(n, &s->r, s->best);
+        spt_u32 mask = bvh_enter_mask(d);
+        if (mask) {
+            spt_u32 a = bvh_lowest_bit(mask), rest = mask & (mask - 1u);
+            if (!rest) {
+                /* One child entered, the usual case deep in the tree. */
+                s->cur = n->child[a];
+                s->count = n->count[a];
+                return 1;
+            }
+            int sp = s->sp;
+            if (!(rest & (rest - 1u))) {
+                /* Two: visit the nearer, defer the other. */
+                spt_u32 b = bvh_lowest_bit(rest);
+                float ka = BVH_ENTER_LANE(d, a), kb = BVH_ENTER_LANE(d, b);
+                spt_u32 near = kb < ka ? b : a, far = kb < ka ? a : b;
+                s->stack_child[sp] = n->child[far];
+                s->stack_count[sp] = n->count[far];
+                bvh_prefetch(nodes, tris, n->child[far], n->count[far]);
+                s->stack_t[sp] = kb < ka ? ka : kb;
+                s->sp = sp + 1;
+                s->cur = n->child[near];
+                s->count = n->count[near];
+                return 1;
+            }
+            /* Three or more: insertion-sort the entered slots by entry
+             * distance, farthest first (of equal distances the higher slot
+             * counts as nearer), defer all but the nearest. */
+            float kd[BVH_WIDTH];
+            spt_u32 ks[BVH_WIDTH];
+            int k = 0;
+            for (spt_u32 m = mask; m; m &= m - 1u) {
+                spt_u32 i = bvh_lowest_bit(m);
+                float di = BVH_ENTER_LANE(d, i);
+                int j = k++;
+                while (j > 0 && kd[j - 1] < di) {
+                    kd[j] = kd[j - 1];
+                    ks[j] = ks[j - 1];
+                    j--;
+                }
+                kd[j] = di;
+                ks[j] = i;
+            }
+            for (int j = 0; j < k - 1; j++) {
+                s->stack_child[sp] = n->child[ks[j]];
+                s->stack_count[sp] = n->count[ks[j]];
+                s->stack_t[sp++] = kd[j];
+            }
+            bvh_prefetch(nodes, tris, n->child[ks[k - 2]], n->count[ks[k - 2]]);
+            bvh_prefetch(nodes, tris, n->child[ks[k - 3]], n->count[ks[k - 3]]);
+            s->sp = sp;
+            s->cur = n->child[ks[k - 1]];
+            s->count = n->count[ks[k - 1]];
+            return 1;
+        }
+    }
+    /* Next: the nearest deferred item the best hit does not rule out. */
+    for (int sp = s->sp; sp > 0;) {
+        sp--;
+        if (s->stack_t[sp] <= s->best) {
+            s->sp = sp;
+            s->cur = s->stack_child[sp];
+            s->count = s->stack_count[sp];
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* The traversal of one ray: returns 1 and fills hit when it found a hit. */
 SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
                         vec3 org, vec3 dir, float tmax, int any_hit, BvhHit *hit)
 {
-    BvhRay r;
-    bvh_ray_init(&r, org, dir);
-    float best = tmax;
-    int found = 0;
-    spt_u32 stack_child[BVH_STACK_SIZE], stack_count[BVH_STACK_SIZE];
-    float stack_t[BVH_STACK_SIZE];
-    int sp = 0;
-    /* The current item: node cur (count 0) or the leaf of count triangles
-     * from cur. */
-    spt_u32 cur = 0, count = 0;
-    for (;;) {
-        if (count) {
-            if (bvh_leaf_intersect(tris, cur, count, &r, &best, any_hit, hit)) {
-                found = 1;
-                if (any_hit)
-                    return 1;
-            }
-        } else {
-            const SPT_GLOBAL BvhNode *n = &nodes[cur];
-            BvhEnter d = bvh_node_enter(n, &r, best);
-            spt_u32 mask = bvh_enter_mask(d);
-            if (mask) {
-                spt_u32 a = bvh_lowest_bit(mask), rest = mask & (mask - 1u);
-                if (!rest) {
-                    /* One child entered, the usual case deep in the tree. */
-                    cur = n->child[a];
-                    count = n->count[a];
-                    continue;
-                }
-                if (!(rest & (rest - 1u))) {
-                    /* Two: visit the nearer, defer the other. */
-                    spt_u32 b = bvh_lowest_bit(rest);
-                    float ka = BVH_ENTER_LANE(d, a), kb = BVH_ENTER_LANE(d, b);
-                    spt_u32 near = kb < ka ? b : a, far = kb < ka ? a : b;
-                    stack_child[sp] = n->child[far];
-                    stack_count[sp] = n->count[far];
-                    bvh_prefetch(nodes, tris, stack_child[sp], stack_count[sp]);
-                    stack_t[sp++] = kb < ka ? ka : kb;
-                    cur = n->child[near];
-                    count = n->count[near];
-                    continue;
-                }
-                /* Three or more: insertion-sort the entered slots by entry
-                 * distance, farthest first (of equal distances the higher
-                 * slot counts as nearer), defer all but the nearest. */
-                float kd[BVH_WIDTH];
-                spt_u32 ks[BVH_WIDTH];
-                int k = 0;
-                for (spt_u32 m = mask; m; m &= m - 1u) {
-                    spt_u32 i = bvh_lowest_bit(m);
-                    float di = BVH_ENTER_LANE(d, i);
-                    int j = k++;
-                    while (j > 0 && kd[j - 1] < di) {
-                        kd[j] = kd[j - 1];
-                        ks[j] = ks[j - 1];
-                        j--;
-                    }
-                    kd[j] = di;
-                    ks[j] = i;
-                }
-                for (int j = 0; j < k - 1; j++) {
-                    stack_child[sp] = n->child[ks[j]];
-                    stack_count[sp] = n->count[ks[j]];
-                    stack_t[sp++] = kd[j];
-                }
-                bvh_prefetch(nodes, tris, stack_child[sp - 1], stack_count[sp - 1]);
-                bvh_prefetch(nodes, tris, stack_child[sp - 2], stack_count[sp - 2]);
-                cur = n->child[ks[k - 1]];
-                count = n->count[ks[k - 1]];
-                continue;
-            }
-        }
-        /* Next: the nearest deferred item the best hit does not rule out. */
-        for (;;) {
-            if (sp == 0)
-                return found;
-            sp--;
-            if (stack_t[sp] <= best) {
-                cur = stack_child[sp];
-                count = stack_count[sp];
-                break;
-            }
-        }
-    }
+    BvhTrav s;
+    bvh_trav_init(&s, org, dir, tmax);
+    while (bvh_trav_step(nodes, tris, &s, any_hit))
+        ;
+    if (s.found)
+        *hit = s.hit;
+    return s.found;
 }
 
 /* Closest hit of the ray org + t dir with t in (0, tmax): returns 1 and fills hit,
@@ -489,6 +566,34 @@ SPT_FN int bvh_intersect(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float
                          vec3 org, vec3 dir, float tmax, BvhHit *hit)
 {
     return bvh_traverse(nodes, tris, org, dir, tmax, 0, hit);
+}
+
+/* Closest hits of two rays at once (on CPUs): their traversals advance a step
+ * each in turn, so the memory waits of one overlap the work of the other (a CPU
+ * runs a work-item's code in order, and a ray's node loads depend on each
+ * other; GPUs hide that latency with other work-items instead). Each result is
+ * bvh_intersect's for that ray, bit for bit: found[k] is 1 when ray k hit, and
+ * then hit[k] holds its hit. */
+SPT_FN void bvh_intersect2(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
+                           vec3 org0, vec3 dir0, vec3 org1, vec3 dir1, float tmax,
+                           int found[2], BvhHit hit[2])
+{
+    BvhTrav a, b;
+    bvh_trav_init(&a, org0, dir0, tmax);
+    bvh_trav_init(&b, org1, dir1, tmax);
+    int more_a = 1, more_b = 1;
+    while (more_a | more_b) {
+        if (more_a)
+            more_a = bvh_trav_step(nodes, tris, &a, 0);
+        if (more_b)
+            more_b = bvh_trav_step(nodes, tris, &b, 0);
+    }
+    found[0] = a.found;
+    found[1] = b.found;
+    if (a.found)
+        hit[0] = a.hit;
+    if (b.found)
+        hit[1] = b.hit;
 }
 
 /* 1 when any triangle is hit with t in (0, tmax) (shadow rays), else 0. */

@@ -11,6 +11,9 @@
 #if defined(__OPENCL_VERSION__) || defined(__OPENCL_C_VERSION__)
   #define SPT_DEVICE 1
   #define SPT_FN static inline
+  /* A function the compiler must inline (a hot loop's body, whose state then
+   * stays in registers). */
+  #define SPT_FN_INLINE static inline __attribute__((always_inline))
   #define SPT_CONSTANT __constant
   #define SPT_GLOBAL __global
   typedef uint spt_u32;
@@ -45,6 +48,7 @@
   #include <stdint.h>
   #define SPT_DEVICE 0
   #define SPT_FN static inline
+  #define SPT_FN_INLINE static inline __attribute__((always_inline))
   #define SPT_CONSTANT static const
   #define SPT_GLOBAL
   typedef uint32_t spt_u32;

@@ -164,18 +164,46 @@ __kernel void k_generate(ALL_BUFFERS)
         queue_extend[q] = i;
 }
 
+/* A path's ps_hit: the hit (t, u, v, prim) when found (else h is not read),
+ * or NO_HIT. */
+static float4 extend_result(int found, const BvhHit *h)
+{
+    return found ? (float4)(h->t, h->u, h->v, as_float(h->prim))
+                 : (float4)(0.0f, 0.0f, 0.0f, as_float(NO_HIT));
+}
+
+/* Closest hits of the queued rays: on CPUs (SPT_BVH_PAIRS) work-item g traces
+ * queue entries 2 g and 2 g + 1 together (bvh_intersect2), elsewhere entry g. */
 __kernel void k_extend(ALL_BUFFERS)
 {
+    uint n = counters[SPT_CNT_EXTEND];
+#if defined(SPT_BVH_PAIRS)
+    uint g = 2u * get_global_id(0);
+    if (g >= n)
+        return;
+    uint i = queue_extend[g];
+    if (g + 1u < n && P.node_count > 0u) {
+        uint j = queue_extend[g + 1u];
+        int found[2];
+        BvhHit hit[2];
+        bvh_intersect2(nodes, tris, ps_ray_o[i].xyz, ps_ray_d[i].xyz, ps_ray_o[j].xyz,
+                       ps_ray_d[j].xyz, 1e30f, found, hit);
+        ps_hit[i] = extend_result(found[0], &hit[0]);
+        ps_hit[j] = extend_result(found[1], &hit[1]);
+        return;
+    }
+    BvhHit h;
+    if (g + 1u < n)
+        ps_hit[queue_extend[g + 1u]] = extend_result(0, &h);
+#else
     uint g = get_global_id(0);
-    if (g >= counters[SPT_CNT_EXTEND])
+    if (g >= n)
         return;
     uint i = queue_extend[g];
     BvhHit h;
-    if (P.node_count > 0u &&
-        bvh_intersect(nodes, tris, ps_ray_o[i].xyz, ps_ray_d[i].xyz, 1e30f, &h))
-        ps_hit[i] = (float4)(h.t, h.u, h.v, as_float(h.prim));
-    else
-        ps_hit[i] = (float4)(0.0f, 0.0f, 0.0f, as_float(NO_HIT));
+#endif
+    int found = P.node_count > 0u && bvh_intersect(nodes, tris, ps_ray_o[i].xyz, ps_ray_d[i].xyz, 1e30f, &h);
+    ps_hit[i] = extend_result(found, &h);
 }
 
 /* The vertices of packed triangle prim, from the vertex positions (the same

@@ -427,6 +427,7 @@ typedef struct Wavefront {
     size_t local[K_COUNT]; /* work-group size of each kernel */
     uint32_t pool;
     uint32_t chunk_spp;
+    int ray_pairs;         /* 1: k_extend traces two rays per work-item (CPU devices) */
     void *host_mem[16];    /* memory of the scene buffers used in place (CPU devices) */
     int host_mem_count;
 } Wavefront;
@@ -563,11 +564,20 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
     /* Test hook: SPECTRACE_TEST_INJECT_NAN=1 makes pixel 0's radiance NaN, to show
      * that the NaN guard keeps it off the film. */
     const char *nan_hook = getenv("SPECTRACE_TEST_INJECT_NAN");
-    /* CPUs test a BVH leaf's triangles with float8 operations (kernels/bvh.h);
-     * GPUs, whose work-items are the SIMD lanes, loop over them. */
-    char options[96];
+    /* CPUs test a BVH leaf's triangles with vector operations of their native
+     * float width (8, or 16 with AVX-512) and trace two rays per extend
+     * work-item, interleaved (kernels/bvh.h); GPUs, whose work-items are the
+     * SIMD lanes and which hide memory latency with other work-items, loop over
+     * a leaf's triangles and trace one ray each. */
+    w->ray_pairs = (info->type & CL_DEVICE_TYPE_CPU) != 0;
+    cl_uint width = 8;
+    if (w->ray_pairs)
+        SPT_CL_CHECK(e, clGetDeviceInfo(info->id, CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT, sizeof width,
+                                        &width, NULL));
+    char options[128];
     snprintf(options, sizeof options, "%s%s",
-             (info->type & CL_DEVICE_TYPE_CPU) ? "-DSPT_BVH_SIMD=1 " : "",
+             !w->ray_pairs ? "" : width >= 16 ? "-DSPT_BVH_SIMD=16 -DSPT_BVH_PAIRS=1 "
+                                              : "-DSPT_BVH_SIMD=8 -DSPT_BVH_PAIRS=1 ",
              nan_hook && *nan_hook && strcmp(nan_hook, "0") ? "-DSPT_TEST_INJECT_NAN=1" : "");
     if ((rc = cl_program_build(&w->dev, "kernels/wavefront.cl", options, &w->program, e)))
         return rc;
@@ -707,7 +717,8 @@ static int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_
         SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_FALSE, 0,
                                              sizeof two_zeros, two_zeros, 0, NULL, NULL));
         if ((rc = run_kernel(w, K_GENERATE, w->pool, acc ? acc + 0 : NULL, e)) ||
-            (rc = run_kernel(w, K_EXTEND, w->pool, acc ? acc + 1 : NULL, e)) ||
+            (rc = run_kernel(w, K_EXTEND, w->ray_pairs ? (w->pool + 1) / 2 : w->pool,
+                             acc ? acc + 1 : NULL, e)) ||
             (rc = run_kernel(w, K_SHADE, w->pool, acc ? acc + 2 : NULL, e)) ||
             (rc = run_kernel(w, K_CONNECT, w->pool, acc ? acc + 3 : NULL, e)))
             return rc;

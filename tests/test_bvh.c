@@ -490,9 +490,10 @@ static void test_empty_scene(void **state)
 }
 
 /* The kernels run this traversal: compiled by the OpenCL device from kernels/
- * (without fast-math options), with the lane-by-lane leaf test that GPUs run and
- * with the float8 one of CPUs (SPT_BVH_SIMD), it reports the host's node size and
- * returns bit-identical hits to the host build for the same rays. Skipped without
+ * (without fast-math options), with the lane-by-lane leaf test that GPUs run, with
+ * the float8 and float16 ones of CPUs (SPT_BVH_SIMD) and with two rays traced
+ * together (SPT_BVH_PAIRS), it reports the host's node size and returns
+ * bit-identical hits to the host build for the same rays. Skipped without
  * an OpenCL device. */
 static const char *k_device_src =
     "#include \"bvh.h\"\n"
@@ -504,7 +505,20 @@ static const char *k_device_src =
     "    vec3 o = v3(rays[i * 6], rays[i * 6 + 1], rays[i * 6 + 2]);\n"
     "    vec3 d = v3(rays[i * 6 + 3], rays[i * 6 + 4], rays[i * 6 + 5]);\n"
     "    BvhHit h;\n"
+    "#ifdef SPT_BVH_PAIRS\n"
+    "    /* ray i traced with its neighbour, in either slot of the pair */\n"
+    "    int j = (i ^ 1) < n ? (i ^ 1) : i, s = i & 1;\n"
+    "    vec3 o2 = v3(rays[j * 6], rays[j * 6 + 1], rays[j * 6 + 2]);\n"
+    "    vec3 d2 = v3(rays[j * 6 + 3], rays[j * 6 + 4], rays[j * 6 + 5]);\n"
+    "    int f[2];\n"
+    "    BvhHit hh[2];\n"
+    "    bvh_intersect2(nodes, tris, s ? o2 : o, s ? d2 : d, s ? o : o2, s ? d : d2, 1e30f, f, hh);\n"
+    "    int hit = f[s];\n"
+    "    if (hit)\n"
+    "        h = hh[s];\n"
+    "#else\n"
     "    int hit = bvh_intersect(nodes, tris, o, d, 1e30f, &h);\n"
+    "#endif\n"
     "    out[i * 4] = hit ? h.t : -1.0f;\n"
     "    out[i * 4 + 1] = hit ? (float)h.prim : -1.0f;\n"
     "    out[i * 4 + 2] = (float)bvh_occluded(nodes, tris, o, d, 1e30f);\n"
@@ -545,8 +559,10 @@ static int device_differences(cl_context ctx, cl_device_id dev, cl_command_queue
     assert_int_equal(clSetKernelArg(k, 2, sizeof br, &br), CL_SUCCESS);
     assert_int_equal(clSetKernelArg(k, 3, sizeof bo, &bo), CL_SUCCESS);
     assert_int_equal(clSetKernelArg(k, 4, sizeof nr, &nr), CL_SUCCESS);
-    size_t global = (size_t)nr;
-    assert_int_equal(clEnqueueNDRangeKernel(q, k, 1, NULL, &global, NULL, 0, NULL, NULL),
+    /* Work-groups of 64, as the renderer's: PoCL keeps every work-item's
+     * private traversal stacks of a group at once, on a thread's stack. */
+    size_t local = 64, global = ((size_t)nr + local - 1) / local * local;
+    assert_int_equal(clEnqueueNDRangeKernel(q, k, 1, NULL, &global, &local, 0, NULL, NULL),
                      CL_SUCCESS);
     assert_int_equal(clEnqueueReadBuffer(q, bo, CL_TRUE, 0, (size_t)nr * 4 * sizeof *out, out, 0,
                                          NULL, NULL),
@@ -613,9 +629,10 @@ static void test_device_matches_host(void **state)
         assert_int_equal(bvh_build_ex(&bvh, t, n, &opt, NULL), 0);
         if (m == 0)
             assert_true(bvh.stats.max_leaf_size > 8);
-        const char *options[2] = {"-I kernels -cl-std=CL1.2",
-                                  "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=1"};
-        for (int o = 0; o < 2; o++) {
+        const char *options[3] = {
+            "-I kernels -cl-std=CL1.2", "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=8",
+            "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=16 -DSPT_BVH_PAIRS=1"};
+        for (int o = 0; o < 3; o++) {
             int hits;
             assert_int_equal(device_differences(ctx, dev, q, options[o], &bvh, rays, nr, &hits), 0);
             assert_true(hits > nr / 4);
