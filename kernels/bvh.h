@@ -461,6 +461,24 @@ SPT_FN_INLINE void bvh_trav_init(BvhTrav *s, vec3 org, vec3 dir, float tmax)
     s->count = 0;
 }
 
+/* Makes (child, count) s's current item and, with SPT_BVH_STEP_PREFETCH (set
+ * by the host for BVHs larger than the cache), asks for its memory now: in
+ * bvh_intersect2 the other ray's step runs before this one's next, and the
+ * loads overlap it (a step ends at a data-dependent branch, so the CPU does
+ * not run ahead into the next load by itself). */
+SPT_FN_INLINE void bvh_trav_next(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
+                                 BvhTrav *s, spt_u32 child, spt_u32 count)
+{
+    s->cur = child;
+    s->count = count;
+#if defined(SPT_BVH_STEP_PREFETCH)
+    bvh_prefetch(nodes, tris, child, count);
+#else
+    (void)nodes;
+    (void)tris;
+#endif
+}
+
 /* One step of the traversal behind bvh_intersect (any_hit 0: closest hit) and
  * bvh_occluded (any_hit 1: stops at the first hit): tests the current item and
  * moves to the next. Returns 1 while there is more to do, 0 when s is finished
@@ -484,8 +502,7 @@ SPT_FN_INLINE int bvh_trav_step(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBA
             spt_u32 a = bvh_lowest_bit(mask), rest = mask & (mask - 1u);
             if (!rest) {
                 /* One child entered, the usual case deep in the tree. */
-                s->cur = n->child[a];
-                s->count = n->count[a];
+                bvh_trav_next(nodes, tris, s, n->child[a], n->count[a]);
                 return 1;
             }
             int sp = s->sp;
@@ -499,8 +516,7 @@ SPT_FN_INLINE int bvh_trav_step(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBA
                 bvh_prefetch(nodes, tris, n->child[far], n->count[far]);
                 s->stack_t[sp] = kb < ka ? ka : kb;
                 s->sp = sp + 1;
-                s->cur = n->child[near];
-                s->count = n->count[near];
+                bvh_trav_next(nodes, tris, s, n->child[near], n->count[near]);
                 return 1;
             }
             /* Three or more: insertion-sort the entered slots by entry
@@ -529,8 +545,7 @@ SPT_FN_INLINE int bvh_trav_step(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBA
             bvh_prefetch(nodes, tris, n->child[ks[k - 2]], n->count[ks[k - 2]]);
             bvh_prefetch(nodes, tris, n->child[ks[k - 3]], n->count[ks[k - 3]]);
             s->sp = sp;
-            s->cur = n->child[ks[k - 1]];
-            s->count = n->count[ks[k - 1]];
+            bvh_trav_next(nodes, tris, s, n->child[ks[k - 1]], n->count[ks[k - 1]]);
             return 1;
         }
     }
@@ -539,8 +554,7 @@ SPT_FN_INLINE int bvh_trav_step(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBA
         sp--;
         if (s->stack_t[sp] <= s->best) {
             s->sp = sp;
-            s->cur = s->stack_child[sp];
-            s->count = s->stack_count[sp];
+            bvh_trav_next(nodes, tris, s, s->stack_child[sp], s->stack_count[sp]);
             return 1;
         }
     }

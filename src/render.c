@@ -571,13 +571,24 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
      * a leaf's triangles and trace one ray each. */
     w->ray_pairs = (info->type & CL_DEVICE_TYPE_CPU) != 0;
     cl_uint width = 8;
-    if (w->ray_pairs)
+    cl_ulong cache = 0;
+    if (w->ray_pairs) {
         SPT_CL_CHECK(e, clGetDeviceInfo(info->id, CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT, sizeof width,
                                         &width, NULL));
-    char options[128];
-    snprintf(options, sizeof options, "%s%s",
+        SPT_CL_CHECK(e, clGetDeviceInfo(info->id, CL_DEVICE_GLOBAL_MEM_CACHE_SIZE, sizeof cache,
+                                        &cache, NULL));
+    }
+    /* A BVH larger than a quarter of the device's cache (shared by its cores
+     * and other programs) is read mostly from memory: each traversal step then
+     * asks early for the next one's data (SPT_BVH_STEP_PREFETCH); in a small
+     * scene those requests only cost time. */
+    double bvh_bytes = (double)g->bvh.node_count * sizeof(BvhNode) + (double)g->bvh.tri_data_bytes;
+    int step_prefetch = w->ray_pairs && bvh_bytes > 0.25 * (double)cache;
+    char options[160];
+    snprintf(options, sizeof options, "%s%s%s",
              !w->ray_pairs ? "" : width >= 16 ? "-DSPT_BVH_SIMD=16 -DSPT_BVH_PAIRS=1 "
                                               : "-DSPT_BVH_SIMD=8 -DSPT_BVH_PAIRS=1 ",
+             step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "",
              nan_hook && *nan_hook && strcmp(nan_hook, "0") ? "-DSPT_TEST_INJECT_NAN=1" : "");
     if ((rc = cl_program_build(&w->dev, "kernels/wavefront.cl", options, &w->program, e)))
         return rc;

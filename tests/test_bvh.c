@@ -631,7 +631,7 @@ static void test_device_matches_host(void **state)
             assert_true(bvh.stats.max_leaf_size > 8);
         const char *options[3] = {
             "-I kernels -cl-std=CL1.2", "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=8",
-            "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=16 -DSPT_BVH_PAIRS=1"};
+            "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=16 -DSPT_BVH_PAIRS=1 -DSPT_BVH_STEP_PREFETCH=1"};
         for (int o = 0; o < 3; o++) {
             int hits;
             assert_int_equal(device_differences(ctx, dev, q, options[o], &bvh, rays, nr, &hits), 0);
