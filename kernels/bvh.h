@@ -9,22 +9,31 @@
  * coordinates along axis a, so one test of all children is a handful of float8
  * operations. Eight-wide nodes make a ray's chain of dependent node loads about
  * a third shorter than four-wide ones did, and cost the same float8 test on
- * a CPU. Child i is a leaf of count[i] > 0 triangles starting at packed
- * triangle child[i], or when count[i] == 0 the node child[i] (> 0); an unused
+ * a CPU. Child i is a leaf when count[i] > 0: the block at word child[i] of
+ * count[i] & 255 triangles with count[i] >> 8 distinct vertices (below), so
+ * its loads need not wait for its header; when count[i] == 0 it is the node
+ * child[i] (> 0); an unused
  * slot has count 0 and an empty box (low +FLT_MAX, high -FLT_MAX) that no ray
  * enters.
  *
- * Triangles are packed in leaf order, 9 floats each (v0, v1, v2), and each leaf's
- * block is stored as structure of arrays: the leaf of n triangles from packed
- * triangle b holds row k (vertex k / 3, axis k % 3) of its triangle l at
- * tris[9 b + k n + l], so a CPU tests up to SPT_BVH_SIMD (8 or 16, set by the
- * host for CPU devices from their native float width) of a leaf's triangles
- * with one vector test while a GPU, or the host, loops over them with the same
- * arithmetic lane by lane. tri_lane[i] (a
- * host array: the kernels shade from a vertex buffer) locates packed triangle i
- * in its leaf: lane (low 4 bits) and leaf size - 1 (high 4 bits); leaves hold at
- * most BVH_LEAF_MAX triangles. The buffer has BVH_TRI_PAD
- * floats of padding at its end, as the vector loads of the last leaf read past it.
+ * Triangles are packed in leaf order (packed triangle i, the prim of a hit, is
+ * input triangle prim_index[i]), and each leaf is a block of 32-bit words in
+ * the tris buffer: the leaf of n triangles at word b holds
+ *   [b]      the packed index of its first triangle,
+ *   [b + 1]  nv | n << 8, nv (<= BVH_LEAF_VERTS) its distinct vertices,
+ *   [b + 2, b + 2 + 3 nv)  those vertices as structure of arrays: nv x, nv y,
+ *            nv z coordinates,
+ *   then 3 n bytes: byte c n + l is the vertex (0 .. nv - 1) of corner c of its
+ *   triangle l,
+ * bvh_leaf_words(n, nv) words in all. Sharing the vertices of a mesh's
+ * neighbouring triangles makes a leaf about 2.4 times smaller than 9 floats per
+ * triangle, and the random reads of incoherent rays miss the cache less. The
+ * builder bounds the distinct vertices, so a CPU with AVX-512 (SPT_BVH_SIMD)
+ * tests all of a leaf's triangles with one 16-lane test, its corners gathered
+ * from the 16-lane vertex rows by a permute, while a GPU, or the host, loops
+ * over them with the same arithmetic lane by lane. A leaf's block may be
+ * followed by BVH_TRI_PAD words of padding at the buffer's end, as the vector
+ * loads of the last leaf read past it.
  *
  * Depth: the binary tree is never deeper than BVH_MAX_DEPTH - 1 and gathering
  * never deepens it, and a node pushes at most 7 children, so the traversal
@@ -63,13 +72,17 @@
 typedef struct BvhNode {
     float bounds[6][BVH_WIDTH]; /* [2 a] low, [2 a + 1] high along axis a, per child */
     spt_u32 child[BVH_WIDTH];   /* a node index, or a leaf's first triangle */
-    spt_u32 count[BVH_WIDTH];   /* leaf: its triangle count; 0: a node (or unused) */
+    spt_u32 count[BVH_WIDTH];   /* leaf: triangles | distinct vertices << 8; 0: a node (or unused) */
 } BvhNode;
 
-/* Most triangles in one leaf (tri_lane's 4 bits of size - 1), and the floats of
- * padding after the packed triangles. */
+/* Most triangles and distinct vertices in one leaf (a 16-lane row), and the
+ * words of padding after the last leaf block. */
 #define BVH_LEAF_MAX 16
+#define BVH_LEAF_VERTS 16
 #define BVH_TRI_PAD 16
+
+/* Words of the block of a leaf of n triangles with nv distinct vertices. */
+#define bvh_leaf_words(n, nv) (2u + 3u * (nv) + (3u * (n) + 3u) / 4u)
 
 SPT_STATIC_ASSERT(sizeof(BvhNode) == 256, "BvhNode must stay 256 bytes (device layout)");
 
@@ -91,15 +104,28 @@ typedef struct BvhRay {
     int nx, ny, nz; /* per axis, the row of BvhNode.bounds with the near planes */
 } BvhRay;
 
-/* The three vertices of packed triangle i. */
-SPT_FN void bvh_tri_vertices(const SPT_GLOBAL float *tris, const SPT_GLOBAL spt_u8 *tri_lane,
-                             spt_u32 i, vec3 *v0, vec3 *v1, vec3 *v2)
+/* Word i of a leaf block, as an unsigned integer. */
+SPT_FN spt_u32 bvh_word(const SPT_GLOBAL float *p, spt_u32 i)
 {
-    spt_u32 lane = tri_lane[i] & 15u, n = (tri_lane[i] >> 4) + 1u;
-    const SPT_GLOBAL float *p = tris + 9u * (i - lane) + lane;
-    *v0 = v3(p[0], p[n], p[2 * n]);
-    *v1 = v3(p[3 * n], p[4 * n], p[5 * n]);
-    *v2 = v3(p[6 * n], p[7 * n], p[8 * n]);
+#if SPT_DEVICE
+    return as_uint(p[i]);
+#else
+    union { float f; spt_u32 u; } w;
+    w.f = p[i];
+    return w.u;
+#endif
+}
+
+/* The three vertices of triangle l of the leaf block at p. */
+SPT_FN void bvh_leaf_vertices(const SPT_GLOBAL float *p, spt_u32 l, vec3 *v0, vec3 *v1, vec3 *v2)
+{
+    spt_u32 nv = bvh_word(p, 1) & 255u, n = bvh_word(p, 1) >> 8;
+    const SPT_GLOBAL float *v = p + 2;
+    const SPT_GLOBAL spt_u8 *idx = (const SPT_GLOBAL spt_u8 *)(v + 3u * nv);
+    spt_u32 a = idx[l], b = idx[n + l], c = idx[2u * n + l];
+    *v0 = v3(v[a], v[nv + a], v[2u * nv + a]);
+    *v1 = v3(v[b], v[nv + b], v[2u * nv + b]);
+    *v2 = v3(v[c], v[nv + c], v[2u * nv + c]);
 }
 
 #if !SPT_DEVICE
@@ -238,25 +264,26 @@ SPT_FN spt_u32 bvh_enter_mask(BvhEnter d)
 }
 #endif
 
-/* Watertight test of triangle (lane) l of the leaf of n triangles whose block
- * starts at p: on a hit with t in (0, tbest) writes hit (prim = prim) and
+/* Watertight test of triangle l of a leaf: its corners are vertices idx[l],
+ * idx[n + l] and idx[2 n + l] of the rows rx, ry, rz (the vertices' kx, ky and
+ * kz coordinates). On a hit with t in (0, tbest) writes hit (prim = prim) and
  * returns 1, else returns 0 and leaves hit alone. */
-SPT_FN int bvh_tri_intersect(const SPT_GLOBAL float *p, spt_u32 n, spt_u32 l, spt_u32 prim,
-                             const BvhRay *r, float tbest, BvhHit *hit)
+SPT_FN int bvh_tri_intersect(const SPT_GLOBAL float *rx, const SPT_GLOBAL float *ry,
+                             const SPT_GLOBAL float *rz, const SPT_GLOBAL spt_u8 *idx, spt_u32 n,
+                             spt_u32 l, spt_u32 prim, const BvhRay *r, float tbest, BvhHit *hit)
 {
 #if SPT_DEVICE
 #pragma OPENCL FP_CONTRACT OFF
 #endif
-    p += l;
-    spt_u32 kx = (spt_u32)r->kx * n, ky = (spt_u32)r->ky * n, kz = (spt_u32)r->kz * n;
+    spt_u32 a = idx[l], b = idx[n + l], c = idx[2u * n + l];
     float okx = r->okx, oky = r->oky, okz = r->okz;
-    float az = p[kz] - okz, bz = p[3 * n + kz] - okz, cz = p[6 * n + kz] - okz;
-    float ax = (p[kx] - okx) - r->sx * az;
-    float ay = (p[ky] - oky) - r->sy * az;
-    float bx = (p[3 * n + kx] - okx) - r->sx * bz;
-    float by = (p[3 * n + ky] - oky) - r->sy * bz;
-    float cx = (p[6 * n + kx] - okx) - r->sx * cz;
-    float cy = (p[6 * n + ky] - oky) - r->sy * cz;
+    float az = rz[a] - okz, bz = rz[b] - okz, cz = rz[c] - okz;
+    float ax = (rx[a] - okx) - r->sx * az;
+    float ay = (ry[a] - oky) - r->sy * az;
+    float bx = (rx[b] - okx) - r->sx * bz;
+    float by = (ry[b] - oky) - r->sy * bz;
+    float cx = (rx[c] - okx) - r->sx * cz;
+    float cy = (ry[c] - oky) - r->sy * cz;
     float eu = cx * by - cy * bx;
     float ev = ax * cy - ay * cx;
     float ew = bx * ay - by * ax;
@@ -279,132 +306,112 @@ SPT_FN int bvh_tri_intersect(const SPT_GLOBAL float *p, spt_u32 n, spt_u32 l, sp
     return 1;
 }
 
-#if SPT_DEVICE && defined(SPT_BVH_SIMD)
-/* The leaf test's vector width: SPT_BVH_SIMD triangles (8 or 16) per test. */
-#if SPT_BVH_SIMD == 16
-#define BVH_LANES 16
-typedef float16 BvhLeafF;
-typedef int16 BvhLeafI;
-#define bvh_leaf_load vload16
-#define BVH_LANE_IDS ((int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
-#else
-#define BVH_LANES 8
-typedef float8 BvhLeafF;
-typedef int8 BvhLeafI;
-#define bvh_leaf_load vload8
-#define BVH_LANE_IDS ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
-#endif
-
-/* The smallest lane of x, and lane l of x, by halving. */
-SPT_FN float bvh_leaf_min(BvhLeafF x)
+#if SPT_DEVICE && defined(SPT_BVH_SIMD) && defined(__AVX512F__)
+#define BVH_LEAF_VECTOR 1
+/* Lane i of the result is lane idx[i] of v: one vpermps. */
+SPT_FN float16 bvh_gather16(float16 v, int16 idx)
 {
-#if BVH_LANES == 16
+    return __builtin_ia32_permvarsf512(v, idx);
+}
+
+/* The smallest lane of x (no lane is NaN). */
+SPT_FN float bvh_min16(float16 x)
+{
     float8 m8 = fmin(x.lo, x.hi);
-#else
-    float8 m8 = x;
-#endif
     float4 m4 = fmin(m8.lo, m8.hi);
     float2 m2 = fmin(m4.lo, m4.hi);
     return fmin(m2.x, m2.y);
 }
 
-SPT_FN int bvh_leaf_min_i(BvhLeafI x)
+SPT_FN int bvh_min16_i(int16 x)
 {
-#if BVH_LANES == 16
     int8 m8 = min(x.lo, x.hi);
-#else
-    int8 m8 = x;
-#endif
     int4 m4 = min(m8.lo, m8.hi);
     int2 m2 = min(m4.lo, m4.hi);
     return min(m2.x, m2.y);
 }
 
-SPT_FN float bvh_leaf_lane(BvhLeafF x, uint l)
-{
-#if BVH_LANES == 16
-    return bvh_lane8((l & 8u) ? x.hi : x.lo, l & 7u);
-#else
-    return bvh_lane8(x, l);
-#endif
-}
-
-/* Lanes [g, g + BVH_LANES) of the leaf of n triangles at p in one vector test,
- * the arithmetic of bvh_tri_intersect lane for lane: the hit distance of each
- * lane that hits with t in (0, tbest), BVH_FAR for the others and for lanes
- * >= n, and each lane's barycentrics in *u, *v. */
-SPT_FN BvhLeafF bvh_tri_distances(const __global float *p, uint n, uint g, const BvhRay *r,
-                                  float tbest, BvhLeafF *u, BvhLeafF *v)
+/* All of a leaf's (n <= 16) triangles in one 16-lane test, the arithmetic of
+ * bvh_tri_intersect lane for lane (each vertex is sheared once, then the
+ * corners are gathered): the hit distance of each lane that hits with t in
+ * (0, tbest), BVH_FAR for the others and for lanes >= n, and each lane's
+ * barycentrics in *u, *v. */
+SPT_FN float16 bvh_tri16_distances(const __global float *rx, const __global float *ry,
+                                   const __global float *rz, const __global uchar *idx, uint n,
+                                   const BvhRay *r, float tbest, float16 *u, float16 *v)
 {
 #pragma OPENCL FP_CONTRACT OFF
-    p += g;
-    uint kx = (uint)r->kx * n, ky = (uint)r->ky * n, kz = (uint)r->kz * n;
-    BvhLeafF okx = (BvhLeafF)(r->okx), oky = (BvhLeafF)(r->oky), okz = (BvhLeafF)(r->okz);
-    BvhLeafF sx = (BvhLeafF)(r->sx), sy = (BvhLeafF)(r->sy);
-    BvhLeafF az = bvh_leaf_load(0, p + kz) - okz;
-    BvhLeafF bz = bvh_leaf_load(0, p + 3 * n + kz) - okz;
-    BvhLeafF cz = bvh_leaf_load(0, p + 6 * n + kz) - okz;
-    BvhLeafF ax = (bvh_leaf_load(0, p + kx) - okx) - sx * az;
-    BvhLeafF ay = (bvh_leaf_load(0, p + ky) - oky) - sy * az;
-    BvhLeafF bx = (bvh_leaf_load(0, p + 3 * n + kx) - okx) - sx * bz;
-    BvhLeafF by = (bvh_leaf_load(0, p + 3 * n + ky) - oky) - sy * bz;
-    BvhLeafF cx = (bvh_leaf_load(0, p + 6 * n + kx) - okx) - sx * cz;
-    BvhLeafF cy = (bvh_leaf_load(0, p + 6 * n + ky) - oky) - sy * cz;
-    BvhLeafF eu = cx * by - cy * bx;
-    BvhLeafF ev = ax * cy - ay * cx;
-    BvhLeafF ew = bx * ay - by * ax;
-    BvhLeafF zero = (BvhLeafF)(0.0f);
-    BvhLeafI outside = ((eu < zero) | (ev < zero) | (ew < zero)) & ((eu > zero) | (ev > zero) | (ew > zero));
-    BvhLeafF det = eu + ev + ew;
-    BvhLeafF rcp = (BvhLeafF)(1.0f) / det;
-    BvhLeafF w0 = eu * rcp, w1 = ev * rcp, w2 = ew * rcp;
-    BvhLeafF t = (w0 * az + w1 * bz + w2 * cz) * (BvhLeafF)(r->sz);
-    BvhLeafI lane = BVH_LANE_IDS + (BvhLeafI)((int)g);
-    BvhLeafI ok = ~outside & (det != zero) & (t > zero) & (t < (BvhLeafF)(tbest)) & (lane < (BvhLeafI)((int)n));
+    float16 zs = vload16(0, rz) - (float16)(r->okz);
+    float16 xs = (vload16(0, rx) - (float16)(r->okx)) - (float16)(r->sx) * zs;
+    float16 ys = (vload16(0, ry) - (float16)(r->oky)) - (float16)(r->sy) * zs;
+    int16 ia = convert_int16(vload16(0, idx));
+    int16 ib = convert_int16(vload16(0, idx + n));
+    int16 ic = convert_int16(vload16(0, idx + 2 * n));
+    float16 az = bvh_gather16(zs, ia), bz = bvh_gather16(zs, ib), cz = bvh_gather16(zs, ic);
+    float16 ax = bvh_gather16(xs, ia), ay = bvh_gather16(ys, ia);
+    float16 bx = bvh_gather16(xs, ib), by = bvh_gather16(ys, ib);
+    float16 cx = bvh_gather16(xs, ic), cy = bvh_gather16(ys, ic);
+    float16 eu = cx * by - cy * bx;
+    float16 ev = ax * cy - ay * cx;
+    float16 ew = bx * ay - by * ax;
+    float16 zero = (float16)(0.0f);
+    int16 outside = ((eu < zero) | (ev < zero) | (ew < zero)) & ((eu > zero) | (ev > zero) | (ew > zero));
+    float16 det = eu + ev + ew;
+    float16 rcp = (float16)(1.0f) / det;
+    float16 w0 = eu * rcp, w1 = ev * rcp, w2 = ew * rcp;
+    float16 t = (w0 * az + w1 * bz + w2 * cz) * (float16)(r->sz);
+    int16 lane = (int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    int16 ok = ~outside & (det != zero) & (t > zero) & (t < (float16)(tbest)) & (lane < (int16)((int)n));
     *u = w1;
     *v = w2;
-    return select((BvhLeafF)(BVH_FAR), t, ok);
+    return select((float16)(BVH_FAR), t, ok);
 }
 
 #endif
 
-/* Tests the leaf of count triangles from packed triangle first against the ray:
- * closest hit (any_hit 0: the nearest below *best, updating *best and hit) or any
- * hit (stops at the first). Returns 1 when it found a hit. */
-SPT_FN int bvh_leaf_intersect(const SPT_GLOBAL float *tris, spt_u32 first, spt_u32 count,
+/* Tests the leaf block at word off (leaf, its node's count: triangles | vertices
+ * << 8) against the ray: closest hit (any_hit 0: the nearest below *best,
+ * updating *best and hit) or any hit (stops at the first). Returns 1 when it
+ * found a hit. */
+SPT_FN int bvh_leaf_intersect(const SPT_GLOBAL float *tris, spt_u32 off, spt_u32 leaf,
                               const BvhRay *r, float *best, int any_hit, BvhHit *hit)
 {
-    const SPT_GLOBAL float *p = tris + 9u * first;
-    int found = 0;
-#if SPT_DEVICE && defined(SPT_BVH_SIMD)
-    for (uint g = 0; g < count; g += BVH_LANES) {
-        BvhLeafF u, v;
-        BvhLeafF t = bvh_tri_distances(p, count, g, r, *best, &u, &v);
-        float m = bvh_leaf_min(t);
-        if (m < *best) {
-            if (any_hit)
-                return 1;
-            /* The first lane at the minimum, as the lane loop would keep it. */
-            uint l = (uint)bvh_leaf_min_i(select((BvhLeafI)(BVH_LANES), BVH_LANE_IDS, t == (BvhLeafF)(m)));
-            hit->t = m;
-            hit->u = bvh_leaf_lane(u, l);
-            hit->v = bvh_leaf_lane(v, l);
-            hit->prim = first + g + l;
-            *best = m;
-            found = 1;
-        }
-    }
+    const SPT_GLOBAL float *p = tris + off;
+    spt_u32 count = leaf & 255u, nv = leaf >> 8;
+    const SPT_GLOBAL float *rx = p + 2 + (spt_u32)r->kx * nv;
+    const SPT_GLOBAL float *ry = p + 2 + (spt_u32)r->ky * nv;
+    const SPT_GLOBAL float *rz = p + 2 + (spt_u32)r->kz * nv;
+    const SPT_GLOBAL spt_u8 *idx = (const SPT_GLOBAL spt_u8 *)(p + 2 + 3u * nv);
+#if defined(BVH_LEAF_VECTOR)
+    float16 u, v;
+    float16 t = bvh_tri16_distances(rx, ry, rz, idx, count, r, *best, &u, &v);
+    float m = bvh_min16(t);
+    if (!(m < *best))
+        return 0;
+    if (any_hit)
+        return 1;
+    /* The first lane at the minimum, as the lane loop would keep it. */
+    int16 ids = (int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    uint l = (uint)bvh_min16_i(select((int16)(16), ids, t == (float16)(m)));
+    hit->t = m;
+    hit->u = bvh_lane8((l & 8u) ? u.hi : u.lo, l & 7u);
+    hit->v = bvh_lane8((l & 8u) ? v.hi : v.lo, l & 7u);
+    hit->prim = bvh_word(p, 0) + l;
+    *best = m;
+    return 1;
 #else
+    spt_u32 first = bvh_word(p, 0);
+    int found = 0;
     for (spt_u32 l = 0; l < count; l++) {
-        if (bvh_tri_intersect(p, count, l, first + l, r, *best, hit)) {
+        if (bvh_tri_intersect(rx, ry, rz, idx, count, l, first + l, r, *best, hit)) {
             *best = hit->t;
             found = 1;
             if (any_hit)
                 return 1;
         }
     }
-#endif
     return found;
+#endif
 }
 
 /* Asks the memory system early for a deferred child (node, or count > 0: leaf
@@ -413,11 +420,12 @@ SPT_FN void bvh_prefetch(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float
                          spt_u32 child, spt_u32 count)
 {
     if (count) {
-        /* every cache line of the leaf's 9 count floats */
-        const SPT_GLOBAL float *p = tris + 9u * child;
-        for (spt_u32 k = 0; k < 9u * count; k += 16u)
+        /* every cache line of the leaf's block */
+        const SPT_GLOBAL float *p = tris + child;
+        spt_u32 words = bvh_leaf_words(count & 255u, count >> 8);
+        for (spt_u32 k = 0; k < words; k += 16u)
             SPT_PREFETCH(p + k);
-        SPT_PREFETCH(p + 9u * count - 1u);
+        SPT_PREFETCH(p + words - 1u);
     } else {
         const SPT_GLOBAL char *q = (const SPT_GLOBAL char *)&nodes[child];
         SPT_PREFETCH(q);

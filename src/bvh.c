@@ -188,22 +188,24 @@ typedef struct Builder {
     SweepKey *keys;
     float *right_area;
     PrimRef *tmp;
-    uint8_t *leaf_size; /* per ref: its leaf's size at a leaf's first ref, else 0 */
+    uint32_t *leaf_slot; /* per ref: at a leaf's first ref, node * BVH_WIDTH + slot + 1 of
+                            the leaf, else 0 */
+    const float *tri_pos; /* the input triangles */
 } Builder;
 
 BvhOptions bvh_default_options(void)
 {
     BvhOptions o;
     o.bins = 16;
-    /* A CPU device tests a leaf's triangles 8 at a time with float8 operations
-     * (kernels/bvh.h), and a node visit costs about one such test, so a node
-     * visit costs 8 triangle tests; leaves of up to 16 (two float8 tests) at a
-     * node cost of 16 made the fastest trees on PoCL. On the bench's
-     * 1M-triangle mesh, against leaves of at most 8 at a node cost of 2 (this
-     * builder's earlier setting): leaves of 11.4 triangles instead of 3, 41.7
-     * instead of 57.4 bytes per triangle, builds in 0.14 s instead of 0.22 s,
-     * and extend ~12% less CPU time than at 8/8 (the Cornell box's stages
-     * unchanged). A GPU loops over a leaf and pays for the larger leaves. */
+    /* A CPU device with AVX-512 tests all of a leaf's triangles (up to 16)
+     * with one 16-lane test (kernels/bvh.h), and a node visit costs about one
+     * such test; leaves of up to 16 at a node cost of 16 made the fastest trees
+     * on PoCL (measured with the earlier two float8 tests per leaf). On the
+     * bench's 1M-triangle mesh, against leaves of at most 8 at a node cost of 2
+     * (this builder's earlier setting): leaves of 11.4 triangles instead of 3,
+     * fewer bytes per triangle, faster builds, and extend ~12% less CPU time
+     * than at 8/8 (the Cornell box's stages unchanged). A GPU loops over a leaf
+     * and pays for the larger leaves. */
     o.max_leaf = 16;
     o.full_sweep = 0;
     o.cost_node = 16.0f;
@@ -562,6 +564,54 @@ static int split_sweep(Builder *bd, uint32_t begin, uint32_t end, const Box *bou
     return 1;
 }
 
+/* The distinct vertices (by their exact coordinates) of the triangles of
+ * refs[begin, end) into verts (3 floats each), and into corner[3 l + c] the
+ * vertex of corner c of triangle begin + l; stops counting at
+ * BVH_LEAF_VERTS + 1. Each vertex is compared with all 16 slots at once (a loop
+ * the compiler vectorises). */
+static uint32_t leaf_vertices(const Builder *bd, uint32_t begin, uint32_t end, float *verts,
+                              uint8_t *corner)
+{
+    uint32_t ux[BVH_LEAF_VERTS] = {0}, uy[BVH_LEAF_VERTS] = {0}, uz[BVH_LEAF_VERTS] = {0};
+    uint32_t nv = 0, used = 0; /* used: bit k set for the filled slots */
+    for (uint32_t i = begin; i < end; i++) {
+        const float *p = bd->tri_pos + (size_t)bd->refs[i].id * 9;
+        for (int c = 0; c < 3; c++, p += 3) {
+            uint32_t x, y, z;
+            memcpy(&x, p, 4);
+            memcpy(&y, p + 1, 4);
+            memcpy(&z, p + 2, 4);
+            uint32_t match = 0;
+#if defined(__SSE2__)
+            __m128i vx = _mm_set1_epi32((int)x), vy = _mm_set1_epi32((int)y), vz = _mm_set1_epi32((int)z);
+            for (uint32_t k = 0; k < nv; k += 4) {
+                __m128i e = _mm_and_si128(
+                    _mm_and_si128(_mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)(ux + k)), vx),
+                                  _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)(uy + k)), vy)),
+                    _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)(uz + k)), vz));
+                match |= (uint32_t)_mm_movemask_ps(_mm_castsi128_ps(e)) << k;
+            }
+#else
+            for (uint32_t k = 0; k < BVH_LEAF_VERTS; k++)
+                match |= (uint32_t)((ux[k] == x) & (uy[k] == y) & (uz[k] == z)) << k;
+#endif
+            match &= used;
+            if (!match) {
+                if (nv == BVH_LEAF_VERTS)
+                    return BVH_LEAF_VERTS + 1;
+                ux[nv] = x;
+                uy[nv] = y;
+                uz[nv] = z;
+                memcpy(verts + 3 * nv, p, 3 * sizeof *p);
+                used |= 1u << nv;
+                match = 1u << nv++;
+            }
+            corner[3 * (i - begin) + c] = (uint8_t)__builtin_ctz(match);
+        }
+    }
+    return nv;
+}
+
 /* Decides the binary node over refs[begin, end) (non-empty) at binary depth
  * depth: its bounds, and whether it is a leaf or where it splits (partitioning
  * the refs). Adds its term to the SAH cost. */
@@ -637,7 +687,7 @@ static void wide_slot(Builder *bd, uint32_t w, int i, const Item *it)
     node->child[i] = it && it->leaf ? it->begin : 0;
     node->count[i] = it && it->leaf ? it->end - it->begin : 0;
     if (it && it->leaf) {
-        bd->leaf_size[it->begin] = (uint8_t)(it->end - it->begin);
+        bd->leaf_slot[it->begin] = w * BVH_WIDTH + (uint32_t)i + 1;
         bd->st->leaf_count++;
         if (node->count[i] > bd->st->max_leaf_size)
             bd->st->max_leaf_size = node->count[i];
@@ -702,6 +752,77 @@ static int tri_zero_area(const float *p)
     float ny = e1[2] * e2[0] - e1[0] * e2[2];
     float nz = e1[0] * e2[1] - e1[1] * e2[0];
     return nx == 0.0f && ny == 0.0f && nz == 0.0f;
+}
+
+/* Writes the block of the leaf refs[first, first + n) with its nv distinct
+ * vertices v (kernels/bvh.h) at word *words of tris, and points slot c of
+ * node k at it. */
+static void write_block(Builder *bd, Bvh *bvh, uint32_t k, int c, uint32_t first, uint32_t n,
+                        const float *v, uint32_t nv, const uint8_t *corner, float *tris,
+                        size_t *words)
+{
+    float *p = tris + *words;
+    union { float f; uint32_t u; } w;
+    w.u = first;
+    p[0] = w.f;
+    w.u = nv | n << 8;
+    p[1] = w.f;
+    for (uint32_t j = 0; j < nv; j++)
+        for (int a = 0; a < 3; a++)
+            p[2 + a * nv + j] = v[3 * j + a];
+    uint8_t *idx = (uint8_t *)(p + 2 + 3 * nv);
+    memset(idx, 0, 4 * ((3 * n + 3) / 4));
+    for (uint32_t l = 0; l < n; l++) {
+        bvh->prim_index[first + l] = bd->refs[first + l].id;
+        bvh->tri_leaf[first + l] = (uint32_t)*words;
+        for (uint32_t j = 0; j < 3; j++)
+            idx[j * n + l] = corner[3 * l + j];
+    }
+    bd->wide[k].child[c] = (uint32_t)*words;
+    bd->wide[k].count[c] = n | nv << 8;
+    *words += bvh_leaf_words(n, nv);
+}
+
+/* Packs the leaf in slot c of node k (at depth k_depth). A leaf with more than BVH_LEAF_VERTS
+ * distinct vertices (triangles that share few, as in a triangle soup) becomes
+ * a node of up to 8 leaves, runs of its triangles that fit, in a new node. */
+static void pack_leaf(Builder *bd, Bvh *bvh, uint32_t k, int c, uint32_t k_depth, float *tris,
+                      size_t *words)
+{
+    uint32_t first = bd->wide[k].child[c], n = bd->wide[k].count[c];
+    float v[3 * BVH_LEAF_VERTS];
+    uint8_t corner[3 * BVH_LEAF_MAX];
+    uint32_t nv = leaf_vertices(bd, first, first + n, v, corner);
+    if (nv <= BVH_LEAF_VERTS) {
+        write_block(bd, bvh, k, c, first, n, v, nv, corner, tris, words);
+        return;
+    }
+    /* Runs of at least five triangles (at most 15 vertices), so at most four. */
+    uint32_t node = wide_new(bd);
+    for (int i = 0; i < BVH_WIDTH; i++)
+        wide_slot(bd, node, i, NULL);
+    bd->wide[k].child[c] = node;
+    bd->wide[k].count[c] = 0;
+    bd->st->leaf_count--;
+    if (k_depth + 1 > bd->st->max_depth)
+        bd->st->max_depth = k_depth + 1;
+    int slot = 0;
+    for (uint32_t b = first, end = first + n; b < end; slot++) {
+        uint32_t e = b + 1;
+        while (e < end && leaf_vertices(bd, b, e + 1, v, corner) <= BVH_LEAF_VERTS)
+            e++;
+        Item it;
+        memset(&it, 0, sizeof it);
+        Box cb;
+        refs_bounds(bd->refs, b, e, &it.bounds, &cb);
+        it.begin = b;
+        it.end = e;
+        it.leaf = 1;
+        wide_slot(bd, node, slot, &it);
+        nv = leaf_vertices(bd, b, e, v, corner);
+        write_block(bd, bvh, node, slot, b, e - b, v, nv, corner, tris, words);
+        b = e;
+    }
 }
 
 /* Leaf size average and memory use of a finished tree. */
@@ -780,9 +901,9 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
             }
         }
         bvh->node_count = 1;
-        bvh->tri_data_bytes = (9 + BVH_TRI_PAD) * sizeof(float);
+        bvh->tri_data_bytes = (2 + BVH_TRI_PAD) * sizeof(float);
         bvh->tri_data = spt_calloc(1, bvh->tri_data_bytes);
-        bvh->tri_lane = spt_calloc(1, 1);
+        bvh->tri_leaf = spt_calloc(1, sizeof *bvh->tri_leaf);
         bvh->prim_index = spt_calloc(1, sizeof *bvh->prim_index);
         bvh->prim_count = 0;
     } else {
@@ -799,7 +920,8 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         if (!bd.wide)
             bd.wide = spt_malloc((size_t)bd.wide_cap * sizeof *bd.wide);
         bd.st = &bvh->stats;
-        bd.leaf_size = spt_calloc(kept, 1);
+        bd.leaf_slot = spt_calloc(kept, sizeof *bd.leaf_slot);
+        bd.tri_pos = tri_pos;
         Item root;
         decide(&bd, 0, kept, 0, &root);
         uint32_t w = wide_new(&bd);
@@ -815,33 +937,39 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         free(bd.keys);
         free(bd.right_area);
         free(bd.tmp);
+        /* Each leaf as a block of its distinct vertices and their indices
+         * (kernels/bvh.h), in node order. A block takes at most 12 n words. */
+        size_t cap = (size_t)kept * 12 + BVH_TRI_PAD;
+        float *tris = spt_malloc(cap * sizeof *tris);
+        bvh->prim_index = spt_malloc(kept * sizeof *bvh->prim_index);
+        bvh->tri_leaf = spt_malloc(kept * sizeof *bvh->tri_leaf);
+        size_t words = 0;
+        bvh->prim_count = kept;
+        /* Node depths (a child's index is above its parent's), for the nodes
+         * pack_leaf appends. */
+        uint8_t *depth = spt_calloc(bd.wide_count, 1);
+        for (uint32_t k = 0; k < bd.wide_count; k++)
+            for (int c = 0; c < BVH_WIDTH; c++)
+                if (!bd.wide[k].count[c] && bd.wide[k].child[c])
+                    depth[bd.wide[k].child[c]] = (uint8_t)(depth[k] + 1);
+        /* The leaves in triangle order, so their blocks lie in that order and
+         * the gather from tri_pos can be asked for ahead. */
+        for (uint32_t i = 0; i < kept;) {
+            uint32_t ks = bd.leaf_slot[i] - 1, k = ks / BVH_WIDTH, n = bd.wide[k].count[ks % BVH_WIDTH];
+            for (uint32_t j = i + 32; j < i + 32 + n && j < kept; j++)
+                __builtin_prefetch(tri_pos + (size_t)bd.refs[j].id * 9);
+            pack_leaf(&bd, bvh, k, (int)(ks % BVH_WIDTH), depth[k], tris, &words);
+            i += n;
+        }
+        free(depth);
+        memset(tris + words, 0, BVH_TRI_PAD * sizeof *tris);
+        words += BVH_TRI_PAD;
+        float *shrunk = realloc(tris, words * sizeof *tris);
+        tris = shrunk ? shrunk : tris;
         bvh->nodes = bd.wide;
         bvh->node_count = bd.wide_count;
-        /* Each leaf's triangles as structure of arrays (kernels/bvh.h). */
-        size_t nf = (size_t)kept * 9 + BVH_TRI_PAD;
-        float *tris = spt_malloc(nf * sizeof *tris);
-        memset(tris + nf - BVH_TRI_PAD, 0, BVH_TRI_PAD * sizeof *tris);
-        bvh->prim_index = spt_malloc(kept * sizeof *bvh->prim_index);
-        bvh->tri_lane = spt_malloc(kept);
-        uint32_t n = 1, lane = 0;
-        float *leaf = tris;
-        for (uint32_t i = 0; i < kept; i++, lane++) {
-            /* The gather is the slow part: ask for a later triangle early. */
-            if (i + 16 < kept)
-                __builtin_prefetch(tri_pos + (size_t)bd.refs[i + 16].id * 9);
-            if (bd.leaf_size[i]) {
-                n = bd.leaf_size[i];
-                lane = 0;
-                leaf = tris + (size_t)i * 9;
-            }
-            uint32_t id = bd.refs[i].id;
-            bvh->prim_index[i] = id;
-            bvh->tri_lane[i] = (uint8_t)(lane | (n - 1) << 4);
-            const float *src = tri_pos + (size_t)id * 9;
-            for (uint32_t k = 0; k < 9; k++)
-                leaf[k * n + lane] = src[k];
-        }
-        free(bd.leaf_size);
+        size_t nf = words;
+        free(bd.leaf_slot);
         bvh->tri_data = tris;
         bvh->tri_data_bytes = nf * sizeof *tris;
         bvh->prim_count = kept;
@@ -870,7 +998,7 @@ void bvh_free(Bvh *bvh)
         return;
     free(bvh->nodes);
     free(bvh->tri_data);
-    free(bvh->tri_lane);
+    free(bvh->tri_leaf);
     free(bvh->prim_index);
     memset(bvh, 0, sizeof *bvh);
 }

@@ -32,14 +32,12 @@ typedef struct BvhStats {
 typedef struct Bvh {
     BvhNode *nodes;          /* node_count nodes, root first (device-ready) */
     uint32_t node_count;
-    float *tri_data;         /* packed triangles, 9 floats each in leaf order, each
-                                leaf as structure of arrays, then BVH_TRI_PAD
-                                floats (kernels/bvh.h; device-ready); holds one
-                                zeroed dummy triangle when prim_count is 0, so the
-                                buffer is never empty */
+    float *tri_data;         /* the leaf blocks (kernels/bvh.h; device-ready),
+                                then BVH_TRI_PAD words; only zeroed words when
+                                prim_count is 0, so the buffer is never empty */
     size_t tri_data_bytes;
-    spt_u8 *tri_lane;        /* per packed triangle: its lane and leaf size - 1
-                                (kernels/bvh.h); one 0 when prim_count is 0 */
+    uint32_t *tri_leaf;      /* per packed triangle: the word of its leaf's block;
+                                one 0 when prim_count is 0 */
     uint32_t *prim_index;    /* prim_index[i] = input index of packed triangle i */
     uint32_t prim_count;     /* triangles kept */
     BvhStats stats;
@@ -82,7 +80,8 @@ void bvh_bounds(const Bvh *bvh, float lo[3], float hi[3]);
 /* The vertices of packed triangle i. */
 static inline void bvh_vertices(const Bvh *bvh, uint32_t i, vec3 *v0, vec3 *v1, vec3 *v2)
 {
-    bvh_tri_vertices(bvh->tri_data, bvh->tri_lane, i, v0, v1, v2);
+    const float *p = bvh->tri_data + bvh->tri_leaf[i];
+    bvh_leaf_vertices(p, i - bvh_word(p, 0), v0, v1, v2);
 }
 
 /* A closed, star-shaped test mesh: a sphere of the given radius around center

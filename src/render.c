@@ -564,20 +564,16 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
     /* Test hook: SPECTRACE_TEST_INJECT_NAN=1 makes pixel 0's radiance NaN, to show
      * that the NaN guard keeps it off the film. */
     const char *nan_hook = getenv("SPECTRACE_TEST_INJECT_NAN");
-    /* CPUs test a BVH leaf's triangles with vector operations of their native
-     * float width (8, or 16 with AVX-512) and trace two rays per extend
-     * work-item, interleaved (kernels/bvh.h); GPUs, whose work-items are the
-     * SIMD lanes and which hide memory latency with other work-items, loop over
-     * a leaf's triangles and trace one ray each. */
+    /* CPUs test a BVH leaf's triangles with one 16-lane test where they have
+     * AVX-512 and trace two rays per extend work-item, interleaved
+     * (kernels/bvh.h); GPUs, whose work-items are the SIMD lanes and which hide
+     * memory latency with other work-items, loop over a leaf's triangles and
+     * trace one ray each. */
     w->ray_pairs = (info->type & CL_DEVICE_TYPE_CPU) != 0;
-    cl_uint width = 8;
     cl_ulong cache = 0;
-    if (w->ray_pairs) {
-        SPT_CL_CHECK(e, clGetDeviceInfo(info->id, CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT, sizeof width,
-                                        &width, NULL));
+    if (w->ray_pairs)
         SPT_CL_CHECK(e, clGetDeviceInfo(info->id, CL_DEVICE_GLOBAL_MEM_CACHE_SIZE, sizeof cache,
                                         &cache, NULL));
-    }
     /* A BVH larger than a quarter of the device's cache (shared by its cores
      * and other programs) is read mostly from memory: each traversal step then
      * asks early for the next one's data (SPT_BVH_STEP_PREFETCH); in a small
@@ -586,8 +582,7 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
     int step_prefetch = w->ray_pairs && bvh_bytes > 0.25 * (double)cache;
     char options[160];
     snprintf(options, sizeof options, "%s%s%s",
-             !w->ray_pairs ? "" : width >= 16 ? "-DSPT_BVH_SIMD=16 -DSPT_BVH_PAIRS=1 "
-                                              : "-DSPT_BVH_SIMD=8 -DSPT_BVH_PAIRS=1 ",
+             w->ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "",
              step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "",
              nan_hook && *nan_hook && strcmp(nan_hook, "0") ? "-DSPT_TEST_INJECT_NAN=1" : "");
     if ((rc = cl_program_build(&w->dev, "kernels/wavefront.cl", options, &w->program, e)))

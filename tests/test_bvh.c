@@ -219,7 +219,20 @@ static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
             }
             if (nd->count[c]) {
                 leaves++;
-                uint32_t first = nd->child[c], cnt = nd->count[c];
+                /* the leaf's block: in the buffer, its first triangle, its
+                 * size and at most BVH_LEAF_VERTS distinct vertices */
+                uint32_t blk = nd->child[c], cnt = nd->count[c] & 255;
+                const float *p = bvh->tri_data + blk;
+                assert_true((blk + 2) * sizeof(float) <= bvh->tri_data_bytes);
+                uint32_t first = bvh_word(p, 0), nv = bvh_word(p, 1) & 255;
+                assert_int_equal(bvh_word(p, 1) >> 8, cnt);
+                assert_int_equal(nd->count[c] >> 8, nv);
+                assert_true(nv >= 3 && nv <= BVH_LEAF_VERTS && nv <= 3 * cnt);
+                assert_true((blk + bvh_leaf_words(cnt, nv) + BVH_TRI_PAD) * sizeof(float) <=
+                            bvh->tri_data_bytes);
+                const uint8_t *idx = (const uint8_t *)(p + 2 + 3 * nv);
+                for (uint32_t k = 0; k < 3 * cnt; k++)
+                    assert_true(idx[k] < nv);
                 assert_true(first + cnt <= bvh->prim_count);
                 for (uint32_t k = first; k < first + cnt; k++) {
                     assert_false(seen[k]);
@@ -229,9 +242,8 @@ static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
                     assert_true(keep == NULL || keep[id]);
                     assert_false(seen_in[id]);
                     seen_in[id] = 1;
-                    /* its lane record and its vertices, read through it */
-                    assert_int_equal(bvh->tri_lane[k] & 15, k - first);
-                    assert_int_equal((bvh->tri_lane[k] >> 4) + 1, cnt);
+                    /* its leaf record and its vertices, read through it */
+                    assert_int_equal(bvh->tri_leaf[k], blk);
                     vec3 v[3];
                     bvh_vertices(bvh, k, &v[0], &v[1], &v[2]);
                     float pv[9];
@@ -491,7 +503,7 @@ static void test_empty_scene(void **state)
 
 /* The kernels run this traversal: compiled by the OpenCL device from kernels/
  * (without fast-math options), with the lane-by-lane leaf test that GPUs run, with
- * the float8 and float16 ones of CPUs (SPT_BVH_SIMD) and with two rays traced
+ * the 16-lane one of AVX-512 CPUs (SPT_BVH_SIMD) and with two rays traced
  * together (SPT_BVH_PAIRS), it reports the host's node size and returns
  * bit-identical hits to the host build for the same rays. Skipped without
  * an OpenCL device. */
@@ -630,8 +642,8 @@ static void test_device_matches_host(void **state)
         if (m == 0)
             assert_true(bvh.stats.max_leaf_size > 8);
         const char *options[3] = {
-            "-I kernels -cl-std=CL1.2", "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=8",
-            "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=16 -DSPT_BVH_PAIRS=1 -DSPT_BVH_STEP_PREFETCH=1"};
+            "-I kernels -cl-std=CL1.2", "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=1",
+            "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 -DSPT_BVH_STEP_PREFETCH=1"};
         for (int o = 0; o < 3; o++) {
             int hits;
             assert_int_equal(device_differences(ctx, dev, q, options[o], &bvh, rays, nr, &hits), 0);
