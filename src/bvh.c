@@ -830,6 +830,12 @@ static void bvh_finish_stats(Bvh *bvh)
 {
     BvhStats *st = &bvh->stats;
     st->node_count = bvh->node_count;
+    /* of the leaves as packed (a soup's leaves split into runs) */
+    st->max_leaf_size = 0;
+    for (uint32_t k = 0; k < bvh->node_count; k++)
+        for (int c = 0; c < BVH_WIDTH; c++)
+            if ((bvh->nodes[k].count[c] & 255) > st->max_leaf_size)
+                st->max_leaf_size = bvh->nodes[k].count[c] & 255;
     st->avg_leaf_size = st->leaf_count ? (double)bvh->prim_count / st->leaf_count : 0.0;
     st->bytes_per_tri = bvh->prim_count
         ? (double)(bvh->node_count * sizeof(BvhNode) + bvh->tri_data_bytes) / bvh->prim_count

@@ -309,6 +309,9 @@ static void test_soup_matches_brute_force(void **state)
     assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
     assert_int_equal(bvh.stats.dropped, 0);
     check_structure(&bvh, t, n, NULL);
+    /* Soup triangles share no vertices, so no leaf holds more than five (16
+     * vertices): the SAH's leaves of up to 16 were split into runs. */
+    assert_true(bvh.stats.max_leaf_size >= 1 && bvh.stats.max_leaf_size <= 5);
     check_rays(&bvh, t, n, NULL, 40000, -1.5, 1.5);
     bvh_free(&bvh);
     free(t);
