@@ -28,7 +28,7 @@
  * bvh_leaf_words(n, nv) words in all. Sharing the vertices of a mesh's
  * neighbouring triangles makes a leaf about 2.4 times smaller than 9 floats per
  * triangle, and the random reads of incoherent rays miss the cache less. The
- * builder bounds the distinct vertices, so a CPU with AVX-512 (SPT_BVH_SIMD)
+ * builder bounds the distinct vertices, so an x86 CPU (SPT_BVH_SIMD; AVX-512 or AVX2)
  * tests all of a leaf's triangles with one 16-lane test, its corners gathered
  * from the 16-lane vertex rows by a permute, while a GPU, or the host, loops
  * over them with the same arithmetic lane by lane. A leaf's block may be
@@ -306,13 +306,34 @@ SPT_FN int bvh_tri_intersect(const SPT_GLOBAL float *rx, const SPT_GLOBAL float 
     return 1;
 }
 
-#if SPT_DEVICE && defined(SPT_BVH_SIMD) && defined(__AVX512F__)
+/* The 16-lane leaf test needs a variable permute, which OpenCL C lacks
+ * (shuffle() compiles to scalar code in PoCL): x86 CPUs get it from clang's
+ * vpermps built-ins, 512-bit with AVX-512, two 256-bit ones and a blend with
+ * AVX2 (SPT_BVH_NO_AVX512 forces the latter, for the tests). */
+#if SPT_DEVICE && defined(SPT_BVH_SIMD) && defined(__AVX512F__) && !defined(SPT_BVH_NO_AVX512)
 #define BVH_LEAF_VECTOR 1
-/* Lane i of the result is lane idx[i] of v: one vpermps. */
+/* Lane i of the result is lane idx[i] (0..15) of v: one vpermps. */
 SPT_FN float16 bvh_gather16(float16 v, int16 idx)
 {
     return __builtin_ia32_permvarsf512(v, idx);
 }
+#elif SPT_DEVICE && defined(SPT_BVH_SIMD) && defined(__AVX2__)
+#define BVH_LEAF_VECTOR 1
+/* Lanes idx[i] (0..15) of v for 8 lanes: a vpermps from each half of v (it
+ * uses the low 3 bits), then the half idx[i] names. */
+SPT_FN float8 bvh_gather8_of16(float16 v, int8 idx)
+{
+    return select(__builtin_ia32_permvarsf256(v.lo, idx), __builtin_ia32_permvarsf256(v.hi, idx),
+                  idx > (int8)(7));
+}
+
+SPT_FN float16 bvh_gather16(float16 v, int16 idx)
+{
+    return (float16)(bvh_gather8_of16(v, idx.lo), bvh_gather8_of16(v, idx.hi));
+}
+#endif
+
+#if defined(BVH_LEAF_VECTOR)
 
 /* The smallest lane of x (no lane is NaN). */
 SPT_FN float bvh_min16(float16 x)
