@@ -689,8 +689,6 @@ static void wide_slot(Builder *bd, uint32_t w, int i, const Item *it)
     if (it && it->leaf) {
         bd->leaf_slot[it->begin] = w * BVH_WIDTH + (uint32_t)i + 1;
         bd->st->leaf_count++;
-        if (node->count[i] > bd->st->max_leaf_size)
-            bd->st->max_leaf_size = node->count[i];
     }
 }
 
@@ -783,9 +781,10 @@ static void write_block(Builder *bd, Bvh *bvh, uint32_t k, int c, uint32_t first
     *words += bvh_leaf_words(n, nv);
 }
 
-/* Packs the leaf in slot c of node k (at depth k_depth). A leaf with more than BVH_LEAF_VERTS
- * distinct vertices (triangles that share few, as in a triangle soup) becomes
- * a node of up to 8 leaves, runs of its triangles that fit, in a new node. */
+/* Packs the leaf in slot c of node k (at depth k_depth). A leaf with more than
+ * BVH_LEAF_VERTS distinct vertices (triangles that share few, as in a triangle
+ * soup) is replaced by a new node whose leaves are runs of its triangles that
+ * fit. */
 static void pack_leaf(Builder *bd, Bvh *bvh, uint32_t k, int c, uint32_t k_depth, float *tris,
                       size_t *words)
 {

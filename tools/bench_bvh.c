@@ -156,8 +156,8 @@ static void print_tree(const char *label, const Bvh *b)
 {
     const BvhStats *s = &b->stats;
     printf("  %s: %u %d-wide nodes, %u leaves, depth %u, leaf size avg %.2f max %u, SAH cost "
-           "%.2f (binary tree), %.1f bytes/triangle (nodes + packed triangles; +4 for "
-           "prim_index)\n",
+           "%.2f (binary tree), %.1f bytes/triangle (nodes + leaf blocks; +8 for "
+           "prim_index and tri_leaf)\n",
            label, s->node_count, BVH_WIDTH, s->leaf_count, s->max_depth, s->avg_leaf_size, s->max_leaf_size,
            s->sah_cost, s->bytes_per_tri);
 }
