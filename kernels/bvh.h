@@ -334,6 +334,7 @@ SPT_FN float16 bvh_gather16(float16 v, int16 idx)
 #endif
 
 #if defined(BVH_LEAF_VECTOR)
+#define BVH_LANE_IDS16 ((int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
 
 /* The smallest lane of x (no lane is NaN). */
 SPT_FN float bvh_min16(float16 x)
@@ -381,8 +382,8 @@ SPT_FN float16 bvh_tri16_distances(const __global float *rx, const __global floa
     float16 rcp = (float16)(1.0f) / det;
     float16 w0 = eu * rcp, w1 = ev * rcp, w2 = ew * rcp;
     float16 t = (w0 * az + w1 * bz + w2 * cz) * (float16)(r->sz);
-    int16 lane = (int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    int16 ok = ~outside & (det != zero) & (t > zero) & (t < (float16)(tbest)) & (lane < (int16)((int)n));
+    int16 ok = ~outside & (det != zero) & (t > zero) & (t < (float16)(tbest)) &
+               (BVH_LANE_IDS16 < (int16)((int)n));
     *u = w1;
     *v = w2;
     return select((float16)(BVH_FAR), t, ok);
@@ -412,8 +413,7 @@ SPT_FN int bvh_leaf_intersect(const SPT_GLOBAL float *tris, spt_u32 off, spt_u32
     if (any_hit)
         return 1;
     /* The first lane at the minimum, as the lane loop would keep it. */
-    int16 ids = (int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    uint l = (uint)bvh_min16_i(select((int16)(16), ids, t == (float16)(m)));
+    uint l = (uint)bvh_min16_i(select((int16)(16), BVH_LANE_IDS16, t == (float16)(m)));
     hit->t = m;
     hit->u = bvh_lane8((l & 8u) ? u.hi : u.lo, l & 7u);
     hit->v = bvh_lane8((l & 8u) ? v.hi : v.lo, l & 7u);
@@ -435,8 +435,8 @@ SPT_FN int bvh_leaf_intersect(const SPT_GLOBAL float *tris, spt_u32 off, spt_u32
 #endif
 }
 
-/* Asks the memory system early for a deferred child (node, or count > 0: leaf
- * triangles), so its latency overlaps the traversal of the nearer one. */
+/* Asks the memory system early for a child (a node, or when count > 0 the leaf
+ * block at word child), so its latency overlaps other work. */
 SPT_FN void bvh_prefetch(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
                          spt_u32 child, spt_u32 count)
 {
@@ -467,8 +467,8 @@ SPT_FN spt_u32 bvh_lowest_bit(spt_u32 m)
 }
 
 /* One ray's traversal in progress: the ray, its best hit so far, the current
- * item (node cur when count is 0, else the leaf of count triangles from cur)
- * and the deferred items with their entry distances. */
+ * item (node cur when count is 0, else the leaf block at word cur, count its
+ * node's count word) and the deferred items with their entry distances. */
 typedef struct BvhTrav {
     BvhRay r;
     float best;

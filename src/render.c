@@ -564,8 +564,8 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
     /* Test hook: SPECTRACE_TEST_INJECT_NAN=1 makes pixel 0's radiance NaN, to show
      * that the NaN guard keeps it off the film. */
     const char *nan_hook = getenv("SPECTRACE_TEST_INJECT_NAN");
-    /* CPUs test a BVH leaf's triangles with one 16-lane test where they have
-     * AVX-512 and trace two rays per extend work-item, interleaved
+    /* CPUs test a BVH leaf's triangles with one 16-lane test (x86 with AVX-512
+     * or AVX2) and trace two rays per extend work-item, interleaved
      * (kernels/bvh.h); GPUs, whose work-items are the SIMD lanes and which hide
      * memory latency with other work-items, loop over a leaf's triangles and
      * trace one ray each. */
