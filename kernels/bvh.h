@@ -169,6 +169,16 @@ SPT_FN void bvh_ray_init(BvhRay *r, vec3 org, vec3 dir)
     r->sy = d[ky] * r->sz;
 }
 
+/* Index of the lowest set bit of m (m != 0). */
+SPT_FN spt_u32 bvh_lowest_bit(spt_u32 m)
+{
+#if SPT_DEVICE
+    return 31u - clz(m & (0u - m));
+#else
+    return (spt_u32)__builtin_ctz(m);
+#endif
+}
+
 /* Entry distances of the ray into a node's BVH_WIDTH child boxes (BvhEnter):
  * lane i is child i's entry distance if its box overlaps [0, tbest], else -1.
  * Far distances are widened by 1 + 2 gamma(3) (Ize 2013, "Robust BVH Ray
@@ -180,12 +190,39 @@ SPT_FN void bvh_ray_init(BvhRay *r, vec3 org, vec3 dir)
 typedef float8 BvhEnter;
 #define BVH_ENTER_LANE(d, i) bvh_lane8(d, i)
 
-/* Lane l (0..7) of x, by halving selects (no indexed private array). */
+/* x86 CPUs (SPT_BVH_SIMD with AVX2; PoCL defines the target's feature macros)
+ * take a vector's lane by a variable index, and a compare's lanes as a bit
+ * mask, with one instruction each through clang's built-ins: vpermps and
+ * vmovmskps. OpenCL C has neither, and its portable forms below (halving
+ * selects, an OR of lane bits) are chains of dependent shuffles on the
+ * traversal's critical path. */
+#if defined(SPT_BVH_SIMD) && defined(__AVX2__)
+#define BVH_X86_AVX2 1
+#endif
+
+/* Lane l (0..7) of x: vpermps, or halving selects (no indexed private array). */
 SPT_FN float bvh_lane8(float8 x, uint l)
 {
+#if defined(BVH_X86_AVX2)
+    return as_float8(__builtin_ia32_permvarsf256(x, (int8)((int)l))).s0;
+#else
     float4 x4 = (l & 4u) ? x.hi : x.lo;
     float2 x2 = (l & 2u) ? x4.hi : x4.lo;
     return (l & 1u) ? x2.y : x2.x;
+#endif
+}
+
+/* Bit i set when lane i of the compare result c is true (all ones). */
+SPT_FN uint bvh_mask8(int8 c)
+{
+#if defined(BVH_X86_AVX2)
+    return (uint)__builtin_ia32_movmskps256(as_float8(c));
+#else
+    uint8 b = as_uint8(c) & (uint8)(1u, 2u, 4u, 8u, 16u, 32u, 64u, 128u);
+    uint4 b4 = b.lo | b.hi;
+    uint2 b2 = b4.lo | b4.hi;
+    return b2.x | b2.y;
+#endif
 }
 
 SPT_FN float8 bvh_v8_min(float8 a, float8 b) { return select(b, a, a < b); }
@@ -209,10 +246,7 @@ SPT_FN float8 bvh_node_enter(const __global BvhNode *n, const BvhRay *r, float t
 /* Bit i set when child i is entered (lane i >= 0). */
 SPT_FN uint bvh_enter_mask(float8 d)
 {
-    uint8 b = as_uint8(d >= (float8)(0.0f)) & (uint8)(1u, 2u, 4u, 8u, 16u, 32u, 64u, 128u);
-    uint4 b4 = b.lo | b.hi;
-    uint2 b2 = b4.lo | b4.hi;
-    return b2.x | b2.y;
+    return bvh_mask8(d >= (float8)(0.0f));
 }
 #else
 typedef struct BvhEnter {
@@ -336,21 +370,15 @@ SPT_FN float16 bvh_gather16(float16 v, int16 idx)
 #if defined(BVH_LEAF_VECTOR)
 #define BVH_LANE_IDS16 ((int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
 
-/* The smallest lane of x (no lane is NaN). */
+/* The smallest lane of x: compare and select, as the node test's min (fmin's
+ * NaN handling costs an unordered compare and a blend per step, and no lane
+ * is NaN). */
 SPT_FN float bvh_min16(float16 x)
 {
-    float8 m8 = fmin(x.lo, x.hi);
-    float4 m4 = fmin(m8.lo, m8.hi);
-    float2 m2 = fmin(m4.lo, m4.hi);
-    return fmin(m2.x, m2.y);
-}
-
-SPT_FN int bvh_min16_i(int16 x)
-{
-    int8 m8 = min(x.lo, x.hi);
-    int4 m4 = min(m8.lo, m8.hi);
-    int2 m2 = min(m4.lo, m4.hi);
-    return min(m2.x, m2.y);
+    float8 m8 = select(x.hi, x.lo, x.lo < x.hi);
+    float4 m4 = select(m8.hi, m8.lo, m8.lo < m8.hi);
+    float2 m2 = select(m4.hi, m4.lo, m4.lo < m4.hi);
+    return m2.x < m2.y ? m2.x : m2.y;
 }
 
 /* All of a leaf's (n <= 16) triangles in one 16-lane test, the arithmetic of
@@ -413,10 +441,11 @@ SPT_FN int bvh_leaf_intersect(const SPT_GLOBAL float *tris, spt_u32 off, spt_u32
     if (any_hit)
         return 1;
     /* The first lane at the minimum, as the lane loop would keep it. */
-    uint l = (uint)bvh_min16_i(select((int16)(16), BVH_LANE_IDS16, t == (float16)(m)));
+    int16 at_min = t == (float16)(m);
+    uint l = bvh_lowest_bit(bvh_mask8(at_min.lo) | bvh_mask8(at_min.hi) << 8);
     hit->t = m;
-    hit->u = bvh_lane8((l & 8u) ? u.hi : u.lo, l & 7u);
-    hit->v = bvh_lane8((l & 8u) ? v.hi : v.lo, l & 7u);
+    hit->u = as_float16(bvh_gather16(u, (int16)((int)l))).s0;
+    hit->v = as_float16(bvh_gather16(v, (int16)((int)l))).s0;
     hit->prim = bvh_word(p, 0) + l;
     *best = m;
     return 1;
@@ -454,16 +483,6 @@ SPT_FN void bvh_prefetch(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float
         SPT_PREFETCH(q + 128);
         SPT_PREFETCH(q + 192);
     }
-}
-
-/* Index of the lowest set bit of m (m != 0). */
-SPT_FN spt_u32 bvh_lowest_bit(spt_u32 m)
-{
-#if SPT_DEVICE
-    return 31u - clz(m & (0u - m));
-#else
-    return (spt_u32)__builtin_ctz(m);
-#endif
 }
 
 /* One ray's traversal in progress: the ray, its best hit so far, the current
