@@ -179,8 +179,11 @@ SPT_FN spt_u32 bvh_lowest_bit(spt_u32 m)
 #endif
 }
 
-/* Entry distances of the ray into a node's BVH_WIDTH child boxes (BvhEnter):
- * lane i is child i's entry distance if its box overlaps [0, tbest], else -1.
+/* Entry distances of the ray into a node's BVH_WIDTH child boxes (BvhEnter),
+ * and in *mask the children it enters: bit i is set when child i's box
+ * overlaps [0, tbest], and then lane i is its entry distance (the other lanes
+ * are not used: -1 on the host, the empty interval's near distance on the
+ * device, which takes the mask straight from the compare).
  * Far distances are widened by 1 + 2 gamma(3) (Ize 2013, "Robust BVH Ray
  * Traversal") so rounding never culls a box the triangle test would hit. The
  * min and max are compare-and-select (a < b ? a : b) on the device and the host
@@ -228,7 +231,7 @@ SPT_FN uint bvh_mask8(int8 c)
 SPT_FN float8 bvh_v8_min(float8 a, float8 b) { return select(b, a, a < b); }
 SPT_FN float8 bvh_v8_max(float8 a, float8 b) { return select(b, a, a > b); }
 
-SPT_FN float8 bvh_node_enter(const __global BvhNode *n, const BvhRay *r, float tbest)
+SPT_FN float8 bvh_node_enter(const __global BvhNode *n, const BvhRay *r, float tbest, uint *mask)
 {
     float8 ox = (float8)(r->ox), oy = (float8)(r->oy), oz = (float8)(r->oz);
     float8 tnx = (vload8(0, n->bounds[r->nx]) - ox) * r->ix;
@@ -240,23 +243,20 @@ SPT_FN float8 bvh_node_enter(const __global BvhNode *n, const BvhRay *r, float t
     float8 tn = bvh_v8_max(bvh_v8_max(tnx, tny), bvh_v8_max(tnz, (float8)(0.0f)));
     float8 tf = bvh_v8_min(bvh_v8_min(tfx, tfy), tfz) * 1.00000036f;
     tf = bvh_v8_min(tf, (float8)(tbest));
-    return select((float8)(-1.0f), tn, tn <= tf);
+    *mask = bvh_mask8(tn <= tf);
+    return tn;
 }
 
-/* Bit i set when child i is entered (lane i >= 0). */
-SPT_FN uint bvh_enter_mask(float8 d)
-{
-    return bvh_mask8(d >= (float8)(0.0f));
-}
 #else
 typedef struct BvhEnter {
     float v[BVH_WIDTH];
 } BvhEnter;
 #define BVH_ENTER_LANE(d, i) ((d).v[i])
 
-SPT_FN BvhEnter bvh_node_enter(const BvhNode *n, const BvhRay *r, float tbest)
+SPT_FN BvhEnter bvh_node_enter(const BvhNode *n, const BvhRay *r, float tbest, spt_u32 *mask)
 {
     BvhEnter d;
+    spt_u32 m = 0;
 #if defined(__SSE2__)
     /* The device's float8 arithmetic, four lanes at a time (minps/maxps are
      * a < b ? a : b and a > b ? a : b, like the device's selects). */
@@ -274,6 +274,7 @@ SPT_FN BvhEnter bvh_node_enter(const BvhNode *n, const BvhRay *r, float tbest)
         tf = _mm_min_ps(tf, _mm_set1_ps(tbest));
         __m128 in = _mm_cmple_ps(tn, tf);
         _mm_storeu_ps(d.v + h, _mm_or_ps(_mm_and_ps(in, tn), _mm_andnot_ps(in, _mm_set1_ps(-1.0f))));
+        m |= (spt_u32)_mm_movemask_ps(in) << h;
     }
 #else
     for (int i = 0; i < BVH_WIDTH; i++) {
@@ -284,18 +285,13 @@ SPT_FN BvhEnter bvh_node_enter(const BvhNode *n, const BvhRay *r, float tbest)
         float tf = bvh_min_(bvh_min_(tfx, tfy), tfz) * 1.00000036f;
         tf = bvh_min_(tf, tbest);
         d.v[i] = tn <= tf ? tn : -1.0f;
+        m |= (spt_u32)(tn <= tf) << i;
     }
 #endif
+    *mask = m;
     return d;
 }
 
-SPT_FN spt_u32 bvh_enter_mask(BvhEnter d)
-{
-    spt_u32 m = 0;
-    for (int i = 0; i < BVH_WIDTH; i++)
-        m |= (spt_u32)(d.v[i] >= 0.0f) << i;
-    return m;
-}
 #endif
 
 /* Watertight test of triangle l of a leaf: its corners are vertices idx[l],
@@ -544,8 +540,8 @@ SPT_FN_INLINE int bvh_trav_step(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBA
         }
     } else {
         const SPT_GLOBAL BvhNode *n = &nodes[s->cur];
-        BvhEnter d = bvh_node_enter(n, &s->r, s->best);
-        spt_u32 mask = bvh_enter_mask(d);
+        spt_u32 mask;
+        BvhEnter d = bvh_node_enter(n, &s->r, s->best, &mask);
         if (mask) {
             spt_u32 a = bvh_lowest_bit(mask), rest = mask & (mask - 1u);
             if (!rest) {
