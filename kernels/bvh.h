@@ -85,6 +85,8 @@ typedef struct BvhNode {
 #define bvh_leaf_words(n, nv) (2u + 3u * (nv) + (3u * (n) + 3u) / 4u)
 
 SPT_STATIC_ASSERT(sizeof(BvhNode) == 256, "BvhNode must stay 256 bytes (device layout)");
+SPT_STATIC_ASSERT(bvh_leaf_words(BVH_LEAF_MAX, BVH_LEAF_VERTS) <= 64,
+                  "bvh_prefetch's five requests cover leaf blocks of at most 64 words");
 
 /* A closest hit: distance t along dir, barycentrics such that the point is
  * (1-u-v) v0 + u v1 + v v2, and prim = index of the packed triangle. */
@@ -466,12 +468,17 @@ SPT_FN void bvh_prefetch(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float
                          spt_u32 child, spt_u32 count)
 {
     if (count) {
-        /* every cache line of the leaf's block */
         const SPT_GLOBAL float *p = tris + child;
-        spt_u32 words = bvh_leaf_words(count & 255u, count >> 8);
-        for (spt_u32 k = 0; k < words; k += 16u)
-            SPT_PREFETCH(p + k);
-        SPT_PREFETCH(p + words - 1u);
+        /* every cache line of the leaf's block: at most 2 + 3 * 16 + 12 = 62
+         * words, so five requests 16 words apart (the last ones clamped to
+         * its last word) cover all, without a loop whose trip count the
+         * branch predictor would have to guess per leaf */
+        spt_u32 last = bvh_leaf_words(count & 255u, count >> 8) - 1u;
+        SPT_PREFETCH(p);
+        SPT_PREFETCH(p + (last < 16u ? last : 16u));
+        SPT_PREFETCH(p + (last < 32u ? last : 32u));
+        SPT_PREFETCH(p + (last < 48u ? last : 48u));
+        SPT_PREFETCH(p + last);
     } else {
         const SPT_GLOBAL char *q = (const SPT_GLOBAL char *)&nodes[child];
         SPT_PREFETCH(q);
