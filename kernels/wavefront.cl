@@ -60,7 +60,13 @@
  * local-id order with a scan of l_slot (one word per item, SPT_GROUP_MAX):
  * two barriers and no local atomics, where a counter bumped with atomic_inc
  * took three barriers and a locked instruction per item (PoCL runs the items
- * of a group one after another, and splits their loop at every barrier). */
+ * of a group one after another, and splits their loop at every barrier).
+ * A PoCL 3.1 pitfall: while this was the program's only function with
+ * barriers and k_generate and k_shade both called it, all was well; with a
+ * second such function beside it, or with k_generate its only caller, PoCL
+ * compiled k_generate's scans wrong (groups took more slots than they had
+ * items: paths queued twice, then heap corruption), unless the function was
+ * marked always_inline. */
 static uint group_queue_slot(int want, __global uint *counter, int count,
                              __global uint *count_counter, __local uint *l_slot,
                              __local uint *l_base)
