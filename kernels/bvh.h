@@ -184,8 +184,7 @@ SPT_FN spt_u32 bvh_lowest_bit(spt_u32 m)
 /* Entry distances of the ray into a node's BVH_WIDTH child boxes (BvhEnter),
  * and in *mask the children it enters: bit i is set when child i's box
  * overlaps [0, tbest], and then lane i is its entry distance (the other lanes
- * are not used: -1 on the host, the empty interval's near distance on the
- * device, which takes the mask straight from the compare).
+ * hold their empty interval's near distance and are not read).
  * Far distances are widened by 1 + 2 gamma(3) (Ize 2013, "Robust BVH Ray
  * Traversal") so rounding never culls a box the triangle test would hit. The
  * min and max are compare-and-select (a < b ? a : b) on the device and the host
@@ -275,7 +274,7 @@ SPT_FN BvhEnter bvh_node_enter(const BvhNode *n, const BvhRay *r, float tbest, s
         __m128 tf = _mm_mul_ps(_mm_min_ps(_mm_min_ps(tfx, tfy), tfz), _mm_set1_ps(1.00000036f));
         tf = _mm_min_ps(tf, _mm_set1_ps(tbest));
         __m128 in = _mm_cmple_ps(tn, tf);
-        _mm_storeu_ps(d.v + h, _mm_or_ps(_mm_and_ps(in, tn), _mm_andnot_ps(in, _mm_set1_ps(-1.0f))));
+        _mm_storeu_ps(d.v + h, tn);
         m |= (spt_u32)_mm_movemask_ps(in) << h;
     }
 #else
@@ -286,7 +285,7 @@ SPT_FN BvhEnter bvh_node_enter(const BvhNode *n, const BvhRay *r, float tbest, s
         float tn = bvh_max_(bvh_max_(tnx, tny), bvh_max_(tnz, 0.0f));
         float tf = bvh_min_(bvh_min_(tfx, tfy), tfz) * 1.00000036f;
         tf = bvh_min_(tf, tbest);
-        d.v[i] = tn <= tf ? tn : -1.0f;
+        d.v[i] = tn;
         m |= (spt_u32)(tn <= tf) << i;
     }
 #endif
