@@ -71,6 +71,31 @@ static int check_write_args(const char *path, int width, int height,
     return SPT_EXIT_OK;
 }
 
+/* Where write_chunk writes (the pipeline's encoding_user_data). */
+typedef struct ChunkTarget {
+    exr_context_t ctxt;
+    int part;
+} ChunkTarget;
+
+/* The encode pipeline's write stage. A chunk whose stored size equals its
+ * uncompressed size holds the uncompressed pixels: that is how every reader
+ * tells a stored chunk from a compressed one. So a compressed chunk must be
+ * strictly smaller, else the packed pixels are written instead. OpenEXRCore up
+ * to 3.4.7 (Debian 12 has 3.1.5) writes a zlib stream that came out exactly as
+ * long as the pixels as it is, and readers then take the zlib bytes for floats
+ * (a 16-row band of NaN and 3e38 values in a noisy image; OpenEXR issue 2306). */
+static exr_result_t write_chunk(exr_encode_pipeline_t *enc)
+{
+    const ChunkTarget *t = enc->encoding_user_data;
+    const void *data = enc->compressed_buffer;
+    uint64_t bytes = enc->compressed_bytes;
+    if (bytes >= enc->packed_bytes) {
+        data = enc->packed_buffer;
+        bytes = enc->packed_bytes;
+    }
+    return exr_write_scanline_chunk(t->ctxt, t->part, enc->chunk.start_y, data, bytes);
+}
+
 /* Writes the whole file to tmp (which exists and is empty). */
 static int write_file(const char *path, const char *tmp, int width, int height,
                       const ExrChannel *channels, int channel_count, const ExrAttr *attrs,
@@ -122,6 +147,7 @@ static int write_file(const char *path, const char *tmp, int width, int height,
         rv = exr_write_header(ctxt);
 
     int32_t lines = 1;
+    ChunkTarget target = {ctxt, part};
     if (rv == EXR_ERR_SUCCESS) {
         stage = "pixels";
         rv = exr_get_scanlines_per_chunk(ctxt, part, &lines);
@@ -160,8 +186,11 @@ static int write_file(const char *path, const char *tmp, int width, int height,
         }
         if (rv == EXR_ERR_SUCCESS)
             rv = exr_encoding_choose_default_routines(ctxt, part, &enc);
-        if (rv == EXR_ERR_SUCCESS)
+        if (rv == EXR_ERR_SUCCESS) {
+            enc.encoding_user_data = &target;
+            enc.write_fn = write_chunk;
             rv = exr_encoding_run(ctxt, part, &enc);
+        }
     }
     if (enc_live)
         exr_encoding_destroy(ctxt, &enc);

@@ -588,6 +588,73 @@ static void test_exr_layers_roundtrip(void **state)
     assert_int_equal(temp_files_left(), 0);
 }
 
+/* Barely compressible pixels, as a render with few samples has: noise in
+ * [0.25, 0.5) with a fraction f of the values in [0.5, 0.75) (another exponent, so
+ * f sets how well the chunk compresses). Swept over f, the zlib stream of a chunk
+ * comes out now shorter, now exactly as long as the pixels, now longer; a chunk of
+ * exactly the pixels' size is read as uncompressed pixels, so that case must store
+ * them. Every image must read back bit for bit, through our reader and through
+ * OpenImageIO, from both writers. 64x16 RGB floats are one ZIP chunk of 12288
+ * bytes (5 of these 80 images hit the equal size with Debian 12's zlib). */
+static void test_exr_noise_roundtrip(void **state)
+{
+    (void)state;
+    enum { W = 64, H = 16, IMAGES = 80 };
+    static float rgb[W * H * 3];
+    static uint32_t counts[W * H];
+    const char *path = in_dir("noise.exr");
+    uint32_t x = 12345u;
+    for (int k = 0; k < IMAGES; k++) {
+        float f = 0.09f + 0.0008f * (float)k;
+        for (int i = 0; i < W * H * 3; i++) {
+            x = x * 1664525u + 1013904223u;
+            float u = (float)(x >> 8) * (1.0f / 16777216.0f);
+            x = x * 1664525u + 1013904223u;
+            float v = (float)(x >> 8) * (1.0f / 16777216.0f);
+            rgb[i] = (v < f ? 0.5f : 0.25f) + 0.25f * u;
+        }
+        for (int i = 0; i < W * H; i++)
+            counts[i] = (uint32_t)(rgb[3 * i] * 4096.0f) ^ (uint32_t)i;
+        SptError e = {0};
+        if (image_write(path, rgb, W, H, NULL, NULL, &e))
+            fail_msg("%s", e.msg);
+        ExrLayers l;
+        if (exr_read_layers(path, NULL, 0, &l, &e))
+            fail_msg("%s", e.msg);
+        const char *names[3] = {"R", "G", "B"};
+        for (int c = 0; c < 3; c++) {
+            const float *r = exr_layers_channel(&l, names[c])->data;
+            for (int i = 0; i < W * H; i++)
+                if (memcmp(&r[i], &rgb[3 * i + c], 4))
+                    fail_msg("image %d (f = %.4f): %s[%d] read %.9g, wrote %.9g", k, f,
+                             names[c], i, r[i], rgb[3 * i + c]);
+        }
+        exr_layers_free(&l);
+        float *back = NULL;
+        int bw, bh, bc;
+        assert_int_equal(image_io_read(path, &back, &bw, &bh, &bc, &e), SPT_EXIT_OK);
+        for (int i = 0; i < W * H * 3; i++)
+            if (memcmp(&back[i], &rgb[i], 4))
+                fail_msg("image %d (f = %.4f): OpenImageIO read value %d as %.9g, wrote %.9g",
+                         k, f, i, back[i], rgb[i]);
+        free(back);
+        /* The multi-channel writer of checkpoints, with a float and a uint channel. */
+        ExrChannel ch[2] = {{"sum.X", SPT_EXR_FLOAT, rgb, 3}, {"count", SPT_EXR_UINT, counts, 1}};
+        if (exr_write_layers(path, W, H, ch, 2, NULL, 0, &e))
+            fail_msg("%s", e.msg);
+        if (exr_read_layers(path, NULL, 0, &l, &e))
+            fail_msg("%s", e.msg);
+        const float *sx = exr_layers_channel(&l, "sum.X")->data;
+        for (int i = 0; i < W * H; i++)
+            if (memcmp(&sx[i], &rgb[3 * i], 4))
+                fail_msg("layers %d (f = %.4f): sum.X[%d] read %.9g, wrote %.9g", k, f, i, sx[i],
+                         rgb[3 * i]);
+        assert_memory_equal(exr_layers_channel(&l, "count")->data, counts, sizeof counts);
+        exr_layers_free(&l);
+    }
+    assert_int_equal(temp_files_left(), 0);
+}
+
 static void test_exr_damaged_files_refused(void **state)
 {
     (void)state;
@@ -651,6 +718,7 @@ int main(void)
                                         teardown),
         cmocka_unit_test_setup_teardown(test_exr_layers_roundtrip, setup, teardown),
         cmocka_unit_test_setup_teardown(test_exr_damaged_files_refused, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_exr_noise_roundtrip, setup, teardown),
     };
     return cmocka_run_group_tests_name("image_out", tests, NULL, NULL);
 }
