@@ -238,7 +238,7 @@ static float2 tri_uv(const __global TriShade *ts, const __global float *vtx_uv, 
  * normal texture computes its own. */
 static int material_uses_uv(const __global GpuMaterial *m)
 {
-    return (m->base_tex | m->emissive_tex | m->mr_tex) >= 0;
+    return m->base_tex >= 0 || m->emissive_tex >= 0 || m->mr_tex >= 0;
 }
 
 /* Opacity of material m at uv: 1 for opaque materials; 0 or 1 for alphaMode MASK
