@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "checkpoint.h"
 #include "cl_device.h"
@@ -68,6 +69,17 @@ static void on_signal(int sig)
 }
 
 /* Parses a whole integer in [lo, hi]; 0 on success. */
+/* Whether --background SKY names a black sky: "black", "none" or R,G,B all 0
+ * (what render.c then leaves unlit). */
+static int background_is_black(const char *bg)
+{
+    float r, g, b;
+    char extra;
+    if (!strcasecmp(bg, "black") || !strcasecmp(bg, "none"))
+        return 1;
+    return sscanf(bg, "%f,%f,%f%c", &r, &g, &b, &extra) == 3 && r == 0.0f && g == 0.0f && b == 0.0f;
+}
+
 static int parse_int(const char *s, long lo, long hi, long *out)
 {
     char *end;
@@ -297,8 +309,6 @@ int cmd_render(int argc, char **argv)
         spt_report(&e);
         goto done;
     }
-    if (gpu.emitter_count == 0 && scene.light_count == 0)
-        spt_warn("%s: the scene has no emissive surfaces: the image will be black", scene_path);
 
     RenderSettings rs;
     memset(&rs, 0, sizeof rs);
@@ -318,6 +328,12 @@ int cmd_render(int argc, char **argv)
     rs.focus_distance = (float)focus;
     rs.stop = &stop_requested;
     stop_requested = 0;
+    /* Without emitters or lights the default sky lights the scene (render.c);
+     * only a black sky leaves it dark. */
+    if (gpu.emitter_count == 0 && scene.light_count == 0 &&
+        ((env_path && !(env_int > 0)) || (!env_path && background && background_is_black(background))))
+        spt_warn("%s: nothing lights the scene (no emissive surfaces, no lights, a black sky): the "
+                 "image will be black", scene_path);
     if ((rc = checkpoint_run_begin(&ckpt, scene_path, ckpt_path, ckpt_every, resume_path, &rs,
                                    &film, &e))) {
         spt_report(&e);
