@@ -24,6 +24,21 @@
  *    Refraction through Rough Surfaces"). Refracted radiance is scaled by 1/eta^2
  *    (radiance transport, as pbrt-v4 does).
  *  - KHR_materials_dispersion: ior(lambda) from the Abbe number (bsdf_dispersion_ior).
+ *  - KHR_materials_sheen over that base, as its specification defines it: the
+ *    "Charlie" lobe (Estevez and Kulla 2017, "Production Friendly Microfacet Sheen
+ *    BRDF": distribution sin(theta_h)^(1/alpha), the specification's fitted
+ *    visibility, F = 1) in the sheen colour, and the base scaled by the albedo
+ *    scaling 1 - max3(sheen colour) max(E(mu_o), E(mu_i)), E the lobe's
+ *    directional albedo (kernels/sheen_table.h). Where E exceeds 1 (sheen
+ *    roughness below about 0.26, grazing angles) the lobe would create energy;
+ *    it is divided by max(1, E(mu_o), E(mu_i)) there and E is capped at 1 in the
+ *    scaling, so albedo sheen + base never exceeds 1.
+ *  - KHR_materials_clearcoat on top, as its specification defines it: a second
+ *    GGX lobe (glTF's specular term without Fresnel, alpha = clearcoatRoughness^2)
+ *    about the coat's own normal, weighted clearcoat Fc and the layers under it
+ *    1 - clearcoat Fc, with Fc Schlick's Fresnel at ior 1.5 (f0 0.04) of the
+ *    view's cosine to the coat normal (fresnel_coat). Light crossing the layers
+ *    into a transmissive base is scaled the same way at its outside direction.
  *
  * Sampling the visible normals: Heitz 2018, "Sampling the GGX Distribution of
  * Visible Normals", JCGT 7(4). */
@@ -33,6 +48,7 @@
 #include "shared.h"
 #include "vecmath.h"
 #include "conductors.h"
+#include "sheen_table.h"
 
 /* Alpha below which a lobe is treated as perfectly smooth (a delta lobe). */
 #define BSDF_DELTA_ALPHA 1e-3f
@@ -52,6 +68,14 @@ typedef struct BsdfParams {
     vec4 spec_tint;     /* KHR_materials_specular colour per wavelength (1: none) */
     float specular;     /* KHR_materials_specular factor (1: the plain glTF model;
                            0 removes the dielectric's specular layer: pure Lambert) */
+    /* KHR_materials_clearcoat (clearcoat 0: no coat). */
+    float clearcoat;    /* layer weight: clearcoatFactor x texture */
+    float cc_roughness; /* perceptual; alpha = cc_roughness^2 */
+    vec3 cc_n;          /* the coat's unit normal in this local frame (z >= 0 side) */
+    /* KHR_materials_sheen (sheen_max 0: no sheen). */
+    vec4 sheen;         /* sheen colour per wavelength */
+    float sheen_max;    /* max3 of the sheen colour's linear RGB (the albedo scaling) */
+    float sheen_roughness; /* perceptual; alpha = r^2, r raised to SPT_SHEEN_R_MIN */
 } BsdfParams;
 
 /* Outcome of bsdf_sample. */
@@ -232,6 +256,171 @@ SPT_FN vec3 bsdf_ggx_sample_vndf(vec3 wo, float alpha, float u1, float u2)
     return v3_normalize(v3(alpha * nh.x, alpha * nh.y, fmaxf(1e-7f, nh.z)));
 }
 
+/* ---- KHR_materials_clearcoat and KHR_materials_sheen layers --------------------- */
+
+SPT_FN int bsdf_has_coat(const BsdfParams *p) { return p->clearcoat > 0.0f; }
+SPT_FN int bsdf_has_sheen(const BsdfParams *p) { return p->sheen_max > 0.0f; }
+
+/* Whether the coat is a mirror (a delta lobe). */
+SPT_FN int bsdf_coat_smooth(const BsdfParams *p)
+{
+    return p->cc_roughness * p->cc_roughness < BSDF_DELTA_ALPHA;
+}
+
+/* The coat's Fresnel at cosine c between the view and the coat normal: Schlick at
+ * ior 1.5, f0 = ((1.5 - 1) / (1.5 + 1))^2 = 0.04 (the extension's fresnel_coat). */
+SPT_FN float bsdf_coat_fresnel(float c)
+{
+    float m = fminf(fmaxf(1.0f - c, 0.0f), 1.0f);
+    return 0.04f + 0.96f * (m * m * m * m * m);
+}
+
+/* The share the coat takes of light seen from outside direction w:
+ * clearcoat Fc(w . n_c) (0 when w is below the coat normal); the layers under it
+ * get 1 minus that. */
+SPT_FN float bsdf_coat_weight(const BsdfParams *p, vec3 w)
+{
+    if (!bsdf_has_coat(p))
+        return 0.0f;
+    float c = v3_dot(w, p->cc_n);
+    return c > 0.0f ? p->clearcoat * bsdf_coat_fresnel(c) : 0.0f;
+}
+
+/* w in the coat's frame (z along cc_n; the identity when cc_n is +z), and back. */
+SPT_FN vec3 bsdf_to_coat(const BsdfParams *p, vec3 w)
+{
+    vec3 t, b;
+    v3_basis(p->cc_n, &t, &b);
+    return v3(v3_dot(w, t), v3_dot(w, b), v3_dot(w, p->cc_n));
+}
+
+SPT_FN vec3 bsdf_from_coat(const BsdfParams *p, vec3 w)
+{
+    vec3 t, b;
+    v3_basis(p->cc_n, &t, &b);
+    return v3_add(v3_add(v3_scale(t, w.x), v3_scale(b, w.y)), v3_scale(p->cc_n, w.z));
+}
+
+/* The rough coat lobe without its weight, f |cos| with both the BRDF's and the
+ * cosine taken to the coat normal: D G2 / (4 (wo.n_c)) (glTF's specular term, F
+ * left to the weight); *pdf: the density of sampling it (visible normals about
+ * n_c). 0 unless wo and wi are both above the coat. */
+SPT_FN float bsdf_coat_eval(const BsdfParams *p, vec3 wo, vec3 wi, float *pdf)
+{
+    *pdf = 0.0f;
+    vec3 o = bsdf_to_coat(p, wo), i = bsdf_to_coat(p, wi);
+    if (o.z <= 0.0f || i.z <= 0.0f)
+        return 0.0f;
+    float alpha = bsdf_alpha(p->cc_roughness);
+    vec3 h = v3_normalize(v3_add(o, i));
+    float oh = v3_dot(o, h);
+    if (!(oh > 0.0f))
+        return 0.0f;
+    *pdf = bsdf_ggx_vndf_pdf(o, h, alpha) / (4.0f * oh);
+    return bsdf_ggx_d(h, alpha) * bsdf_ggx_g2(o, i, alpha) / (4.0f * o.z);
+}
+
+/* The sheen roughness the lobe uses: within [SPT_SHEEN_R_MIN, 1]. */
+SPT_FN float bsdf_sheen_r(const BsdfParams *p)
+{
+    return fminf(fmaxf(p->sheen_roughness, SPT_SHEEN_R_MIN), 1.0f);
+}
+
+/* E(mu, r) of kernels/sheen_table.h: bilinear in (sqrt(mu), r). */
+SPT_FN float bsdf_sheen_albedo(float mu, float r)
+{
+    const float last = (float)(SPT_SHEEN_N - 1);
+    float x = sqrtf(fminf(fmaxf(mu, 0.0f), 1.0f)) * last;
+    float y = fminf(fmaxf((r - SPT_SHEEN_R_MIN) / (1.0f - SPT_SHEEN_R_MIN), 0.0f), 1.0f) * last;
+    int i = (int)fminf(x, last - 1.0f), j = (int)fminf(y, last - 1.0f);
+    float fx = x - (float)i, fy = y - (float)j;
+    int k = j * SPT_SHEEN_N + i;
+    float a = spt_sheen_albedo[k] + fx * (spt_sheen_albedo[k + 1] - spt_sheen_albedo[k]);
+    float b = spt_sheen_albedo[k + SPT_SHEEN_N] +
+              fx * (spt_sheen_albedo[k + SPT_SHEEN_N + 1] - spt_sheen_albedo[k + SPT_SHEEN_N]);
+    return a + fy * (b - a);
+}
+
+/* The specification's fit l(x) of the Charlie visibility, its two rows
+ * interpolated by t = (1 - alpha)^2, and Lambda(mu) from it. */
+SPT_FN float bsdf_sheen_l(float x, float alpha)
+{
+    float t = (1.0f - alpha) * (1.0f - alpha);
+    float a = 21.5473f + t * (25.3245f - 21.5473f);
+    float b = 3.82987f + t * (3.32435f - 3.82987f);
+    float c = 0.19823f + t * (0.16801f - 0.19823f);
+    float d = -1.97760f + t * (-1.27393f + 1.97760f);
+    float e = -4.32054f + t * (-4.85967f + 4.32054f);
+    return a / (1.0f + b * powf(x, c)) + d * x + e;
+}
+
+SPT_FN float bsdf_sheen_lambda(float mu, float alpha)
+{
+    return mu < 0.5f ? expf(bsdf_sheen_l(mu, alpha))
+                     : expf(2.0f * bsdf_sheen_l(0.5f, alpha) - bsdf_sheen_l(1.0f - mu, alpha));
+}
+
+/* The sheen lobe with colour 1, f |cos theta_i| = D V mu_i / max(1, eo, ei)
+ * (eo, ei: E at wo and wi), for wo and wi above the surface. */
+SPT_FN float bsdf_sheen_eval(const BsdfParams *p, vec3 wo, vec3 wi, float eo, float ei)
+{
+    if (wo.z <= 0.0f || wi.z <= 0.0f)
+        return 0.0f;
+    float r = bsdf_sheen_r(p), alpha = r * r;
+    vec3 h = v3_normalize(v3_add(wo, wi));
+    float s2 = fmaxf(1.0f - h.z * h.z, 0.0f);
+    float D = (2.0f + 1.0f / alpha) * powf(s2, 0.5f / alpha) * SPT_INV_2PI;
+    float g = 1.0f + bsdf_sheen_lambda(wo.z, alpha) + bsdf_sheen_lambda(wi.z, alpha);
+    return D / (g * 4.0f * wo.z * fmaxf(1.0f, fmaxf(eo, ei)));
+}
+
+/* What the base's light is scaled by where it passes the layers, per wavelength:
+ * (1 - coat weight) (1 - s max(E(mu_o), E(mu_i)) capped at 1), with the coat
+ * weight and the E of the directions outside the surface only (a ray crossing a
+ * transmissive base meets the layers once), s the larger of max3(sheen colour)
+ * and the sheen's value at the wavelength (so that no wavelength gains energy
+ * where the upsampled spectrum peaks above the colour's largest component).
+ * *eo, *ei: E at wo and wi (0 below the surface or without sheen). */
+SPT_FN vec4 bsdf_layer_scale(const BsdfParams *p, vec3 wo, vec3 wi, float *eo, float *ei)
+{
+    int up_o = wo.z > 0.0f, up_i = wi.z > 0.0f;
+    *eo = 0.0f;
+    *ei = 0.0f;
+    if (!up_o && !up_i)
+        return v4_splat(1.0f);
+    float wc = bsdf_coat_weight(p, up_o ? wo : wi);
+    if (!bsdf_has_sheen(p))
+        return v4_splat(1.0f - wc);
+    float r = bsdf_sheen_r(p);
+    if (up_o)
+        *eo = bsdf_sheen_albedo(wo.z, r);
+    if (up_i)
+        *ei = bsdf_sheen_albedo(wi.z, r);
+    float e = fminf(1.0f, fmaxf(*eo, *ei));
+    vec4 s = v4(fmaxf(p->sheen.x, p->sheen_max), fmaxf(p->sheen.y, p->sheen_max),
+                fmaxf(p->sheen.z, p->sheen_max), fmaxf(p->sheen.w, p->sheen_max));
+    return v4_scale(v4_sub(v4_splat(1.0f), v4_scale(s, e)), 1.0f - wc);
+}
+
+/* The layered material's f |cos| from the base's value r at (wo, wi): the base
+ * scaled by bsdf_layer_scale, plus the sheen lobe (under the coat) and the rough
+ * coat lobe when both directions are outside. */
+SPT_FN vec4 bsdf_layers_eval(const BsdfParams *p, vec3 wo, vec3 wi, vec4 r)
+{
+    float eo, ei;
+    r = v4_mul(r, bsdf_layer_scale(p, wo, wi, &eo, &ei));
+    if (!(wo.z > 0.0f && wi.z > 0.0f))
+        return r;
+    float wc = bsdf_coat_weight(p, wo);
+    if (bsdf_has_sheen(p))
+        r = v4_add(r, v4_scale(p->sheen, (1.0f - wc) * bsdf_sheen_eval(p, wo, wi, eo, ei)));
+    if (wc > 0.0f && !bsdf_coat_smooth(p)) {
+        float pd;
+        r = v4_add(r, v4_splat(wc * bsdf_coat_eval(p, wo, wi, &pd)));
+    }
+    return r;
+}
+
 /* ---- The combined material: lobes and their selection ---------------------------- */
 
 /* Fresnel weight of the dielectric's specular layer per wavelength at cosine c, as
@@ -257,10 +446,13 @@ SPT_FN vec4 bsdf_dielectric_fresnel(const BsdfParams *p, float c)
 
 /* Lobe selection probabilities for wo (in the frame where wo.z > 0 for the
  * reflection lobes): specular reflection (GGX or delta), diffuse, dielectric
- * interface (transmission). From the lobe weights: metal m, dielectric (1-m) with
- * specular share estimated by Schlick at wo.z, diffuse by the base's mean, and the
- * transmission share (1-m) t. Sum to 1. */
-SPT_FN void bsdf_lobe_probs(const BsdfParams *p, vec3 wo, float *p_spec, float *p_diff, float *p_tr)
+ * interface (transmission), coat, sheen. From the lobe weights: metal m,
+ * dielectric (1-m) with specular share estimated by Schlick at wo.z, diffuse by
+ * the base's mean, and the transmission share (1-m) t, all times what the layers
+ * let through at wo; the coat's weight; the sheen's max3(colour) min(1, E(mu_o))
+ * under the coat. Sum to 1. */
+SPT_FN void bsdf_lobe_probs(const BsdfParams *p, vec3 wo, float *p_spec, float *p_diff, float *p_tr,
+                            float *p_coat, float *p_sheen)
 {
     float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
     float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
@@ -276,7 +468,19 @@ SPT_FN void bsdf_lobe_probs(const BsdfParams *p, vec3 wo, float *p_spec, float *
         ws = 0.0f;
         wd = 0.0f;
     }
-    float sum = ws + wd + wt;
+    float wc = 0.0f, wsh = 0.0f;
+    if (wo.z > 0.0f && (bsdf_has_coat(p) || bsdf_has_sheen(p))) {
+        wc = bsdf_coat_weight(p, wo);
+        float e = bsdf_has_sheen(p) ? fminf(1.0f, bsdf_sheen_albedo(wo.z, bsdf_sheen_r(p))) : 0.0f;
+        wsh = (1.0f - wc) * p->sheen_max * e;
+        float under = (1.0f - wc) * (1.0f - p->sheen_max * e);
+        ws *= under;
+        wd *= under;
+        wt *= under;
+    }
+    float sum = ws + wd + wt + wc + wsh;
+    *p_coat = 0.0f;
+    *p_sheen = 0.0f;
     if (sum <= 0.0f) {
         *p_spec = 0.0f;
         *p_diff = 1.0f;
@@ -286,24 +490,27 @@ SPT_FN void bsdf_lobe_probs(const BsdfParams *p, vec3 wo, float *p_spec, float *
     *p_spec = ws / sum;
     *p_diff = wd / sum;
     *p_tr = wt / sum;
+    *p_coat = wc / sum;
+    *p_sheen = wsh / sum;
 }
 
-/* Whether every lobe of the material is a delta (smooth and no diffuse): light
- * sampling is then useless and MIS must not be applied. */
+/* Whether every lobe of the material is a delta (smooth, no diffuse, no sheen,
+ * no rough coat): light sampling is then useless and MIS must not be applied. */
 SPT_FN int bsdf_is_delta(const BsdfParams *p)
 {
     float a = p->roughness * p->roughness;
     float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
     float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
     int no_diffuse = m >= 1.0f || t >= 1.0f;
-    return a < BSDF_DELTA_ALPHA && no_diffuse;
+    return a < BSDF_DELTA_ALPHA && no_diffuse && !bsdf_has_sheen(p) &&
+           (!bsdf_has_coat(p) || bsdf_coat_smooth(p));
 }
 
-/* Whether the material has any delta lobe (smooth), while possibly also a diffuse
- * one. */
+/* Whether the material has any delta lobe (smooth base or coat), while possibly
+ * also rough ones. */
 SPT_FN int bsdf_has_delta(const BsdfParams *p)
 {
-    return p->roughness * p->roughness < BSDF_DELTA_ALPHA;
+    return p->roughness * p->roughness < BSDF_DELTA_ALPHA || (bsdf_has_coat(p) && bsdf_coat_smooth(p));
 }
 
 /* Whether the material is Lambert's alone: no metal, no transmission and no
@@ -313,7 +520,8 @@ SPT_FN int bsdf_has_delta(const BsdfParams *p)
  * diffuse factor is base * 1 * 1 and the diffuse lobe's probability wd / wd = 1. */
 SPT_FN int bsdf_is_lambert(const BsdfParams *p)
 {
-    return p->specular == 0.0f && !(p->metallic > 0.0f) && !(p->transmission > 0.0f);
+    return p->specular == 0.0f && !(p->metallic > 0.0f) && !(p->transmission > 0.0f) &&
+           !bsdf_has_coat(p) && !bsdf_has_sheen(p);
 }
 
 /* Fresnel of the metal part at cosine c between wo and h, per wavelength: Schlick
@@ -397,10 +605,9 @@ SPT_FN float bsdf_interface_eval(vec3 wo, vec3 wi, float eta, float alpha, float
     return ft / (etap * etap);
 }
 
-/* Non-delta part of f(wo, wi) |cos theta_i| per wavelength, for wo.z > 0 (the
- * viewer outside) or, for the transmission lobe, either side. Delta lobes give 0.
- * The interface uses each wavelength's ior. */
-SPT_FN vec4 bsdf_eval(const BsdfParams *p, vec3 wo, vec3 wi)
+/* The base's (metallic-roughness, transmission) non-delta f |cos theta_i|, without
+ * the layers; bsdf_eval below. */
+SPT_FN vec4 bsdf_base_eval(const BsdfParams *p, vec3 wo, vec3 wi)
 {
     vec4 r = v4_splat(0.0f);
     if (bsdf_is_lambert(p))
@@ -432,6 +639,17 @@ SPT_FN vec4 bsdf_eval(const BsdfParams *p, vec3 wo, vec3 wi)
     return r;
 }
 
+/* Non-delta part of f(wo, wi) |cos theta_i| per wavelength, for wo.z > 0 (the
+ * viewer outside) or, for the transmission lobe, either side. Delta lobes give 0.
+ * The interface uses each wavelength's ior. */
+SPT_FN vec4 bsdf_eval(const BsdfParams *p, vec3 wo, vec3 wi)
+{
+    vec4 r = bsdf_base_eval(p, wo, wi);
+    if (bsdf_has_coat(p) || bsdf_has_sheen(p))
+        r = bsdf_layers_eval(p, wo, wi, r);
+    return r;
+}
+
 /* Solid-angle pdf with which bsdf_sample produces wi given wo (non-delta lobes
  * only; one-sample MIS over the lobes with bsdf_lobe_probs). The interface's pdf
  * uses the hero wavelength's ior. */
@@ -439,25 +657,29 @@ SPT_FN float bsdf_pdf(const BsdfParams *p, vec3 wo, vec3 wi)
 {
     if (bsdf_is_lambert(p))
         return (wo.z > 0.0f && wi.z > 0.0f) ? wi.z * SPT_INV_PI : 0.0f;
-    if (p->roughness * p->roughness < BSDF_DELTA_ALPHA) {
-        float ps, pd, pt;
-        bsdf_lobe_probs(p, wo, &ps, &pd, &pt);
-        return (wo.z > 0.0f && wi.z > 0.0f) ? pd * wi.z * SPT_INV_PI : 0.0f;
-    }
+    int smooth = p->roughness * p->roughness < BSDF_DELTA_ALPHA;
     float alpha = bsdf_alpha(p->roughness);
-    float ps, pd, pt;
-    bsdf_lobe_probs(p, wo, &ps, &pd, &pt);
+    float ps, pd, pt, pc, psh;
+    bsdf_lobe_probs(p, wo, &ps, &pd, &pt, &pc, &psh);
     float pdf = 0.0f;
     if (wo.z > 0.0f && wi.z > 0.0f) {
-        vec3 h = v3_normalize(v3_add(wo, wi));
         pdf += pd * wi.z * SPT_INV_PI;
-        if (ps > 0.0f)
+        if (ps > 0.0f && !smooth) {
+            vec3 h = v3_normalize(v3_add(wo, wi));
             pdf += ps * bsdf_ggx_vndf_pdf(wo, h, alpha) / (4.0f * v3_dot(wo, h));
+        }
+        if (psh > 0.0f)
+            pdf += psh * SPT_INV_2PI;
     }
-    if (pt > 0.0f) {
+    if (pt > 0.0f && !smooth) {
         float pi_;
         bsdf_interface_eval(wo, wi, p->ior.x, alpha, &pi_);
         pdf += pt * pi_;
+    }
+    if (pc > 0.0f && !bsdf_coat_smooth(p)) {
+        float pcd;
+        bsdf_coat_eval(p, wo, wi, &pcd);
+        pdf += pc * pcd;
     }
     return pdf;
 }
@@ -524,9 +746,11 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
         s.valid = 1;
         return s;
     }
-    float ps, pd, pt;
-    bsdf_lobe_probs(p, wo, &ps, &pd, &pt);
+    float ps, pd, pt, pc, psh;
+    bsdf_lobe_probs(p, wo, &ps, &pd, &pt, &pc, &psh);
     int smooth = p->roughness * p->roughness < BSDF_DELTA_ALPHA;
+    int layered = bsdf_has_coat(p) || bsdf_has_sheen(p);
+    float eo, ei;
     float alpha = bsdf_alpha(p->roughness);
     int dispersive_ior = p->ior.x != p->ior.y || p->ior.x != p->ior.z || p->ior.x != p->ior.w;
     float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
@@ -569,6 +793,8 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
                 float w = wt * (1.0f - F) / (s.pdf * etap * etap);
                 s.weight = v4_scale(p->base, w);
             }
+            if (layered)
+                s.weight = v4_mul(s.weight, bsdf_layer_scale(p, wo, s.wi, &eo, &ei));
             if (s.dispersive)
                 s.weight = v4_splat(s.weight.x);
             return s;
@@ -582,10 +808,45 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
             s.valid = 1;
             s.pdf = ps;
             s.weight = v4_scale(bsdf_spec_fresnel(p, wo.z), 1.0f / ps);
+            if (layered)
+                s.weight = v4_mul(s.weight, bsdf_layer_scale(p, wo, s.wi, &eo, &ei));
             return s;
         }
         vec3 h = bsdf_ggx_sample_vndf(wo, alpha, u1, u2);
         s.wi = bsdf_reflect(wo, h);
+        /* A reflection into the surface is no event of this lobe (its pdf
+         * counts only wi above). */
+        if (!(s.wi.z > 0.0f))
+            return s;
+    } else if (u0 < pt + ps + pc) {
+        /* The coat, about its own normal. */
+        if (wo.z <= 0.0f)
+            return s;
+        if (bsdf_coat_smooth(p)) {
+            s.wi = bsdf_reflect(wo, p->cc_n);
+            if (!(s.wi.z > 0.0f))
+                return s;
+            s.is_delta = 1;
+            s.valid = 1;
+            s.pdf = pc;
+            s.weight = v4_splat(bsdf_coat_weight(p, wo) / pc);
+            return s;
+        }
+        vec3 o = bsdf_to_coat(p, wo);
+        if (!(o.z > 0.0f))
+            return s;
+        vec3 h = bsdf_ggx_sample_vndf(o, bsdf_alpha(p->cc_roughness), u1, u2);
+        vec3 i = bsdf_reflect(o, h);
+        if (!(i.z > 0.0f))
+            return s;
+        s.wi = bsdf_from_coat(p, i);
+    } else if (u0 < pt + ps + pc + psh) {
+        /* The sheen: uniform over the hemisphere (the lobe is broad and peaks
+         * toward grazing directions, where a cosine density is thin). */
+        if (wo.z <= 0.0f)
+            return s;
+        float z = u1, r = sqrtf(fmaxf(0.0f, 1.0f - z * z)), phi = 2.0f * SPT_PI * u2;
+        s.wi = v3(r * cosf(phi), r * sinf(phi), z);
     } else {
         if (wo.z <= 0.0f)
             return s;

@@ -369,6 +369,12 @@ static BsdfParams material_bsdf(const __global GpuMaterial *m, float2 uv, float4
         bsdf_set_conductor(&bp, m->conductor - 1, lam.x, lam.y, lam.z, lam.w);
     bp.spec_tint = m->spec_tint.kind == SPT_SPEC_NONE ? (float4)(1.0f) : spec_eval(&m->spec_tint, lam, spectra);
     bp.specular = m->specular;
+    bp.clearcoat = 0.0f;
+    bp.cc_roughness = 0.0f;
+    bp.cc_n = (float3)(0.0f, 0.0f, 1.0f);
+    bp.sheen = (float4)(0.0f);
+    bp.sheen_max = 0.0f;
+    bp.sheen_roughness = 0.0f;
     return bp;
 }
 

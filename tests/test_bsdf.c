@@ -12,7 +12,7 @@
 #include "../kernels/bsdf.h"
 
 /* Chi-square tests expected to pass in this binary, for the Sidak correction. */
-#define BSDF_CHI2_TESTS 11
+#define BSDF_CHI2_TESTS 15
 #define BSDF_CHI2_SAMPLES 200000u
 
 /* SplitMix64 (Steele, Lea and Flood 2014) of i as a float in [0, 1). */
@@ -332,6 +332,189 @@ static void test_material_chi2(void **state)
     run_mat_chi2("half transmissive", make_params(0.7f, 0.0f, 0.4f, 0.5f), dir_deg(50), 107);
 }
 
+/* ---- KHR_materials_clearcoat and KHR_materials_sheen ---------------------------- */
+
+/* A coat of weight cc and roughness r with its normal tilted by tilt degrees about
+ * the y axis, and a sheen of grey colour c and roughness sr, on p. */
+static BsdfParams with_layers(BsdfParams p, float cc, float r, double tilt, float c, float sr)
+{
+    p.clearcoat = cc;
+    p.cc_roughness = r;
+    p.cc_n = dir_deg(tilt);
+    p.sheen = v4_splat(c);
+    p.sheen_max = c;
+    p.sheen_roughness = sr;
+    return p;
+}
+
+/* The layered sampler against its pdf: coat over a rough metallic-roughness base,
+ * a coat with its own (tilted) normal over a diffuse base, sheen over diffuse, and
+ * coat + sheen over a rough metal. */
+static void test_layers_chi2(void **state)
+{
+    (void)state;
+    run_mat_chi2("coat 0.3 over m 0.3", with_layers(make_params(0.8f, 0.3f, 0.5f, 0.0f), 1.0f, 0.3f, 0, 0, 0),
+                 dir_deg(40), 201);
+    run_mat_chi2("tilted coat 0.2 over diffuse",
+                 with_layers(make_params(0.6f, 0.0f, 0.6f, 0.0f), 0.8f, 0.2f, 25, 0, 0), dir_deg(60), 202);
+    run_mat_chi2("sheen 0.5 over diffuse", with_layers(make_params(0.5f, 0.0f, 0.7f, 0.0f), 0, 0, 0, 0.8f, 0.5f),
+                 dir_deg(70), 203);
+    run_mat_chi2("coat 0.4 + sheen 0.2 over metal",
+                 with_layers(make_params(0.9f, 1.0f, 0.3f, 0.0f), 0.7f, 0.4f, 0, 1.0f, 0.2f), dir_deg(20), 204);
+}
+
+/* The sample weight is eval / pdf for layered materials, and a sheen over a
+ * diffuse base is reciprocal (the albedo scaling uses max(E(mu_o), E(mu_i)), and
+ * the lobe's own normalisation max(1, E(mu_o), E(mu_i)), both symmetric). */
+static void test_layers_consistency(void **state)
+{
+    (void)state;
+    BsdfParams mats[3] = {with_layers(make_params(0.6f, 0.4f, 0.45f, 0.0f), 1.0f, 0.25f, 10, 0.7f, 0.3f),
+                          with_layers(make_params(0.8f, 0.0f, 0.5f, 0.5f), 0.5f, 0.35f, 0, 0.0f, 0.0f),
+                          with_layers(make_params(0.6f, 0.0f, 0.8f, 0.0f), 0.0f, 0.0f, 0, 0.9f, 0.15f)};
+    int checked = 0;
+    for (int k = 0; k < 3; k++)
+        for (uint32_t i = 0; i < 2000; i++) {
+            vec3 wo = v3_normalize(v3(test_uniform(17000 + i) - 0.5f, test_uniform(19000 + i) - 0.5f,
+                                      test_uniform(21000 + i) + 0.02f));
+            uint64_t b = 3u * (60000u * (uint64_t)k + i);
+            BsdfSample s = bsdf_sample(&mats[k], wo, test_uniform(b), test_uniform(b + 1), test_uniform(b + 2));
+            if (!s.valid || s.is_delta)
+                continue;
+            vec4 f = bsdf_eval(&mats[k], wo, s.wi);
+            assert_close_rel(s.weight.x, f.x / bsdf_pdf(&mats[k], wo, s.wi), 1e-4);
+            if (k == 2 && s.wi.z > 0.01f) {
+                vec4 back = bsdf_eval(&mats[k], s.wi, wo);
+                assert_close_rel(f.x / s.wi.z, back.x / wo.z, 2e-3);
+            }
+            checked++;
+        }
+    assert_true(checked > 4000);
+}
+
+/* E(mu, r) of kernels/sheen_table.h between its nodes against the directional
+ * albedo of the specification's Charlie lobe integrated here over wi (midpoint
+ * rule, 1000 x 400 nodes, double precision). */
+static double spec_sheen_lambda(double mu, double alpha)
+{
+    const double r0[5] = {21.5473, 3.82987, 0.19823, -1.97760, -4.32054};
+    const double r1[5] = {25.3245, 3.32435, 0.16801, -1.27393, -4.85967};
+    double t = (1 - alpha) * (1 - alpha), c[5];
+    for (int k = 0; k < 5; k++)
+        c[k] = r0[k] + (r1[k] - r0[k]) * t;
+#define SPEC_L(x) (c[0] / (1 + c[1] * pow((x), c[2])) + c[3] * (x) + c[4])
+    return mu < 0.5 ? exp(SPEC_L(mu)) : exp(2 * SPEC_L(0.5) - SPEC_L(1 - mu));
+#undef SPEC_L
+}
+
+static double spec_sheen_albedo(double mu, double r)
+{
+    double alpha = r * r, sum = 0;
+    const int nt = 1000, np = 400;
+    double wo[3] = {sqrt(1 - mu * mu), 0, mu};
+    for (int a = 0; a < nt; a++) {
+        double ci = (a + 0.5) / nt, si = sqrt(1 - ci * ci);
+        for (int b = 0; b < np; b++) {
+            double ph = (b + 0.5) / np * M_PI;
+            double h[3] = {wo[0] + si * cos(ph), si * sin(ph), wo[2] + ci};
+            double hl = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+            double s2 = 1 - (h[2] / hl) * (h[2] / hl);
+            double D = (2 + 1 / alpha) * pow(s2 > 0 ? s2 : 0, 0.5 / alpha) / (2 * M_PI);
+            double V = 1 / ((1 + spec_sheen_lambda(mu, alpha) + spec_sheen_lambda(ci, alpha)) * 4 * mu * ci);
+            sum += D * V * ci;
+        }
+    }
+    return 2 * sum / nt * M_PI / np;
+}
+
+static void test_sheen_table(void **state)
+{
+    (void)state;
+    const double mus[4] = {0.07, 0.33, 0.61, 0.93}, rs[4] = {0.12, 0.35, 0.66, 0.97};
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) {
+            double want = spec_sheen_albedo(mus[i], rs[j]);
+            double got = bsdf_sheen_albedo((float)mus[i], (float)rs[j]);
+            print_message("  E(mu %.2f, r %.2f): table %.4f, integrated %.4f\n", mus[i], rs[j], got, want);
+            assert_close(got, want, 0.02 * want + 0.003);
+        }
+}
+
+/* Monte Carlo directional albedo of p at wo and its standard error (hero
+ * wavelength). */
+static double albedo_err(const BsdfParams *p, vec3 wo, uint32_t n, uint32_t stream, double *err)
+{
+    double sum = 0.0, sum2 = 0.0;
+    for (uint32_t i = 0; i < n; i++) {
+        uint64_t b = ((uint64_t)stream << 40) + 3u * (uint64_t)i;
+        BsdfSample s = bsdf_sample(p, wo, test_uniform(b), test_uniform(b + 1), test_uniform(b + 2));
+        double w = s.valid ? s.weight.x : 0.0;
+        sum += w;
+        sum2 += w * w;
+    }
+    double m = sum / n;
+    *err = sqrt(fmax(sum2 / n - m * m, 0.0) / n);
+    return m;
+}
+
+/* White furnaces of each layer: what a layer and what is under it reflect never
+ * exceeds what arrives (albedo <= 1 within 3 standard errors), over roughness and
+ * view angle. The coat alone over a black base reflects exactly its weight Fc when
+ * smooth, and Fc times single-scattering GGX's albedo when rough (which loses
+ * energy at high roughness, as the base's GGX does); a sheen over a white Lambert
+ * base keeps most of the energy. The printed table states the losses. */
+static void test_layer_furnace(void **state)
+{
+    (void)state;
+    const float roughs[4] = {0.07f, 0.3f, 0.6f, 1.0f};
+    const double thetas[4] = {0.0, 45.0, 75.0, 88.0};
+    uint32_t stream = 900;
+    BsdfParams black = make_params(0.0f, 0.0f, 0.5f, 0.0f);
+    black.specular = 0.0f;
+    BsdfParams white = make_params(1.0f, 0.0f, 0.5f, 0.0f);
+    white.specular = 0.0f;
+    BsdfParams metal = make_params(1.0f, 1.0f, 0.5f, 0.0f);
+    double worst = 0.0;
+    for (int r = 0; r < 4; r++) {
+        print_message("  roughness %.2f, theta_o  0 / 45 / 75 / 88:\n", roughs[r]);
+        const struct {
+            const char *what;
+            BsdfParams p;
+        } cases[5] = {
+            {"sheen over black", with_layers(black, 0, 0, 0, 1.0f, roughs[r])},
+            {"sheen over white Lambert", with_layers(white, 0, 0, 0, 1.0f, roughs[r])},
+            {"coat over black", with_layers(black, 1.0f, roughs[r], 0, 0, 0)},
+            {"coat over white Lambert", with_layers(white, 1.0f, roughs[r], 0, 0, 0)},
+            {"coat + sheen over white metal", with_layers(metal, 1.0f, roughs[r], 0, 1.0f, roughs[r])},
+        };
+        for (int k = 0; k < 5; k++) {
+            char line[256];
+            int at = snprintf(line, sizeof line, "    %-30s", cases[k].what);
+            for (int t = 0; t < 4; t++) {
+                double err, a = albedo_err(&cases[k].p, dir_deg(thetas[t]), 40000, stream++, &err);
+                at += snprintf(line + at, sizeof line - at, " %.4f", a);
+                if (a > 1.0 + 3.0 * err + 1e-4)
+                    fail_msg("%s, roughness %.2f, theta %.0f: albedo %.5f +- %.5f exceeds 1", cases[k].what,
+                             roughs[r], thetas[t], a, err);
+                worst = fmax(worst, a);
+                if (k == 2) {
+                    /* A coat over black reflects at most its weight Fc(mu_o). */
+                    double fc = bsdf_coat_fresnel((float)cos(thetas[t] * M_PI / 180.0));
+                    assert_true(a <= fc + 3.0 * err + 1e-6);
+                }
+            }
+            print_message("%s\n", line);
+        }
+    }
+    /* The smooth coat over black reflects exactly Fc. */
+    BsdfParams mirror = with_layers(black, 1.0f, 0.0f, 0, 0, 0);
+    for (int t = 0; t < 4; t++) {
+        double err, a = albedo_err(&mirror, dir_deg(thetas[t]), 20000, stream++, &err);
+        assert_close(a, bsdf_coat_fresnel((float)cos(thetas[t] * M_PI / 180.0)), 1e-5);
+    }
+    print_message("  largest albedo %.4f\n", worst);
+}
+
 /* ---- Consistency, reciprocity, energy ------------------------------------------ */
 
 /* For rough materials the sample weight equals eval / pdf at the sampled wi, and
@@ -512,6 +695,10 @@ static const char *k_device_src =
     "    p.k = (float4)(3.0f, 2.6f, 2.5f, 7.0f);\n"
     "    p.metallic = q[7]; p.roughness = q[8]; p.transmission = q[9]; p.conductor = i % 2;\n"
     "    p.spec_tint = (float4)(1.0f, 0.9f, 1.0f, 1.1f); p.specular = 0.75f;\n"
+    "    p.clearcoat = (i % 6 == 2) ? q[9] : 0.0f; p.cc_roughness = 0.1f + 0.5f * q[4];\n"
+    "    p.cc_n = normalize((float3)(0.2f * q[5], -0.1f, 1.0f));\n"
+    "    p.sheen_max = (i % 7 == 3) ? q[6] : 0.0f; p.sheen = (float4)(p.sheen_max, 0.5f * p.sheen_max, 0.1f, 0.0f);\n"
+    "    p.sheen_roughness = q[5];\n"
     "    if (i % 4 == 1) bsdf_set_conductor(&p, i % 3, 400.0f + q[3] * 400.0f, 500.0f, 600.0f, 700.0f);\n"
     "    float3 wo = normalize((float3)(q[0], q[1], q[2]));\n"
     "    BsdfSample s = bsdf_sample(&p, wo, q[3], q[4], q[5]);\n"
@@ -577,6 +764,12 @@ static void test_device_matches_host(void **state)
         p.conductor = i % 2;
         p.spec_tint = v4(1.0f, 0.9f, 1.0f, 1.1f);
         p.specular = 0.75f;
+        p.clearcoat = (i % 6 == 2) ? q[9] : 0.0f;
+        p.cc_roughness = 0.1f + 0.5f * q[4];
+        p.cc_n = v3_normalize(v3(0.2f * q[5], -0.1f, 1.0f));
+        p.sheen_max = (i % 7 == 3) ? q[6] : 0.0f;
+        p.sheen = v4(p.sheen_max, 0.5f * p.sheen_max, 0.1f, 0.0f);
+        p.sheen_roughness = q[5];
         if (i % 4 == 1)
             bsdf_set_conductor(&p, i % 3, 400.0f + q[3] * 400.0f, 500.0f, 600.0f, 700.0f);
         vec3 wo = v3_normalize(v3(q[0], q[1], q[2]));
@@ -613,6 +806,10 @@ int main(void)
         cmocka_unit_test(test_prism),
         cmocka_unit_test(test_vndf_chi2),
         cmocka_unit_test(test_material_chi2),
+        cmocka_unit_test(test_layers_chi2),
+        cmocka_unit_test(test_layers_consistency),
+        cmocka_unit_test(test_sheen_table),
+        cmocka_unit_test(test_layer_furnace),
         cmocka_unit_test(test_consistency_reciprocity),
         cmocka_unit_test(test_transmission_reciprocity),
         cmocka_unit_test(test_energy),
