@@ -506,6 +506,16 @@ static int set_args(cl_kernel k, const Buffers *b, const RenderParams *p, SptErr
     return 0;
 }
 
+/* Fills buffer m with the 32-bit word pat (every buffer here is a whole number
+ * of words). */
+static int fill_words(ClDevice *dev, cl_mem m, cl_uint pat, SptError *e)
+{
+    size_t bytes = 0;
+    SPT_CL_CHECK(e, clGetMemObjectInfo(m, CL_MEM_SIZE, sizeof bytes, &bytes, NULL));
+    SPT_CL_CHECK(e, clEnqueueFillBuffer(dev->queue, m, &pat, sizeof pat, 0, bytes, 0, NULL, NULL));
+    return 0;
+}
+
 /* Path pool size for a device: enough paths to fill it, bounded by memory. */
 static uint32_t pool_size_for(const ClDeviceInfo *info, uint64_t work)
 {
@@ -625,6 +635,25 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
         (rc = cl_buffer_create(&w->dev, "chunk sums", CL_MEM_READ_WRITE, (size_t)npix * 16,
                                NULL, &w->b.chunk_sum, e)))
         return rc;
+    /* Test hook (README, "Rendering"): SPECTRACE_TEST_POISON=PATTERN fills every
+     * path, shadow, queue, counter and film buffer with that 32-bit word first, so
+     * that a value read before anything wrote it shows (NaN, all ones) rather than
+     * whatever the fresh allocation held. */
+    const char *poison = getenv("SPECTRACE_TEST_POISON");
+    if (poison && *poison) {
+        cl_uint pat = (cl_uint)strtoul(poison, NULL, 0);
+#define POISON(type, name) if (!rc) rc = fill_words(&w->dev, w->b.name, pat, e);
+#define PS_POISON(type, name) POISON(type, ps_##name)
+#define SH_POISON(type, name) POISON(type, sh_##name)
+        SPT_WORK_BUFFERS(POISON)
+        SPT_PATH_STATE(PS_POISON)
+        SPT_SHADOW_STATE(SH_POISON)
+#undef POISON
+#undef PS_POISON
+#undef SH_POISON
+        if (rc)
+            return rc;
+    }
     /* Every slot starts free (SPT_PATH_DEAD = 0). */
     cl_uint zero = 0;
     SPT_CL_CHECK(e, clEnqueueFillBuffer(w->dev.queue, w->b.ps_flags, &zero, sizeof zero, 0,
