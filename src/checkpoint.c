@@ -151,6 +151,12 @@ static int ranges_parse(const char *s, unsigned char *done, uint32_t limit, uint
 int checkpoint_write(const char *path, const CheckpointKey *k, const Film *film,
                      const unsigned char *done, uint32_t total, SptError *e)
 {
+    size_t bad = film_nonfinite_pixels(film);
+    if (bad)
+        return spt_fail(e, SPT_EXIT_FAILURE,
+                        "%s: checkpoint not written: %zu pixel%s of the film came out NaN or "
+                        "infinite (an internal error)",
+                        path, bad, bad == 1 ? "" : "s");
     size_t n = (size_t)film->width * film->height;
     float *hi = spt_malloc(3 * n * sizeof(float));
     float *lo = spt_malloc(3 * n * sizeof(float));

@@ -40,7 +40,8 @@ int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSetting
                    SptError *e);
 
 /* Writes film and the done flags (total entries, one per sample index) to path
- * atomically. Returns 0 or SPT_EXIT_OUTPUT. */
+ * atomically. Returns 0, SPT_EXIT_OUTPUT, or SPT_EXIT_FAILURE (nothing written)
+ * when a pixel of the film is NaN or infinite. */
 int checkpoint_write(const char *path, const CheckpointKey *k, const Film *film,
                      const unsigned char *done, uint32_t total, SptError *e);
 

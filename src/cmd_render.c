@@ -369,6 +369,19 @@ int cmd_render(int argc, char **argv)
     if (st.nan_dropped)
         spt_warn("render: %llu samples had NaN or infinite radiance and were dropped",
                  (unsigned long long)st.nan_dropped);
+    /* Test hook (README, "Rendering"): SPECTRACE_TEST_FILM_NAN=N makes the first
+     * N pixels of the film NaN, as a render gone wrong would leave them. */
+    const char *film_nan = getenv("SPECTRACE_TEST_FILM_NAN");
+    for (long i = 0, n = film_nan ? atol(film_nan) : 0; i < n && i < width * height; i++)
+        film.xyz[3 * i] = NAN;
+    size_t bad = film_nonfinite_pixels(&film);
+    if (bad) {
+        spt_error("render: %zu of %ld pixels came out NaN or infinite (an internal error); "
+                  "no output written",
+                  bad, width * height);
+        rc = SPT_EXIT_FAILURE;
+        goto done;
+    }
     if (!quiet) {
         fprintf(stderr, "rendered %dx%d, %u spp in %.2f s (%.3f Mpaths/s; program build %.2f s)\n",
                 rs.width, rs.height, st.spp_done, st.seconds,

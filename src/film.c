@@ -1,5 +1,6 @@
 #include "film.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -58,6 +59,26 @@ void film_to_linear_srgb(const Film *f, float *rgb)
         rgb[3 * i + 1] = (float)out[1];
         rgb[3 * i + 2] = (float)out[2];
     }
+}
+
+size_t film_nonfinite_pixels(const Film *f)
+{
+    size_t n = (size_t)f->width * (size_t)f->height, bad = 0;
+    for (size_t i = 0; i < n; i++) {
+        const double *s = f->xyz + 3 * i;
+        double c = f->count[i];
+        /* As floats: the precision of the outputs and checkpoints. */
+        int ok = isfinite((float)s[0]) && isfinite((float)s[1]) && isfinite((float)s[2]) &&
+                 isfinite((float)c);
+        if (ok && c > 0) {
+            double xyz[3] = {s[0] / c, s[1] / c, s[2] / c}, rgb[3];
+            xyz_to_linear_srgb(xyz, rgb);
+            for (int k = 0; k < 3; k++)
+                ok &= isfinite((float)rgb[k]);
+        }
+        bad += !ok;
+    }
+    return bad;
 }
 
 double film_min_count(const Film *f)

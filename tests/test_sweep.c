@@ -40,12 +40,19 @@
  * Runs on two PoCL CPU devices (POCL_DEVICES="pthread pthread"), alone or
  * together; SPECTRACE_POOL sets the path pool, and through it the chunk sizes;
  * SPECTRACE_TEST_POISON fills every path, queue and film buffer with NaN or all
- * ones before use, so a value read but never written shows. */
+ * ones before use, so a value read but never written shows.
+ *
+ * And a film that holds a NaN or infinite pixel all the same is never written:
+ * `spectrace render` fails with one error: line (exit code 1) and leaves every
+ * output as it was; checkpoint_write refuses it too. */
 #include "test_util.h"
 
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include "checkpoint.h"
 #include "cl_device.h"
 #include "exr.h"
 #include "film.h"
@@ -426,6 +433,113 @@ static void test_sweep_box(void **state)
     run_sweep(BOX);
 }
 
+/* ---- A film that holds a non-finite pixel is never written --------------- */
+
+/* The whole file, malloc'd (NULL when it cannot be read). */
+static char *slurp(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    fseek(f, 0, SEEK_END);
+    long len = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *b = malloc((size_t)len + 1);
+    assert_int_equal(fread(b, 1, (size_t)len, f), (size_t)len);
+    fclose(f);
+    *n = (size_t)len;
+    return b;
+}
+
+/* `spectrace render` with SPECTRACE_TEST_FILM_NAN=3 (the first 3 pixels of the
+ * film NaN after the render): exit code 1, one error: line naming 3 pixels, the
+ * existing output untouched, no new output and no checkpoint. */
+static void test_nonfinite_film_refused(void **state)
+{
+    (void)state;
+    const char *exe = getenv("SPECTRACE_EXE");
+    if (!exe)
+        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
+    char old[400], png[400], ck[400], cmd[2400];
+    snprintf(old, sizeof old, "%s/old.exr", g_dir);
+    snprintf(png, sizeof png, "%s/new.png", g_dir);
+    snprintf(ck, sizeof ck, "%s/ck.exr", g_dir);
+    FILE *f = fopen(old, "wb");
+    assert_non_null(f);
+    fputs("an earlier render", f);
+    fclose(f);
+    snprintf(cmd, sizeof cmd,
+             "SPECTRACE_TEST_FILM_NAN=3 '%s' render '%s' --width 8 --height 6 --spp 2 -q "
+             "-o '%s' -o '%s' --checkpoint '%s' 2>&1 >/dev/null",
+             exe, g_path[SKY], old, png, ck);
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    char out[4096];
+    size_t n = fread(out, 1, sizeof out - 1, p);
+    out[n] = 0;
+    int st = pclose(p);
+    assert_true(WIFEXITED(st));
+    if (WEXITSTATUS(st) != 1)
+        fail_msg("exit code %d, expected 1:\n%s", WEXITSTATUS(st), out);
+    int errors = 0;
+    for (const char *l = out; l && *l; l = strchr(l, '\n') ? strchr(l, '\n') + 1 : NULL)
+        errors += !strncmp(l, "error:", 6);
+    if (errors != 1 || !strstr(out, "error: render: 3 of 48 pixels came out NaN or infinite"))
+        fail_msg("expected one error: line naming 3 of 48 pixels:\n%s", out);
+    size_t len;
+    char *kept = slurp(old, &len);
+    assert_non_null(kept);
+    assert_int_equal(len, strlen("an earlier render"));
+    assert_memory_equal(kept, "an earlier render", len);
+    free(kept);
+    assert_int_equal(access(png, F_OK), -1);
+    assert_int_equal(access(ck, F_OK), -1);
+    /* The same render without the hook writes all three. */
+    snprintf(cmd, sizeof cmd, "'%s' render '%s' --width 8 --height 6 --spp 2 -q -o '%s' -o '%s' "
+                              "--checkpoint '%s' 2>/dev/null",
+             exe, g_path[SKY], old, png, ck);
+    assert_int_equal(system(cmd), 0);
+    assert_int_equal(access(png, F_OK), 0);
+    assert_int_equal(access(ck, F_OK), 0);
+}
+
+/* checkpoint_write refuses such a film too (the periodic checkpoints of a render
+ * whose film went wrong), and leaves the file there as it was. */
+static void test_nonfinite_checkpoint_refused(void **state)
+{
+    (void)state;
+    char ck[400];
+    snprintf(ck, sizeof ck, "%s/ck2.exr", g_dir);
+    Film film;
+    film_init(&film, 5, 4);
+    for (int i = 0; i < 20; i++) {
+        film.count[i] = 1;
+        film.xyz[3 * i + 1] = 0.5;
+    }
+    CheckpointKey key;
+    memset(&key, 0, sizeof key);
+    key.width = 5;
+    key.height = 4;
+    unsigned char done[1] = {1};
+    SptError e = {0};
+    assert_int_equal(checkpoint_write(ck, &key, &film, done, 1, &e), 0);
+    size_t n0, n1;
+    char *before = slurp(ck, &n0);
+    film.xyz[3 * 7 + 2] = INFINITY;
+    film.count[11] = NAN;
+    film.xyz[3 * 13] = 1e300; /* finite as a double, infinite as a float */
+    assert_int_equal(film_nonfinite_pixels(&film), 3);
+    assert_int_equal(checkpoint_write(ck, &key, &film, done, 1, &e), SPT_EXIT_FAILURE);
+    assert_non_null(strstr(e.msg, "3 pixels"));
+    assert_non_null(strstr(e.msg, ck));
+    char *after = slurp(ck, &n1);
+    assert_int_equal(n0, n1);
+    assert_memory_equal(before, after, n0);
+    free(before);
+    free(after);
+    film_free(&film);
+}
+
 /* ---- Setup ----------------------------------------------------------------- */
 
 static int setup(void **state)
@@ -471,6 +585,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sweep_sky),
         cmocka_unit_test(test_sweep_box),
+        cmocka_unit_test(test_nonfinite_film_refused),
+        cmocka_unit_test(test_nonfinite_checkpoint_refused),
     };
     return cmocka_run_group_tests_name("sweep", tests, setup, teardown);
 }
