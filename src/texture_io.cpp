@@ -34,6 +34,17 @@ std::string oiio_reason(ImageInput *in, const char *fallback)
     return msg;
 }
 
+// The configuration every image is opened with: colours as stored, not
+// multiplied by alpha (OpenImageIO associates alpha by default, but glTF 2.0's
+// images are not premultiplied: "Images", and the alpha of baseColorTexture is
+// coverage, not a factor already in the colour).
+ImageSpec unassociated_alpha()
+{
+    ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    return config;
+}
+
 // Reads subimage 0 of an opened input into img; 0 or -1 with why.
 int read_opened(ImageInput *in, TextureImage *img, char *why, size_t why_size)
 {
@@ -154,7 +165,8 @@ extern "C" int texture_io_load_file(const char *path, TextureImage *img, char *w
         return texture_io_load_memory(bytes.data(), bytes.size(), nullptr, img, why, why_size);
     }
     fclose(f);
-    auto in = ImageInput::open(path);
+    ImageSpec config = unassociated_alpha();
+    auto in = ImageInput::open(path, &config);
     if (!in) {
         say(why, why_size, oiio_reason(nullptr, "cannot open the image"));
         return -1;
@@ -188,8 +200,12 @@ extern "C" int texture_io_load_memory(const void *data, size_t size, const char 
     }
     if (!strcmp(name, "memory.png") && !png_structure_ok(b, size, why, why_size)) return -1;
     Filesystem::IOMemReader proxy(data, size);
-    // No config spec: with one, OpenImageIO 2.4 ignores the proxy argument.
-    auto in = ImageInput::open(name, nullptr, &proxy);
+    // The proxy goes in the configuration (with a configuration, OpenImageIO 2.4
+    // ignores the proxy argument), next to unassociated_alpha's setting.
+    ImageSpec config = unassociated_alpha();
+    void *proxy_ptr = &proxy;
+    config.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy_ptr);
+    auto in = ImageInput::open(name, &config);
     if (!in) {
         say(why, why_size, oiio_reason(nullptr, "cannot decode the image"));
         return -1;
