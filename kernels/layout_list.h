@@ -29,6 +29,7 @@ typedef struct LayoutProbe {
     X(LayoutProbe)                \
     X(SpecRef)                    \
     X(GpuMaterial)                \
+    X(GpuTexSlot)                 \
     X(GpuTexture)                 \
     X(TriShade)                   \
     X(RenderParams)               \
@@ -44,11 +45,13 @@ typedef struct LayoutProbe {
     X(LayoutProbe, pad)           \
     X(SpecRef, kind)              \
     X(GpuMaterial, emission)      \
-    X(GpuMaterial, base_tex)      \
+    X(GpuMaterial, sheen)         \
     X(GpuMaterial, attenuation)   \
     X(GpuMaterial, conductor)     \
-    X(GpuMaterial, normal_uv)     \
-    X(GpuTexture, pad)            \
+    X(GpuMaterial, sheen_roughness) \
+    X(GpuMaterial, slot)          \
+    X(GpuTexSlot, m)              \
+    X(GpuTexture, flags)          \
     X(RenderParams, width)        \
     X(RenderParams, sample_begin) \
     X(RenderParams, rr_depth)     \

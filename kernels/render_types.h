@@ -31,17 +31,43 @@ typedef struct SpecRef {
 #define SPT_MAT_ALPHA_MASK 4u    /* glTF alphaMode MASK: cut out below the cutoff */
 #define SPT_MAT_ALPHA_BLEND 8u   /* glTF alphaMode BLEND: stochastic opacity alpha */
 #define SPT_MAT_UNLIT 16u        /* KHR_materials_unlit: emits, reflects nothing */
+#define SPT_MAT_VERTEX_COLOR 32u /* some of its triangles have COLOR_0 (vtx_color) */
+#define SPT_MAT_TEXTURED 64u     /* some slot has a texture */
+#define SPT_MAT_UV1 128u         /* some slot reads TEXCOORD_1 (vtx_uv1) */
 
-/* A material: glTF metallic-roughness with its extensions (kernels/bsdf.h). */
+/* The texture slots of a material (the same numbers as scene.h's SPT_SLOT_*):
+ * which channels each reads is in kernels/wavefront.cl (material_bsdf). */
+#define SPT_TS_BASE 0
+#define SPT_TS_METALLIC_ROUGHNESS 1
+#define SPT_TS_NORMAL 2
+#define SPT_TS_EMISSIVE 3
+#define SPT_TS_TRANSMISSION 4
+#define SPT_TS_SPECULAR 5
+#define SPT_TS_SPECULAR_COLOR 6
+#define SPT_TS_CLEARCOAT 7
+#define SPT_TS_CLEARCOAT_ROUGHNESS 8
+#define SPT_TS_CLEARCOAT_NORMAL 9
+#define SPT_TS_SHEEN_COLOR 10
+#define SPT_TS_SHEEN_ROUGHNESS 11
+#define SPT_TS_COUNT 12
+
+/* A material's use of a texture: which one (-1: none), read at which texture
+ * coordinates (0: TEXCOORD_0, 1: TEXCOORD_1), through which KHR_texture_transform
+ * (uv' = M (u, v, 1), M 2x3 row-major; the identity when absent). */
+typedef struct GpuTexSlot {
+    spt_i32 tex;
+    spt_u32 uv_set;
+    float m[6];
+} GpuTexSlot; /* 32 bytes */
+
+/* A material: glTF metallic-roughness with its extensions (kernels/bsdf.h). Each
+ * factor is multiplied by its slot's texture where it has one. */
 typedef struct GpuMaterial {
     SpecRef reflectance;   /* base colour: diffuse albedo, metal F0, transmission tint */
     SpecRef emission;      /* emitted radiance, one-sided (front face) */
     SpecRef spec_tint;     /* KHR_materials_specular colour (SIGMOID, scale = its max) */
     SpecRef attenuation;   /* KHR_materials_volume attenuationColor; NONE = clear */
-    spt_i32 base_tex;      /* texture index or -1: coefficients texture, multiplies reflectance */
-    spt_i32 emissive_tex;  /* texture index or -1: coefficients texture, multiplies emission */
-    spt_i32 mr_tex;        /* texture index or -1: data texture, G roughness, B metallic */
-    spt_i32 normal_tex;    /* texture index or -1: data texture, tangent-space normal */
+    SpecRef sheen;         /* KHR_materials_sheen colour (SIGMOID, scale = its max3); NONE = no sheen */
     spt_u32 flags;
     float alpha_cutoff;    /* SPT_MAT_ALPHA_MASK: opaque where alpha >= cutoff */
     float alpha;           /* base colour alpha factor */
@@ -54,21 +80,35 @@ typedef struct GpuMaterial {
     float normal_scale;
     float attenuation_distance; /* metres; with attenuation */
     spt_i32 conductor;     /* 0 none, else SPT_CONDUCTOR_* + 1 (measured eta, k) */
-    float base_uv[8];      /* KHR_texture_transform of the base colour texture: 2x3, padded */
-    float emissive_uv[8];  /* the same for the emissive texture */
-    float mr_uv[8];        /* ... the metallic-roughness texture */
-    float normal_uv[8];    /* ... the normal texture */
-} GpuMaterial; /* 320 bytes */
+    float clearcoat;       /* KHR_materials_clearcoat factor; 0 = no coat */
+    float cc_roughness;    /* clearcoatRoughnessFactor */
+    float cc_normal_scale; /* clearcoatNormalTexture.scale */
+    float sheen_roughness; /* sheenRoughnessFactor */
+    GpuTexSlot slot[SPT_TS_COUNT];
+} GpuMaterial; /* 608 bytes */
 
-/* A texture in the texels buffer: width*height float4 texels from offset. A
- * coefficients texture (colours) holds sigmoid coefficients (c0, c1, c2) of each
- * texel's RGB and its alpha in w; a data texture (metallic-roughness, normals)
- * holds the linear RGBA values as stored. */
+/* Texture kinds: how a texel's four floats read. COLOR: sigmoid coefficients
+ * (c0, c1, c2) of the texel's linear RGB, alpha in w (base colour, emissive,
+ * specular colour). SCALED: the coefficients of RGB / max(RGB) and that maximum
+ * in w (a colour whose largest component a material needs: sheen). DATA: the
+ * linear RGBA values as stored (metallic-roughness, normals, factors' channels). */
+#define SPT_TEXKIND_COLOR 0u
+#define SPT_TEXKIND_SCALED 1u
+#define SPT_TEXKIND_DATA 2u
+
+/* Texture flags. */
+#define SPT_TEX_NEAREST 1u     /* sampler magFilter NEAREST: magnified texels stay square */
+
+/* A texture in the texels buffer: a mip pyramid of float4 texels from offset,
+ * level 0 width x height, level k max(1, width >> k) x max(1, height >> k),
+ * levels one after another, rows from the image's top (v = 0). */
 typedef struct GpuTexture {
     spt_u32 offset;
     spt_i32 width, height;
     spt_i32 wrap_s, wrap_t;
-    spt_u32 pad[3];
+    spt_u32 levels;
+    spt_u32 kind;          /* SPT_TEXKIND_* */
+    spt_u32 flags;         /* SPT_TEX_* */
 } GpuTexture; /* 32 bytes */
 
 /* Per packed triangle: vertex indices into the vertex arrays and the material. */
@@ -128,7 +168,10 @@ typedef struct GpuEnvMap {
 
 /* Everything a pass needs besides buffers; passed by value. */
 typedef struct RenderParams {
-    /* camera: position, right/up scaled by tan(fov/2) (and aspect), forward */
+    /* camera: position, right/up scaled by tan(fov/2) (and aspect), forward; the
+     * ray cone that texture filtering follows (kernels/path.h): its width at the
+     * camera in cam_pos[3] (orthographic: a pixel's size; else 0) and its spread
+     * in cam_fwd[3] (a pixel's angle; 0 orthographic) */
     float cam_pos[4];
     float cam_right[4];
     float cam_up[4];
@@ -204,6 +247,8 @@ typedef struct RenderParams {
     X(const float, vtx_pos)           \
     X(const float, vtx_normal)        \
     X(const float, vtx_uv)            \
+    X(const float, vtx_uv1)           \
+    X(const float4, vtx_color)        \
     X(const GpuMaterial, materials)   \
     X(const float, spectra)           \
     X(const GpuTexture, textures)     \

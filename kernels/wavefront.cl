@@ -149,7 +149,7 @@ __kernel void k_generate(ALL_BUFFERS)
             d = focus - org;
         }
         ps_ray_o[i] = (float4)(org, 0.0f);
-        ps_ray_d[i] = (float4)(normalize(d), 0.0f);
+        ps_ray_d[i] = (float4)(normalize(d), P.cam_pos[3]); /* w: the ray cone's width */
         float4 lam, pdf;
         path_sample_wavelengths(spt_sample_wavelength_u(pkey, sample), &lam, &pdf);
         ps_lambda[i] = lam;
@@ -224,48 +224,121 @@ static void tri_positions(const __global TriShade *ts, const __global float *vtx
     *c = vload3(s.v[2], vtx_pos);
 }
 
-/* Interpolated texture coordinates of packed triangle prim at barycentrics (u, v). */
-static float2 tri_uv(const __global TriShade *ts, const __global float *vtx_uv, uint prim,
-                     float u, float v)
+/* The texture context of packed triangle prim (vertices v0, v1, v2, unit face
+ * normal ng) at barycentrics (bu, bv), reached along unit direction rd by a ray
+ * cone of width cone_w there (0: no footprint). The cone's circular cross-section
+ * projects onto the triangle's plane as an ellipse with axes cone_w across the
+ * ray and cone_w / |cos| along it; each axis maps to uv through the triangle's
+ * texture-coordinate gradient. TEXCOORD_1 only when the material reads it. */
+static TexCtx tex_ctx(const __global GpuMaterial *m, uint prim, float bu, float bv, float3 v0, float3 v1,
+                      float3 v2, float3 ng, float3 rd, float cone_w, const __global TriShade *tri_shade,
+                      const __global float *vtx_uv, const __global float *vtx_uv1)
 {
-    TriShade s = ts[prim];
-    float2 a = vload2(s.v[0], vtx_uv), b = vload2(s.v[1], vtx_uv), c = vload2(s.v[2], vtx_uv);
-    return (1.0f - u - v) * a + u * b + v * c;
+    TexCtx c;
+    TriShade ts = tri_shade[prim];
+    int sets = (m->flags & SPT_MAT_UV1) ? 2 : 1;
+    float3 e1 = v1 - v0, e2 = v2 - v0;
+    float3 fa = (float3)(0.0f), fb = (float3)(0.0f);
+    float a1 = 0.0f, a2 = 0.0f, b1 = 0.0f, b2 = 0.0f;
+    if (cone_w > 0.0f) {
+        float cosv = fmax(fabs(dot(rd, ng)), 1e-3f);
+        float3 across = cross(rd, ng);
+        float la = length(across);
+        vec3 t_, b_;
+        v3_basis(ng, &t_, &b_);
+        across = la > 1e-6f ? across / la : t_;
+        fa = across * cone_w;
+        fb = cross(ng, across) * (cone_w / cosv);
+        /* Coordinates of fa and fb in the basis (e1, e2): the Gram system. */
+        float d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2);
+        float det = d11 * d22 - d12 * d12;
+        if (det > 1e-30f * d11 * d22) {
+            float inv = 1.0f / det;
+            float x1 = dot(fa, e1), x2 = dot(fa, e2);
+            a1 = (d22 * x1 - d12 * x2) * inv;
+            a2 = (d11 * x2 - d12 * x1) * inv;
+            x1 = dot(fb, e1);
+            x2 = dot(fb, e2);
+            b1 = (d22 * x1 - d12 * x2) * inv;
+            b2 = (d11 * x2 - d12 * x1) * inv;
+        }
+    }
+    c.uv[1] = c.fa[1] = c.fb[1] = (float2)(0.0f);
+    for (int k = 0; k < sets; k++) {
+        const __global float *uvs = k ? vtx_uv1 : vtx_uv;
+        float2 t0 = vload2(ts.v[0], uvs), t1 = vload2(ts.v[1], uvs), t2 = vload2(ts.v[2], uvs);
+        c.uv[k] = (1.0f - bu - bv) * t0 + bu * t1 + bv * t2;
+        c.fa[k] = a1 * (t1 - t0) + a2 * (t2 - t0);
+        c.fb[k] = b1 * (t1 - t0) + b2 * (t2 - t0);
+    }
+    return c;
 }
 
-/* Whether material m reads its texture coordinates (a base colour, emissive or
- * metallic-roughness texture); shading skips fetching them otherwise. The
- * normal texture computes its own. */
+/* Whether material m reads texture coordinates or vertex colours at a hit (some
+ * slot has a texture, or COLOR_0). */
 static int material_uses_uv(const __global GpuMaterial *m)
 {
-    return m->base_tex >= 0 || m->emissive_tex >= 0 || m->mr_tex >= 0;
+    return (m->flags & (SPT_MAT_TEXTURED | SPT_MAT_VERTEX_COLOR)) != 0u;
 }
 
-/* Opacity of material m at uv: 1 for opaque materials; 0 or 1 for alphaMode MASK
+/* COLOR_0 of packed triangle prim at (bu, bv), interpolated as spectra: the sigmoid
+ * spectrum of each vertex's colour at lam (vtx_color: coefficients and alpha),
+ * weighted by the barycentrics; the interpolated alpha in *alpha. */
+static float4 tri_color(const __global TriShade *ts, const __global float4 *vtx_color, uint prim, float bu,
+                        float bv, float4 lam, float *alpha)
+{
+    TriShade s = ts[prim];
+    float4 a = vtx_color[s.v[0]], b = vtx_color[s.v[1]], c = vtx_color[s.v[2]];
+    float wa = 1.0f - bu - bv;
+    *alpha = wa * a.w + bu * b.w + bv * c.w;
+    return wa * spec_sigmoid4(a.x, a.y, a.z, lam) + bu * spec_sigmoid4(b.x, b.y, b.z, lam) +
+           bv * spec_sigmoid4(c.x, c.y, c.z, lam);
+}
+
+/* Opacity of material m at a hit: 1 for opaque materials; 0 or 1 for alphaMode MASK
  * (alpha against the cutoff); alpha itself for BLEND. alpha = the base colour's
- * alpha factor times the base colour texture's alpha. */
-static float material_opacity(const __global GpuMaterial *m, float2 uv,
+ * alpha factor times the base colour texture's alpha times COLOR_0's alpha. */
+static float material_opacity(const __global GpuMaterial *m, const TexCtx *c, uint prim, float bu, float bv,
+                              const __global TriShade *tri_shade, const __global float4 *vtx_color,
                               const __global GpuTexture *textures, const __global float4 *texels)
 {
     uint f = m->flags;
     if (!(f & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND)))
         return 1.0f;
     float a = m->alpha;
-    if (m->base_tex >= 0)
-        a *= texture_texel(textures, texels, m->base_tex, uv_apply(m->base_uv, uv)).w;
+    if (m->slot[SPT_TS_BASE].tex >= 0)
+        a *= slot_value(m, SPT_TS_BASE, c, textures, texels).w;
+    if (f & SPT_MAT_VERTEX_COLOR) {
+        TriShade s = tri_shade[prim];
+        a *= (1.0f - bu - bv) * vtx_color[s.v[0]].w + bu * vtx_color[s.v[1]].w + bv * vtx_color[s.v[2]].w;
+    }
     if (f & SPT_MAT_ALPHA_MASK)
         return a >= m->alpha_cutoff ? 1.0f : 0.0f;
     return clamp(a, 0.0f, 1.0f);
 }
 
-/* Emitted radiance of material m at uv, at the four wavelengths. */
-static float4 material_emission(const __global GpuMaterial *m, float2 uv, float4 lam,
-                                const __global float *spectra,
+/* Emitted radiance of material m at a hit, at the four wavelengths: the emissive
+ * factor (with KHR_materials_emissive_strength) times the emissive texture, seen
+ * through the clear coat (1 - clearcoat Fc, KHR_materials_clearcoat's "Emission")
+ * at cosine cos_v between the view and the surface. An unlit material's emission
+ * is its base colour: times its base colour texture and COLOR_0. */
+static float4 material_emission(const __global GpuMaterial *m, const TexCtx *c, float4 lam, float cos_v,
+                                uint prim, float bu, float bv, const __global TriShade *tri_shade,
+                                const __global float4 *vtx_color, const __global float *spectra,
                                 const __global GpuTexture *textures, const __global float4 *texels)
 {
     float4 le = spec_eval(&m->emission, lam, spectra);
-    if (m->emissive_tex >= 0)
-        le *= texel_spectrum(texture_texel(textures, texels, m->emissive_tex, uv_apply(m->emissive_uv, uv)), lam);
+    float w;
+    if (m->slot[SPT_TS_EMISSIVE].tex >= 0)
+        le *= slot_spectrum(m, SPT_TS_EMISSIVE, c, lam, textures, texels, &w);
+    if ((m->flags & (SPT_MAT_UNLIT | SPT_MAT_VERTEX_COLOR)) == (SPT_MAT_UNLIT | SPT_MAT_VERTEX_COLOR))
+        le *= tri_color(tri_shade, vtx_color, prim, bu, bv, lam, &w);
+    if (m->clearcoat > 0.0f) {
+        float cc = m->clearcoat;
+        if (m->slot[SPT_TS_CLEARCOAT].tex >= 0)
+            cc *= slot_value(m, SPT_TS_CLEARCOAT, c, textures, texels).x;
+        le *= 1.0f - clamp(cc, 0.0f, 1.0f) * bsdf_coat_fresnel(cos_v);
+    }
     return le;
 }
 
@@ -288,21 +361,61 @@ static float4 volume_transmittance(const __global GpuMaterial *m, float t, float
     return exp(log(c) * (t / m->attenuation_distance));
 }
 
+/* Normal n bent by the tangent-space normal map of slot k (scale: the
+ * normalTextureInfo's), with the tangent frame derived from the slot's
+ * (transformed) texture coordinates over the triangle as MikkTSpace would for a
+ * mesh without tangents: tangent along increasing u, bitangent toward decreasing v
+ * (the image's +Y, glTF 2.0 "normalTexture"), its sign following the texture's
+ * handedness on the triangle (mirrored coordinates). n itself when the texture
+ * coordinates are degenerate. */
+static float3 normal_map(const __global GpuMaterial *m, int k, float scale, float3 n, uint prim, float3 v0,
+                         float3 v1, float3 v2, const TexCtx *c, const __global TriShade *tri_shade,
+                         const __global float *vtx_uv, const __global float *vtx_uv1,
+                         const __global GpuTexture *textures, const __global float4 *texels)
+{
+    const __global GpuTexSlot *s = m->slot + k;
+    TriShade ts = tri_shade[prim];
+    const __global float *uvs = s->uv_set ? vtx_uv1 : vtx_uv;
+    float2 t0 = uv_apply(s->m, vload2(ts.v[0], uvs));
+    float2 t1 = uv_apply(s->m, vload2(ts.v[1], uvs));
+    float2 t2 = uv_apply(s->m, vload2(ts.v[2], uvs));
+    float2 d1 = t1 - t0, d2 = t2 - t0;
+    float det = d1.x * d2.y - d2.x * d1.y;
+    if (!(fabs(det) > 1e-12f))
+        return n;
+    float3 dpdu = ((v1 - v0) * d2.y - (v2 - v0) * d1.y) / det;
+    float3 dpdv = ((v2 - v0) * d1.x - (v1 - v0) * d2.x) / det;
+    float3 tg = dpdu - n * dot(n, dpdu);
+    float tl = length(tg);
+    if (!(tl > 1e-12f))
+        return n;
+    tg /= tl;
+    float3 bt = cross(n, tg);
+    if (dot(bt, dpdv) > 0.0f)
+        bt = -bt;
+    float4 tx = slot_value(m, k, c, textures, texels);
+    float3 nt = (float3)((2.0f * tx.x - 1.0f) * scale, (2.0f * tx.y - 1.0f) * scale, 2.0f * tx.z - 1.0f);
+    float3 nb = nt.x * tg + nt.y * bt + nt.z * n;
+    float nl = length(nb);
+    return nl > 1e-6f ? nb / nl : n;
+}
+
 /* The shading normal of packed triangle prim at (bu, bv), on the side of the
  * face normal *ng (the winding's front): the interpolated vertex normal, bent by
- * the material's normal texture (tangent from the texture coordinates, as the
- * glTF sample viewer derives it when a mesh has no tangents). With
- * follow_normals (a transmissive surface, whose outside matters), a vertex
- * normal that disagrees with the winding wins: *ng is flipped instead. */
-static float3 shading_normal(uint prim, float bu, float bv, float3 *ng, int follow_normals,
-                             float3 v0, float3 v1, float3 v2, const __global GpuMaterial *m,
-                             ALL_BUFFERS)
+ * the material's normal texture; *n_coat: the clear coat's normal, the vertex
+ * normal bent by the clearcoat normal texture only (KHR_materials_clearcoat: the
+ * base's normal map does not reach the coat). With follow_normals (a transmissive
+ * surface, whose outside matters), a vertex normal that disagrees with the winding
+ * wins: *ng is flipped instead. */
+static float3 shading_normal(uint prim, float bu, float bv, float3 *ng, int follow_normals, float3 v0,
+                             float3 v1, float3 v2, const __global GpuMaterial *m, const TexCtx *c,
+                             float3 *n_coat, ALL_BUFFERS)
 {
     TriShade ts = tri_shade[prim];
     float3 ns = *ng;
     float3 a = vload3(ts.v[0], vtx_normal), b = vload3(ts.v[1], vtx_normal),
-           c = vload3(ts.v[2], vtx_normal);
-    float3 si = (1.0f - bu - bv) * a + bu * b + bv * c;
+           cc = vload3(ts.v[2], vtx_normal);
+    float3 si = (1.0f - bu - bv) * a + bu * b + bv * cc;
     float len = length(si);
     if (len > 1e-6f) {
         si /= len;
@@ -314,51 +427,48 @@ static float3 shading_normal(uint prim, float bu, float bv, float3 *ng, int foll
         }
         ns = si;
     }
-    if (m->normal_tex < 0)
-        return ns;
-    float2 t0 = uv_apply(m->normal_uv, vload2(ts.v[0], vtx_uv));
-    float2 t1 = uv_apply(m->normal_uv, vload2(ts.v[1], vtx_uv));
-    float2 t2 = uv_apply(m->normal_uv, vload2(ts.v[2], vtx_uv));
-    float2 d1 = t1 - t0, d2 = t2 - t0;
-    float det = d1.x * d2.y - d2.x * d1.y;
-    if (!(fabs(det) > 1e-12f))
-        return ns;
-    float3 dpdu = ((v1 - v0) * d2.y - (v2 - v0) * d1.y) / det;
-    float3 tg = dpdu - ns * dot(ns, dpdu);
-    float tl = length(tg);
-    if (!(tl > 1e-12f))
-        return ns;
-    tg /= tl;
-    float3 bt = cross(ns, tg);
-    float2 uv = (1.0f - bu - bv) * t0 + bu * t1 + bv * t2;
-    float4 tx = texture_texel(textures, texels, m->normal_tex, uv);
-    float3 nt = (float3)((2.0f * tx.x - 1.0f) * m->normal_scale, (2.0f * tx.y - 1.0f) * m->normal_scale,
-                         2.0f * tx.z - 1.0f);
-    float3 nb = nt.x * tg + nt.y * bt + nt.z * ns;
-    float nl = length(nb);
-    return nl > 1e-6f ? nb / nl : ns;
+    *n_coat = ns;
+    if (m->clearcoat > 0.0f && m->slot[SPT_TS_CLEARCOAT_NORMAL].tex >= 0)
+        *n_coat = normal_map(m, SPT_TS_CLEARCOAT_NORMAL, m->cc_normal_scale, ns, prim, v0, v1, v2, c,
+                             tri_shade, vtx_uv, vtx_uv1, textures, texels);
+    if (m->slot[SPT_TS_NORMAL].tex >= 0)
+        ns = normal_map(m, SPT_TS_NORMAL, m->normal_scale, ns, prim, v0, v1, v2, c, tri_shade, vtx_uv,
+                        vtx_uv1, textures, texels);
+    return ns;
 }
 
-/* The BSDF parameters of material m at uv for the wavelengths lam. */
-static BsdfParams material_bsdf(const __global GpuMaterial *m, float2 uv, float4 lam,
-                                const __global float *spectra, const __global GpuTexture *textures,
-                                const __global float4 *texels)
+/* The BSDF parameters of material m at a hit (texture context c, packed triangle
+ * prim at (bu, bv)) for the wavelengths lam. Texture channels, as glTF 2.0 and its
+ * extensions define them: base colour RGB (sRGB) and A; metallic B, roughness G;
+ * transmission R; specular A, specular colour RGB (sRGB); clearcoat R, clearcoat
+ * roughness G; sheen colour RGB (sRGB), sheen roughness A. COLOR_0 multiplies the
+ * base colour. The coat normal is left to the caller (it needs the frame). */
+static BsdfParams material_bsdf(const __global GpuMaterial *m, const TexCtx *c, uint prim, float bu, float bv,
+                                float4 lam, const __global TriShade *tri_shade,
+                                const __global float4 *vtx_color, const __global float *spectra,
+                                const __global GpuTexture *textures, const __global float4 *texels)
 {
     BsdfParams bp;
+    float w;
     float4 base = spec_eval(&m->reflectance, lam, spectra);
-    if (m->base_tex >= 0)
-        base *= texel_spectrum(texture_texel(textures, texels, m->base_tex, uv_apply(m->base_uv, uv)), lam);
+    if (m->slot[SPT_TS_BASE].tex >= 0)
+        base *= slot_spectrum(m, SPT_TS_BASE, c, lam, textures, texels, &w);
+    if (m->flags & SPT_MAT_VERTEX_COLOR)
+        base *= tri_color(tri_shade, vtx_color, prim, bu, bv, lam, &w);
     bp.base = clamp(base, 0.0f, 1.0f);
     bp.metallic = m->metallic;
     bp.roughness = m->roughness;
-    if (m->mr_tex >= 0) {
-        float4 t = texture_texel(textures, texels, m->mr_tex, uv_apply(m->mr_uv, uv));
+    if (m->slot[SPT_TS_METALLIC_ROUGHNESS].tex >= 0) {
+        float4 t = slot_value(m, SPT_TS_METALLIC_ROUGHNESS, c, textures, texels);
         bp.roughness *= t.y;
         bp.metallic *= t.z;
     }
     bp.metallic = clamp(bp.metallic, 0.0f, 1.0f);
     bp.roughness = clamp(bp.roughness, 0.0f, 1.0f);
     bp.transmission = m->transmission;
+    if (m->slot[SPT_TS_TRANSMISSION].tex >= 0)
+        bp.transmission *= slot_value(m, SPT_TS_TRANSMISSION, c, textures, texels).x;
+    bp.transmission = clamp(bp.transmission, 0.0f, 1.0f);
     float ior = fmax(m->ior, 1.0f);
     bp.ior = (float4)(bsdf_dispersion_ior(ior, m->dispersion, lam.x), bsdf_dispersion_ior(ior, m->dispersion, lam.y),
                       bsdf_dispersion_ior(ior, m->dispersion, lam.z), bsdf_dispersion_ior(ior, m->dispersion, lam.w));
@@ -368,13 +478,35 @@ static BsdfParams material_bsdf(const __global GpuMaterial *m, float2 uv, float4
     if (m->conductor > 0)
         bsdf_set_conductor(&bp, m->conductor - 1, lam.x, lam.y, lam.z, lam.w);
     bp.spec_tint = m->spec_tint.kind == SPT_SPEC_NONE ? (float4)(1.0f) : spec_eval(&m->spec_tint, lam, spectra);
+    if (m->slot[SPT_TS_SPECULAR_COLOR].tex >= 0)
+        bp.spec_tint *= slot_spectrum(m, SPT_TS_SPECULAR_COLOR, c, lam, textures, texels, &w);
     bp.specular = m->specular;
-    bp.clearcoat = 0.0f;
-    bp.cc_roughness = 0.0f;
+    if (m->slot[SPT_TS_SPECULAR].tex >= 0)
+        bp.specular = clamp(bp.specular * slot_value(m, SPT_TS_SPECULAR, c, textures, texels).w, 0.0f, 1.0f);
+    bp.clearcoat = m->clearcoat;
+    bp.cc_roughness = m->cc_roughness;
+    if (bp.clearcoat > 0.0f) {
+        if (m->slot[SPT_TS_CLEARCOAT].tex >= 0)
+            bp.clearcoat *= slot_value(m, SPT_TS_CLEARCOAT, c, textures, texels).x;
+        if (m->slot[SPT_TS_CLEARCOAT_ROUGHNESS].tex >= 0)
+            bp.cc_roughness *= slot_value(m, SPT_TS_CLEARCOAT_ROUGHNESS, c, textures, texels).y;
+    }
+    bp.clearcoat = clamp(bp.clearcoat, 0.0f, 1.0f);
+    bp.cc_roughness = clamp(bp.cc_roughness, 0.0f, 1.0f);
     bp.cc_n = (float3)(0.0f, 0.0f, 1.0f);
     bp.sheen = (float4)(0.0f);
     bp.sheen_max = 0.0f;
-    bp.sheen_roughness = 0.0f;
+    bp.sheen_roughness = m->sheen_roughness;
+    if (m->sheen.kind != SPT_SPEC_NONE) {
+        bp.sheen = spec_eval(&m->sheen, lam, spectra);
+        bp.sheen_max = m->sheen.scale;
+        if (m->slot[SPT_TS_SHEEN_COLOR].tex >= 0) {
+            bp.sheen *= slot_spectrum(m, SPT_TS_SHEEN_COLOR, c, lam, textures, texels, &w);
+            bp.sheen_max *= w;
+        }
+        if (m->slot[SPT_TS_SHEEN_ROUGHNESS].tex >= 0)
+            bp.sheen_roughness *= slot_value(m, SPT_TS_SHEEN_ROUGHNESS, c, textures, texels).w;
+    }
     return bp;
 }
 
@@ -417,12 +549,18 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     int front = dot(ng, rd) < 0.0f;
     TriShade ts = tri_shade[prim];
     const __global GpuMaterial *m = materials + ts.material;
-    float2 uv = material_uses_uv(m) ? tri_uv(tri_shade, vtx_uv, prim, bu, bv) : (float2)(0.0f);
+    /* The ray cone's width here: ray_d.w holds it at the last real vertex, and
+     * ray_o.w the distance passed through alpha since. */
+    float cone_w = ps_ray_d[i].w + P.cam_fwd[3] * (hit.x + ps_ray_o[i].w);
+    TexCtx tc = {{(float2)(0.0f), (float2)(0.0f)}, {(float2)(0.0f), (float2)(0.0f)},
+                 {(float2)(0.0f), (float2)(0.0f)}};
+    if (material_uses_uv(m))
+        tc = tex_ctx(m, prim, bu, bv, v0, v1, v2, ng, rd, cone_w, tri_shade, vtx_uv, vtx_uv1);
 
     /* Cut-out (MASK) and blended (BLEND) surfaces: with probability 1 - opacity the
      * path passes through unchanged, without counting a segment. */
     if (m->flags & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND)) {
-        float op = material_opacity(m, uv, textures, texels);
+        float op = material_opacity(m, &tc, prim, bu, bv, tri_shade, vtx_color, textures, texels);
         uint passes = ps_passes[i];
         if (op < 1.0f && passes < 64u) {
             uint npx = (uint)(P.width * P.height);
@@ -442,7 +580,8 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
 
     /* Emission on the front face, weighted against light sampling by MIS. */
     if ((m->flags & SPT_MAT_EMISSIVE) && (front || (m->flags & SPT_MAT_DOUBLE_SIDED_EMISSION))) {
-        float4 le = material_emission(m, uv, lam, spectra, textures, texels);
+        float4 le = material_emission(m, &tc, lam, fabs(dot(ng, rd)), prim, bu, bv, tri_shade, vtx_color,
+                                      spectra, textures, texels);
         float w = 1.0f;
         float prev_pdf = ps_bsdf_pdf[i];
         if (prev_pdf > 0.0f) {
@@ -462,12 +601,13 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     /* The shading frame. A transmissive surface keeps its outside (the winding's
      * front) as +z, so the BSDF knows which side the path is on; an opaque one is
      * shaded from whichever side the path arrives. */
-    BsdfParams bp = material_bsdf(m, uv, lam, spectra, textures, texels);
+    BsdfParams bp = material_bsdf(m, &tc, prim, bu, bv, lam, tri_shade, vtx_color, spectra, textures, texels);
     int two_sided_bsdf = bp.transmission > 0.0f && bp.metallic < 1.0f;
-    float3 ngf = ng;
-    float3 ns = shading_normal(prim, bu, bv, &ngf, two_sided_bsdf, v0, v1, v2, m, ALL_ARGS);
+    float3 ngf = ng, n_coat;
+    float3 ns = shading_normal(prim, bu, bv, &ngf, two_sided_bsdf, v0, v1, v2, m, &tc, &n_coat, ALL_ARGS);
     if (!two_sided_bsdf && !front) {
         ns = -ns;
+        n_coat = -n_coat;
         ngf = -ng;
     }
     float3 wo = -rd;
@@ -478,6 +618,11 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     vec3 tg, bt;
     v3_basis(ns, &tg, &bt);
     float3 wo_l = (float3)(dot(wo, tg), dot(wo, bt), dot(wo, ns));
+    if (bp.clearcoat > 0.0f) {
+        if (dot(wo, n_coat) * dot(wo, ngf) <= 0.0f)
+            n_coat = ngf;
+        bp.cc_n = normalize((float3)(dot(n_coat, tg), dot(n_coat, bt), dot(n_coat, ns)));
+    }
     float wo_side = dot(wo, ngf);
 
     uint npix = (uint)(P.width * P.height);
@@ -518,9 +663,12 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
                 cos_l = fabs(cos_l);
             if (cos_l > 0.0f && dist > 0.0f) {
                 light_pdf = tri_light_pdf[lt] * dist2 / cos_l;
-                float2 luv = lm->emissive_tex >= 0 ? tri_uv(tri_shade, vtx_uv, lt, bary.y, bary.z)
-                                                   : (float2)(0.0f);
-                le = material_emission(lm, luv, lam, spectra, textures, texels);
+                /* The emitter's textures at their finest level (no footprint). */
+                TexCtx ltc = tc;
+                if (material_uses_uv(lm))
+                    ltc = tex_ctx(lm, lt, bary.y, bary.z, a, b, c, nl, wi, 0.0f, tri_shade, vtx_uv, vtx_uv1);
+                le = material_emission(lm, &ltc, lam, cos_l, lt, bary.y, bary.z, tri_shade, vtx_color, spectra,
+                                       textures, texels);
             }
         } else if (e >= 0 && (uint)e < P.emitter_count + P.light_count) {
             float la[4];
@@ -610,7 +758,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
         ps_medium[i] = wn_side < 0.0f && m->attenuation.kind != SPT_SPEC_NONE ? ts.material + 1u : 0u;
     ps_throughput[i] = beta;
     ps_ray_o[i] = (float4)(offset_origin(p, wn_side > 0.0f ? ngf : -ngf), 0.0f);
-    ps_ray_d[i] = (float4)(wn, 0.0f);
+    ps_ray_d[i] = (float4)(wn, cone_w);
     ps_bsdf_pdf[i] = bs.is_delta ? 0.0f : bs.pdf;
     ps_depth[i] = depth;
     return shadow;
@@ -682,13 +830,18 @@ __kernel void k_connect(ALL_BUFFERS)
             if (!bvh_intersect(nodes, tris, o, d.xyz, tmax, &h))
                 break;
             const __global GpuMaterial *m = materials + tri_shade[h.prim].material;
-            float op = material_opacity(m, tri_uv(tri_shade, vtx_uv, h.prim, h.u, h.v), textures, texels);
-            transmit *= 1.0f - op;
-            if (!(transmit > 0.0f) || k == 15)
-                return;
             vec3 a, b, c;
             tri_positions(tri_shade, vtx_pos, h.prim, &a, &b, &c);
             float3 ng = normalize(cross(b - a, c - a));
+            float op = 1.0f;
+            if (m->flags & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND)) {
+                /* At the finest level: a shadow ray carries no footprint. */
+                TexCtx tc = tex_ctx(m, h.prim, h.u, h.v, a, b, c, ng, d.xyz, 0.0f, tri_shade, vtx_uv, vtx_uv1);
+                op = material_opacity(m, &tc, h.prim, h.u, h.v, tri_shade, vtx_color, textures, texels);
+            }
+            transmit *= 1.0f - op;
+            if (!(transmit > 0.0f) || k == 15)
+                return;
             float3 q = o + h.t * d.xyz;
             float3 o2 = offset_origin(q, dot(ng, d.xyz) > 0.0f ? ng : -ng);
             tmax -= dot(o2 - o, d.xyz);

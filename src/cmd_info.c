@@ -45,6 +45,13 @@ static const char *wrap_name(int w)
     return w == SPT_WRAP_CLAMP ? "clamp" : w == SPT_WRAP_MIRROR ? "mirror" : "repeat";
 }
 
+/* The texture slots' names (SPT_SLOT_* order). */
+static const char *const slot_names[SPT_SLOT_COUNT] = {
+    "baseColor", "metallicRoughness", "normal", "emissive", "transmission", "specular",
+    "specularColor", "clearcoat", "clearcoatRoughness", "clearcoatNormal", "sheenColor",
+    "sheenRoughness", "occlusion",
+};
+
 static void print_materials(const Scene *s)
 {
     static const char *alpha[] = {"opaque", "mask", "blend"};
@@ -64,7 +71,31 @@ static void print_materials(const Scene *s)
         if (m->reflectance_spd.count) printf(" spectral-reflectance");
         if (m->emission_spd.count || m->emission_spd.line_count) printf(" spectral-emission");
         if (m->conductor[0]) printf(" conductor %s", m->conductor);
+        if (m->clearcoat > 0)
+            printf(" clearcoat %.3g roughness %.3g", m->clearcoat, m->clearcoat_roughness);
+        if (m->sheen_color[0] > 0 || m->sheen_color[1] > 0 || m->sheen_color[2] > 0)
+            printf(" sheen %.3g %.3g %.3g roughness %.3g", m->sheen_color[0], m->sheen_color[1],
+                   m->sheen_color[2], m->sheen_roughness);
         printf("\n");
+        /* The texture slots: the file's texture, the uv set, the loaded texture
+         * (-: its image was unusable, the factor is used). */
+        int any = 0;
+        for (int k = 0; k < SPT_SLOT_COUNT; k++) {
+            const SceneTexRef *r = &m->tex[k];
+            if (r->gltf_index < 0)
+                continue;
+            printf("%s%s textures[%d] uv %d", any ? ", " : "       textures: ", slot_names[k], r->gltf_index,
+                   r->texcoord);
+            if (k == SPT_SLOT_OCCLUSION)
+                printf(" (not rendered)");
+            else if (r->tex < 0)
+                printf(" (unusable: factor only)");
+            else
+                printf(" -> [%d]", r->tex);
+            any = 1;
+        }
+        if (any)
+            printf("\n");
     }
 }
 
@@ -80,9 +111,9 @@ static double print_textures(const Scene *s)
         const SceneTexture *t = &s->textures[i];
         double b = (double)t->width * t->height * t->channels * sizeof(float);
         bytes += b;
-        printf("  [%u] %-24s %dx%d, %d channel(s), %s, wrap %s/%s, ", i, t->name, t->width,
+        printf("  [%u] %-24s %dx%d, %d channel(s), %s, wrap %s/%s, %s, ", i, t->name, t->width,
                t->height, t->channels, t->srgb_decoded ? "sRGB->linear" : "linear",
-               wrap_name(t->wrap_s), wrap_name(t->wrap_t));
+               wrap_name(t->wrap_s), wrap_name(t->wrap_t), t->nearest ? "nearest" : "linear");
         print_bytes(b);
         printf("\n");
     }

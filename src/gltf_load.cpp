@@ -43,13 +43,13 @@ const char *const k_supported_ext[] = {
     "KHR_materials_dispersion", "KHR_materials_volume", "KHR_materials_unlit",
     "KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_pbrSpecularGlossiness",
     "KHR_mesh_quantization", "EXT_meshopt_compression", "KHR_draco_mesh_compression",
-    "EXT_texture_webp", "KHR_materials_specular",
+    "EXT_texture_webp", "KHR_materials_specular", "KHR_materials_clearcoat", "KHR_materials_sheen",
 };
 
 // Material extensions we know and deliberately ignore (one warning each, listing
 // the materials): a file that requires one is refused like an unknown one.
 const char *const k_ignored_material_ext[] = {
-    "KHR_materials_clearcoat", "KHR_materials_sheen",
+    "KHR_materials_iridescence", "KHR_materials_anisotropy",
 };
 
 // Conductors the spectral extras may name (complex IOR tables in the renderer).
@@ -216,10 +216,11 @@ const char *type_name(int n)
 // The mesh data of one primitive, read once and shared by its instances.
 struct PrimData {
     bool read = false, skip = false;
-    std::vector<float> pos, nrm, uv; // per vertex, in the mesh's space
-    // Primitives with the same POSITION, NORMAL and TEXCOORD_0 accessors (as
-    // exporters write multi-material meshes) share one copy of the vertices:
-    // vsrc is the primitive holding them (nullptr: this one).
+    std::vector<float> pos, nrm, uv, uv1; // per vertex, in the mesh's space
+    std::vector<float> col;               // COLOR_0: 4 per vertex (alpha 1 for VEC3)
+    // Primitives with the same POSITION, NORMAL, TEXCOORD_0, TEXCOORD_1 and COLOR_0
+    // accessors (as exporters write multi-material meshes) share one copy of the
+    // vertices: vsrc is the primitive holding them (nullptr: this one).
     const PrimData *vsrc = nullptr;
     std::vector<uint32_t> tris;      // 3 local vertex indices per triangle, file winding
     uint32_t material = 0;
@@ -235,7 +236,8 @@ struct Loader {
     std::vector<std::string> refused; // external files outside the folder
 
     // Output under construction.
-    std::vector<float> tri_pos, vtx_normal, vtx_uv;
+    std::vector<float> tri_pos, vtx_normal, vtx_uv, vtx_uv1, vtx_color;
+    bool any_uv1 = false, any_color = false; // some primitive has TEXCOORD_1 / COLOR_0
     std::vector<uint32_t> tri_vidx, tri_mat;
     uint64_t vertex_count = 0;
     std::vector<SceneMaterial> mats;
@@ -246,16 +248,18 @@ struct Loader {
     SceneStats stats = {};
     int default_material = -1;
     uint32_t modes_skipped = 0, no_position = 0, texcoord_warned = 0, leftover_indices = 0;
-    uint32_t transform_unused = 0, specgloss_textures = 0, meshopt_views = 0, draco_primitives = 0;
+    uint32_t specgloss_textures = 0, meshopt_views = 0, draco_primitives = 0;
+    uint32_t texcoord_unread = 0;  // primitives with TEXCOORD_n, n > 1 (never read)
+    uint32_t uv1_missing = 0;      // slots reading TEXCOORD_1 of a primitive without it
     bool quantization = false; // KHR_mesh_quantization in extensionsUsed
     std::map<std::string, std::vector<std::string>> ignored_ext; // extension -> materials
 
     std::vector<std::vector<PrimData>> prim; // [mesh][primitive]
-    std::map<std::tuple<int, int, int>, const PrimData *> vertex_owner; // accessors -> data
+    std::map<std::tuple<int, int, int, int, int>, const PrimData *> vertex_owner; // accessors -> data
     std::vector<uint32_t> mesh_emitted;      // instances emitted so far, per mesh
     std::vector<int> decoded_state;          // per image: 0 untried, 1 ok, -1 failed
     std::vector<TextureImage> decoded;
-    std::map<std::tuple<int, int, int, int>, int> texture_of; // (image,srgb,ws,wt)
+    std::map<std::tuple<int, int, int, int, int>, int> texture_of; // (image,srgb,ws,wt,nearest)
 
     // "FILE: " + formatted text, SPT_EXIT_INPUT.
     int bad(const char *fmt, ...) __attribute__((format(printf, 2, 3)))
@@ -280,8 +284,10 @@ struct Loader {
     int node_local(int n, Mat4 *out);
     int traverse();
     int material(int index);
-    int texture_ref(int tex, int texcoord, bool srgb, const std::string &obj, int *out,
-                    const tinygltf::ExtensionMap *ext = nullptr, float *uv_transform = nullptr);
+    int texture_ref(int tex, int texcoord, bool srgb, const std::string &obj, SceneTexRef *out,
+                    const tinygltf::ExtensionMap *ext, bool load = true);
+    int ext_texture(const Value &x, const char *key, bool srgb, const std::string &obj,
+                    SceneTexRef *out, float *scale = nullptr);
     int texture_transform(const tinygltf::ExtensionMap *ext, int *texcoord,
                           const std::string &obj, float *uv_transform);
     int spec_gloss(const Value &x, SceneMaterial *sm, const std::string &obj);
@@ -1057,15 +1063,12 @@ int Loader::decode_image(int image)
     return 1;
 }
 
-// Resolves a material's reference to textures[tex] into a SceneTexture index
-// (*out, -1 when the image is unusable, with a warning), decoded for colour
-// (srgb) or as data. Dangling references are errors.
 // KHR_texture_transform of a texture reference (ext: its extensions), as the
 // extension defines it: uv' = T * R * S * (u, v, 1) with T the offset, R the
 // rotation by `rotation` radians counter-clockwise in UV space (matrix rows
-// (cos, sin), (-sin, cos), since v points down the image) and S the scale. The
-// result goes to uv_transform (2x3 row-major) when given, else it is counted as
-// unused (a slot the renderer has no transform for). texCoord overrides *texcoord.
+// (cos, sin), (-sin, cos), since v points down the image) and S the scale, into
+// uv_transform (2x3 row-major; left as it is without the extension). Its
+// texCoord overrides *texcoord.
 int Loader::texture_transform(const tinygltf::ExtensionMap *ext, int *texcoord,
                               const std::string &obj, float *uv_transform)
 {
@@ -1096,10 +1099,6 @@ int Loader::texture_transform(const tinygltf::ExtensionMap *ext, int *texcoord,
             return bad("%s.texCoord: not an index >= 0", o.c_str());
         *texcoord = t.GetNumberAsInt();
     }
-    if (!uv_transform) {
-        transform_unused++;
-        return 0;
-    }
     double c = cos(rot), sn = sin(rot);
     float M[6] = {(float)(c * scale[0]), (float)(sn * scale[1]), (float)off[0],
                   (float)(-sn * scale[0]), (float)(c * scale[1]), (float)off[1]};
@@ -1107,15 +1106,28 @@ int Loader::texture_transform(const tinygltf::ExtensionMap *ext, int *texcoord,
     return 0;
 }
 
-int Loader::texture_ref(int tex, int texcoord, bool srgb, const std::string &obj, int *out,
-                        const tinygltf::ExtensionMap *ext, float *uv_transform)
+// Resolves a material's reference to textures[tex] (texCoord texcoord, ext: the
+// textureInfo's extensions) into *out: the file's index, the texture coordinate set
+// (0 or 1; a higher one is counted in a warning and read as 0), the transform, and
+// the SceneTexture (-1 when the image is unusable, with a warning), decoded for
+// colour (srgb) or as data. With load false only the reference is recorded (a slot
+// the renderer reports but does not read). Dangling references are errors.
+int Loader::texture_ref(int tex, int texcoord, bool srgb, const std::string &obj, SceneTexRef *out,
+                        const tinygltf::ExtensionMap *ext, bool load)
 {
-    *out = -1;
+    out->tex = -1;
     if (tex < 0) return 0;
     int rc;
-    if ((rc = texture_transform(ext, &texcoord, obj, uv_transform))) return rc;
+    if ((rc = texture_transform(ext, &texcoord, obj, out->transform))) return rc;
     if ((size_t)tex >= m.textures.size())
         return bad("%s.index: textures[%d] does not exist", obj.c_str(), tex);
+    if (texcoord < 0) return bad("%s.texCoord: %d is negative", obj.c_str(), texcoord);
+    if (texcoord > 1) {
+        texcoord_warned++;
+        texcoord = 0;
+    }
+    out->gltf_index = tex;
+    out->texcoord = texcoord;
     const auto &t = m.textures[tex];
     int source = t.source;
     // EXT_texture_webp: its source (decoded by OpenImageIO) wins over the fallback.
@@ -1135,23 +1147,31 @@ int Loader::texture_ref(int tex, int texcoord, bool srgb, const std::string &obj
     }
     if ((size_t)source >= m.images.size())
         return bad("textures[%d].source: images[%d] does not exist", tex, source);
-    int ws = SPT_WRAP_REPEAT, wt = SPT_WRAP_REPEAT;
+    // Sampler: wrap modes, and whether magnification keeps texels square
+    // (magFilter NEAREST); no sampler or an empty one: repeat, linear.
+    int ws = SPT_WRAP_REPEAT, wt = SPT_WRAP_REPEAT, nearest = 0;
     if (t.sampler >= 0) {
         if ((size_t)t.sampler >= m.samplers.size())
             return bad("textures[%d].sampler: samplers[%d] does not exist", tex, t.sampler);
-        ws = m.samplers[t.sampler].wrapS;
-        wt = m.samplers[t.sampler].wrapT;
+        const auto &sp = m.samplers[t.sampler];
+        ws = sp.wrapS;
+        wt = sp.wrapT;
         for (int w : {ws, wt})
             if (w != SPT_WRAP_REPEAT && w != SPT_WRAP_CLAMP && w != SPT_WRAP_MIRROR)
                 return bad("samplers[%d]: wrap mode %d is not a glTF wrap mode", t.sampler, w);
+        if (sp.magFilter != -1 && sp.magFilter != TINYGLTF_TEXTURE_FILTER_NEAREST &&
+            sp.magFilter != TINYGLTF_TEXTURE_FILTER_LINEAR)
+            return bad("samplers[%d].magFilter: %d is not NEAREST (9728) or LINEAR (9729)", t.sampler,
+                       sp.magFilter);
+        nearest = sp.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST;
     } else if (t.sampler < -1) {
         return bad("textures[%d].sampler: samplers[%d] does not exist", tex, t.sampler);
     }
-    if (texcoord != 0) texcoord_warned++;
-    auto key = std::make_tuple(source, srgb ? 1 : 0, ws, wt);
+    if (!load) return 0;
+    auto key = std::make_tuple(source, srgb ? 1 : 0, ws, wt, nearest);
     auto it = texture_of.find(key);
     if (it != texture_of.end()) {
-        *out = it->second;
+        out->tex = it->second;
         return 0;
     }
     if (!decode_image(source)) return 0;
@@ -1169,14 +1189,43 @@ int Loader::texture_ref(int tex, int texcoord, bool srgb, const std::string &obj
     st.srgb_decoded = srgb ? 1 : 0;
     st.wrap_s = ws;
     st.wrap_t = wt;
+    st.nearest = nearest;
     size_t n = (size_t)ti.width * ti.height * ti.channels;
     st.texels = (float *)spt_malloc(n * sizeof(float));
     memcpy(st.texels, ti.texels, n * sizeof(float));
     if (srgb) texture_io_srgb_to_linear(st.texels, (size_t)ti.width * ti.height, ti.channels);
     texs.push_back(st);
-    *out = (int)texs.size() - 1;
-    texture_of[key] = *out;
+    out->tex = (int)texs.size() - 1;
+    texture_of[key] = out->tex;
     return 0;
+}
+
+// The textureInfo x[key] of a material extension (absent: nothing), resolved by
+// texture_ref; scale: where a normalTextureInfo's scale goes (default 1).
+int Loader::ext_texture(const Value &x, const char *key, bool srgb, const std::string &obj,
+                        SceneTexRef *out, float *scale)
+{
+    if (!x.IsObject() || !x.Has(key)) return 0;
+    const Value &ti = x.Get(key);
+    std::string o = obj + "." + key;
+    const Value &ix = ti.IsObject() ? ti.Get("index") : Value();
+    if (!ix.IsInt()) return bad("%s.index: missing or not an integer", o.c_str());
+    int tc = 0;
+    if (ti.Has("texCoord")) {
+        if (!ti.Get("texCoord").IsInt()) return bad("%s.texCoord: not an integer", o.c_str());
+        tc = ti.Get("texCoord").GetNumberAsInt();
+    }
+    if (scale) {
+        double sc = 1;
+        int rc;
+        if ((rc = ext_number(this, ti, "scale", &sc, o))) return rc;
+        *scale = (float)sc;
+    }
+    tinygltf::ExtensionMap em;
+    const Value &ev = ti.Get("extensions");
+    if (ev.IsObject())
+        for (const auto &k : ev.Keys()) em[k] = ev.Get(k);
+    return texture_ref(ix.GetNumberAsInt(), tc, srgb, o, out, &em);
 }
 
 int Loader::parse_spd(const Value &v, Spd *out, const std::string &obj)
@@ -1309,20 +1358,13 @@ int Loader::spec_gloss(const Value &x, SceneMaterial *sm, const std::string &obj
     sm->base_color[3] = (float)diffuse[3];
     sm->metallic = (float)metallic;
     sm->roughness = (float)(1 - gloss);
-    sm->metallic_roughness_tex = -1;
+    sm->tex[SPT_SLOT_METALLIC_ROUGHNESS].tex = -1;
+    sm->tex[SPT_SLOT_METALLIC_ROUGHNESS].gltf_index = -1;
     if (x.Has("diffuseTexture")) {
-        const Value &t = x.Get("diffuseTexture");
-        const Value &ix = t.IsObject() ? t.Get("index") : Value();
-        if (!ix.IsInt()) return bad("%s.diffuseTexture: no index", obj.c_str());
-        int tc = t.Get("texCoord").IsInt() ? t.Get("texCoord").GetNumberAsInt() : 0;
-        tinygltf::ExtensionMap em;
-        const Value &ev = t.Get("extensions");
-        if (ev.IsObject())
-            for (const auto &k : ev.Keys()) em[k] = ev.Get(k);
-        for (int k = 0; k < 6; k++) sm->uv_transform[SPT_SLOT_BASE][k] = k == 0 || k == 4;
-        if ((rc = texture_ref(ix.GetNumberAsInt(), tc, true, obj + ".diffuseTexture",
-                              &sm->base_color_tex, &em, sm->uv_transform[SPT_SLOT_BASE])))
-            return rc;
+        SceneTexRef &b = sm->tex[SPT_SLOT_BASE];
+        for (int k = 0; k < 6; k++) b.transform[k] = k == 0 || k == 4;
+        b.gltf_index = -1;
+        if ((rc = ext_texture(x, "diffuseTexture", true, obj, &b))) return rc;
     }
     if (x.Has("specularGlossinessTexture")) specgloss_textures++;
     return 0;
@@ -1349,19 +1391,20 @@ int Loader::material(int index)
     sm.roughness = (float)fmin(fmax(pbr.roughnessFactor, 0), 1);
     int rc;
     if ((rc = texture_ref(pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord, true,
-                          obj + ".pbrMetallicRoughness.baseColorTexture", &sm.base_color_tex,
-                          &pbr.baseColorTexture.extensions, sm.uv_transform[SPT_SLOT_BASE])) ||
+                          obj + ".pbrMetallicRoughness.baseColorTexture", &sm.tex[SPT_SLOT_BASE],
+                          &pbr.baseColorTexture.extensions)) ||
         (rc = texture_ref(pbr.metallicRoughnessTexture.index,
                           pbr.metallicRoughnessTexture.texCoord, false,
                           obj + ".pbrMetallicRoughness.metallicRoughnessTexture",
-                          &sm.metallic_roughness_tex, &pbr.metallicRoughnessTexture.extensions,
-                          sm.uv_transform[SPT_SLOT_METALLIC_ROUGHNESS])) ||
+                          &sm.tex[SPT_SLOT_METALLIC_ROUGHNESS], &pbr.metallicRoughnessTexture.extensions)) ||
         (rc = texture_ref(mat.emissiveTexture.index, mat.emissiveTexture.texCoord, true,
-                          obj + ".emissiveTexture", &sm.emissive_tex,
-                          &mat.emissiveTexture.extensions, sm.uv_transform[SPT_SLOT_EMISSIVE])) ||
+                          obj + ".emissiveTexture", &sm.tex[SPT_SLOT_EMISSIVE],
+                          &mat.emissiveTexture.extensions)) ||
         (rc = texture_ref(mat.normalTexture.index, mat.normalTexture.texCoord, false,
-                          obj + ".normalTexture", &sm.normal_tex, &mat.normalTexture.extensions,
-                          sm.uv_transform[SPT_SLOT_NORMAL])))
+                          obj + ".normalTexture", &sm.tex[SPT_SLOT_NORMAL], &mat.normalTexture.extensions)) ||
+        (rc = texture_ref(mat.occlusionTexture.index, mat.occlusionTexture.texCoord, false,
+                          obj + ".occlusionTexture", &sm.tex[SPT_SLOT_OCCLUSION],
+                          &mat.occlusionTexture.extensions, false)))
         return -rc;
     sm.normal_scale = (float)mat.normalTexture.scale;
     if (!mat.emissiveFactor.empty()) {
@@ -1404,20 +1447,9 @@ int Loader::material(int index)
         if ((rc = ext_number(this, *x, "transmissionFactor", &d, eo + "KHR_materials_transmission")))
             return -rc;
         sm.transmission = (float)fmin(fmax(d, 0), 1);
-        if (x->Has("transmissionTexture")) {
-            const Value &ti = x->Get("transmissionTexture");
-            const Value &ix = ti.IsObject() ? ti.Get("index") : Value();
-            if (!ix.IsNumber())
-                return -bad("%sKHR_materials_transmission.transmissionTexture: no index", eo.c_str());
-            int tc = ti.Get("texCoord").IsNumber() ? ti.Get("texCoord").GetNumberAsInt() : 0;
-            if (ti.Get("extensions").IsObject() &&
-                ti.Get("extensions").Has("KHR_texture_transform"))
-                transform_unused++;
-            if ((rc = texture_ref(ix.GetNumberAsInt(), tc, false,
-                                  eo + "KHR_materials_transmission.transmissionTexture",
-                                  &sm.transmission_tex)))
-                return -rc;
-        }
+        if ((rc = ext_texture(*x, "transmissionTexture", false, eo + "KHR_materials_transmission",
+                              &sm.tex[SPT_SLOT_TRANSMISSION])))
+            return -rc;
     }
     if (const Value *x = ext("KHR_materials_dispersion")) {
         d = 0;
@@ -1448,7 +1480,6 @@ int Loader::material(int index)
         }
     }
     if (const Value *x = ext("KHR_materials_specular")) {
-        // The factors only; a specular texture is ignored (counted in a warning).
         std::string so = eo + "KHR_materials_specular";
         d = 1;
         if ((rc = ext_number(this, *x, "specularFactor", &d, so))) return -rc;
@@ -1466,8 +1497,43 @@ int Loader::material(int index)
                 sm.specular_color[k] = (float)v;
             }
         }
-        if (x->Has("specularTexture") || x->Has("specularColorTexture"))
-            ignored_ext["KHR_materials_specular textures (the factors are used)"].push_back(sm.name);
+        if ((rc = ext_texture(*x, "specularTexture", false, so, &sm.tex[SPT_SLOT_SPECULAR])) ||
+            (rc = ext_texture(*x, "specularColorTexture", true, so, &sm.tex[SPT_SLOT_SPECULAR_COLOR])))
+            return -rc;
+    }
+    if (const Value *x = ext("KHR_materials_clearcoat")) {
+        std::string co = eo + "KHR_materials_clearcoat";
+        double cc = 0, cr = 0;
+        if ((rc = ext_number(this, *x, "clearcoatFactor", &cc, co)) ||
+            (rc = ext_number(this, *x, "clearcoatRoughnessFactor", &cr, co)))
+            return -rc;
+        sm.clearcoat = (float)fmin(fmax(cc, 0), 1);
+        sm.clearcoat_roughness = (float)fmin(fmax(cr, 0), 1);
+        if ((rc = ext_texture(*x, "clearcoatTexture", false, co, &sm.tex[SPT_SLOT_CLEARCOAT])) ||
+            (rc = ext_texture(*x, "clearcoatRoughnessTexture", false, co,
+                              &sm.tex[SPT_SLOT_CLEARCOAT_ROUGHNESS])) ||
+            (rc = ext_texture(*x, "clearcoatNormalTexture", false, co, &sm.tex[SPT_SLOT_CLEARCOAT_NORMAL],
+                              &sm.clearcoat_normal_scale)))
+            return -rc;
+    }
+    if (const Value *x = ext("KHR_materials_sheen")) {
+        std::string sho = eo + "KHR_materials_sheen";
+        if (x->Has("sheenColorFactor")) {
+            const Value &c = x->Get("sheenColorFactor");
+            if (!c.IsArray() || c.ArrayLen() != 3)
+                return -bad("%s.sheenColorFactor: expected 3 numbers", sho.c_str());
+            for (int k = 0; k < 3; k++) {
+                if (!c.Get(k).IsNumber() || !std::isfinite(c.Get(k).GetNumberAsDouble()))
+                    return -bad("%s.sheenColorFactor: not a number", sho.c_str());
+                sm.sheen_color[k] = (float)fmin(fmax(c.Get(k).GetNumberAsDouble(), 0), 1);
+            }
+        }
+        double sr = 0;
+        if ((rc = ext_number(this, *x, "sheenRoughnessFactor", &sr, sho))) return -rc;
+        sm.sheen_roughness = (float)fmin(fmax(sr, 0), 1);
+        if ((rc = ext_texture(*x, "sheenColorTexture", true, sho, &sm.tex[SPT_SLOT_SHEEN_COLOR])) ||
+            (rc = ext_texture(*x, "sheenRoughnessTexture", false, sho, &sm.tex[SPT_SLOT_SHEEN_ROUGHNESS])))
+            return -rc;
     }
     if (ext("KHR_materials_unlit")) sm.unlit = 1;
     if (const Value *x = ext("KHR_materials_pbrSpecularGlossiness"))
@@ -1541,18 +1607,34 @@ int Loader::read_primitive(int mi, int pi)
                 return bad("%s.attributes.NORMAL (accessors[%d]): count %zu differs from POSITION's %zu",
                            o, nit->second, m.accessors[nit->second].count, nv);
         }
-        auto tit = p.attributes.find("TEXCOORD_0");
-        if (tit != p.attributes.end()) {
-            if ((rc = check_accessor(tit->second, obj + ".attributes.TEXCOORD_0", 2, uv_types,
-                                     quantization ? 2 : 1, &zeros)))
+        // TEXCOORD_0, TEXCOORD_1 and COLOR_0 (VEC3 or VEC4 of floats or normalised
+        // unsigned bytes or shorts, glTF 2.0 3.7.2.1).
+        int acc[3] = {-1, -1, -1}, ncol = 0;
+        const char *names[3] = {"TEXCOORD_0", "TEXCOORD_1", "COLOR_0"};
+        for (int k = 0; k < 3; k++) {
+            auto it = p.attributes.find(names[k]);
+            if (it == p.attributes.end()) continue;
+            std::string ao = obj + ".attributes." + names[k];
+            if (k == 2) {
+                if (it->second >= 0 && (size_t)it->second < m.accessors.size())
+                    ncol = type_components(m.accessors[it->second].type) == 3 ? 3 : 4;
+                if ((rc = check_accessor(it->second, ao, ncol ? ncol : 4, {f, u8, u16}, 1, &zeros)))
+                    return rc;
+            } else if ((rc = check_accessor(it->second, ao, 2, uv_types, quantization ? 2 : 1, &zeros))) {
                 return rc;
-            if (m.accessors[tit->second].count != nv)
-                return bad("%s.attributes.TEXCOORD_0 (accessors[%d]): count %zu differs from "
-                           "POSITION's %zu",
-                           o, tit->second, m.accessors[tit->second].count, nv);
+            }
+            if (m.accessors[it->second].count != nv)
+                return bad("%s (accessors[%d]): count %zu differs from POSITION's %zu", ao.c_str(),
+                           it->second, m.accessors[it->second].count, nv);
+            acc[k] = it->second;
         }
-        auto vkey = std::make_tuple(pit->second, nit != p.attributes.end() ? nit->second : -1,
-                                    tit != p.attributes.end() ? tit->second : -1);
+        for (const auto &a : p.attributes)
+            if (a.first.compare(0, 9, "TEXCOORD_") == 0 && a.first != names[0] && a.first != names[1]) {
+                texcoord_unread++;
+                break;
+            }
+        auto vkey = std::make_tuple(pit->second, nit != p.attributes.end() ? nit->second : -1, acc[0],
+                                    acc[1], acc[2]);
         auto own = vertex_owner.find(vkey);
         if (own != vertex_owner.end()) {
             pd.vsrc = own->second;
@@ -1560,7 +1642,15 @@ int Loader::read_primitive(int mi, int pi)
             vertex_owner[vkey] = &pd;
             read_floats(pit->second, 3, pd.pos);
             if (nit != p.attributes.end()) read_floats(nit->second, 3, pd.nrm);
-            if (tit != p.attributes.end()) read_floats(tit->second, 2, pd.uv);
+            if (acc[0] >= 0) read_floats(acc[0], 2, pd.uv);
+            if (acc[1] >= 0) read_floats(acc[1], 2, pd.uv1);
+            if (acc[2] >= 0) {
+                std::vector<float> c;
+                read_floats(acc[2], ncol, c);
+                pd.col.resize(nv * 4, 1.0f);
+                for (size_t v = 0; v < nv; v++)
+                    for (int k = 0; k < ncol; k++) pd.col[v * 4 + k] = c[v * ncol + k];
+            }
         }
         if (p.indices >= 0) {
             if ((rc = check_accessor(p.indices, obj + ".indices", 1,
@@ -1720,11 +1810,19 @@ int Loader::read_draco(int mi, int pi, const Value &x, std::vector<uint32_t> &id
     std::unique_ptr<DracoDecoded, void (*)(DracoDecoded *)> guard(d, mesh_draco_free);
     size_t np = mesh_draco_points(d), nf = mesh_draco_faces(d);
     if (np == 0 || nf == 0) return bad("%s: the Draco mesh is empty", o.c_str());
+    // COLOR_0 has as many components as the primitive's accessor for it says.
+    auto cit = p.attributes.find("COLOR_0");
+    int ncol = cit != p.attributes.end() && cit->second >= 0 && (size_t)cit->second < m.accessors.size() &&
+                       type_components(m.accessors[cit->second].type) == 3
+                   ? 3
+                   : 4;
+    std::vector<float> col;
     const struct {
         const char *name;
         int ncomp;
         std::vector<float> *out;
-    } want[3] = {{"POSITION", 3, &pd.pos}, {"NORMAL", 3, &pd.nrm}, {"TEXCOORD_0", 2, &pd.uv}};
+    } want[5] = {{"POSITION", 3, &pd.pos}, {"NORMAL", 3, &pd.nrm}, {"TEXCOORD_0", 2, &pd.uv},
+                 {"TEXCOORD_1", 2, &pd.uv1}, {"COLOR_0", ncol, &col}};
     for (const auto &w : want) {
         const Value &id = attrs.Get(w.name);
         if (!id.IsInt()) continue;
@@ -1732,6 +1830,11 @@ int Loader::read_draco(int mi, int pi, const Value &x, std::vector<uint32_t> &id
         if (mesh_draco_attribute(d, id.GetNumberAsInt(), w.ncomp, w.out->data()))
             return bad("%s.attributes.%s: no Draco attribute %d with %d components", o.c_str(),
                        w.name, id.GetNumberAsInt(), w.ncomp);
+    }
+    if (!col.empty()) {
+        pd.col.assign(np * 4, 1.0f);
+        for (size_t v = 0; v < np; v++)
+            for (int k = 0; k < ncol; k++) pd.col[v * 4 + k] = col[v * ncol + k];
     }
     idx.resize(nf * 3);
     mesh_draco_indices(d, idx.data());
@@ -1785,12 +1888,28 @@ int Loader::emit_instance(int mi, const Mat4 &world)
                 for (int r = 0; r < 3; r++) vtx_normal.push_back((float)nw[r]);
                 vtx_uv.push_back(vd.uv.empty() ? 0.0f : vd.uv[v * 2]);
                 vtx_uv.push_back(vd.uv.empty() ? 0.0f : vd.uv[v * 2 + 1]);
+                // TEXCOORD_1 where the primitive has none: its TEXCOORD_0, so a
+                // slot reading set 1 sees the mesh's only mapping.
+                const std::vector<float> &u1 = vd.uv1.empty() ? vd.uv : vd.uv1;
+                vtx_uv1.push_back(u1.empty() ? 0.0f : u1[v * 2]);
+                vtx_uv1.push_back(u1.empty() ? 0.0f : u1[v * 2 + 1]);
+                // COLOR_0 clamped to [0, 1] (a colour multiplying the base colour).
+                for (int k = 0; k < 4; k++)
+                    vtx_color.push_back(vd.col.empty() ? 1.0f : fminf(fmaxf(vd.col[v * 4 + k], 0.0f), 1.0f));
             }
             vertex_count += nv;
+            any_uv1 |= !vd.uv1.empty();
+            any_color |= !vd.col.empty();
         }
         uint64_t base = done->second.first;
         const std::vector<double> &wp = done->second.second;
         const SceneMaterial &sm = mats[pd.material];
+        if (vd.uv1.empty())
+            for (int k = 0; k < SPT_SLOT_COUNT; k++)
+                if (sm.tex[k].tex >= 0 && sm.tex[k].texcoord == 1) {
+                    uv1_missing++;
+                    break;
+                }
         bool emissive = sm.emission_spd.count > 0 ||
                         (sm.emissive_strength > 0 &&
                          (sm.emissive[0] > 0 || sm.emissive[1] > 0 || sm.emissive[2] > 0));
@@ -1861,14 +1980,14 @@ int Loader::finish(Scene *s)
         spt_warn("%s: %u TRIANGLES primitive(s) have a vertex count that is not a multiple of 3; "
                  "the extra vertices were ignored",
                  file, leftover_indices);
-    if (texcoord_warned)
-        spt_warn("%s: %u texture reference(s) use a texCoord set other than 0; TEXCOORD_0 is "
-                 "used instead",
-                 file, texcoord_warned);
-    if (transform_unused)
-        spt_warn("%s: %u KHR_texture_transform(s) on texture slots without a transform "
-                 "(transmission) were ignored",
-                 file, transform_unused);
+    if (texcoord_warned || texcoord_unread)
+        spt_warn("%s: only TEXCOORD_0 and TEXCOORD_1 are read: %u texture reference(s) with a "
+                 "texCoord above 1 use TEXCOORD_0, %u primitive(s) have TEXCOORD_2 or higher",
+                 file, texcoord_warned, texcoord_unread);
+    if (uv1_missing)
+        spt_warn("%s: %u primitive(s) without TEXCOORD_1 have a material that reads it; their "
+                 "TEXCOORD_0 is used instead",
+                 file, uv1_missing);
     if (specgloss_textures)
         spt_warn("%s: %u KHR_materials_pbrSpecularGlossiness specularGlossinessTexture(s) "
                  "ignored (only the factors are converted)",
@@ -1895,6 +2014,8 @@ int Loader::finish(Scene *s)
     s->vertex_count = (uint32_t)vertex_count;
     s->vtx_normal = copy_out(vtx_normal);
     s->vtx_uv = copy_out(vtx_uv);
+    s->vtx_uv1 = any_uv1 ? copy_out(vtx_uv1) : nullptr;
+    s->vtx_color = any_color ? copy_out(vtx_color) : nullptr;
     s->material_count = (uint32_t)mats.size();
     s->materials = copy_out(mats);
     mats.clear(); // the SPDs now belong to s

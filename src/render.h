@@ -69,6 +69,9 @@ typedef struct GpuScene {
     float *vtx_pos;          /* 3 per vertex: positions, from the Scene's triangles */
     float *vtx_normal;       /* borrowed from the Scene */
     float *vtx_uv;           /* borrowed from the Scene */
+    float *vtx_uv1;          /* borrowed from the Scene; NULL without TEXCOORD_1 */
+    float *vtx_color;        /* 4 per vertex: COLOR_0's sigmoid coefficients and alpha;
+                                NULL without COLOR_0 */
     uint32_t vertex_count;
     GpuMaterial *materials;
     uint32_t material_count;
@@ -76,7 +79,7 @@ typedef struct GpuScene {
     uint32_t spectra_count;  /* floats */
     GpuTexture *textures;
     uint32_t texture_count;
-    float *texels;           /* 4 floats per texel: sigmoid coefficients and scale */
+    float *texels;           /* 4 floats per texel (GpuTexture's kinds), mip pyramids */
     size_t texel_count;
     uint32_t *emitters;      /* packed triangle index per emitter */
     uint32_t emitter_count;

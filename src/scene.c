@@ -12,24 +12,22 @@ void scene_material_default(SceneMaterial *m)
     memset(m, 0, sizeof *m);
     strcpy(m->name, "default");
     for (int i = 0; i < 4; i++) m->base_color[i] = 1.0f;
-    m->base_color_tex = -1;
     m->metallic = 1.0f;
     m->roughness = 1.0f;
-    m->metallic_roughness_tex = -1;
     m->emissive_strength = 1.0f;
-    m->emissive_tex = -1;
-    m->normal_tex = -1;
     m->normal_scale = 1.0f;
+    m->clearcoat_normal_scale = 1.0f;
     m->ior = 1.5f;
-    m->transmission_tex = -1;
     for (int i = 0; i < 3; i++) m->attenuation_color[i] = 1.0f;
     m->specular = 1.0f;
     for (int i = 0; i < 3; i++) m->specular_color[i] = 1.0f;
     m->alpha_mode = SPT_ALPHA_OPAQUE;
     m->alpha_cutoff = 0.5f;
-    for (int k = 0; k < 4; k++) {
-        m->uv_transform[k][0] = 1.0f;
-        m->uv_transform[k][4] = 1.0f;
+    for (int k = 0; k < SPT_SLOT_COUNT; k++) {
+        m->tex[k].tex = -1;
+        m->tex[k].gltf_index = -1;
+        m->tex[k].transform[0] = 1.0f;
+        m->tex[k].transform[4] = 1.0f;
     }
 }
 
@@ -87,6 +85,8 @@ void scene_free(Scene *s)
     free(s->tri_mat);
     free(s->vtx_normal);
     free(s->vtx_uv);
+    free(s->vtx_uv1);
+    free(s->vtx_color);
     for (uint32_t i = 0; i < s->material_count; i++) {
         spd_free(&s->materials[i].reflectance_spd);
         spd_free(&s->materials[i].emission_spd);

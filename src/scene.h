@@ -20,31 +20,63 @@ typedef struct SceneTexture {
     int channels;        /* 1..4 */
     int srgb_decoded;    /* 1: colour texture, decoded from sRGB to linear on load */
     int wrap_s, wrap_t;  /* SPT_WRAP_* */
+    int nearest;         /* 1: sampler magFilter NEAREST (else magnified bilinear) */
     float *texels;       /* width*height*channels linear floats, first row = v 0 */
 } SceneTexture;
 
 enum { SPT_ALPHA_OPAQUE = 0, SPT_ALPHA_MASK = 1, SPT_ALPHA_BLEND = 2 };
 
+/* A material's texture slots, in the order of kernels/render_types.h's SPT_TS_*
+ * (which has no occlusion: a path tracer computes occlusion itself, so the
+ * occlusion texture is only reported). */
+enum {
+    SPT_SLOT_BASE = 0,              /* baseColorTexture: RGB (sRGB) x factor, A x alpha */
+    SPT_SLOT_METALLIC_ROUGHNESS,    /* metallicRoughnessTexture: B metallic, G roughness */
+    SPT_SLOT_NORMAL,                /* normalTexture (with its scale) */
+    SPT_SLOT_EMISSIVE,              /* emissiveTexture: RGB (sRGB) */
+    SPT_SLOT_TRANSMISSION,          /* KHR_materials_transmission: R */
+    SPT_SLOT_SPECULAR,              /* KHR_materials_specular specularTexture: A */
+    SPT_SLOT_SPECULAR_COLOR,        /* ... specularColorTexture: RGB (sRGB) */
+    SPT_SLOT_CLEARCOAT,             /* KHR_materials_clearcoat clearcoatTexture: R */
+    SPT_SLOT_CLEARCOAT_ROUGHNESS,   /* ... clearcoatRoughnessTexture: G */
+    SPT_SLOT_CLEARCOAT_NORMAL,      /* ... clearcoatNormalTexture (with its scale) */
+    SPT_SLOT_SHEEN_COLOR,           /* KHR_materials_sheen sheenColorTexture: RGB (sRGB) */
+    SPT_SLOT_SHEEN_ROUGHNESS,       /* ... sheenRoughnessTexture: A */
+    SPT_SLOT_OCCLUSION,             /* occlusionTexture: read, not rendered */
+    SPT_SLOT_COUNT
+};
+
+/* A texture slot's reference: the scene texture (-1: none or unusable), the file's
+ * textures[] index it came from (-1: none; for `info`), the texture coordinate
+ * set (texCoord, 0 or 1), and KHR_texture_transform: uv' = M (u, v, 1), M a 2x3
+ * row-major affine matrix, the identity when absent. */
+typedef struct SceneTexRef {
+    int tex;
+    int gltf_index;
+    int texcoord;
+    float transform[6];
+} SceneTexRef;
+
 typedef struct SceneMaterial {
     char name[128];
     float base_color[4];        /* linear RGBA factor */
-    int base_color_tex;         /* texture index or -1 (all *_tex likewise) */
     float metallic, roughness;
-    int metallic_roughness_tex; /* B = metallic, G = roughness */
     float emissive[3];          /* linear RGB factor */
     float emissive_strength;    /* KHR_materials_emissive_strength, default 1 */
-    int emissive_tex;
-    int normal_tex;
     float normal_scale;
     float ior;                  /* KHR_materials_ior, default 1.5 */
     float transmission;         /* KHR_materials_transmission factor, default 0 */
-    int transmission_tex;
     float dispersion;           /* KHR_materials_dispersion, 0 = none */
     float attenuation_color[3]; /* KHR_materials_volume, default 1,1,1 */
     float attenuation_distance; /* default +inf (stored as 0 = infinite) */
     float thickness;
     float specular;             /* KHR_materials_specular specularFactor, default 1 */
     float specular_color[3];    /* specularColorFactor, default 1,1,1 */
+    float clearcoat;            /* KHR_materials_clearcoat clearcoatFactor, default 0 */
+    float clearcoat_roughness;  /* clearcoatRoughnessFactor, default 0 */
+    float clearcoat_normal_scale; /* clearcoatNormalTexture.scale, default 1 */
+    float sheen_color[3];       /* KHR_materials_sheen sheenColorFactor, default 0,0,0 */
+    float sheen_roughness;      /* sheenRoughnessFactor, default 0 */
     int double_sided;
     int alpha_mode;             /* SPT_ALPHA_* */
     float alpha_cutoff;         /* default 0.5 */
@@ -54,12 +86,8 @@ typedef struct SceneMaterial {
     Spd reflectance_spd;
     Spd emission_spd;
     char conductor[16];         /* "" or a conductor name such as "Au" */
-    /* KHR_texture_transform per texture slot (SPT_SLOT_*): uv' = M (u, v, 1), M a
-     * 2x3 row-major affine matrix, identity when absent. */
-    float uv_transform[4][6];
+    SceneTexRef tex[SPT_SLOT_COUNT]; /* texture slots (SPT_SLOT_*) */
 } SceneMaterial;
-
-enum { SPT_SLOT_BASE = 0, SPT_SLOT_METALLIC_ROUGHNESS = 1, SPT_SLOT_NORMAL = 2, SPT_SLOT_EMISSIVE = 3 };
 
 enum { SPT_LIGHT_POINT = 0, SPT_LIGHT_SPOT = 1, SPT_LIGHT_DIRECTIONAL = 2 };
 
@@ -112,6 +140,10 @@ typedef struct Scene {
     float *vtx_normal;    /* 3 per vertex, unit world-space shading normal, or 0,0,0
                              where the file had none (use the geometric normal) */
     float *vtx_uv;        /* 2 per vertex (TEXCOORD_0, 0,0 when absent) */
+    float *vtx_uv1;       /* 2 per vertex (TEXCOORD_1; TEXCOORD_0 where a primitive has
+                             none), NULL when no primitive has TEXCOORD_1 */
+    float *vtx_color;     /* 4 per vertex (COLOR_0 as linear RGBA in [0, 1]; 1,1,1,1
+                             where a primitive has none), NULL when none has COLOR_0 */
     SceneMaterial *materials;
     uint32_t material_count;
     SceneTexture *textures;

@@ -58,6 +58,8 @@ void *scene_pack(const Scene *s, size_t *size)
     put_array(&b, s->tri_mat, (size_t)s->tri_count * sizeof(uint32_t));
     put_array(&b, s->vtx_normal, s->vtx_normal ? (size_t)s->vertex_count * 3 * sizeof(float) : 0);
     put_array(&b, s->vtx_uv, s->vtx_uv ? (size_t)s->vertex_count * 2 * sizeof(float) : 0);
+    put_array(&b, s->vtx_uv1, s->vtx_uv1 ? (size_t)s->vertex_count * 2 * sizeof(float) : 0);
+    put_array(&b, s->vtx_color, s->vtx_color ? (size_t)s->vertex_count * 4 * sizeof(float) : 0);
     put_array(&b, s->materials, (size_t)s->material_count * sizeof(SceneMaterial));
     for (uint32_t i = 0; i < s->material_count; i++) {
         put_spd(&b, &s->materials[i].reflectance_spd);
@@ -128,7 +130,7 @@ int scene_unpack(Scene *s, const void *bytes, size_t size, const char *what, Spt
     s->path = NULL;
     s->tri_pos = NULL;
     s->tri_vidx = s->tri_mat = NULL;
-    s->vtx_normal = s->vtx_uv = NULL;
+    s->vtx_normal = s->vtx_uv = s->vtx_uv1 = s->vtx_color = NULL;
     s->materials = NULL;
     s->textures = NULL;
     s->lights = NULL;
@@ -144,17 +146,15 @@ int scene_unpack(Scene *s, const void *bytes, size_t size, const char *what, Spt
     s->tri_vidx = get_array(&r, (size_t)s->tri_count * 3 * sizeof(uint32_t));
     s->tri_mat = get_array(&r, (size_t)s->tri_count * sizeof(uint32_t));
     /* Vertex arrays may be absent (an empty array) or complete. */
-    for (int k = 0; k < 2 && !r.bad; k++) {
+    float **arrays[4] = {&s->vtx_normal, &s->vtx_uv, &s->vtx_uv1, &s->vtx_color};
+    const size_t per_vertex[4] = {3, 2, 2, 4};
+    for (int k = 0; k < 4 && !r.bad; k++) {
         uint64_t n = 0;
         size_t pos = r.at;
         get(&r, &n, sizeof n);
         r.at = pos;
-        size_t full = (size_t)s->vertex_count * (k ? 2 : 3) * sizeof(float);
-        float *a = get_array(&r, n ? full : 0);
-        if (k)
-            s->vtx_uv = a;
-        else
-            s->vtx_normal = a;
+        size_t full = (size_t)s->vertex_count * per_vertex[k] * sizeof(float);
+        *arrays[k] = get_array(&r, n ? full : 0);
     }
     s->material_count = 0;
     s->materials = get_array(&r, (size_t)nmat * sizeof(SceneMaterial));

@@ -73,7 +73,7 @@ static void test_external_bin_translation(void **state)
     assert_close(s.materials[0].metallic, 1, 0);
     assert_close(s.materials[0].roughness, 1, 0);
     assert_close(s.materials[0].ior, 1.5, 0);
-    assert_int_equal(s.materials[0].base_color_tex, -1);
+    assert_int_equal(s.materials[0].tex[SPT_SLOT_BASE].tex, -1);
     /* No camera: the default one, 45 degrees, from +Z, framing the bounds
      * (sphere radius sqrt(0.5) at distance r / sin(22.5 deg) = 1.847759). */
     assert_int_equal(s.camera.is_default, 1);
@@ -192,10 +192,10 @@ static void test_materials_textures_extras(void **state)
     assert_close(m->alpha_cutoff, 0.3, 1e-7);
     assert_int_equal(m->double_sided, 1);
     /* The same image as colour (sRGB-decoded) and as data: two textures. */
-    assert_true(m->base_color_tex >= 0 && m->metallic_roughness_tex >= 0);
-    assert_int_not_equal(m->base_color_tex, m->metallic_roughness_tex);
-    const SceneTexture *c = &s.textures[m->base_color_tex];
-    const SceneTexture *d = &s.textures[m->metallic_roughness_tex];
+    assert_true(m->tex[SPT_SLOT_BASE].tex >= 0 && m->tex[SPT_SLOT_METALLIC_ROUGHNESS].tex >= 0);
+    assert_int_not_equal(m->tex[SPT_SLOT_BASE].tex, m->tex[SPT_SLOT_METALLIC_ROUGHNESS].tex);
+    const SceneTexture *c = &s.textures[m->tex[SPT_SLOT_BASE].tex];
+    const SceneTexture *d = &s.textures[m->tex[SPT_SLOT_METALLIC_ROUGHNESS].tex];
     assert_int_equal(c->width, 2);
     assert_int_equal(c->height, 2);
     assert_int_equal(c->channels, 3);
@@ -215,16 +215,16 @@ static void test_materials_textures_extras(void **state)
     assert_close(c->texels[11], 0.0129830323, 1e-7);
     assert_close(d->texels[11], 30.0 / 255.0, 1e-7);
     /* Normal map from a file beside the scene, emissive from a data URI. */
-    assert_int_equal(s.textures[m->normal_tex].srgb_decoded, 0);
-    assert_string_equal(s.textures[m->normal_tex].name, "tex_2x2.png");
-    assert_int_equal(s.textures[m->emissive_tex].srgb_decoded, 1);
-    assert_close(s.textures[m->emissive_tex].texels[3], 1.0, 1e-7); /* 255 */
+    assert_int_equal(s.textures[m->tex[SPT_SLOT_NORMAL].tex].srgb_decoded, 0);
+    assert_string_equal(s.textures[m->tex[SPT_SLOT_NORMAL].tex].name, "tex_2x2.png");
+    assert_int_equal(s.textures[m->tex[SPT_SLOT_EMISSIVE].tex].srgb_decoded, 1);
+    assert_close(s.textures[m->tex[SPT_SLOT_EMISSIVE].tex].texels[3], 1.0, 1e-7); /* 255 */
 
     m = &s.materials[1];
     assert_string_equal(m->name, "glass");
     assert_close(m->ior, 1.7, 1e-6);
     assert_close(m->transmission, 0.9, 1e-7);
-    assert_int_equal(m->transmission_tex, s.materials[0].normal_tex); /* same image, linear */
+    assert_int_equal(m->tex[SPT_SLOT_TRANSMISSION].tex, s.materials[0].tex[SPT_SLOT_NORMAL].tex); /* same image, linear */
     assert_close(m->dispersion, 20, 0);
     assert_close(m->thickness, 0.1, 1e-7);
     assert_close(m->attenuation_distance, 2, 0);
@@ -243,9 +243,9 @@ static void test_materials_textures_extras(void **state)
 
     /* Escaping, missing and corrupt images: warnings, factors used. */
     m = &s.materials[4];
-    assert_int_equal(m->base_color_tex, -1);
-    assert_int_equal(m->metallic_roughness_tex, -1);
-    assert_int_equal(m->emissive_tex, -1);
+    assert_int_equal(m->tex[SPT_SLOT_BASE].tex, -1);
+    assert_int_equal(m->tex[SPT_SLOT_METALLIC_ROUGHNESS].tex, -1);
+    assert_int_equal(m->tex[SPT_SLOT_EMISSIVE].tex, -1);
     assert_int_equal(s.stats.unusable_images, 3);
     assert_int_equal(s.texture_count, 4);
     /* The primitive without a material gets the glTF default material. */
@@ -414,7 +414,7 @@ static const BadCase bad_cases[] = {
     {"bad_node_loop.gltf", "nodes[", "loop"},
     {"bad_node_self.gltf", "nodes[0]", "own child"},
     {"bad_two_parents.gltf", "nodes[1]", "two parents"},
-    {"bad_ext_required.gltf", "KHR_materials_sheen", "EXT_spectrace_nope"},
+    {"bad_ext_required.gltf", "KHR_materials_iridescence", "EXT_spectrace_nope"},
     {"bad_camera_yfov.gltf", "cameras[0].perspective.yfov", NULL},
     {"bad_camera_zfar.gltf", "cameras[0].perspective.zfar", NULL},
     {"bad_buffer_missing.gltf", "buffers[0]", "not found"},

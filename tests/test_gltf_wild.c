@@ -77,23 +77,26 @@ static void test_texture_transform(void **state)
      * offset (0.25, 0.5), rotation pi/6 (cos 0.8660254, sin 0.5), scale (2, 3). */
     const double c = 0.86602540378, sn = 0.5;
     const double base[6] = {2 * c, 3 * sn, 0.25, -2 * sn, 3 * c, 0.5};
-    assert_matrix(m->uv_transform[SPT_SLOT_BASE], base);
+    assert_matrix(m->tex[SPT_SLOT_BASE].transform, base);
     /* The corner uv (1, 0) goes to (2 cos + 0.25, -2 sin + 0.5) = (1.982, -0.5). */
-    const float *b = m->uv_transform[SPT_SLOT_BASE];
+    const float *b = m->tex[SPT_SLOT_BASE].transform;
     assert_close(b[0] * 1 + b[1] * 0 + b[2], 1.98205080757, 1e-6);
     assert_close(b[3] * 1 + b[4] * 0 + b[5], -0.5, 1e-6);
     const double mr[6] = {4, 0, 0, 0, 0.5, 0};
-    assert_matrix(m->uv_transform[SPT_SLOT_METALLIC_ROUGHNESS], mr);
+    assert_matrix(m->tex[SPT_SLOT_METALLIC_ROUGHNESS].transform, mr);
     const double em[6] = {1, 0, -1, 0, 1, 2};
-    assert_matrix(m->uv_transform[SPT_SLOT_EMISSIVE], em);
+    assert_matrix(m->tex[SPT_SLOT_EMISSIVE].transform, em);
     /* Rotation pi/2 alone: (u, v) -> (v, -u). */
     const double nr[6] = {0, 1, 0, -1, 0, 0};
-    assert_matrix(m->uv_transform[SPT_SLOT_NORMAL], nr);
+    assert_matrix(m->tex[SPT_SLOT_NORMAL].transform, nr);
     const double id[6] = {1, 0, 0, 0, 1, 0};
-    for (int k = 0; k < 4; k++) assert_matrix(s.materials[1].uv_transform[k], id);
-    assert_true(m->base_color_tex >= 0 && m->normal_tex >= 0 && m->emissive_tex >= 0);
-    /* The normal texture's texCoord 1 (from the transform) is warned about. */
-    assert_int_equal(count_warnings(err, "texCoord set other than 0", NULL), 1);
+    for (int k = 0; k < 4; k++) assert_matrix(s.materials[1].tex[k].transform, id);
+    assert_true(m->tex[SPT_SLOT_BASE].tex >= 0 && m->tex[SPT_SLOT_NORMAL].tex >= 0 && m->tex[SPT_SLOT_EMISSIVE].tex >= 0);
+    /* The normal texture reads TEXCOORD_1 (the transform's texCoord), which the
+     * primitive lacks: its TEXCOORD_0 is used, with a warning. */
+    assert_int_equal(m->tex[SPT_SLOT_NORMAL].texcoord, 1);
+    assert_int_equal(m->tex[SPT_SLOT_BASE].texcoord, 0);
+    assert_int_equal(count_warnings(err, "without TEXCOORD_1", "TEXCOORD_0 is used"), 1);
     scene_free(&s);
 }
 
@@ -105,7 +108,7 @@ static void test_spec_gloss_and_ignored(void **state)
     static char err[8192];
     int rc = load_capture(&s, DATA("wild_specgloss.gltf"), &e, err, sizeof err);
     if (rc) fail_msg("%s", e.msg);
-    assert_int_equal(s.material_count, 5);
+    assert_int_equal(s.material_count, 7);
     /* Specular (0,0,0) < 0.04: metallic 0, base = diffuse (1 - 0) / (1 - 0.04). */
     const SceneMaterial *d = &s.materials[0];
     assert_close(d->metallic, 0, 1e-6);
@@ -118,10 +121,19 @@ static void test_spec_gloss_and_ignored(void **state)
     assert_close(mt->metallic, 1, 1e-6);
     for (int k = 0; k < 3; k++) assert_close(mt->base_color[k], 1, 1e-6);
     assert_close(mt->roughness, 0.2, 1e-6);
+    /* KHR_materials_sheen and KHR_materials_clearcoat are rendered: their
+     * factors are read, no warning. */
+    assert_close(s.materials[2].sheen_color[0], 1, 1e-6);
+    assert_close(s.materials[2].sheen_color[1], 0, 1e-6);
+    assert_close(s.materials[2].sheen_roughness, 0.4, 1e-6);
+    assert_close(s.materials[3].clearcoat, 1, 1e-6);
+    assert_close(s.materials[3].clearcoat_roughness, 0.1, 1e-6);
+    assert_int_equal(count_warnings(err, "KHR_materials_sheen", NULL), 0);
+    assert_int_equal(count_warnings(err, "KHR_materials_clearcoat", NULL), 0);
     /* One warning per ignored extension, naming its materials; one for the
      * unknown extensions, naming both. */
-    assert_int_equal(count_warnings(err, "KHR_materials_sheen", "velvet, carpaint"), 1);
-    assert_int_equal(count_warnings(err, "KHR_materials_clearcoat", "carpaint"), 1);
+    assert_int_equal(count_warnings(err, "KHR_materials_iridescence", "soap, brushed"), 1);
+    assert_int_equal(count_warnings(err, "KHR_materials_anisotropy", "brushed"), 1);
     /* KHR_materials_specular is rendered: its factor is read, no warning. */
     assert_close(s.materials[4].specular, 0.5, 1e-6);
     for (int k = 0; k < 3; k++) assert_close(s.materials[4].specular_color[k], 1, 1e-6);
@@ -137,16 +149,16 @@ static void test_required_refused(void **state)
 {
     (void)state;
     const char *json =
-        "{\"asset\":{\"version\":\"2.0\"},\"extensionsUsed\":[\"KHR_materials_clearcoat\","
+        "{\"asset\":{\"version\":\"2.0\"},\"extensionsUsed\":[\"KHR_materials_anisotropy\","
         "\"KHR_texture_transform\",\"EXT_foo\",\"EXT_meshopt_compression\"],"
-        "\"extensionsRequired\":[\"KHR_materials_clearcoat\",\"KHR_texture_transform\","
+        "\"extensionsRequired\":[\"KHR_materials_anisotropy\",\"KHR_texture_transform\","
         "\"EXT_foo\",\"EXT_meshopt_compression\"]}";
     Scene s;
     SptError e = {0};
     int rc = scene_load_gltf_memory(&s, json, strlen(json), "tests/data/gltf/req.gltf", &e);
     assert_int_equal(rc, SPT_EXIT_INPUT);
     assert_non_null(strstr(e.msg, "extensionsRequired"));
-    assert_non_null(strstr(e.msg, "KHR_materials_clearcoat"));
+    assert_non_null(strstr(e.msg, "KHR_materials_anisotropy"));
     assert_non_null(strstr(e.msg, "EXT_foo"));
     assert_null(strstr(e.msg, "KHR_texture_transform"));
     assert_null(strstr(e.msg, "EXT_meshopt"));
@@ -157,7 +169,8 @@ static void test_required_refused(void **state)
         "\"KHR_materials_ior\",\"KHR_materials_transmission\",\"KHR_materials_dispersion\","
         "\"KHR_materials_volume\",\"KHR_materials_unlit\",\"KHR_lights_punctual\","
         "\"KHR_texture_transform\",\"KHR_materials_pbrSpecularGlossiness\",\"KHR_mesh_quantization\","
-        "\"EXT_meshopt_compression\",\"KHR_draco_mesh_compression\",\"EXT_texture_webp\"]}";
+        "\"EXT_meshopt_compression\",\"KHR_draco_mesh_compression\",\"EXT_texture_webp\","
+        "\"KHR_materials_specular\",\"KHR_materials_clearcoat\",\"KHR_materials_sheen\"]}";
     static char err[4096];
     fflush(stderr);
     FILE *tmp = tmpfile();

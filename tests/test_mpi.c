@@ -183,8 +183,9 @@ static void test_failing_rank(void **state)
 static void test_scene_pack_round_trip(void **state)
 {
     (void)state;
-    static const char *files[2] = {"tests/data/gltf/materials.gltf", "tests/data/scenes/furnace_spectral.gltf"};
-    for (int f = 0; f < 2; f++) {
+    static const char *files[4] = {"tests/data/gltf/materials.gltf", "tests/data/scenes/furnace_spectral.gltf",
+                                   "tests/data/textures/texcoord1.gltf", "tests/data/textures/color0_vec4_ubyte.gltf"};
+    for (int f = 0; f < 4; f++) {
         Scene a, b;
         SptError e = {0};
         if (scene_load_gltf(&a, files[f], &e))
@@ -197,6 +198,15 @@ static void test_scene_pack_round_trip(void **state)
         assert_int_equal(b.tri_count, a.tri_count);
         assert_memory_equal(b.tri_pos, a.tri_pos, (size_t)a.tri_count * 9 * sizeof(float));
         assert_memory_equal(b.tri_mat, a.tri_mat, (size_t)a.tri_count * sizeof(uint32_t));
+        /* TEXCOORD_1 and COLOR_0, where the scene has them (files 2 and 3). */
+        assert_int_equal(b.vtx_uv1 != NULL, a.vtx_uv1 != NULL);
+        assert_int_equal(b.vtx_color != NULL, a.vtx_color != NULL);
+        assert_int_equal(a.vtx_uv1 != NULL, f == 2);
+        assert_int_equal(a.vtx_color != NULL, f == 3);
+        if (a.vtx_uv1)
+            assert_memory_equal(b.vtx_uv1, a.vtx_uv1, (size_t)a.vertex_count * 2 * sizeof(float));
+        if (a.vtx_color)
+            assert_memory_equal(b.vtx_color, a.vtx_color, (size_t)a.vertex_count * 4 * sizeof(float));
         assert_int_equal(b.texture_count, a.texture_count);
         for (uint32_t i = 0; i < a.texture_count; i++)
             if (a.textures[i].texels)

@@ -602,7 +602,7 @@ static double render_normal_mapped(int toward_bitangent, double light_sign)
     for (int i = 0; i < 4; i++)
         for (int k = 0; k < 3; k++)
             tx->texels[3 * i + k] = 0.5f * (n[k] + 1.0f);
-    m->normal_tex = 0;
+    m->tex[SPT_SLOT_NORMAL].tex = 0;
     s.camera.position[1] = 3.0f;
     s.camera.forward[1] = -1.0f;
     s.camera.up[2] = -1.0f;

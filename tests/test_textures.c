@@ -169,6 +169,388 @@ static void test_base_color_empty_sampler(void **state)
 }
 
 /* ------------------------------------------------------------------------- */
+/* Data textures and layers share one 4 x 4 layout of four kinds of cell (no
+ * symmetry under flips or transposes): tools/make_texture_scenes.py KIND_GRID. */
+
+static const int kind_grid[4][4] = {{0, 1, 2, 3}, {1, 1, 0, 2}, {3, 0, 2, 2}, {0, 3, 3, 1}};
+
+/* Asserts that every cell of the 4 x 4 grid shows want[kind] (grey, all
+ * channels) within rel relative plus abs_tol absolute. */
+static void assert_kind_cells(const Image *im, const double want[4], double rel, double abs_tol)
+{
+    for (int row = 0; row < 4; row++)
+        for (int col = 0; col < 4; col++) {
+            double w = want[kind_grid[row][col]], g[3] = {w, w, w};
+            assert_cell(im, 4, 4, col, row, g, rel, abs_tol);
+        }
+}
+
+/* Alpha (linear, not sRGB-decoded) of the base colour texture: cells of alpha
+ * 51, 128, 204, 255 over a black plane under the white sky. BLEND shows 1 - alpha;
+ * MASK (cutoff 0.6) the sky where alpha < 0.6, else black. The same texture on a
+ * white OPAQUE plane shows each cell's colour as stored: glTF's texels are not
+ * premultiplied by their alpha. */
+static void test_alpha_blend_and_mask(void **state)
+{
+    (void)state;
+    const int a8[4] = {51, 128, 204, 255};
+    double blend[4], mask[4];
+    for (int k = 0; k < 4; k++) {
+        blend[k] = 1.0 - a8[k] / 255.0;
+        mask[k] = a8[k] / 255.0 < 0.6 ? 1.0 : 0.0;
+    }
+    Image im = render_texture_scene("alpha_blend.gltf", 64, 64, 32, 2, NULL);
+    assert_kind_cells(&im, blend, 0.05, 0.02);
+    free(im.rgb);
+    im = render_texture_scene("alpha_mask.gltf", 64, 64, 16, 2, NULL);
+    assert_kind_cells(&im, mask, 0.0, 0.03);
+    free(im.rgb);
+    const int rgb8[4][3] = {{200, 100, 50}, {40, 200, 120}, {120, 40, 200}, {200, 200, 40}};
+    im = render_texture_scene("alpha_opaque.gltf", 64, 64, 16, 2, NULL);
+    for (int row = 0; row < 4; row++)
+        for (int col = 0; col < 4; col++) {
+            const int *c = rgb8[kind_grid[row][col]];
+            double want[3] = {srgb8_to_linear(c[0]), srgb8_to_linear(c[1]), srgb8_to_linear(c[2])};
+            assert_cell(&im, 4, 4, col, row, want, 0.06, 0.01);
+        }
+    free(im.rgb);
+}
+
+/* The metallic-roughness texture (B metallic, G roughness, linear) of a white
+ * plane lit head-on by pi lux (a white Lambertian would read 1), seen head-on
+ * (wo = wi = n = h): glTF Appendix B gives f cos = D(n) G2 F / 4 for the GGX lobe,
+ * D(n) = 1 / (pi alpha^2), G2 = 1, and for the dielectric the diffuse
+ * (1 - F0) / pi besides, F0 = 0.04. Cells: metal rough 1 (1/4); metal rough
+ * 128/255 (1 / (4 alpha^2)); mirror metal (0: a delta lobe never meets a delta
+ * light); dielectric rough 1 (0.96 + 0.04/4). */
+static void test_metallic_roughness(void **state)
+{
+    (void)state;
+    double a = (128.0 / 255.0) * (128.0 / 255.0);
+    const double want[4] = {0.25, 1.0 / (4.0 * a * a), 0.0, 0.96 + 0.01};
+    Image im = render_texture_scene("metallic_roughness.gltf", 64, 64, 32, 2, "black");
+    assert_kind_cells(&im, want, 0.03, 0.005);
+    free(im.rgb);
+}
+
+/* The normal texture (scale 0.7) of a white Lambertian lit by pi lux from
+ * l = (2, 1, 3) / sqrt(14): each cell shows max(0, n.l), n the decoded texel
+ * (2 c / 255 - 1, x and y times the scale) in the tangent frame of the plane:
+ * the tangent along increasing u (+X, or -X where the texture coordinates are
+ * mirrored), the bitangent toward the image's top (+Y either way: glTF's
+ * normal textures are +Y up, and a mirrored mapping flips the handedness, as
+ * MikkTSpace's bitangent sign does). Cells: flat, tilted toward the texture's
+ * +X, -X, +Y: four different values, so a swapped or mirrored axis, or a
+ * missing scale, fails. */
+static void check_normal_map(const char *scene, double tangent_x)
+{
+    const int codes[4][3] = {{128, 128, 255}, {218, 128, 218}, {38, 128, 218}, {128, 218, 218}};
+    const double scale = 0.7, l[3] = {2 / sqrt(14.0), 1 / sqrt(14.0), 3 / sqrt(14.0)};
+    double want[4];
+    for (int k = 0; k < 4; k++) {
+        double n[3];
+        for (int c = 0; c < 3; c++)
+            n[c] = (2.0 * codes[k][c] / 255.0 - 1.0) * (c < 2 ? scale : 1.0);
+        n[0] *= tangent_x;
+        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        want[k] = fmax(0.0, (n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) / len);
+    }
+    Image im = render_texture_scene(scene, 64, 64, 32, 2, "black");
+    if (tangent_x < 0) {
+        /* The mirrored mapping shows the texture mirrored: cell (col, row) of
+         * the image is texture cell (3 - col, row). */
+        for (int row = 0; row < 4; row++)
+            for (int col = 0; col < 4; col++) {
+                double w = want[kind_grid[row][3 - col]], g[3] = {w, w, w};
+                assert_cell(&im, 4, 4, col, row, g, 0.03, 0.005);
+            }
+    } else {
+        assert_kind_cells(&im, want, 0.03, 0.005);
+    }
+    free(im.rgb);
+}
+
+static void test_normal_map(void **state)
+{
+    (void)state;
+    check_normal_map("normal.gltf", 1.0);
+    check_normal_map("normal_mirrored.gltf", -1.0);
+}
+
+/* The emissive texture (the base pattern, sRGB) times emissiveFactor (1, 0.8,
+ * 0.6) times KHR_materials_emissive_strength 2, seen directly. */
+static void test_emissive_texture(void **state)
+{
+    (void)state;
+    const double factor[3] = {2.0, 1.6, 1.2};
+    Image im = render_texture_scene("emissive.gltf", 64, 64, 32, 1, "black");
+    for (int row = 0; row < 4; row++)
+        for (int col = 0; col < 4; col++) {
+            double want[3];
+            base_cell_colour(col, row, want);
+            for (int c = 0; c < 3; c++)
+                want[c] *= factor[c];
+            assert_cell(&im, 4, 4, col, row, want, 0.06, 0.01);
+        }
+    free(im.rgb);
+}
+
+/* KHR_materials_transmission's texture (R, linear) on a smooth plane of ior 1 in
+ * front of an emitter of radiance 1: each cell passes its transmission (0, 64,
+ * 128, 255 / 255) of the light; the rest is diffuse reflection of the black sky. */
+static void test_transmission_texture(void **state)
+{
+    (void)state;
+    const double want[4] = {0.0, 64.0 / 255.0, 128.0 / 255.0, 1.0};
+    Image im = render_texture_scene("transmission.gltf", 64, 64, 32, 4, "black");
+    assert_kind_cells(&im, want, 0.03, 0.03);
+    free(im.rgb);
+}
+
+/* The base colour pattern read through TEXCOORD_1 (texCoord 1; TEXCOORD_0 is one
+ * constant point, so reading set 0 shows one colour). */
+static void test_texcoord1(void **state)
+{
+    (void)state;
+    check_base_pattern("texcoord1.gltf");
+}
+
+/* COLOR_0 of a 3 x 3-vertex plane (tools/make_texture_scenes.py VERTEX_COLORS),
+ * interpolated across each triangle and multiplying the white base colour; with
+ * alphaMode BLEND its alpha blends the plane over the white sky. Checked in a
+ * 3 x 3-pixel window at the centroid of each of the 8 triangles against the
+ * barycentric interpolation of the vertex colours at each pixel's centre. */
+static const double vertex_colors[9][4] = {
+    {0.9, 0.1, 0.1, 1.0}, {0.1, 0.9, 0.1, 0.5}, {0.1, 0.1, 0.9, 1.0}, {0.9, 0.9, 0.1, 0.8}, {0.5, 0.5, 0.5, 0.2},
+    {0.1, 0.9, 0.9, 1.0}, {0.9, 0.1, 0.9, 0.6}, {0.3, 0.6, 0.9, 1.0}, {0.9, 0.6, 0.3, 0.4}};
+
+/* The interpolated COLOR_0 (RGBA) at plane point (x, y) in [-1, 1]^2: quads of
+ * side 1 split along the diagonal from (i, j) to (i + 1, j + 1). quantise: the
+ * colours as 8-bit normalised values. */
+static void color_at(double x, double y, int quantise, double out[4])
+{
+    double fx = x + 1.0, fy = y + 1.0;
+    int i = fx >= 1.0 ? 1 : 0, j = fy >= 1.0 ? 1 : 0;
+    double u = fx - i, v = fy - j;
+    int a = 3 * j + i, b, c;
+    double wa, wb, wc;
+    if (u >= v) { /* triangle (a, a + 1, a + 4) */
+        b = a + 1;
+        c = a + 4;
+        wa = 1.0 - u;
+        wb = u - v;
+        wc = v;
+    } else { /* triangle (a, a + 4, a + 3) */
+        b = a + 4;
+        c = a + 3;
+        wa = 1.0 - v;
+        wb = u;
+        wc = v - u;
+    }
+    for (int k = 0; k < 4; k++) {
+        double ca = vertex_colors[a][k], cb = vertex_colors[b][k], cc = vertex_colors[c][k];
+        if (quantise) {
+            ca = round(ca * 255.0) / 255.0;
+            cb = round(cb * 255.0) / 255.0;
+            cc = round(cc * 255.0) / 255.0;
+        }
+        out[k] = wa * ca + wb * cb + wc * cc;
+    }
+}
+
+static void check_vertex_colors(const char *scene, int blend)
+{
+    const int W = 64;
+    Image im = render_texture_scene(scene, W, W, 32, 2, NULL);
+    /* Centroids of the triangles in quad-local coordinates. */
+    const double cen[2][2] = {{2.0 / 3.0, 1.0 / 3.0}, {1.0 / 3.0, 2.0 / 3.0}};
+    for (int q = 0; q < 4; q++)
+        for (int t = 0; t < 2; t++) {
+            double x = -1.0 + (q % 2) + cen[t][0], y = -1.0 + (q / 2) + cen[t][1];
+            int px = (int)((x + 1.0) * 0.5 * W), py = (int)((1.0 - y) * 0.5 * W);
+            double got[3] = {0, 0, 0}, want[3] = {0, 0, 0};
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    int X = px + dx, Y = py + dy;
+                    double c[4];
+                    color_at(-1.0 + 2.0 * (X + 0.5) / W, 1.0 - 2.0 * (Y + 0.5) / W, blend, c);
+                    for (int k = 0; k < 3; k++) {
+                        got[k] += im.rgb[3 * ((size_t)Y * W + X) + k] / 9.0;
+                        want[k] += (blend ? c[3] * c[k] + (1.0 - c[3]) : c[k]) / 9.0;
+                    }
+                }
+            for (int k = 0; k < 3; k++)
+                if (!(fabs(got[k] - want[k]) <= 0.04 * want[k] + 0.01))
+                    fail_msg("%s: triangle %d of quad %d, channel %d: %.4f, expected %.4f", scene, t, q, k, got[k],
+                             want[k]);
+        }
+    free(im.rgb);
+}
+
+static void test_color0_vec3_float(void **state)
+{
+    (void)state;
+    check_vertex_colors("color0_vec3_float.gltf", 0);
+}
+
+static void test_color0_vec4_ubyte(void **state)
+{
+    (void)state;
+    check_vertex_colors("color0_vec4_ubyte.gltf", 1);
+}
+
+/* A 2 x 1 texture (white, black), clamped, magnified over the plane: column u
+ * shows the texel under it with magFilter NEAREST (a step at u = 1/2), and with
+ * LINEAR the interpolation between the texel centres (u = 1/4 and 3/4):
+ * 1 - (u - 1/4) / (1/2) there, 1 and 0 outside. The ramp's kinks fall on pixel
+ * boundaries of a 64-pixel row, so each pixel's mean is its centre's value. */
+static void test_nearest_and_linear(void **state)
+{
+    (void)state;
+    Image nearest = render_texture_scene("filter_nearest.gltf", 64, 64, 16, 2, NULL);
+    Image linear = render_texture_scene("filter_linear.gltf", 64, 64, 16, 2, NULL);
+    for (int x = 0; x < 64; x++) {
+        double u = (x + 0.5) / 64.0;
+        double want_n = u < 0.5 ? 1.0 : 0.0, want_l = fmin(1.0, fmax(0.0, 1.0 - (u - 0.25) / 0.5));
+        double gn = 0.0, gl = 0.0;
+        for (int y = 16; y < 48; y++) {
+            gn += nearest.rgb[3 * ((size_t)y * 64 + x) + 1] / 32.0;
+            gl += linear.rgb[3 * ((size_t)y * 64 + x) + 1] / 32.0;
+        }
+        if (!(fabs(gn - want_n) <= 0.03) || !(fabs(gl - want_l) <= 0.03))
+            fail_msg("column %d (u %.3f): nearest %.4f (expected %.4f), linear %.4f (expected %.4f)", x, u, gn,
+                     want_n, gl, want_l);
+    }
+    free(nearest.rgb);
+    free(linear.rgb);
+}
+
+/* A checkerboard floor to the horizon at 4 samples per pixel: where a pixel's
+ * footprint covers many squares (rows 33-36, just below the horizon: beyond 18 m,
+ * footprints over 4 m long) it must read their mean, 0.5, in every pixel: a
+ * standard deviation across the band below 0.1 (the lighting's own noise at 4
+ * samples is about 0.06; 256 samples give 0.008), where squares picked at random
+ * by 4 samples give about 0.25. Near the camera the squares must still show (a
+ * standard deviation above 0.3). */
+static void test_horizon_converges_to_grey(void **state)
+{
+    (void)state;
+    Image im = render_texture_scene("horizon.gltf", 64, 64, 4, 2, NULL);
+    double s[2] = {0, 0}, s2[2] = {0, 0};
+    int n[2] = {0, 0};
+    for (int y = 33; y < 64; y++) {
+        int band = y < 37 ? 0 : y >= 56 ? 1 : -1;
+        if (band < 0)
+            continue;
+        for (int x = 0; x < 64; x++) {
+            double v = im.rgb[3 * ((size_t)y * 64 + x) + 1];
+            s[band] += v;
+            s2[band] += v * v;
+            n[band]++;
+        }
+    }
+    double mean_far = s[0] / n[0], sd_far = sqrt(fmax(0.0, s2[0] / n[0] - mean_far * mean_far));
+    double mean_near = s[1] / n[1], sd_near = sqrt(fmax(0.0, s2[1] / n[1] - mean_near * mean_near));
+    print_message("  far band (rows 33-36): mean %.4f, sd %.4f; near band (rows 56-63): mean %.4f, sd %.4f\n",
+                  mean_far, sd_far, mean_near, sd_near);
+    assert_close(mean_far, 0.5, 0.05);
+    assert_true(sd_far < 0.1);
+    assert_true(sd_near > 0.3);
+    free(im.rgb);
+}
+
+/* The GGX coat's lobe over a black base, head-on under pi lux: the coat weight
+ * clearcoat Fc(1) = 0.04 clearcoat times D(n) G2 / 4 = 1 / (4 pi alpha^2): pixel =
+ * 0.01 clearcoat / alpha^2 (alpha = roughness^2). Cells (clearcoat R, roughness G
+ * of one texture): (1, 128/255), (1, 1), (128/255, 128/255), (0, -). */
+static void test_clearcoat(void **state)
+{
+    (void)state;
+    double a = (128.0 / 255.0) * (128.0 / 255.0), h = 128.0 / 255.0;
+    const double want[4] = {0.01 / (a * a), 0.01, h * 0.01 / (a * a), 0.0};
+    Image im = render_texture_scene("clearcoat.gltf", 64, 64, 32, 2, "black");
+    assert_kind_cells(&im, want, 0.03, 0.002);
+    free(im.rgb);
+}
+
+/* The clearcoat normal texture (NEAREST: left half flat, right half the texel
+ * (191, 128, 238), about 30 degrees toward +X): head-on view and light, so with
+ * c = n_c.z the coat reflects Fc(c) D(c) G2 / (4 c) with glTF's D and G2 (alpha
+ * 0.25) and Fc = 0.04 + 0.96 (1 - c)^5; the left half 0.01 / alpha^2 = 0.16. */
+static void test_clearcoat_normal(void **state)
+{
+    (void)state;
+    double n[3] = {2 * 191 / 255.0 - 1, 2 * 128 / 255.0 - 1, 2 * 238 / 255.0 - 1};
+    double c = n[2] / sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), a = 0.25, a2 = a * a;
+    double D = a2 / (M_PI * pow(c * c * (a2 - 1) + 1, 2));
+    double lambda = 0.5 * (-1 + sqrt(1 + a2 * (1 - c * c) / (c * c)));
+    double fc = 0.04 + 0.96 * pow(1 - c, 5);
+    double tilted = M_PI * fc * D / (1 + 2 * lambda) / (4 * c);
+    Image im = render_texture_scene("clearcoat_normal.gltf", 64, 64, 32, 2, "black");
+    double flat[3] = {0.16, 0.16, 0.16}, right[3] = {tilted, tilted, tilted};
+    print_message("  tilted coat: expected %.5f (flat 0.16)\n", tilted);
+    for (int row = 0; row < 2; row++) {
+        assert_cell(&im, 2, 2, 0, row, flat, 0.03, 0.002);
+        assert_cell(&im, 2, 2, 1, row, right, 0.03, 0.001);
+    }
+    free(im.rgb);
+}
+
+/* KHR_materials_sheen over a black base, seen and lit 60 degrees off the normal
+ * (pi lux, wo = wi = h, mu = 1/2): f cos = colour D V mu with the specification's
+ * Charlie D = (2 + 1/alpha) sin(theta_h)^(1/alpha) / (2 pi) and V = 1 / ((1 + 2
+ * Lambda(1/2)) 4 mu^2), alpha = r^2, written here from the specification. Cells
+ * (colour RGB sRGB, roughness A linear): (1, 77), (188, 153), (1, 255), (0, -). */
+static double spec_sheen_l(double x, double alpha)
+{
+    const double r0[5] = {21.5473, 3.82987, 0.19823, -1.97760, -4.32054};
+    const double r1[5] = {25.3245, 3.32435, 0.16801, -1.27393, -4.85967};
+    double t = (1 - alpha) * (1 - alpha), c[5];
+    for (int k = 0; k < 5; k++)
+        c[k] = r0[k] + (r1[k] - r0[k]) * t;
+    return c[0] / (1 + c[1] * pow(x, c[2])) + c[3] * x + c[4];
+}
+
+static void test_sheen(void **state)
+{
+    (void)state;
+    const double colour[4] = {1.0, srgb8_to_linear(188), 1.0, 0.0}, rough[4] = {77, 153, 255, 255};
+    double want[4];
+    for (int k = 0; k < 4; k++) {
+        double r = rough[k] / 255.0, alpha = r * r, mu = 0.5;
+        double D = (2 + 1 / alpha) * pow(0.75, 0.5 / alpha) / (2 * M_PI);
+        double lambda = exp(spec_sheen_l(mu, alpha));
+        double V = 1 / ((1 + 2 * lambda) * 4 * mu * mu);
+        want[k] = M_PI * colour[k] * D * V * mu;
+    }
+    print_message("  expected %.5f %.5f %.5f %.5f\n", want[0], want[1], want[2], want[3]);
+    Image im = render_texture_scene("sheen.gltf", 64, 32, 32, 2, "black");
+    assert_kind_cells(&im, want, 0.03, 0.002);
+    free(im.rgb);
+}
+
+/* KHR_materials_specular's textures on a black dielectric (roughness 0.5, alpha
+ * 0.25), head-on under pi lux: the GGX lobe with F = F0 = 0.04 colour specular,
+ * D(n) / 4 = 1 / (4 pi alpha^2): pixel = 0.16 colour specular. Cells (colour RGB
+ * sRGB, specular A linear): white 1; (255, 128, 64) 1; white 128/255; white 0. */
+static void test_specular_textures(void **state)
+{
+    (void)state;
+    Image im = render_texture_scene("specular.gltf", 64, 64, 32, 2, "black");
+    const double tint[4][3] = {{1, 1, 1}, {1, srgb8_to_linear(128), srgb8_to_linear(64)}, {1, 1, 1}, {1, 1, 1}};
+    const double spec[4] = {1.0, 1.0, 128.0 / 255.0, 0.0};
+    for (int row = 0; row < 4; row++)
+        for (int col = 0; col < 4; col++) {
+            int k = kind_grid[row][col];
+            double want[3];
+            for (int c = 0; c < 3; c++)
+                want[c] = 0.16 * tint[k][c] * spec[k];
+            assert_cell(&im, 4, 4, col, row, want, 0.03, 0.002);
+        }
+    free(im.rgb);
+}
+
+/* ------------------------------------------------------------------------- */
 /* What `spectrace render` says about lighting: a scene without emitters or
  * lights is lit by the default sky (a note, no warning that the image will be
  * black); only a black sky earns the warning. */
@@ -215,11 +597,58 @@ static void test_sky_lit_scene_not_called_black(void **state)
         fail_msg("--background 0.5,0.5,0.5: no black-image warning expected, got:\n%s", out);
 }
 
+/* `spectrace info` names each texture slot with the file's texture index and its
+ * uv set; a TEXCOORD_2 is warned about once. */
+static void test_info_slots_and_texcoord_warning(void **state)
+{
+    (void)state;
+    const char *exe = getenv("SPECTRACE_EXE");
+    if (!exe || access(exe, X_OK))
+        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
+    char cmd[1024];
+    snprintf(cmd, sizeof cmd, "'%s' info --no-bvh tests/data/textures/texcoord1.gltf 2>&1", exe);
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    static char out[16384];
+    size_t n = fread(out, 1, sizeof out - 1, p);
+    out[n] = 0;
+    assert_int_equal(pclose(p), 0);
+    if (!strstr(out, "baseColor textures[0] uv 1"))
+        fail_msg("info does not show the base colour slot with its texture and uv set:\n%s", out);
+    int warned = 0;
+    for (const char *q = out; (q = strstr(q, "warning: ")); q++)
+        warned += strstr(q, "TEXCOORD_2") && strstr(q, "TEXCOORD_2") < strchr(q, '\n');
+    if (warned != 1)
+        fail_msg("expected one warning about TEXCOORD_2, got %d:\n%s", warned, out);
+    snprintf(cmd, sizeof cmd, "'%s' info --no-bvh tests/data/textures/clearcoat_normal.gltf 2>&1", exe);
+    p = popen(cmd, "r");
+    n = fread(out, 1, sizeof out - 1, p);
+    out[n] = 0;
+    assert_int_equal(pclose(p), 0);
+    if (!strstr(out, "clearcoat 1 roughness 0.5") || !strstr(out, "clearcoatNormal textures[0] uv 0"))
+        fail_msg("info does not show the clearcoat and its normal slot:\n%s", out);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_base_color_no_sampler),
         cmocka_unit_test(test_base_color_empty_sampler),
+        cmocka_unit_test(test_alpha_blend_and_mask),
+        cmocka_unit_test(test_metallic_roughness),
+        cmocka_unit_test(test_normal_map),
+        cmocka_unit_test(test_emissive_texture),
+        cmocka_unit_test(test_transmission_texture),
+        cmocka_unit_test(test_texcoord1),
+        cmocka_unit_test(test_color0_vec3_float),
+        cmocka_unit_test(test_color0_vec4_ubyte),
+        cmocka_unit_test(test_nearest_and_linear),
+        cmocka_unit_test(test_horizon_converges_to_grey),
+        cmocka_unit_test(test_clearcoat),
+        cmocka_unit_test(test_clearcoat_normal),
+        cmocka_unit_test(test_sheen),
+        cmocka_unit_test(test_specular_textures),
+        cmocka_unit_test(test_info_slots_and_texcoord_warning),
         cmocka_unit_test(test_sky_lit_scene_not_called_black),
     };
     return cmocka_run_group_tests(tests, setup, teardown);

@@ -77,14 +77,20 @@ def material_files():
             "diffuseFactor": [0.5, 0.5, 0.5, 0.8], "specularFactor": [0, 0, 0], "glossinessFactor": 0.3}}},
         {"name": "metal", "extensions": {sg: {
             "diffuseFactor": [0, 0, 0, 1], "specularFactor": [1, 1, 1], "glossinessFactor": 0.8}}},
-        {"name": "velvet", "extensions": {"KHR_materials_sheen": {"sheenColorFactor": [1, 0, 0]}}},
-        {"name": "carpaint", "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1},
+        {"name": "velvet", "extensions": {"KHR_materials_sheen": {"sheenColorFactor": [1, 0, 0],
+                                                                  "sheenRoughnessFactor": 0.4}}},
+        {"name": "carpaint", "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1,
+                                                                       "clearcoatRoughnessFactor": 0.1},
                                             "KHR_materials_sheen": {}}},
         {"name": "plastic", "extensions": {"KHR_materials_specular": {"specularFactor": 0.5}}},
+        {"name": "soap", "extensions": {"KHR_materials_iridescence": {"iridescenceFactor": 1}}},
+        {"name": "brushed", "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 0.5},
+                                           "KHR_materials_iridescence": {}}},
     ]
-    g.node(mesh=g.mesh([g.prim(gg.TRI, [0, 1, 2], material=k) for k in range(5)]))
+    g.node(mesh=g.mesh([g.prim(gg.TRI, [0, 1, 2], material=k) for k in range(7)]))
     g.doc["extensionsUsed"] = [sg, "KHR_materials_sheen", "KHR_materials_clearcoat",
-                               "KHR_materials_specular", "EXT_spectrace_unknown", "EXT_other_unknown"]
+                               "KHR_materials_specular", "KHR_materials_iridescence",
+                               "KHR_materials_anisotropy", "EXT_spectrace_unknown", "EXT_other_unknown"]
     g.gltf("wild_specgloss.gltf")
 
 
