@@ -389,7 +389,7 @@ static void texture_upload(GpuTexture *gt, const SceneTexture *t, uint32_t kind,
                 rgb[c] = mx > 0.0f ? rgb[c] / mx : 0.0f;
             v[3] = mx > 0.0f ? mx : 0.0f;
         }
-        rgb_to_coeffs(rgb, v);
+        rgb_to_coeffs_fast(rgb, v);
     }
     *count += total;
 }
@@ -427,7 +427,7 @@ int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
         g->vtx_color = spt_malloc((size_t)s->vertex_count * 4 * sizeof(float));
         for (uint32_t v = 0; v < s->vertex_count; v++) {
             const float *c = s->vtx_color + 4 * (size_t)v;
-            rgb_to_coeffs(c, g->vtx_color + 4 * (size_t)v);
+            rgb_to_coeffs_fast(c, g->vtx_color + 4 * (size_t)v);
             g->vtx_color[4 * (size_t)v + 3] = c[3];
         }
     }

@@ -425,23 +425,30 @@ extern const int spt_rgb2spec_res;
 extern const float spt_rgb2spec_scale[];
 extern const float spt_rgb2spec_data[];
 
-/* Greys analytically (exact 0 and 1 for black and white); other colours by
- * trilinear interpolation of the fitted table in the cell of the largest channel
- * (z) and the other two divided by it (x, y), as Jakob and Hanika's lookup. */
-void rgb_to_coeffs(const float rgb_in[3], float coeffs[3])
+/* rgb_in clamped to [0, 1] (NaN -> 0) into rgb; for a grey, its coefficients (a
+ * constant spectrum, exactly 0 or 1 for black and white) into coeffs and 1. */
+static int clamp_rgb_grey(const float rgb_in[3], float rgb[3], float coeffs[3])
 {
-    float rgb[3];
     for (int c = 0; c < 3; c++) {
         float v = rgb_in[c];
         rgb[c] = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; /* NaN -> 0 */
     }
     if (rgb[0] == rgb[1] && rgb[1] == rgb[2]) {
-        /* Grey: a constant spectrum, exactly 0 or 1 for black and white. */
         double v = rgb[0];
         coeffs[0] = coeffs[1] = 0.0f;
         coeffs[2] = v <= 0 ? -1e20f : v >= 1 ? 1e20f : (float)((v - 0.5) / sqrt(v * (1.0 - v)));
-        return;
+        return 1;
     }
+    return 0;
+}
+
+/* Coefficients of a non-grey rgb in [0, 1] by trilinear interpolation of the
+ * fitted table in the cell of the largest channel (z) and the other two divided
+ * by it (x, y), as Jakob and Hanika's lookup. Exact at the table's nodes only:
+ * the coefficients are not linear in the colour, and between nodes the colour
+ * of the interpolated spectrum can be off by 0.016 (a tenth of a small channel). */
+static void table_coeffs(const float rgb[3], float coeffs[3])
+{
     const int res = spt_rgb2spec_res;
     int m = rgb[0] >= rgb[1] ? (rgb[0] >= rgb[2] ? 0 : 2) : (rgb[1] >= rgb[2] ? 1 : 2);
     float z = rgb[m];
@@ -476,7 +483,142 @@ void rgb_to_coeffs(const float rgb_in[3], float coeffs[3])
     }
 }
 
-void rgb_illuminant_coeffs(const float rgb[3], float coeffs[3], float *scale)
+/* The refinement works in t = (l - 360) / 470 (coefficients of order 1). */
+#define RGB2SPEC_SPAN ((double)(SPT_CIE_LAMBDA_MAX - SPT_CIE_LAMBDA_MIN))
+
+/* Linear sRGB of the reflectance sigmoid(a0 t^2 + a1 t + a2) under D65, by the
+ * 1 nm sums the renderer's colour pipeline uses, and its Jacobian in a. w holds
+ * each sample's weight (the sRGB of its CIE 1931 values times D65 / integral of
+ * ybar). */
+static void sigmoid_colour(const double w[3][SPT_CIE_SAMPLES], const double a[3], double rgb[3],
+                           double jac[3][3])
+{
+    memset(rgb, 0, 3 * sizeof(double));
+    memset(jac, 0, 9 * sizeof(double));
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        double t = i / (double)(SPT_CIE_SAMPLES - 1);
+        double x = (a[0] * t + a[1]) * t + a[2];
+        double q = 1.0 / sqrt(1.0 + x * x);
+        double s = 0.5 + 0.5 * x * q, ds = 0.5 * q * q * q;
+        for (int c = 0; c < 3; c++) {
+            rgb[c] += w[c][i] * s;
+            jac[c][0] += w[c][i] * ds * t * t;
+            jac[c][1] += w[c][i] * ds * t;
+            jac[c][2] += w[c][i] * ds;
+        }
+    }
+}
+
+/* Solves the 3x3 system m d = b by Cramer's rule; 0 when (nearly) singular. */
+static int solve3x3(const double m[3][3], const double b[3], double d[3])
+{
+    double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                 m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                 m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    if (!(fabs(det) > 1e-300) || !isfinite(det))
+        return 0;
+    for (int k = 0; k < 3; k++) {
+        double mk[3][3];
+        memcpy(mk, m, sizeof mk);
+        for (int r = 0; r < 3; r++)
+            mk[r][k] = b[r];
+        d[k] = (mk[0][0] * (mk[1][1] * mk[2][2] - mk[1][2] * mk[2][1]) -
+                mk[0][1] * (mk[1][0] * mk[2][2] - mk[1][2] * mk[2][0]) +
+                mk[0][2] * (mk[1][0] * mk[2][1] - mk[1][1] * mk[2][0])) / det;
+    }
+    return 1;
+}
+
+/* Moves the table's coefficients c (nm) to the ones whose colour is exactly rgb
+ * (to 1e-9; least squares for a colour no sigmoid spectrum reaches) by
+ * Levenberg-Marquardt steps on the same objective as tools/rgb2spec/
+ * rgb2spec_opt.c. Keeps c when no step improves it. */
+static void refine_coeffs(const float rgb[3], float c[3])
+{
+    double w[3][SPT_CIE_SAMPLES];
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        double xyz[3] = {SPT_CIE_X[i], SPT_CIE_Y[i], SPT_CIE_Z[i]}, lin[3];
+        xyz_to_linear_srgb(xyz, lin);
+        for (int k = 0; k < 3; k++)
+            w[k][i] = lin[k] * SPT_D65_NORM[i] / SPT_CIE_Y_INTEGRAL;
+    }
+    /* nm -> t: c0 l^2 + c1 l + c2 with l = 360 + 470 t. */
+    const double l0 = SPT_CIE_LAMBDA_MIN, sp = RGB2SPEC_SPAN;
+    double a[3] = {c[0] * sp * sp, sp * (2.0 * l0 * c[0] + c[1]), (c[0] * l0 + c[1]) * l0 + c[2]};
+    double col[3], jac[3][3], err = 0.0, mu = 1e-4;
+    sigmoid_colour(w, a, col, jac);
+    for (int k = 0; k < 3; k++)
+        err += (col[k] - rgb[k]) * (col[k] - rgb[k]);
+    const double err0 = err;
+    for (int it = 0; it < 40 && err > 1e-18; it++) {
+        double jtj[3][3], jtr[3];
+        for (int k = 0; k < 3; k++) {
+            jtr[k] = 0.0;
+            for (int r = 0; r < 3; r++)
+                jtr[k] += jac[r][k] * (col[r] - rgb[r]);
+            for (int l = 0; l < 3; l++) {
+                jtj[k][l] = 0.0;
+                for (int r = 0; r < 3; r++)
+                    jtj[k][l] += jac[r][k] * jac[r][l];
+            }
+        }
+        int improved = 0;
+        for (int tries = 0; tries < 20 && !improved; tries++) {
+            double m[3][3], d[3];
+            memcpy(m, jtj, sizeof m);
+            for (int k = 0; k < 3; k++)
+                m[k][k] += mu * jtj[k][k] + 1e-30;
+            if (solve3x3(m, jtr, d)) {
+                double na[3] = {a[0] - d[0], a[1] - d[1], a[2] - d[2]}, ncol[3], njac[3][3], nerr = 0.0;
+                sigmoid_colour(w, na, ncol, njac);
+                for (int k = 0; k < 3; k++)
+                    nerr += (ncol[k] - rgb[k]) * (ncol[k] - rgb[k]);
+                if (nerr < err) {
+                    memcpy(a, na, sizeof a);
+                    memcpy(col, ncol, sizeof col);
+                    memcpy(jac, njac, sizeof jac);
+                    err = nerr;
+                    mu = fmax(mu * 0.1, 1e-12);
+                    improved = 1;
+                    continue;
+                }
+            }
+            mu *= 10.0;
+        }
+        if (!improved)
+            break;
+    }
+    if (!(err < err0))
+        return;
+    /* t -> nm. */
+    double c0 = a[0] / (sp * sp), c1 = a[1] / sp - 2.0 * l0 * c0;
+    double c2 = a[2] - (c0 * l0 + c1) * l0;
+    if (isfinite(c0) && isfinite(c1) && isfinite(c2)) {
+        c[0] = (float)c0;
+        c[1] = (float)c1;
+        c[2] = (float)c2;
+    }
+}
+
+void rgb_to_coeffs_fast(const float rgb_in[3], float coeffs[3])
+{
+    float rgb[3];
+    if (!clamp_rgb_grey(rgb_in, rgb, coeffs))
+        table_coeffs(rgb, coeffs);
+}
+
+void rgb_to_coeffs(const float rgb_in[3], float coeffs[3])
+{
+    float rgb[3];
+    if (clamp_rgb_grey(rgb_in, rgb, coeffs))
+        return;
+    table_coeffs(rgb, coeffs);
+    refine_coeffs(rgb, coeffs);
+}
+
+/* rgb_illuminant_coeffs with the reflectance conversion conv. */
+static void illuminant_coeffs(const float rgb[3], float coeffs[3], float *scale,
+                              void (*conv)(const float *, float *))
 {
     float m = fmaxf(fmaxf(rgb[0], rgb[1]), rgb[2]);
     if (!(m > 0.0f)) {
@@ -487,5 +629,15 @@ void rgb_illuminant_coeffs(const float rgb[3], float coeffs[3], float *scale)
     }
     *scale = 2.0f * m;
     float r[3] = {rgb[0] / *scale, rgb[1] / *scale, rgb[2] / *scale};
-    rgb_to_coeffs(r, coeffs);
+    conv(r, coeffs);
+}
+
+void rgb_illuminant_coeffs(const float rgb[3], float coeffs[3], float *scale)
+{
+    illuminant_coeffs(rgb, coeffs, scale, rgb_to_coeffs);
+}
+
+void rgb_illuminant_coeffs_fast(const float rgb[3], float coeffs[3], float *scale)
+{
+    illuminant_coeffs(rgb, coeffs, scale, rgb_to_coeffs_fast);
 }
