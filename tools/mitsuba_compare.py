@@ -177,16 +177,17 @@ def spectrace_chunks(mi, np, a, w, h, spp_chunk):
 
 def mitsuba_chunks(np, a, w, h, spp_chunk):
     """a.chunks Mitsuba renders (seeds a.seed * 1000 + k), with the render info of the first."""
-    tag = "mts_%s_%dx%d_d%d_s%d_bg%s_%s%s" % (_file_hash(a.scene), w, h, a.max_depth, spp_chunk,
-                                            (a.background or "default").replace(",", "_"), a.variant,
-                                            "_approx" if a.approx else "")
+    tag = "mts_%s_%dx%d_d%d_s%d_bg%s_%s%s_%s" % (_file_hash(a.scene), w, h, a.max_depth, spp_chunk,
+                                               (a.background or "default").replace(",", "_"), a.variant,
+                                               "_approx" if a.approx else "", a.colour)
     out, info = [], {}
     for k in range(a.chunks):
         seed = a.seed * 1000 + k
 
         def make(seed=seed):
             img, inf = s2m.render(a.scene, w, h, spp_chunk, a.max_depth, a.variant, seed, verbose=False,
-                                  approx=a.approx, background=s2m.parse_background(a.background))
+                                  approx=a.approx, background=s2m.parse_background(a.background),
+                                  colour=a.colour)
             info.update(inf)
             return img
         out.append(_cached(np, a.cache, "%s_seed%d" % (tag, seed), make))
@@ -276,6 +277,9 @@ def main(argv=None):
     ap.add_argument("--background", metavar="black|R,G,B", help="as spectrace's --background")
     ap.add_argument("--flip", action="store_true", help="also print the mean FLIP error (flip-evaluator)")
     ap.add_argument("--save-mitsuba", metavar="EXR", help="write Mitsuba's image here")
+    ap.add_argument("--colour", choices=("exact", "mitsuba"), default="exact",
+                    help="Mitsuba's colour definitions (tools/scene_to_mitsuba.py): exact (default) spectrace's "
+                         "observer and RGB upsampling, or mitsuba's own")
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     bt = ap.add_argument_group("block test")
     bt.add_argument("--chunks", type=int, help="Welch test per block between N independent chunks of each side")
@@ -331,7 +335,7 @@ def main(argv=None):
     h, w = ours.shape[:2]
     try:
         ref, info = s2m.render(a.scene, w, h, a.spp, a.max_depth, a.variant, a.seed, verbose=False,
-                               approx=a.approx, background=s2m.parse_background(a.background))
+                               approx=a.approx, background=s2m.parse_background(a.background), colour=a.colour)
     except ValueError as e:   # a material Mitsuba cannot render exactly, a bad --background
         print("error: %s: %s" % (a.scene, e), file=sys.stderr)
         return 2

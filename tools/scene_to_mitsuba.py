@@ -53,8 +53,11 @@ and directional lights are refused.
 
 Conventions matched with spectrace: Mitsuba's path integrator max_depth counts
 path segments from the camera (1 = emitters only, -1 = unlimited); RGB
-emission in spectral variants is D65 times the upsampled spectrum; spectral
-tables are piecewise linear and zero outside their range; images are linear sRGB.
+emission is D65 times the upsampled spectrum; spectral tables are piecewise
+linear and zero outside their range; images are linear sRGB. Colour (--colour,
+"Colour" below): by default Mitsuba gets spectrace's observer (the CIE 1931 1 nm
+table on a specfilm) and every RGB colour as the 1 nm table of its exact
+sigmoid upsampling, computed here; --colour mitsuba uses Mitsuba's own.
 
 Variant: llvm_ad_spectral when libLLVM 16+ is found (DRJIT_LIBLLVM_PATH, or
 /usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 etc.; apt-get install libllvm19),
@@ -265,6 +268,156 @@ def _spd(value, warnings):
     return _named_spd(value, warnings) if isinstance(value, str) else _spectrum_table(value)
 
 
+# ---------------------------------------------------------------------------
+# Colour: the observer and the RGB upsampling
+# ---------------------------------------------------------------------------
+# --colour exact (default) gives Mitsuba spectrace's colour definitions, computed
+# here independently: the CIE 1931 2-degree observer of kernels/cie_data.h (the
+# CIE's 1 nm table, normalised by the sum of ybar) as the response of a Mitsuba
+# `specfilm` (XYZ, converted to linear sRGB with the matrix of docs/DESIGN.md),
+# and every RGB colour as a 1 nm table of the Jakob-Hanika sigmoid spectrum whose
+# colour under D65 (Y = 1) is exactly that RGB under the same observer (greys as
+# constant spectra; an illuminant RGB c as 2 max(c) * D65 * the reflectance
+# spectrum of c / (2 max(c))). --colour mitsuba keeps Mitsuba's own: its
+# built-in observer (CIE tables at 5 nm, normalised by a fixed constant 0.09%
+# off their integral) on an `hdrfilm`, and its `srgb` / `d65` upsampling tables
+# (trilinear in coefficients, so a colour comes back up to a few tenths of a
+# percent off in a small channel). Either way the renderers see the same scene;
+# exact makes a block-by-block comparison measure light transport, not two
+# colour conventions.
+XYZ_TO_SRGB = [[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415], [0.0557, -0.2040, 1.0570]]
+_OBSERVER = None
+
+
+def observer():
+    """{'nm', 'x', 'y', 'z', 'd65'} 1 nm arrays over 360..830 from kernels/cie_data.h,
+    and 'y_integral' (the sum of ybar)."""
+    global _OBSERVER
+    if _OBSERVER is None:
+        import re
+        root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+        paths = [os.path.join(root, "kernels", sub, "cie_data.h") for sub in ("shared", "")]
+        path = next((q for q in paths if os.path.exists(q)), None)
+        if path is None:
+            raise ValueError("kernels/cie_data.h not found (the observer of --colour exact)")
+        with open(path) as f:
+            text = f.read()
+        obs = {}
+        for key, name in (("x", "SPT_CIE_X"), ("y", "SPT_CIE_Y"), ("z", "SPT_CIE_Z"), ("d65", "SPT_D65_NORM")):
+            body = re.search(r"float %s\[SPT_CIE_SAMPLES\] = \{(.*?)\};" % name, text, re.S).group(1)
+            obs[key] = np.array([float(v.strip().rstrip("f")) for v in body.split(",") if v.strip()])
+        obs["nm"] = 360.0 + np.arange(len(obs["x"]))
+        obs["y_integral"] = float(obs["y"].sum())
+        m = np.array(XYZ_TO_SRGB)
+        # Linear sRGB weight of each 1 nm sample of a reflectance under D65 (Y = 1).
+        obs["w"] = (m @ np.stack([obs["x"], obs["y"], obs["z"]])) * obs["d65"] / obs["y_integral"]
+        _OBSERVER = obs
+    return _OBSERVER
+
+
+def _sigmoid(a, t):
+    x = (a[0] * t + a[1]) * t + a[2]
+    return 0.5 + x / (2.0 * np.sqrt(1.0 + x * x))
+
+
+def reflectance_spectrum(rgb):
+    """The 1 nm values (360..830) of the sigmoid spectrum whose colour under D65 is
+    rgb (clamped to [0, 1]): Levenberg-Marquardt in t = (nm - 360) / 470, walking
+    from the grey of the same mean to rgb in 16 steps (each fit starting from the
+    last, as Jakob and Hanika fill their table), to 1e-9; least squares where
+    no sigmoid reaches rgb."""
+    obs = observer()
+    rgb = np.clip(np.nan_to_num(np.asarray(rgb, dtype=np.float64)), 0.0, 1.0)
+    n = len(obs["nm"])
+    if rgb[0] == rgb[1] == rgb[2]:
+        return np.full(n, rgb[0])
+    t = np.arange(n) / (n - 1.0)
+    w = obs["w"]
+    grey = np.full(3, min(max(rgb.mean(), 1e-3), 1 - 1e-3))
+    a = np.array([0.0, 0.0, (grey[0] - 0.5) / math.sqrt(grey[0] * (1 - grey[0]))])
+
+    def colour(a):
+        x = (a[0] * t + a[1]) * t + a[2]
+        q = 1.0 / np.sqrt(1.0 + x * x)
+        s = 0.5 + 0.5 * x * q
+        ds = 0.5 * q ** 3
+        return w @ s, w @ (ds[:, None] * np.stack([t * t, t, np.ones(n)], axis=1))
+
+    for k in range(1, 17):
+        target = grey + (rgb - grey) * (k / 16.0)
+        mu = 1e-3
+        col, jac = colour(a)
+        err = float(((col - target) ** 2).sum())
+        for _ in range(100):
+            if err < 1e-18:
+                break
+            jtj, jtr = jac.T @ jac, jac.T @ (col - target)
+            for _ in range(30):
+                d = np.linalg.solve(jtj + mu * np.diag(np.diag(jtj) + 1e-30), jtr)
+                na = a - d
+                ncol, njac = colour(na)
+                nerr = float(((ncol - target) ** 2).sum())
+                if nerr < err:
+                    a, col, jac, err = na, ncol, njac, nerr
+                    mu = max(mu * 0.1, 1e-12)
+                    break
+                mu *= 10.0
+            else:
+                break
+    return _sigmoid(a, t)
+
+
+def _table(values):
+    obs = observer()
+    return {"type": "irregular", "wavelengths": ", ".join("%g" % v for v in obs["nm"]),
+            "values": ", ".join("%.9g" % max(float(v), 0.0) for v in values)}
+
+
+def rgb_reflectance(rgb, colour="exact"):
+    """A Mitsuba spectrum for a reflectance given as linear sRGB."""
+    if colour == "mitsuba":
+        return {"type": "rgb", "value": [float(c) for c in rgb]}
+    return _table(reflectance_spectrum(rgb))
+
+
+def rgb_illuminant(rgb, colour="exact"):
+    """A Mitsuba spectrum for an emitter's linear sRGB (any scale): D65 times the
+    upsampled colour, as spectrace's rgb_illuminant_coeffs defines it."""
+    rgb = [max(float(c), 0.0) for c in rgb]
+    if colour == "mitsuba":
+        return {"type": "rgb", "value": rgb}
+    m = max(rgb)
+    if not m > 0:
+        return {"type": "uniform", "value": 0.0}
+    scale = 2.0 * m
+    return _table(scale * reflectance_spectrum([c / scale for c in rgb]) * observer()["d65"])
+
+
+def xyz_film(width, height, window=None):
+    """A Mitsuba specfilm whose three channels are the CIE 1931 xbar, ybar, zbar
+    of kernels/cie_data.h (optionally zero outside the wavelength window (a, b)):
+    each pixel gets the integral of radiance times each function, in nm."""
+    obs = observer()
+    film = {"type": "specfilm", "width": int(width), "height": int(height), "component_format": "float32",
+            "rfilter": {"type": "box"}}
+    for name in ("x", "y", "z"):
+        nm, v = obs["nm"], np.maximum(obs[name], 0.0)
+        if window is not None:
+            a, b = window
+            inside = (nm > a) & (nm < b)
+            nm = np.concatenate([[a - 1e-3, a], nm[inside], [b, b + 1e-3]])
+            v = np.concatenate([[0.0, np.interp(a, obs["nm"], v)], v[inside], [np.interp(b, obs["nm"], v), 0.0]])
+        film["cie_" + name] = {"type": "irregular", "wavelengths": ", ".join("%.6f" % q for q in nm),
+                               "values": ", ".join("%.9g" % q for q in v)}
+    return film
+
+
+def film_to_srgb(img):
+    """Linear sRGB of a specfilm image (H x W x 3 integrals against xbar, ybar, zbar)."""
+    xyz = np.asarray(img, dtype=np.float64)[..., :3] / observer()["y_integral"]
+    return xyz @ np.array(XYZ_TO_SRGB).T
+
+
 class NotExact(ValueError):
     """A material, light or setting without an exact Mitsuba counterpart."""
 
@@ -283,7 +436,7 @@ def _microfacet(kind, roughness):
     return {"type": "rough" + kind, "distribution": "ggx", "alpha": float(roughness) ** 2, "sample_visible": True}
 
 
-def material_to_mitsuba(m, warnings, where="material", approx=False):
+def material_to_mitsuba(m, warnings, where="material", approx=False, colour="exact"):
     """(bsdf dict, emitter dict or None) for one glTF material. A material that
     Mitsuba cannot render exactly the way spectrace does raises NotExact naming
     it, or, with approx, is converted to the nearest plugin with a warning."""
@@ -345,7 +498,7 @@ def material_to_mitsuba(m, warnings, where="material", approx=False):
         bsdf.update({"int_ior": ior, "ext_ior": 1.0})
         if dispersion != 0.0 and not approx:
             bsdf["_dispersion"] = (ior, dispersion)   # resolved per band by render()
-        return bsdf, _emitter(m, spec, warnings)
+        return bsdf, _emitter(m, spec, warnings, colour)
     else:
         if conductor is not None:
             inexact("extras.spectrace.conductor on a material with metallicFactor 0 is unused")
@@ -356,14 +509,14 @@ def material_to_mitsuba(m, warnings, where="material", approx=False):
         if "reflectance" in spec:
             refl = _spd(spec["reflectance"], warnings)
         else:
-            refl = {"type": "rgb", "value": base}
+            refl = rgb_reflectance(base, colour)
         bsdf = {"type": "diffuse", "reflectance": refl}
     if m.get("doubleSided"):
         bsdf = {"type": "twosided", "bsdf": bsdf}
-    return bsdf, _emitter(m, spec, warnings)
+    return bsdf, _emitter(m, spec, warnings, colour)
 
 
-def _emitter(m, spec, warnings):
+def _emitter(m, spec, warnings, colour="exact"):
     """The area emitter of a material, or None."""
     emitter = None
     if "emission" in spec:
@@ -372,7 +525,7 @@ def _emitter(m, spec, warnings):
         e = [float(c) for c in m.get("emissiveFactor", [0, 0, 0])]
         s = float(m.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0))
         if max(e) * s > 0:
-            emitter = {"type": "area", "radiance": {"type": "rgb", "value": [c * s for c in e]}}
+            emitter = {"type": "area", "radiance": rgb_illuminant([c * s for c in e], colour)}
     return emitter
 
 
@@ -380,7 +533,7 @@ def _emitter(m, spec, warnings):
 FILM_Y_PER_NIT = 1.0
 
 
-def light_to_mitsuba(entry, approx=False, warnings=None):
+def light_to_mitsuba(entry, approx=False, warnings=None, colour="exact"):
     """A Mitsuba emitter for one KHR_lights_punctual light (point lights only)."""
     light = entry["light"]
     kind = light.get("type")
@@ -389,7 +542,7 @@ def light_to_mitsuba(entry, approx=False, warnings=None):
     col = [float(c) for c in light.get("color", [1, 1, 1])]
     k = float(light.get("intensity", 1.0)) * FILM_Y_PER_NIT
     return {"type": "point", "position": [float(x) for x in entry["position"]],
-            "intensity": {"type": "rgb", "value": [c * k for c in col]}}
+            "intensity": rgb_illuminant([c * k for c in col], colour)}
 
 
 def parse_background(text):
@@ -422,16 +575,17 @@ def _write_ply(path, pos, faces, normals=None):
         f.write(rec.tobytes())
 
 
-def scene_dict(mi, scene, width, height, spp, max_depth, tmpdir, seed=0, approx=False, background=None):
+def scene_dict(mi, scene, width, height, spp, max_depth, tmpdir, seed=0, approx=False, background=None,
+               colour="exact"):
     """The Mitsuba scene dictionary (meshes written as PLY files into tmpdir).
     Raises NotExact for what has no exact counterpart unless approx.
     background: None (spectrace's default), [] (black) or [r, g, b]."""
     warnings = scene["warnings"]
     d = {"type": "scene", "integrator": {"type": "path", "max_depth": int(max_depth)}}
-    mats = [material_to_mitsuba(m, warnings, "materials[%d]" % i, approx)
+    mats = [material_to_mitsuba(m, warnings, "materials[%d]" % i, approx, colour)
             for i, m in enumerate(scene["materials"])]
     # glTF's default material is metallic 1, roughness 1, white: a rough perfect reflector.
-    default = material_to_mitsuba({"name": "(default)"}, warnings, "the default material", approx)
+    default = material_to_mitsuba({"name": "(default)"}, warnings, "the default material", approx, colour)
     emitting = False
     for k, (name, pos, faces, mat, nrm) in enumerate(scene["shapes"]):
         if len(faces) == 0:
@@ -445,12 +599,12 @@ def scene_dict(mi, scene, width, height, spp, max_depth, tmpdir, seed=0, approx=
             emitting = True
         d["shape%04d" % k] = sh
     for k, entry in enumerate(scene.get("lights", [])):
-        d["light%03d" % k] = light_to_mitsuba(entry, approx, warnings)
+        d["light%03d" % k] = light_to_mitsuba(entry, approx, warnings, colour)
         emitting = True
     if background is None and not emitting:
         background = [1.0, 1.0, 1.0]   # spectrace's default sky: D65 at film Y = 1
     if background:
-        d["background"] = {"type": "constant", "radiance": {"type": "rgb", "value": [float(c) for c in background]}}
+        d["background"] = {"type": "constant", "radiance": rgb_illuminant(background, colour)}
     cam = scene["camera"]
     if cam is None:
         # As spectrace's default: frame the bounds from +Z looking toward -Z, yfov 45.
@@ -469,7 +623,8 @@ def scene_dict(mi, scene, width, height, spp, max_depth, tmpdir, seed=0, approx=
         "near_clip": max(cam.get("znear", 1e-3), 1e-5), "far_clip": 1e5,
         "to_world": mi.ScalarTransform4f().look_at(origin=o, target=t, up=u),
         "sampler": {"type": "independent", "sample_count": int(spp), "seed": int(seed)},
-        "film": {"type": "hdrfilm", "width": int(width), "height": int(height), "pixel_format": "rgb",
+        "film": xyz_film(width, height) if colour == "exact" else
+                {"type": "hdrfilm", "width": int(width), "height": int(height), "pixel_format": "rgb",
                  "component_format": "float32", "rfilter": {"type": "box"}},
     }
     return d
@@ -501,14 +656,17 @@ def band_scenes(d, bands, lo=360.0, hi=830.0):
             sh["bsdf"] = bsdf
             db[k] = sh
         db["sensor"] = dict(d["sensor"])
-        db["sensor"]["srf"] = {"type": "irregular", "wavelengths": "%.6f, %.6f, %.6f, %.6f" % (a, a + 1e-3, b - 1e-3, b),
-                               "values": "0, 1, 1, 0"}
+        if d["sensor"]["film"]["type"] == "specfilm":   # the XYZ responses cut to the band
+            db["sensor"]["film"] = xyz_film(d["sensor"]["film"]["width"], d["sensor"]["film"]["height"], (a, b))
+        else:
+            db["sensor"]["srf"] = {"type": "irregular", "values": "0, 1, 1, 0",
+                                   "wavelengths": "%.6f, %.6f, %.6f, %.6f" % (a, a + 1e-3, b - 1e-3, b)}
         out.append((db, (float(a), float(b))))
     return out
 
 
 def render(scene_path, width, height, spp, max_depth, variant="auto", seed=0, pass_samples=1 << 24,
-           verbose=True, warmup=False, approx=False, background=None, dispersion_bands=24):
+           verbose=True, warmup=False, approx=False, background=None, dispersion_bands=24, colour="exact"):
     """Renders scene_path with Mitsuba; returns (image HxWx3 float64 linear sRGB,
     info dict). The spp are split into passes of at most pass_samples paths
     (different seeds) to bound the memory of the LLVM wavefront; info carries
@@ -529,7 +687,9 @@ def render(scene_path, width, height, spp, max_depth, variant="auto", seed=0, pa
     means = []
     with tempfile.TemporaryDirectory(prefix="spt_mitsuba_") as tmp:
         t0 = time.time()
-        d = scene_dict(mi, scene, width, height, passes[0], max_depth, tmp, approx=approx, background=background)
+        d = scene_dict(mi, scene, width, height, passes[0], max_depth, tmp, approx=approx, background=background,
+                       colour=colour)
+        to_rgb = film_to_srgb if colour == "exact" else (lambda x: x[..., :3])
         bands = band_scenes(d, dispersion_bands)
         mscs = [mi.load_dict(db) for db, _ in bands]
         t_load = time.time() - t0
@@ -548,8 +708,8 @@ def render(scene_path, width, height, spp, max_depth, variant="auto", seed=0, pa
         for k, s in enumerate(passes):
             # Each band's image is the integral over its wavelengths; they add up.
             sb = max(1, int(round(s / len(mscs))))
-            img = sum(np.array(mi.render(msc, seed=seed * 100003 + k, spp=sb if len(mscs) > 1 else s),
-                               dtype=np.float64)[..., :3] for msc in mscs)
+            img = sum(to_rgb(np.array(mi.render(msc, seed=seed * 100003 + k, spp=sb if len(mscs) > 1 else s),
+                                      dtype=np.float64)) for msc in mscs)
             acc += img * s
             means.append((s, img.mean(axis=(0, 1))))
             if verbose and len(passes) > 1:
@@ -559,7 +719,7 @@ def render(scene_path, width, height, spp, max_depth, variant="auto", seed=0, pa
         t_render = time.time() - t0
         c_render = time.process_time() - c0
     img = acc / spp
-    info = {"variant": mi.variant(), "mitsuba_version": mi.__version__, "spp": spp, "width": width,
+    info = {"variant": mi.variant(), "mitsuba_version": mi.__version__, "spp": spp, "width": width, "colour": colour,
             "height": height, "max_depth": max_depth, "passes": len(passes), "load_s": t_load,
             "warnings": list(scene["warnings"]),
             "dispersion_bands": len(bands) if len(bands) > 1 else 0,
@@ -653,6 +813,9 @@ def main(argv=None):
                          "film Y = 1 when the scene has no light)")
     ap.add_argument("--dispersion-bands", type=int, default=24,
                     help="wavelength bands for a dispersive glass (default 24; each gets spp / bands samples)")
+    ap.add_argument("--colour", choices=("exact", "mitsuba"), default="exact",
+                    help="exact (default): spectrace's observer (CIE 1931, 1 nm) on a specfilm and RGB colours as "
+                         "exactly upsampled 1 nm spectra; mitsuba: Mitsuba's built-in observer and srgb tables")
     ap.add_argument("--json", action="store_true", help="print the result (means, timing) as JSON")
     ap.add_argument("--means-json", metavar="FILE",
                     help="record the means (with settings, timing and this command) in FILE under the key "
@@ -664,7 +827,7 @@ def main(argv=None):
         img, info = render(a.scene, w, h, a.spp, a.max_depth, a.variant, a.seed,
                            w * h * a.spp if one_pass else a.pass_samples, warmup=a.benchmark,
                            approx=a.approx, background=parse_background(a.background),
-                           dispersion_bands=a.dispersion_bands)
+                           dispersion_bands=a.dispersion_bands, colour=a.colour)
     except ImportError:
         print("skip: " + MITSUBA_MISSING)
         return 0
