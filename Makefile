@@ -48,12 +48,15 @@ MPI_PROG := $(BUILD)/spectrace-mpi
 MPI_LIBS = $(shell $(MPICC) --showme:link 2>/dev/null)
 TOOL_BINS := $(patsubst tools/%.c,$(BUILD)/tools/%,$(wildcard tools/*.c))
 
-.PHONY: all deps render test test-san tests bench mpi clean
+.PHONY: all deps render test test-san tests bench mpi check-kernels clean
 all: $(PROG) $(TEST_BINS)
 
-# The "mpi" group too: the tests run build/spectrace-mpi under mpirun.
+# The "mpi" group too: the tests run build/spectrace-mpi under mpirun. Then the
+# other OpenCL implementations the tests run on (rusticl, Intel's CPU runtime in
+# deps/) and Oclgrind; one that cannot be had is reported, not fatal.
 deps:
 	@tools/install_deps.sh mpi
+	@tools/install_opencl.sh
 
 mpi: deps
 	@$(MAKE) --no-print-directory $(MPI_PROG)
@@ -68,10 +71,18 @@ test: deps
 	@$(MAKE) --no-print-directory tests
 	@tests/run_tests.sh $(BUILD)
 
-# The same tests built with AddressSanitizer and UndefinedBehaviorSanitizer.
+# The same tests built with AddressSanitizer and UndefinedBehaviorSanitizer, on
+# PoCL only: the sanitizers check our host code, the same whichever
+# implementation runs the kernels.
 test-san: deps
 	@$(MAKE) --no-print-directory SAN=1 tests
-	@tests/run_tests.sh build-san
+	@SPECTRACE_TEST_IMPLS=pocl tests/run_tests.sh build-san
+
+# Small renders of the test scenes under Oclgrind (invalid accesses, data races,
+# API misuse), on the GPU and the CPU code paths; fails on any report.
+check-kernels: deps
+	@$(MAKE) --no-print-directory $(PROG)
+	@tools/check_kernels.sh $(BUILD)
 
 tests: $(PROG) $(TEST_BINS) $(if $(filter 1,$(SAN)),,$(MPI_PROG))
 
