@@ -61,15 +61,21 @@
  * two barriers and no local atomics, where a counter bumped with atomic_inc
  * took three barriers and a locked instruction per item (PoCL runs the items
  * of a group one after another, and splits their loop at every barrier).
- * A PoCL 3.1 pitfall: while this was the program's only function with
- * barriers and k_generate and k_shade both called it, all was well; with a
- * second such function beside it, or with k_generate its only caller, PoCL
- * compiled k_generate's scans wrong (groups took more slots than they had
- * items: paths queued twice, then heap corruption), unless the function was
- * marked always_inline. */
-static uint group_queue_slot(int want, __global uint *counter, int count,
-                             __global uint *count_counter, __local uint *l_slot,
-                             __local uint *l_base)
+ * The slots end at `limit`: a group that finds the counter at or past it
+ * takes back its claim (the counter then stays within limit plus a few groups'
+ * sizes, and no index below limit is handed out twice, since only claims made
+ * at or past limit are taken back); slots at or past limit are not for use.
+ * Nothing reads the counter but these atomics: a plain read of it in a
+ * work-item would race with other groups' claims.
+ * Always inlined: a function with barriers that was left a call went wrong in
+ * two compilers. PoCL 3.1, once k_generate was its only caller or a second
+ * such function stood beside it, compiled k_generate's scans wrong (groups took
+ * more slots than they had items: paths queued twice, then heap corruption);
+ * Intel's CPU runtime lost queue entries (the shadow queue of a furnace scene
+ * held half its rays). */
+static SPT_ALWAYS_INLINE uint group_queue_slot(int want, __global uint *counter, uint limit,
+                                               int count, __global uint *count_counter,
+                                               __local uint *l_slot, __local uint *l_base)
 {
     uint lid = get_local_id(0);
     l_slot[lid] = (want ? 1u : 0u) | (count ? 0x10000u : 0u);
@@ -82,7 +88,10 @@ static uint group_queue_slot(int want, __global uint *counter, int count,
             sum += f;
         }
         uint nwant = sum & 0xffffu, ncount = sum >> 16;
-        *l_base = nwant ? atomic_add(counter, nwant) : 0u;
+        uint base = nwant ? atomic_add(counter, nwant) : 0u;
+        if (nwant && base >= limit)
+            atomic_sub(counter, nwant);
+        *l_base = base;
         if (ncount)
             atomic_add(count_counter, ncount);
     }
@@ -118,9 +127,9 @@ __kernel void k_generate(ALL_BUFFERS)
     /* Free slots take the next work items of the chunk; the group's finished
      * paths are counted in the same round of barriers. */
     uint total = P.work_end - P.work_begin;
-    int wants = flags == SPT_PATH_DEAD && counters[SPT_CNT_WORK] < total;
-    uint w = group_queue_slot(wants, &counters[SPT_CNT_WORK], finished, &counters[SPT_CNT_DONE],
-                              l_slot, &l_base);
+    int wants = flags == SPT_PATH_DEAD;
+    uint w = group_queue_slot(wants, &counters[SPT_CNT_WORK], total, finished,
+                              &counters[SPT_CNT_DONE], l_slot, &l_base);
     if (wants && w < total) {
         uint npix = (uint)(P.width * P.height);
         uint pixel = w % npix;
@@ -164,8 +173,8 @@ __kernel void k_generate(ALL_BUFFERS)
         flags = SPT_PATH_ALIVE;
         ps_flags[i] = flags;
     }
-    uint q = group_queue_slot(flags == SPT_PATH_ALIVE, &counters[SPT_CNT_EXTEND], 0, counters,
-                              l_slot, &l_base);
+    uint q = group_queue_slot(flags == SPT_PATH_ALIVE, &counters[SPT_CNT_EXTEND], 0xffffffffu, 0,
+                              counters, l_slot, &l_base);
     if (flags == SPT_PATH_ALIVE)
         queue_extend[q] = i;
 }
@@ -800,7 +809,8 @@ __kernel void k_shade(ALL_BUFFERS)
         i = queue_extend[g];
         shadow = shade_path(i, &so, &sd, &sc, ALL_ARGS);
     }
-    uint s = group_queue_slot(shadow, &counters[SPT_CNT_SHADOW], 0, counters, l_slot, &l_base);
+    uint s = group_queue_slot(shadow, &counters[SPT_CNT_SHADOW], 0xffffffffu, 0, counters, l_slot,
+                              &l_base);
     if (shadow) {
         sh_ray_o[s] = so;
         sh_ray_d[s] = sd;
