@@ -30,12 +30,15 @@ static float table_lookup(const __global float *t, float l)
 /* Where table_lookup reads at four wavelengths l: the entries i and i + 1, the
  * fraction *f between them, and *in (-1 for lanes inside the table; the others
  * read entry 0 and must give 0). The same arithmetic per lane, with selects
- * instead of the per-wavelength range branches. */
+ * instead of the per-wavelength range branches. min's bound is written as a
+ * vector: Oclgrind 21.10 computes min(int4, int) wrongly (reads out of the table
+ * under make check-kernels). */
 static int4 table_index4(float4 l, float4 *f, int4 *in)
 {
     float4 x = l - (float)SPT_CIE_LAMBDA_MIN;
     *in = isgreaterequal(x, (float4)(0.0f)) & islessequal(x, (float4)(SPT_CIE_SAMPLES - 1));
-    int4 i = select((int4)(0), min(convert_int4(select((float4)(0.0f), x, *in)), SPT_CIE_SAMPLES - 2), *in);
+    int4 i = select((int4)(0), min(convert_int4(select((float4)(0.0f), x, *in)), (int4)(SPT_CIE_SAMPLES - 2)),
+                    *in);
     *f = x - convert_float4(i);
     return i;
 }
