@@ -200,10 +200,21 @@ static int describe_device(ClDeviceInfo *d, cl_device_id dev, SptError *e)
     return SPT_EXIT_OK;
 }
 
+void cl_runtime_defaults(void)
+{
+    /* Intel's CPU runtime (2026.2) vectorises kernels across work-items wrongly
+     * for ours: lanes of bsdf_sample took other lanes' lobes (tests/test_bsdf.c's
+     * device check) and k_connect crashed in a freshly built program. Its own
+     * switch turns that vectoriser off; a value the user set stays. Other
+     * implementations ignore the variable. */
+    setenv("CL_CONFIG_USE_VECTORIZER", "False", 0);
+}
+
 int cl_device_list(ClDeviceList *out, SptError *e)
 {
     out->devices = NULL;
     out->count = 0;
+    cl_runtime_defaults();
     cl_uint nplat = 0;
     cl_int err = clGetPlatformIDs(0, NULL, &nplat);
     if (err == -1001 /* CL_PLATFORM_NOT_FOUND_KHR */ || (err == CL_SUCCESS && nplat == 0))

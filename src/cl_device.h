@@ -90,6 +90,11 @@ int cl_check(cl_int err, const char *call, const char *file, int line, SptError 
             goto label;                                                  \
     } while (0)
 
+/* Sets the environment the OpenCL implementations read when they load (where
+ * the user has not set it): workarounds for their bugs. Call before the first
+ * OpenCL call; cl_device_list does. */
+void cl_runtime_defaults(void);
+
 /* Lists every device of every platform into *out (free with
  * cl_device_list_free). No platform or no device at all: SPT_EXIT_DEVICE with
  * a message telling how to install PoCL. */

@@ -5,6 +5,7 @@
 
 #include <CL/cl.h>
 
+#include "cl_device.h"
 #include "test_util.h"
 
 /* Opens the first device of the first platform with a context and an in-order
@@ -13,6 +14,7 @@ static void test_cl_open_first(cl_device_id *dev, cl_context *ctx, cl_command_qu
 {
     cl_platform_id plat;
     cl_uint np = 0;
+    cl_runtime_defaults();
     if (clGetPlatformIDs(1, &plat, &np) != CL_SUCCESS || np == 0 ||
         clGetDeviceIDs(plat, CL_DEVICE_TYPE_ALL, 1, dev, NULL) != CL_SUCCESS) {
         print_message("no OpenCL device: skipped\n");
