@@ -471,7 +471,12 @@ static void run_device_check(ClDevice *d, const char *options, float float_tol)
                 fail_msg("options \"%s\": item %u, integer output %d: device 0x%08x, host 0x%08x",
                          options, i, j, bits[4 * i + j], hb[j]);
         for (int j = 0; j < 12; j++) {
-            float diff = fabsf(f[12 * i + j] - hf[j]);
+            /* Output 2, the cosine-hemisphere z = sqrt(1 - x^2 - y^2), is
+             * compared through z^2: near the horizon sqrt magnifies an error
+             * of z^2 by 1/(2z), and OpenCL allows such errors (see the
+             * tolerance at the call). */
+            float diff = j == 2 ? fabsf(f[12 * i + j] * f[12 * i + j] - hf[j] * hf[j])
+                                : fabsf(f[12 * i + j] - hf[j]);
             if (!(diff <= float_tol))
                 fail_msg("options \"%s\": item %u, float output %d: device %.9g, host %.9g",
                          options, i, j, f[12 * i + j], hf[j]);
@@ -498,7 +503,16 @@ static void test_device_matches_host(void **state)
         skip();
     }
     print_message("  device: %s (%s)\n", devs[0].info.name, devs[0].info.platform_name);
-    run_device_check(&devs[0], "", 2e-6f);
+    /* The warps' tolerance, from what OpenCL C 1.2 allows a device: sin and
+     * cos within 4 ulp and division within 2.5 ulp (section 7.4), so the
+     * concentric disk's x = r cos(pi/4 b/a) and y are within 8 ulp, a
+     * relative 8 * 2^-23; and contraction of a*b + c into an FMA (FP_CONTRACT
+     * is on by default, section 6.10), which skips up to three roundings of
+     * 2^-24 in 1 - x*x - y*y.
+     * Hence |x|, |y| off by at most 4.8e-7 and z^2 by at most
+     * 2 (x^2 + y^2) 8 2^-23 + 3 2^-24 = 2.1e-6; the other warps are of the
+     * same kind with smaller terms. */
+    run_device_check(&devs[0], "", 2.1e-6f);
     run_device_check(&devs[0], "-cl-fast-relaxed-math", 1e-3f);
     cl_devices_close(devs, count);
 }
