@@ -780,6 +780,14 @@ static int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuSce
      * memory latency with other work-items, loop over a leaf's triangles and
      * trace one ray each. */
     w->ray_pairs = (info->type & CL_DEVICE_TYPE_CPU) != 0;
+    /* SPECTRACE_KERNEL_PATH=cpu or gpu overrides that choice, so both paths run
+     * on any device: tools/check_kernels.sh runs the CPU path under Oclgrind
+     * (a GPU to us) and tests/test_render.c the GPU path on PoCL. */
+    const char *path_env = getenv("SPECTRACE_KERNEL_PATH");
+    if (path_env && !strcmp(path_env, "cpu"))
+        w->ray_pairs = 1;
+    else if (path_env && !strcmp(path_env, "gpu"))
+        w->ray_pairs = 0;
     cl_ulong cache = 0;
     if (w->ray_pairs)
         SPT_CL_CHECK(e, clGetDeviceInfo(info->id, CL_DEVICE_GLOBAL_MEM_CACHE_SIZE, sizeof cache,
