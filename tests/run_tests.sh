@@ -1,9 +1,18 @@
 #!/usr/bin/env bash
-# Runs every test binary in BUILD/tests from the source root and prints one summary
-# line, "N passed, N failed", of the cmocka test cases. A binary that crashes or
-# exits non-zero without reporting counts as one failed case. Exit status: 0 only
-# when nothing failed.
+# Runs every test binary in BUILD/tests from the source root on PoCL, then the
+# device-facing tests (those that run kernels) once more on each other OpenCL
+# implementation that tools/install_opencl.sh installed: rusticl (Mesa, llvmpipe)
+# and intel (Intel's CPU runtime). Each implementation is made the only one a test
+# sees through OCL_ICD_VENDORS (tools/opencl_env.sh; nothing under /etc is used),
+# and SPECTRACE_TEST_IMPL names it to the tests. One line per implementation gives
+# its counts of cmocka test cases, an absent one says why, and the last line sums
+# them: "all: N passed, N failed, N skipped". A binary that crashes or exits
+# non-zero without reporting counts as one failed case. Exit status: 0 only when
+# nothing failed.
 # Usage: tests/run_tests.sh BUILD_DIR [TEST_NAME...]
+# SPECTRACE_TEST_IMPLS: the implementations to run, "all" (the default) or a comma
+# list such as "pocl" (make test-san: the sanitizers check our host code, which is
+# the same whichever implementation runs the kernels).
 set -u
 build=${1:?usage: tests/run_tests.sh BUILD_DIR [TEST_NAME...]}
 shift
@@ -18,30 +27,66 @@ export LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp:print_suppressions=0${LSAN
 # The MPI tests run mpirun; as root in CI Open MPI needs these.
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 
+# The tests that run our kernels, and so run on every implementation. The others
+# (loaders, image output, the command line, MPI) test host code only, or PoCL's
+# device split (test_cl), and run on PoCL alone.
+device_tests=(test_bsdf test_bvh test_lights test_materials test_render test_rng test_sampling
+              test_multidevice test_checkpoint)
+
 if [ $# -gt 0 ]; then
-  bins=(); for t in "$@"; do bins+=("$build/tests/$t"); done
+  names=("$@")
 else
-  bins=("$build"/tests/test_*)
+  names=(); for b in "$build"/tests/test_*; do names+=("$(basename "$b")"); done
 fi
-passed=0; failed=0; skipped=0; failed_bins=()
-for bin in "${bins[@]}"; do
-  [ -x "$bin" ] || continue
-  name=$(basename "$bin")
-  echo "== $name"
-  log=$(mktemp)
-  start=$(date +%s)
-  "$bin" 2>&1 | tee "$log"
-  rc=${PIPESTATUS[0]}
-  p=$(sed -n 's/^\[  PASSED  \] \([0-9]*\) test.*/\1/p' "$log" | awk '{s+=$1} END {print s+0}')
-  f=$(sed -n 's/^\[  FAILED  \] \([0-9]*\) test.*/\1/p' "$log" | awk '{s+=$1} END {print s+0}')
-  s=$(sed -n 's/^\[  SKIPPED \] \([0-9]*\) test.*/\1/p' "$log" | awk '{s+=$1} END {print s+0}')
-  if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then f=1; fi
-  echo "== $name: $p passed, $f failed, $s skipped ($(( $(date +%s) - start )) s)"
-  passed=$((passed + p)); failed=$((failed + f)); skipped=$((skipped + s))
-  [ "$f" -gt 0 ] && failed_bins+=("$name")
-  rm -f "$log"
+
+impls=${SPECTRACE_TEST_IMPLS:-all}
+[ "$impls" = all ] && impls=pocl,rusticl,intel
+IFS=, read -r -a impl_list <<<"$impls"
+
+total_p=0; total_f=0; total_s=0; summary=(); failed_bins=()
+for impl in "${impl_list[@]}"; do
+  # pocl runs every test; the others the device-facing ones, and test_multidevice
+  # across PoCL and themselves (one image from two implementations).
+  bins=()
+  for n in "${names[@]}"; do
+    if [ "$impl" = pocl ] || [[ " ${device_tests[*]} " == *" $n "* ]]; then bins+=("$n"); fi
+  done
+  [ ${#bins[@]} -eq 0 ] && continue
+  if ! envs=$(tools/opencl_env.sh "$impl" "$PWD/$build/icd/$impl" 2>&1); then
+    summary+=("$impl: absent ($envs)")
+    if [ "$impl" = pocl ]; then total_f=$((total_f + 1)); failed_bins+=("pocl"); fi
+    continue
+  fi
+  mixed=$(tools/opencl_env.sh "pocl,$impl" "$PWD/$build/icd/pocl+$impl" 2>/dev/null)
+  p_sum=0; f_sum=0; s_sum=0
+  for name in "${bins[@]}"; do
+    bin=$build/tests/$name
+    [ -x "$bin" ] || continue
+    env_here=$envs
+    [ "$impl" != pocl ] && [ "$name" = test_multidevice ] && [ -n "$mixed" ] && env_here=$mixed
+    echo "== $name ($impl)"
+    log=$(mktemp)
+    start=$(date +%s)
+    # rusticl spends about 10 ms per kernel launch here: the quick form of the
+    # device tests (tests/test_util.h, test_quick).
+    quick=0; [ "$impl" = rusticl ] && quick=1
+    (eval "$env_here"; export SPECTRACE_TEST_IMPL=$impl SPECTRACE_TEST_QUICK=$quick; exec "$bin") 2>&1 |
+      tee "$log"
+    rc=${PIPESTATUS[0]}
+    p=$(sed -n 's/^\[  PASSED  \] \([0-9]*\) test.*/\1/p' "$log" | awk '{s+=$1} END {print s+0}')
+    f=$(sed -n 's/^\[  FAILED  \] \([0-9]*\) test.*/\1/p' "$log" | awk '{s+=$1} END {print s+0}')
+    s=$(sed -n 's/^\[  SKIPPED \] \([0-9]*\) test.*/\1/p' "$log" | awk '{s+=$1} END {print s+0}')
+    if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then f=1; fi
+    echo "== $name ($impl): $p passed, $f failed, $s skipped ($(( $(date +%s) - start )) s)"
+    p_sum=$((p_sum + p)); f_sum=$((f_sum + f)); s_sum=$((s_sum + s))
+    [ "$f" -gt 0 ] && failed_bins+=("$name($impl)")
+    rm -f "$log"
+  done
+  summary+=("$impl: $p_sum passed, $f_sum failed, $s_sum skipped")
+  total_p=$((total_p + p_sum)); total_f=$((total_f + f_sum)); total_s=$((total_s + s_sum))
 done
 echo
 [ ${#failed_bins[@]} -gt 0 ] && echo "failing: ${failed_bins[*]}"
-echo "$passed passed, $failed failed, $skipped skipped"
-[ "$failed" -eq 0 ]
+for line in "${summary[@]}"; do echo "$line"; done
+echo "all: $total_p passed, $total_f failed, $total_s skipped"
+[ "$total_f" -eq 0 ]

@@ -151,12 +151,14 @@ static void test_roughconductor_vs_mitsuba(void **state)
 static void test_dielectric_vs_mitsuba(void **state)
 {
     (void)state;
+    skip_if_quick();
     compare_with_mitsuba("mat_dielectric", 128);
 }
 
 static void test_roughdielectric_vs_mitsuba(void **state)
 {
     (void)state;
+    skip_if_quick();
     compare_with_mitsuba("mat_roughdielectric", 128);
 }
 
@@ -303,6 +305,7 @@ static double ggx_albedo_lookup(double mu, double alpha)
 static void test_furnace_white_metal(void **state)
 {
     (void)state;
+    skip_if_quick();
     const float rough[4] = {0.0f, 0.25f, 0.5f, 1.0f};
     for (int k = 0; k < 4; k++) {
         SceneMaterial m;
@@ -344,6 +347,7 @@ static void test_furnace_white_metal(void **state)
 static void test_furnace_glass(void **state)
 {
     (void)state;
+    skip_if_quick();
     const float rough[2] = {0.0f, 0.5f};
     const double tol_below[2] = {0.01, 1.0};
     for (int k = 0; k < 2; k++) {
@@ -458,6 +462,7 @@ static void test_point_light_irradiance(void **state)
 static void test_furnace_roughglass_vs_mitsuba(void **state)
 {
     (void)state;
+    skip_if_quick();
     double want[3];
     assert_int_equal(json_triple("tests/data/mitsuba/mat_furnace_roughglass_means.json", "\"max_depth_-1\"",
                                  "\"mean\"", want),

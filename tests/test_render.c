@@ -95,7 +95,9 @@ static void test_white_furnace(void **state)
     (void)state;
     const double a = 0.8;
     const int depths[] = {1, 2, 3, 8, -1};
-    for (size_t k = 0; k < sizeof depths / sizeof depths[0]; k++) {
+    /* Quick runs: the bounded depths up to 3 (unlimited depth is the slow case). */
+    size_t ndepths = test_quick() ? 3 : sizeof depths / sizeof depths[0];
+    for (size_t k = 0; k < ndepths; k++) {
         int d = depths[k];
         double want = d > 0 ? (1.0 - pow(a, d)) / (1.0 - a) : 1.0 / (1.0 - a);
         Film f;
@@ -116,6 +118,7 @@ static void test_white_furnace(void **state)
 static void test_white_furnace_spectral(void **state)
 {
     (void)state;
+    skip_if_quick();
     /* XYZ of the flat spectrum (sum cmf / sum ybar) -> linear sRGB, independently
      * of the renderer: from the CIE 1 nm table sums (colour-science) and the sRGB
      * matrix of DESIGN.md. */
@@ -238,6 +241,7 @@ static int json_triple(const char *path, const char *section, const char *key, d
 static void test_cornell_box_vs_mitsuba(void **state)
 {
     (void)state;
+    skip_if_quick();
     const char *ref = "tests/data/mitsuba/cornell_box_means.json";
     double want[3];
     assert_int_equal(json_triple(ref, "\"max_depth_8\"", "\"mean\"", want), 0);

@@ -9,6 +9,8 @@
 #include <cmocka.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
 
 /* Fails with both values printed when |got - want| > tol. */
 #define assert_close(got, want, tol)                                                    \
@@ -26,6 +28,29 @@
         if (!(fabs(g_ - w_) <= r_ * fabs(w_)))                                          \
             fail_msg("%s = %.9g, expected %.9g within %.3g relative (off by %.3g)",     \
                      #got, g_, w_, r_, fabs(g_ - w_) / fabs(w_));                       \
+    } while (0)
+
+/* 1 when tests/run_tests.sh runs the device tests in quick form
+ * (SPECTRACE_TEST_QUICK=1): on an OpenCL implementation that spends far longer per
+ * kernel launch than PoCL (rusticl on llvmpipe, about 10 ms here, so that a
+ * 24x24 furnace of unlimited depth takes a minute and a half). The long
+ * statistical renders, whose result does not depend on the implementation once
+ * the device-versus-host tests agree, are then left out as skipped
+ * (skip_if_quick), and some tests render fewer cases. */
+static inline int test_quick(void)
+{
+    const char *q = getenv("SPECTRACE_TEST_QUICK");
+    return q && *q && strcmp(q, "0") != 0;
+}
+
+#define skip_if_quick()                                                              \
+    do {                                                                             \
+        if (test_quick()) {                                                          \
+            print_message("  left out of the quick run on %s\n",                     \
+                          getenv("SPECTRACE_TEST_IMPL") ? getenv("SPECTRACE_TEST_IMPL") \
+                                                        : "this implementation");    \
+            skip();                                                                  \
+        }                                                                            \
     } while (0)
 
 /* The source tree's root, for test data: tests run from it (tests/run_tests.sh). */
