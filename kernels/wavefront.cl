@@ -306,7 +306,10 @@ static float4 tri_color(const __global TriShade *ts, const __global float4 *vtx_
 
 /* Opacity of material m at a hit: 1 for opaque materials; 0 or 1 for alphaMode MASK
  * (alpha against the cutoff); alpha itself for BLEND. alpha = the base colour's
- * alpha factor times the base colour texture's alpha times COLOR_0's alpha. */
+ * alpha factor times the base colour texture's alpha times COLOR_0's alpha. A
+ * cut-out reads its finest level: the cutoff of a blurred alpha is not the
+ * blurred cut-out (distant foliage would thin out), while the pixel's samples
+ * average the true one. */
 static float material_opacity(const __global GpuMaterial *m, const TexCtx *c, uint prim, float bu, float bv,
                               const __global TriShade *tri_shade, const __global float4 *vtx_color,
                               const __global GpuTexture *textures, const __global float4 *texels)
@@ -315,8 +318,12 @@ static float material_opacity(const __global GpuMaterial *m, const TexCtx *c, ui
     if (!(f & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND)))
         return 1.0f;
     float a = m->alpha;
-    if (m->slot[SPT_TS_BASE].tex >= 0)
-        a *= slot_value(m, SPT_TS_BASE, c, textures, texels).w;
+    if (m->slot[SPT_TS_BASE].tex >= 0) {
+        TexCtx fine = *c;
+        if (f & SPT_MAT_ALPHA_MASK)
+            fine.fa[0] = fine.fa[1] = fine.fb[0] = fine.fb[1] = (float2)(0.0f);
+        a *= slot_value(m, SPT_TS_BASE, &fine, textures, texels).w;
+    }
     if (f & SPT_MAT_VERTEX_COLOR) {
         TriShade s = tri_shade[prim];
         a *= (1.0f - bu - bv) * vtx_color[s.v[0]].w + bu * vtx_color[s.v[1]].w + bv * vtx_color[s.v[2]].w;

@@ -216,6 +216,22 @@ static void test_alpha_blend_and_mask(void **state)
     free(im.rgb);
 }
 
+/* A cut-out minified: a black plane (MASK, cutoff 0.5) whose alpha is a
+ * checkerboard of 0 and 1 texels, eight to a pixel. Half of each pixel is
+ * covered (the bilinear alpha is >= 0.5 on exactly half of a checkerboard), so
+ * it reads 0.5 over the white sky; the cutoff applied to the blurred alpha (0.5
+ * everywhere from the first mip level on) would keep it all. */
+static void test_alpha_mask_minified(void **state)
+{
+    (void)state;
+    Image im = render_texture_scene("alpha_mask_far.gltf", 64, 64, 16, 2, NULL);
+    double half[3] = {0.5, 0.5, 0.5};
+    for (int row = 0; row < 4; row++)
+        for (int col = 0; col < 4; col++)
+            assert_cell(&im, 4, 4, col, row, half, 0.0, 0.05);
+    free(im.rgb);
+}
+
 /* The metallic-roughness texture (B metallic, G roughness, linear) of a white
  * plane lit head-on by pi lux (a white Lambertian would read 1), seen head-on
  * (wo = wi = n = h): glTF Appendix B gives f cos = D(n) G2 F / 4 for the GGX lobe,
@@ -635,6 +651,7 @@ int main(void)
         cmocka_unit_test(test_base_color_no_sampler),
         cmocka_unit_test(test_base_color_empty_sampler),
         cmocka_unit_test(test_alpha_blend_and_mask),
+        cmocka_unit_test(test_alpha_mask_minified),
         cmocka_unit_test(test_metallic_roughness),
         cmocka_unit_test(test_normal_map),
         cmocka_unit_test(test_emissive_texture),

@@ -219,6 +219,24 @@ def alpha_scenes():
         s.save(name)
 
 
+def alpha_mask_far_scene():
+    """A black plane cut out (MASK, cutoff 0.5) by a checkerboard of alpha 0 and 1
+    texels repeated 64 times across it, eight texels to a pixel of a 64-pixel
+    image: half of it is there (bilinear alpha >= 0.5 on exactly half of a
+    checkerboard, by its symmetry a <-> 1 - a), so it reads 0.5 over the white
+    sky."""
+    def fine_uv(s, attrs, xs, ys):
+        attrs["TEXCOORD_0"] = s.floats([(32 * (x + 1), 32 * (1 - y)) for x, y in zip(xs, ys)], "VEC2")
+    rows = [[v for x in range(8) for v in (0, 0, 0, 255 if (x + y) % 2 == 0 else 0)] for y in range(8)]
+    s = Scene()
+    tex = s.texture(gg.png(8, 8, rows, 4))
+    s.grid_plane(s.material(material({"baseColorFactor": [0, 0, 0, 1], "baseColorTexture": {"index": tex}},
+                                     specular=0.0, alphaMode="MASK", alphaCutoff=0.5)), extra=fine_uv)
+    s.ortho_camera()
+    uses(s, "KHR_materials_specular")
+    s.save("alpha_mask_far.gltf")
+
+
 def metallic_roughness_scene():
     """A white plane (metallic and roughness factors 1) whose metallicRoughness
     texture (B metallic, G roughness, linear) has four kinds of cell, lit head-on
@@ -437,6 +455,7 @@ if __name__ == "__main__":
     os.makedirs(OUT, exist_ok=True)
     base_scenes()
     alpha_scenes()
+    alpha_mask_far_scene()
     metallic_roughness_scene()
     normal_scene()
     emissive_scene()
