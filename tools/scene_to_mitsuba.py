@@ -764,7 +764,9 @@ def record_means(path, scene_path, info, args, img):
                    "--means-json; each entry records its exact command." % scene_path)
     doc["scene"] = scene_path
     entry = {k: info[k] for k in ("width", "height", "spp", "max_depth", "variant", "mitsuba_version")}
-    entry.update({"integrator": "path (rr_depth 5), hdrfilm box filter, independent sampler",
+    entry.update({"integrator": "path (rr_depth 5), %s box filter, independent sampler"
+                                % ("specfilm (CIE 1931 1 nm XYZ)" if info.get("colour") == "exact" else "hdrfilm"),
+                  "colour": info.get("colour", "mitsuba"),
                   "mean": [round(v, 7) for v in info["mean"]],
                   "block_means_4x4": block_means(img)})
     if info.get("dispersion_bands"):
