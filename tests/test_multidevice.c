@@ -184,6 +184,6 @@ int main(void)
      * the test across the two: the others ran on PoCL alone. */
     const char *impl = getenv("SPECTRACE_TEST_IMPL");
     if (impl && strcmp(impl, "pocl") != 0)
-        return cmocka_run_group_tests_name("multidevice", tests + 3, setup, teardown);
+        return _cmocka_run_group_tests("multidevice", tests + 3, 1, setup, teardown);
     return cmocka_run_group_tests_name("multidevice", tests, setup, teardown);
 }
