@@ -244,6 +244,10 @@ int cl_device_list(ClDeviceList *out, SptError *e)
             get_plat_str(plats[p], CL_PLATFORM_NAME, d->platform_name, sizeof d->platform_name);
             get_plat_str(plats[p], CL_PLATFORM_VERSION, d->platform_version,
                          sizeof d->platform_version);
+            char vendor[256], suffix[64];
+            get_plat_str(plats[p], CL_PLATFORM_VENDOR, vendor, sizeof vendor);
+            get_plat_str(plats[p], 0x0920 /* CL_PLATFORM_ICD_SUFFIX_KHR */, suffix, sizeof suffix);
+            cl_impl_name(d->platform_name, vendor, suffix, d->impl, sizeof d->impl);
             rc = describe_device(d, ids[i], e);
             if (!rc)
                 out->count++;
@@ -322,6 +326,40 @@ static int default_device(const ClDeviceList *all)
     return 0;
 }
 
+void cl_impl_name(const char *platform_name, const char *platform_vendor, const char *icd_suffix,
+                  char *out, size_t n)
+{
+    static const struct {
+        const char *name, *part; /* part of the platform name, vendor or ICD suffix */
+    } known[] = {
+        {"pocl", "Portable Computing Language"}, {"pocl", "POCL"},
+        {"rusticl", "rusticl"},                  {"clover", "Clover"},
+        {"oclgrind", "Oclgrind"},                {"nvidia", "NVIDIA"},
+        {"amd", "AMD Accelerated Parallel Processing"}, {"amd", "Advanced Micro Devices"},
+        {"intel", "Intel"},
+    };
+    for (size_t k = 0; k < sizeof known / sizeof known[0]; k++)
+        if (contains_nocase(platform_name, known[k].part) ||
+            contains_nocase(platform_vendor, known[k].part) ||
+            (icd_suffix && *icd_suffix && !strcasecmp(icd_suffix, known[k].part))) {
+            snprintf(out, n, "%s", known[k].name);
+            return;
+        }
+    size_t i = 0;
+    for (; platform_name[i] && !isspace((unsigned char)platform_name[i]) && i + 1 < n; i++)
+        out[i] = (char)tolower((unsigned char)platform_name[i]);
+    out[i] = 0;
+}
+
+/* Does the selection token name an implementation of one of the devices? */
+static int token_is_impl(const ClDeviceList *all, const char *tok)
+{
+    for (int i = 0; i < all->count; i++)
+        if (!strcasecmp(all->devices[i].impl, tok))
+            return 1;
+    return 0;
+}
+
 /* Does the selection token (trimmed, non-empty) match device d? */
 static int token_matches(const ClDeviceInfo *d, const char *tok)
 {
@@ -386,9 +424,10 @@ int cl_device_select(const ClDeviceList *all, const char *selection, int *out, i
             }
             chosen[0] = (int)idx;
         } else {
-            int any = 0;
+            int any = 0, by_impl = token_is_impl(all, tok);
             for (int i = 0; i < all->count && chosen[0] < 0; i++) {
-                if (!token_matches(&all->devices[i], tok))
+                if (by_impl ? strcasecmp(all->devices[i].impl, tok) != 0
+                            : !token_matches(&all->devices[i], tok))
                     continue;
                 any = 1;
                 int dup = 0;

@@ -21,6 +21,7 @@ typedef struct ClDeviceInfo {
     cl_device_id id;
     char platform_name[256];
     char platform_version[256];
+    char impl[32];              /* the implementation as users name it (cl_impl_name) */
     char name[256];
     char vendor[256];
     char driver_version[256];
@@ -101,6 +102,13 @@ void cl_runtime_defaults(void);
 int cl_device_list(ClDeviceList *out, SptError *e);
 void cl_device_list_free(ClDeviceList *list);
 
+/* The name users give an OpenCL implementation, from its platform's name, vendor
+ * and ICD suffix (cl_khr_icd; "" when unknown), into out: "pocl", "intel" (Intel's
+ * CPU and GPU runtimes), "rusticl", "clover", "oclgrind", "nvidia", "amd", else
+ * the platform name's first word in lower case. */
+void cl_impl_name(const char *platform_name, const char *platform_vendor, const char *icd_suffix,
+                  char *out, size_t n);
+
 /* "GPU", "CPU", "accelerator", "custom" or "default" (the first that applies). */
 const char *cl_device_type_name(cl_device_type type);
 
@@ -109,9 +117,12 @@ const char *cl_device_type_name(cl_device_type type);
  * variable SPECTRACE_DEVICE, and when that is unset or empty the default: the
  * first GPU, else the first CPU, else device 0. Syntax: "all", or a comma list
  * of tokens, each a global index ("2"), a device type ("gpu", "cpu",
- * "accelerator": the first such device not yet selected) or a case-insensitive
- * substring of the device's name, vendor or platform name (the first matching
- * device not yet selected). `out` needs room for all->count indices; *count
+ * "accelerator": the first such device not yet selected), an implementation's
+ * name ("pocl", "intel", "rusticl", ...: the first device of that implementation
+ * not yet selected; a device whose name merely contains it, such as PoCL's
+ * device on an Intel CPU, is not one) or a case-insensitive substring of the
+ * device's name, vendor or platform name (the first matching device not yet
+ * selected). `out` needs room for all->count indices; *count
  * receives how many were chosen (at least 1 on success). An index out of range
  * or a token that matches nothing: SPT_EXIT_DEVICE with a message listing the
  * available devices. */

@@ -14,8 +14,9 @@ static const char devices_usage[] =
     "\n"
     "Lists OpenCL platforms and devices. Devices marked '*' are the ones SEL selects\n"
     "(default: $SPECTRACE_DEVICE, else the first GPU, else the first CPU).\n"
-    "SEL: 'all', or a comma list of device indices, 'gpu', 'cpu', 'accelerator' or\n"
-    "case-insensitive parts of a device, vendor or platform name (\"0,2\", \"nvidia,cpu\").\n"
+    "SEL: 'all', or a comma list of device indices, 'gpu', 'cpu', 'accelerator',\n"
+    "implementation names (pocl, intel, rusticl, nvidia, amd, ...; shown as 'impl') or\n"
+    "case-insensitive parts of a device, vendor or platform name (\"0,2\", \"pocl,intel\").\n"
     "--check  on each selected device: open a context, build the layout-check kernel\n"
     "         (through the kernel cache) and compare shared struct sizes with the host.\n";
 
@@ -35,8 +36,8 @@ static void print_devices(const ClDeviceList *list, const int *sel, int nsel)
     for (int i = 0; i < list->count; i++) {
         const ClDeviceInfo *d = &list->devices[i];
         if (d->platform_index != last_platform) {
-            printf("platform %d: %s (%s)\n", d->platform_index, d->platform_name,
-                   d->platform_version);
+            printf("platform %d: %s (%s), impl %s\n", d->platform_index, d->platform_name,
+                   d->platform_version, d->impl);
             last_platform = d->platform_index;
         }
         int mark = 0;

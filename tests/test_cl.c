@@ -766,11 +766,68 @@ static void test_layout_matches_host(void **state)
     assert_int_equal(g_dev.last_from_cache, 1);
 }
 
+/* Implementation names: classified from the platform's name, vendor and ICD
+ * suffix; "intel" selects Intel's runtime, not PoCL's device on an Intel CPU
+ * (whose name contains "Intel") listed before it. No OpenCL call. */
+static void test_impl_names_and_selection(void **state)
+{
+    (void)state;
+    static const char *cases[][4] = {
+        {"Portable Computing Language", "The pocl project", "POCL", "pocl"},
+        {"Intel(R) OpenCL", "Intel(R) Corporation", "INTEL", "intel"},
+        {"Intel(R) OpenCL Graphics", "Intel(R) Corporation", "INTEL", "intel"},
+        {"rusticl", "Mesa/X.org", "MESA", "rusticl"},
+        {"Clover", "Mesa", "MESA", "clover"},
+        {"NVIDIA CUDA", "NVIDIA Corporation", "NV", "nvidia"},
+        {"AMD Accelerated Parallel Processing", "Advanced Micro Devices, Inc.", "AMD", "amd"},
+        {"Oclgrind", "University of Bristol", "oclg", "oclgrind"},
+        {"Foo CL", "Foo Inc.", "", "foo"},
+    };
+    char s[32];
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        cl_impl_name(cases[k][0], cases[k][1], cases[k][2], s, sizeof s);
+        assert_string_equal(s, cases[k][3]);
+    }
+    ClDeviceInfo d[2];
+    memset(d, 0, sizeof d);
+    d[0].index = 0;
+    d[0].type = CL_DEVICE_TYPE_CPU;
+    snprintf(d[0].name, sizeof d[0].name, "pthread-skylake-avx512-Intel(R) Xeon(R) Gold 6230");
+    snprintf(d[0].vendor, sizeof d[0].vendor, "GenuineIntel");
+    snprintf(d[0].platform_name, sizeof d[0].platform_name, "Portable Computing Language");
+    snprintf(d[0].impl, sizeof d[0].impl, "pocl");
+    d[1].index = 1;
+    d[1].type = CL_DEVICE_TYPE_CPU;
+    snprintf(d[1].name, sizeof d[1].name, "Intel(R) Xeon(R) Gold 6230");
+    snprintf(d[1].vendor, sizeof d[1].vendor, "Intel(R) Corporation");
+    snprintf(d[1].platform_name, sizeof d[1].platform_name, "Intel(R) OpenCL");
+    snprintf(d[1].impl, sizeof d[1].impl, "intel");
+    ClDeviceList list = {d, 2};
+    int out[2], n = 0;
+    SptError e = {0};
+    assert_int_equal(cl_device_select(&list, "intel", out, &n, &e), 0);
+    assert_int_equal(n, 1);
+    assert_int_equal(out[0], 1);
+    assert_int_equal(cl_device_select(&list, "POCL", out, &n, &e), 0);
+    assert_int_equal(n, 1);
+    assert_int_equal(out[0], 0);
+    assert_int_equal(cl_device_select(&list, "intel,pocl", out, &n, &e), 0);
+    assert_int_equal(n, 2);
+    assert_int_equal(out[0], 1);
+    assert_int_equal(out[1], 0);
+    /* Not an implementation's name: a part of a name, the first match. */
+    assert_int_equal(cl_device_select(&list, "xeon", out, &n, &e), 0);
+    assert_int_equal(out[0], 0);
+    assert_int_equal(cl_device_select(&list, "rusticl", out, &n, &e), SPT_EXIT_DEVICE);
+    assert_non_null(strstr(e.msg, "rusticl"));
+}
+
 int main(int argc, char **argv)
 {
     if (argc >= 2 && !strcmp(argv[1], "--child-select"))
         return child_select(argc - 2, argv + 2);
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_impl_names_and_selection),
         cmocka_unit_test(test_list_matches_direct_query),
         cmocka_unit_test(test_select_by_index_and_default),
         cmocka_unit_test(test_select_by_name_ignores_case),
