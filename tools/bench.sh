@@ -29,4 +29,10 @@ echo "== scale (tools/bench_scale.sh)"
 tools/bench_scale.sh "$build" || status=1
 # ---- end scale ----
 
+# ---- implementations: Cornell paths/s on each OpenCL implementation installed,
+# CPU and GPU kernel paths, alternated (tools/bench_impls.sh) ----
+echo "== implementations (tools/bench_impls.sh)"
+tools/bench_impls.sh "$build" || status=1
+# ---- end implementations ----
+
 exit $status
