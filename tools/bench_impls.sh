@@ -24,13 +24,14 @@ done
 
 size_of() { [ "${1%%:*}" = rusticl ] && echo "64 --spp 4" || echo "256 --spp 16"; }
 
-# One render; prints paths/s (from spectrace's "rendered ... (X Mpaths/s" line).
+# One render; prints Mpaths/s from spectrace's "rendered WxH, N spp in T s" line.
 run_one() { # IMPL:PATH
   local impl=${1%%:*} path=${1##*:} out
   out=$( (eval "$(tools/opencl_env.sh "$impl" "$PWD/$build/icd/bench-$impl")"
           SPECTRACE_KERNEL_PATH=$path "$prog" render scenes/cornell_box.gltf \
             -o "$tmpdir/b.exr" --width $(size_of "$1") 2>&1) |
-        sed -n 's/.*(\([0-9.]*\) Mpaths\/s.*/\1/p' | tail -1)
+        sed -n 's/^rendered \([0-9]*\)x\([0-9]*\), \([0-9]*\) spp in \([0-9.]*\) s.*/\1 \2 \3 \4/p' |
+        tail -1 | awk '$4 > 0 {printf "%.5f", $1 * $2 * $3 / $4 * 1e-6}')
   echo "${out:-0}"
 }
 
