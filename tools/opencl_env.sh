@@ -13,8 +13,10 @@ names=${1:?usage: tools/opencl_env.sh NAME[,NAME...] [ICD_DIR]}
 dir=${2:-$root/deps/icd/${names//,/+}}
 
 # The library of a Debian-installed ICD, by the name its .icd file gives.
+# (ldconfig lives in /sbin, which a user's PATH may lack.)
 system_lib() { # SONAME_PREFIX
-  ldconfig -p 2>/dev/null | awk -v p="$1" '$1 ~ "^"p {print $NF; exit}'
+  local ldc; ldc=$(command -v ldconfig || echo /sbin/ldconfig)
+  "$ldc" -p 2>/dev/null | awk -v p="$1" '$1 ~ "^"p {print $NF; exit}'
 }
 
 envs=(); icds=()
