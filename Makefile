@@ -30,9 +30,10 @@ else
 Q := @
 endif
 
-SRC_C := $(filter-out src/main.c,$(wildcard src/*.c))
-SRC_CXX := $(wildcard src/*.cpp)
-KERNEL_FILES := $(sort $(wildcard kernels/*.h kernels/*.cl))
+# The library: every source under src/ except the two programs' main files.
+SRC_C := $(filter-out src/cli/main.c src/mpi/mpi_main.c,$(wildcard src/*/*.c))
+SRC_CXX := $(wildcard src/*/*.cpp)
+KERNEL_FILES := $(sort $(wildcard kernels/*/*.h kernels/*/*.cl))
 GEN_C := $(BUILD)/gen/kernel_sources.c \
          $(if $(wildcard tools/rgb2spec/rgb2spec_opt.c),$(BUILD)/gen/rgb2spec_data.c)
 LIB_OBJS := $(SRC_C:src/%.c=$(BUILD)/obj/%.o) $(SRC_CXX:src/%.cpp=$(BUILD)/obj/%.o) \
@@ -90,7 +91,7 @@ bench: deps
 	@$(MAKE) --no-print-directory OPT=-O3 $(PROG) $(MPI_PROG) $(TOOL_BINS)
 	@tools/bench.sh $(BUILD)
 
-$(PROG): $(BUILD)/obj/main.o $(LIB)
+$(PROG): $(BUILD)/obj/cli/main.o $(LIB)
 	@echo "LINK $@"
 	$(Q)$(CXX) $(LDFLAGS) -o $@ $^ $(LDLIBS)
 
@@ -103,8 +104,8 @@ $(BUILD)/obj/mpi/mpi_main.o: src/mpi/mpi_main.c
 	@echo "MPICC $<"
 	$(Q)$(MPICC) $(CPPFLAGS) $(CFLAGS) $(PKG_CFLAGS) -c -o $@ $<
 
-# src/main.c once more with its main() renamed: spectrace-mpi's main calls it.
-$(BUILD)/obj/mpi/cli_main.o: src/main.c
+# src/cli/main.c once more with its main() renamed: spectrace-mpi's main calls it.
+$(BUILD)/obj/mpi/cli_main.o: src/cli/main.c
 	@mkdir -p $(dir $@)
 	@echo "CC   $< (as spectrace_main)"
 	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) -Dmain=spectrace_main -c -o $@ $<
@@ -144,7 +145,7 @@ $(BUILD)/gen/kernel_sources.c: $(KERNEL_FILES) tools/embed/embed_files.c
 
 # Jakob-Hanika 2019 sigmoid-polynomial coefficient table, fitted by our own C tool.
 # Built without sanitizers and optimised: the fit is the slow part of a clean build.
-$(BUILD)/gen/rgb2spec_data.c: tools/rgb2spec/rgb2spec_opt.c kernels/cie_data.h
+$(BUILD)/gen/rgb2spec_data.c: tools/rgb2spec/rgb2spec_opt.c kernels/shared/cie_data.h
 	@mkdir -p $(BUILD)/gen $(BUILD)/tools
 	@echo "GEN  $@ (fitting the RGB-to-spectrum table)"
 	$(Q)$(CC) -std=c11 -O2 -Ikernels -o $(BUILD)/tools/rgb2spec_opt tools/rgb2spec/rgb2spec_opt.c -lm -lpthread

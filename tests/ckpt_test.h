@@ -10,9 +10,9 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "checkpoint.h"
-#include "exr.h"
-#include "film.h"
+#include "render/checkpoint.h"
+#include "io/exr.h"
+#include "render/film.h"
 #include "film_test.h"
 
 static char dir[64];

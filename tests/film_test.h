@@ -5,7 +5,7 @@
 
 #include <math.h>
 
-#include "film.h"
+#include "render/film.h"
 #include "test_util.h"
 
 /* Every pixel's XYZ sums agree within tol of the pixel's largest channel, and

@@ -1,4 +1,4 @@
-/* kernels/bsdf.h against independent values: textbook Fresnel forms, the
+/* kernels/device/bsdf.h against independent values: textbook Fresnel forms, the
  * normal-incidence conductor formula, the KHR_materials_dispersion definition at
  * the Fraunhofer lines, Snell's law through a prism, chi-square tests of the
  * samplers against their pdfs (tests/chi2.h), reciprocity and white-furnace
@@ -9,7 +9,7 @@
 #include <string.h>
 
 #include "chi2.h"
-#include "../kernels/bsdf.h"
+#include "device/bsdf.h"
 
 /* Chi-square tests expected to pass in this binary, for the Sidak correction. */
 #define BSDF_CHI2_TESTS 15
@@ -392,7 +392,7 @@ static void test_layers_consistency(void **state)
     assert_true(checked > 4000);
 }
 
-/* E(mu, r) of kernels/sheen_table.h between its nodes against the directional
+/* E(mu, r) of kernels/device/sheen_table.h between its nodes against the directional
  * albedo of the specification's Charlie lobe integrated here over wi (midpoint
  * rule, 1000 x 400 nodes, double precision). */
 static double spec_sheen_lambda(double mu, double alpha)
@@ -682,7 +682,7 @@ static void test_smooth_dielectric(void **state)
 
 /* Each work-item samples and evaluates one material for one (wo, u) input. */
 static const char *k_device_src =
-    "#include \"bsdf.h\"\n"
+    "#include \"device/bsdf.h\"\n"
     "__kernel void k_bsdf_test(__global const float *in, __global float *out, int n)\n"
     "{\n"
     "    int i = get_global_id(0);\n"
@@ -724,7 +724,7 @@ static void test_device_matches_host(void **state)
     if (err != CL_SUCCESS) {
         char log[8192] = "";
         clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, NULL);
-        fail_msg("kernels/bsdf.h does not build as OpenCL C: %s", log);
+        fail_msg("kernels/device/bsdf.h does not build as OpenCL C: %s", log);
     }
     enum { N = 512 };
     static float in[10 * N], out[10 * N];

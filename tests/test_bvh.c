@@ -1,4 +1,4 @@
-/* src/bvh.c and kernels/bvh.h: tree structure, closest and any hit against an
+/* src/accel/bvh_build.c and kernels/shared/bvh.h: tree structure, closest and any hit against an
  * independent double-precision brute force, watertightness, garbage input. */
 #include "test_cl_util.h"
 
@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "bvh.h"
+#include "accel/bvh_build.h"
 
 /* splitmix64: a small deterministic generator for the test data. */
 static uint64_t rng_state = 1;
@@ -512,7 +512,7 @@ static void test_empty_scene(void **state)
  * bit-identical hits to the host build for the same rays. Skipped without
  * an OpenCL device. */
 static const char *k_device_src =
-    "#include \"bvh.h\"\n"
+    "#include \"shared/bvh.h\"\n"
     "__kernel void k_bvh_test(__global const BvhNode *nodes, __global const float *tris,\n"
     "                         __global const float *rays, __global float *out, int n)\n"
     "{\n"
@@ -554,7 +554,7 @@ static int device_differences(cl_context ctx, cl_device_id dev, cl_command_queue
     if (err != CL_SUCCESS) {
         char log[8192] = "";
         clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, NULL);
-        fail_msg("kernels/bvh.h does not build as OpenCL C (%s): %s", options, log);
+        fail_msg("kernels/shared/bvh.h does not build as OpenCL C (%s): %s", options, log);
     }
     float *out = malloc((size_t)nr * 4 * sizeof *out);
     cl_mem bn = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,

@@ -1,4 +1,4 @@
-/* src/cl_device.c on PoCL: listing, selection (also with two PoCL devices, in a
+/* src/cl/cl_device.c on PoCL: listing, selection (also with two PoCL devices, in a
  * child process), no platform, include resolution, build errors with their log,
  * the binary cache, a trivial kernel, memory checks, error names and the layout
  * check of shared structs. PoCL compiles slowly, so the tests share one open
@@ -12,8 +12,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "cl_device.h"
-#include "layout_list.h"
+#include "cl/cl_device.h"
+#include "shared/layout_list.h"
 
 static ClDeviceList g_list;
 static ClDevice g_dev;         /* device 0, profiling queue */
@@ -421,15 +421,15 @@ static void test_embedded_sources_resolve(void **state)
     (void)state;
     char *out = NULL;
     SptError e = {0};
-    assert_int_equal(cl_source_resolve("kernels/layout_check.cl", &out, &e), SPT_EXIT_OK);
-    const char *head = "#line 1 \"kernels/layout_check.cl\"\n";
+    assert_int_equal(cl_source_resolve("kernels/device/layout_check.cl", &out, &e), SPT_EXIT_OK);
+    const char *head = "#line 1 \"kernels/device/layout_check.cl\"\n";
     assert_int_equal(strncmp(out, head, strlen(head)), 0);
-    assert_non_null(strstr(out, "#line 1 \"kernels/shared.h\"\n"));
-    assert_non_null(strstr(out, "#line 1 \"kernels/layout_list.h\"\n"));
-    /* shared.h is included by both; it is spliced once. */
-    char *first = strstr(out, "#define SPT_SHARED_H");
+    assert_non_null(strstr(out, "#line 1 \"kernels/shared/portable.h\"\n"));
+    assert_non_null(strstr(out, "#line 1 \"kernels/shared/layout_list.h\"\n"));
+    /* portable.h is included by both; it is spliced once. */
+    char *first = strstr(out, "#define SPT_PORTABLE_H");
     assert_non_null(first);
-    assert_null(strstr(first + 1, "#define SPT_SHARED_H"));
+    assert_null(strstr(first + 1, "#define SPT_PORTABLE_H"));
     free(out);
 }
 
@@ -472,7 +472,7 @@ static void test_build_error_reports_device_and_log(void **state)
 /* ---- cache and a trivial kernel --------------------------------------------- */
 
 static const char square_src[] =
-    "#include \"shared.h\"\n"
+    "#include \"shared/portable.h\"\n"
     "__kernel void k_square(__global uint *o)\n"
     "{\n"
     "    uint i = get_global_id(0);\n"

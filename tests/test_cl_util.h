@@ -5,7 +5,7 @@
 
 #include <CL/cl.h>
 
-#include "cl_device.h"
+#include "cl/cl_device.h"
 #include "test_util.h"
 
 /* Opens the first device of the first platform with a context and an in-order

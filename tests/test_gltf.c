@@ -1,4 +1,4 @@
-/* src/gltf_load.cpp, src/texture_io.cpp, src/scene.c: loading small glTF files
+/* src/scene/gltf_load.cpp, src/scene/texture_io.cpp, src/scene/scene.c: loading small glTF files
  * (tests/data/gltf/, written by tools/gen_gltf_tests.py) against hand-computed
  * values, and refusing broken ones with one message naming the object. */
 #include "test_util.h"
@@ -9,7 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "scene.h"
+#include "scene/scene.h"
 
 #define DATA(f) SPT_TEST_DATA("gltf/" f)
 

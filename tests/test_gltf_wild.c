@@ -1,4 +1,4 @@
-/* src/gltf_load.cpp, src/mesh_decode.cpp, src/texture_io.cpp: glTF files "from
+/* src/scene/gltf_load.cpp, src/scene/mesh_decode.cpp, src/scene/texture_io.cpp: glTF files "from
  * the wild" (tests/data/gltf/wild_*, written by tools/gen_wild_tests.py):
  * texture transforms against hand-computed matrices, the specular-glossiness
  * conversion against hand-solved values, warnings and refusals of extensions,
@@ -11,7 +11,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "scene.h"
+#include "scene/scene.h"
 
 #define DATA(f) SPT_TEST_DATA("gltf/" f)
 

@@ -1,4 +1,4 @@
-/* src/image_out.c, src/exr.c, src/image_io.cpp: image files, display transforms,
+/* src/io/image_out.c, src/io/exr.c, src/io/image_io.cpp: image files, display transforms,
  * atomic writes and their failures. Files are read back with OpenImageIO (an
  * independent reader of what OpenEXRCore and our display transform wrote). */
 #include "test_util.h"
@@ -11,9 +11,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "exr.h"
-#include "image_io.h"
-#include "image_out.h"
+#include "io/exr.h"
+#include "io/image_io.h"
+#include "io/image_out.h"
 
 /* A fresh folder per test, removed (with its files) afterwards. */
 static char g_dir[256];

@@ -1,4 +1,4 @@
-/* kernels/lights.h and src/lights.c: punctual lights against the inverse-square
+/* kernels/shared/lights.h and src/render/host_lights.c: punctual lights against the inverse-square
  * law and the KHR_lights_punctual spot formula, the photometric conversion
  * against the CIE tables, the environment map's sampling against its pdf
  * (chi-square), its normalisation and colour, the uniform background's
@@ -10,8 +10,8 @@
 #include <unistd.h>
 
 #include "chi2.h"
-#include "image_out.h"
-#include "lights.h"
+#include "io/image_out.h"
+#include "render/host_lights.h"
 
 /* Chi-square tests in this binary, for the Sidak correction. */
 #define LIGHTS_CHI2_TESTS 2
@@ -634,7 +634,7 @@ static void test_selection(void **state)
 
 /* The header builds as OpenCL C 1.2 and the device's results equal the host's. */
 static const char *k_device_src =
-    "#include \"lights.h\"\n"
+    "#include \"shared/lights.h\"\n"
     "__kernel void k_lights_test(__global const GpuLight *lights, __global const float *spectra,\n"
     "                            __global const GpuEnvMap *envs, __global const float *env_data,\n"
     "                            __global const float *in, __global float *out, int n)\n"
@@ -671,7 +671,7 @@ static void test_device_matches_host(void **state)
     if (err != CL_SUCCESS) {
         char log[8192] = "";
         clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, NULL);
-        fail_msg("kernels/lights.h does not build as OpenCL C: %s", log);
+        fail_msg("kernels/shared/lights.h does not build as OpenCL C: %s", log);
     }
     float spectra[2 * SPT_CIE_SAMPLES];
     GpuLight gl[2];

@@ -9,12 +9,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "bvh.h"
-#include "cl_device.h"
-#include "film.h"
-#include "render.h"
-#include "scene.h"
-#include "../kernels/cie_data.h"
+#include "accel/bvh_build.h"
+#include "cl/cl_device.h"
+#include "render/film.h"
+#include "render/render.h"
+#include "scene/scene.h"
+#include "shared/cie_data.h"
 
 static ClDeviceList devices;
 static const ClDeviceInfo *device;
@@ -426,7 +426,7 @@ static void test_furnace_glass(void **state)
  * of albedo rho, no other light (--background black). At a plane point at
  * distance d from the light, E = I cos / d^2 = I h / d^3 lux, the plane's
  * luminance Lv = rho E / pi cd/m^2, and film Y = Lv (the film's unit is the
- * nit: kernels/lights.h). Numbers from tools/make_material_scenes.py. */
+ * nit: kernels/shared/lights.h). Numbers from tools/make_material_scenes.py. */
 #define PL_ALBEDO 0.5
 #define PL_INTENSITY 1.0e5
 #define PL_HEIGHT 1.0
@@ -447,7 +447,7 @@ static double point_light_expected_y(int x, int y)
             double d2 = px * px + pz * pz + PL_HEIGHT * PL_HEIGHT, d = sqrt(d2);
             double E = PL_INTENSITY * (PL_HEIGHT / d) / d2;
             double Lv = PL_ALBEDO * E / M_PI;
-            e += Lv / 64.0; /* film Y = luminance in cd/m^2 (kernels/lights.h) */
+            e += Lv / 64.0; /* film Y = luminance in cd/m^2 (kernels/shared/lights.h) */
         }
     return e;
 }

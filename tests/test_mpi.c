@@ -12,7 +12,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "scene_pack.h"
+#include "scene/scene_pack.h"
 
 #define SCENE "scenes/cornell_box.gltf"
 #define COMMON "--width 32 --height 32 --seed 5 --device 0"

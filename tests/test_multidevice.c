@@ -6,11 +6,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cl_device.h"
-#include "film.h"
+#include "cl/cl_device.h"
+#include "render/film.h"
 #include "film_test.h"
-#include "render.h"
-#include "scene.h"
+#include "render/render.h"
+#include "scene/scene.h"
 
 static ClDeviceList devices;
 static Scene scene;

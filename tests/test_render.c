@@ -9,14 +9,14 @@
 #include <math.h>
 #include <unistd.h>
 
-#include "cl_device.h"
-#include "exr.h"
-#include "film.h"
+#include "cl/cl_device.h"
+#include "io/exr.h"
+#include "render/film.h"
 #include "film_test.h"
-#include "render.h"
-#include "scene.h"
-#include "spectrum.h"
-#include "../kernels/cie_data.h"
+#include "render/render.h"
+#include "scene/scene.h"
+#include "color/spd.h"
+#include "shared/cie_data.h"
 #define SPT_CIE_Y_INTEGRAL_HOST ((double)SPT_CIE_Y_INTEGRAL)
 
 static ClDeviceList devices;
@@ -555,7 +555,7 @@ static void test_punctual_lights(void **state)
     (void)state;
     enum { W = 48 };
     float *rgb = malloc(W * W * 3 * sizeof(float));
-    const double to_film = 1.0; /* film Y = luminance in cd/m^2 (kernels/lights.h) */
+    const double to_film = 1.0; /* film Y = luminance in cd/m^2 (kernels/shared/lights.h) */
     const double ci = cos(0.3), co = cos(0.5), t = tan(0.5);
     for (int both = 0; both < 2; both++) {
         render_punctual(both, rgb, W);
@@ -939,7 +939,7 @@ static void test_orthographic(void **state)
     scene_free(&s);
 }
 
-/* Direction of environment map coordinates (u, v) (kernels/render_types.h,
+/* Direction of environment map coordinates (u, v) (kernels/shared/render_types.h,
  * GpuEnvMap): theta = pi v from +Y, phi = 2 pi u. */
 static void env_dir(double u, double v, double d[3])
 {

@@ -1,13 +1,13 @@
-/* kernels/rng.h: the counter-based generator and the Owen-scrambled Sobol sampler. */
+/* kernels/device/rng.h: the counter-based generator and the Owen-scrambled Sobol sampler. */
 #include "test_util.h"
 
 #include <stdlib.h>
 #include <string.h>
 
 #include "chi2.h"
-#include "cl_device.h"
-#include "rng.h"
-#include "sampling.h"
+#include "cl/cl_device.h"
+#include "device/rng.h"
+#include "shared/sampling.h"
 
 /* Chi-square tests in this binary, for the Sidak correction. */
 #define RNG_CHI2_TESTS 8
@@ -375,8 +375,8 @@ static void test_sobol_scrambles_differ(void **state)
 /* ---- Host and device agree ------------------------------------------------------ */
 
 static const char device_src[] =
-    "#include \"rng.h\"\n"
-    "#include \"sampling.h\"\n"
+    "#include \"device/rng.h\"\n"
+    "#include \"shared/sampling.h\"\n"
     "__kernel void k_rng_check(__global uint *bits, __global float *f,\n"
     "                          __global const float *cdf, uint ncdf)\n"
     "{\n"

@@ -1,15 +1,15 @@
-/* kernels/sampling.h warps and src/distrib.c distributions against their pdfs,
+/* kernels/shared/sampling.h warps and src/core/distribution.c distributions against their pdfs,
  * plus the chi-square helper (tests/chi2.h) itself. Uniform numbers come from a
- * generator local to this file, so these tests do not rest on kernels/rng.h. */
+ * generator local to this file, so these tests do not rest on kernels/device/rng.h. */
 #include "test_util.h"
 
 #include <stdlib.h>
 #include <string.h>
 
 #include "chi2.h"
-#include "distrib.h"
-#include "sampling.h"
-#include "../kernels/spectrum.h"
+#include "core/distribution.h"
+#include "shared/sampling.h"
+#include "shared/spectrum.h"
 
 /* Chi-square tests expected to pass in this binary, for the Sidak correction. */
 #define SAMPLING_CHI2_TESTS 8
@@ -614,7 +614,7 @@ static void test_distrib_large(void **state)
     free(w);
 }
 
-/* ---- Wavelengths (kernels/spectrum.h) ------------------------------------------- */
+/* ---- Wavelengths (kernels/shared/spectrum.h) ------------------------------------------- */
 
 /* The visible-wavelength density written out in double precision from its
  * definition: k / ((tanh(k (830 - 538)) - tanh(k (360 - 538))) cosh^2(k (l - 538)))

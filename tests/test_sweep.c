@@ -4,7 +4,7 @@
  * image mean must match the analytic value within noise. The EXR output of each
  * render must read back bit for bit (noisy pixels compress to within a few bytes
  * of their size, where a ZIP chunk stored wrongly reads back as bands of NaN and
- * 3e38 values; src/exr.c).
+ * 3e38 values; src/io/exr.c).
  *
  * The scenes (written here as glTF): a 10 m x 10 m Lambertian floor (an 8x8 grid,
  * albedo from base colour (0.2, 0.5, 0.8), specularFactor 0: pure Lambert) seen
@@ -52,16 +52,16 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "checkpoint.h"
-#include "cl_device.h"
-#include "exr.h"
-#include "film.h"
-#include "image_out.h"
-#include "render.h"
-#include "scene.h"
-#include "spectrum.h"
-#include "../kernels/cie_data.h"
-#include "../kernels/spectrum.h"
+#include "render/checkpoint.h"
+#include "cl/cl_device.h"
+#include "io/exr.h"
+#include "render/film.h"
+#include "io/image_out.h"
+#include "render/render.h"
+#include "scene/scene.h"
+#include "color/spd.h"
+#include "shared/cie_data.h"
+#include "shared/spectrum.h"
 
 enum { SKY, BOX, SCENES };
 static const char *const scene_names[SCENES] = {"sky", "box"};
@@ -385,7 +385,7 @@ static double check_config(int scene, const Config *c, int index)
 /* The sweep: odd sizes and sizes below the path pool, sample counts that are not
  * powers of two, pools from 1 path up (smaller than a work-group of 64, one
  * either side of it, smaller and larger than the image), one device and two. A
- * chunk is ceil(16 pool / pixels) samples, at most ceil(spp / 16) (src/render.c),
+ * chunk is ceil(16 pool / pixels) samples, at most ceil(spp / 16) (src/render/render.c),
  * so these give chunks of 1 to 9 samples, with a shorter last one where the
  * chunk does not divide spp (130 spp: 14 of 9 and one of 4; 17 spp: 8 of 2 and
  * one of 1); 130x70 at 130 spp with a pool of 1000 takes chunks of 2, 31x17 at 64

@@ -17,10 +17,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "cl_device.h"
-#include "film.h"
-#include "render.h"
-#include "scene.h"
+#include "cl/cl_device.h"
+#include "render/film.h"
+#include "render/render.h"
+#include "scene/scene.h"
 
 static ClDeviceList devices;
 static const ClDeviceInfo *device;

@@ -1,9 +1,9 @@
-/* src/util.c: error records. */
+/* src/core/util.c: error records. */
 #include "test_util.h"
 
 #include <string.h>
 
-#include "util.h"
+#include "core/util.h"
 
 static void test_fail_fills_record(void **state)
 {

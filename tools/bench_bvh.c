@@ -10,7 +10,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "bvh.h"
+#include "accel/bvh_build.h"
 
 static uint64_t rng_state = 7;
 static double rnd(void)

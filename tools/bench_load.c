@@ -12,9 +12,9 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "bvh.h"
-#include "scene.h"
-#include "util.h"
+#include "accel/bvh_build.h"
+#include "scene/scene.h"
+#include "core/util.h"
 
 static int write_all(FILE *f, const void *p, size_t n) { return fwrite(p, 1, n, f) == n ? 0 : -1; }
 

@@ -17,10 +17,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cl_device.h"
-#include "film.h"
-#include "render.h"
-#include "scene.h"
+#include "cl/cl_device.h"
+#include "render/film.h"
+#include "render/render.h"
+#include "scene/scene.h"
 
 static int cmp_double(const void *a, const void *b)
 {

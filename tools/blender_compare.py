@@ -84,7 +84,7 @@ def spectrace_camera(path, np):
     else:
         children = {c for n in doc.get("nodes", []) for c in n.get("children", [])}
         roots = [i for i in range(len(doc.get("nodes", []))) if i not in children]
-    # Depth-first, pre-order, children in file order (src/gltf_load.cpp).
+    # Depth-first, pre-order, children in file order (src/scene/gltf_load.cpp).
     stack = [(r, np.eye(4)) for r in reversed(roots)]
     while stack:
         n, parent = stack.pop()
@@ -108,7 +108,7 @@ def spectrace_camera(path, np):
                 out["znear"] = float(cam["perspective"].get("znear", 1e-3))
             return out
         stack.extend((c, world) for c in reversed(node.get("children", [])))
-    # spectrace's default camera (src/scene.c scene_default_camera).
+    # spectrace's default camera (src/scene/scene.c scene_default_camera).
     scene = s2m.load_gltf(path)
     pts = [s[1][s[2].reshape(-1)] for s in scene["shapes"] if len(s[2])]
     yfov = math.radians(45.0)

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""Writes kernels/sheen_table.h: the directional albedo E(mu, r) of the
+"""Writes kernels/device/sheen_table.h: the directional albedo E(mu, r) of the
 KHR_materials_sheen "Charlie" lobe (sheen colour 1), which the renderer needs for
 the extension's albedo scaling of the base layer and to keep the lobe from
-creating energy (kernels/bsdf.h).
+creating energy (kernels/device/bsdf.h).
 
     python3 tools/gen_sheen_table.py [OUT.h]
 
@@ -33,7 +33,7 @@ import numpy as np
 N = 32
 R_MIN = 0.07
 OUT = sys.argv[1] if len(sys.argv) > 1 else os.path.join(os.path.dirname(__file__), "..", "kernels",
-                                                            "sheen_table.h")
+                                                            "device", "sheen_table.h")
 
 # The specification's fit of the Charlie visibility's Lambda: rows at alpha = 0
 # (t = 1) and alpha = 1 (t = 0), interpolated by t = (1 - alpha)^2.
@@ -109,7 +109,7 @@ def main():
         "#ifndef SPT_SHEEN_TABLE_H",
         "#define SPT_SHEEN_TABLE_H",
         "",
-        '#include "shared.h"',
+        '#include "shared/portable.h"',
         "",
         "#define SPT_SHEEN_N %d" % N,
         "#define SPT_SHEEN_R_MIN %.2ff" % R_MIN,

@@ -48,7 +48,7 @@ scene with a uniform D65 sky of film Y = 1; so does this converter (a Mitsuba
 `constant` emitter), unless --background says otherwise (black, or R,G,B).
 A point light of intensity Iv candela and linear RGB colour c becomes a Mitsuba
 `point` emitter of RGB intensity c Iv (an RGB illuminant, D65 times the
-upsampled colour; the film's unit is the nit: kernels/lights.h). Spot
+upsampled colour; the film's unit is the nit: kernels/shared/lights.h). Spot
 and directional lights are refused.
 
 Conventions matched with spectrace: Mitsuba's path integrator max_depth counts
@@ -272,7 +272,7 @@ def _spd(value, warnings):
 # Colour: the observer and the RGB upsampling
 # ---------------------------------------------------------------------------
 # --colour exact (default) gives Mitsuba spectrace's colour definitions, computed
-# here independently: the CIE 1931 2-degree observer of kernels/cie_data.h (the
+# here independently: the CIE 1931 2-degree observer of kernels/shared/cie_data.h (the
 # CIE's 1 nm table, normalised by the sum of ybar) as the response of a Mitsuba
 # `specfilm` (XYZ, converted to linear sRGB with the matrix of docs/DESIGN.md),
 # and every RGB colour as a 1 nm table of the Jakob-Hanika sigmoid spectrum whose
@@ -290,7 +290,7 @@ _OBSERVER = None
 
 
 def observer():
-    """{'nm', 'x', 'y', 'z', 'd65'} 1 nm arrays over 360..830 from kernels/cie_data.h,
+    """{'nm', 'x', 'y', 'z', 'd65'} 1 nm arrays over 360..830 from kernels/shared/cie_data.h,
     and 'y_integral' (the sum of ybar)."""
     global _OBSERVER
     if _OBSERVER is None:
@@ -299,7 +299,7 @@ def observer():
         paths = [os.path.join(root, "kernels", sub, "cie_data.h") for sub in ("shared", "")]
         path = next((q for q in paths if os.path.exists(q)), None)
         if path is None:
-            raise ValueError("kernels/cie_data.h not found (the observer of --colour exact)")
+            raise ValueError("kernels/shared/cie_data.h not found (the observer of --colour exact)")
         with open(path) as f:
             text = f.read()
         obs = {}
@@ -395,7 +395,7 @@ def rgb_illuminant(rgb, colour="exact"):
 
 def xyz_film(width, height, window=None):
     """A Mitsuba specfilm whose three channels are the CIE 1931 xbar, ybar, zbar
-    of kernels/cie_data.h (optionally zero outside the wavelength window (a, b)):
+    of kernels/shared/cie_data.h (optionally zero outside the wavelength window (a, b)):
     each pixel gets the integral of radiance times each function, in nm."""
     obs = observer()
     film = {"type": "specfilm", "width": int(width), "height": int(height), "component_format": "float32",
@@ -529,7 +529,7 @@ def _emitter(m, spec, warnings, colour="exact"):
     return emitter
 
 
-# Film Y of 1 cd/m^2 (kernels/lights.h SPT_LIGHT_FILM_Y_PER_NIT): 1, the nit.
+# Film Y of 1 cd/m^2 (kernels/shared/lights.h SPT_LIGHT_FILM_Y_PER_NIT): 1, the nit.
 FILM_Y_PER_NIT = 1.0
 
 

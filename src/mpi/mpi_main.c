@@ -1,11 +1,11 @@
 /* build/spectrace-mpi: the command line of build/spectrace, with `render` spread
  * over the ranks of an MPI job (`mpirun -n N build/spectrace-mpi render ...`).
  *
- * Rank 0 runs the ordinary command line (src/main.c, compiled here as
+ * Rank 0 runs the ordinary command line (src/cli/main.c, compiled here as
  * spectrace_main): it alone reads the scene, the checkpoint and writes files and
  * progress. When cmd_render reaches the render, spt_dist_render (below) sends
  * every other rank the job (the settings and the loaded scene, packed by
- * src/scene_pack.c, so buffers and textures need not exist on the other
+ * src/scene/scene_pack.c, so buffers and textures need not exist on the other
  * machines), then renders on its own devices while a server thread hands out
  * chunks of sample indices to the ranks that ask and adds the sums of every
  * chunk they finish to the one film, which is also what checkpoints save. A
@@ -29,15 +29,15 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "cl_device.h"
-#include "dist.h"
-#include "film.h"
-#include "render.h"
-#include "scene.h"
-#include "scene_pack.h"
-#include "util.h"
+#include "cl/cl_device.h"
+#include "mpi/mpi_hook.h"
+#include "render/film.h"
+#include "render/render.h"
+#include "scene/scene.h"
+#include "scene/scene_pack.h"
+#include "core/util.h"
 
-int spectrace_main(int argc, char **argv); /* src/main.c's main, renamed by the Makefile */
+int spectrace_main(int argc, char **argv); /* src/cli/main.c's main, renamed by the Makefile */
 
 enum { TAG_JOB = 1, TAG_REQ, TAG_CHUNK, TAG_DONE, TAG_FILM, TAG_BACK, TAG_FINISH };
 

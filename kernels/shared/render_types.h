@@ -1,0 +1,268 @@
+/* Structs the host uploads for the wavefront kernels, and the buffer lists that
+ * both sides expand (so a kernel argument is named once, here). Valid C99 and
+ * OpenCL C: 32-bit scalars and fixed arrays only, padded by hand. */
+#ifndef SPT_RENDER_TYPES_H
+#define SPT_RENDER_TYPES_H
+
+#include "shared/portable.h"
+
+/* A spectrum as a material or light stores it:
+ *   kind SPT_SPEC_SIGMOID: scale * sigmoid(c0 l^2 + c1 l + c2) (Jakob-Hanika),
+ *        times the normalised D65 table when flags has SPT_SPEC_ILLUMINANT;
+ *   kind SPT_SPEC_TABLE: scale * table[offset + (l - 360)] on the 1 nm grid
+ *        (linear interpolation), from the spectra buffer. */
+#define SPT_SPEC_NONE 0
+#define SPT_SPEC_SIGMOID 1
+#define SPT_SPEC_TABLE 2
+#define SPT_SPEC_ILLUMINANT 1u
+
+typedef struct SpecRef {
+    float c[3];
+    float scale;
+    spt_u32 kind;
+    spt_u32 flags;
+    spt_u32 offset; /* into the spectra buffer, SPT_SPEC_TABLE */
+    spt_u32 pad;
+} SpecRef; /* 32 bytes */
+
+/* Material flags. */
+#define SPT_MAT_EMISSIVE 1u
+#define SPT_MAT_DOUBLE_SIDED_EMISSION 2u
+#define SPT_MAT_ALPHA_MASK 4u    /* glTF alphaMode MASK: cut out below the cutoff */
+#define SPT_MAT_ALPHA_BLEND 8u   /* glTF alphaMode BLEND: stochastic opacity alpha */
+#define SPT_MAT_UNLIT 16u        /* KHR_materials_unlit: emits, reflects nothing */
+#define SPT_MAT_VERTEX_COLOR 32u /* some of its triangles have COLOR_0 (vtx_color) */
+#define SPT_MAT_TEXTURED 64u     /* some slot has a texture */
+#define SPT_MAT_UV1 128u         /* some slot reads TEXCOORD_1 (vtx_uv1) */
+
+/* The texture slots of a material (the same numbers as scene.h's SPT_SLOT_*):
+ * which channels each reads is in kernels/device/wavefront.cl (material_bsdf). */
+#define SPT_TS_BASE 0
+#define SPT_TS_METALLIC_ROUGHNESS 1
+#define SPT_TS_NORMAL 2
+#define SPT_TS_EMISSIVE 3
+#define SPT_TS_TRANSMISSION 4
+#define SPT_TS_SPECULAR 5
+#define SPT_TS_SPECULAR_COLOR 6
+#define SPT_TS_CLEARCOAT 7
+#define SPT_TS_CLEARCOAT_ROUGHNESS 8
+#define SPT_TS_CLEARCOAT_NORMAL 9
+#define SPT_TS_SHEEN_COLOR 10
+#define SPT_TS_SHEEN_ROUGHNESS 11
+#define SPT_TS_COUNT 12
+
+/* A material's use of a texture: which one (-1: none), read at which texture
+ * coordinates (0: TEXCOORD_0, 1: TEXCOORD_1), through which KHR_texture_transform
+ * (uv' = M (u, v, 1), M 2x3 row-major; the identity when absent). */
+typedef struct GpuTexSlot {
+    spt_i32 tex;
+    spt_u32 uv_set;
+    float m[6];
+} GpuTexSlot; /* 32 bytes */
+
+/* A material: glTF metallic-roughness with its extensions (kernels/device/bsdf.h). Each
+ * factor is multiplied by its slot's texture where it has one. */
+typedef struct GpuMaterial {
+    SpecRef reflectance;   /* base colour: diffuse albedo, metal F0, transmission tint */
+    SpecRef emission;      /* emitted radiance, one-sided (front face) */
+    SpecRef spec_tint;     /* KHR_materials_specular colour (SIGMOID, scale = its max) */
+    SpecRef attenuation;   /* KHR_materials_volume attenuationColor; NONE = clear */
+    SpecRef sheen;         /* KHR_materials_sheen colour (SIGMOID, scale = its max3); NONE = no sheen */
+    spt_u32 flags;
+    float alpha_cutoff;    /* SPT_MAT_ALPHA_MASK: opaque where alpha >= cutoff */
+    float alpha;           /* base colour alpha factor */
+    float metallic;
+    float roughness;       /* perceptual; alpha = roughness^2 */
+    float transmission;    /* KHR_materials_transmission */
+    float ior;             /* KHR_materials_ior (at the d line with dispersion) */
+    float dispersion;      /* KHR_materials_dispersion: 20 / Abbe number */
+    float specular;        /* KHR_materials_specular factor */
+    float normal_scale;
+    float attenuation_distance; /* metres; with attenuation */
+    spt_i32 conductor;     /* 0 none, else SPT_CONDUCTOR_* + 1 (measured eta, k) */
+    float clearcoat;       /* KHR_materials_clearcoat factor; 0 = no coat */
+    float cc_roughness;    /* clearcoatRoughnessFactor */
+    float cc_normal_scale; /* clearcoatNormalTexture.scale */
+    float sheen_roughness; /* sheenRoughnessFactor */
+    GpuTexSlot slot[SPT_TS_COUNT];
+} GpuMaterial; /* 608 bytes */
+
+/* Texture kinds: how a texel's four floats read. COLOR: sigmoid coefficients
+ * (c0, c1, c2) of the texel's linear RGB, alpha in w (base colour, emissive,
+ * specular colour). SCALED: the coefficients of RGB / max(RGB) and that maximum
+ * in w (a colour whose largest component a material needs: sheen). DATA: the
+ * linear RGBA values as stored (metallic-roughness, normals, factors' channels). */
+#define SPT_TEXKIND_COLOR 0u
+#define SPT_TEXKIND_SCALED 1u
+#define SPT_TEXKIND_DATA 2u
+
+/* Texture flags. */
+#define SPT_TEX_NEAREST 1u     /* sampler magFilter NEAREST: magnified texels stay square */
+
+/* A texture in the texels buffer: a mip pyramid of float4 texels from offset,
+ * level 0 width x height, level k max(1, width >> k) x max(1, height >> k),
+ * levels one after another, rows from the image's top (v = 0). */
+typedef struct GpuTexture {
+    spt_u32 offset;
+    spt_i32 width, height;
+    spt_i32 wrap_s, wrap_t;
+    spt_u32 levels;
+    spt_u32 kind;          /* SPT_TEXKIND_* */
+    spt_u32 flags;         /* SPT_TEX_* */
+} GpuTexture; /* 32 bytes */
+
+/* Per packed triangle: vertex indices into the vertex arrays and the material. */
+typedef struct TriShade {
+    spt_u32 v[3];
+    spt_u32 material;
+} TriShade; /* 16 bytes */
+
+#define SPT_PUNCTUAL_POINT 0u
+#define SPT_PUNCTUAL_SPOT 1u
+#define SPT_PUNCTUAL_DIRECTIONAL 2u
+
+/* A punctual light. spectrum: I(l) W/(sr nm) for point/spot, E(l) W/(m^2 nm) for
+ * directional (usually SPT_SPEC_TABLE into the spectra buffer). Spot falloff per
+ * the KHR_lights_punctual specification's recommended implementation:
+ * t = clamp(cos_angle * spot_scale + spot_offset, 0, 1), falloff = t^2, with
+ * spot_scale = 1 / max(0.001, cos(inner) - cos(outer)),
+ * spot_offset = -cos(outer) * spot_scale. */
+typedef struct GpuLight {
+    float pos[3];      /* world position (point, spot) */
+    spt_u32 type;      /* SPT_PUNCTUAL_* (same values as scene.h SPT_LIGHT_*) */
+    float dir[3];      /* unit direction the light shines toward (spot, directional) */
+    float cos_outer;   /* spot: cos(outerConeAngle), 0 outside the cone */
+    float cos_inner;   /* spot: cos(innerConeAngle), full intensity inside */
+    float spot_scale;
+    float spot_offset;
+    float pad;
+    SpecRef spectrum;
+} GpuLight; /* 80 bytes */
+
+/* Environment kinds. */
+#define SPT_ENV_NONE 0u
+#define SPT_ENV_UNIFORM 1u
+#define SPT_ENV_MAP 2u
+
+/* The environment. Map: width x height texels, rows top (+Y) to bottom, in the
+ * env data float buffer from texel_offset, 4 floats each: sigmoid coefficients
+ * c0, c1, c2 and a scale, radiance = scale * sigmoid(c)(l) * D65norm(l) (the
+ * map's intensity already folded in). marginal_offset: height + 1 floats, the CDF
+ * over rows; conditional_offset: height CDFs of width + 1 floats each (row y at
+ * conditional_offset + y (width + 1)). Direction of map coordinates (u, v) in
+ * [0,1]^2, before rotation: theta = pi v from +Y, phi = 2 pi u,
+ * d = (-sin(phi) sin(theta), cos(theta), cos(phi) sin(theta)): the image centre
+ * (u = 1/2) faces -Z (where a default glTF camera looks), u = 3/4 faces +X,
+ * u = 0 faces +Z. World direction = R_y(rotation) d (right-handed about +Y).
+ * Uniform: radiance = uniform (any SpecRef; a table lives in the env data buffer
+ * at uniform.offset), sampled uniformly over the sphere. */
+typedef struct GpuEnvMap {
+    spt_u32 kind;          /* SPT_ENV_* */
+    spt_i32 width, height;
+    spt_u32 texel_offset;
+    spt_u32 marginal_offset;
+    spt_u32 conditional_offset;
+    float rot_cos, rot_sin; /* cos and sin of the rotation about +Y */
+    SpecRef uniform;
+} GpuEnvMap; /* 64 bytes */
+
+/* Everything a pass needs besides buffers; passed by value. */
+typedef struct RenderParams {
+    /* camera: position, right/up scaled by tan(fov/2) (and aspect), forward; the
+     * ray cone that texture filtering follows (kernels/device/path.h): its width at the
+     * camera in cam_pos[3] (orthographic: a pixel's size; else 0) and its spread
+     * in cam_fwd[3] (a pixel's angle; 0 orthographic) */
+    float cam_pos[4];
+    float cam_right[4];
+    float cam_up[4];
+    float cam_fwd[4];
+    spt_i32 width, height;
+    spt_u32 seed;
+    spt_i32 max_depth;      /* path segments from the camera; <= 0 unlimited */
+    spt_u32 pool_size;
+    spt_u32 work_begin;     /* first linear work index of this chunk */
+    spt_u32 work_end;       /* one past the last */
+    spt_u32 sample_begin;   /* sample index of work_begin (work = pixel + W*H*(sample - sample_begin)) */
+    spt_u32 emitter_count;  /* emissive triangles: the first entries of light_cdf */
+    float emitter_total;    /* sum of the selection weights, for pdfs */
+    spt_u32 node_count;
+    spt_u32 rr_depth;       /* Russian roulette from this many segments on */
+    spt_u32 has_alpha;      /* some material is MASK or BLEND: shadow rays test alpha */
+    spt_u32 orthographic;   /* 1: parallel rays along cam_fwd from the image plane */
+    spt_u32 light_count;    /* punctual lights: light_cdf entries after the triangles */
+    spt_u32 select_count;   /* entries of light_cdf: triangles, punctual, environment */
+    /* Thin lens: radius (0 = pinhole) and focus distance along the view axis. */
+    float lens_radius;
+    float focus_distance;
+    float env_prob;         /* probability that light selection picks the environment */
+    float pad_;
+    /* What rays that leave the scene see (kernels/shared/lights.h): a map, a uniform sky
+     * or nothing; its data (texels, CDFs or a table) in the env_data buffer. */
+    GpuEnvMap env;
+} RenderParams;
+
+/* Counters, one uint each in the counters buffer; the host reads them back. */
+#define SPT_CNT_EXTEND 0   /* paths queued for extend this iteration */
+#define SPT_CNT_SHADOW 1   /* shadow rays queued */
+#define SPT_CNT_WORK 2     /* next work index handed out (relative to work_begin) */
+#define SPT_CNT_DONE 3     /* paths finished in this chunk */
+#define SPT_CNT_NAN 4      /* paths whose radiance was NaN/Inf and was dropped */
+#define SPT_CNT_COUNT 8
+
+/* Path flags. */
+#define SPT_PATH_DEAD 0u       /* slot free */
+#define SPT_PATH_ALIVE 1u      /* ray to trace */
+#define SPT_PATH_FINISHED 2u   /* done: contribution to be written by generate */
+
+/* The path state, one structure-of-arrays buffer per field, declared once:
+ * X(type, name) expands into kernel parameters `ps_name`, host cl_mem fields and
+ * allocation sizes. lambda/lambda_pdf/throughput/radiance carry the 4 wavelengths. */
+#define SPT_PATH_STATE(X)   \
+    X(float4, ray_o)        \
+    X(float4, ray_d)        \
+    X(float4, throughput)   \
+    X(float4, radiance)     \
+    X(float4, lambda)       \
+    X(float4, lambda_pdf)   \
+    X(float4, hit)          \
+    X(uint, work)           \
+    X(uint, depth)          \
+    X(uint, flags)          \
+    X(uint, passes)         \
+    X(uint, medium)         \
+    X(float, bsdf_pdf)
+
+/* Shadow-ray queue entries, one buffer per field. */
+#define SPT_SHADOW_STATE(X) \
+    X(float4, ray_o)        \
+    X(float4, ray_d)        \
+    X(float4, contrib)      \
+    X(uint, path)
+
+/* Scene buffers (read only) and film/queue buffers. */
+#define SPT_SCENE_BUFFERS(X)          \
+    X(const BvhNode, nodes)           \
+    X(const float, tris)              \
+    X(const TriShade, tri_shade)      \
+    X(const float, vtx_pos)           \
+    X(const float, vtx_normal)        \
+    X(const float, vtx_uv)            \
+    X(const float, vtx_uv1)           \
+    X(const float4, vtx_color)        \
+    X(const GpuMaterial, materials)   \
+    X(const float, spectra)           \
+    X(const GpuTexture, textures)     \
+    X(const float4, texels)           \
+    X(const uint, emitters)           \
+    X(const float, light_cdf)         \
+    X(const float, tri_light_pdf)     \
+    X(const GpuLight, lights)         \
+    X(const float, env_data)
+
+#define SPT_WORK_BUFFERS(X)           \
+    X(uint, counters)                 \
+    X(uint, queue_extend)             \
+    X(float4, contrib)                \
+    X(float4, chunk_sum)
+
+#endif

@@ -1,0 +1,94 @@
+/* Host BVH builder: binned SAH over triangles into the flat node array and packed
+ * triangles that kernels/shared/bvh.h traverses (on the device and, in tests, on the host). */
+#ifndef SPT_BVH_BUILD_H
+#define SPT_BVH_BUILD_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core/util.h"
+/* The device layout (BvhNode, the packed triangles, bvh_intersect, bvh_occluded). */
+#include "shared/bvh.h"
+
+/* What a build made, for `info`, the benchmark and the tests. */
+typedef struct BvhStats {
+    uint32_t node_count;       /* 8-wide nodes */
+    uint32_t leaf_count;
+    uint32_t max_depth;        /* of the 8-wide nodes, root = 0 */
+    uint32_t max_leaf_size;
+    double avg_leaf_size;      /* triangles per leaf */
+    double sah_cost;           /* of the binary SAH tree the 8-wide one gathers:
+                                  sum over nodes of area / root area times the
+                                  cost (options cost_node per interior node,
+                                  cost_tri per triangle in a leaf) */
+    double build_seconds;
+    double bytes_per_tri;      /* (nodes + leaf blocks) / kept triangles */
+    uint32_t dropped;          /* dropped_nonfinite + dropped_degenerate */
+    uint32_t dropped_nonfinite;  /* NaN/Inf or |coordinate| >= 1e18 */
+    uint32_t dropped_degenerate; /* zero area (in float) */
+} BvhStats;
+
+typedef struct Bvh {
+    BvhNode *nodes;          /* node_count nodes, root first (device-ready) */
+    uint32_t node_count;
+    float *tri_data;         /* the leaf blocks (kernels/shared/bvh.h; device-ready),
+                                then BVH_TRI_PAD words; only zeroed words when
+                                prim_count is 0, so the buffer is never empty */
+    size_t tri_data_bytes;
+    uint32_t *tri_leaf;      /* per packed triangle: the word of its leaf's block;
+                                one 0 when prim_count is 0 */
+    uint32_t *prim_index;    /* prim_index[i] = input index of packed triangle i */
+    uint32_t prim_count;     /* triangles kept */
+    BvhStats stats;
+} Bvh;
+
+/* Build settings; bvh_build uses bvh_default_options(). */
+typedef struct BvhOptions {
+    int bins;           /* SAH bins per axis, 2..BVH_MAX_BINS */
+    int max_leaf;       /* most triangles per leaf, 1..BVH_MAX_LEAF */
+    int full_sweep;     /* 1: exact (unbinned) SAH by sorting, O(n log^2 n): a
+                           quality reference for the benchmark, not for scenes */
+    float cost_node;    /* SAH cost of visiting an interior node (> 0) */
+    float cost_tri;     /* SAH cost of one triangle test (> 0) */
+} BvhOptions;
+
+#define BVH_MAX_BINS 64
+#define BVH_MAX_LEAF BVH_LEAF_MAX
+
+/* The settings bvh_build uses. */
+BvhOptions bvh_default_options(void);
+
+/* Builds bvh (overwritten) over tri_count triangles, 9 floats each (v0, v1, v2).
+ * Triangles with a non-finite coordinate, |coordinate| >= 1e18 or zero area are
+ * dropped and counted in bvh->stats. Zero kept triangles give a one-leaf tree that
+ * every ray misses. Returns 0, or SPT_EXIT_INPUT (bvh left empty, e filled) when
+ * the scene is too large to index. */
+int bvh_build(Bvh *bvh, const float *tri_pos, uint32_t tri_count, SptError *e);
+
+/* bvh_build with explicit options (NULL = defaults); invalid options are
+ * SPT_EXIT_USAGE. */
+int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOptions *opt,
+                 SptError *e);
+
+/* Frees what bvh_build allocated and zeroes bvh; safe on a zeroed or freed Bvh. */
+void bvh_free(Bvh *bvh);
+
+/* The bounds of everything indexed (lo > hi when nothing is). */
+void bvh_bounds(const Bvh *bvh, float lo[3], float hi[3]);
+
+/* The vertices of packed triangle i. */
+static inline void bvh_vertices(const Bvh *bvh, uint32_t i, vec3 *v0, vec3 *v1, vec3 *v2)
+{
+    const float *p = bvh->tri_data + bvh->tri_leaf[i];
+    bvh_leaf_vertices(p, i - bvh_word(p, 0), v0, v1, v2);
+}
+
+/* A closed, star-shaped test mesh: a sphere of the given radius around center
+ * with stacks x slices vertices between the poles, radially displaced by
+ * amplitude * a smooth pattern (|amplitude| < 1 keeps it star-shaped around the
+ * center). Adjacent triangles share bit-identical vertices. Returns a malloc'd
+ * array of 9 floats per triangle and sets *tri_count = 2 * slices * stacks. */
+float *bvh_gen_sphere(uint32_t stacks, uint32_t slices, float radius, const float center[3],
+                      float amplitude, uint32_t *tri_count);
+
+#endif

@@ -1,0 +1,252 @@
+/* `spectrace info SCENE`: what the loader made of a glTF scene, the BVH built over
+ * it and an estimate of the device memory a render needs. */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "accel/bvh_build.h"
+#include "cli/commands.h"
+#include "scene/scene.h"
+#include "core/util.h"
+
+static const char info_usage[] =
+    "usage: spectrace info SCENE [--no-bvh]\n"
+    "\n"
+    "Loads a glTF 2.0 scene (.gltf or .glb) and prints: triangles kept and dropped\n"
+    "(NaN/Inf/huge coordinates, degenerate), skipped primitives, meshes, instances,\n"
+    "materials, textures with their sizes, emissive triangles, punctual lights, the\n"
+    "camera, the bounds, the load time, the BVH statistics and build time, and an\n"
+    "estimate of the device memory for the scene (film and path state excluded).\n"
+    "\n"
+    "  --no-bvh   skip the BVH build\n"
+    "\n"
+    "Exit codes: 0 ok, 2 usage, 3 the scene file is unreadable or invalid.\n";
+
+static double mib(double bytes) { return bytes / (1024.0 * 1024.0); }
+
+/* Prints a byte count with a unit that keeps small scenes readable. */
+static void print_bytes(double bytes)
+{
+    if (bytes < 1024)
+        printf("%.0f B", bytes);
+    else if (bytes < 1024 * 1024)
+        printf("%.1f KiB", bytes / 1024.0);
+    else if (bytes < 1024.0 * 1024 * 1024)
+        printf("%.2f MiB", mib(bytes));
+    else
+        printf("%.2f GiB", bytes / (1024.0 * 1024 * 1024));
+}
+
+/* -0 prints as 0. */
+static double z(float v) { return v == 0.0f ? 0.0 : (double)v; }
+
+static const char *wrap_name(int w)
+{
+    return w == SPT_WRAP_CLAMP ? "clamp" : w == SPT_WRAP_MIRROR ? "mirror" : "repeat";
+}
+
+/* The texture slots' names (SPT_SLOT_* order). */
+static const char *const slot_names[SPT_SLOT_COUNT] = {
+    "baseColor", "metallicRoughness", "normal", "emissive", "transmission", "specular",
+    "specularColor", "clearcoat", "clearcoatRoughness", "clearcoatNormal", "sheenColor",
+    "sheenRoughness", "occlusion",
+};
+
+static void print_materials(const Scene *s)
+{
+    static const char *alpha[] = {"opaque", "mask", "blend"};
+    printf("materials    %u\n", s->material_count);
+    for (uint32_t i = 0; i < s->material_count; i++) {
+        const SceneMaterial *m = &s->materials[i];
+        printf("  [%u] %-20s base %.3g %.3g %.3g metallic %.3g roughness %.3g", i, m->name,
+               m->base_color[0], m->base_color[1], m->base_color[2], m->metallic, m->roughness);
+        if (m->emissive[0] > 0 || m->emissive[1] > 0 || m->emissive[2] > 0)
+            printf(" emissive %.3g %.3g %.3g x %.3g", m->emissive[0], m->emissive[1],
+                   m->emissive[2], m->emissive_strength);
+        if (m->transmission > 0) printf(" transmission %.3g ior %.3g", m->transmission, m->ior);
+        if (m->dispersion > 0) printf(" dispersion %.3g", m->dispersion);
+        if (m->alpha_mode) printf(" alpha %s", alpha[m->alpha_mode]);
+        if (m->double_sided) printf(" double-sided");
+        if (m->unlit) printf(" unlit");
+        if (m->reflectance_spd.count) printf(" spectral-reflectance");
+        if (m->emission_spd.count || m->emission_spd.line_count) printf(" spectral-emission");
+        if (m->conductor[0]) printf(" conductor %s", m->conductor);
+        if (m->clearcoat > 0)
+            printf(" clearcoat %.3g roughness %.3g", m->clearcoat, m->clearcoat_roughness);
+        if (m->sheen_color[0] > 0 || m->sheen_color[1] > 0 || m->sheen_color[2] > 0)
+            printf(" sheen %.3g %.3g %.3g roughness %.3g", m->sheen_color[0], m->sheen_color[1],
+                   m->sheen_color[2], m->sheen_roughness);
+        printf("\n");
+        /* The texture slots: the file's texture, the uv set, the loaded texture
+         * (-: its image was unusable, the factor is used). */
+        int any = 0;
+        for (int k = 0; k < SPT_SLOT_COUNT; k++) {
+            const SceneTexRef *r = &m->tex[k];
+            if (r->gltf_index < 0)
+                continue;
+            printf("%s%s textures[%d] uv %d", any ? ", " : "       textures: ", slot_names[k], r->gltf_index,
+                   r->texcoord);
+            if (k == SPT_SLOT_OCCLUSION)
+                printf(" (not rendered)");
+            else if (r->tex < 0)
+                printf(" (unusable: factor only)");
+            else
+                printf(" -> [%d]", r->tex);
+            any = 1;
+        }
+        if (any)
+            printf("\n");
+    }
+}
+
+static double print_textures(const Scene *s)
+{
+    double bytes = 0;
+    printf("textures     %u", s->texture_count);
+    if (s->stats.unusable_images)
+        printf(" (%u image(s) missing, corrupt or outside the scene folder: factors used)",
+               s->stats.unusable_images);
+    printf("\n");
+    for (uint32_t i = 0; i < s->texture_count; i++) {
+        const SceneTexture *t = &s->textures[i];
+        double b = (double)t->width * t->height * t->channels * sizeof(float);
+        bytes += b;
+        printf("  [%u] %-24s %dx%d, %d channel(s), %s, wrap %s/%s, %s, ", i, t->name, t->width,
+               t->height, t->channels, t->srgb_decoded ? "sRGB->linear" : "linear",
+               wrap_name(t->wrap_s), wrap_name(t->wrap_t), t->nearest ? "nearest" : "linear");
+        print_bytes(b);
+        printf("\n");
+    }
+    return bytes;
+}
+
+static void print_lights(const Scene *s)
+{
+    static const char *type[] = {"point", "spot", "directional"};
+    printf("lights       %u punctual\n", s->light_count);
+    for (uint32_t i = 0; i < s->light_count; i++) {
+        const SceneLight *l = &s->lights[i];
+        printf("  [%u] %-12s %-20s colour %.3g %.3g %.3g, %g %s", i, type[l->type], l->name,
+               l->color[0], l->color[1], l->color[2], l->intensity,
+               l->type == SPT_LIGHT_DIRECTIONAL ? "lx" : "cd");
+        if (l->type != SPT_LIGHT_DIRECTIONAL)
+            printf(", at %.4g %.4g %.4g", l->position[0], l->position[1], l->position[2]);
+        if (l->type != SPT_LIGHT_POINT)
+            printf(", toward %.3g %.3g %.3g", l->direction[0], l->direction[1], l->direction[2]);
+        if (l->type == SPT_LIGHT_SPOT)
+            printf(", cone %.3g-%.3g deg", l->inner_cone * 180 / M_PI, l->outer_cone * 180 / M_PI);
+        if (l->range > 0) printf(", range %g", l->range);
+        printf("\n");
+    }
+}
+
+static void print_camera(const SceneCamera *c)
+{
+    if (c->orthographic)
+        printf("camera       orthographic xmag %g ymag %g", c->xmag, c->ymag);
+    else
+        printf("camera       perspective yfov %.4g deg", c->yfov * 180 / M_PI);
+    if (c->aspect > 0) printf(" aspect %.4g", c->aspect);
+    printf(" znear %g zfar %s%s\n", c->znear, c->zfar > 0 ? "" : "inf",
+           c->is_default ? " (default: the file has none)" : "");
+    if (c->zfar > 0) printf("             zfar %g\n", c->zfar);
+    printf("             at %.4g %.4g %.4g, forward %.3g %.3g %.3g, up %.3g %.3g %.3g\n",
+           z(c->position[0]), z(c->position[1]), z(c->position[2]), z(c->forward[0]),
+           z(c->forward[1]), z(c->forward[2]), z(c->up[0]), z(c->up[1]), z(c->up[2]));
+}
+
+int cmd_info(int argc, char **argv)
+{
+    const char *path = NULL;
+    int want_bvh = 1;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            fputs(info_usage, stdout);
+            return SPT_EXIT_OK;
+        } else if (!strcmp(argv[i], "--no-bvh")) {
+            want_bvh = 0;
+        } else if (argv[i][0] == '-' && argv[i][1]) {
+            spt_error("info: unknown option '%s' (try: spectrace info --help)", argv[i]);
+            return SPT_EXIT_USAGE;
+        } else if (path) {
+            spt_error("info: one scene only (got '%s' and '%s')", path, argv[i]);
+            return SPT_EXIT_USAGE;
+        } else {
+            path = argv[i];
+        }
+    }
+    if (!path) {
+        fputs(info_usage, stderr);
+        return SPT_EXIT_USAGE;
+    }
+
+    SptError e = {0};
+    Scene s;
+    double t0 = spt_now();
+    if (scene_load_gltf(&s, path, &e)) return spt_report(&e);
+    double load_s = spt_now() - t0;
+    const SceneStats *st = &s.stats;
+
+    printf("scene        %s (loaded in %.1f ms)\n", path, load_s * 1e3);
+    printf("triangles    %u kept, %u dropped (%u NaN/Inf/huge coordinates, %u degenerate)\n",
+           s.tri_count, st->dropped_nonfinite + st->dropped_degenerate, st->dropped_nonfinite,
+           st->dropped_degenerate);
+    printf("primitives   %u triangle primitive(s) instanced, %u skipped (points, lines or no "
+           "POSITION)\n",
+           st->primitives, st->skipped_primitives);
+    printf("meshes       %u used, %u instance(s), %u vertices\n", st->meshes, st->instances,
+           s.vertex_count);
+    print_materials(&s);
+    double tex_bytes = print_textures(&s);
+    printf("emissive     %u triangle(s)\n", st->emissive_triangles);
+    print_lights(&s);
+    print_camera(&s.camera);
+    if (s.tri_count)
+        printf("bounds       %.4g %.4g %.4g .. %.4g %.4g %.4g\n", s.bounds_min[0], s.bounds_min[1],
+               s.bounds_min[2], s.bounds_max[0], s.bounds_max[1], s.bounds_max[2]);
+    else
+        printf("bounds       empty (no triangles)\n");
+
+    /* Device buffers: per-vertex positions, normals and uvs, per-triangle vertex
+     * indices and material ids, textures as floats, materials and lights (upper
+     * bound of 512 bytes each), plus the BVH nodes and packed triangles. */
+    double bytes = (double)s.vertex_count * 8 * sizeof(float) + (double)s.tri_count * 4 * 4 +
+                   tex_bytes + (double)(s.material_count + s.light_count) * 512;
+    int rc = SPT_EXIT_OK;
+    double bvh_bytes_per_tri = 9 * sizeof(float); /* without the BVH: the positions */
+    if (want_bvh) {
+        Bvh bvh = {0};
+        if (bvh_build(&bvh, s.tri_pos, s.tri_count, &e)) {
+            rc = spt_report(&e);
+        } else {
+            const BvhStats *b = &bvh.stats;
+            printf("bvh          %u nodes, %u leaves, depth %u, leaf size avg %.2f max %u, SAH "
+                   "cost %.2f, %.1f bytes/triangle, built in %.1f ms\n",
+                   b->node_count, b->leaf_count, b->max_depth, b->avg_leaf_size,
+                   b->max_leaf_size, b->sah_cost, b->bytes_per_tri, b->build_seconds * 1e3);
+            bytes += (double)bvh.node_count * sizeof(BvhNode) + (double)bvh.tri_data_bytes;
+            bvh_bytes_per_tri = b->bytes_per_tri;
+            bvh_free(&bvh);
+        }
+    } else {
+        bytes += (double)s.tri_count * 9 * sizeof(float); /* at least the positions */
+    }
+    if (rc == SPT_EXIT_OK)
+    {
+        printf("device mem   ~");
+        print_bytes(bytes);
+        printf(" for the scene%s (film and path state come on top)\n",
+               want_bvh ? "" : " without the BVH");
+        /* Instancing is flattened (one copy of the triangles per node): its cost. */
+        if (st->instanced_meshes) {
+            printf("instancing   %u mesh(es) on several nodes, flattened: %u triangles and %u "
+                   "vertices are copies, ~",
+                   st->instanced_meshes, st->flattened_triangles, st->flattened_vertices);
+            print_bytes((double)st->flattened_triangles * (4 * 4 + bvh_bytes_per_tri) +
+                        (double)st->flattened_vertices * 5 * sizeof(float));
+            printf(" of the device memory\n");
+        }
+    }
+    scene_free(&s);
+    return rc;
+}

@@ -1,0 +1,457 @@
+/* Checkpoints: the film, its sample counts and what identifies the render, as
+ * EXR layers (contracts and the file layout in src/render/checkpoint.h). */
+#include "render/checkpoint.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+
+#include "cl/cl_device.h"
+#include "cl/embedded.h"
+#include "io/exr.h"
+#include "io/image_out.h"
+
+#define CKPT_VERSION 1
+
+/* FNV-1a 64 of a whole file's bytes. */
+static int hash_file(const char *path, unsigned long long *h, SptError *e)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return spt_fail(e, SPT_EXIT_INPUT, "%s: cannot read: %s", path, strerror(errno));
+    unsigned long long x = SPT_FNV1A_INIT;
+    char buf[65536];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, f)) > 0)
+        x = cl_fnv1a(x, buf, n);
+    int bad = ferror(f);
+    fclose(f);
+    if (bad)
+        return spt_fail(e, SPT_EXIT_INPUT, "%s: read error", path);
+    *h = x;
+    return 0;
+}
+
+static int is_regular_file(const char *path)
+{
+    struct stat st;
+    return path && stat(path, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSettings *rs,
+                   SptError *e)
+{
+    memset(k, 0, sizeof *k);
+    unsigned long long h;
+    int rc = hash_file(scene_path, &h, e);
+    if (rc)
+        return rc;
+    snprintf(k->scene_hash, sizeof k->scene_hash, "%016llx", h);
+    /* Files named by settings count by content, not by name. */
+    char env[64] = "none", bg[600] = "default";
+    if (rs->env_path) {
+        if ((rc = hash_file(rs->env_path, &h, e)))
+            return rc;
+        snprintf(env, sizeof env, "fnv:%016llx", h);
+    }
+    if (rs->background) {
+        if (is_regular_file(rs->background)) {
+            if ((rc = hash_file(rs->background, &h, e)))
+                return rc;
+            snprintf(bg, sizeof bg, "file-fnv:%016llx", h);
+        } else {
+            snprintf(bg, sizeof bg, "%s", rs->background);
+            for (char *p = bg; *p; p++)
+                if (*p == ';' || *p == '=')
+                    *p = '_';
+        }
+    }
+    /* The kernels decide what a sample computes: another renderer version gives
+     * another image. */
+    unsigned long long kh = SPT_FNV1A_INIT;
+    for (int i = 0; i < spt_kernel_file_count; i++) {
+        kh = cl_fnv1a(kh, spt_kernel_files[i].path, strlen(spt_kernel_files[i].path));
+        kh = cl_fnv1a(kh, spt_kernel_files[i].text, strlen(spt_kernel_files[i].text));
+    }
+    snprintf(k->settings, sizeof k->settings,
+             "width=%d;height=%d;max_depth=%d;seed=%u;env=%s;env_rotation=%.9g;"
+             "env_intensity=%.9g;background=%s;aperture=%.9g;focus_distance=%.9g;kernels=%016llx",
+             rs->width, rs->height, rs->max_depth, rs->seed, env, rs->env_rotation_deg,
+             rs->env_intensity, bg, rs->aperture, rs->focus_distance, kh);
+    k->seed = rs->seed;
+    k->width = rs->width;
+    k->height = rs->height;
+    return 0;
+}
+
+/* The done flags as ranges "a-b,c-d" (inclusive), malloc'd. */
+static char *ranges_format(const unsigned char *done, uint32_t total, uint32_t *count)
+{
+    size_t cap = 64, len = 0;
+    char *s = spt_malloc(cap);
+    s[0] = 0;
+    *count = 0;
+    for (uint32_t i = 0; i < total;) {
+        if (!done[i]) {
+            i++;
+            continue;
+        }
+        uint32_t j = i;
+        while (j + 1 < total && done[j + 1])
+            j++;
+        *count += j - i + 1;
+        if (cap - len < 32) {
+            cap *= 2;
+            s = spt_realloc(s, cap);
+        }
+        len += (size_t)snprintf(s + len, cap - len, "%s%u-%u", len ? "," : "", i, j);
+        i = j + 1;
+    }
+    return s;
+}
+
+/* Parses ranges into flags (limit entries, all zero first); -1 when malformed or
+ * out of order; *end is the largest index + 1. */
+static int ranges_parse(const char *s, unsigned char *done, uint32_t limit, uint32_t *count,
+                        uint32_t *end)
+{
+    *count = 0;
+    *end = 0;
+    const char *p = s;
+    long long prev = -1;
+    while (*p) {
+        char *q;
+        errno = 0;
+        unsigned long a = strtoul(p, &q, 10);
+        if (q == p || *q != '-' || errno)
+            return -1;
+        p = q + 1;
+        unsigned long b = strtoul(p, &q, 10);
+        if (q == p || errno || b < a || (long long)a <= prev || b >= (1ul << 24))
+            return -1;
+        p = q;
+        if (*p == ',')
+            p++;
+        else if (*p)
+            return -1;
+        for (unsigned long i = a; i <= b; i++)
+            if (i < limit)
+                done[i] = 1;
+        *count += (uint32_t)(b - a + 1);
+        *end = (uint32_t)b + 1;
+        prev = (long long)b;
+    }
+    return 0;
+}
+
+int checkpoint_write(const char *path, const CheckpointKey *k, const Film *film,
+                     const unsigned char *done, uint32_t total, SptError *e)
+{
+    size_t bad = film_nonfinite_pixels(film);
+    if (bad)
+        return spt_fail(e, SPT_EXIT_FAILURE,
+                        "%s: checkpoint not written: %zu pixel%s of the film came out NaN or "
+                        "infinite (an internal error)",
+                        path, bad, bad == 1 ? "" : "s");
+    size_t n = (size_t)film->width * film->height;
+    float *hi = spt_malloc(3 * n * sizeof(float));
+    float *lo = spt_malloc(3 * n * sizeof(float));
+    float *rgb = spt_malloc(3 * n * sizeof(float));
+    uint32_t *cnt = spt_malloc(n * sizeof(uint32_t));
+    for (size_t i = 0; i < 3 * n; i++) {
+        hi[i] = (float)film->xyz[i];
+        lo[i] = (float)(film->xyz[i] - (double)hi[i]);
+    }
+    for (size_t i = 0; i < n; i++)
+        cnt[i] = (uint32_t)film->count[i];
+    film_to_linear_srgb(film, rgb);
+    ExrChannel ch[10] = {
+        {"sum.X", SPT_EXR_FLOAT, hi + 0, 3},    {"sum.Y", SPT_EXR_FLOAT, hi + 1, 3},
+        {"sum.Z", SPT_EXR_FLOAT, hi + 2, 3},    {"sum_lo.X", SPT_EXR_FLOAT, lo + 0, 3},
+        {"sum_lo.Y", SPT_EXR_FLOAT, lo + 1, 3}, {"sum_lo.Z", SPT_EXR_FLOAT, lo + 2, 3},
+        {"count", SPT_EXR_UINT, cnt, 1},        {"R", SPT_EXR_FLOAT, rgb + 0, 3},
+        {"G", SPT_EXR_FLOAT, rgb + 1, 3},       {"B", SPT_EXR_FLOAT, rgb + 2, 3},
+    };
+    uint32_t ndone;
+    char *ranges = ranges_format(done, total, &ndone);
+    char seed[16];
+    snprintf(seed, sizeof seed, "%u", k->seed);
+    ExrAttr at[] = {
+        {"spectrace:checkpoint", SPT_EXR_ATTR_INT, NULL, CKPT_VERSION, 0},
+        {"spectrace:scene_hash", SPT_EXR_ATTR_STRING, k->scene_hash, 0, 0},
+        {"spectrace:settings", SPT_EXR_ATTR_STRING, k->settings, 0, 0},
+        {"spectrace:samples_done", SPT_EXR_ATTR_STRING, ranges, 0, 0},
+        {"spectrace:spp_done", SPT_EXR_ATTR_INT, NULL, (int32_t)ndone, 0},
+        {"spectrace:spp_target", SPT_EXR_ATTR_INT, NULL, (int32_t)total, 0},
+        {"spectrace:seed", SPT_EXR_ATTR_STRING, seed, 0, 0},
+    };
+    int rc = exr_write_layers(path, film->width, film->height, ch, 10, at,
+                              (int)(sizeof at / sizeof at[0]), e);
+    free(ranges);
+    free(hi);
+    free(lo);
+    free(rgb);
+    free(cnt);
+    return rc;
+}
+
+/* Splits a "k=v;k=v" list (copied into buf) into at most max keys and values. */
+static int settings_split(const char *list, char *buf, size_t cap, char **keys, char **vals, int max)
+{
+    snprintf(buf, cap, "%s", list);
+    int n = 0;
+    for (char *save = NULL, *t = strtok_r(buf, ";", &save); t && n < max;
+         t = strtok_r(NULL, ";", &save)) {
+        char *eq = strchr(t, '=');
+        keys[n] = t;
+        vals[n] = eq ? (*eq = 0, eq + 1) : t + strlen(t);
+        n++;
+    }
+    return n;
+}
+
+/* "name A here, B in the checkpoint" for every setting that differs. */
+static void settings_diff(const char *mine, const char *theirs, char *out, size_t cap)
+{
+    char ba[2048], bb[2048], *ka[32], *va[32], *kb[32], *vb[32];
+    int na = settings_split(mine, ba, sizeof ba, ka, va, 32);
+    int nb = settings_split(theirs, bb, sizeof bb, kb, vb, 32);
+    size_t len = 0;
+    out[0] = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        int n1 = pass ? nb : na, n2 = pass ? na : nb;
+        char **k1 = pass ? kb : ka, **v1 = pass ? vb : va, **k2 = pass ? ka : kb, **v2 = pass ? va : vb;
+        for (int i = 0; i < n1 && len < cap; i++) {
+            const char *other = NULL;
+            for (int j = 0; j < n2; j++)
+                if (!strcmp(k1[i], k2[j]))
+                    other = v2[j];
+            if (other && (pass || !strcmp(other, v1[i])))
+                continue;
+            const char *here = pass ? "(none)" : v1[i];
+            const char *there = pass ? v1[i] : other ? other : "(none)";
+            len += (size_t)snprintf(out + len, cap - len, "%s%s %s here, %s in the checkpoint",
+                                    len ? "; " : "", k1[i], here, there);
+        }
+    }
+}
+
+int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film *film,
+                    unsigned char **done, SptError *e)
+{
+    memset(film, 0, sizeof *film);
+    *done = NULL;
+    ExrLayers L;
+    SptError e2 = {0};
+    if (exr_read_layers(path, NULL, 0, &L, &e2))
+        return spt_fail(e, SPT_EXIT_INPUT, "%s (a damaged, truncated or unreadable checkpoint: "
+                        "cannot resume from it)", e2.msg);
+    int rc = 0;
+    const ExrAttr *ver = exr_layers_attr(&L, "spectrace:checkpoint", SPT_EXR_ATTR_INT);
+    const ExrAttr *sh = exr_layers_attr(&L, "spectrace:scene_hash", SPT_EXR_ATTR_STRING);
+    const ExrAttr *set = exr_layers_attr(&L, "spectrace:settings", SPT_EXR_ATTR_STRING);
+    const ExrAttr *rg = exr_layers_attr(&L, "spectrace:samples_done", SPT_EXR_ATTR_STRING);
+    const ExrAttr *nd = exr_layers_attr(&L, "spectrace:spp_done", SPT_EXR_ATTR_INT);
+    static const char *names[7] = {"sum.X", "sum.Y", "sum.Z", "sum_lo.X", "sum_lo.Y", "sum_lo.Z", "count"};
+    const ExrChannel *c[7];
+    for (int i = 0; i < 7; i++)
+        c[i] = exr_layers_channel(&L, names[i]);
+    if (!ver) {
+        rc = spt_fail(e, SPT_EXIT_INPUT,
+                      "%s: not a spectrace checkpoint (an EXR without the spectrace:checkpoint "
+                      "attribute; an image output cannot be resumed)", path);
+        goto out;
+    }
+    if (ver->i != CKPT_VERSION) {
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: checkpoint format version %d, this build reads %d",
+                      path, ver->i, CKPT_VERSION);
+        goto out;
+    }
+    for (int i = 0; i < 7; i++)
+        if (!c[i] || c[i]->type != (i == 6 ? SPT_EXR_UINT : SPT_EXR_FLOAT)) {
+            rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: channel %s missing or of the wrong type",
+                          path, names[i]);
+            goto out;
+        }
+    if (!sh || !set || !rg || !nd) {
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: spectrace:%s attribute missing", path,
+                      !sh ? "scene_hash" : !set ? "settings" : !rg ? "samples_done" : "spp_done");
+        goto out;
+    }
+    if (strcmp(sh->s, k->scene_hash)) {
+        rc = spt_fail(e, SPT_EXIT_INPUT,
+                      "%s: checkpoint of another scene: its scene file hash is %s, this scene's is %s",
+                      path, sh->s, k->scene_hash);
+        goto out;
+    }
+    if (strcmp(set->s, k->settings)) {
+        char diff[900];
+        settings_diff(k->settings, set->s, diff, sizeof diff);
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: settings differ from the checkpoint's: %s", path, diff);
+        goto out;
+    }
+    if (L.width != k->width || L.height != k->height) {
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: %dx%d pixels, its settings say %dx%d",
+                      path, L.width, L.height, k->width, k->height);
+        goto out;
+    }
+    unsigned char *flags = spt_calloc(spp ? spp : 1, 1);
+    uint32_t ndone, end;
+    if (ranges_parse(rg->s, flags, spp, &ndone, &end) || (int32_t)ndone != nd->i || ndone == 0) {
+        free(flags);
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: spectrace:samples_done '%.60s' is "
+                      "malformed or disagrees with spectrace:spp_done %d", path, rg->s, nd->i);
+        goto out;
+    }
+    if (end > spp) {
+        free(flags);
+        rc = spt_fail(e, SPT_EXIT_USAGE,
+                      "%s: the checkpoint holds samples up to index %u; --spp %u must be at least %u",
+                      path, end - 1, spp, end);
+        goto out;
+    }
+    size_t n = (size_t)L.width * L.height;
+    film_init(film, L.width, L.height);
+    const uint32_t *cnt = c[6]->data;
+    for (size_t i = 0; i < n && !rc; i++) {
+        for (int j = 0; j < 3; j++) {
+            double v = (double)((const float *)c[j]->data)[i] + (double)((const float *)c[3 + j]->data)[i];
+            if (!isfinite(v))
+                rc = 1;
+            film->xyz[3 * i + j] = v;
+        }
+        if (cnt[i] > ndone)
+            rc = 1;
+        film->count[i] = cnt[i];
+    }
+    if (rc) {
+        free(flags);
+        film_free(film);
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: a pixel has a non-finite sum or more "
+                      "samples than the %u done", path, ndone);
+        goto out;
+    }
+    *done = flags;
+out:
+    exr_layers_free(&L);
+    return rc;
+}
+
+void checkpoint_writer_init(CheckpointWriter *w, const char *path, double every,
+                            const CheckpointKey *k, const unsigned char *done_in,
+                            uint32_t total)
+{
+    memset(w, 0, sizeof *w);
+    w->path = path;
+    w->every = every;
+    w->last = spt_now();
+    if (k)
+        w->key = *k;
+    w->total = total;
+    if (done_in) {
+        w->done = spt_malloc(total ? total : 1);
+        memcpy(w->done, done_in, total);
+    }
+}
+
+void checkpoint_on_chunk(void *ctx, const Film *film, const unsigned char *done, uint32_t total)
+{
+    CheckpointWriter *w = ctx;
+    if (!w->done || w->total != total) {
+        free(w->done);
+        w->done = spt_malloc(total ? total : 1);
+        w->total = total;
+    }
+    memcpy(w->done, done, total);
+    if (!w->path || spt_now() - w->last < w->every)
+        return;
+    SptError e = {0};
+    if (checkpoint_write(w->path, &w->key, film, w->done, w->total, &e)) {
+        if (!w->warned)
+            spt_warn("checkpoint not written (rendering goes on): %s", e.msg);
+        w->warned = 1;
+    } else {
+        w->writes++;
+    }
+    w->last = spt_now();
+}
+
+int checkpoint_writer_finish(CheckpointWriter *w, const Film *film, SptError *e)
+{
+    if (!w->path || !w->done)
+        return 0;
+    int rc = checkpoint_write(w->path, &w->key, film, w->done, w->total, e);
+    if (!rc)
+        w->writes++;
+    return rc;
+}
+
+void checkpoint_writer_free(CheckpointWriter *w)
+{
+    free(w->done);
+    w->done = NULL;
+}
+
+int checkpoint_path_check(const char *path, SptError *e)
+{
+    size_t n = strlen(path);
+    if (n < 4 || strcasecmp(path + n - 4, ".exr"))
+        return spt_fail(e, SPT_EXIT_USAGE, "%s: a checkpoint is an EXR file: its name must end in .exr",
+                        path);
+    return image_output_check(path, e);
+}
+
+int checkpoint_run_begin(CheckpointRun *run, const char *scene_path, const char *path,
+                         double every, const char *resume, RenderSettings *rs, Film *film,
+                         SptError *e)
+{
+    memset(run, 0, sizeof *run);
+    const char *out = path ? path : resume;
+    uint32_t total = rs->spp > 0 ? (uint32_t)rs->spp : 0;
+    CheckpointKey key;
+    int rc;
+    if (!out) {
+        film_init(film, rs->width, rs->height);
+        checkpoint_writer_init(&run->writer, NULL, 0, NULL, NULL, total);
+        return 0;
+    }
+    if ((rc = checkpoint_key(&key, scene_path, rs, e)))
+        return rc;
+    if (resume) {
+        if ((rc = checkpoint_read(resume, &key, total, film, &run->done_in, e)))
+            return rc;
+        for (uint32_t i = 0; i < total; i++)
+            run->resumed += run->done_in[i];
+        rs->done_in = run->done_in;
+    } else {
+        film_init(film, rs->width, rs->height);
+    }
+    checkpoint_writer_init(&run->writer, out, every, &key, run->done_in, total);
+    rs->on_chunk = checkpoint_on_chunk;
+    rs->on_chunk_ctx = &run->writer;
+    return 0;
+}
+
+int checkpoint_run_end(CheckpointRun *run, const Film *film, int quiet, SptError *e)
+{
+    int rc = checkpoint_writer_finish(&run->writer, film, e);
+    if (!rc && run->writer.path && run->writer.done && !quiet) {
+        uint32_t n = 0;
+        for (uint32_t i = 0; i < run->writer.total; i++)
+            n += run->writer.done[i];
+        fprintf(stderr, "wrote checkpoint %s (%u spp; continue with --resume %s)\n",
+                run->writer.path, n, run->writer.path);
+    }
+    return rc;
+}
+
+void checkpoint_run_free(CheckpointRun *run)
+{
+    checkpoint_writer_free(&run->writer);
+    free(run->done_in);
+    run->done_in = NULL;
+}
