@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "io/atomic_file.h"
 #include "io/exr.h"
 #include "io/image_io.h"
 #include "io/image_out.h"
@@ -53,7 +54,7 @@ static int temp_files_left(void)
     int n = 0;
     struct dirent *de;
     while ((de = readdir(d)))
-        if (strstr(de->d_name, SPT_IMAGE_TEMP_MARK)) {
+        if (strstr(de->d_name, SPT_ATOMIC_TEMP_MARK)) {
             print_message("left behind: %s\n", de->d_name);
             n++;
         }

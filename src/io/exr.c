@@ -10,7 +10,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "io/image_out.h"
+#include "io/atomic_file.h"
 
 /* Most channels a file may have here (checkpoints need a handful). */
 #define EXR_MAX_CHANNELS 64
@@ -215,7 +215,7 @@ static int write_atomic(const char *path, int width, int height, const ExrChanne
     if (rc)
         return rc;
     char tmp[PATH_MAX + 64];
-    rc = image_temp_create(path, tmp, sizeof tmp, e);
+    rc = atomic_temp_create(path, tmp, sizeof tmp, e);
     if (rc)
         return rc;
     rc = write_file(path, tmp, width, height, channels, channel_count, attrs, attr_count,
@@ -224,7 +224,7 @@ static int write_atomic(const char *path, int width, int height, const ExrChanne
         unlink(tmp);
         return rc;
     }
-    return image_temp_commit(tmp, path, e);
+    return atomic_temp_commit(tmp, path, e);
 }
 
 int exr_write_layers(const char *path, int width, int height, const ExrChannel *channels,

@@ -15,6 +15,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "io/atomic_file.h"
 #include "io/exr.h"
 #include "io/image_io.h"
 #include "color/spd.h"
@@ -141,81 +142,6 @@ int image_tonemap_parse(const char *name, int *tonemap)
     return -1;
 }
 
-/* ---------------------------------------------------------------------------
- * Atomic writes */
-
-/* Splits path into its folder ("." when none; "/" for files at the root) and the
- * file name. */
-static void split_path(const char *path, char *dir, size_t dir_size, const char **base)
-{
-    const char *slash = strrchr(path, '/');
-    if (!slash) {
-        snprintf(dir, dir_size, ".");
-        *base = path;
-    } else if (slash == path) {
-        snprintf(dir, dir_size, "/");
-        *base = slash + 1;
-    } else {
-        snprintf(dir, dir_size, "%.*s", (int)(slash - path), path);
-        *base = slash + 1;
-    }
-}
-
-int image_temp_create(const char *path, char *tmp, size_t tmp_size, SptError *e)
-{
-    static atomic_uint counter;
-    char dir[PATH_MAX];
-    const char *base;
-    split_path(path, dir, sizeof dir, &base);
-    const char *dot = strrchr(base, '.');
-    const char *ext = dot ? dot : "";
-    for (int attempt = 0; attempt < 100; ++attempt) {
-        unsigned n = atomic_fetch_add(&counter, 1u);
-        /* The base name is shortened so the temporary name fits NAME_MAX. */
-        int len = snprintf(tmp, tmp_size, "%s/.%.120s%s%ld-%u%.16s", dir, base,
-                           SPT_IMAGE_TEMP_MARK, (long)getpid(), n, ext);
-        if (len < 0 || (size_t)len >= tmp_size)
-            return spt_fail(e, SPT_EXIT_OUTPUT, "%s: path too long", path);
-        int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (fd >= 0) {
-            close(fd);
-            return SPT_EXIT_OK;
-        }
-        if (errno != EEXIST)
-            return spt_fail(e, SPT_EXIT_OUTPUT, "%s: cannot create a file in folder '%s': %s",
-                            path, dir, strerror(errno));
-    }
-    return spt_fail(e, SPT_EXIT_OUTPUT, "%s: cannot find a free temporary name in folder '%s'",
-                    path, dir);
-}
-
-/* Whether the test hook asks every write to fail before its rename. */
-static int injected_failure(void)
-{
-    const char *v = getenv("SPECTRACE_TEST_FAIL_WRITE");
-    return v && v[0] && strcmp(v, "0") != 0;
-}
-
-int image_temp_commit(const char *tmp, const char *path, SptError *e)
-{
-    int rc = SPT_EXIT_OK;
-    int fd = open(tmp, O_RDONLY | O_CLOEXEC);
-    if (fd < 0 || fsync(fd) != 0)
-        rc = spt_fail(e, SPT_EXIT_OUTPUT, "%s: cannot write: %s", path, strerror(errno));
-    if (fd >= 0)
-        close(fd);
-    if (!rc && injected_failure())
-        rc = spt_fail(e, SPT_EXIT_OUTPUT,
-                      "%s: cannot write: injected failure (SPECTRACE_TEST_FAIL_WRITE is set)",
-                      path);
-    if (!rc && rename(tmp, path) != 0)
-        rc = spt_fail(e, SPT_EXIT_OUTPUT, "%s: cannot replace the file: %s", path,
-                      strerror(errno));
-    if (rc)
-        unlink(tmp);
-    return rc;
-}
-
 int image_output_check(const char *path, SptError *e)
 {
     if (!path || !path[0])
@@ -224,7 +150,7 @@ int image_output_check(const char *path, SptError *e)
         return unknown_format(path, e);
     char dir[PATH_MAX];
     const char *base;
-    split_path(path, dir, sizeof dir, &base);
+    atomic_split_path(path, dir, sizeof dir, &base);
     struct stat st;
     if (stat(dir, &st) != 0) {
         if (errno == ENOENT)
@@ -239,7 +165,7 @@ int image_output_check(const char *path, SptError *e)
     if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
         return spt_fail(e, SPT_EXIT_OUTPUT, "%s: is a folder", path);
     char tmp[PATH_MAX + 64];
-    int rc = image_temp_create(path, tmp, sizeof tmp, e);
+    int rc = atomic_temp_create(path, tmp, sizeof tmp, e);
     if (rc)
         return rc;
     unlink(tmp);
@@ -320,40 +246,6 @@ static int write_exr(const char *path, const float *rgb, int width, int height,
     return exr_write_rgb(path, rgb, width, height, attrs, n, e);
 }
 
-/* Writes n bytes to a new temporary file and commits it over path, checking every
- * write and the close (a full disk may only show there). */
-static int write_bytes_atomic(const char *path, const void *data, size_t n, SptError *e)
-{
-    char tmp[PATH_MAX + 64];
-    int rc = image_temp_create(path, tmp, sizeof tmp, e);
-    if (rc)
-        return rc;
-    int err = 0;
-    int fd = open(tmp, O_WRONLY | O_TRUNC | O_CLOEXEC);
-    if (fd < 0)
-        err = errno;
-    const unsigned char *p = data;
-    size_t left = n;
-    while (!err && left > 0) {
-        ssize_t k = write(fd, p, left);
-        if (k < 0 && errno == EINTR)
-            continue;
-        if (k <= 0) {
-            err = k < 0 ? errno : ENOSPC;
-            break;
-        }
-        p += k;
-        left -= (size_t)k;
-    }
-    if (fd >= 0 && close(fd) != 0 && !err)
-        err = errno;
-    if (err) {
-        unlink(tmp);
-        return spt_fail(e, SPT_EXIT_OUTPUT, "%s: cannot write: %s", path, strerror(err));
-    }
-    return image_temp_commit(tmp, path, e);
-}
-
 /* Encodes through OpenImageIO in memory, then writes the bytes atomically. */
 static int write_oiio(const char *path, int fmt, const float *rgb, int width, int height,
                       const ImageMeta *meta, const DisplayOptions *disp, SptError *e)
@@ -397,7 +289,7 @@ static int write_oiio(const char *path, int fmt, const float *rgb, int width, in
     int rc = image_io_encode(path, pixels, display ? SPT_IMAGE_IO_U8 : SPT_IMAGE_IO_F32, width,
                              height, 3, attrs, n, &file, &file_size, e);
     if (!rc)
-        rc = write_bytes_atomic(path, file, file_size, e);
+        rc = atomic_write_bytes(path, file, file_size, e);
     free(file);
     free(bytes);
     return rc;

@@ -10,14 +10,8 @@
  *   .jpg/.jpeg    8-bit sRGB after the display transform, quality 95 (OpenImageIO)
  * Linear formats are never exposed nor tone mapped: they hold the film's values.
  *
- * Every write goes to a temporary file in the destination's folder which is renamed
- * over the destination only once it is complete, so a failed write never leaves a
- * partial file and never touches an existing output.
- *
- * Test hook: when the environment variable SPECTRACE_TEST_FAIL_WRITE is set to a
- * non-empty value other than "0", every write (image_write, exr_write_layers) fails
- * after its temporary file was written and before the rename, as a full disk
- * would; the error says so. Only the tests set it. */
+ * Every write is atomic (src/io/atomic_file.h): a failed write never leaves a
+ * partial file and never touches an existing output. */
 #ifndef SPT_IMAGE_OUT_H
 #define SPT_IMAGE_OUT_H
 
@@ -100,21 +94,5 @@ int image_tonemap_parse(const char *name, int *tonemap);
 /* Returns 1 when path's extension is one image_write knows, else 0; is_display
  * (may be NULL) is set to 1 for the 8-bit display-referred ones (png, jpg, jpeg). */
 int image_format_known(const char *path, int *is_display);
-
-/* --- Atomic write helpers, shared with src/io/exr.c. --- */
-
-/* Creates a new, empty, uniquely named file in path's folder whose name ends with
- * path's extension (".<name>.spt-tmp-<pid>-<n>.<ext>"), with the usual permissions
- * (0666 minus the umask), and writes its name to tmp. Returns SPT_EXIT_OK or
- * SPT_EXIT_OUTPUT with a message naming path and the reason. */
-int image_temp_create(const char *path, char *tmp, size_t tmp_size, SptError *e);
-
-/* Makes tmp durable (fsync), then renames it over path. On any failure, including
- * the SPECTRACE_TEST_FAIL_WRITE hook, removes tmp, leaves path as it was and
- * returns SPT_EXIT_OUTPUT naming path. */
-int image_temp_commit(const char *tmp, const char *path, SptError *e);
-
-/* Marks of a temporary file, for tests that check none is left behind. */
-#define SPT_IMAGE_TEMP_MARK ".spt-tmp-"
 
 #endif

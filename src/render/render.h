@@ -1,19 +1,16 @@
-/* The renderer on one OpenCL device: the scene turned into device arrays
- * (GpuScene), and the wavefront loop that renders chunks of samples into a Film. */
+/* The renderer: the settings of a render, and the rendering of a GpuScene
+ * (render/gpu_scene.h) on one or several OpenCL devices into a Film. */
 #ifndef SPT_RENDER_H
 #define SPT_RENDER_H
 
 #include <signal.h>
 #include <stdint.h>
 
-#include "accel/bvh_build.h"
 #include "cl/cl_device.h"
-#include "core/distribution.h"
-#include "render/film.h"
-#include "scene/scene.h"
 #include "core/util.h"
-#include "render/host_lights.h"
-#include "shared/render_types.h"
+#include "render/film.h"
+#include "render/gpu_scene.h"
+#include "scene/scene.h"
 
 typedef struct RenderSettings {
     int width, height;
@@ -60,42 +57,6 @@ typedef struct RenderStats {
     uint32_t spp_done;       /* samples per pixel completed */
     double stage_seconds[5]; /* generate, extend, shade, connect, accumulate (profile) */
 } RenderStats;
-
-/* The scene as the kernels read it: packed triangles in BVH order and their
- * shading data, materials with spectra, coefficient textures, emitters. */
-typedef struct GpuScene {
-    Bvh bvh;
-    TriShade *tri_shade;     /* per packed triangle */
-    float *vtx_pos;          /* 3 per vertex: positions, from the Scene's triangles */
-    float *vtx_normal;       /* borrowed from the Scene */
-    float *vtx_uv;           /* borrowed from the Scene */
-    float *vtx_uv1;          /* borrowed from the Scene; NULL without TEXCOORD_1 */
-    float *vtx_color;        /* 4 per vertex: COLOR_0's sigmoid coefficients and alpha;
-                                NULL without COLOR_0 */
-    uint32_t vertex_count;
-    GpuMaterial *materials;
-    uint32_t material_count;
-    float *spectra;          /* SPT_CIE_SAMPLES floats per tabulated spectrum */
-    uint32_t spectra_count;  /* floats */
-    GpuTexture *textures;
-    uint32_t texture_count;
-    float *texels;           /* 4 floats per texel (GpuTexture's kinds), mip pyramids */
-    size_t texel_count;
-    uint32_t *emitters;      /* packed triangle index per emitter */
-    uint32_t emitter_count;
-    float *emitter_power;    /* per emitter: pi * area * Y(Le), its selection weight */
-    float *emitter_area;
-    GpuLight *lights;        /* punctual lights (spectra tables in spectra) */
-    uint32_t light_count;
-    float scene_radius;      /* of the bounding sphere, for light power estimates */
-} GpuScene;
-
-/* Builds the BVH and the device arrays of s. Returns 0 or an exit code. */
-int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e);
-void gpu_scene_free(GpuScene *g);
-
-/* Bytes of device memory the scene arrays need (for `info` and limit checks). */
-size_t gpu_scene_bytes(const GpuScene *g);
 
 /* What one device of a multi-device render did. */
 typedef struct RenderDeviceStats {

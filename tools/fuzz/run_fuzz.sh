@@ -14,7 +14,9 @@ mkdir -p "$out/obj" "$out/corpus"
 make -s BUILD="$lib" "$lib/libspectrace.a"
 san="-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined -g -O1"
 flags="-Isrc -Ikernels -I$lib/gen -D_GNU_SOURCE -DCL_TARGET_OPENCL_VERSION=120"
-clang++ -std=c++17 $san $flags -I/usr/include/nlohmann -c src/scene/gltf_load.cpp -o "$out/obj/gltf_load.o"
+for f in src/scene/gltf_*.cpp; do
+  clang++ -std=c++17 $san $flags -I/usr/include/nlohmann -c "$f" -o "$out/obj/$(basename "$f" .cpp).o"
+done
 clang++ -std=c++17 $san $flags -c src/scene/texture_io.cpp -o "$out/obj/texture_io.o"
 clang++ -std=c++17 $san $flags -c src/scene/mesh_decode.cpp -o "$out/obj/mesh_decode.o"
 clang -std=c11 $san $flags -c src/scene/scene.c -o "$out/obj/scene.o"

@@ -1,0 +1,60 @@
+/* The scene as device arrays (GpuScene), built from a loaded Scene. */
+#ifndef SPT_GPU_SCENE_H
+#define SPT_GPU_SCENE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "accel/bvh_build.h"
+#include "core/util.h"
+#include "render/host_lights.h"
+#include "scene/scene.h"
+#include "shared/render_types.h"
+
+/* The scene as the kernels read it: packed triangles in BVH order and their
+ * shading data, materials with spectra, coefficient textures, emitters. */
+typedef struct GpuScene {
+    Bvh bvh;
+    TriShade *tri_shade;     /* per packed triangle */
+    float *vtx_pos;          /* 3 per vertex: positions, from the Scene's triangles */
+    float *vtx_normal;       /* borrowed from the Scene */
+    float *vtx_uv;           /* borrowed from the Scene */
+    float *vtx_uv1;          /* borrowed from the Scene; NULL without TEXCOORD_1 */
+    float *vtx_color;        /* 4 per vertex: COLOR_0's sigmoid coefficients and alpha;
+                                NULL without COLOR_0 */
+    uint32_t vertex_count;
+    GpuMaterial *materials;
+    uint32_t material_count;
+    float *spectra;          /* SPT_CIE_SAMPLES floats per tabulated spectrum */
+    uint32_t spectra_count;  /* floats */
+    GpuTexture *textures;
+    uint32_t texture_count;
+    float *texels;           /* 4 floats per texel (GpuTexture's kinds), mip pyramids */
+    size_t texel_count;
+    uint32_t *emitters;      /* packed triangle index per emitter */
+    uint32_t emitter_count;
+    float *emitter_power;    /* per emitter: pi * area * Y(Le), its selection weight */
+    float *emitter_area;
+    GpuLight *lights;        /* punctual lights (spectra tables in spectra) */
+    uint32_t light_count;
+    float scene_radius;      /* of the bounding sphere, for light power estimates */
+} GpuScene;
+
+/* Builds the BVH and the device arrays of s. Returns 0 or an exit code. */
+int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e);
+void gpu_scene_free(GpuScene *g);
+
+/* Bytes of device memory the scene arrays need (for `info` and limit checks). */
+size_t gpu_scene_bytes(const GpuScene *g);
+
+struct RenderLights;
+
+/* Byte size and contents of the scene buffer called name (a name of
+ * SPT_SCENE_BUFFERS, kernels/shared/render_types.h): sizes are never 0 (OpenCL
+ * refuses empty buffers); contents may be NULL (a zeroed buffer). L may be NULL
+ * (an estimate for `info`: no environment). */
+size_t gpu_scene_buffer_bytes(const GpuScene *g, const struct RenderLights *L, const char *name);
+const void *gpu_scene_buffer_data(const GpuScene *g, const struct RenderLights *L,
+                                  const char *name);
+
+#endif

@@ -1,0 +1,378 @@
+/* Rendering on several devices at once: one worker thread per device, each with
+ * its own wavefront, taking chunks of samples from one scheduler; the chunks of a
+ * device that fails go back to the others. */
+#include "render/render.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <pthread.h>
+#include <unistd.h>
+
+#include "render/render_lights.h"
+#include "render/wavefront.h"
+
+/* The camera of the kernels: right and up scaled so that screen coordinates in
+ * [-1, 1] span the field of view at the image's aspect ratio. */
+static void camera_params(RenderParams *p, const SceneCamera *c, int width, int height)
+{
+    float t = tanf(0.5f * c->yfov);
+    float aspect = (float)width / (float)height;
+    /* Orthographic (glTF xmag/ymag: half the view's width and height): right and up
+     * span the image plane itself; the image's aspect follows ymag. */
+    float sx = c->orthographic ? c->ymag * aspect : t * aspect;
+    float sy = c->orthographic ? c->ymag : t;
+    p->orthographic = c->orthographic ? 1u : 0u;
+    for (int i = 0; i < 3; i++) {
+        p->cam_pos[i] = c->position[i];
+        p->cam_fwd[i] = c->forward[i];
+        p->cam_right[i] = c->right[i] * sx;
+        p->cam_up[i] = c->up[i] * sy;
+    }
+    p->cam_right[3] = p->cam_up[3] = 0.0f;
+    /* The ray cone that texture filtering follows (kernels/device/path.h): a pixel's
+     * size at the camera (orthographic), or a pixel's angle (perspective, at the
+     * image's centre). */
+    p->cam_pos[3] = c->orthographic ? 2.0f * sy / (float)height : 0.0f;
+    p->cam_fwd[3] = c->orthographic ? 0.0f : 2.0f * t / (float)height;
+}
+
+/* The progress display: one line rewritten in place on a terminal, else a plain
+ * line at every tenth of the work. */
+static void progress_print(const RenderSettings *rs, uint32_t done, uint32_t total,
+                           double elapsed, uint64_t paths, int *last_decile)
+{
+    if (!rs->progress)
+        return;
+    double frac = total ? (double)done / total : 1.0;
+    int tty = isatty(2);
+    int decile = (int)(frac * 10.0);
+    if (!tty && decile == *last_decile)
+        return;
+    *last_decile = decile;
+    double rate = elapsed > 0 ? paths / elapsed : 0.0;
+    double remain = frac > 0 ? elapsed * (1.0 - frac) / frac : 0.0;
+    if (rs->time_limit > 0 && rs->time_limit - elapsed < remain)
+        remain = rs->time_limit - elapsed > 0 ? rs->time_limit - elapsed : 0;
+    fprintf(stderr, "%srender: %5.1f%%  %u/%u spp  %.2f Mpaths/s  %.1f s elapsed  %.1f s left%s",
+            tty ? "\r" : "", 100.0 * frac, done, total, rate * 1e-6, elapsed, remain,
+            tty ? "   " : "\n");
+    fflush(stderr);
+}
+
+/* Hands out chunks of sample indices to the devices, in order, and takes back
+ * the chunks of devices that failed. Every field is guarded by lock. */
+typedef struct Scheduler {
+    pthread_mutex_t lock;
+    const RenderSettings *rs;
+    uint32_t next;            /* next sample index (relative to sample_begin) to hand out */
+    uint32_t total;           /* samples per pixel asked for */
+    uint32_t *ret_begin, *ret_n; /* chunks given back by failed devices */
+    int active;               /* workers rendering a chunk right now */
+    int ret_count;
+    unsigned char *done;      /* per relative sample index: rendered into a film */
+    uint32_t done_count;
+    uint64_t paths;
+    double t0;
+    int decile;
+    Film *film;               /* every completed chunk is added here */
+} Scheduler;
+
+/* Takes up to want samples into [*begin, *begin + *n); 0 when nothing is left or
+ * the render must stop (signal, time limit). */
+static int sched_take(Scheduler *s, uint32_t want, uint32_t *begin, uint32_t *n)
+{
+    int ok = 0;
+    const RenderSettings *rs = s->rs;
+    pthread_mutex_lock(&s->lock);
+    /* Nothing to hand out while another device still renders: wait, since a
+     * failure there gives its chunk back. */
+    while (s->ret_count == 0 && s->next >= s->total && !rs->take_chunk && s->active > 0 &&
+           !(rs->stop && *rs->stop)) {
+        pthread_mutex_unlock(&s->lock);
+        usleep(2000);
+        pthread_mutex_lock(&s->lock);
+    }
+    int stopping = (rs->stop && *rs->stop) ||
+                   (rs->time_limit > 0 && spt_now() - s->t0 >= rs->time_limit);
+    if (!stopping) {
+        if (s->ret_count > 0) {
+            s->ret_count--;
+            *begin = s->ret_begin[s->ret_count];
+            *n = s->ret_n[s->ret_count];
+            ok = 1;
+        } else if (rs->take_chunk) {
+            ok = rs->take_chunk(rs->chunk_ctx, want, begin, n);
+        } else {
+            /* The next run of samples not done yet, at most want long. */
+            while (s->next < s->total && s->done[s->next])
+                s->next++;
+            if (s->next < s->total) {
+                uint32_t k = 0;
+                while (k < want && s->next + k < s->total && !s->done[s->next + k])
+                    k++;
+                *begin = s->next;
+                *n = k;
+                s->next += k;
+                ok = 1;
+            }
+        }
+    }
+    s->active += ok;
+    pthread_mutex_unlock(&s->lock);
+    return ok;
+}
+
+static void sched_give_back(Scheduler *s, uint32_t begin, uint32_t n)
+{
+    pthread_mutex_lock(&s->lock);
+    if (s->rs->give_back) {
+        s->rs->give_back(s->rs->chunk_ctx, begin, n);
+        s->active--;
+        pthread_mutex_unlock(&s->lock);
+        return;
+    }
+    s->ret_begin = spt_realloc(s->ret_begin, (size_t)(s->ret_count + 1) * sizeof(uint32_t));
+    s->ret_n = spt_realloc(s->ret_n, (size_t)(s->ret_count + 1) * sizeof(uint32_t));
+    s->ret_begin[s->ret_count] = begin;
+    s->ret_n[s->ret_count] = n;
+    s->ret_count++;
+    s->active--;
+    pthread_mutex_unlock(&s->lock);
+}
+
+static void sched_done(Scheduler *s, uint32_t begin, uint32_t n, uint64_t paths, const float *sums)
+{
+    pthread_mutex_lock(&s->lock);
+    film_add_chunk(s->film, sums);
+    for (uint32_t i = 0; i < n; i++)
+        s->done[begin + i] = 1;
+    s->done_count += n;
+    s->active--;
+    s->paths += paths;
+    progress_print(s->rs, s->done_count, s->total, spt_now() - s->t0, s->paths, &s->decile);
+    if (s->rs->on_chunk)
+        s->rs->on_chunk(s->rs->on_chunk_ctx, s->film, s->done, s->total);
+    pthread_mutex_unlock(&s->lock);
+}
+
+/* Test hooks, documented in README.md ("Several devices"): SPECTRACE_TEST_FAIL_DEVICE
+ * = "I:N" makes the I-th selected device fail when it starts its (N+1)-th chunk;
+ * SPECTRACE_TEST_SLOW_DEVICE = "I:MS" delays each of its chunks by MS ms. */
+static int test_hook(const char *name, int device, int *value)
+{
+    const char *v = getenv(name);
+    int d, x;
+    if (!v || sscanf(v, "%d:%d", &d, &x) != 2 || d != device)
+        return 0;
+    *value = x;
+    return 1;
+}
+
+typedef struct Worker {
+    int index;                 /* position in the selection */
+    const RenderParams *base;  /* the parameters every chunk shares */
+    const RenderLights *lights;
+    const ClDeviceInfo *info;
+    const GpuScene *g;
+    const SceneCamera *cam;
+    Scheduler *s;
+    RenderStats st;
+    double busy_seconds;       /* time spent rendering chunks */
+    uint32_t samples;          /* samples per pixel it rendered */
+    int rc;
+    SptError e;
+    char *build_log;
+} Worker;
+
+static void *worker_main(void *arg)
+{
+    Worker *wk = arg;
+    const RenderSettings *rs = wk->s->rs;
+    Wavefront w;
+    wk->rc = wavefront_create(&w, wk->info, wk->g, rs, wk->lights, &wk->e);
+    wk->st.build_seconds = w.dev.last_build_seconds;
+    if (wk->rc) {
+        if (w.dev.build_log)
+            wk->build_log = spt_strdup(w.dev.build_log);
+        wavefront_free(&w);
+        return NULL;
+    }
+    RenderParams p = *wk->base;
+    p.pool_size = w.pool;
+    float *sums = spt_malloc((size_t)rs->width * rs->height * 4 * sizeof(float));
+    int fail_after = -1, slow_ms = 0, chunks = 0;
+    test_hook("SPECTRACE_TEST_FAIL_DEVICE", wk->index, &fail_after);
+    test_hook("SPECTRACE_TEST_SLOW_DEVICE", wk->index, &slow_ms);
+    uint32_t begin, n;
+    while (sched_take(wk->s, w.chunk_spp, &begin, &n)) {
+        double t = spt_now();
+        if (chunks == fail_after) {
+            wk->rc = spt_fail(&wk->e, SPT_EXIT_DEVICE, "injected failure (SPECTRACE_TEST_FAIL_DEVICE)");
+        } else {
+            if (slow_ms > 0)
+                usleep((useconds_t)slow_ms * 1000u);
+            uint64_t before = wk->st.paths;
+            wk->rc = render_chunk(&w, &p, rs->sample_begin + begin, n, rs->profile, sums,
+                                  &wk->st, &wk->e);
+            if (!wk->rc) {
+                wk->busy_seconds += spt_now() - t;
+                wk->samples += n;
+                sched_done(wk->s, begin, n, wk->st.paths - before, sums);
+            }
+        }
+        if (wk->rc) {
+            sched_give_back(wk->s, begin, n);
+            break;
+        }
+        chunks++;
+    }
+    free(sums);
+    wavefront_free(&w);
+    return NULL;
+}
+
+/* The parameters every chunk of a render shares. */
+static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *g,
+                        const SceneCamera *cam, const RenderSettings *rs)
+{
+    memset(p, 0, sizeof *p);
+    camera_params(p, cam, rs->width, rs->height);
+    p->width = rs->width;
+    p->height = rs->height;
+    p->seed = rs->seed;
+    p->max_depth = rs->max_depth;
+    p->emitter_count = g->emitter_count;
+    p->light_count = g->light_count;
+    p->select_count = L->select.n;
+    p->emitter_total = (float)L->select.total;
+    p->env = L->env.env;
+    p->env_prob = L->env_prob;
+    p->node_count = g->bvh.node_count;
+    p->rr_depth = 3;
+    for (uint32_t i = 0; i < g->material_count; i++)
+        if (g->materials[i].flags & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND))
+            p->has_alpha = 1;
+    p->lens_radius = rs->aperture;
+    p->focus_distance = rs->focus_distance;
+    if (rs->aperture > 0 && !(rs->focus_distance > 0)) {
+        /* Focus at the distance seen at the image centre (1 km when nothing is there). */
+        BvhHit hit;
+        vec3 o = v3(cam->position[0], cam->position[1], cam->position[2]);
+        vec3 d = v3(cam->forward[0], cam->forward[1], cam->forward[2]);
+        p->focus_distance = g->bvh.prim_count && bvh_intersect(g->bvh.nodes, g->bvh.tri_data, o, d, 1e30f, &hit)
+                                ? hit.t : 1000.0f;
+    }
+}
+
+int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
+                   const SceneCamera *cam, const RenderSettings *rs, Film *film,
+                   RenderStats *stats, RenderDeviceStats *per_device, SptError *e)
+{
+    memset(stats, 0, sizeof *stats);
+    Scheduler s;
+    memset(&s, 0, sizeof s);
+    pthread_mutex_init(&s.lock, NULL);
+    s.rs = rs;
+    s.total = rs->spp > 0 ? (uint32_t)rs->spp : 0;
+    s.done = spt_calloc(s.total ? s.total : 1, 1);
+    s.decile = -1;
+    s.t0 = spt_now();
+    s.film = film;
+    if (rs->done_in)
+        for (uint32_t i = 0; i < s.total; i++)
+            if (rs->done_in[i]) {
+                s.done[i] = 1;
+                s.done_count++;
+            }
+    RenderParams base;
+    RenderLights lights;
+    int rc0 = render_lights_setup(&lights, g, rs, e);
+    if (!rc0)
+        base_params(&base, &lights, g, cam, rs);
+    if (rc0) {
+        render_lights_free(&lights);
+        free(s.done);
+        pthread_mutex_destroy(&s.lock);
+        return rc0;
+    }
+    Worker *wk = spt_calloc((size_t)count, sizeof(Worker));
+    pthread_t *th = spt_calloc((size_t)count, sizeof(pthread_t));
+    for (int i = 0; i < count; i++) {
+        wk[i].index = i;
+        wk[i].info = infos[i];
+        wk[i].g = g;
+        wk[i].cam = cam;
+        wk[i].s = &s;
+        wk[i].base = &base;
+        wk[i].lights = &lights;
+    }
+    if (count == 1) {
+        worker_main(&wk[0]);
+    } else {
+        for (int i = 0; i < count; i++)
+            pthread_create(&th[i], NULL, worker_main, &wk[i]);
+        for (int i = 0; i < count; i++)
+            pthread_join(th[i], NULL);
+    }
+    stats->seconds = spt_now() - s.t0;
+    if (rs->progress && isatty(2) && s.done_count > 0)
+        fputc('\n', stderr);
+    int failed = 0, rc = 0;
+    for (int i = 0; i < count; i++) {
+        stats->paths += wk[i].st.paths;
+        stats->rays_extend += wk[i].st.rays_extend;
+        stats->rays_shadow += wk[i].st.rays_shadow;
+        stats->nan_dropped += wk[i].st.nan_dropped;
+        if (wk[i].st.build_seconds > stats->build_seconds)
+            stats->build_seconds = wk[i].st.build_seconds;
+        for (int k = 0; k < 5; k++)
+            stats->stage_seconds[k] += wk[i].st.stage_seconds[k];
+        if (per_device) {
+            per_device[i].samples = wk[i].samples;
+            per_device[i].paths_per_second =
+                wk[i].busy_seconds > 0 ? wk[i].st.paths / wk[i].busy_seconds : 0.0;
+            per_device[i].failed = wk[i].rc != 0;
+        }
+        if (wk[i].rc) {
+            failed++;
+            if (count > 1)
+                spt_warn("device %d (%s) dropped: %s%s", i, infos[i]->name, wk[i].e.msg,
+                         wk[i].build_log ? " (build log follows)" : "");
+            if (wk[i].build_log)
+                fprintf(stderr, "%s\n", wk[i].build_log);
+            if (!rc) {
+                rc = wk[i].rc;
+                *e = wk[i].e;
+            }
+        }
+    }
+    int stopped = (rs->stop && *rs->stop) ||
+                  (rs->time_limit > 0 && spt_now() - s.t0 >= rs->time_limit);
+    if (failed == count && count > 1)
+        rc = spt_fail(e, SPT_EXIT_DEVICE, "every device failed; the last error: %s", e->msg);
+    else if (failed < count && s.done_count < s.total && !stopped && !rs->take_chunk)
+        rc = spt_fail(e, SPT_EXIT_FAILURE, "render incomplete: %u of %u samples per pixel done",
+                      s.done_count, s.total);
+    else if (failed < count)
+        rc = 0; /* the other devices carried the render to its end */
+    stats->spp_done = s.done_count;
+    for (int i = 0; i < count; i++)
+        free(wk[i].build_log);
+    free(wk);
+    free(th);
+    free(s.done);
+    free(s.ret_begin);
+    free(s.ret_n);
+    render_lights_free(&lights);
+    pthread_mutex_destroy(&s.lock);
+    return rc;
+}
+
+int render_device(const ClDeviceInfo *info, const GpuScene *g, const SceneCamera *cam,
+                  const RenderSettings *rs, Film *film, RenderStats *stats, SptError *e)
+{
+    const ClDeviceInfo *one[1] = {info};
+    return render_devices(one, 1, g, cam, rs, film, stats, NULL, e);
+}

@@ -1,0 +1,324 @@
+/* The wavefront loop on one device (docs/architecture.md, "Data flow"): the
+ * program and the buffers of one device, and the kernel launches that render a
+ * chunk of samples. */
+#include "render/wavefront.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+
+#include "render/render_lights.h"
+
+/* Host spellings of the kernel types named in the buffer lists. */
+typedef cl_float4 float4;
+typedef cl_uint uint;
+
+static const char *const kernel_names[K_COUNT] = {"k_generate", "k_extend", "k_shade",
+                                                  "k_connect", "k_accumulate"};
+
+void wavefront_free(Wavefront *w)
+{
+#define REL(type, name) if (w->b.name) clReleaseMemObject(w->b.name);
+#define PS_REL(type, name) if (w->b.ps_##name) clReleaseMemObject(w->b.ps_##name);
+#define SH_REL(type, name) if (w->b.sh_##name) clReleaseMemObject(w->b.sh_##name);
+    SPT_SCENE_BUFFERS(REL)
+    SPT_WORK_BUFFERS(REL)
+    SPT_PATH_STATE(PS_REL)
+    SPT_SHADOW_STATE(SH_REL)
+#undef REL
+#undef PS_REL
+#undef SH_REL
+    for (int i = 0; i < K_COUNT; i++)
+        if (w->k[i])
+            clReleaseKernel(w->k[i]);
+    if (w->program)
+        clReleaseProgram(w->program);
+    cl_device_close(&w->dev);
+    for (int i = 0; i < w->host_mem_count; i++)
+        free(w->host_mem[i]);
+    memset(w, 0, sizeof *w);
+}
+
+/* Read-only scene buffer name of bytes bytes from data. On a CPU device the
+ * large ones (over 4 MiB: BVH nodes and triangles, vertex arrays, which the
+ * kernels read at random) live in memory of our own that the device uses in
+ * place (CL_MEM_USE_HOST_PTR; PoCL does not copy it), aligned to 2 MiB and
+ * marked for transparent huge pages before it is first written, so a random
+ * read of a 44 MB BVH misses the TLB far less often: the displaced sphere's
+ * bounce rays ran 7% faster (median of 8 alternated pairs, all faster), host
+ * traversal 8-13%. Linux only gives huge pages to memory so marked when
+ * transparent_hugepage is "madvise" (Debian's default) or "always"; elsewhere
+ * this is plain memory. */
+static int scene_buffer_create(Wavefront *w, const char *name, size_t bytes, const void *data,
+                               cl_mem *out, SptError *e)
+{
+    static const char zeros[16];
+    const size_t huge = (size_t)2 << 20;
+    if ((w->dev.info.type & CL_DEVICE_TYPE_CPU) && data && bytes > 2 * huge &&
+        w->host_mem_count < (int)(sizeof w->host_mem / sizeof w->host_mem[0])) {
+        size_t size = (bytes + huge - 1) & ~(huge - 1);
+        void *mem = aligned_alloc(huge, size);
+        if (mem) {
+#ifdef MADV_HUGEPAGE
+            madvise(mem, size, MADV_HUGEPAGE); /* advice: failure only loses speed */
+#endif
+            memcpy(mem, data, bytes);
+            w->host_mem[w->host_mem_count++] = mem;
+            return cl_buffer_create(&w->dev, name, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, bytes,
+                                    mem, out, e);
+        }
+    }
+    return cl_buffer_create(&w->dev, name, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
+                            (void *)(data ? data : zeros), out, e);
+}
+
+/* Sets every buffer argument of kernel k, in list order, then the params. */
+static int set_args(cl_kernel k, const Buffers *b, const RenderParams *p, SptError *e)
+{
+    cl_uint i = 0;
+#define SET(type, name) SPT_CL_CHECK(e, clSetKernelArg(k, i++, sizeof(cl_mem), &b->name));
+#define PS_SET(type, name) SPT_CL_CHECK(e, clSetKernelArg(k, i++, sizeof(cl_mem), &b->ps_##name));
+#define SH_SET(type, name) SPT_CL_CHECK(e, clSetKernelArg(k, i++, sizeof(cl_mem), &b->sh_##name));
+    SPT_SCENE_BUFFERS(SET)
+    SPT_WORK_BUFFERS(SET)
+    SPT_PATH_STATE(PS_SET)
+    SPT_SHADOW_STATE(SH_SET)
+#undef SET
+#undef PS_SET
+#undef SH_SET
+    SPT_CL_CHECK(e, clSetKernelArg(k, i++, sizeof(RenderParams), p));
+    return 0;
+}
+
+/* Fills buffer m with the 32-bit word pat (every buffer here is a whole number
+ * of words). */
+static int fill_words(ClDevice *dev, cl_mem m, cl_uint pat, SptError *e)
+{
+    size_t bytes = 0;
+    SPT_CL_CHECK(e, clGetMemObjectInfo(m, CL_MEM_SIZE, sizeof bytes, &bytes, NULL));
+    SPT_CL_CHECK(e, clEnqueueFillBuffer(dev->queue, m, &pat, sizeof pat, 0, bytes, 0, NULL, NULL));
+    return 0;
+}
+
+/* Path pool size for a device: enough paths to fill it, bounded by memory. */
+static uint32_t pool_size_for(const ClDeviceInfo *info, uint64_t work)
+{
+    uint64_t pool = (info->type & CL_DEVICE_TYPE_GPU) ? (1u << 20) : (1u << 16);
+    const char *env = getenv("SPECTRACE_POOL");
+    if (env && atoi(env) > 0)
+        pool = (uint64_t)atoi(env);
+    if (pool > work)
+        pool = work;
+    return (uint32_t)(pool ? pool : 1);
+}
+
+int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
+                            const RenderSettings *rs, const RenderLights *L, SptError *e)
+{
+    int rc;
+    memset(w, 0, sizeof *w);
+    uint64_t npix = (uint64_t)rs->width * (uint64_t)rs->height;
+    /* Samples per chunk: the pool 16 times over, with the per-sample
+     * contribution buffer under 64 MiB. A chunk ends with its last paths
+     * running in a near-empty pool and a wait for the host, so fewer, larger
+     * chunks keep the device busier: 16 pools instead of 4 rendered the Cornell
+     * box 6.5% faster (PoCL, 2 cores, median of 16 alternated 512x512 renders),
+     * and a chunk still takes well under a second there. But a render keeps at
+     * least 16 chunks (when it has the samples), so that several devices or MPI
+     * processes sharing it end close together: with 4 chunks, two processes
+     * reached 1.79x one instead of 1.95x. */
+    w->pool = pool_size_for(info, npix * (uint64_t)(rs->spp > 0 ? rs->spp : 1));
+    uint64_t spp = (16ull * w->pool + npix - 1) / npix;
+    if (rs->spp > 0 && spp > ((uint64_t)rs->spp + 15) / 16)
+        spp = ((uint64_t)rs->spp + 15) / 16;
+    uint64_t cap = (64ull << 20) / (npix * 16ull);
+    if (spp > cap)
+        spp = cap;
+    if (spp < 1)
+        spp = 1;
+    if (rs->spp > 0 && spp > (uint64_t)rs->spp)
+        spp = (uint64_t)rs->spp;
+    w->chunk_spp = (uint32_t)spp;
+
+    /* Check everything against the device before allocating. */
+    ClAlloc allocs[64];
+    int na = 0;
+#define PLAN(type, nm) allocs[na].name = #nm; allocs[na++].bytes = gpu_scene_buffer_bytes(g, L, #nm);
+    SPT_SCENE_BUFFERS(PLAN)
+#undef PLAN
+    allocs[na].name = "film contributions";
+    allocs[na++].bytes = (size_t)(npix * w->chunk_spp * 16ull);
+    allocs[na].name = "path state";
+    allocs[na++].bytes = (size_t)w->pool * 160;
+    if ((rc = cl_device_check_memory(info, allocs, na, e)))
+        return rc;
+
+    if ((rc = cl_device_open(&w->dev, info, rs->profile, e)))
+        return rc;
+    /* Test hook: SPECTRACE_TEST_INJECT_NAN=1 makes pixel 0's radiance NaN, to show
+     * that the NaN guard keeps it off the film. */
+    const char *nan_hook = getenv("SPECTRACE_TEST_INJECT_NAN");
+    /* CPUs test a BVH leaf's triangles with one 16-lane test (x86 with AVX-512
+     * or AVX2) and trace two rays per extend work-item, interleaved
+     * (kernels/shared/bvh.h); GPUs, whose work-items are the SIMD lanes and which hide
+     * memory latency with other work-items, loop over a leaf's triangles and
+     * trace one ray each. */
+    w->ray_pairs = (info->type & CL_DEVICE_TYPE_CPU) != 0;
+    /* SPECTRACE_KERNEL_PATH=cpu or gpu overrides that choice, so both paths run
+     * on any device: tools/check_kernels.sh runs the CPU path under Oclgrind
+     * (a GPU to us) and tests/test_render.c the GPU path on PoCL. */
+    const char *path_env = getenv("SPECTRACE_KERNEL_PATH");
+    if (path_env && !strcmp(path_env, "cpu"))
+        w->ray_pairs = 1;
+    else if (path_env && !strcmp(path_env, "gpu"))
+        w->ray_pairs = 0;
+    cl_ulong cache = 0;
+    if (w->ray_pairs)
+        SPT_CL_CHECK(e, clGetDeviceInfo(info->id, CL_DEVICE_GLOBAL_MEM_CACHE_SIZE, sizeof cache,
+                                        &cache, NULL));
+    /* A BVH larger than a quarter of the device's cache (shared by its cores
+     * and other programs) is read mostly from memory: each traversal step then
+     * asks early for the next one's data (SPT_BVH_STEP_PREFETCH); in a small
+     * scene those requests only cost time. */
+    double bvh_bytes = (double)g->bvh.node_count * sizeof(BvhNode) + (double)g->bvh.tri_data_bytes;
+    int step_prefetch = w->ray_pairs && bvh_bytes > 0.25 * (double)cache;
+    char options[160];
+    snprintf(options, sizeof options, "%s%s%s",
+             w->ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "",
+             step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "",
+             nan_hook && *nan_hook && strcmp(nan_hook, "0") ? "-DSPT_TEST_INJECT_NAN=1" : "");
+    if ((rc = cl_program_build(&w->dev, "kernels/device/wavefront.cl", options, &w->program, e)))
+        return rc;
+    for (int i = 0; i < K_COUNT; i++) {
+        cl_int err;
+        SPT_CL_CHECK(e, (w->k[i] = clCreateKernel(w->program, kernel_names[i], &err), err));
+        /* 64 work-items per group where the kernel allows it: the queues take
+         * one global atomic per group. */
+        size_t max_wg = 1;
+        SPT_CL_CHECK(e, clGetKernelWorkGroupInfo(w->k[i], w->dev.info.id, CL_KERNEL_WORK_GROUP_SIZE,
+                                                 sizeof max_wg, &max_wg, NULL));
+        w->local[i] = max_wg < 64 ? max_wg : 64;
+    }
+#define MAKE_RO(type, name)                                                             \
+    if ((rc = scene_buffer_create(w, #name, gpu_scene_buffer_bytes(g, L, #name),              \
+                                  gpu_scene_buffer_data(g, L, #name), &w->b.name, e)))        \
+        return rc;
+    SPT_SCENE_BUFFERS(MAKE_RO)
+#undef MAKE_RO
+    size_t pool = w->pool;
+#define MAKE_PS(type, name)                                                              \
+    if ((rc = cl_buffer_create(&w->dev, "path " #name, CL_MEM_READ_WRITE, pool * sizeof(type), \
+                               NULL, &w->b.ps_##name, e)))                                 \
+        return rc;
+#define MAKE_SH(type, name)                                                              \
+    if ((rc = cl_buffer_create(&w->dev, "shadow " #name, CL_MEM_READ_WRITE, pool * sizeof(type), \
+                               NULL, &w->b.sh_##name, e)))                                 \
+        return rc;
+    SPT_PATH_STATE(MAKE_PS)
+    SPT_SHADOW_STATE(MAKE_SH)
+#undef MAKE_PS
+#undef MAKE_SH
+    if ((rc = cl_buffer_create(&w->dev, "counters", CL_MEM_READ_WRITE,
+                               SPT_CNT_COUNT * sizeof(cl_uint), NULL, &w->b.counters, e)) ||
+        (rc = cl_buffer_create(&w->dev, "queue_extend", CL_MEM_READ_WRITE,
+                               pool * sizeof(cl_uint), NULL, &w->b.queue_extend, e)) ||
+        (rc = cl_buffer_create(&w->dev, "film contributions", CL_MEM_READ_WRITE,
+                               (size_t)(npix * w->chunk_spp * 16ull), NULL, &w->b.contrib, e)) ||
+        (rc = cl_buffer_create(&w->dev, "chunk sums", CL_MEM_READ_WRITE, (size_t)npix * 16,
+                               NULL, &w->b.chunk_sum, e)))
+        return rc;
+    /* Test hook (README, "Rendering"): SPECTRACE_TEST_POISON=PATTERN fills every
+     * path, shadow, queue, counter and film buffer with that 32-bit word first, so
+     * that a value read before anything wrote it shows (NaN, all ones) rather than
+     * whatever the fresh allocation held. */
+    const char *poison = getenv("SPECTRACE_TEST_POISON");
+    if (poison && *poison) {
+        cl_uint pat = (cl_uint)strtoul(poison, NULL, 0);
+#define POISON(type, name) if (!rc) rc = fill_words(&w->dev, w->b.name, pat, e);
+#define PS_POISON(type, name) POISON(type, ps_##name)
+#define SH_POISON(type, name) POISON(type, sh_##name)
+        SPT_WORK_BUFFERS(POISON)
+        SPT_PATH_STATE(PS_POISON)
+        SPT_SHADOW_STATE(SH_POISON)
+#undef POISON
+#undef PS_POISON
+#undef SH_POISON
+        if (rc)
+            return rc;
+    }
+    /* Every slot starts free (SPT_PATH_DEAD = 0). */
+    cl_uint zero = 0;
+    SPT_CL_CHECK(e, clEnqueueFillBuffer(w->dev.queue, w->b.ps_flags, &zero, sizeof zero, 0,
+                                        pool * sizeof(cl_uint), 0, NULL, NULL));
+    return 0;
+}
+
+static double event_seconds(cl_event ev)
+{
+    cl_ulong a = 0, b = 0;
+    clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof a, &a, NULL);
+    clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof b, &b, NULL);
+    return b > a ? (double)(b - a) * 1e-9 : 0.0;
+}
+
+/* Enqueues kernel k over n work-items (rounded up); with profiling, adds its
+ * device time to *acc. */
+static int run_kernel(Wavefront *w, int k, size_t n, double *acc, SptError *e)
+{
+    cl_event ev = NULL;
+    size_t local = w->local[k];
+    size_t global = (n + local - 1) / local * local;
+    SPT_CL_CHECK(e, clEnqueueNDRangeKernel(w->dev.queue, w->k[k], 1, NULL, &global, &local, 0,
+                                           NULL, acc ? &ev : NULL));
+    if (ev) {
+        clWaitForEvents(1, &ev);
+        *acc += event_seconds(ev);
+        clReleaseEvent(ev);
+    }
+    return 0;
+}
+
+/* Renders samples [sample_begin, sample_begin + n) of every pixel on w and adds
+ * their per-pixel sums to film. */
+int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, uint32_t n,
+                        int profile, float *sums, RenderStats *st, SptError *e)
+{
+    RenderParams p = *base;
+    uint32_t npix = (uint32_t)(p.width * p.height);
+    p.sample_begin = sample_begin;
+    p.work_begin = 0;
+    p.work_end = n * npix;
+    cl_uint counters[SPT_CNT_COUNT] = {0};
+    SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0, sizeof counters,
+                                         counters, 0, NULL, NULL));
+    int rc;
+    for (int k = 0; k < K_COUNT; k++)
+        if ((rc = set_args(w->k[k], &w->b, &p, e)))
+            return rc;
+    double *acc = profile ? st->stage_seconds : NULL;
+    for (;;) {
+        static const cl_uint two_zeros[2] = {0, 0};
+        SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_FALSE, 0,
+                                             sizeof two_zeros, two_zeros, 0, NULL, NULL));
+        if ((rc = run_kernel(w, K_GENERATE, w->pool, acc ? acc + 0 : NULL, e)) ||
+            (rc = run_kernel(w, K_EXTEND, w->ray_pairs ? (w->pool + 1) / 2 : w->pool,
+                             acc ? acc + 1 : NULL, e)) ||
+            (rc = run_kernel(w, K_SHADE, w->pool, acc ? acc + 2 : NULL, e)) ||
+            (rc = run_kernel(w, K_CONNECT, w->pool, acc ? acc + 3 : NULL, e)))
+            return rc;
+        SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0,
+                                            sizeof counters, counters, 0, NULL, NULL));
+        st->rays_extend += counters[SPT_CNT_EXTEND];
+        st->rays_shadow += counters[SPT_CNT_SHADOW];
+        if (counters[SPT_CNT_DONE] >= p.work_end)
+            break;
+    }
+    if ((rc = run_kernel(w, K_ACCUMULATE, npix, acc ? acc + 4 : NULL, e)))
+        return rc;
+    SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.chunk_sum, CL_TRUE, 0,
+                                        (size_t)npix * 16, sums, 0, NULL, NULL));
+    st->nan_dropped += counters[SPT_CNT_NAN];
+    st->paths += p.work_end;
+    return 0;
+}

@@ -1,0 +1,56 @@
+/* The wavefront loop on one device: its context, program, kernels and buffers
+ * (named once through the lists of kernels/shared/render_types.h), and the
+ * rendering of one chunk of samples. */
+#ifndef SPT_WAVEFRONT_H
+#define SPT_WAVEFRONT_H
+
+#include <stdint.h>
+
+#include "cl/cl_device.h"
+#include "render/gpu_scene.h"
+#include "render/render.h"
+#include "render/render_lights.h"
+
+enum { K_GENERATE, K_EXTEND, K_SHADE, K_CONNECT, K_ACCUMULATE, K_COUNT };
+
+/* Every device buffer. */
+typedef struct Buffers {
+#define MEMBER(type, name) cl_mem name;
+#define PS_MEMBER(type, name) cl_mem ps_##name;
+#define SH_MEMBER(type, name) cl_mem sh_##name;
+    SPT_SCENE_BUFFERS(MEMBER)
+    SPT_WORK_BUFFERS(MEMBER)
+    SPT_PATH_STATE(PS_MEMBER)
+    SPT_SHADOW_STATE(SH_MEMBER)
+#undef MEMBER
+#undef PS_MEMBER
+#undef SH_MEMBER
+} Buffers;
+
+typedef struct Wavefront {
+    ClDevice dev;
+    cl_program program;
+    cl_kernel k[K_COUNT];
+    Buffers b;
+    size_t local[K_COUNT]; /* work-group size of each kernel */
+    uint32_t pool;
+    uint32_t chunk_spp;
+    int ray_pairs;         /* 1: k_extend traces two rays per work-item (CPU devices) */
+    void *host_mem[16];    /* memory of the scene buffers used in place (CPU devices) */
+    int host_mem_count;
+} Wavefront;
+
+/* Opens info's device, builds the program and allocates every buffer for
+ * rendering g with the lights L at rs's size, after checking the device's
+ * memory. Returns 0 or an exit code; wavefront_free cleans up either way. */
+int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
+                     const RenderSettings *rs, const RenderLights *L, SptError *e);
+void wavefront_free(Wavefront *w);
+
+/* Renders samples [sample_begin, sample_begin + n) of every pixel on w: sums
+ * receives 4 floats per pixel (XYZ sums and the sample count); st gains the
+ * chunk's paths, rays and (with profile) stage times. */
+int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, uint32_t n,
+                 int profile, float *sums, RenderStats *st, SptError *e);
+
+#endif

@@ -1,0 +1,245 @@
+// The glTF loader's node hierarchy: local transforms, the traversal of the
+// scene's nodes (loops and shared children refused), cameras and punctual lights.
+#include "scene/gltf_loader.h"
+
+namespace spt_gltf {
+
+int Loader::node_local(int n, Mat4 *out)
+{
+    const auto &node = m.nodes[n];
+    if (!node.matrix.empty()) {
+        if (node.matrix.size() != 16)
+            return bad("nodes[%d].matrix: %zu numbers, expected 16", n, node.matrix.size());
+        for (int i = 0; i < 16; i++) out->m[i] = node.matrix[i];
+        return 0;
+    }
+    if (!node.translation.empty() && node.translation.size() != 3)
+        return bad("nodes[%d].translation: %zu numbers, expected 3", n, node.translation.size());
+    if (!node.rotation.empty() && node.rotation.size() != 4)
+        return bad("nodes[%d].rotation: %zu numbers, expected 4", n, node.rotation.size());
+    if (!node.scale.empty() && node.scale.size() != 3)
+        return bad("nodes[%d].scale: %zu numbers, expected 3", n, node.scale.size());
+    double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+    for (size_t i = 0; i < node.translation.size(); i++) t[i] = node.translation[i];
+    for (size_t i = 0; i < node.rotation.size(); i++) q[i] = node.rotation[i];
+    for (size_t i = 0; i < node.scale.size(); i++) s[i] = node.scale[i];
+    double ql = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (!(ql > 0) || !std::isfinite(ql))
+        return bad("nodes[%d].rotation: not a unit quaternion", n);
+    for (double &c : q) c /= ql;
+    double x = q[0], y = q[1], z = q[2], w = q[3];
+    // Rotation matrix of the unit quaternion (row r, column c), then M = T R S.
+    double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                      {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                      {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+    *out = mat_identity();
+    for (int c = 0; c < 3; c++)
+        for (int r = 0; r < 3; r++) out->m[c * 4 + r] = R[r][c] * s[c];
+    for (int r = 0; r < 3; r++) out->m[12 + r] = t[r];
+    return 0;
+}
+
+int Loader::traverse()
+{
+    size_t nn = m.nodes.size();
+    std::vector<int> parent(nn, -1);
+    for (size_t i = 0; i < nn; i++) {
+        const auto &node = m.nodes[i];
+        for (size_t k = 0; k < node.children.size(); k++) {
+            int c = node.children[k];
+            if (c < 0 || (size_t)c >= nn)
+                return bad("nodes[%zu].children[%zu]: nodes[%d] does not exist", i, k, c);
+            if ((size_t)c == i) return bad("nodes[%zu]: the node is its own child", i);
+            if (parent[c] >= 0)
+                return bad("nodes[%d]: has two parents (nodes[%d] and nodes[%zu])", c, parent[c],
+                           i);
+            parent[c] = (int)i;
+        }
+        if (node.mesh >= 0 && (size_t)node.mesh >= m.meshes.size())
+            return bad("nodes[%zu].mesh: meshes[%d] does not exist", i, node.mesh);
+        if (node.mesh < -1) return bad("nodes[%zu].mesh: meshes[%d] does not exist", i, node.mesh);
+        if (node.camera < -1 || (node.camera >= 0 && (size_t)node.camera >= m.cameras.size()))
+            return bad("nodes[%zu].camera: cameras[%d] does not exist", i, node.camera);
+        auto lit = node.extensions.find("KHR_lights_punctual");
+        if (lit != node.extensions.end()) {
+            const Value &l = lit->second.IsObject() ? lit->second.Get("light") : Value();
+            if (!l.IsNumber() || l.GetNumberAsInt() < 0 ||
+                (size_t)l.GetNumberAsInt() >= m.lights.size())
+                return bad("nodes[%zu].extensions.KHR_lights_punctual.light: not an index into "
+                           "the file's %zu lights",
+                           i, m.lights.size());
+        }
+    }
+    // With at most one parent each, a loop is a parent chain that returns to a
+    // node on the current walk; each node is walked once (O(nodes)).
+    std::vector<char> state(nn, 0); // 0 unseen, 1 on the current walk, 2 done
+    std::vector<int> walk;
+    for (size_t i = 0; i < nn; i++) {
+        walk.clear();
+        int n = (int)i;
+        while (n >= 0 && state[n] == 0) {
+            state[n] = 1;
+            walk.push_back(n);
+            n = parent[n];
+        }
+        if (n >= 0 && state[n] == 1) return bad("nodes[%d]: the node hierarchy has a loop", n);
+        for (int w : walk) state[w] = 2;
+    }
+
+    std::vector<int> roots;
+    if (m.defaultScene >= 0 || !m.scenes.empty()) {
+        int sc = m.defaultScene >= 0 ? m.defaultScene : 0;
+        if ((size_t)sc >= m.scenes.size()) return bad("scene: scenes[%d] does not exist", sc);
+        roots = m.scenes[sc].nodes;
+        std::vector<char> listed(nn, 0);
+        for (size_t k = 0; k < roots.size(); k++) {
+            int r = roots[k];
+            if (r < 0 || (size_t)r >= nn)
+                return bad("scenes[%d].nodes[%zu]: nodes[%d] does not exist", sc, k, r);
+            if (parent[r] >= 0)
+                return bad("scenes[%d].nodes[%zu]: nodes[%d] is a child of nodes[%d], not a root",
+                           sc, k, r, parent[r]);
+            if (listed[r]) return bad("scenes[%d].nodes[%zu]: nodes[%d] is listed twice", sc, k, r);
+            listed[r] = 1;
+        }
+    } else if (nn) {
+        for (size_t i = 0; i < nn; i++)
+            if (parent[i] < 0) roots.push_back((int)i);
+        spt_warn("%s: scenes: the file has no scene; using its %zu root node(s)", file,
+                 roots.size());
+    }
+
+    // Depth-first, pre-order, children in file order, with an explicit stack (no
+    // recursion, so any depth works).
+    std::vector<std::pair<int, Mat4>> stack;
+    for (size_t k = roots.size(); k-- > 0;) stack.push_back({roots[k], mat_identity()});
+    while (!stack.empty()) {
+        int n = stack.back().first;
+        Mat4 parent_world = stack.back().second;
+        stack.pop_back();
+        Mat4 local;
+        int rc = node_local(n, &local);
+        if (rc) return rc;
+        Mat4 world = mat_mul(parent_world, local);
+        const auto &node = m.nodes[n];
+        if (node.mesh >= 0 && (rc = emit_instance(node.mesh, world))) return rc;
+        if (node.camera >= 0 && !have_camera && (rc = camera_from(node.camera, world, n)))
+            return rc;
+        auto lit = node.extensions.find("KHR_lights_punctual");
+        if (lit != node.extensions.end() &&
+            (rc = light_from(lit->second.Get("light").GetNumberAsInt(), world, n)))
+            return rc;
+        for (size_t k = node.children.size(); k-- > 0;) stack.push_back({node.children[k], world});
+    }
+    return 0;
+}
+
+int Loader::camera_from(int cam, const Mat4 &world, int node)
+{
+    const auto &c = m.cameras[cam];
+    SceneCamera sc = {};
+    if (c.type == "perspective") {
+        const auto &p = c.perspective;
+        if (!(p.yfov > 0 && p.yfov < M_PI))
+            return bad("cameras[%d].perspective.yfov: %g is not in (0, pi)", cam, p.yfov);
+        if (!(p.znear > 0)) return bad("cameras[%d].perspective.znear: %g is not > 0", cam, p.znear);
+        if (p.zfar != 0 && !(p.zfar > p.znear))
+            return bad("cameras[%d].perspective.zfar: %g is not greater than znear %g", cam,
+                       p.zfar, p.znear);
+        if (p.aspectRatio < 0 || !std::isfinite(p.aspectRatio))
+            return bad("cameras[%d].perspective.aspectRatio: %g is not > 0", cam, p.aspectRatio);
+        sc.yfov = (float)p.yfov;
+        sc.aspect = (float)p.aspectRatio;
+        sc.znear = (float)p.znear;
+        sc.zfar = (float)p.zfar;
+    } else if (c.type == "orthographic") {
+        const auto &o = c.orthographic;
+        if (o.xmag == 0 || o.ymag == 0 || !std::isfinite(o.xmag) || !std::isfinite(o.ymag))
+            return bad("cameras[%d].orthographic: xmag and ymag must be non-zero", cam);
+        if (!(o.znear >= 0) || !(o.zfar > o.znear))
+            return bad("cameras[%d].orthographic: needs 0 <= znear < zfar (got %g, %g)", cam,
+                       o.znear, o.zfar);
+        sc.orthographic = 1;
+        sc.xmag = (float)fabs(o.xmag);
+        sc.ymag = (float)fabs(o.ymag);
+        sc.znear = (float)o.znear;
+        sc.zfar = (float)o.zfar;
+        sc.aspect = (float)(fabs(o.xmag) / fabs(o.ymag));
+    } else {
+        return bad("cameras[%d].type: '%s' is neither perspective nor orthographic", cam,
+                   c.type.c_str());
+    }
+    double origin[3] = {0, 0, 0}, pos[3], fwd[3], up[3], right[3];
+    double zf[3] = {0, 0, -1}, yu[3] = {0, 1, 0};
+    mat_point(world, origin, pos);
+    mat_dir(world, zf, fwd);
+    mat_dir(world, yu, up);
+    if (!normalize3(fwd)) return bad("nodes[%d]: the camera's transform is singular", node);
+    cross3(fwd, up, right);
+    if (!normalize3(right)) return bad("nodes[%d]: the camera's transform is singular", node);
+    cross3(right, fwd, up);
+    for (int k = 0; k < 3; k++) {
+        if (!std::isfinite(pos[k])) return bad("nodes[%d]: the camera's position is not finite", node);
+        sc.position[k] = (float)pos[k];
+        sc.forward[k] = (float)fwd[k];
+        sc.up[k] = (float)up[k];
+        sc.right[k] = (float)right[k];
+    }
+    camera = sc;
+    have_camera = true;
+    return 0;
+}
+
+int Loader::light_from(int li, const Mat4 &world, int node)
+{
+    const auto &l = m.lights[li];
+    SceneLight sl = {};
+    snprintf(sl.name, sizeof sl.name, "%s", l.name.empty() ? "light" : l.name.c_str());
+    std::string obj = "extensions.KHR_lights_punctual.lights[" + std::to_string(li) + "]";
+    if (l.type == "point")
+        sl.type = SPT_LIGHT_POINT;
+    else if (l.type == "spot")
+        sl.type = SPT_LIGHT_SPOT;
+    else if (l.type == "directional")
+        sl.type = SPT_LIGHT_DIRECTIONAL;
+    else
+        return bad("%s.type: '%s' is not point, spot or directional", obj.c_str(), l.type.c_str());
+    sl.color[0] = sl.color[1] = sl.color[2] = 1.0f;
+    if (!l.color.empty()) {
+        if (l.color.size() != 3) return bad("%s.color: expected 3 numbers", obj.c_str());
+        for (int k = 0; k < 3; k++) {
+            if (!(l.color[k] >= 0) || !std::isfinite(l.color[k]))
+                return bad("%s.color: components must be finite and >= 0", obj.c_str());
+            sl.color[k] = (float)l.color[k];
+        }
+    }
+    if (!(l.intensity >= 0) || !std::isfinite(l.intensity))
+        return bad("%s.intensity: %g is not a finite value >= 0", obj.c_str(), l.intensity);
+    if (!(l.range >= 0) || !std::isfinite(l.range))
+        return bad("%s.range: %g is not > 0", obj.c_str(), l.range);
+    sl.intensity = (float)l.intensity;
+    sl.range = (float)l.range;
+    if (sl.type == SPT_LIGHT_SPOT) {
+        double in = l.spot.innerConeAngle, out = l.spot.outerConeAngle;
+        if (!(in >= 0 && in < out && out <= M_PI / 2 + 1e-9))
+            return bad("%s.spot: needs 0 <= innerConeAngle < outerConeAngle <= pi/2 (got %g, %g)",
+                       obj.c_str(), in, out);
+        sl.inner_cone = (float)in;
+        sl.outer_cone = (float)out;
+    }
+    double origin[3] = {0, 0, 0}, zf[3] = {0, 0, -1}, pos[3], dir[3];
+    mat_point(world, origin, pos);
+    mat_dir(world, zf, dir);
+    if (sl.type != SPT_LIGHT_POINT && !normalize3(dir))
+        return bad("nodes[%d]: the light's transform is singular", node);
+    for (int k = 0; k < 3; k++) {
+        if (!std::isfinite(pos[k])) return bad("nodes[%d]: the light's position is not finite", node);
+        sl.position[k] = (float)pos[k];
+        sl.direction[k] = (float)dir[k];
+    }
+    if (sl.type == SPT_LIGHT_POINT && !normalize3(dir)) sl.direction[2] = -1.0f;
+    lights.push_back(sl);
+    return 0;
+}
+
+} // namespace spt_gltf

@@ -1,0 +1,488 @@
+// The glTF loader's parsing and validation: the JSON and GLB container, the
+// version and required extensions, buffer views and accessors, read into arrays.
+#include "scene/gltf_loader.h"
+
+namespace spt_gltf {
+
+// Extensions whose meaning we implement; only these may be in extensionsRequired.
+// Keep in sync with the code that reads them and the README's loader section.
+const char *const k_supported_ext[] = {
+    "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_transmission",
+    "KHR_materials_dispersion", "KHR_materials_volume", "KHR_materials_unlit",
+    "KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_pbrSpecularGlossiness",
+    "KHR_mesh_quantization", "EXT_meshopt_compression", "KHR_draco_mesh_compression",
+    "EXT_texture_webp", "KHR_materials_specular", "KHR_materials_clearcoat", "KHR_materials_sheen",
+};
+
+
+// Percent-decoding of a relative URI into a file name.
+std::string uri_decode(const std::string &uri)
+{
+    std::string out;
+    for (size_t i = 0; i < uri.size(); i++) {
+        if (uri[i] == '%' && i + 2 < uri.size() && isxdigit((unsigned char)uri[i + 1]) &&
+            isxdigit((unsigned char)uri[i + 2])) {
+            out += (char)strtol(uri.substr(i + 1, 2).c_str(), nullptr, 16);
+            i += 2;
+        } else {
+            out += uri[i];
+        }
+    }
+    return out;
+}
+
+std::string join_names(const std::vector<std::string> &v)
+{
+    std::string s;
+    for (size_t i = 0; i < v.size(); i++) s += (i ? ", " : "") + v[i];
+    return s;
+}
+
+std::string first_line(std::string s)
+{
+    while (!s.empty() && (s[0] == '\n' || s[0] == ' ')) s.erase(0, 1);
+    size_t nl = s.find('\n');
+    if (nl != std::string::npos) s.resize(nl);
+    return s;
+}
+
+int component_size(int type)
+{
+    switch (type) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    default: return 0;
+    }
+}
+
+const char *component_name(int type)
+{
+    switch (type) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: return "BYTE";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return "UNSIGNED_BYTE";
+    case TINYGLTF_COMPONENT_TYPE_SHORT: return "SHORT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return "UNSIGNED_SHORT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return "UNSIGNED_INT";
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return "FLOAT";
+    default: return "an invalid component type";
+    }
+}
+
+int type_components(int type)
+{
+    switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return 1;
+    case TINYGLTF_TYPE_VEC2: return 2;
+    case TINYGLTF_TYPE_VEC3: return 3;
+    case TINYGLTF_TYPE_VEC4: return 4;
+    case TINYGLTF_TYPE_MAT2: return 4;
+    case TINYGLTF_TYPE_MAT3: return 9;
+    case TINYGLTF_TYPE_MAT4: return 16;
+    default: return 0;
+    }
+}
+
+const char *type_name(int n)
+{
+    switch (n) {
+    case 1: return "SCALAR";
+    case 2: return "VEC2";
+    case 3: return "VEC3";
+    default: return "VEC4";
+    }
+}
+
+// The mesh data of one primitive, read once and shared by its instances.
+
+// EXT_meshopt_compression's fallback buffers may have no uri (their bytes are
+// never needed when the extension is decoded), which tinygltf refuses in a
+// .gltf and reads past the BIN chunk in a .glb. Such buffers get a 4-byte data
+// URI instead; *out is the rewritten JSON. False when nothing was rewritten.
+// Likewise KHR_draco_mesh_compression primitives' indices accessors have no
+// bufferView (the faces are in the Draco data), which tinygltf refuses: their
+// "indices" is dropped (the loader takes the faces from Draco).
+static bool rewrite_fallback_buffers(const unsigned char *json, size_t size, std::string *out)
+{
+    static const char key[] = "EXT_meshopt_compression", draco[] = "KHR_draco_mesh_compression";
+    if (std::search(json, json + size, key, key + sizeof key - 1) == json + size &&
+        std::search(json, json + size, draco, draco + sizeof draco - 1) == json + size)
+        return false;
+    nlohmann::json j;
+    try {
+        j = nlohmann::json::parse(json, json + size);
+    } catch (const std::exception &) {
+        return false; // reported by the normal parse
+    }
+    if (!j.is_object()) return false;
+    bool changed = false;
+    if (j.contains("meshes") && j["meshes"].is_array())
+        for (auto &mesh : j["meshes"]) {
+            if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array())
+                continue;
+            for (auto &p : mesh["primitives"]) {
+                if (!p.is_object() || !p.contains("extensions") || !p["extensions"].is_object() ||
+                    !p["extensions"].contains(draco) || !p.contains("indices"))
+                    continue;
+                p.erase("indices");
+                changed = true;
+            }
+        }
+    if (!j.contains("buffers") || !j["buffers"].is_array()) {
+        if (changed) *out = j.dump();
+        return changed;
+    }
+    for (auto &b : j["buffers"]) {
+        if (!b.is_object() || b.contains("uri") || !b.contains("extensions")) continue;
+        const auto &x = b["extensions"];
+        if (!x.is_object() || !x.contains(key) || !x[key].is_object()) continue;
+        const auto &fb = x[key];
+        if (!fb.contains("fallback") || fb["fallback"] != true) continue;
+        b["uri"] = "data:application/octet-stream;base64,AAAAAA==";
+        b["byteLength"] = 4;
+        changed = true;
+    }
+    if (changed) *out = j.dump();
+    return changed;
+}
+
+int Loader::parse(const unsigned char *data, size_t size)
+{
+    if (size == 0) return bad("empty file (not glTF)");
+    tinygltf::TinyGLTF gltf;
+    gltf.SetImageLoader(keep_image_bytes, this);
+    tinygltf::FsCallbacks fs = {fs_exists, fs_expand, fs_read, fs_write, this};
+    gltf.SetFsCallbacks(fs);
+    std::string err, warn;
+    bool ok;
+    const unsigned char *json = data;
+    size_t json_size = size;
+    if (size >= 4 && !memcmp(data, "glTF", 4)) {
+        // The GLB container, checked fully here: tinygltf trusts some lengths.
+        uint32_t h[5] = {0, 0, 0, 0, 0};
+        if (size < 20) return bad("truncated GLB: %zu bytes, the header needs 20", size);
+        memcpy(h, data, 20);
+        if (h[1] != 2) return bad("GLB version %u is not supported (only 2)", h[1]);
+        if (h[2] > size)
+            return bad("truncated GLB: the header says %u bytes, the file has %zu", h[2], size);
+        if (h[2] < 20) return bad("GLB length %u is shorter than its header", h[2]);
+        uint64_t length = h[2], json_end = 20 + (uint64_t)h[3];
+        if (h[4] != 0x4E4F534A) return bad("GLB: the first chunk is not JSON");
+        if (h[3] == 0 || json_end > length)
+            return bad("GLB: JSON chunk length %u does not fit in the file's %u bytes", h[3], h[2]);
+        if (json_end < length) {
+            uint32_t c[2];
+            if (json_end + 8 > length) return bad("GLB: truncated BIN chunk header");
+            memcpy(c, data + json_end, 8);
+            if (c[1] != 0x004E4942) return bad("GLB: the second chunk is not BIN");
+            if (json_end + 8 + (uint64_t)c[0] > length)
+                return bad("GLB: BIN chunk length %u runs past the end of the file", c[0]);
+            if (c[0] < 4 || c[0] % 4)
+                return bad("GLB: BIN chunk length %u is not a positive multiple of 4", c[0]);
+        }
+        json = data + 20;
+        json_size = h[3];
+        std::string fixed;
+        if (rewrite_fallback_buffers(json, json_size, &fixed)) {
+            // The same container around the rewritten JSON chunk.
+            while (fixed.size() % 4) fixed += ' ';
+            std::vector<unsigned char> glb(20);
+            uint32_t hdr[5] = {h[0], 2, 0, (uint32_t)fixed.size(), 0x4E4F534A};
+            glb.insert(glb.end(), fixed.begin(), fixed.end());
+            glb.insert(glb.end(), data + 20 + h[3], data + h[2]);
+            hdr[2] = (uint32_t)glb.size();
+            memcpy(glb.data(), hdr, 20);
+            ok = gltf.LoadBinaryFromMemory(&m, &err, &warn, glb.data(), (unsigned)glb.size(), dir,
+                                           tinygltf::REQUIRE_VERSION);
+        } else {
+            ok = gltf.LoadBinaryFromMemory(&m, &err, &warn, data, h[2], dir,
+                                           tinygltf::REQUIRE_VERSION);
+        }
+    } else {
+        if (size > UINT_MAX) return bad("a .gltf file of 4 GiB or more is not supported");
+        std::string fixed;
+        if (rewrite_fallback_buffers(data, size, &fixed))
+            ok = gltf.LoadASCIIFromString(&m, &err, &warn, fixed.data(), (unsigned)fixed.size(),
+                                          dir, tinygltf::REQUIRE_VERSION);
+        else
+            ok = gltf.LoadASCIIFromString(&m, &err, &warn, (const char *)data, (unsigned)size,
+                                          dir, tinygltf::REQUIRE_VERSION);
+    }
+    if (!ok) return diagnose_parse_failure(json, json_size, err);
+    return 0;
+}
+
+// tinygltf's own messages do not always name the object; for the common causes
+// (bad JSON, a missing or mis-sized buffer file) say which one it is.
+int Loader::diagnose_parse_failure(const unsigned char *json, size_t size, const std::string &err)
+{
+    nlohmann::json j;
+    try {
+        j = nlohmann::json::parse(json, json + size);
+    } catch (const std::exception &ex) {
+        std::string what = ex.what();
+        size_t p = what.find("] ");
+        if (p != std::string::npos) what = what.substr(p + 2);
+        return bad("not valid JSON: %s", first_line(what).c_str());
+    }
+    if (!j.is_object()) return bad("not a glTF file: the JSON root is not an object");
+    if (!j.contains("asset") || !j["asset"].is_object()) return bad("asset: missing");
+    if (!j["asset"].contains("version") || !j["asset"]["version"].is_string())
+        return bad("asset.version: missing");
+    // Top-level arrays whose elements must be objects, and the properties tinygltf
+    // requires of them ('n': a number, 's': a string, 'a': an array).
+    static const struct {
+        const char *array, *props;
+    } k_required[] = {
+        {"accessors", "componentType:n count:n type:s"}, {"buffers", "byteLength:n"},
+        {"bufferViews", "buffer:n byteLength:n"},        {"meshes", "primitives:a"},
+        {"cameras", "type:s"},                           {"nodes", ""},
+        {"materials", ""},                               {"images", ""},
+        {"textures", ""},                                {"samplers", ""},
+        {"scenes", ""},                                  {"skins", ""},
+        {"animations", ""},
+    };
+    for (const auto &r : k_required) {
+        if (!j.contains(r.array)) continue;
+        const auto &arr = j[r.array];
+        if (!arr.is_array()) return bad("%s: not a JSON array", r.array);
+        for (size_t i = 0; i < arr.size(); i++) {
+            if (!arr[i].is_object()) return bad("%s[%zu]: not a JSON object", r.array, i);
+            std::string props = r.props;
+            size_t p = 0;
+            while (p < props.size()) {
+                size_t sp = props.find(' ', p), colon = props.find(':', p);
+                if (sp == std::string::npos) sp = props.size();
+                std::string key = props.substr(p, colon - p);
+                char kind = props[colon + 1];
+                p = sp + 1;
+                const char *what = kind == 'n' ? "a number" : kind == 's' ? "a string" : "an array";
+                if (!arr[i].contains(key))
+                    return bad("%s[%zu].%s: missing (required)", r.array, i, key.c_str());
+                const auto &v = arr[i][key];
+                if ((kind == 'n' && !v.is_number()) || (kind == 's' && !v.is_string()) ||
+                    (kind == 'a' && !v.is_array()))
+                    return bad("%s[%zu].%s: not %s", r.array, i, key.c_str(), what);
+            }
+        }
+    }
+    if (j.contains("images") && j["images"].is_array())
+        for (size_t i = 0; i < j["images"].size(); i++) {
+            const auto &im = j["images"][i];
+            if (im.contains("uri") && im.contains("bufferView"))
+                return bad("images[%zu]: has both uri and bufferView", i);
+            if (!im.contains("uri") && !im.contains("bufferView"))
+                return bad("images[%zu]: has neither uri nor bufferView", i);
+            if (im.contains("uri") && im["uri"].is_string() &&
+                im["uri"].get<std::string>().compare(0, 5, "data:") == 0 &&
+                err.find("image[" + std::to_string(i) + "]") != std::string::npos)
+                return bad("images[%zu].uri: not a valid base64 data URI", i);
+        }
+    if (j.contains("buffers") && j["buffers"].is_array()) {
+        for (size_t i = 0; i < j["buffers"].size(); i++) {
+            const auto &b = j["buffers"][i];
+            if (!b.is_object() || !b.contains("uri") || !b["uri"].is_string()) continue;
+            std::string uri = b["uri"];
+            if (uri.compare(0, 5, "data:") == 0) {
+                if (err.find("Failed to decode 'uri' : " + uri) != std::string::npos)
+                    return bad("buffers[%zu].uri: not a base64 data URI of byteLength bytes", i);
+                continue;
+            }
+            std::string path = dir + "/" + uri_decode(uri);
+            struct stat st;
+            if (stat(path.c_str(), &st) != 0)
+                return bad("buffers[%zu]: file '%s' not found", i, uri.c_str());
+            if (!inside_folder(path, nullptr))
+                return bad("buffers[%zu]: uri '%s' points outside the scene folder (not read)", i,
+                           uri.c_str());
+            if (b.contains("byteLength") && b["byteLength"].is_number_unsigned() &&
+                (uint64_t)st.st_size != b["byteLength"].get<uint64_t>())
+                return bad("buffers[%zu]: file '%s' has %lld bytes, byteLength says %llu", i,
+                           uri.c_str(), (long long)st.st_size,
+                           (unsigned long long)b["byteLength"].get<uint64_t>());
+        }
+    }
+    return bad("%s", first_line(err).c_str());
+}
+
+int Loader::check_version_and_extensions()
+{
+    const std::string &v = m.asset.version;
+    if (v.size() < 3 || v[0] != '2' || v[1] != '.')
+        return bad("asset.version: '%s' is not supported (glTF 2.x only)", v.c_str());
+    const std::string &mv = m.asset.minVersion;
+    if (!mv.empty() && mv != "2.0")
+        return bad("asset.minVersion: '%s' is newer than the supported 2.0", mv.c_str());
+    std::vector<std::string> missing, unknown;
+    auto supported = [](const std::string &name) {
+        for (const char *s : k_supported_ext)
+            if (name == s) return true;
+        return false;
+    };
+    for (const auto &x : m.extensionsRequired)
+        if (!supported(x)) missing.push_back(x);
+    if (!missing.empty())
+        return bad("extensionsRequired: not supported: %s", join_names(missing).c_str());
+    auto ignored = [](const std::string &name) {
+        for (const char *s : k_ignored_material_ext)
+            if (name == s) return true;
+        return false;
+    };
+    for (const auto &x : m.extensionsUsed) {
+        if (!supported(x) && !ignored(x)) unknown.push_back(x);
+        if (x == "KHR_mesh_quantization") quantization = true;
+    }
+    if (!unknown.empty())
+        spt_warn("%s: extensionsUsed: %zu extension(s) not supported, ignored: %s", file,
+                 unknown.size(), join_names(unknown).c_str());
+    return 0;
+}
+
+int Loader::check_buffer_views()
+{
+    for (size_t i = 0; i < m.bufferViews.size(); i++) {
+        const auto &bv = m.bufferViews[i];
+        if (bv.buffer < 0 || (size_t)bv.buffer >= m.buffers.size())
+            return bad("bufferViews[%zu]: buffers[%d] does not exist", i, bv.buffer);
+        size_t blen = m.buffers[bv.buffer].data.size();
+        if (bv.byteLength == 0) return bad("bufferViews[%zu]: byteLength is 0", i);
+        if (bv.byteOffset > blen || bv.byteLength > blen - bv.byteOffset)
+            return bad("bufferViews[%zu]: bytes %zu..%zu run past the end of buffers[%d] "
+                       "(%zu bytes)",
+                       i, bv.byteOffset, bv.byteOffset + bv.byteLength, bv.buffer, blen);
+        if (bv.byteStride != 0 && (bv.byteStride < 4 || bv.byteStride > 252 || bv.byteStride % 4))
+            return bad("bufferViews[%zu]: byteStride %zu is not a multiple of 4 in 4..252", i,
+                       bv.byteStride);
+    }
+    return 0;
+}
+
+// Checks accessors[index] for use as obj: existence, type, component type, count,
+// and that every element lies inside its buffer view. *zeros: no bufferView (all
+// elements are zero, glTF 2.0 3.6.2.3). normalized_ok: 0 integers must not be
+// normalized, 1 they must be, 2 either (KHR_mesh_quantization).
+int Loader::check_accessor(int index, const std::string &obj, int want_components,
+                           const std::vector<int> &types, int normalized_ok, bool *zeros)
+{
+    const char *o = obj.c_str();
+    if (index < 0 || (size_t)index >= m.accessors.size())
+        return bad("%s: accessors[%d] does not exist", o, index);
+    const auto &a = m.accessors[index];
+    if (a.sparse.isSparse)
+        return bad("%s (accessors[%d]): sparse accessors are not supported", o, index);
+    if (a.count == 0) return bad("%s (accessors[%d]): count is 0", o, index);
+    int ncomp = type_components(a.type);
+    if (ncomp != want_components)
+        return bad("%s (accessors[%d]): type must be %s", o, index, type_name(want_components));
+    bool type_ok = false;
+    for (int t : types) type_ok |= a.componentType == t;
+    if (!type_ok)
+        return bad("%s (accessors[%d]): component type %s is not allowed here%s", o, index,
+                   component_name(a.componentType),
+                   !quantization && obj.find(".attributes.") != std::string::npos &&
+                           a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT
+                       ? " (integer attributes need KHR_mesh_quantization in extensionsUsed)"
+                       : "");
+    if (a.normalized && !normalized_ok)
+        return bad("%s (accessors[%d]): normalized integers are not allowed here", o, index);
+    if (!a.normalized && normalized_ok == 1 && a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
+        return bad("%s (accessors[%d]): integer components must be normalized here", o, index);
+    *zeros = a.bufferView < 0;
+    if (*zeros) return 0;
+    if ((size_t)a.bufferView >= m.bufferViews.size())
+        return bad("%s (accessors[%d]): bufferViews[%d] does not exist", o, index, a.bufferView);
+    const auto &bv = m.bufferViews[a.bufferView];
+    uint64_t elem = (uint64_t)ncomp * (uint64_t)component_size(a.componentType);
+    uint64_t stride = bv.byteStride ? bv.byteStride : elem;
+    if (stride < elem)
+        return bad("%s (accessors[%d]): byteStride %llu is smaller than an element (%llu bytes)",
+                   o, index, (unsigned long long)stride, (unsigned long long)elem);
+    uint64_t span, end;
+    if (__builtin_mul_overflow((uint64_t)(a.count - 1), stride, &span) ||
+        __builtin_add_overflow(span, elem, &end) ||
+        __builtin_add_overflow(end, (uint64_t)a.byteOffset, &end) || end > bv.byteLength)
+        return bad("%s (accessors[%d]): byteOffset %zu + %zu elements of stride %llu run past the "
+                   "end of bufferViews[%d] (%zu bytes)",
+                   o, index, a.byteOffset, a.count, (unsigned long long)stride, a.bufferView,
+                   bv.byteLength);
+    return 0;
+}
+
+// Reads a checked accessor as floats: float components as they are, normalised
+// integers mapped to [0,1] or [-1,1] (glTF 2.0 3.11, max(c / 127, -1) for
+// signed ones), plain integers (KHR_mesh_quantization) as their values.
+int Loader::read_floats(int index, int ncomp, std::vector<float> &out)
+{
+    const auto &a = m.accessors[index];
+    out.assign(a.count * (size_t)ncomp, 0.0f);
+    if (a.bufferView < 0) return 0;
+    const auto &bv = m.bufferViews[a.bufferView];
+    const unsigned char *base = m.buffers[bv.buffer].data.data() + bv.byteOffset + a.byteOffset;
+    size_t cs = (size_t)component_size(a.componentType);
+    size_t stride = bv.byteStride ? bv.byteStride : cs * (size_t)ncomp;
+    for (size_t i = 0; i < a.count; i++)
+        for (int c = 0; c < ncomp; c++) {
+            const unsigned char *p = base + i * stride + (size_t)c * cs;
+            float v;
+            switch (a.componentType) {
+            case TINYGLTF_COMPONENT_TYPE_FLOAT: memcpy(&v, p, 4); break;
+            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+                v = a.normalized ? (float)p[0] / 255.0f : (float)p[0];
+                break;
+            case TINYGLTF_COMPONENT_TYPE_BYTE: {
+                int8_t b;
+                memcpy(&b, p, 1);
+                v = a.normalized ? fmaxf((float)b / 127.0f, -1.0f) : (float)b;
+                break;
+            }
+            case TINYGLTF_COMPONENT_TYPE_SHORT: {
+                int16_t h;
+                memcpy(&h, p, 2);
+                v = a.normalized ? fmaxf((float)h / 32767.0f, -1.0f) : (float)h;
+                break;
+            }
+            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+                uint16_t u;
+                memcpy(&u, p, 2);
+                v = a.normalized ? (float)u / 65535.0f : (float)u;
+                break;
+            }
+            default: { // UNSIGNED_INT (not allowed for attributes, kept total)
+                uint32_t u;
+                memcpy(&u, p, 4);
+                v = (float)u;
+            }
+            }
+            out[i * (size_t)ncomp + (size_t)c] = v;
+        }
+    return 0;
+}
+
+int Loader::read_indices(int index, std::vector<uint32_t> &out)
+{
+    const auto &a = m.accessors[index];
+    out.assign(a.count, 0);
+    if (a.bufferView < 0) return 0;
+    const auto &bv = m.bufferViews[a.bufferView];
+    const unsigned char *base = m.buffers[bv.buffer].data.data() + bv.byteOffset + a.byteOffset;
+    size_t cs = (size_t)component_size(a.componentType);
+    size_t stride = bv.byteStride ? bv.byteStride : cs;
+    for (size_t i = 0; i < a.count; i++) {
+        const unsigned char *p = base + i * stride;
+        if (cs == 1) {
+            out[i] = p[0];
+        } else if (cs == 2) {
+            uint16_t u;
+            memcpy(&u, p, 2);
+            out[i] = u;
+        } else {
+            memcpy(&out[i], p, 4);
+        }
+    }
+    return 0;
+}
+
+} // namespace spt_gltf
