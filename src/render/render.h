@@ -22,6 +22,8 @@ typedef struct RenderSettings {
     int progress;            /* print progress to stderr */
     int profile;             /* time the stages with OpenCL profiling events */
     volatile sig_atomic_t *stop; /* when set non-zero: finish the current chunk, stop */
+    int take_turns;          /* tests: the devices take chunks in turn (0, 1, ..., 0, 1,
+                                ...), so each renders a known share whatever its speed */
     /* Lighting and camera options of the command line. */
     const char *env_path;    /* --env: equirectangular HDR/EXR map, NULL = none */
     float env_rotation_deg;  /* --env-rotation: about +Y */

@@ -77,18 +77,43 @@ typedef struct Scheduler {
     double t0;
     int decile;
     Film *film;               /* every completed chunk is added here */
+    int workers;              /* devices rendering */
+    int turn;                 /* with rs->take_turns: the worker whose turn it is */
+    unsigned char *gone;      /* per worker: has stopped taking chunks */
 } Scheduler;
 
-/* Takes up to want samples into [*begin, *begin + *n); 0 when nothing is left or
- * the render must stop (signal, time limit). */
-static int sched_take(Scheduler *s, uint32_t want, uint32_t *begin, uint32_t *n)
+/* Passes the turn to the next worker still taking chunks. */
+static void sched_pass_turn(Scheduler *s)
+{
+    for (int k = 1; k <= s->workers; k++) {
+        int t = (s->turn + k) % s->workers;
+        if (!s->gone[t]) {
+            s->turn = t;
+            return;
+        }
+    }
+}
+
+/* Whether worker who must wait for its turn (rs->take_turns) to take the next
+ * chunk from the counter. */
+static int sched_not_my_turn(const Scheduler *s, int who)
+{
+    const RenderSettings *rs = s->rs;
+    return rs->take_turns && s->turn != who && s->ret_count == 0 && s->next < s->total &&
+           !rs->take_chunk;
+}
+
+/* Takes up to want samples into [*begin, *begin + *n) for worker who; 0 when
+ * nothing is left or the render must stop (signal, time limit). */
+static int sched_take(Scheduler *s, int who, uint32_t want, uint32_t *begin, uint32_t *n)
 {
     int ok = 0;
     const RenderSettings *rs = s->rs;
     pthread_mutex_lock(&s->lock);
     /* Nothing to hand out while another device still renders: wait, since a
      * failure there gives its chunk back. */
-    while (s->ret_count == 0 && s->next >= s->total && !rs->take_chunk && s->active > 0 &&
+    while (((s->ret_count == 0 && s->next >= s->total && !rs->take_chunk && s->active > 0) ||
+            sched_not_my_turn(s, who)) &&
            !(rs->stop && *rs->stop)) {
         pthread_mutex_unlock(&s->lock);
         usleep(2000);
@@ -116,12 +141,24 @@ static int sched_take(Scheduler *s, uint32_t want, uint32_t *begin, uint32_t *n)
                 *n = k;
                 s->next += k;
                 ok = 1;
+                if (rs->take_turns)
+                    sched_pass_turn(s);
             }
         }
     }
     s->active += ok;
     pthread_mutex_unlock(&s->lock);
     return ok;
+}
+
+/* Worker who takes no more chunks. */
+static void sched_leave(Scheduler *s, int who)
+{
+    pthread_mutex_lock(&s->lock);
+    s->gone[who] = 1;
+    if (s->turn == who)
+        sched_pass_turn(s);
+    pthread_mutex_unlock(&s->lock);
 }
 
 static void sched_give_back(Scheduler *s, uint32_t begin, uint32_t n)
@@ -197,6 +234,7 @@ static void *worker_main(void *arg)
         if (w.dev.build_log)
             wk->build_log = spt_strdup(w.dev.build_log);
         wavefront_free(&w);
+        sched_leave(wk->s, wk->index);
         return NULL;
     }
     RenderParams p = *wk->base;
@@ -206,7 +244,7 @@ static void *worker_main(void *arg)
     test_hook("SPECTRACE_TEST_FAIL_DEVICE", wk->index, &fail_after);
     test_hook("SPECTRACE_TEST_SLOW_DEVICE", wk->index, &slow_ms);
     uint32_t begin, n;
-    while (sched_take(wk->s, w.chunk_spp, &begin, &n)) {
+    while (sched_take(wk->s, wk->index, w.chunk_spp, &begin, &n)) {
         double t = spt_now();
         if (chunks == fail_after) {
             wk->rc = spt_fail(&wk->e, SPT_EXIT_DEVICE, "injected failure (SPECTRACE_TEST_FAIL_DEVICE)");
@@ -230,6 +268,7 @@ static void *worker_main(void *arg)
     }
     free(sums);
     wavefront_free(&w);
+    sched_leave(wk->s, wk->index);
     return NULL;
 }
 
@@ -280,6 +319,8 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
     s.decile = -1;
     s.t0 = spt_now();
     s.film = film;
+    s.workers = count;
+    s.gone = spt_calloc((size_t)(count > 0 ? count : 1), 1);
     if (rs->done_in)
         for (uint32_t i = 0; i < s.total; i++)
             if (rs->done_in[i]) {
@@ -294,6 +335,7 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
     if (rc0) {
         render_lights_free(&lights);
         free(s.done);
+        free(s.gone);
         pthread_mutex_destroy(&s.lock);
         return rc0;
     }
@@ -365,6 +407,7 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
     free(s.done);
     free(s.ret_begin);
     free(s.ret_n);
+    free(s.gone);
     render_lights_free(&lights);
     pthread_mutex_destroy(&s.lock);
     return rc;
