@@ -58,11 +58,18 @@ static int render_scene(const Scene *s, int w, int h, int spp, int depth, uint32
     rs.spp = spp;
     rs.max_depth = depth;
     rs.seed = seed;
-    rs.background = background;
+    Sky sky;
+    if ((rc = sky_from_args(&sky, NULL, background, &e))) {
+        fprintf(stderr, "sky: %s\n", e.msg);
+        gpu_scene_free(&g);
+        return rc;
+    }
+    rs.sky = &sky;
     film_init(film, w, h);
     rc = render_device(device, &g, &s->camera, &rs, film, st, &e);
     if (rc)
         fprintf(stderr, "render: %s\n", e.msg);
+    sky_free(&sky);
     gpu_scene_free(&g);
     return rc;
 }

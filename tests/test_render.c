@@ -426,13 +426,16 @@ static void test_default_sky(void **state)
     }
     film_free(&f);
     /* --background black: no light at all. */
-    rs.background = "black";
+    Sky black;
+    assert_int_equal(sky_from_args(&black, NULL, "black", &e), 0);
+    rs.sky = &black;
     film_init(&f, 32, 32);
     assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
     film_to_linear_srgb(&f, rgb);
     for (int i = 0; i < 32 * 32 * 3; i++)
         assert_true(rgb[i] == 0.0f);
     film_free(&f);
+    sky_free(&black);
     free(rgb);
     gpu_scene_free(&g);
     scene_free(&s);
@@ -979,9 +982,13 @@ static void test_env_map(void **state)
     Scene s;
     sphere_scene(&s, 0.5f);
     RenderSettings rs = square_settings(W, 256, -1, 11);
-    rs.env_path = path;
+    Sky sky;
+    if (sky_from_args(&sky, path, NULL, &e))
+        fail_msg("%s", e.msg);
+    rs.sky = &sky;
     float *rgb = malloc(W * W * 3 * sizeof(float));
     int rc = render_scene_rgb(&s, &rs, rgb, &e);
+    sky_free(&sky);
     unlink(path);
     if (rc)
         fail_msg("%s", e.msg);
@@ -1075,17 +1082,12 @@ static void test_env_map(void **state)
 static void test_env_missing(void **state)
 {
     (void)state;
-    Scene s;
     SptError e = {0};
-    sphere_scene(&s, 0.5f);
-    RenderSettings rs = square_settings(8, 1, -1, 0);
-    rs.env_path = "/nonexistent/sky.exr";
-    assert_int_equal(render_scene_rgb(&s, &rs, NULL, &e), SPT_EXIT_INPUT);
+    Sky sky;
+    assert_int_equal(sky_from_args(&sky, "/nonexistent/sky.exr", NULL, &e), SPT_EXIT_INPUT);
     assert_non_null(strstr(e.msg, "/nonexistent/sky.exr"));
     /* --env and --background together are refused. */
-    rs.background = "1,1,1";
-    assert_int_equal(render_scene_rgb(&s, &rs, NULL, &e), SPT_EXIT_USAGE);
-    scene_free(&s);
+    assert_int_equal(sky_from_args(&sky, "/nonexistent/sky.exr", "1,1,1", &e), SPT_EXIT_USAGE);
 }
 
 int main(void)

@@ -73,7 +73,10 @@ static Image render_texture_scene(const char *name, int w, int h, int spp, int d
     rs.spp = spp;
     rs.max_depth = depth;
     rs.seed = 7;
-    rs.background = background;
+    Sky sky;
+    if (sky_from_args(&sky, NULL, background, &e))
+        fail_msg("sky %s: %s", background, e.msg);
+    rs.sky = &sky;
     Film f;
     RenderStats st;
     film_init(&f, w, h);
@@ -83,6 +86,7 @@ static Image render_texture_scene(const char *name, int w, int h, int spp, int d
     Image im = {w, h, malloc(sizeof(float) * 3 * (size_t)w * h)};
     film_to_linear_srgb(&f, im.rgb);
     film_free(&f);
+    sky_free(&sky);
     gpu_scene_free(&g);
     scene_free(&s);
     return im;

@@ -68,18 +68,17 @@ static void on_signal(int sig)
     stop_requested = 1;
 }
 
-/* Parses a whole integer in [lo, hi]; 0 on success. */
-/* Whether --background SKY names a black sky: "black", "none" or R,G,B all 0
- * (what render.c then leaves unlit). */
-static int background_is_black(const char *bg)
+/* Whether the sky is black: --background black, none or R,G,B all 0, or --env
+ * with intensity 0 (the renderer leaves these unlit). */
+static int sky_is_black(const Sky *sky, double env_intensity)
 {
-    float r, g, b;
-    char extra;
-    if (!strcasecmp(bg, "black") || !strcasecmp(bg, "none"))
-        return 1;
-    return sscanf(bg, "%f,%f,%f%c", &r, &g, &b, &extra) == 3 && r == 0.0f && g == 0.0f && b == 0.0f;
+    return sky->kind == SPT_SKY_BLACK ||
+           (sky->kind == SPT_SKY_RGB && sky->rgb[0] == 0.0f && sky->rgb[1] == 0.0f &&
+            sky->rgb[2] == 0.0f) ||
+           (sky->kind == SPT_SKY_MAP && !(env_intensity > 0));
 }
 
+/* Parses a whole integer in [lo, hi]; 0 on success. */
 static int parse_int(const char *s, long lo, long hi, long *out)
 {
     char *end;
@@ -270,11 +269,16 @@ int cmd_render(int argc, char **argv)
             return spt_report(&e);
     if ((ckpt_path || resume_path) && checkpoint_path_check(ckpt_path ? ckpt_path : resume_path, &e))
         return spt_report(&e);
+    Sky sky;
+    if (sky_from_args(&sky, env_path, background, &e))
+        return spt_report(&e);
 
     Scene scene;
     int rc = scene_load_gltf(&scene, scene_path, &e);
-    if (rc)
+    if (rc) {
+        sky_free(&sky);
         return spt_report(&e);
+    }
     const SceneCamera *cam = &scene.camera;
     if (!width && !height)
         width = 512;
@@ -320,18 +324,16 @@ int cmd_render(int argc, char **argv)
     rs.seed = (uint32_t)seed;
     rs.progress = !quiet;
     rs.profile = profile;
-    rs.env_path = env_path;
-    rs.env_rotation_deg = (float)env_rot;
+    rs.sky = &sky;
+    rs.env_rotation = (float)env_rot;
     rs.env_intensity = (float)env_int;
-    rs.background = background;
     rs.aperture = (float)aperture;
     rs.focus_distance = (float)focus;
     rs.stop = &stop_requested;
     stop_requested = 0;
-    /* Without emitters or lights the default sky lights the scene (render.c);
-     * only a black sky leaves it dark. */
-    if (gpu.emitter_count == 0 && scene.light_count == 0 &&
-        ((env_path && !(env_int > 0)) || (!env_path && background && background_is_black(background))))
+    /* Without emitters or lights the default sky lights the scene
+     * (src/render/render_lights.c); only a black sky leaves it dark. */
+    if (gpu.emitter_count == 0 && scene.light_count == 0 && sky_is_black(&sky, env_int))
         spt_warn("%s: nothing lights the scene (no emissive surfaces, no lights, a black sky): the "
                  "image will be black", scene_path);
     if ((rc = checkpoint_run_begin(&ckpt, scene_path, ckpt_path, ckpt_every, resume_path, &rs,
@@ -443,5 +445,6 @@ done:
     gpu_scene_free(&gpu);
     cl_device_list_free(&devices);
     scene_free(&scene);
+    sky_free(&sky);
     return rc;
 }

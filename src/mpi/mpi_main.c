@@ -42,15 +42,15 @@ int spectrace_main(int argc, char **argv); /* src/cli/main.c's main, renamed by 
 enum { TAG_JOB = 1, TAG_REQ, TAG_CHUNK, TAG_DONE, TAG_FILM, TAG_BACK, TAG_FINISH };
 
 /* The settings of a render as they travel to the other ranks (every field of
- * RenderSettings that changes what a sample computes, and the camera). */
+ * RenderSettings that changes what a sample computes, and the camera). The job
+ * message is this, then scene_bytes of the packed scene, then the packed sky. */
 typedef struct JobSettings {
-    int32_t width, height, spp, max_depth, profile, has_env, has_background;
+    int32_t width, height, spp, max_depth, profile;
     uint32_t seed, sample_begin;
     double time_limit;
-    float env_rotation_deg, env_intensity, aperture, focus_distance;
-    char env_path[1024];
-    char background[1024];
+    float env_rotation, env_intensity, aperture, focus_distance;
     SceneCamera cam;
+    uint64_t scene_bytes;
 } JobSettings;
 
 typedef struct DoneMsg {
@@ -336,25 +336,25 @@ static void send_job(const RenderSettings *rs, const Scene *scene, const SceneCa
     js.seed = rs->seed;
     js.sample_begin = rs->sample_begin;
     js.time_limit = rs->time_limit;
-    js.env_rotation_deg = rs->env_rotation_deg;
+    js.env_rotation = rs->env_rotation;
     js.env_intensity = rs->env_intensity;
     js.aperture = rs->aperture;
     js.focus_distance = rs->focus_distance;
-    js.has_env = rs->env_path != NULL;
-    js.has_background = rs->background != NULL;
-    if (rs->env_path)
-        snprintf(js.env_path, sizeof js.env_path, "%s", rs->env_path);
-    if (rs->background)
-        snprintf(js.background, sizeof js.background, "%s", rs->background);
     js.cam = *cam;
-    size_t n;
+    size_t n, nsky;
+    Sky none;
+    memset(&none, 0, sizeof none);
     unsigned char *packed = scene_pack(scene, &n);
-    unsigned char *msg = spt_malloc(sizeof js + n);
+    unsigned char *sky = sky_pack(rs->sky ? rs->sky : &none, &nsky);
+    js.scene_bytes = n;
+    unsigned char *msg = spt_malloc(sizeof js + n + nsky);
     memcpy(msg, &js, sizeof js);
     memcpy(msg + sizeof js, packed, n);
+    memcpy(msg + sizeof js + n, sky, nsky);
     free(packed);
+    free(sky);
     for (int r = 1; r < g_size; r++)
-        MPI_Send(msg, (int)(sizeof js + n), MPI_BYTE, r, TAG_JOB, MPI_COMM_WORLD);
+        MPI_Send(msg, (int)(sizeof js + n + nsky), MPI_BYTE, r, TAG_JOB, MPI_COMM_WORLD);
     free(msg);
     g_job_sent = 1;
 }
@@ -517,6 +517,8 @@ static int worker_run(const unsigned char *job, size_t len, const char *device_s
     JobSettings js;
     Scene scene;
     memset(&scene, 0, sizeof scene);
+    Sky sky;
+    memset(&sky, 0, sizeof sky);
     ClDeviceList devices = {0};
     GpuScene gpu;
     memset(&gpu, 0, sizeof gpu);
@@ -528,8 +530,14 @@ static int worker_run(const unsigned char *job, size_t len, const char *device_s
         goto out;
     }
     memcpy(&js, job, sizeof js);
-    js.env_path[sizeof js.env_path - 1] = js.background[sizeof js.background - 1] = 0;
-    if ((rc = scene_unpack(&scene, job + sizeof js, len - sizeof js, "the scene from rank 0", &e)))
+    if (js.scene_bytes > len - sizeof js) {
+        rc = spt_fail(&e, SPT_EXIT_FAILURE, "job message too short (%zu bytes)", len);
+        goto out;
+    }
+    if ((rc = scene_unpack(&scene, job + sizeof js, (size_t)js.scene_bytes, "the scene from rank 0",
+                           &e)) ||
+        (rc = sky_unpack(&sky, job + sizeof js + js.scene_bytes,
+                         len - sizeof js - (size_t)js.scene_bytes, "the sky from rank 0", &e)))
         goto out;
     int sel[64], nsel = 0;
     if ((rc = cl_device_list(&devices, &e)) ||
@@ -549,10 +557,9 @@ static int worker_run(const unsigned char *job, size_t len, const char *device_s
     rs.seed = js.seed;
     rs.sample_begin = js.sample_begin;
     rs.profile = js.profile;
-    rs.env_path = js.has_env ? js.env_path : NULL;
-    rs.env_rotation_deg = js.env_rotation_deg;
+    rs.sky = &sky;
+    rs.env_rotation = js.env_rotation;
     rs.env_intensity = js.env_intensity;
-    rs.background = js.has_background ? js.background : NULL;
     rs.aperture = js.aperture;
     rs.focus_distance = js.focus_distance;
     rs.stop = &g_stop;
@@ -579,6 +586,7 @@ out:
     film_free(&w.film);
     gpu_scene_free(&gpu);
     cl_device_list_free(&devices);
+    sky_free(&sky);
     scene_free(&scene);
     return rc;
 }

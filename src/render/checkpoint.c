@@ -53,18 +53,20 @@ int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSetting
     snprintf(k->scene_hash, sizeof k->scene_hash, "%016llx", h);
     /* Files named by settings count by content, not by name. */
     char env[64] = "none", bg[600] = "default";
-    if (rs->env_path) {
-        if ((rc = hash_file(rs->env_path, &h, e)))
+    const char *env_path = rs->sky ? rs->sky->env_path : NULL;
+    const char *background = rs->sky ? rs->sky->background : NULL;
+    if (env_path) {
+        if ((rc = hash_file(env_path, &h, e)))
             return rc;
         snprintf(env, sizeof env, "fnv:%016llx", h);
     }
-    if (rs->background) {
-        if (is_regular_file(rs->background)) {
-            if ((rc = hash_file(rs->background, &h, e)))
+    if (background) {
+        if (is_regular_file(background)) {
+            if ((rc = hash_file(background, &h, e)))
                 return rc;
             snprintf(bg, sizeof bg, "file-fnv:%016llx", h);
         } else {
-            snprintf(bg, sizeof bg, "%s", rs->background);
+            snprintf(bg, sizeof bg, "%s", background);
             for (char *p = bg; *p; p++)
                 if (*p == ';' || *p == '=')
                     *p = '_';
@@ -80,7 +82,7 @@ int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSetting
     snprintf(k->settings, sizeof k->settings,
              "width=%d;height=%d;max_depth=%d;seed=%u;env=%s;env_rotation=%.9g;"
              "env_intensity=%.9g;background=%s;aperture=%.9g;focus_distance=%.9g;kernels=%016llx",
-             rs->width, rs->height, rs->max_depth, rs->seed, env, rs->env_rotation_deg,
+             rs->width, rs->height, rs->max_depth, rs->seed, env, rs->env_rotation,
              rs->env_intensity, bg, rs->aperture, rs->focus_distance, kh);
     k->seed = rs->seed;
     k->width = rs->width;

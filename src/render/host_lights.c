@@ -6,9 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "io/image_io.h"
-#include "io/image_out.h"
 #include "color/spd.h"
+#include "scene/sky.h"
 
 /* Trapezoid weight of grid sample i (the CIE integral over tabulated data). */
 static double grid_weight(int i)
@@ -195,23 +194,13 @@ int env_build_map(EnvLight *env, const float *rgb, int width, int height, float 
 int env_load_map(EnvLight *env, const char *path, float rotation_rad, float intensity,
                  SptError *e)
 {
-    float *rgb = NULL;
-    int w = 0, h = 0;
+    Sky sky;
     memset(env, 0, sizeof *env);
-    int rc = image_read_rgb(path, &rgb, &w, &h, e);
+    int rc = sky_from_args(&sky, path, NULL, e);
     if (rc != SPT_EXIT_OK)
         return rc;
-    /* An 8- or 16-bit integer file (PNG, JPEG, ...) holds sRGB-encoded display
-     * values: decoded to linear (an LDR map cannot hold the sun's range; HDR or
-     * EXR maps are meant). Float files are linear as stored. */
-    ImageIoInfo info;
-    SptError e2 = {0};
-    if (image_io_info(path, &info, &e2) == SPT_EXIT_OK && strncmp(info.format, "uint", 4) == 0 &&
-        strcmp(info.format_name, "hdr") != 0)
-        for (size_t i = 0; i < (size_t)w * (size_t)h * 3; i++)
-            rgb[i] = (float)srgb_decode(rgb[i]);
-    rc = env_build_map(env, rgb, w, h, rotation_rad, intensity, path, e);
-    free(rgb);
+    rc = env_build_map(env, sky.map, sky.map_width, sky.map_height, rotation_rad, intensity, path, e);
+    sky_free(&sky);
     return rc;
 }
 

@@ -67,8 +67,8 @@ typedef struct EnvLight {
 int env_build_map(EnvLight *env, const float *rgb, int width, int height, float rotation_rad,
                   float intensity, const char *name, SptError *e);
 
-/* env_build_map from an image file (any format image_read_rgb reads, values as
- * stored: use a linear HDR/EXR file). */
+/* env_build_map from an image file, read as sky_from_args reads --env
+ * (src/scene/sky.h). */
 int env_load_map(EnvLight *env, const char *path, float rotation_rad, float intensity,
                  SptError *e);
 

@@ -11,6 +11,7 @@
 #include "render/film.h"
 #include "render/gpu_scene.h"
 #include "scene/scene.h"
+#include "scene/sky.h"
 
 typedef struct RenderSettings {
     int width, height;
@@ -25,10 +26,9 @@ typedef struct RenderSettings {
     int take_turns;          /* tests: the devices take chunks in turn (0, 1, ..., 0, 1,
                                 ...), so each renders a known share whatever its speed */
     /* Lighting and camera options of the command line. */
-    const char *env_path;    /* --env: equirectangular HDR/EXR map, NULL = none */
-    float env_rotation_deg;  /* --env-rotation: about +Y */
+    const Sky *sky;          /* --env, --background (src/scene/sky.h); NULL = default */
+    float env_rotation;      /* --env-rotation: degrees about +Y */
     float env_intensity;     /* --env-intensity: scale (default 1) */
-    const char *background;  /* --background: "R,G,B", an SPD, "black", NULL = default */
     float aperture;          /* --aperture: lens radius in metres, 0 = pinhole */
     float focus_distance;    /* --focus-distance: metres, 0 = distance at the image centre */
     /* Optional hooks for other schedulers and for checkpoints (all NULL = off):

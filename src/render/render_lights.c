@@ -3,10 +3,8 @@
 #include "render/render_lights.h"
 
 #include <math.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 
 #include "shared/cie_data.h"
 
@@ -18,62 +16,48 @@ void render_lights_free(RenderLights *L)
     memset(L, 0, sizeof *L);
 }
 
-/* The environment of a render (RenderSettings env_path, background): a map from
- * --env, a uniform sky from --background (linear sRGB upsampled as an illuminant,
- * or an SPD normalised to luminance Y = 1), nothing for "black", and for a scene
- * with no light at all the default sky, D65 of radiance 1 (linear sRGB 1, 1, 1),
- * with a note. */
+/* The environment of a render: the sky of the settings (src/scene/sky.h) as the
+ * kernels' environment, a map rotated and scaled by env_rotation and
+ * env_intensity; and for a scene with no light at all and no sky given, the
+ * default sky, D65 of radiance 1 (linear sRGB 1, 1, 1), with a note. */
 static int env_setup(const RenderSettings *rs, const GpuScene *g, EnvLight *env, SptError *e)
 {
     memset(env, 0, sizeof *env);
     env->env.rot_cos = 1.0f;
-    const char *bg = rs->background;
-    float rgb[3];
-    char extra;
-    if (rs->env_path && bg)
-        return spt_fail(e, SPT_EXIT_USAGE, "--env and --background both set the sky; give one of them");
+    const Sky *sky = rs->sky;
     if (!(rs->env_intensity >= 0.0f) || !isfinite(rs->env_intensity))
         return spt_fail(e, SPT_EXIT_USAGE, "--env-intensity must be finite and >= 0");
-    if (rs->env_path)
-        return env_load_map(env, rs->env_path, rs->env_rotation_deg * (float)(M_PI / 180.0),
-                            rs->env_intensity, e);
-    if (!bg) {
+    int kind = sky ? sky->kind : SPT_SKY_DEFAULT;
+    if (kind == SPT_SKY_MAP)
+        return env_build_map(env, sky->map, sky->map_width, sky->map_height,
+                             rs->env_rotation * (float)(M_PI / 180.0), rs->env_intensity,
+                             sky->env_path ? sky->env_path : "the environment map", e);
+    if (kind == SPT_SKY_DEFAULT) {
         if (g->emitter_count > 0 || g->light_count > 0)
             return 0;
         spt_note("the scene has no lights: it is lit by a uniform white sky (D65, radiance 1); "
                  "use --env FILE or --background R,G,B|SPD|black to change it");
-        bg = "1,1,1";
-    }
-    if (!strcasecmp(bg, "black") || !strcasecmp(bg, "none"))
-        return 0;
-    if (sscanf(bg, "%f,%f,%f%c", &rgb[0], &rgb[1], &rgb[2], &extra) == 3) {
-        if (!(rgb[0] >= 0 && rgb[1] >= 0 && rgb[2] >= 0) || !isfinite(rgb[0] + rgb[1] + rgb[2]))
-            return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': colour components must be finite and >= 0", bg);
-        if (rgb[0] > 0 || rgb[1] > 0 || rgb[2] > 0)
-            env_build_uniform(env, rgb, 1.0f);
+        const float white[3] = {1.0f, 1.0f, 1.0f};
+        env_build_uniform(env, white, 1.0f);
         return 0;
     }
-    /* An SPD, normalised to luminance Y = 1: a table in the environment's data. */
-    Spd spd;
-    SptError e2 = {0};
-    if (spd_parse(&spd, bg, &e2))
-        return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': %s", bg, e2.msg);
-    double xyz[3];
-    spd_to_xyz(&spd, xyz);
-    env->data = spt_calloc(SPT_CIE_SAMPLES, sizeof(float));
-    env->data_count = SPT_CIE_SAMPLES;
-    spd_to_grid(&spd, env->data);
-    spd_free(&spd);
-    if (!(xyz[1] > 0)) {
-        env_free(env);
-        return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': the SPD has no luminance", bg);
+    if (kind == SPT_SKY_RGB) {
+        if (sky->rgb[0] > 0 || sky->rgb[1] > 0 || sky->rgb[2] > 0)
+            env_build_uniform(env, sky->rgb, 1.0f);
+        return 0;
     }
-    env->env.kind = SPT_ENV_UNIFORM;
-    env->env.uniform.kind = SPT_SPEC_TABLE;
-    env->env.uniform.scale = (float)(SPT_CIE_Y_INTEGRAL / xyz[1]);
-    env->env.uniform.offset = 0;
-    env->y_mean = 1.0;
-    return 0;
+    if (kind == SPT_SKY_SPD) {
+        /* The SPD normalised to luminance Y = 1: a table in the environment's data. */
+        env->data = spt_calloc(SPT_CIE_SAMPLES, sizeof(float));
+        env->data_count = SPT_CIE_SAMPLES;
+        memcpy(env->data, sky->spd, SPT_CIE_SAMPLES * sizeof(float));
+        env->env.kind = SPT_ENV_UNIFORM;
+        env->env.uniform.kind = SPT_SPEC_TABLE;
+        env->env.uniform.scale = (float)(SPT_CIE_Y_INTEGRAL / sky->spd_y);
+        env->env.uniform.offset = 0;
+        env->y_mean = 1.0;
+    }
+    return 0; /* SPT_SKY_BLACK */
 }
 
 /* The lights of a render and the selection among them. */

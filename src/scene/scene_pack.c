@@ -5,7 +5,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "shared/cie_data.h"
+
 #define PACK_MAGIC 0x53505453u /* "SPTS" */
+#define SKY_MAGIC 0x4b545053u  /* "SPTK" */
 
 typedef struct Buf {
     unsigned char *p;
@@ -194,6 +197,69 @@ int scene_unpack(Scene *s, const void *bytes, size_t size, const char *what, Spt
         (ntex && !s->textures)) {
         scene_free(s);
         return spt_fail(e, SPT_EXIT_INPUT, "%s: packed scene is truncated or inconsistent", what);
+    }
+    return 0;
+}
+
+/* A string as an array with its terminating 0; NULL as an empty array. */
+static void put_string(Buf *b, const char *s)
+{
+    put_array(b, s, s ? strlen(s) + 1 : 0);
+}
+
+static char *get_string(Reader *r)
+{
+    uint64_t n = 0;
+    size_t pos = r->at;
+    if (get(r, &n, sizeof n))
+        return NULL;
+    r->at = pos;
+    char *s = get_array(r, (size_t)n);
+    if (s && s[n - 1])
+        r->bad = 1;
+    return s;
+}
+
+void *sky_pack(const Sky *sky, size_t *size)
+{
+    Buf b = {0};
+    uint32_t magic = SKY_MAGIC;
+    put(&b, &magic, sizeof magic);
+    Sky head = *sky;
+    head.spd = head.map = NULL;
+    head.env_path = head.background = NULL;
+    put(&b, &head, sizeof head);
+    put_array(&b, sky->spd, sky->spd ? SPT_CIE_SAMPLES * sizeof(float) : 0);
+    put_array(&b, sky->map, sky->map ? (size_t)sky->map_width * sky->map_height * 3 * sizeof(float) : 0);
+    put_string(&b, sky->env_path);
+    put_string(&b, sky->background);
+    *size = b.len;
+    return b.p;
+}
+
+int sky_unpack(Sky *sky, const void *bytes, size_t size, const char *what, SptError *e)
+{
+    Reader r = {bytes, size, 0, 0};
+    uint32_t magic = 0;
+    memset(sky, 0, sizeof *sky);
+    if (get(&r, &magic, sizeof magic) || magic != SKY_MAGIC || get(&r, sky, sizeof *sky)) {
+        memset(sky, 0, sizeof *sky);
+        return spt_fail(e, SPT_EXIT_INPUT, "%s: not a packed sky", what);
+    }
+    int want_spd = sky->kind == SPT_SKY_SPD, want_map = sky->kind == SPT_SKY_MAP;
+    sky->spd = sky->map = NULL;
+    sky->env_path = sky->background = NULL;
+    if (want_map && (sky->map_width < 1 || sky->map_height < 1 ||
+                     (uint64_t)sky->map_width * (uint64_t)sky->map_height > ((uint64_t)1 << 28)))
+        r.bad = 1;
+    sky->spd = get_array(&r, want_spd ? SPT_CIE_SAMPLES * sizeof(float) : 0);
+    if (!r.bad)
+        sky->map = get_array(&r, want_map ? (size_t)sky->map_width * sky->map_height * 3 * sizeof(float) : 0);
+    sky->env_path = get_string(&r);
+    sky->background = get_string(&r);
+    if (r.bad || r.at != r.len || (want_spd && !sky->spd) || (want_map && !sky->map)) {
+        sky_free(sky);
+        return spt_fail(e, SPT_EXIT_INPUT, "%s: packed sky is truncated or inconsistent", what);
     }
     return 0;
 }

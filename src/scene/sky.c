@@ -1,0 +1,100 @@
+/* The sky of the command line (src/scene/sky.h). */
+#include "scene/sky.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "color/spd.h"
+#include "io/image_io.h"
+#include "io/image_out.h"
+#include "shared/cie_data.h"
+
+/* The map of an image file, values as stored: an 8- or 16-bit integer file (PNG,
+ * JPEG, ...) holds sRGB-encoded display values, decoded to linear (an LDR map
+ * cannot hold the sun's range; HDR or EXR maps are meant). Float files are
+ * linear as stored. */
+static int sky_load_map(Sky *sky, const char *path, SptError *e)
+{
+    float *rgb = NULL;
+    int w = 0, h = 0;
+    int rc = image_read_rgb(path, &rgb, &w, &h, e);
+    if (rc != SPT_EXIT_OK)
+        return rc;
+    ImageIoInfo info;
+    SptError e2 = {0};
+    if (image_io_info(path, &info, &e2) == SPT_EXIT_OK && strncmp(info.format, "uint", 4) == 0 &&
+        strcmp(info.format_name, "hdr") != 0)
+        for (size_t i = 0; i < (size_t)w * (size_t)h * 3; i++)
+            rgb[i] = (float)srgb_decode(rgb[i]);
+    sky->kind = SPT_SKY_MAP;
+    sky->map = rgb;
+    sky->map_width = w;
+    sky->map_height = h;
+    return SPT_EXIT_OK;
+}
+
+/* --background SKY: black, R,G,B or an SPD. */
+static int sky_parse_background(Sky *sky, const char *bg, SptError *e)
+{
+    float rgb[3];
+    char extra;
+    if (!strcasecmp(bg, "black") || !strcasecmp(bg, "none")) {
+        sky->kind = SPT_SKY_BLACK;
+        return SPT_EXIT_OK;
+    }
+    if (sscanf(bg, "%f,%f,%f%c", &rgb[0], &rgb[1], &rgb[2], &extra) == 3) {
+        if (!(rgb[0] >= 0 && rgb[1] >= 0 && rgb[2] >= 0) || !isfinite(rgb[0] + rgb[1] + rgb[2]))
+            return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': colour components must be finite and >= 0", bg);
+        sky->kind = SPT_SKY_RGB;
+        memcpy(sky->rgb, rgb, sizeof rgb);
+        return SPT_EXIT_OK;
+    }
+    /* An SPD, normalised to luminance Y = 1 when rendered. */
+    Spd spd;
+    SptError e2 = {0};
+    if (spd_parse(&spd, bg, &e2))
+        return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': %s", bg, e2.msg);
+    double xyz[3];
+    spd_to_xyz(&spd, xyz);
+    if (!(xyz[1] > 0)) {
+        spd_free(&spd);
+        return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': the SPD has no luminance", bg);
+    }
+    sky->kind = SPT_SKY_SPD;
+    sky->spd = spt_calloc(SPT_CIE_SAMPLES, sizeof(float));
+    spd_to_grid(&spd, sky->spd);
+    sky->spd_y = xyz[1];
+    spd_free(&spd);
+    return SPT_EXIT_OK;
+}
+
+int sky_from_args(Sky *sky, const char *env_path, const char *background, SptError *e)
+{
+    memset(sky, 0, sizeof *sky);
+    if (env_path && background)
+        return spt_fail(e, SPT_EXIT_USAGE, "--env and --background both set the sky; give one of them");
+    int rc = SPT_EXIT_OK;
+    if (env_path)
+        rc = sky_load_map(sky, env_path, e);
+    else if (background)
+        rc = sky_parse_background(sky, background, e);
+    if (rc) {
+        sky_free(sky);
+        return rc;
+    }
+    sky->env_path = env_path ? spt_strdup(env_path) : NULL;
+    sky->background = background ? spt_strdup(background) : NULL;
+    return SPT_EXIT_OK;
+}
+
+void sky_free(Sky *sky)
+{
+    free(sky->spd);
+    free(sky->map);
+    free(sky->env_path);
+    free(sky->background);
+    memset(sky, 0, sizeof *sky);
+}
