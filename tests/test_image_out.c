@@ -23,14 +23,14 @@ static int setup(void **state)
 {
     (void)state;
     snprintf(g_dir, sizeof g_dir, "/tmp/spt-test-image-out-XXXXXX");
-    unsetenv("SPECTRACE_TEST_FAIL_WRITE");
+    atomic_test_fail_commits = 0;
     return mkdtemp(g_dir) ? 0 : -1;
 }
 
 static int teardown(void **state)
 {
     (void)state;
-    unsetenv("SPECTRACE_TEST_FAIL_WRITE");
+    atomic_test_fail_commits = 0;
     char cmd[512];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", g_dir);
     return system(cmd) == 0 ? 0 : -1;
@@ -412,12 +412,12 @@ static void test_failed_write_keeps_existing_output(void **state)
         size_t n0, n1;
         unsigned char *before = slurp(path, &n0);
 
-        setenv("SPECTRACE_TEST_FAIL_WRITE", "1", 1);
+        atomic_test_fail_commits = 1;
         int rc = image_write(path, b, 2, 2, NULL, NULL, &e);
-        unsetenv("SPECTRACE_TEST_FAIL_WRITE");
+        atomic_test_fail_commits = 0;
         assert_int_equal(rc, SPT_EXIT_OUTPUT);
         assert_non_null(strstr(e.msg, path));
-        assert_non_null(strstr(e.msg, "SPECTRACE_TEST_FAIL_WRITE"));
+        assert_non_null(strstr(e.msg, "injected failure"));
 
         unsigned char *after = slurp(path, &n1);
         assert_int_equal(n0, n1);
@@ -576,10 +576,10 @@ static void test_exr_layers_roundtrip(void **state)
     /* Injected failure: the checkpoint already there stays as it was. */
     size_t n0, n1;
     unsigned char *before = slurp(path, &n0);
-    setenv("SPECTRACE_TEST_FAIL_WRITE", "yes", 1);
+    atomic_test_fail_commits = 1;
     ExrChannel one = {"count", SPT_EXR_UINT, counts, 1};
     rc = exr_write_layers(path, W, H, &one, 1, NULL, 0, &e);
-    unsetenv("SPECTRACE_TEST_FAIL_WRITE");
+    atomic_test_fail_commits = 0;
     assert_int_equal(rc, SPT_EXIT_OUTPUT);
     unsigned char *after = slurp(path, &n1);
     assert_int_equal(n0, n1);

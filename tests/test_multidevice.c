@@ -13,6 +13,7 @@
 #include "scene/scene.h"
 
 static ClDeviceList devices;
+static const RenderTestHooks no_hooks, turns = {.take_turns = 1};
 static Scene scene;
 static GpuScene gpu;
 
@@ -40,10 +41,10 @@ static int teardown(void **state)
     return 0;
 }
 
-/* Renders the Cornell box at 24x24, 32 spp on the devices listed in `which`;
- * with turns, the devices take chunks in turn. */
-static int render_on(const int *which, int n, int turns, Film *film, RenderDeviceStats *per,
-                     SptError *e)
+/* Renders the Cornell box at 24x24, 32 spp on the devices listed in `which`
+ * with the test hooks hooks. */
+static int render_on(const int *which, int n, RenderTestHooks hooks, Film *film,
+                     RenderDeviceStats *per, SptError *e)
 {
     const ClDeviceInfo *infos[4];
     for (int i = 0; i < n; i++)
@@ -54,7 +55,8 @@ static int render_on(const int *which, int n, int turns, Film *film, RenderDevic
     rs.spp = 32;
     rs.max_depth = -1;
     rs.seed = 11;
-    rs.take_turns = turns;
+    rs.pool_size = 512; /* small chunks: the work splits into many */
+    rs.test = hooks;
     film_init(film, rs.width, rs.height);
     RenderStats st;
     return render_devices(infos, n, &gpu, &scene.camera, &rs, film, &st, per, e);
@@ -67,10 +69,10 @@ static void test_split_invariance(void **state)
     SptError e = {0};
     RenderDeviceStats per[2];
     const int d0[1] = {0}, d01[2] = {0, 1};
-    assert_int_equal(render_on(d0, 1, 0, &one, NULL, &e), 0);
+    assert_int_equal(render_on(d0, 1, no_hooks, &one, NULL, &e), 0);
     /* In turns, so that both devices render half of the samples however the
      * threads are scheduled. */
-    assert_int_equal(render_on(d01, 2, 1, &two, per, &e), 0);
+    assert_int_equal(render_on(d01, 2, turns, &two, per, &e), 0);
     printf("two devices: %u and %u spp\n", per[0].samples, per[1].samples);
     assert_int_equal(per[0].samples, 16);
     assert_int_equal(per[1].samples, 16);
@@ -87,9 +89,8 @@ static void test_balance(void **state)
     SptError e = {0};
     RenderDeviceStats per[2];
     const int d01[2] = {0, 1};
-    setenv("SPECTRACE_TEST_SLOW_DEVICE", "1:300", 1);
-    int rc = render_on(d01, 2, 0, &f, per, &e);
-    unsetenv("SPECTRACE_TEST_SLOW_DEVICE");
+    const RenderTestHooks slow1 = {.slow_device = 1 + 1, .slow_ms = 300};
+    int rc = render_on(d01, 2, slow1, &f, per, &e);
     assert_int_equal(rc, 0);
     printf("fast device %u spp, slowed device %u spp\n", per[0].samples, per[1].samples);
     assert_true(per[1].samples < per[0].samples);
@@ -106,12 +107,11 @@ static void test_device_failure(void **state)
     SptError e = {0};
     RenderDeviceStats per[2];
     const int d0[1] = {0}, d01[2] = {0, 1};
-    assert_int_equal(render_on(d0, 1, 0, &one, NULL, &e), 0);
+    assert_int_equal(render_on(d0, 1, no_hooks, &one, NULL, &e), 0);
     /* Device 1 fails as it starts its second chunk; the devices take chunks in
      * turn, so it does come to its second. */
-    setenv("SPECTRACE_TEST_FAIL_DEVICE", "1:1", 1);
-    int rc = render_on(d01, 2, 1, &f, per, &e);
-    unsetenv("SPECTRACE_TEST_FAIL_DEVICE");
+    const RenderTestHooks fail1 = {.fail_device = 1 + 1, .fail_after = 1, .take_turns = 1};
+    int rc = render_on(d01, 2, fail1, &f, per, &e);
     assert_int_equal(rc, 0);
     assert_true(per[1].failed);
     assert_false(per[0].failed);
@@ -119,10 +119,9 @@ static void test_device_failure(void **state)
     film_free(&one);
     film_free(&f);
     /* Both failing: the render fails. */
-    setenv("SPECTRACE_TEST_FAIL_DEVICE", "0:0", 1);
+    const RenderTestHooks fail0 = {.fail_device = 0 + 1, .fail_after = 0};
     const int d0only[1] = {0};
-    rc = render_on(d0only, 1, 0, &f, per, &e);
-    unsetenv("SPECTRACE_TEST_FAIL_DEVICE");
+    rc = render_on(d0only, 1, fail0, &f, per, &e);
     assert_int_equal(rc, SPT_EXIT_DEVICE);
     film_free(&f);
 }
@@ -171,11 +170,9 @@ static void test_split_across_implementations(void **state)
 
 int main(void)
 {
-    /* Two PoCL CPU devices of one compute unit each, and small chunks (a small
-     * path pool) so the work splits into many chunks. */
+    /* Two PoCL CPU devices of one compute unit each. */
     setenv("POCL_DEVICES", "pthread pthread", 1);
     setenv("POCL_MAX_PTHREAD_COUNT", "1", 1);
-    setenv("SPECTRACE_POOL", "512", 1);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_split_invariance),
         cmocka_unit_test(test_balance),

@@ -42,6 +42,9 @@ static int teardown(void **state)
     return 0;
 }
 
+/* The test hooks of render_file's renders. */
+static RenderTestHooks g_hooks;
+
 /* Renders scene file `path` at w x h, spp, depth, seed into film (initialised
  * here); returns the render's exit code. */
 static int render_file(const char *path, int w, int h, int spp, int depth, uint32_t seed,
@@ -64,6 +67,7 @@ static int render_file(const char *path, int w, int h, int spp, int depth, uint3
         rs.spp = spp;
         rs.max_depth = depth;
         rs.seed = seed;
+        rs.test = g_hooks;
         film_init(film, w, h);
         rc = render_device(device, &g, &s.camera, &rs, film, st, &e);
         if (rc)
@@ -230,9 +234,9 @@ static void test_nan_guard(void **state)
     (void)state;
     Film f;
     RenderStats st;
-    setenv("SPECTRACE_TEST_INJECT_NAN", "1", 1);
+    g_hooks.inject_nan = 1;
     int rc = render_file("tests/data/scenes/furnace.gltf", 8, 8, 4, 2, 1, &f, &st);
-    unsetenv("SPECTRACE_TEST_INJECT_NAN");
+    g_hooks.inject_nan = 0;
     assert_int_equal(rc, 0);
     assert_int_equal(st.nan_dropped, 4); /* pixel 0, 4 samples */
     assert_true(f.count[0] == 0.0);

@@ -38,8 +38,8 @@
  * trip and the mean catch the rest.
  *
  * Runs on two PoCL CPU devices (POCL_DEVICES="pthread pthread"), alone or
- * together; SPECTRACE_POOL sets the path pool, and through it the chunk sizes;
- * SPECTRACE_TEST_POISON fills every path, queue and film buffer with NaN or all
+ * together; RenderSettings.pool_size sets the path pool, and through it the chunk sizes;
+ * the poison test hook fills every path, queue and film buffer with NaN or all
  * ones before use, so a value read but never written shows.
  *
  * And a film that holds a NaN or infinite pixel all the same is never written:
@@ -256,7 +256,7 @@ static void analytic_values(void)
 
 typedef struct Config {
     int w, h, spp;
-    int pool;      /* SPECTRACE_POOL, 0 = the device's default (65536 on a CPU) */
+    int pool;      /* pool_size, 0 = the device's default (65536 on a CPU) */
     int devices;   /* 1: device 0; 2: both */
     uint32_t seed; /* 0: one of the sweep's own */
 } Config;
@@ -264,15 +264,6 @@ typedef struct Config {
 static int render_config(int scene, const Config *c, uint32_t seed, uint32_t poison, Film *film,
                          RenderStats *st, SptError *e)
 {
-    char pool[32], pat[32];
-    if (c->pool > 0) {
-        snprintf(pool, sizeof pool, "%d", c->pool);
-        setenv("SPECTRACE_POOL", pool, 1);
-    } else {
-        unsetenv("SPECTRACE_POOL");
-    }
-    snprintf(pat, sizeof pat, "0x%08x", poison);
-    setenv("SPECTRACE_TEST_POISON", pat, 1);
     RenderSettings rs;
     memset(&rs, 0, sizeof rs);
     rs.width = c->w;
@@ -281,12 +272,13 @@ static int render_config(int scene, const Config *c, uint32_t seed, uint32_t poi
     rs.max_depth = -1;
     rs.seed = seed;
     rs.env_intensity = 1.0f;
+    rs.pool_size = c->pool > 0 ? (uint32_t)c->pool : 0;
+    rs.test.poison = 1;
+    rs.test.poison_word = poison;
     film_init(film, c->w, c->h);
     const ClDeviceInfo *infos[2] = {&devices.devices[0], &devices.devices[1]};
     int rc = render_devices(infos, c->devices, &gpus[scene], &scenes[scene].camera, &rs, film, st,
                             NULL, e);
-    unsetenv("SPECTRACE_POOL");
-    unsetenv("SPECTRACE_TEST_POISON");
     return rc;
 }
 

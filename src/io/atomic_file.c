@@ -53,12 +53,8 @@ int atomic_temp_create(const char *path, char *tmp, size_t tmp_size, SptError *e
                     path, dir);
 }
 
-/* Whether the test hook asks every write to fail before its rename. */
-static int injected_failure(void)
-{
-    const char *v = getenv("SPECTRACE_TEST_FAIL_WRITE");
-    return v && v[0] && strcmp(v, "0") != 0;
-}
+/* The test hook of src/io/atomic_file.h. */
+int atomic_test_fail_commits;
 
 int atomic_temp_commit(const char *tmp, const char *path, SptError *e)
 {
@@ -68,10 +64,8 @@ int atomic_temp_commit(const char *tmp, const char *path, SptError *e)
         rc = spt_fail(e, SPT_EXIT_OUTPUT, "%s: cannot write: %s", path, strerror(errno));
     if (fd >= 0)
         close(fd);
-    if (!rc && injected_failure())
-        rc = spt_fail(e, SPT_EXIT_OUTPUT,
-                      "%s: cannot write: injected failure (SPECTRACE_TEST_FAIL_WRITE is set)",
-                      path);
+    if (!rc && atomic_test_fail_commits)
+        rc = spt_fail(e, SPT_EXIT_OUTPUT, "%s: cannot write: injected failure (test hook)", path);
     if (!rc && rename(tmp, path) != 0)
         rc = spt_fail(e, SPT_EXIT_OUTPUT, "%s: cannot replace the file: %s", path,
                       strerror(errno));

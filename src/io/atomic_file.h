@@ -2,11 +2,7 @@
  * folder, which is renamed over the destination only once it is complete, so a
  * failed write never leaves a partial file and never touches an existing one.
  * Used by the image writers (src/io/image_out.c, src/io/exr.c).
- *
- * Test hook: when the environment variable SPECTRACE_TEST_FAIL_WRITE is set to a
- * non-empty value other than "0", every commit fails after its temporary file was
- * written and before the rename, as a full disk would; the error says so. Only the
- * tests set it. */
+ */
 #ifndef SPT_ATOMIC_FILE_H
 #define SPT_ATOMIC_FILE_H
 
@@ -25,13 +21,18 @@ void atomic_split_path(const char *path, char *dir, size_t dir_size, const char 
 int atomic_temp_create(const char *path, char *tmp, size_t tmp_size, SptError *e);
 
 /* Makes tmp durable (fsync), then renames it over path. On any failure, including
- * the SPECTRACE_TEST_FAIL_WRITE hook, removes tmp, leaves path as it was and
+ * the atomic_test_fail_commits hook, removes tmp, leaves path as it was and
  * returns SPT_EXIT_OUTPUT naming path. */
 int atomic_temp_commit(const char *tmp, const char *path, SptError *e);
 
 /* Writes n bytes to a new temporary file and commits it over path, checking every
  * write and the close (a full disk may only show there). */
 int atomic_write_bytes(const char *path, const void *data, size_t n, SptError *e);
+
+/* Test hook: while non-zero, every commit fails after its temporary file was
+ * written and before the rename, as a full disk would; the error says so. Only
+ * tests set it. */
+extern int atomic_test_fail_commits;
 
 /* Marks of a temporary file, for tests that check none is left behind. */
 #define SPT_ATOMIC_TEMP_MARK ".spt-tmp-"

@@ -5,7 +5,7 @@
  * Files are single-part scanline images, ZIP compressed (lossless), data window =
  * display window = (0,0)-(width-1,height-1), rows stored top to bottom. Writes are
  * atomic (temporary file in the same folder, then rename; see src/io/atomic_file.h,
- * including the SPECTRACE_TEST_FAIL_WRITE test hook). */
+ * including its test hook). */
 #ifndef SPT_EXR_H
 #define SPT_EXR_H
 

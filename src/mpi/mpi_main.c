@@ -30,6 +30,7 @@
 #include <unistd.h>
 
 #include "cl/cl_device.h"
+#include "cli/render_args.h"
 #include "mpi/mpi_hook.h"
 #include "render/film.h"
 #include "render/render.h"
@@ -41,17 +42,19 @@ int spectrace_main(int argc, char **argv); /* src/cli/main.c's main, renamed by 
 
 enum { TAG_JOB = 1, TAG_REQ, TAG_CHUNK, TAG_DONE, TAG_FILM, TAG_BACK, TAG_FINISH };
 
-/* The settings of a render as they travel to the other ranks (every field of
- * RenderSettings that changes what a sample computes, and the camera). The job
- * message is this, then scene_bytes of the packed scene, then the packed sky. */
+/* The settings of a render as they travel to the other ranks: the options of
+ * RenderSettings (src/render/render_options.h; those marked SPT_OPT_MPI are
+ * sent), the first sample and the camera. The job message is this, then
+ * scene_bytes of the packed scene, then the packed sky. */
 typedef struct JobSettings {
-    int32_t width, height, spp, max_depth, profile;
-    uint32_t seed, sample_begin;
-    double time_limit;
-    float env_rotation, env_intensity, aperture, focus_distance;
+    SPT_RENDER_OPTIONS(SPT_OPT_RS_FIELD)
+    uint32_t sample_begin;
     SceneCamera cam;
     uint64_t scene_bytes;
 } JobSettings;
+
+#define JOB_COPY(where, kind, type, name, option, short_name, metavar, def, lo, hi, flags, ...) \
+    SPT_OPT_IF_RS_##where(if ((flags) & SPT_OPT_MPI) JOB_TO.name = JOB_FROM.name;)
 
 typedef struct DoneMsg {
     uint32_t begin, n;
@@ -328,18 +331,12 @@ static void send_job(const RenderSettings *rs, const Scene *scene, const SceneCa
 {
     JobSettings js;
     memset(&js, 0, sizeof js);
-    js.width = rs->width;
-    js.height = rs->height;
-    js.spp = rs->spp;
-    js.max_depth = rs->max_depth;
-    js.profile = rs->profile;
-    js.seed = rs->seed;
+#define JOB_TO js
+#define JOB_FROM (*rs)
+    SPT_RENDER_OPTIONS(JOB_COPY)
+#undef JOB_TO
+#undef JOB_FROM
     js.sample_begin = rs->sample_begin;
-    js.time_limit = rs->time_limit;
-    js.env_rotation = rs->env_rotation;
-    js.env_intensity = rs->env_intensity;
-    js.aperture = rs->aperture;
-    js.focus_distance = rs->focus_distance;
     js.cam = *cam;
     size_t n, nsky;
     Sky none;
@@ -549,19 +546,14 @@ static int worker_run(const unsigned char *job, size_t len, const char *device_s
         devs[i] = &devices.devices[sel[i]];
     RenderSettings rs;
     memset(&rs, 0, sizeof rs);
-    rs.width = js.width;
-    rs.height = js.height;
-    rs.spp = js.spp;
-    rs.time_limit = js.time_limit;
-    rs.max_depth = js.max_depth;
-    rs.seed = js.seed;
+#define JOB_TO rs
+#define JOB_FROM js
+    SPT_RENDER_OPTIONS(JOB_COPY)
+#undef JOB_TO
+#undef JOB_FROM
     rs.sample_begin = js.sample_begin;
-    rs.profile = js.profile;
     rs.sky = &sky;
-    rs.env_rotation = js.env_rotation;
-    rs.env_intensity = js.env_intensity;
-    rs.aperture = js.aperture;
-    rs.focus_distance = js.focus_distance;
+    render_args_test_hooks(&rs);
     rs.stop = &g_stop;
     rs.take_chunk = remote_take;
     rs.give_back = remote_back;

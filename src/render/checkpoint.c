@@ -3,6 +3,7 @@
 #include "render/checkpoint.h"
 
 #include <errno.h>
+#include <stdarg.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -42,6 +43,43 @@ static int is_regular_file(const char *path)
     return path && stat(path, &st) == 0 && S_ISREG(st.st_mode);
 }
 
+/* Appends "name=value;" to the key's list (truncated at its end). */
+static void key_add(CheckpointKey *k, const char *name, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static void key_add(CheckpointKey *k, const char *name, const char *fmt, ...)
+{
+    size_t len = strlen(k->settings);
+    char value[640];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(value, sizeof value, fmt, ap);
+    va_end(ap);
+    /* ';' and '=' separate the entries. */
+    for (char *p = value; *p; p++)
+        if (*p == ';' || *p == '=')
+            *p = '_';
+    snprintf(k->settings + len, sizeof k->settings - len, "%s=%s;", name, value);
+}
+
+/* The key entry of a file named by an option, by content: "default" when the
+ * option is not given, a hash when it names a regular file (an --env map, a
+ * --background CSV), else the text itself (a --background colour or name). */
+static int key_add_file(CheckpointKey *k, const char *name, const char *value, SptError *e)
+{
+    unsigned long long h;
+    if (!value) {
+        key_add(k, name, "default");
+    } else if (is_regular_file(value)) {
+        int rc = hash_file(value, &h, e);
+        if (rc)
+            return rc;
+        key_add(k, name, "file-fnv:%016llx", h);
+    } else {
+        key_add(k, name, "%s", value);
+    }
+    return 0;
+}
+
 int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSettings *rs,
                    SptError *e)
 {
@@ -51,27 +89,34 @@ int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSetting
     if (rc)
         return rc;
     snprintf(k->scene_hash, sizeof k->scene_hash, "%016llx", h);
-    /* Files named by settings count by content, not by name. */
-    char env[64] = "none", bg[600] = "default";
-    const char *env_path = rs->sky ? rs->sky->env_path : NULL;
-    const char *background = rs->sky ? rs->sky->background : NULL;
-    if (env_path) {
-        if ((rc = hash_file(env_path, &h, e)))
-            return rc;
-        snprintf(env, sizeof env, "fnv:%016llx", h);
+    /* Every option of src/render/render_options.h that changes the image: the
+     * settings by value, the sky's files by content. */
+#define KEY_RS_INT(name) key_add(k, #name, "%d", rs->name);
+#define KEY_RS_U32(name) key_add(k, #name, "%u", rs->name);
+#define KEY_RS_FLT(name) key_add(k, #name, "%.9g", rs->name);
+#define KEY_RS_DBL(name) key_add(k, #name, "%.17g", rs->name);
+#define KEY_RS_FLAG(name) key_add(k, #name, "%d", rs->name);
+#define KEY_SKY_STR(name)                                                                  \
+    if ((rc = key_add_file(k, #name, rs->sky ? rs->sky->name : NULL, e)))                  \
+        return rc;
+/* Rows of other kinds never change the image; one that did would need its
+ * entry here (tests/test_options.c finds it missing). */
+#define KEY_NONE(name)
+#define KEY_CLI_STR KEY_NONE
+#define KEY_CLI_LIST KEY_NONE
+#define KEY_CLI_INT KEY_NONE
+#define KEY_CLI_U32 KEY_NONE
+#define KEY_CLI_DBL KEY_NONE
+#define KEY_CLI_FLT KEY_NONE
+#define KEY_CLI_FLAG KEY_NONE
+#define KEY_CLI_TONEMAP KEY_NONE
+#define KEY_CLI_HELP KEY_NONE
+#define KEY(where, kind, type, name, option, short_name, metavar, def, lo, hi, flags, ...)  \
+    if ((flags) & SPT_OPT_IMAGE) {                                                          \
+        KEY_##where##_##kind(name)                                                          \
     }
-    if (background) {
-        if (is_regular_file(background)) {
-            if ((rc = hash_file(background, &h, e)))
-                return rc;
-            snprintf(bg, sizeof bg, "file-fnv:%016llx", h);
-        } else {
-            snprintf(bg, sizeof bg, "%s", background);
-            for (char *p = bg; *p; p++)
-                if (*p == ';' || *p == '=')
-                    *p = '_';
-        }
-    }
+    SPT_RENDER_OPTIONS(KEY)
+#undef KEY
     /* The kernels decide what a sample computes: another renderer version gives
      * another image. */
     unsigned long long kh = SPT_FNV1A_INIT;
@@ -79,11 +124,8 @@ int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSetting
         kh = cl_fnv1a(kh, spt_kernel_files[i].path, strlen(spt_kernel_files[i].path));
         kh = cl_fnv1a(kh, spt_kernel_files[i].text, strlen(spt_kernel_files[i].text));
     }
-    snprintf(k->settings, sizeof k->settings,
-             "width=%d;height=%d;max_depth=%d;seed=%u;env=%s;env_rotation=%.9g;"
-             "env_intensity=%.9g;background=%s;aperture=%.9g;focus_distance=%.9g;kernels=%016llx",
-             rs->width, rs->height, rs->max_depth, rs->seed, env, rs->env_rotation,
-             rs->env_intensity, bg, rs->aperture, rs->focus_distance, kh);
+    key_add(k, "kernels", "%016llx", kh);
+    k->settings[strlen(k->settings) - 1] = 0; /* the last ';' */
     k->seed = rs->seed;
     k->width = rs->width;
     k->height = rs->height;

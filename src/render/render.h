@@ -12,25 +12,43 @@
 #include "render/gpu_scene.h"
 #include "scene/scene.h"
 #include "scene/sky.h"
+#include "render/render_options.h"
 
+/* Hooks for tests, off when zero; only tests set them (the command line takes
+ * them from SPECTRACE_TEST_* variables: src/cli/render_args.h). */
+typedef struct RenderTestHooks {
+    int fail_device;  /* 1 + the index (in the selection) of a device that fails as it
+                         starts its chunk number fail_after (counting from 0) */
+    int fail_after;
+    int slow_device;  /* 1 + the index of a device that waits slow_ms before each chunk */
+    int slow_ms;
+    int inject_nan;   /* pixel 0's radiance is NaN, which the NaN guard must drop */
+    int take_turns;   /* the devices take chunks in turn (0, 1, ..., 0, 1, ...), so
+                         each renders a known share whatever its speed */
+    int poison;       /* every path, shadow, queue, counter and film buffer is first
+                         filled with the 32-bit word poison_word, so that a value
+                         read before anything wrote it shows (NaN, all ones) */
+    uint32_t poison_word;
+    long film_nan;    /* spectrace render: the first film_nan pixels of the film are
+                         made NaN after the render, as a render gone wrong would */
+} RenderTestHooks;
+
+/* What a render does. The options of the command line (the RS rows of
+ * src/render/render_options.h) are spp (samples per pixel to reach, counting
+ * from sample_begin), time_limit (seconds, 0 = none; stops at a chunk
+ * boundary), width, height, max_depth (path segments from the camera; <= 0
+ * unlimited), seed, env_rotation (degrees about +Y), env_intensity (a map's
+ * scale), aperture (lens radius in metres, 0 = pinhole), focus_distance (metres,
+ * 0 = the distance at the image centre) and profile (time the stages with
+ * OpenCL profiling events). */
 typedef struct RenderSettings {
-    int width, height;
-    int spp;                 /* samples per pixel to reach (counting from sample_begin) */
-    double time_limit;       /* seconds, 0 = none; stops at a chunk boundary */
-    int max_depth;           /* path segments from the camera; <= 0 unlimited */
-    uint32_t seed;
+    SPT_RENDER_OPTIONS(SPT_OPT_RS_FIELD)
+    const Sky *sky;          /* --env, --background (src/scene/sky.h); NULL = default */
     uint32_t sample_begin;   /* first sample index (a resumed render starts later) */
     int progress;            /* print progress to stderr */
-    int profile;             /* time the stages with OpenCL profiling events */
     volatile sig_atomic_t *stop; /* when set non-zero: finish the current chunk, stop */
-    int take_turns;          /* tests: the devices take chunks in turn (0, 1, ..., 0, 1,
-                                ...), so each renders a known share whatever its speed */
-    /* Lighting and camera options of the command line. */
-    const Sky *sky;          /* --env, --background (src/scene/sky.h); NULL = default */
-    float env_rotation;      /* --env-rotation: degrees about +Y */
-    float env_intensity;     /* --env-intensity: scale (default 1) */
-    float aperture;          /* --aperture: lens radius in metres, 0 = pinhole */
-    float focus_distance;    /* --focus-distance: metres, 0 = distance at the image centre */
+    uint32_t pool_size;      /* paths in flight per device; 0 = the device's default */
+    RenderTestHooks test;
     /* Optional hooks for other schedulers and for checkpoints (all NULL = off):
      * - done_in: rs->spp flags, one per relative sample index; samples already in
      *   the film (a resumed render) are not rendered again.

@@ -31,7 +31,7 @@ static int env_setup(const RenderSettings *rs, const GpuScene *g, EnvLight *env,
     if (kind == SPT_SKY_MAP)
         return env_build_map(env, sky->map, sky->map_width, sky->map_height,
                              rs->env_rotation * (float)(M_PI / 180.0), rs->env_intensity,
-                             sky->env_path ? sky->env_path : "the environment map", e);
+                             sky->env ? sky->env : "the environment map", e);
     if (kind == SPT_SKY_DEFAULT) {
         if (g->emitter_count > 0 || g->light_count > 0)
             return 0;

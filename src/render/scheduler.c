@@ -78,7 +78,7 @@ typedef struct Scheduler {
     int decile;
     Film *film;               /* every completed chunk is added here */
     int workers;              /* devices rendering */
-    int turn;                 /* with rs->take_turns: the worker whose turn it is */
+    int turn;                 /* with rs->test.take_turns: the worker whose turn it is */
     unsigned char *gone;      /* per worker: has stopped taking chunks */
 } Scheduler;
 
@@ -94,12 +94,12 @@ static void sched_pass_turn(Scheduler *s)
     }
 }
 
-/* Whether worker who must wait for its turn (rs->take_turns) to take the next
+/* Whether worker who must wait for its turn (rs->test.take_turns) to take the next
  * chunk from the counter. */
 static int sched_not_my_turn(const Scheduler *s, int who)
 {
     const RenderSettings *rs = s->rs;
-    return rs->take_turns && s->turn != who && s->ret_count == 0 && s->next < s->total &&
+    return rs->test.take_turns && s->turn != who && s->ret_count == 0 && s->next < s->total &&
            !rs->take_chunk;
 }
 
@@ -141,7 +141,7 @@ static int sched_take(Scheduler *s, int who, uint32_t want, uint32_t *begin, uin
                 *n = k;
                 s->next += k;
                 ok = 1;
-                if (rs->take_turns)
+                if (rs->test.take_turns)
                     sched_pass_turn(s);
             }
         }
@@ -194,19 +194,6 @@ static void sched_done(Scheduler *s, uint32_t begin, uint32_t n, uint64_t paths,
     pthread_mutex_unlock(&s->lock);
 }
 
-/* Test hooks, documented in README.md ("Several devices"): SPECTRACE_TEST_FAIL_DEVICE
- * = "I:N" makes the I-th selected device fail when it starts its (N+1)-th chunk;
- * SPECTRACE_TEST_SLOW_DEVICE = "I:MS" delays each of its chunks by MS ms. */
-static int test_hook(const char *name, int device, int *value)
-{
-    const char *v = getenv(name);
-    int d, x;
-    if (!v || sscanf(v, "%d:%d", &d, &x) != 2 || d != device)
-        return 0;
-    *value = x;
-    return 1;
-}
-
 typedef struct Worker {
     int index;                 /* position in the selection */
     const RenderParams *base;  /* the parameters every chunk shares */
@@ -240,14 +227,15 @@ static void *worker_main(void *arg)
     RenderParams p = *wk->base;
     p.pool_size = w.pool;
     float *sums = spt_malloc((size_t)rs->width * rs->height * 4 * sizeof(float));
-    int fail_after = -1, slow_ms = 0, chunks = 0;
-    test_hook("SPECTRACE_TEST_FAIL_DEVICE", wk->index, &fail_after);
-    test_hook("SPECTRACE_TEST_SLOW_DEVICE", wk->index, &slow_ms);
+    /* The test hooks that concern this device. */
+    int fail_after = rs->test.fail_device == wk->index + 1 ? rs->test.fail_after : -1;
+    int slow_ms = rs->test.slow_device == wk->index + 1 ? rs->test.slow_ms : 0;
+    int chunks = 0;
     uint32_t begin, n;
     while (sched_take(wk->s, wk->index, w.chunk_spp, &begin, &n)) {
         double t = spt_now();
         if (chunks == fail_after) {
-            wk->rc = spt_fail(&wk->e, SPT_EXIT_DEVICE, "injected failure (SPECTRACE_TEST_FAIL_DEVICE)");
+            wk->rc = spt_fail(&wk->e, SPT_EXIT_DEVICE, "injected failure (test hook)");
         } else {
             if (slow_ms > 0)
                 usleep((useconds_t)slow_ms * 1000u);

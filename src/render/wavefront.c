@@ -101,13 +101,13 @@ static int fill_words(ClDevice *dev, cl_mem m, cl_uint pat, SptError *e)
     return 0;
 }
 
-/* Path pool size for a device: enough paths to fill it, bounded by memory. */
-static uint32_t pool_size_for(const ClDeviceInfo *info, uint64_t work)
+/* Path pool size for a device: enough paths to fill it, bounded by memory;
+ * asked (RenderSettings pool_size) when not 0. */
+static uint32_t pool_size_for(const ClDeviceInfo *info, uint32_t asked, uint64_t work)
 {
     uint64_t pool = (info->type & CL_DEVICE_TYPE_GPU) ? (1u << 20) : (1u << 16);
-    const char *env = getenv("SPECTRACE_POOL");
-    if (env && atoi(env) > 0)
-        pool = (uint64_t)atoi(env);
+    if (asked > 0)
+        pool = asked;
     if (pool > work)
         pool = work;
     return (uint32_t)(pool ? pool : 1);
@@ -128,7 +128,7 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
      * least 16 chunks (when it has the samples), so that several devices or MPI
      * processes sharing it end close together: with 4 chunks, two processes
      * reached 1.79x one instead of 1.95x. */
-    w->pool = pool_size_for(info, npix * (uint64_t)(rs->spp > 0 ? rs->spp : 1));
+    w->pool = pool_size_for(info, rs->pool_size, npix * (uint64_t)(rs->spp > 0 ? rs->spp : 1));
     uint64_t spp = (16ull * w->pool + npix - 1) / npix;
     if (rs->spp > 0 && spp > ((uint64_t)rs->spp + 15) / 16)
         spp = ((uint64_t)rs->spp + 15) / 16;
@@ -156,9 +156,6 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
 
     if ((rc = cl_device_open(&w->dev, info, rs->profile, e)))
         return rc;
-    /* Test hook: SPECTRACE_TEST_INJECT_NAN=1 makes pixel 0's radiance NaN, to show
-     * that the NaN guard keeps it off the film. */
-    const char *nan_hook = getenv("SPECTRACE_TEST_INJECT_NAN");
     /* CPUs test a BVH leaf's triangles with one 16-lane test (x86 with AVX-512
      * or AVX2) and trace two rays per extend work-item, interleaved
      * (kernels/shared/bvh.h); GPUs, whose work-items are the SIMD lanes and which hide
@@ -187,7 +184,7 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
     snprintf(options, sizeof options, "%s%s%s",
              w->ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "",
              step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "",
-             nan_hook && *nan_hook && strcmp(nan_hook, "0") ? "-DSPT_TEST_INJECT_NAN=1" : "");
+             rs->test.inject_nan ? "-DSPT_TEST_INJECT_NAN=1" : "");
     if ((rc = cl_program_build(&w->dev, "kernels/device/wavefront.cl", options, &w->program, e)))
         return rc;
     for (int i = 0; i < K_COUNT; i++) {
@@ -228,13 +225,11 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
         (rc = cl_buffer_create(&w->dev, "chunk sums", CL_MEM_READ_WRITE, (size_t)npix * 16,
                                NULL, &w->b.chunk_sum, e)))
         return rc;
-    /* Test hook (README, "Rendering"): SPECTRACE_TEST_POISON=PATTERN fills every
-     * path, shadow, queue, counter and film buffer with that 32-bit word first, so
-     * that a value read before anything wrote it shows (NaN, all ones) rather than
-     * whatever the fresh allocation held. */
-    const char *poison = getenv("SPECTRACE_TEST_POISON");
-    if (poison && *poison) {
-        cl_uint pat = (cl_uint)strtoul(poison, NULL, 0);
+    /* Test hook (RenderTestHooks poison): every path, shadow, queue, counter and
+     * film buffer first holds the test's word, so that a value read before
+     * anything wrote it shows rather than whatever the fresh allocation held. */
+    if (rs->test.poison) {
+        cl_uint pat = rs->test.poison_word;
 #define POISON(type, name) if (!rc) rc = fill_words(&w->dev, w->b.name, pat, e);
 #define PS_POISON(type, name) POISON(type, ps_##name)
 #define SH_POISON(type, name) POISON(type, sh_##name)

@@ -227,11 +227,11 @@ void *sky_pack(const Sky *sky, size_t *size)
     put(&b, &magic, sizeof magic);
     Sky head = *sky;
     head.spd = head.map = NULL;
-    head.env_path = head.background = NULL;
+    head.env = head.background = NULL;
     put(&b, &head, sizeof head);
     put_array(&b, sky->spd, sky->spd ? SPT_CIE_SAMPLES * sizeof(float) : 0);
     put_array(&b, sky->map, sky->map ? (size_t)sky->map_width * sky->map_height * 3 * sizeof(float) : 0);
-    put_string(&b, sky->env_path);
+    put_string(&b, sky->env);
     put_string(&b, sky->background);
     *size = b.len;
     return b.p;
@@ -248,14 +248,14 @@ int sky_unpack(Sky *sky, const void *bytes, size_t size, const char *what, SptEr
     }
     int want_spd = sky->kind == SPT_SKY_SPD, want_map = sky->kind == SPT_SKY_MAP;
     sky->spd = sky->map = NULL;
-    sky->env_path = sky->background = NULL;
+    sky->env = sky->background = NULL;
     if (want_map && (sky->map_width < 1 || sky->map_height < 1 ||
                      (uint64_t)sky->map_width * (uint64_t)sky->map_height > ((uint64_t)1 << 28)))
         r.bad = 1;
     sky->spd = get_array(&r, want_spd ? SPT_CIE_SAMPLES * sizeof(float) : 0);
     if (!r.bad)
         sky->map = get_array(&r, want_map ? (size_t)sky->map_width * sky->map_height * 3 * sizeof(float) : 0);
-    sky->env_path = get_string(&r);
+    sky->env = get_string(&r);
     sky->background = get_string(&r);
     if (r.bad || r.at != r.len || (want_spd && !sky->spd) || (want_map && !sky->map)) {
         sky_free(sky);

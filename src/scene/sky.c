@@ -85,7 +85,7 @@ int sky_from_args(Sky *sky, const char *env_path, const char *background, SptErr
         sky_free(sky);
         return rc;
     }
-    sky->env_path = env_path ? spt_strdup(env_path) : NULL;
+    sky->env = env_path ? spt_strdup(env_path) : NULL;
     sky->background = background ? spt_strdup(background) : NULL;
     return SPT_EXIT_OK;
 }
@@ -94,7 +94,7 @@ void sky_free(Sky *sky)
 {
     free(sky->spd);
     free(sky->map);
-    free(sky->env_path);
+    free(sky->env);
     free(sky->background);
     memset(sky, 0, sizeof *sky);
 }

@@ -25,7 +25,7 @@ typedef struct Sky {
     int map_width, map_height;
     /* Where it came from, as given on the command line (NULL: not given): for
      * messages, and for the checkpoint key, which counts files by content. */
-    char *env_path;
+    char *env;
     char *background;
 } Sky;
 

@@ -1,0 +1,257 @@
+/* The command line of `spectrace render` (src/cli/render_args.h), generated from
+ * the option list of src/render/render_options.h. */
+#include "cli/render_args.h"
+
+#include <getopt.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "io/image_out.h"
+
+enum { KIND_LIST, KIND_INT, KIND_U32, KIND_DBL, KIND_FLT, KIND_STR, KIND_FLAG, KIND_TONEMAP,
+       KIND_HELP };
+
+/* One row of the list, with where its value goes in RenderArgs. */
+typedef struct OptRow {
+    int kind;
+    const char *option;
+    int short_name;
+    const char *metavar;
+    double lo, hi;
+    unsigned flags;
+    const char *expect;
+    const char *help;
+    size_t offset;
+} OptRow;
+
+#define FIELD_OFFSET(where, name) \
+    SPT_OPT_IF_RS_##where(offsetof(RenderArgs, rs.name)) SPT_OPT_IF_CLI_##where(offsetof(RenderArgs, name))
+static const OptRow rows[SPT_ARG_COUNT] = {
+#define ROW(where, kind, type, name, option, short_name, metavar, def, lo, hi, flags, expect, help) \
+    {KIND_##kind, option, short_name, metavar, lo, hi, flags, expect, help, FIELD_OFFSET(where, name)},
+    SPT_RENDER_OPTIONS(ROW)
+#undef ROW
+};
+
+static const char usage_head[] =
+    "usage: spectrace render SCENE [options]\n"
+    "\n"
+    "Renders a glTF 2.0 scene (.gltf or .glb) with spectral path tracing.\n"
+    "\n";
+
+static const char usage_tail[] =
+    "\n"
+    "Ctrl-C (SIGINT) or SIGTERM stops after the current pass and writes the image of\n"
+    "the samples done so far (and the checkpoint, with --checkpoint).\n";
+
+/* The help column starts at column 25; an option too long for its column is
+ * followed by two spaces. */
+#define HELP_COLUMN 25
+
+void render_args_usage(FILE *f)
+{
+    fputs(usage_head, f);
+    for (int i = 0; i < SPT_ARG_COUNT; i++) {
+        const OptRow *r = &rows[i];
+        char left[96];
+        if (r->short_name)
+            snprintf(left, sizeof left, "  -%c, --%s%s%s", r->short_name, r->option,
+                     r->metavar[0] ? " " : "", r->metavar);
+        else
+            snprintf(left, sizeof left, "      --%s%s%s", r->option, r->metavar[0] ? " " : "",
+                     r->metavar);
+        int len = (int)strlen(left);
+        fprintf(f, "%s%*s", left, len < HELP_COLUMN ? HELP_COLUMN - len : 2, "");
+        for (const char *h = r->help; *h;) {
+            const char *nl = strchr(h, '\n');
+            int n = nl ? (int)(nl - h) : (int)strlen(h);
+            fprintf(f, "%.*s\n", n, h);
+            if (!nl)
+                break;
+            h = nl + 1;
+            fprintf(f, "%*s", HELP_COLUMN, "");
+        }
+    }
+    fputs(usage_tail, f);
+}
+
+/* Parses a whole number in [lo, hi]; 0 on success. */
+static int parse_long(const char *s, long lo, long hi, long *out)
+{
+    char *end;
+    long v = strtol(s, &end, 10);
+    if (!*s || *end || v < lo || v > hi)
+        return -1;
+    *out = v;
+    return 0;
+}
+
+/* Parses a number (not NaN); 0 on success. */
+static int parse_double(const char *s, double *out)
+{
+    char *end;
+    double v = strtod(s, &end);
+    if (!*s || *end || !(v == v))
+        return -1;
+    *out = v;
+    return 0;
+}
+
+/* Stores optarg into row r's field of a; SPT_EXIT_USAGE (with the row's error)
+ * when it is not a valid value. */
+static int store(RenderArgs *a, const OptRow *r, const char *arg)
+{
+    void *field = (char *)a + r->offset;
+    int ok = 1;
+    switch (r->kind) {
+    case KIND_LIST: {
+        int *count = (int *)((char *)field + sizeof(const char *[SPT_MAX_OUTPUTS]));
+        if (*count == SPT_MAX_OUTPUTS) {
+            spt_error("render: too many outputs (at most %d)", SPT_MAX_OUTPUTS);
+            return SPT_EXIT_USAGE;
+        }
+        ((const char **)field)[(*count)++] = arg;
+        break;
+    }
+    case KIND_INT:
+    case KIND_U32: {
+        long v;
+        ok = !parse_long(arg, (long)r->lo, (long)r->hi, &v) &&
+             !((r->flags & SPT_OPT_NOT_ZERO) && v == 0);
+        if (ok && r->kind == KIND_INT)
+            *(int *)field = (int)v;
+        else if (ok)
+            *(uint32_t *)field = (uint32_t)v;
+        break;
+    }
+    case KIND_DBL:
+    case KIND_FLT: {
+        double v;
+        ok = !parse_double(arg, &v) && !((r->flags & SPT_OPT_FINITE) && !isfinite(v)) &&
+             !((r->flags & SPT_OPT_POSITIVE) && !(v > 0)) && !(v < r->lo || v > r->hi);
+        if (ok && r->kind == KIND_DBL)
+            *(double *)field = v;
+        else if (ok)
+            *(float *)field = (float)v;
+        break;
+    }
+    case KIND_STR:
+        *(const char **)field = arg;
+        break;
+    case KIND_FLAG:
+    case KIND_HELP:
+        *(int *)field = 1;
+        break;
+    case KIND_TONEMAP:
+        ok = !image_tonemap_parse(arg, (int *)field);
+        break;
+    }
+    if (!ok) {
+        spt_error("render: --%s '%s': %s", r->option, arg, r->expect);
+        return SPT_EXIT_USAGE;
+    }
+    return SPT_EXIT_OK;
+}
+
+/* Every option at its default. */
+static void set_defaults(RenderArgs *a)
+{
+    memset(a, 0, sizeof *a);
+#define DEF_LIST(f, def)
+#define DEF_STR(f, def)
+#define DEF_INT(f, def) f = (def);
+#define DEF_U32(f, def) f = (def);
+#define DEF_DBL(f, def) f = (def);
+#define DEF_FLT(f, def) f = (def);
+#define DEF_FLAG(f, def) f = (def);
+#define DEF_TONEMAP(f, def) f = (def);
+#define DEF_HELP(f, def) f = (def);
+#define DEFAULT(where, kind, type, name, option, short_name, metavar, def, ...) \
+    DEF_##kind(SPT_OPT_IF_RS_##where(a->rs.name) SPT_OPT_IF_CLI_##where(a->name), def)
+    SPT_RENDER_OPTIONS(DEFAULT)
+#undef DEFAULT
+}
+
+int render_args_parse(RenderArgs *a, int argc, char **argv)
+{
+    set_defaults(a);
+    struct option opts[SPT_ARG_COUNT + 1];
+    char shorts[2 * SPT_ARG_COUNT + 1];
+    int ns = 0;
+    for (int i = 0; i < SPT_ARG_COUNT; i++) {
+        int arg = rows[i].kind != KIND_FLAG && rows[i].kind != KIND_HELP;
+        opts[i].name = rows[i].option;
+        opts[i].has_arg = arg ? required_argument : no_argument;
+        opts[i].flag = NULL;
+        opts[i].val = rows[i].short_name ? rows[i].short_name : 256 + i;
+        if (rows[i].short_name) {
+            shorts[ns++] = (char)rows[i].short_name;
+            if (arg)
+                shorts[ns++] = ':';
+        }
+    }
+    memset(&opts[SPT_ARG_COUNT], 0, sizeof opts[SPT_ARG_COUNT]);
+    shorts[ns] = 0;
+    int c;
+    optind = 1;
+    while ((c = getopt_long(argc, argv, shorts, opts, NULL)) != -1) {
+        int row = -1;
+        if (c >= 256 && c < 256 + SPT_ARG_COUNT)
+            row = c - 256;
+        for (int i = 0; i < SPT_ARG_COUNT && row < 0; i++)
+            if (rows[i].short_name && rows[i].short_name == c)
+                row = i;
+        if (row < 0) {
+            render_args_usage(stderr);
+            return SPT_EXIT_USAGE;
+        }
+        int rc = store(a, &rows[row], optarg);
+        if (rc)
+            return rc;
+        a->given[row] = 1;
+        if (rows[row].kind == KIND_HELP) {
+            render_args_usage(stdout);
+            return SPT_EXIT_OK;
+        }
+    }
+    if (optind != argc - 1) {
+        spt_error("render: expected exactly one SCENE (try: spectrace render --help)");
+        return SPT_EXIT_USAGE;
+    }
+    a->scene = argv[optind];
+    if (a->given[SPT_ARG_time_limit] && !a->given[SPT_ARG_spp])
+        a->rs.spp = 1 << 24;
+    return SPT_EXIT_OK;
+}
+
+/* "I:X" of variable name: device I + 1 into *device, X into *value; both 0 when
+ * the variable is unset or malformed. */
+static void device_hook(const char *name, int *device, int *value)
+{
+    const char *v = getenv(name);
+    int d, x;
+    *device = *value = 0;
+    if (v && sscanf(v, "%d:%d", &d, &x) == 2 && d >= 0) {
+        *device = d + 1;
+        *value = x;
+    }
+}
+
+void render_args_test_hooks(RenderSettings *rs)
+{
+    device_hook("SPECTRACE_TEST_FAIL_DEVICE", &rs->test.fail_device, &rs->test.fail_after);
+    device_hook("SPECTRACE_TEST_SLOW_DEVICE", &rs->test.slow_device, &rs->test.slow_ms);
+    const char *nan = getenv("SPECTRACE_TEST_INJECT_NAN");
+    rs->test.inject_nan = nan && *nan && strcmp(nan, "0") != 0;
+    const char *poison = getenv("SPECTRACE_TEST_POISON");
+    rs->test.poison = poison && *poison;
+    rs->test.poison_word = rs->test.poison ? (uint32_t)strtoul(poison, NULL, 0) : 0;
+    const char *film_nan = getenv("SPECTRACE_TEST_FILM_NAN");
+    rs->test.film_nan = film_nan ? atol(film_nan) : 0;
+    const char *pool = getenv("SPECTRACE_POOL");
+    if (pool && atoi(pool) > 0)
+        rs->pool_size = (uint32_t)atoi(pool);
+}

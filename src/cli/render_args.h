@@ -1,0 +1,60 @@
+/* The command line of `spectrace render`: its options, parsed and checked from
+ * the list of src/render/render_options.h, and its usage text. */
+#ifndef SPT_RENDER_ARGS_H
+#define SPT_RENDER_ARGS_H
+
+#include <stdio.h>
+
+#include "render/render.h"
+#include "render/render_options.h"
+
+#define SPT_MAX_OUTPUTS 16
+
+/* The fields of the CLI rows (a LIST row is an array and its count). */
+#define SPT_ARGS_FIELD_LIST(type, name) type name[SPT_MAX_OUTPUTS]; int name##_count;
+#define SPT_ARGS_FIELD_INT(type, name) type name;
+#define SPT_ARGS_FIELD_U32(type, name) type name;
+#define SPT_ARGS_FIELD_DBL(type, name) type name;
+#define SPT_ARGS_FIELD_FLT(type, name) type name;
+#define SPT_ARGS_FIELD_STR(type, name) type name;
+#define SPT_ARGS_FIELD_FLAG(type, name) type name;
+#define SPT_ARGS_FIELD_TONEMAP(type, name) type name;
+#define SPT_ARGS_FIELD_HELP(type, name) type name;
+#define SPT_ARGS_CLI_FIELD(where, kind, type, name, ...) \
+    SPT_OPT_IF_CLI_##where(SPT_ARGS_FIELD_##kind(type, name))
+
+/* One option of the list, by its position. */
+enum {
+#define SPT_ARGS_ID(where, kind, type, name, ...) SPT_ARG_##name,
+    SPT_RENDER_OPTIONS(SPT_ARGS_ID)
+#undef SPT_ARGS_ID
+    SPT_ARG_COUNT
+};
+
+typedef struct RenderArgs {
+    RenderSettings rs;              /* the RS rows (the rest of rs zero) */
+    SPT_RENDER_OPTIONS(SPT_ARGS_CLI_FIELD)
+    const char *scene;              /* SCENE */
+    unsigned char given[SPT_ARG_COUNT]; /* per option: given on the command line */
+} RenderArgs;
+
+/* Parses argv (argv[0] is "render") into a: every option at its default, then
+ * what the command line gives. A bad value, an unknown option or not exactly
+ * one SCENE prints one error (or getopt's and the usage text) and returns
+ * SPT_EXIT_USAGE; --help prints the usage text to stdout, sets a->help and
+ * returns SPT_EXIT_OK. --time without --spp sets spp to its largest value. */
+int render_args_parse(RenderArgs *a, int argc, char **argv);
+
+/* The usage text of `spectrace render`. */
+void render_args_usage(FILE *f);
+
+/* The test hooks of the environment into rs.test (RenderTestHooks):
+ * SPECTRACE_TEST_FAIL_DEVICE = "I:N" (the I-th device fails as it starts its
+ * (N+1)-th chunk), SPECTRACE_TEST_SLOW_DEVICE = "I:MS" (the I-th device waits
+ * MS ms before each chunk), SPECTRACE_TEST_INJECT_NAN = 1 (pixel 0's radiance is
+ * NaN), SPECTRACE_TEST_POISON = WORD (buffers start filled with WORD),
+ * SPECTRACE_TEST_FILM_NAN = N (the first N film pixels become NaN); and the path
+ * pool size SPECTRACE_POOL into rs.pool_size. Only tests and benchmarks set them. */
+void render_args_test_hooks(RenderSettings *rs);
+
+#endif
