@@ -49,7 +49,7 @@ MPI_PROG := $(BUILD)/spectrace-mpi
 MPI_LIBS = $(shell $(MPICC) --showme:link 2>/dev/null)
 TOOL_BINS := $(patsubst tools/%.c,$(BUILD)/tools/%,$(wildcard tools/*.c))
 
-.PHONY: all deps render test test-san tests bench mpi check-kernels clean
+.PHONY: all deps render test test-san check tests bench mpi check-kernels clean
 all: $(PROG) $(TEST_BINS)
 
 # The "mpi" group too: the tests run build/spectrace-mpi under mpirun. Then the
@@ -71,6 +71,14 @@ render: deps
 test: deps
 	@$(MAKE) --no-print-directory tests
 	@tests/run_tests.sh $(BUILD)
+
+# A quick subset for the edit-compile-test loop (under a minute once built):
+# the unit tests of the host code, the options, the loader and the kernels'
+# headers on the device, without the long renders.
+CHECK_TESTS := test_util test_options test_spectrum test_sampling test_rng test_gltf \
+               test_gltf_wild test_image_out test_cl test_bsdf test_lights test_multidevice
+check: $(PROG) $(CHECK_TESTS:%=$(BUILD)/tests/%)
+	@tests/run_tests.sh $(BUILD) $(CHECK_TESTS)
 
 # The same tests built with AddressSanitizer and UndefinedBehaviorSanitizer, on
 # PoCL only: the sanitizers check our host code, the same whichever

@@ -316,4 +316,12 @@ static int chi2_grid_run(const Chi2Grid *g, Chi2Result *r)
     return r->passed;
 }
 
+/* Fails with the chi-square report unless r passed; prints it either way. */
+static inline void require_pass(const Chi2Result *r)
+{
+    if (!r->passed)
+        fail_msg("%s", r->message);
+    print_message("  %s\n", r->message);
+}
+
 #endif

@@ -15,24 +15,6 @@
 #define BSDF_CHI2_TESTS 15
 #define BSDF_CHI2_SAMPLES 200000u
 
-/* SplitMix64 (Steele, Lea and Flood 2014) of i as a float in [0, 1). */
-static float test_uniform(uint64_t i)
-{
-    uint64_t z = i * 0x9e3779b97f4a7c15ull + 0x632be59bd9b4e019ull;
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    z ^= z >> 31;
-    return (float)(z >> 40) * (1.0f / 16777216.0f);
-}
-
-/* Fails with the chi-square report unless r passed; prints it either way. */
-static void require_pass(const Chi2Result *r)
-{
-    if (!r->passed)
-        fail_msg("%s", r->message);
-    print_message("  %s\n", r->message);
-}
-
 /* A direction at polar angle theta (degrees) in the xz plane, z up. */
 static vec3 dir_deg(double theta)
 {
@@ -718,14 +700,7 @@ static void test_device_matches_host(void **state)
     cl_command_queue cq;
     test_cl_open_first(&dev, &ctx, &cq);
     cl_int err;
-    cl_program prog = clCreateProgramWithSource(ctx, 1, &k_device_src, NULL, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    err = clBuildProgram(prog, 1, &dev, "-I kernels -cl-std=CL1.2", NULL, NULL);
-    if (err != CL_SUCCESS) {
-        char log[8192] = "";
-        clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, NULL);
-        fail_msg("kernels/device/bsdf.h does not build as OpenCL C: %s", log);
-    }
+    cl_program prog = test_cl_build(ctx, dev, k_device_src, NULL, "kernels/device/bsdf.h");
     enum { N = 512 };
     static float in[10 * N], out[10 * N];
     for (int i = 0; i < N; i++) {

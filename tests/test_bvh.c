@@ -548,14 +548,7 @@ static int device_differences(cl_context ctx, cl_device_id dev, cl_command_queue
                               int *hits)
 {
     cl_int err;
-    cl_program prog = clCreateProgramWithSource(ctx, 1, &k_device_src, NULL, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    err = clBuildProgram(prog, 1, &dev, options, NULL, NULL);
-    if (err != CL_SUCCESS) {
-        char log[8192] = "";
-        clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, NULL);
-        fail_msg("kernels/shared/bvh.h does not build as OpenCL C (%s): %s", options, log);
-    }
+    cl_program prog = test_cl_build(ctx, dev, k_device_src, options, "kernels/shared/bvh.h");
     float *out = malloc((size_t)nr * 4 * sizeof *out);
     cl_mem bn = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
                                bvh->node_count * sizeof(BvhNode), bvh->nodes, &err);
@@ -598,7 +591,7 @@ static int device_differences(cl_context ctx, cl_device_id dev, cl_command_queue
             if (differ++ < 5)
                 print_message("%s: ray %d: device t=%.9g prim=%g occ=%g, host t=%.9g prim=%d "
                               "occ=%d\n",
-                              options, i, out[i * 4], out[i * 4 + 1], out[i * 4 + 2],
+                              options ? options : "-", i, out[i * 4], out[i * 4 + 1], out[i * 4 + 2],
                               hit ? h.t : -1.0f, hit ? (int)h.prim : -1, occ);
         }
     }
@@ -646,9 +639,9 @@ static void test_device_matches_host(void **state)
         if (m == 0)
             assert_true(bvh.stats.max_leaf_size > 8);
         const char *options[3] = {
-            "-I kernels -cl-std=CL1.2",
-            "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=1 -DSPT_BVH_NO_AVX512=1",
-            "-I kernels -cl-std=CL1.2 -DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 -DSPT_BVH_STEP_PREFETCH=1"};
+            NULL,
+            "-DSPT_BVH_SIMD=1 -DSPT_BVH_NO_AVX512=1",
+            "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 -DSPT_BVH_STEP_PREFETCH=1"};
         for (int o = 0; o < 3; o++) {
             int hits;
             assert_int_equal(device_differences(ctx, dev, q, options[o], &bvh, rays, nr, &hits), 0);

@@ -16,16 +16,6 @@
 /* Chi-square tests in this binary, for the Sidak correction. */
 #define LIGHTS_CHI2_TESTS 2
 
-/* SplitMix64 of i as a float in [0, 1) (top 24 bits). */
-static float test_uniform(uint64_t i)
-{
-    uint64_t z = i * 0x9e3779b97f4a7c15ull + 0x632be59bd9b4e019ull;
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    z ^= z >> 31;
-    return (float)(z >> 40) * (1.0f / 16777216.0f);
-}
-
 /* Four wavelengths spread over the visible range. */
 static const float k_lambda[4] = {412.5f, 503.0f, 587.25f, 701.0f};
 
@@ -298,14 +288,6 @@ static double env_pdf_uv_cb(void *ctx, const double p[3])
     vec3 d = v3((float)(cos(c->rot) * mx + sin(c->rot) * mz), (float)my,
                 (float)(-sin(c->rot) * mx + cos(c->rot) * mz));
     return env_pdf(&c->env->env, c->env->data, d) * 2.0 * M_PI * M_PI * sin(th);
-}
-
-/* Fails with the chi-square report unless r passed; prints it either way. */
-static void require_pass(const Chi2Result *r)
-{
-    if (!r->passed)
-        fail_msg("%s", r->message);
-    print_message("  %s\n", r->message);
 }
 
 /* env_sample against env_pdf: chi-square over the map's (u, v) square (cells of
@@ -665,14 +647,7 @@ static void test_device_matches_host(void **state)
     cl_command_queue cq;
     test_cl_open_first(&dev, &ctx, &cq);
     cl_int err;
-    cl_program prog = clCreateProgramWithSource(ctx, 1, &k_device_src, NULL, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    err = clBuildProgram(prog, 1, &dev, "-I kernels -cl-std=CL1.2", NULL, NULL);
-    if (err != CL_SUCCESS) {
-        char log[8192] = "";
-        clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, NULL);
-        fail_msg("kernels/shared/lights.h does not build as OpenCL C: %s", log);
-    }
+    cl_program prog = test_cl_build(ctx, dev, k_device_src, NULL, "kernels/shared/lights.h");
     float spectra[2 * SPT_CIE_SAMPLES];
     GpuLight gl[2];
     SptError e;

@@ -5,6 +5,7 @@
  * (radiance 1), and a point light over a Lambertian plane (E = I cos / r^2).
  * Scenes and numbers: tests/data/scenes/README.md, "Material scenes". */
 #include "test_util.h"
+#include "test_render_util.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -15,29 +16,6 @@
 #include "render/render.h"
 #include "scene/scene.h"
 #include "shared/cie_data.h"
-
-static ClDeviceList devices;
-static const ClDeviceInfo *device;
-
-static int setup(void **state)
-{
-    (void)state;
-    SptError e = {0};
-    int sel[64], n = 0;
-    if (cl_device_list(&devices, &e) || cl_device_select(&devices, "cpu", sel, &n, &e)) {
-        fprintf(stderr, "no OpenCL CPU device: %s\n", e.msg);
-        return -1;
-    }
-    device = &devices.devices[sel[0]];
-    return 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    cl_device_list_free(&devices);
-    return 0;
-}
 
 /* Renders scene s (already loaded or built) at w x h into film (initialised
  * here). background: as --background, NULL = the default. Returns the exit code. */
@@ -545,5 +523,5 @@ int main(void)
         cmocka_unit_test(test_furnace_roughglass_vs_mitsuba),
         cmocka_unit_test(test_point_light_irradiance),
     };
-    return cmocka_run_group_tests_name("materials", tests, setup, teardown);
+    return cmocka_run_group_tests_name("materials", tests, setup_cpu_device, teardown_cpu_device);
 }

@@ -2,6 +2,7 @@
  * the white furnace, a Lambertian plane under a square emitter, determinism, the
  * NaN guard, and the Cornell box against Mitsuba 3's image means. */
 #include "test_util.h"
+#include "test_render_util.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -18,29 +19,6 @@
 #include "color/spd.h"
 #include "shared/cie_data.h"
 #define SPT_CIE_Y_INTEGRAL_HOST ((double)SPT_CIE_Y_INTEGRAL)
-
-static ClDeviceList devices;
-static const ClDeviceInfo *device;
-
-static int setup(void **state)
-{
-    (void)state;
-    SptError e = {0};
-    int sel[64], n = 0;
-    if (cl_device_list(&devices, &e) || cl_device_select(&devices, "cpu", sel, &n, &e)) {
-        fprintf(stderr, "no OpenCL CPU device: %s\n", e.msg);
-        return -1;
-    }
-    device = &devices.devices[sel[0]];
-    return 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    cl_device_list_free(&devices);
-    return 0;
-}
 
 /* The test hooks of render_file's renders. */
 static RenderTestHooks g_hooks;
@@ -1116,5 +1094,5 @@ int main(void)
         cmocka_unit_test(test_named_light_spectra),
         cmocka_unit_test(test_orthographic),
     };
-    return cmocka_run_group_tests_name("render", tests, setup, teardown);
+    return cmocka_run_group_tests_name("render", tests, setup_cpu_device, teardown_cpu_device);
 }

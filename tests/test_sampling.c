@@ -14,31 +14,12 @@
 /* Chi-square tests expected to pass in this binary, for the Sidak correction. */
 #define SAMPLING_CHI2_TESTS 8
 
-/* SplitMix64 (Steele, Lea and Flood 2014) of i, as a float in [0, 1) from its top
- * 24 bits. */
-static float test_uniform(uint64_t i)
-{
-    uint64_t z = i * 0x9e3779b97f4a7c15ull + 0x632be59bd9b4e019ull;
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    z ^= z >> 31;
-    return (float)(z >> 40) * (1.0f / 16777216.0f);
-}
-
 /* The two uniforms of sample i of a test with this stream number. */
 static void test_uniform2(uint32_t stream, uint32_t i, float *u1, float *u2)
 {
     uint64_t base = ((uint64_t)stream << 40) + 2u * (uint64_t)i;
     *u1 = test_uniform(base);
     *u2 = test_uniform(base + 1u);
-}
-
-/* Fails with the chi-square report unless r passed; prints it either way. */
-static void require_pass(const Chi2Result *r)
-{
-    if (!r->passed)
-        fail_msg("%s", r->message);
-    print_message("  %s\n", r->message);
 }
 
 /* ---- The chi-square helper ---------------------------------------------------- */

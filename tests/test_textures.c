@@ -11,6 +11,7 @@
  * are the texels' sRGB values decoded with the sRGB transfer function, written
  * here independently of the loader. */
 #include "test_util.h"
+#include "test_render_util.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -21,29 +22,6 @@
 #include "render/film.h"
 #include "render/render.h"
 #include "scene/scene.h"
-
-static ClDeviceList devices;
-static const ClDeviceInfo *device;
-
-static int setup(void **state)
-{
-    (void)state;
-    SptError e = {0};
-    int sel[64], n = 0;
-    if (cl_device_list(&devices, &e) || cl_device_select(&devices, "cpu", sel, &n, &e)) {
-        fprintf(stderr, "no OpenCL CPU device: %s\n", e.msg);
-        return -1;
-    }
-    device = &devices.devices[sel[0]];
-    return 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    cl_device_list_free(&devices);
-    return 0;
-}
 
 /* An image rendered from a scene: linear sRGB, 3 floats per pixel, rows top to
  * bottom. */
@@ -672,5 +650,5 @@ int main(void)
         cmocka_unit_test(test_info_slots_and_texcoord_warning),
         cmocka_unit_test(test_sky_lit_scene_not_called_black),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, setup_cpu_device, teardown_cpu_device);
 }

@@ -53,6 +53,17 @@ static inline int test_quick(void)
         }                                                                            \
     } while (0)
 
+/* SplitMix64 (Steele, Lea and Flood 2014) of i as a float in [0, 1) (its top 24
+ * bits): a reproducible stream of uniform numbers for sampling tests. */
+static inline float test_uniform(uint64_t i)
+{
+    uint64_t z = i * 0x9e3779b97f4a7c15ull + 0x632be59bd9b4e019ull;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    z ^= z >> 31;
+    return (float)(z >> 40) * (1.0f / 16777216.0f);
+}
+
 /* The source tree's root, for test data: tests run from it (tests/run_tests.sh). */
 #define SPT_TEST_DATA(rel) ("tests/data/" rel)
 
