@@ -199,6 +199,13 @@ struct Loader {
     int node_local(int n, Mat4 *out);
     int traverse();
     int material(int index);
+    int material_core(const tinygltf::Material &mat, SceneMaterial *sm, const std::string &obj);
+    int material_extensions(const tinygltf::Material &mat, SceneMaterial *sm, const std::string &obj);
+    int material_ext_scalars(const tinygltf::Material &mat, SceneMaterial *sm, const std::string &eo);
+    int material_ext_volume(const Value *x, SceneMaterial *sm, const std::string &vo);
+    int material_ext_specular(const Value *x, SceneMaterial *sm, const std::string &so);
+    int material_ext_clearcoat(const Value *x, SceneMaterial *sm, const std::string &co);
+    int material_ext_sheen(const Value *x, SceneMaterial *sm, const std::string &sho);
     int texture_ref(int tex, int texcoord, bool srgb, const std::string &obj, SceneTexRef *out,
                     const tinygltf::ExtensionMap *ext, bool load = true);
     int ext_texture(const Value &x, const char *key, bool srgb, const std::string &obj,

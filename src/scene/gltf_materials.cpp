@@ -372,6 +372,218 @@ int Loader::spec_gloss(const Value &x, SceneMaterial *sm, const std::string &obj
 
 // Converts materials[index] (index -1: the glTF default material) and returns its
 // position in mats, or a negative exit code.
+// The core of a material: pbrMetallicRoughness's factors and textures, the
+// normal, occlusion and emissive textures, the emissive factor and the alpha mode.
+int Loader::material_core(const tinygltf::Material &mat, SceneMaterial *sm, const std::string &obj)
+{
+    const char *o = obj.c_str();
+    const auto &pbr = mat.pbrMetallicRoughness;
+    if (pbr.baseColorFactor.size() != 4)
+        return bad("%s.pbrMetallicRoughness.baseColorFactor: expected 4 numbers", o);
+    for (int k = 0; k < 4; k++) sm->base_color[k] = (float)fmin(fmax(pbr.baseColorFactor[k], 0), 1);
+    sm->metallic = (float)fmin(fmax(pbr.metallicFactor, 0), 1);
+    sm->roughness = (float)fmin(fmax(pbr.roughnessFactor, 0), 1);
+    int rc;
+    if ((rc = texture_ref(pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord, true,
+                          obj + ".pbrMetallicRoughness.baseColorTexture", &sm->tex[SPT_SLOT_BASE],
+                          &pbr.baseColorTexture.extensions)) ||
+        (rc = texture_ref(pbr.metallicRoughnessTexture.index,
+                          pbr.metallicRoughnessTexture.texCoord, false,
+                          obj + ".pbrMetallicRoughness.metallicRoughnessTexture",
+                          &sm->tex[SPT_SLOT_METALLIC_ROUGHNESS], &pbr.metallicRoughnessTexture.extensions)) ||
+        (rc = texture_ref(mat.emissiveTexture.index, mat.emissiveTexture.texCoord, true,
+                          obj + ".emissiveTexture", &sm->tex[SPT_SLOT_EMISSIVE],
+                          &mat.emissiveTexture.extensions)) ||
+        (rc = texture_ref(mat.normalTexture.index, mat.normalTexture.texCoord, false,
+                          obj + ".normalTexture", &sm->tex[SPT_SLOT_NORMAL], &mat.normalTexture.extensions)) ||
+        (rc = texture_ref(mat.occlusionTexture.index, mat.occlusionTexture.texCoord, false,
+                          obj + ".occlusionTexture", &sm->tex[SPT_SLOT_OCCLUSION],
+                          &mat.occlusionTexture.extensions, false)))
+        return rc;
+    sm->normal_scale = (float)mat.normalTexture.scale;
+    if (!mat.emissiveFactor.empty()) {
+        if (mat.emissiveFactor.size() != 3) return bad("%s.emissiveFactor: expected 3 numbers", o);
+        for (int k = 0; k < 3; k++) sm->emissive[k] = (float)fmin(fmax(mat.emissiveFactor[k], 0), 1);
+    }
+    if (mat.alphaMode == "OPAQUE")
+        sm->alpha_mode = SPT_ALPHA_OPAQUE;
+    else if (mat.alphaMode == "MASK")
+        sm->alpha_mode = SPT_ALPHA_MASK;
+    else if (mat.alphaMode == "BLEND")
+        sm->alpha_mode = SPT_ALPHA_BLEND;
+    else
+        return bad("%s.alphaMode: '%s' is not OPAQUE, MASK or BLEND", o, mat.alphaMode.c_str());
+    if (!(mat.alphaCutoff >= 0)) return bad("%s.alphaCutoff: %g is negative", o, mat.alphaCutoff);
+    sm->alpha_cutoff = (float)mat.alphaCutoff;
+    sm->double_sided = mat.doubleSided ? 1 : 0;
+    return 0;
+}
+
+// KHR_materials_emissive_strength, _ior, _transmission and _dispersion: a
+// number each (and the transmission texture). eo: "materials[i].extensions.".
+int Loader::material_ext_scalars(const tinygltf::Material &mat, SceneMaterial *sm, const std::string &eo)
+{
+    auto ext = [&](const char *name) -> const Value * {
+        auto it = mat.extensions.find(name);
+        return it == mat.extensions.end() ? nullptr : &it->second;
+    };
+    double d;
+    int rc;
+    if (const Value *x = ext("KHR_materials_emissive_strength")) {
+        d = 1;
+        if ((rc = ext_number(this, *x, "emissiveStrength", &d, eo + "KHR_materials_emissive_strength")))
+            return rc;
+        if (d < 0) return bad("%sKHR_materials_emissive_strength: negative strength", eo.c_str());
+        sm->emissive_strength = (float)d;
+    }
+    if (const Value *x = ext("KHR_materials_ior")) {
+        d = 1.5;
+        if ((rc = ext_number(this, *x, "ior", &d, eo + "KHR_materials_ior"))) return rc;
+        if (d < 1 && d != 0) return bad("%sKHR_materials_ior.ior: %g is below 1", eo.c_str(), d);
+        sm->ior = (float)d;
+    }
+    if (const Value *x = ext("KHR_materials_transmission")) {
+        d = 0;
+        if ((rc = ext_number(this, *x, "transmissionFactor", &d, eo + "KHR_materials_transmission")))
+            return rc;
+        sm->transmission = (float)fmin(fmax(d, 0), 1);
+        if ((rc = ext_texture(*x, "transmissionTexture", false, eo + "KHR_materials_transmission",
+                              &sm->tex[SPT_SLOT_TRANSMISSION])))
+            return rc;
+    }
+    if (const Value *x = ext("KHR_materials_dispersion")) {
+        d = 0;
+        if ((rc = ext_number(this, *x, "dispersion", &d, eo + "KHR_materials_dispersion")))
+            return rc;
+        if (d < 0) return bad("%sKHR_materials_dispersion.dispersion: negative", eo.c_str());
+        sm->dispersion = (float)d;
+    }
+    return 0;
+}
+
+// KHR_materials_volume: thickness, attenuation distance and colour.
+int Loader::material_ext_volume(const Value *x, SceneMaterial *sm, const std::string &vo)
+{
+    double d = 0;
+    int rc;
+    if ((rc = ext_number(this, *x, "thicknessFactor", &d, vo))) return rc;
+    if (d < 0) return bad("%s.thicknessFactor: negative", vo.c_str());
+    sm->thickness = (float)d;
+    d = 0;
+    if ((rc = ext_number(this, *x, "attenuationDistance", &d, vo))) return rc;
+    if (x->Has("attenuationDistance") && !(d > 0))
+        return bad("%s.attenuationDistance: must be > 0", vo.c_str());
+    sm->attenuation_distance = (float)d;
+    if (x->Has("attenuationColor")) {
+        const Value &c = x->Get("attenuationColor");
+        if (!c.IsArray() || c.ArrayLen() != 3)
+            return bad("%s.attenuationColor: expected 3 numbers", vo.c_str());
+        for (int k = 0; k < 3; k++) {
+            if (!c.Get(k).IsNumber()) return bad("%s.attenuationColor: not a number", vo.c_str());
+            sm->attenuation_color[k] = (float)fmin(fmax(c.Get(k).GetNumberAsDouble(), 0), 1);
+        }
+    }
+    return 0;
+}
+
+// KHR_materials_specular: the factor, the colour factor and their textures.
+int Loader::material_ext_specular(const Value *x, SceneMaterial *sm, const std::string &so)
+{
+    double d = 1;
+    int rc;
+    if ((rc = ext_number(this, *x, "specularFactor", &d, so))) return rc;
+    if (!(d >= 0)) return bad("%s.specularFactor: negative", so.c_str());
+    sm->specular = (float)fmin(d, 1);
+    if (x->Has("specularColorFactor")) {
+        const Value &c = x->Get("specularColorFactor");
+        if (!c.IsArray() || c.ArrayLen() != 3)
+            return bad("%s.specularColorFactor: expected 3 numbers", so.c_str());
+        for (int k = 0; k < 3; k++) {
+            if (!c.Get(k).IsNumber()) return bad("%s.specularColorFactor: not a number", so.c_str());
+            double v = c.Get(k).GetNumberAsDouble();
+            if (!(v >= 0) || !std::isfinite(v))
+                return bad("%s.specularColorFactor: must be finite and >= 0", so.c_str());
+            sm->specular_color[k] = (float)v;
+        }
+    }
+    if ((rc = ext_texture(*x, "specularTexture", false, so, &sm->tex[SPT_SLOT_SPECULAR])) ||
+        (rc = ext_texture(*x, "specularColorTexture", true, so, &sm->tex[SPT_SLOT_SPECULAR_COLOR])))
+        return rc;
+    return 0;
+}
+
+// KHR_materials_clearcoat: the coat's factor and roughness, their textures and
+// its own normal texture.
+int Loader::material_ext_clearcoat(const Value *x, SceneMaterial *sm, const std::string &co)
+{
+    double cc = 0, cr = 0;
+    int rc;
+    if ((rc = ext_number(this, *x, "clearcoatFactor", &cc, co)) ||
+        (rc = ext_number(this, *x, "clearcoatRoughnessFactor", &cr, co)))
+        return rc;
+    sm->clearcoat = (float)fmin(fmax(cc, 0), 1);
+    sm->clearcoat_roughness = (float)fmin(fmax(cr, 0), 1);
+    if ((rc = ext_texture(*x, "clearcoatTexture", false, co, &sm->tex[SPT_SLOT_CLEARCOAT])) ||
+        (rc = ext_texture(*x, "clearcoatRoughnessTexture", false, co,
+                          &sm->tex[SPT_SLOT_CLEARCOAT_ROUGHNESS])) ||
+        (rc = ext_texture(*x, "clearcoatNormalTexture", false, co, &sm->tex[SPT_SLOT_CLEARCOAT_NORMAL],
+                          &sm->clearcoat_normal_scale)))
+        return rc;
+    return 0;
+}
+
+// KHR_materials_sheen: the sheen colour and roughness and their textures.
+int Loader::material_ext_sheen(const Value *x, SceneMaterial *sm, const std::string &sho)
+{
+    int rc;
+    if (x->Has("sheenColorFactor")) {
+        const Value &c = x->Get("sheenColorFactor");
+        if (!c.IsArray() || c.ArrayLen() != 3)
+            return bad("%s.sheenColorFactor: expected 3 numbers", sho.c_str());
+        for (int k = 0; k < 3; k++) {
+            if (!c.Get(k).IsNumber() || !std::isfinite(c.Get(k).GetNumberAsDouble()))
+                return bad("%s.sheenColorFactor: not a number", sho.c_str());
+            sm->sheen_color[k] = (float)fmin(fmax(c.Get(k).GetNumberAsDouble(), 0), 1);
+        }
+    }
+    double sr = 0;
+    if ((rc = ext_number(this, *x, "sheenRoughnessFactor", &sr, sho))) return rc;
+    sm->sheen_roughness = (float)fmin(fmax(sr, 0), 1);
+    if ((rc = ext_texture(*x, "sheenColorTexture", true, sho, &sm->tex[SPT_SLOT_SHEEN_COLOR])) ||
+        (rc = ext_texture(*x, "sheenRoughnessTexture", false, sho, &sm->tex[SPT_SLOT_SHEEN_ROUGHNESS])))
+        return rc;
+    return 0;
+}
+
+// Every extension of a material, in this order: the scalar ones, volume,
+// specular, clearcoat, sheen, unlit, spec-gloss; the ones we ignore are noted.
+int Loader::material_extensions(const tinygltf::Material &mat, SceneMaterial *sm, const std::string &obj)
+{
+    auto ext = [&](const char *name) -> const Value * {
+        auto it = mat.extensions.find(name);
+        return it == mat.extensions.end() ? nullptr : &it->second;
+    };
+    std::string eo = obj + ".extensions.";
+    int rc;
+    if ((rc = material_ext_scalars(mat, sm, eo))) return rc;
+    if (const Value *x = ext("KHR_materials_volume"))
+        if ((rc = material_ext_volume(x, sm, eo + "KHR_materials_volume"))) return rc;
+    if (const Value *x = ext("KHR_materials_specular"))
+        if ((rc = material_ext_specular(x, sm, eo + "KHR_materials_specular"))) return rc;
+    if (const Value *x = ext("KHR_materials_clearcoat"))
+        if ((rc = material_ext_clearcoat(x, sm, eo + "KHR_materials_clearcoat"))) return rc;
+    if (const Value *x = ext("KHR_materials_sheen"))
+        if ((rc = material_ext_sheen(x, sm, eo + "KHR_materials_sheen"))) return rc;
+    if (ext("KHR_materials_unlit")) sm->unlit = 1;
+    if (const Value *x = ext("KHR_materials_pbrSpecularGlossiness"))
+        if ((rc = spec_gloss(*x, sm, eo + "KHR_materials_pbrSpecularGlossiness"))) return rc;
+    for (const char *ig : k_ignored_material_ext)
+        if (ext(ig)) ignored_ext[ig].push_back(sm->name);
+    return 0;
+}
+
+// Material index: its core, its extensions and its spectral extras, in that
+// order; appended to mats. Returns its index, or minus an exit code.
 int Loader::material(int index)
 {
     SceneMaterial sm;
@@ -382,164 +594,9 @@ int Loader::material(int index)
     snprintf(sm.name, sizeof sm.name, "%s",
              mat.name.empty() ? ("materials[" + std::to_string(index) + "]").c_str()
                               : mat.name.c_str());
-    const char *o = obj.c_str();
-    const auto &pbr = mat.pbrMetallicRoughness;
-    if (pbr.baseColorFactor.size() != 4)
-        return -bad("%s.pbrMetallicRoughness.baseColorFactor: expected 4 numbers", o);
-    for (int k = 0; k < 4; k++) sm.base_color[k] = (float)fmin(fmax(pbr.baseColorFactor[k], 0), 1);
-    sm.metallic = (float)fmin(fmax(pbr.metallicFactor, 0), 1);
-    sm.roughness = (float)fmin(fmax(pbr.roughnessFactor, 0), 1);
     int rc;
-    if ((rc = texture_ref(pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord, true,
-                          obj + ".pbrMetallicRoughness.baseColorTexture", &sm.tex[SPT_SLOT_BASE],
-                          &pbr.baseColorTexture.extensions)) ||
-        (rc = texture_ref(pbr.metallicRoughnessTexture.index,
-                          pbr.metallicRoughnessTexture.texCoord, false,
-                          obj + ".pbrMetallicRoughness.metallicRoughnessTexture",
-                          &sm.tex[SPT_SLOT_METALLIC_ROUGHNESS], &pbr.metallicRoughnessTexture.extensions)) ||
-        (rc = texture_ref(mat.emissiveTexture.index, mat.emissiveTexture.texCoord, true,
-                          obj + ".emissiveTexture", &sm.tex[SPT_SLOT_EMISSIVE],
-                          &mat.emissiveTexture.extensions)) ||
-        (rc = texture_ref(mat.normalTexture.index, mat.normalTexture.texCoord, false,
-                          obj + ".normalTexture", &sm.tex[SPT_SLOT_NORMAL], &mat.normalTexture.extensions)) ||
-        (rc = texture_ref(mat.occlusionTexture.index, mat.occlusionTexture.texCoord, false,
-                          obj + ".occlusionTexture", &sm.tex[SPT_SLOT_OCCLUSION],
-                          &mat.occlusionTexture.extensions, false)))
+    if ((rc = material_core(mat, &sm, obj)) || (rc = material_extensions(mat, &sm, obj)))
         return -rc;
-    sm.normal_scale = (float)mat.normalTexture.scale;
-    if (!mat.emissiveFactor.empty()) {
-        if (mat.emissiveFactor.size() != 3) return -bad("%s.emissiveFactor: expected 3 numbers", o);
-        for (int k = 0; k < 3; k++) sm.emissive[k] = (float)fmin(fmax(mat.emissiveFactor[k], 0), 1);
-    }
-    if (mat.alphaMode == "OPAQUE")
-        sm.alpha_mode = SPT_ALPHA_OPAQUE;
-    else if (mat.alphaMode == "MASK")
-        sm.alpha_mode = SPT_ALPHA_MASK;
-    else if (mat.alphaMode == "BLEND")
-        sm.alpha_mode = SPT_ALPHA_BLEND;
-    else
-        return -bad("%s.alphaMode: '%s' is not OPAQUE, MASK or BLEND", o, mat.alphaMode.c_str());
-    if (!(mat.alphaCutoff >= 0)) return -bad("%s.alphaCutoff: %g is negative", o, mat.alphaCutoff);
-    sm.alpha_cutoff = (float)mat.alphaCutoff;
-    sm.double_sided = mat.doubleSided ? 1 : 0;
-
-    auto ext = [&](const char *name) -> const Value * {
-        auto it = mat.extensions.find(name);
-        return it == mat.extensions.end() ? nullptr : &it->second;
-    };
-    std::string eo = obj + ".extensions.";
-    double d;
-    if (const Value *x = ext("KHR_materials_emissive_strength")) {
-        d = 1;
-        if ((rc = ext_number(this, *x, "emissiveStrength", &d, eo + "KHR_materials_emissive_strength")))
-            return -rc;
-        if (d < 0) return -bad("%sKHR_materials_emissive_strength: negative strength", eo.c_str());
-        sm.emissive_strength = (float)d;
-    }
-    if (const Value *x = ext("KHR_materials_ior")) {
-        d = 1.5;
-        if ((rc = ext_number(this, *x, "ior", &d, eo + "KHR_materials_ior"))) return -rc;
-        if (d < 1 && d != 0) return -bad("%sKHR_materials_ior.ior: %g is below 1", eo.c_str(), d);
-        sm.ior = (float)d;
-    }
-    if (const Value *x = ext("KHR_materials_transmission")) {
-        d = 0;
-        if ((rc = ext_number(this, *x, "transmissionFactor", &d, eo + "KHR_materials_transmission")))
-            return -rc;
-        sm.transmission = (float)fmin(fmax(d, 0), 1);
-        if ((rc = ext_texture(*x, "transmissionTexture", false, eo + "KHR_materials_transmission",
-                              &sm.tex[SPT_SLOT_TRANSMISSION])))
-            return -rc;
-    }
-    if (const Value *x = ext("KHR_materials_dispersion")) {
-        d = 0;
-        if ((rc = ext_number(this, *x, "dispersion", &d, eo + "KHR_materials_dispersion")))
-            return -rc;
-        if (d < 0) return -bad("%sKHR_materials_dispersion.dispersion: negative", eo.c_str());
-        sm.dispersion = (float)d;
-    }
-    if (const Value *x = ext("KHR_materials_volume")) {
-        std::string vo = eo + "KHR_materials_volume";
-        d = 0;
-        if ((rc = ext_number(this, *x, "thicknessFactor", &d, vo))) return -rc;
-        if (d < 0) return -bad("%s.thicknessFactor: negative", vo.c_str());
-        sm.thickness = (float)d;
-        d = 0;
-        if ((rc = ext_number(this, *x, "attenuationDistance", &d, vo))) return -rc;
-        if (x->Has("attenuationDistance") && !(d > 0))
-            return -bad("%s.attenuationDistance: must be > 0", vo.c_str());
-        sm.attenuation_distance = (float)d;
-        if (x->Has("attenuationColor")) {
-            const Value &c = x->Get("attenuationColor");
-            if (!c.IsArray() || c.ArrayLen() != 3)
-                return -bad("%s.attenuationColor: expected 3 numbers", vo.c_str());
-            for (int k = 0; k < 3; k++) {
-                if (!c.Get(k).IsNumber()) return -bad("%s.attenuationColor: not a number", vo.c_str());
-                sm.attenuation_color[k] = (float)fmin(fmax(c.Get(k).GetNumberAsDouble(), 0), 1);
-            }
-        }
-    }
-    if (const Value *x = ext("KHR_materials_specular")) {
-        std::string so = eo + "KHR_materials_specular";
-        d = 1;
-        if ((rc = ext_number(this, *x, "specularFactor", &d, so))) return -rc;
-        if (!(d >= 0)) return -bad("%s.specularFactor: negative", so.c_str());
-        sm.specular = (float)fmin(d, 1);
-        if (x->Has("specularColorFactor")) {
-            const Value &c = x->Get("specularColorFactor");
-            if (!c.IsArray() || c.ArrayLen() != 3)
-                return -bad("%s.specularColorFactor: expected 3 numbers", so.c_str());
-            for (int k = 0; k < 3; k++) {
-                if (!c.Get(k).IsNumber()) return -bad("%s.specularColorFactor: not a number", so.c_str());
-                double v = c.Get(k).GetNumberAsDouble();
-                if (!(v >= 0) || !std::isfinite(v))
-                    return -bad("%s.specularColorFactor: must be finite and >= 0", so.c_str());
-                sm.specular_color[k] = (float)v;
-            }
-        }
-        if ((rc = ext_texture(*x, "specularTexture", false, so, &sm.tex[SPT_SLOT_SPECULAR])) ||
-            (rc = ext_texture(*x, "specularColorTexture", true, so, &sm.tex[SPT_SLOT_SPECULAR_COLOR])))
-            return -rc;
-    }
-    if (const Value *x = ext("KHR_materials_clearcoat")) {
-        std::string co = eo + "KHR_materials_clearcoat";
-        double cc = 0, cr = 0;
-        if ((rc = ext_number(this, *x, "clearcoatFactor", &cc, co)) ||
-            (rc = ext_number(this, *x, "clearcoatRoughnessFactor", &cr, co)))
-            return -rc;
-        sm.clearcoat = (float)fmin(fmax(cc, 0), 1);
-        sm.clearcoat_roughness = (float)fmin(fmax(cr, 0), 1);
-        if ((rc = ext_texture(*x, "clearcoatTexture", false, co, &sm.tex[SPT_SLOT_CLEARCOAT])) ||
-            (rc = ext_texture(*x, "clearcoatRoughnessTexture", false, co,
-                              &sm.tex[SPT_SLOT_CLEARCOAT_ROUGHNESS])) ||
-            (rc = ext_texture(*x, "clearcoatNormalTexture", false, co, &sm.tex[SPT_SLOT_CLEARCOAT_NORMAL],
-                              &sm.clearcoat_normal_scale)))
-            return -rc;
-    }
-    if (const Value *x = ext("KHR_materials_sheen")) {
-        std::string sho = eo + "KHR_materials_sheen";
-        if (x->Has("sheenColorFactor")) {
-            const Value &c = x->Get("sheenColorFactor");
-            if (!c.IsArray() || c.ArrayLen() != 3)
-                return -bad("%s.sheenColorFactor: expected 3 numbers", sho.c_str());
-            for (int k = 0; k < 3; k++) {
-                if (!c.Get(k).IsNumber() || !std::isfinite(c.Get(k).GetNumberAsDouble()))
-                    return -bad("%s.sheenColorFactor: not a number", sho.c_str());
-                sm.sheen_color[k] = (float)fmin(fmax(c.Get(k).GetNumberAsDouble(), 0), 1);
-            }
-        }
-        double sr = 0;
-        if ((rc = ext_number(this, *x, "sheenRoughnessFactor", &sr, sho))) return -rc;
-        sm.sheen_roughness = (float)fmin(fmax(sr, 0), 1);
-        if ((rc = ext_texture(*x, "sheenColorTexture", true, sho, &sm.tex[SPT_SLOT_SHEEN_COLOR])) ||
-            (rc = ext_texture(*x, "sheenRoughnessTexture", false, sho, &sm.tex[SPT_SLOT_SHEEN_ROUGHNESS])))
-            return -rc;
-    }
-    if (ext("KHR_materials_unlit")) sm.unlit = 1;
-    if (const Value *x = ext("KHR_materials_pbrSpecularGlossiness"))
-        if ((rc = spec_gloss(*x, &sm, eo + "KHR_materials_pbrSpecularGlossiness"))) return -rc;
-    for (const char *ig : k_ignored_material_ext)
-        if (ext(ig)) ignored_ext[ig].push_back(sm.name);
     if ((rc = spectral_extras(mat.extras, &sm, obj))) {
         spd_free(&sm.emission_spd);
         spd_free(&sm.reflectance_spd);
