@@ -53,8 +53,10 @@ void render_args_usage(FILE *f);
  * (N+1)-th chunk), SPECTRACE_TEST_SLOW_DEVICE = "I:MS" (the I-th device waits
  * MS ms before each chunk), SPECTRACE_TEST_INJECT_NAN = 1 (pixel 0's radiance is
  * NaN), SPECTRACE_TEST_POISON = WORD (buffers start filled with WORD),
- * SPECTRACE_TEST_FILM_NAN = N (the first N film pixels become NaN); and the path
- * pool size SPECTRACE_POOL into rs.pool_size. Only tests and benchmarks set them. */
+ * SPECTRACE_TEST_FILM_NAN = N (the first N film pixels become NaN),
+ * SPECTRACE_KERNEL_PATH = cpu or gpu (that code path on any device); and the
+ * path pool size SPECTRACE_POOL into rs.pool_size. Only tests, tools and
+ * benchmarks set them. */
 void render_args_test_hooks(RenderSettings *rs);
 
 #endif

@@ -14,6 +14,8 @@
 #include "scene/sky.h"
 #include "render/render_options.h"
 
+enum { SPT_KERNEL_PATH_DEVICE = 0, SPT_KERNEL_PATH_CPU, SPT_KERNEL_PATH_GPU };
+
 /* Hooks for tests, off when zero; only tests set them (the command line takes
  * them from SPECTRACE_TEST_* variables: src/cli/render_args.h). */
 typedef struct RenderTestHooks {
@@ -31,6 +33,8 @@ typedef struct RenderTestHooks {
     uint32_t poison_word;
     long film_nan;    /* spectrace render: the first film_nan pixels of the film are
                          made NaN after the render, as a render gone wrong would */
+    int kernel_path;  /* SPT_KERNEL_PATH_CPU or _GPU: that code path on any device
+                         (0: the device's own) */
 } RenderTestHooks;
 
 /* What a render does. The options of the command line (the RS rows of

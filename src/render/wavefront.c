@@ -162,13 +162,12 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
      * memory latency with other work-items, loop over a leaf's triangles and
      * trace one ray each. */
     w->ray_pairs = (info->type & CL_DEVICE_TYPE_CPU) != 0;
-    /* SPECTRACE_KERNEL_PATH=cpu or gpu overrides that choice, so both paths run
-     * on any device: tools/check_kernels.sh runs the CPU path under Oclgrind
-     * (a GPU to us) and tests/test_render.c the GPU path on PoCL. */
-    const char *path_env = getenv("SPECTRACE_KERNEL_PATH");
-    if (path_env && !strcmp(path_env, "cpu"))
+    /* The kernel_path test hook overrides that choice, so both paths run on any
+     * device: tools/check_kernels.sh runs the CPU path under Oclgrind (a GPU to
+     * us). */
+    if (rs->test.kernel_path == SPT_KERNEL_PATH_CPU)
         w->ray_pairs = 1;
-    else if (path_env && !strcmp(path_env, "gpu"))
+    else if (rs->test.kernel_path == SPT_KERNEL_PATH_GPU)
         w->ray_pairs = 0;
     cl_ulong cache = 0;
     if (w->ray_pairs)
