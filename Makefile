@@ -78,7 +78,7 @@ test: deps
 CHECK_TESTS := test_util test_options test_spectrum test_sampling test_rng test_gltf \
                test_gltf_wild test_image_out test_cl test_bsdf test_lights test_multidevice
 check: $(PROG) $(CHECK_TESTS:%=$(BUILD)/tests/%)
-	@tests/run_tests.sh $(BUILD) $(CHECK_TESTS)
+	@SPECTRACE_TEST_IMPLS=pocl tests/run_tests.sh $(BUILD) $(CHECK_TESTS)
 
 # The same tests built with AddressSanitizer and UndefinedBehaviorSanitizer, on
 # PoCL only: the sanitizers check our host code, the same whichever

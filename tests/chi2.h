@@ -1,5 +1,5 @@
 /* Chi-square goodness-of-fit tests of sampling routines against their pdfs, in the
- * spirit of Mitsuba 3's chi2.py and pbrt-v4's sampling tests (TESTING.md).
+ * spirit of Mitsuba 3's chi2.py and pbrt-v4's sampling tests (docs/testing.md).
  *
  * A sampler is run CHI2_DEFAULT_SAMPLES (10^6) times unless told otherwise; the
  * samples are binned on a 2D grid over a domain; expected counts come from the

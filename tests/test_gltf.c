@@ -374,7 +374,7 @@ static void test_default_camera_frames_box(void **state)
 }
 
 /* Bad inputs: each is refused with SPT_EXIT_INPUT and one line that starts with
- * the file name and names the object (TESTING.md items 1-10). */
+ * the file name and names the object (docs/testing.md, "Bad input and faults", items 1-10). */
 typedef struct BadCase {
     const char *file;
     const char *object;  /* must appear in the message */

@@ -163,7 +163,7 @@ static void test_required_refused(void **state)
     assert_null(strstr(e.msg, "KHR_texture_transform"));
     assert_null(strstr(e.msg, "EXT_meshopt"));
     assert_null(strchr(e.msg, '\n'));
-    /* Every extension the README lists as handled may be required. */
+    /* Every extension docs/gltf.md lists as handled may be required. */
     const char *all =
         "{\"asset\":{\"version\":\"2.0\"},\"extensionsRequired\":[\"KHR_materials_emissive_strength\","
         "\"KHR_materials_ior\",\"KHR_materials_transmission\",\"KHR_materials_dispersion\","

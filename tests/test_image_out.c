@@ -146,7 +146,7 @@ static void test_exr_roundtrip_read_by_oiio(void **state)
     assert_int_equal(temp_files_left(), 0);
 }
 
-/* Linear values and their 8-bit sRGB codes, computed by hand from DESIGN.md:
+/* Linear values and their 8-bit sRGB codes, computed by hand from docs/architecture.md:
  * C <= 0.0031308 -> 12.92 C, else 1.055 C^(1/2.4) - 0.055; code = round(255 clamp).
  *   0          -> 0
  *   0.001      -> 255 * 0.01292 = 3.29                      -> 3

@@ -373,7 +373,7 @@ static void test_env_pdf_normalised(void **state)
 }
 
 /* Linear sRGB of a spectral radiance function at direction d through the CIE
- * tables: XYZ = sum cmf L / sum ybar, then DESIGN.md's matrix. */
+ * tables: XYZ = sum cmf L / sum ybar, then docs/architecture.md's matrix. */
 static void env_rgb_at(const EnvLight *env, vec3 d, double rgb[3])
 {
     double xyz[3] = {0, 0, 0}, ny = 0.0;

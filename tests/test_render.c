@@ -104,7 +104,7 @@ static void test_white_furnace_spectral(void **state)
     skip_if_quick();
     /* XYZ of the flat spectrum (sum cmf / sum ybar) -> linear sRGB, independently
      * of the renderer: from the CIE 1 nm table sums (colour-science) and the sRGB
-     * matrix of DESIGN.md. */
+     * matrix of docs/architecture.md. */
     const double X = 1.00008, Y = 1.0, Z = 1.00033;
     double E[3] = {3.2406 * X - 1.5372 * Y - 0.4986 * Z, -0.9689 * X + 1.8758 * Y + 0.0415 * Z,
                    0.0557 * X - 0.2040 * Y + 1.0570 * Z};

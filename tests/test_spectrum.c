@@ -244,7 +244,7 @@ static void test_sigmoid_extremes(void **state)
     assert_close(spt_sigmoid_poly(0, 0, 1, 500), 0.5 + 0.5 / sqrt(2.0), 1e-6);
 }
 
-/* The matrices of DESIGN.md: sRGB white (1,1,1) is D65 (0.9505, 1, 1.0890, IEC
+/* The matrices of docs/architecture.md: sRGB white (1,1,1) is D65 (0.9505, 1, 1.0890, IEC
  * 61966-2-1) and the two matrices invert each other to their 4-digit rounding. */
 static void test_matrices(void **state)
 {

@@ -110,7 +110,7 @@ RED_RGB = (0.63, 0.065, 0.05)
 GREEN_RGB = (0.14, 0.45, 0.091)
 LIGHT_RGB_ALBEDO = (0.78, 0.78, 0.78)
 
-# XYZ -> linear sRGB (shared/DESIGN.md).
+# XYZ -> linear sRGB (docs/architecture.md).
 XYZ_TO_SRGB = ((3.2406, -1.5372, -0.4986), (-0.9689, 1.8758, 0.0415), (0.0557, -0.2040, 1.0570))
 
 

@@ -274,7 +274,7 @@ def _spd(value, warnings):
 # --colour exact (default) gives Mitsuba spectrace's colour definitions, computed
 # here independently: the CIE 1931 2-degree observer of kernels/shared/cie_data.h (the
 # CIE's 1 nm table, normalised by the sum of ybar) as the response of a Mitsuba
-# `specfilm` (XYZ, converted to linear sRGB with the matrix of docs/DESIGN.md),
+# `specfilm` (XYZ, converted to linear sRGB with the matrix of docs/architecture.md),
 # and every RGB colour as a 1 nm table of the Jakob-Hanika sigmoid spectrum whose
 # colour under D65 (Y = 1) is exactly that RGB under the same observer (greys as
 # constant spectra; an illuminant RGB c as 2 max(c) * D65 * the reflectance

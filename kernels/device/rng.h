@@ -3,7 +3,7 @@
  *
  * Every random number of a sample is a pure function of (seed, pixel, sample
  * index, dimension): no generator state, no dependence on a path-pool slot, a
- * device or the order of work (DESIGN.md, "Scale"). Films of disjoint sample
+ * device or the order of work (docs/architecture.md, "Scale"). Films of disjoint sample
  * ranges therefore add up to the same image however the work is split.
  *
  * Two generators:

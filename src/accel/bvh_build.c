@@ -18,14 +18,12 @@ BvhOptions bvh_default_options(void)
     BvhOptions o;
     o.bins = 16;
     /* A CPU device with AVX-512 tests all of a leaf's triangles (up to 16)
-     * with one 16-lane test (kernels/shared/bvh.h), and a node visit costs about one
-     * such test; leaves of up to 16 at a node cost of 16 made the fastest trees
-     * on PoCL (measured with the earlier two float8 tests per leaf). On the
-     * bench's 1M-triangle mesh, against leaves of at most 8 at a node cost of 2
-     * (this builder's earlier setting): leaves of 11.4 triangles instead of 3,
-     * fewer bytes per triangle, faster builds, and extend ~12% less CPU time
-     * than at 8/8 (the Cornell box's stages unchanged). A GPU loops over a leaf
-     * and pays for the larger leaves. */
+     * with one 16-lane test (kernels/shared/bvh.h), and a node visit costs about
+     * one such test: leaves of up to 16 at a node cost of 16 make the fastest
+     * trees on PoCL (against leaves of at most 8 at a node cost of 2: leaves of
+     * 11.4 triangles instead of 3 on the bench's 1M-triangle mesh, fewer bytes
+     * per triangle, faster builds, about 12% less extend time). A GPU loops over
+     * a leaf and pays for the larger leaves (docs/performance.md). */
     o.max_leaf = 16;
     o.full_sweep = 0;
     o.cost_node = 16.0f;

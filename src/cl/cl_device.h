@@ -2,7 +2,7 @@
  * queue per device, program builds from the embedded kernel sources (or
  * SPECTRACE_KERNEL_DIR) with a program-binary cache, memory-limit checks, the
  * layout check of shared structs, and the error-checking macro for every
- * OpenCL call. README.md, "Devices and OpenCL", describes the user side. */
+ * OpenCL call. README.md, "Devices", describes the user side. */
 #ifndef SPT_CL_DEVICE_H
 #define SPT_CL_DEVICE_H
 

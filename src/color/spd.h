@@ -59,7 +59,7 @@ void spd_to_grid(const Spd *s, float *grid);
 /* Planck's law: spectral radiance in W/(m^2 sr m) at wavelength nm, temperature K. */
 double blackbody_radiance(double nm, double kelvin);
 
-/* The matrices and curve of ../shared/DESIGN.md. */
+/* The matrices and curve of docs/architecture.md. */
 void xyz_to_linear_srgb(const double xyz[3], double rgb[3]);
 void linear_srgb_to_xyz(const double rgb[3], double xyz[3]);
 double srgb_encode(double linear);  /* transfer curve, linear -> encoded */
@@ -69,7 +69,7 @@ int srgb_to_8bit(double linear);    /* round(255 * clamp(encode(linear), 0, 1)) 
 /* RGB upsampling (Jakob and Hanika 2019). Coefficients c give the spectrum
  * s(l) = sigmoid(c0 l^2 + c1 l + c2), l in nm (see kernels/shared/spectrum.h). */
 /* A reflectance, rgb clamped to [0,1]: the spectrum whose colour under D65 (1 nm
- * CIE 1931 sums, DESIGN.md's matrix) is rgb to 1e-9, found from the fitted
+ * CIE 1931 sums, docs/architecture.md's matrix) is rgb to 1e-9, found from the fitted
  * table's coefficients by Levenberg-Marquardt (about 0.1 ms). For constant
  * colours: material factors, emission, lights, the sky. */
 void rgb_to_coeffs(const float rgb[3], float coeffs[3]);

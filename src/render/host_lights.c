@@ -167,7 +167,7 @@ int env_build_map(EnvLight *env, const float *rgb, int width, int height, float 
             float col[3] = {c[0] * intensity, c[1] * intensity, c[2] * intensity};
             float *t = env->data + 4 * ((size_t)y * width + x);
             rgb_illuminant_coeffs_fast(col, t, &t[3]);
-            /* The luminance of linear sRGB (the Y row of DESIGN.md's matrix). */
+            /* The luminance of linear sRGB (the Y row of docs/architecture.md's matrix). */
             double lum = 0.2126 * col[0] + 0.7152 * col[1] + 0.0722 * col[2];
             row_w[x] = (float)(lum * st);
             /* Solid angle of the texel, for the mean over the sphere. */

@@ -45,9 +45,8 @@ void wavefront_free(Wavefront *w)
  * kernels read at random) live in memory of our own that the device uses in
  * place (CL_MEM_USE_HOST_PTR; PoCL does not copy it), aligned to 2 MiB and
  * marked for transparent huge pages before it is first written, so a random
- * read of a 44 MB BVH misses the TLB far less often: the displaced sphere's
- * bounce rays ran 7% faster (median of 8 alternated pairs, all faster), host
- * traversal 8-13%. Linux only gives huge pages to memory so marked when
+ * read of a 44 MB BVH misses the TLB far less often (the displaced sphere's
+ * bounce rays about 7% faster). Linux only gives huge pages to memory so marked when
  * transparent_hugepage is "madvise" (Debian's default) or "always"; elsewhere
  * this is plain memory. */
 static int scene_buffer_create(Wavefront *w, const char *name, size_t bytes, const void *data,
@@ -122,12 +121,11 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
     /* Samples per chunk: the pool 16 times over, with the per-sample
      * contribution buffer under 64 MiB. A chunk ends with its last paths
      * running in a near-empty pool and a wait for the host, so fewer, larger
-     * chunks keep the device busier: 16 pools instead of 4 rendered the Cornell
-     * box 6.5% faster (PoCL, 2 cores, median of 16 alternated 512x512 renders),
-     * and a chunk still takes well under a second there. But a render keeps at
-     * least 16 chunks (when it has the samples), so that several devices or MPI
-     * processes sharing it end close together: with 4 chunks, two processes
-     * reached 1.79x one instead of 1.95x. */
+     * chunks keep the device busier (16 pools render the Cornell box about 6%
+     * faster than 4 on PoCL), and a chunk still takes well under a second. But
+     * a render keeps at least 16 chunks (when it has the samples), so that
+     * several devices or MPI processes sharing it end close together (with 4
+     * chunks, two processes reach 1.8 times one instead of 1.95). */
     w->pool = pool_size_for(info, rs->pool_size, npix * (uint64_t)(rs->spp > 0 ? rs->spp : 1));
     uint64_t spp = (16ull * w->pool + npix - 1) / npix;
     if (rs->spp > 0 && spp > ((uint64_t)rs->spp + 15) / 16)

@@ -5,7 +5,7 @@
 namespace spt_gltf {
 
 // Extensions whose meaning we implement; only these may be in extensionsRequired.
-// Keep in sync with the code that reads them and the README's loader section.
+// Keep in sync with the code that reads them and docs/gltf.md, "What the loader reads".
 const char *const k_supported_ext[] = {
     "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_transmission",
     "KHR_materials_dispersion", "KHR_materials_volume", "KHR_materials_unlit",

@@ -222,7 +222,7 @@ extern "C" void texture_io_srgb_to_linear(float *texels, size_t texel_count, int
         for (int c = 0; c < colour; c++) {
             float *v = &texels[i * (size_t)channels + (size_t)c];
             double x = *v;
-            // Inverse sRGB transfer (IEC 61966-2-1), as in ../shared/DESIGN.md.
+            // Inverse sRGB transfer (IEC 61966-2-1), as in docs/architecture.md.
             x = x <= 0.04045 ? x / 12.92 : pow((x + 0.055) / 1.055, 2.4);
             *v = (float)x;
         }

@@ -9,7 +9,7 @@
  * x_i = i / (RES-1). The spectrum s(l) = sigmoid(a0 t^2 + a1 t + a2),
  * t = (l - 360) / 470, is fitted by Levenberg-Marquardt so that the linear sRGB of
  * D65(Y=1) * s, by 1 nm sums with the CIE 1931 tables of kernels/shared/cie_data.h and the
- * matrix of DESIGN.md, equals the target. Each column (m, i, j) is solved from the
+ * matrix of docs/architecture.md, equals the target. Each column (m, i, j) is solved from the
  * middle of z outwards, each solution starting from its neighbour's, as the paper
  * does. The table stores the coefficients converted to nm (s = sigmoid(c0 l^2 +
  * c1 l + c2)), which is what src/color/spd.c interpolates trilinearly.
