@@ -76,22 +76,6 @@ static float *film_rgb(const Film *f)
     return rgb;
 }
 
-/* Reads the 3 numbers after `"key": [` following `section` in a JSON file. */
-static int json_triple(const char *path, const char *section, const char *key, double v[3])
-{
-    FILE *f = fopen(path, "r");
-    if (!f)
-        return -1;
-    static char buf[1 << 16];
-    size_t n = fread(buf, 1, sizeof buf - 1, f);
-    fclose(f);
-    buf[n] = 0;
-    const char *p = strstr(buf, section);
-    p = p ? strstr(p, key) : NULL;
-    p = p ? strchr(p, '[') : NULL;
-    return p && sscanf(p, "[%lf ,%lf ,%lf", &v[0], &v[1], &v[2]) == 3 ? 0 : -1;
-}
-
 /* ------------------------------------------------------------------------- */
 /* Mitsuba 3 comparisons: the image mean at max depth 8 within 3% per channel. */
 

@@ -1,16 +1,22 @@
-/* Shared set-up of the tests that render through the library (src/render/):
- * the CPU device every such test renders on, and one render of a Scene. Include
- * after test_util.h. */
+/* Shared set-up of the tests that render through the library (src/render/:
+ * test_render, test_render_sky, test_shading, test_materials, test_textures):
+ * the CPU device they render on, renders of a file or a Scene, and the small
+ * scenes several of them build. Include after test_util.h. */
 #ifndef SPT_TEST_RENDER_UTIL_H
 #define SPT_TEST_RENDER_UTIL_H
 
+#include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cl/cl_device.h"
 #include "render/film.h"
 #include "render/render.h"
 #include "scene/scene.h"
+#include "shared/cie_data.h"
+
+#define SPT_CIE_Y_INTEGRAL_HOST ((double)SPT_CIE_Y_INTEGRAL)
 
 static ClDeviceList devices;
 static const ClDeviceInfo *device; /* the first CPU device */
@@ -34,6 +40,214 @@ static int teardown_cpu_device(void **state)
     (void)state;
     cl_device_list_free(&devices);
     return 0;
+}
+
+/* The test hooks of render_gltf's renders. */
+static RenderTestHooks g_hooks;
+
+/* Renders scene file `path` at w x h, spp, depth, seed into film (initialised
+ * here); returns the render's exit code. */
+static inline int render_gltf(const char *path, int w, int h, int spp, int depth, uint32_t seed,
+                       Film *film, RenderStats *st)
+{
+    Scene s;
+    GpuScene g;
+    SptError e = {0};
+    int rc = scene_load_gltf(&s, path, &e);
+    if (rc) {
+        fprintf(stderr, "load %s: %s\n", path, e.msg);
+        return rc;
+    }
+    rc = gpu_scene_build(&g, &s, &e);
+    if (!rc) {
+        RenderSettings rs;
+        memset(&rs, 0, sizeof rs);
+        rs.width = w;
+        rs.height = h;
+        rs.spp = spp;
+        rs.max_depth = depth;
+        rs.seed = seed;
+        rs.test = g_hooks;
+        film_init(film, w, h);
+        rc = render_device(device, &g, &s.camera, &rs, film, st, &e);
+        if (rc)
+            fprintf(stderr, "render %s: %s\n", path, e.msg);
+        gpu_scene_free(&g);
+    }
+    scene_free(&s);
+    return rc;
+}
+
+/* Mean linear sRGB of a film. */
+static inline void film_mean(const Film *f, double mean[3])
+{
+    size_t n = (size_t)f->width * f->height;
+    float *rgb = malloc(n * 3 * sizeof(float));
+    film_to_linear_srgb(f, rgb);
+    mean[0] = mean[1] = mean[2] = 0;
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++)
+            mean[c] += rgb[3 * i + c];
+    for (int c = 0; c < 3; c++)
+        mean[c] /= (double)n;
+    free(rgb);
+}
+
+/* Reads the 3 numbers after `"key": [` following `section` in a JSON file. */
+static inline int json_triple(const char *path, const char *section, const char *key, double v[3])
+{
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return -1;
+    static char buf[1 << 16];
+    size_t n = fread(buf, 1, sizeof buf - 1, f);
+    fclose(f);
+    buf[n] = 0;
+    const char *p = strstr(buf, section);
+    p = p ? strstr(p, key) : NULL;
+    p = p ? strchr(p, '[') : NULL;
+    return p && sscanf(p, "[%lf ,%lf ,%lf", &v[0], &v[1], &v[2]) == 3 ? 0 : -1;
+}
+
+/* A scene built in code: a sphere of radius 1 at the origin (a convex
+ * polyhedron, so no point sees another), albedo `albedo`, no light; camera at
+ * +Z 4 looking toward -Z. */
+static inline void sphere_scene(Scene *s, float albedo)
+{
+    memset(s, 0, sizeof *s);
+    uint32_t n = 0;
+    const float c[3] = {0, 0, 0};
+    s->tri_pos = bvh_gen_sphere(48, 96, 1.0f, c, 0.0f, &n);
+    s->tri_count = n;
+    s->vertex_count = 3 * n;
+    s->tri_vidx = malloc(sizeof(uint32_t) * 3 * n);
+    s->tri_mat = calloc(n, sizeof(uint32_t));
+    s->vtx_normal = calloc((size_t)9 * n, sizeof(float));
+    s->vtx_uv = calloc((size_t)6 * n, sizeof(float));
+    for (uint32_t i = 0; i < 3 * n; i++)
+        s->tri_vidx[i] = i;
+    s->material_count = 1;
+    s->materials = calloc(1, sizeof(SceneMaterial));
+    scene_material_default(&s->materials[0]);
+    /* Lambertian: metallic 0 and no specular layer (KHR_materials_specular 0). */
+    s->materials[0].metallic = 0.0f;
+    s->materials[0].specular = 0.0f;
+    for (int k = 0; k < 3; k++)
+        s->materials[0].base_color[k] = albedo;
+    s->camera.position[2] = 4.0f;
+    s->camera.forward[2] = -1.0f;
+    s->camera.up[1] = 1.0f;
+    s->camera.right[0] = 1.0f;
+    s->camera.yfov = 0.6f;
+    s->camera.aspect = 1.0f;
+    scene_update_bounds(s);
+}
+
+/* Settings of a w x w render of spp samples at max_depth with seed; the rest
+ * zero (no environment unless set; env_intensity 1 as the command line's). */
+static inline RenderSettings square_settings(int w, int spp, int depth, uint32_t seed)
+{
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = rs.height = w;
+    rs.spp = spp;
+    rs.max_depth = depth;
+    rs.seed = seed;
+    rs.env_intensity = 1.0f;
+    return rs;
+}
+
+/* Renders scene s with rs on the test device into rgb (linear sRGB, 3 floats
+ * per pixel; may be NULL); returns the render's exit code, e its message. */
+static inline int render_scene_rgb(const Scene *s, const RenderSettings *rs, float *rgb, SptError *e)
+{
+    GpuScene g;
+    int rc = gpu_scene_build(&g, s, e);
+    if (rc)
+        return rc;
+    Film f;
+    RenderStats st;
+    film_init(&f, rs->width, rs->height);
+    rc = render_device(device, &g, &s->camera, rs, &f, &st, e);
+    if (!rc && rgb)
+        film_to_linear_srgb(&f, rgb);
+    film_free(&f);
+    gpu_scene_free(&g);
+    return rc;
+}
+
+/* Appends the quad y = height over [-6, 6]^2 (two triangles) with a new material
+ * to s; returns the material. */
+static inline SceneMaterial *append_quad(Scene *s, float height)
+{
+    uint32_t t0 = s->tri_count, v0 = s->vertex_count;
+    s->tri_count += 2;
+    s->vertex_count += 6;
+    s->tri_pos = realloc(s->tri_pos, sizeof(float) * 9 * s->tri_count);
+    s->tri_vidx = realloc(s->tri_vidx, sizeof(uint32_t) * 3 * s->tri_count);
+    s->tri_mat = realloc(s->tri_mat, sizeof(uint32_t) * s->tri_count);
+    s->vtx_normal = realloc(s->vtx_normal, sizeof(float) * 3 * s->vertex_count);
+    s->vtx_uv = realloc(s->vtx_uv, sizeof(float) * 2 * s->vertex_count);
+    const float q[2][9] = {{-6, height, -6, -6, height, 6, 6, height, 6},
+                           {-6, height, -6, 6, height, 6, 6, height, -6}};
+    memcpy(s->tri_pos + 9 * t0, q, sizeof q);
+    for (uint32_t k = 0; k < 6; k++) {
+        s->tri_vidx[3 * t0 + k] = v0 + k;
+        s->vtx_normal[3 * (v0 + k)] = s->vtx_normal[3 * (v0 + k) + 1] = s->vtx_normal[3 * (v0 + k) + 2] = 0;
+        s->vtx_uv[2 * (v0 + k)] = s->vtx_uv[2 * (v0 + k) + 1] = 0;
+    }
+    s->materials = realloc(s->materials, sizeof(SceneMaterial) * (s->material_count + 1));
+    SceneMaterial *m = &s->materials[s->material_count];
+    scene_material_default(m);
+    m->metallic = 0.0f;
+    m->specular = 0.0f;
+    s->tri_mat[t0] = s->tri_mat[t0 + 1] = s->material_count++;
+    return m;
+}
+
+/* Appends the box [lo, hi] (12 triangles, counter-clockwise seen from outside)
+ * with a new material to s; returns the material. */
+static inline SceneMaterial *append_box(Scene *s, const float lo[3], const float hi[3])
+{
+    uint32_t t0 = s->tri_count, v0 = s->vertex_count;
+    s->tri_count += 12;
+    s->vertex_count += 36;
+    s->tri_pos = realloc(s->tri_pos, sizeof(float) * 9 * s->tri_count);
+    s->tri_vidx = realloc(s->tri_vidx, sizeof(uint32_t) * 3 * s->tri_count);
+    s->tri_mat = realloc(s->tri_mat, sizeof(uint32_t) * s->tri_count);
+    s->vtx_normal = realloc(s->vtx_normal, sizeof(float) * 3 * s->vertex_count);
+    s->vtx_uv = realloc(s->vtx_uv, sizeof(float) * 2 * s->vertex_count);
+    static const int quad[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+    uint32_t t = t0;
+    for (int axis = 0; axis < 3; axis++)
+        for (int sg = -1; sg <= 1; sg += 2) {
+            int b = (axis + 1) % 3, c = (axis + 2) % 3;
+            float q[4][3];
+            for (int k = 0; k < 4; k++) {
+                /* (b, c, axis) is right-handed: this order is counter-clockwise
+                 * about +axis; the -axis face is reversed to face outward. */
+                int kk = sg > 0 ? k : 3 - k;
+                q[k][axis] = sg > 0 ? hi[axis] : lo[axis];
+                q[k][b] = quad[kk][0] > 0 ? hi[b] : lo[b];
+                q[k][c] = quad[kk][1] > 0 ? hi[c] : lo[c];
+            }
+            const int tri[2][3] = {{0, 1, 2}, {0, 2, 3}};
+            for (int h = 0; h < 2; h++, t++)
+                for (int k = 0; k < 3; k++)
+                    memcpy(s->tri_pos + 9 * t + 3 * k, q[tri[h][k]], sizeof q[0]);
+        }
+    for (uint32_t k = 0; k < 36; k++) {
+        s->tri_vidx[3 * t0 + k] = v0 + k;
+        s->vtx_normal[3 * (v0 + k)] = s->vtx_normal[3 * (v0 + k) + 1] = s->vtx_normal[3 * (v0 + k) + 2] = 0;
+        s->vtx_uv[2 * (v0 + k)] = s->vtx_uv[2 * (v0 + k) + 1] = 0;
+    }
+    s->materials = realloc(s->materials, sizeof(SceneMaterial) * (s->material_count + 1));
+    SceneMaterial *m = &s->materials[s->material_count];
+    scene_material_default(m);
+    for (uint32_t k = 0; k < 12; k++)
+        s->tri_mat[t0 + k] = s->material_count;
+    s->material_count++;
+    return m;
 }
 
 #endif
