@@ -110,7 +110,7 @@ static void test_plane_irradiance(void **state)
 }
 
 /* The GPU code path (one ray per work-item, one triangle at a time in a leaf),
- * forced on this CPU device with SPECTRACE_KERNEL_PATH=gpu, gives the film of
+ * forced on this CPU device with the kernel_path test hook, gives the film of
  * the CPU path (paired rays, the leaf's SIMD test): both find the same closest
  * hits with the same arithmetic, so the films agree within assert_same_film's
  * 1e-4 (on PoCL they are identical bit for bit). The GPU path also runs under
@@ -121,11 +121,11 @@ static void test_gpu_path_on_cpu_device(void **state)
     skip_if_quick();
     Film a, b;
     RenderStats st;
-    setenv("SPECTRACE_KERNEL_PATH", "gpu", 1);
-    int rc = render_file("scenes/cornell_box.gltf", 32, 32, 16, -1, 9, &a, &st);
-    setenv("SPECTRACE_KERNEL_PATH", "cpu", 1);
-    int rc2 = render_file("scenes/cornell_box.gltf", 32, 32, 16, -1, 9, &b, &st);
-    unsetenv("SPECTRACE_KERNEL_PATH");
+    g_hooks.kernel_path = SPT_KERNEL_PATH_GPU;
+    int rc = render_gltf("scenes/cornell_box.gltf", 32, 32, 16, -1, 9, &a, &st);
+    g_hooks.kernel_path = SPT_KERNEL_PATH_CPU;
+    int rc2 = render_gltf("scenes/cornell_box.gltf", 32, 32, 16, -1, 9, &b, &st);
+    g_hooks.kernel_path = SPT_KERNEL_PATH_DEVICE;
     assert_int_equal(rc, 0);
     assert_int_equal(rc2, 0);
     assert_same_film(&a, &b);
