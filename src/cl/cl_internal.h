@@ -28,6 +28,11 @@ unsigned char *cl_cache_load(const char *path, const char *key, size_t *bin_len,
 void cl_cache_store(const char *dir, const char *path, const char *key, const unsigned char *bin,
                     size_t bin_len);
 
+/* The text of kernel file path (made "kernels/..." into full, cap bytes),
+ * malloc'd; NULL with SPT_EXIT_DEVICE in e, naming where it looked, when it is
+ * missing. */
+char *cl_kernel_file_open(const char *path, char *full, size_t cap, SptError *e);
+
 /* The path of a kernel file as used in #line markers: "kernels/" + name unless
  * it has it already. */
 void cl_kernel_path(const char *name, char *out, size_t cap);

@@ -159,15 +159,10 @@ int cl_program_build(ClDevice *d, const char *path, const char *options, cl_prog
                      SptError *e)
 {
     char full[600];
-    cl_kernel_path(path, full, sizeof full);
-    char *text = cl_kernel_file_load(full);
+    char *text = cl_kernel_file_open(path, full, sizeof full, e);
     if (!text) {
-        const char *dir = getenv("SPECTRACE_KERNEL_DIR");
         *out = NULL;
-        return spt_fail(e, SPT_EXIT_DEVICE, "kernel file '%s' not found (%s%s)", full,
-                        dir && *dir ? "looked in SPECTRACE_KERNEL_DIR=" :
-                                      "not among the embedded kernel sources",
-                        dir && *dir ? dir : "");
+        return SPT_EXIT_DEVICE;
     }
     int rc = cl_program_build_text(d, full, text, options, out, e);
     free(text);

@@ -195,18 +195,26 @@ int cl_source_resolve_text(const char *name, const char *text, char **out, SptEr
     return SPT_EXIT_OK;
 }
 
-int cl_source_resolve(const char *path, char **out, SptError *e)
+char *cl_kernel_file_open(const char *path, char *full, size_t cap, SptError *e)
 {
-    char full[600];
-    cl_kernel_path(path, full, sizeof full);
+    cl_kernel_path(path, full, cap);
     char *text = cl_kernel_file_load(full);
     if (!text) {
         const char *dir = getenv("SPECTRACE_KERNEL_DIR");
+        spt_fail(e, SPT_EXIT_DEVICE, "kernel file '%s' not found (%s%s)", full,
+                 dir && *dir ? "looked in SPECTRACE_KERNEL_DIR=" : "not among the embedded kernel sources",
+                 dir && *dir ? dir : "");
+    }
+    return text;
+}
+
+int cl_source_resolve(const char *path, char **out, SptError *e)
+{
+    char full[600];
+    char *text = cl_kernel_file_open(path, full, sizeof full, e);
+    if (!text) {
         *out = NULL;
-        return spt_fail(e, SPT_EXIT_DEVICE, "kernel file '%s' not found (%s%s)", full,
-                        dir && *dir ? "looked in SPECTRACE_KERNEL_DIR=" :
-                                      "not among the embedded kernel sources",
-                        dir && *dir ? dir : "");
+        return SPT_EXIT_DEVICE;
     }
     int rc = cl_source_resolve_text(full, text, out, e);
     free(text);
