@@ -7,6 +7,8 @@
 #ifndef SPT_SHADE_SURFACE_H
 #define SPT_SHADE_SURFACE_H
 
+#include "shared/portable.h"
+
 /* The vertices of packed triangle prim, from the vertex positions (the same
  * floats as the BVH's copy, whose leaf blocks spread a triangle over up to 9
  * cache lines). */
