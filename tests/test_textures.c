@@ -9,7 +9,11 @@
  * plane (metallic 0, KHR_materials_specular factor 0) under the default sky
  * (uniform radiance 1, film Y = 1) shows its albedo: the expected values below
  * are the texels' sRGB values decoded with the sRGB transfer function, written
- * here independently of the loader. */
+ * here independently of the loader.
+ *
+ * On an implementation with slow kernel launches (tests/run_tests.sh's quick
+ * form: rusticl, about a second per sample of a small image) three run: a colour
+ * texture, the sampler filters and the sheen. */
 #include "test_util.h"
 #include "test_render_util.h"
 
@@ -147,6 +151,7 @@ static void test_base_color_no_sampler(void **state)
 static void test_base_color_empty_sampler(void **state)
 {
     (void)state;
+    skip_if_quick();
     check_base_pattern("base_emptysampler.gltf");
 }
 
@@ -175,6 +180,7 @@ static void assert_kind_cells(const Image *im, const double want[4], double rel,
 static void test_alpha_blend_and_mask(void **state)
 {
     (void)state;
+    skip_if_quick();
     const int a8[4] = {51, 128, 204, 255};
     double blend[4], mask[4];
     for (int k = 0; k < 4; k++) {
@@ -206,6 +212,7 @@ static void test_alpha_blend_and_mask(void **state)
 static void test_alpha_mask_minified(void **state)
 {
     (void)state;
+    skip_if_quick();
     Image im = render_texture_scene("alpha_mask_far.gltf", 64, 64, 16, 2, NULL);
     double half[3] = {0.5, 0.5, 0.5};
     for (int row = 0; row < 4; row++)
@@ -224,6 +231,7 @@ static void test_alpha_mask_minified(void **state)
 static void test_metallic_roughness(void **state)
 {
     (void)state;
+    skip_if_quick();
     double a = (128.0 / 255.0) * (128.0 / 255.0);
     const double want[4] = {0.25, 1.0 / (4.0 * a * a), 0.0, 0.96 + 0.01};
     Image im = render_texture_scene("metallic_roughness.gltf", 64, 64, 32, 2, "black");
@@ -271,6 +279,7 @@ static void check_normal_map(const char *scene, double tangent_x)
 static void test_normal_map(void **state)
 {
     (void)state;
+    skip_if_quick();
     check_normal_map("normal.gltf", 1.0);
     check_normal_map("normal_mirrored.gltf", -1.0);
 }
@@ -280,6 +289,7 @@ static void test_normal_map(void **state)
 static void test_emissive_texture(void **state)
 {
     (void)state;
+    skip_if_quick();
     const double factor[3] = {2.0, 1.6, 1.2};
     Image im = render_texture_scene("emissive.gltf", 64, 64, 32, 1, "black");
     for (int row = 0; row < 4; row++)
@@ -299,6 +309,7 @@ static void test_emissive_texture(void **state)
 static void test_transmission_texture(void **state)
 {
     (void)state;
+    skip_if_quick();
     const double want[4] = {0.0, 64.0 / 255.0, 128.0 / 255.0, 1.0};
     Image im = render_texture_scene("transmission.gltf", 64, 64, 32, 4, "black");
     assert_kind_cells(&im, want, 0.03, 0.03);
@@ -310,6 +321,7 @@ static void test_transmission_texture(void **state)
 static void test_texcoord1(void **state)
 {
     (void)state;
+    skip_if_quick();
     check_base_pattern("texcoord1.gltf");
 }
 
@@ -388,12 +400,14 @@ static void check_vertex_colors(const char *scene, int blend)
 static void test_color0_vec3_float(void **state)
 {
     (void)state;
+    skip_if_quick();
     check_vertex_colors("color0_vec3_float.gltf", 0);
 }
 
 static void test_color0_vec4_ubyte(void **state)
 {
     (void)state;
+    skip_if_quick();
     check_vertex_colors("color0_vec4_ubyte.gltf", 1);
 }
 
@@ -433,6 +447,7 @@ static void test_nearest_and_linear(void **state)
 static void test_horizon_converges_to_grey(void **state)
 {
     (void)state;
+    skip_if_quick();
     Image im = render_texture_scene("horizon.gltf", 64, 64, 4, 2, NULL);
     double s[2] = {0, 0}, s2[2] = {0, 0};
     int n[2] = {0, 0};
@@ -464,6 +479,7 @@ static void test_horizon_converges_to_grey(void **state)
 static void test_clearcoat(void **state)
 {
     (void)state;
+    skip_if_quick();
     double a = (128.0 / 255.0) * (128.0 / 255.0), h = 128.0 / 255.0;
     const double want[4] = {0.01 / (a * a), 0.01, h * 0.01 / (a * a), 0.0};
     Image im = render_texture_scene("clearcoat.gltf", 64, 64, 32, 2, "black");
@@ -478,6 +494,7 @@ static void test_clearcoat(void **state)
 static void test_clearcoat_normal(void **state)
 {
     (void)state;
+    skip_if_quick();
     double n[3] = {2 * 191 / 255.0 - 1, 2 * 128 / 255.0 - 1, 2 * 238 / 255.0 - 1};
     double c = n[2] / sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), a = 0.25, a2 = a * a;
     double D = a2 / (M_PI * pow(c * c * (a2 - 1) + 1, 2));
@@ -534,6 +551,7 @@ static void test_sheen(void **state)
 static void test_specular_textures(void **state)
 {
     (void)state;
+    skip_if_quick();
     Image im = render_texture_scene("specular.gltf", 64, 64, 32, 2, "black");
     const double tint[4][3] = {{1, 1, 1}, {1, srgb8_to_linear(128), srgb8_to_linear(64)}, {1, 1, 1}, {1, 1, 1}};
     const double spec[4] = {1.0, 1.0, 128.0 / 255.0, 0.0};
@@ -576,6 +594,7 @@ static int run_render(const char *args, char *out, size_t out_size)
 static void test_sky_lit_scene_not_called_black(void **state)
 {
     (void)state;
+    skip_if_quick();
     static char out[8192];
     const char *scene = "tests/data/textures/base_nosampler.gltf --width 8 --spp 1";
     assert_int_equal(run_render(scene, out, sizeof out), 0);
@@ -600,6 +619,7 @@ static void test_sky_lit_scene_not_called_black(void **state)
 static void test_info_slots_and_texcoord_warning(void **state)
 {
     (void)state;
+    skip_if_quick();
     const char *exe = getenv("SPECTRACE_EXE");
     if (!exe || access(exe, X_OK))
         fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
