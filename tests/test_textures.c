@@ -511,6 +511,21 @@ static void test_clearcoat_normal(void **state)
     free(im.rgb);
 }
 
+/* The coat is on top of emission (KHR_materials_clearcoat, "Emission"): an
+ * emitter of radiance 1 under a smooth coat, seen head-on under a black sky,
+ * shows 1 - clearcoat Fc(1) = 0.96. */
+static void test_clearcoat_over_emission(void **state)
+{
+    (void)state;
+    skip_if_quick();
+    Image im = render_texture_scene("clearcoat_emissive.gltf", 32, 32, 64, 2, "black");
+    double want[3] = {0.96, 0.96, 0.96};
+    for (int row = 0; row < 2; row++)
+        for (int col = 0; col < 2; col++)
+            assert_cell(&im, 2, 2, col, row, want, 0.01, 0.0);
+    free(im.rgb);
+}
+
 /* KHR_materials_sheen over a black base, seen and lit 60 degrees off the normal
  * (pi lux, wo = wi = h, mu = 1/2): f cos = colour D V mu with the specification's
  * Charlie D = (2 + 1/alpha) sin(theta_h)^(1/alpha) / (2 pi) and V = 1 / ((1 + 2
@@ -665,6 +680,7 @@ int main(void)
         cmocka_unit_test(test_horizon_converges_to_grey),
         cmocka_unit_test(test_clearcoat),
         cmocka_unit_test(test_clearcoat_normal),
+        cmocka_unit_test(test_clearcoat_over_emission),
         cmocka_unit_test(test_sheen),
         cmocka_unit_test(test_specular_textures),
         cmocka_unit_test(test_info_slots_and_texcoord_warning),

@@ -414,6 +414,15 @@ def clearcoat_scenes():
     uses(s, "KHR_materials_clearcoat", "KHR_materials_specular")
     s.save("clearcoat_normal.gltf")
 
+    # An emitter of radiance 1 under a smooth coat, under a black sky: the coat
+    # passes 1 - clearcoat Fc(1) = 0.96 of the emission.
+    s = Scene()
+    s.grid_plane(s.material(material({"baseColorFactor": [0, 0, 0, 1]}, specular=0.0, emissiveFactor=[1.0, 1.0, 1.0],
+                                     extensions={"KHR_materials_clearcoat": {"clearcoatFactor": 1.0}})))
+    s.ortho_camera()
+    uses(s, "KHR_materials_clearcoat", "KHR_materials_specular")
+    s.save("clearcoat_emissive.gltf")
+
 
 def sheen_scene():
     """A black base under a sheen whose colour (RGB, sRGB) and roughness (A) come
