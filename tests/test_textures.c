@@ -660,6 +660,9 @@ static void test_info_slots_and_texcoord_warning(void **state)
     assert_int_equal(pclose(p), 0);
     if (!strstr(out, "clearcoat 1 roughness 0.5") || !strstr(out, "clearcoatNormal textures[0] uv 0"))
         fail_msg("info does not show the clearcoat and its normal slot:\n%s", out);
+    /* The camera's far plane on its line. */
+    if (!strstr(out, "znear 0.01 zfar 100\n"))
+        fail_msg("info does not show the camera's zfar on its line:\n%s", out);
 }
 
 int main(void)

@@ -147,9 +147,12 @@ static void print_camera(const SceneCamera *c)
     else
         printf("camera       perspective yfov %.4g deg", c->yfov * 180 / M_PI);
     if (c->aspect > 0) printf(" aspect %.4g", c->aspect);
-    printf(" znear %g zfar %s%s\n", c->znear, c->zfar > 0 ? "" : "inf",
-           c->is_default ? " (default: the file has none)" : "");
-    if (c->zfar > 0) printf("             zfar %g\n", c->zfar);
+    printf(" znear %g zfar ", c->znear);
+    if (c->zfar > 0)
+        printf("%g", c->zfar);
+    else
+        printf("inf");
+    printf("%s\n", c->is_default ? " (default: the file has none)" : "");
     printf("             at %.4g %.4g %.4g, forward %.3g %.3g %.3g, up %.3g %.3g %.3g\n",
            z(c->position[0]), z(c->position[1]), z(c->position[2]), z(c->forward[0]),
            z(c->forward[1]), z(c->forward[2]), z(c->up[0]), z(c->up[1]), z(c->up[2]));
