@@ -123,6 +123,13 @@ static void test_file_round_trip(void **state)
     /* Resuming to fewer samples than it holds: a usage error. */
     assert_int_equal(checkpoint_read(p, &k, 9, &g, &d2, &e), SPT_EXIT_USAGE);
     printf("%s\n", e.msg);
+    /* A negative sum (radiance and the colour matching functions are never
+     * negative) is damage: refused, nothing read. */
+    f.xyz[4] = -1.0;
+    assert_int_equal(checkpoint_write(p, &k, &f, done, 12, &e), 0);
+    assert_int_equal(checkpoint_read(p, &k, 12, &g, &d2, &e), SPT_EXIT_INPUT);
+    assert_non_null(strstr(e.msg, "negative"));
+    assert_null(g.xyz);
     film_free(&f);
 }
 

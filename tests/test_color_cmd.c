@@ -125,7 +125,7 @@ static void test_errors(void **state)
     (void)state;
     expect_error("color D66", 3, "D66");
     expect_error("color /nonexistent/spd.csv", 3, "/nonexistent/spd.csv: cannot read");
-    expect_error("color tests", 3, "tests: cannot read");
+    expect_error("color tests", 3, "tests: the SPD file is a folder");
     expect_error("color blackbody:hot", 3, "blackbody:hot");
     char path[] = "/tmp/spt_color_XXXXXX";
     int fd = mkstemp(path);

@@ -19,6 +19,8 @@
 /* mpirun on one machine: as root (CI), more ranks than cores. Each rank's chunks
  * are slowed a little so both ranks take a share of a render this small. */
 #define MPIRUN "mpirun --allow-run-as-root --oversubscribe -x SPECTRACE_TEST_SLOW_DEVICE=0:25"
+/* -x applies to its own program context only (the first, here: rank 0). */
+#define RANKS_FIRST "-x SPECTRACE_TEST_RANKS_FIRST=1"
 
 #include "ckpt_test.h"
 
@@ -101,8 +103,10 @@ static void test_two_ranks_same_image(void **state)
     char cmd[4096], out[8192], args[512];
     snprintf(args, sizeof args, "render " SCENE " " COMMON " --spp 64 -o %s --checkpoint %s",
              path_in("two.exr"), path_in("two_ck.exr"));
-    snprintf(cmd, sizeof cmd, MPIRUN " -n 1 '%s' %s : -wdir %s -n 1 '%s' %s", mpi_exe, args, dir, mpi_exe,
-             args);
+    /* RANKS_FIRST (rank 0's hook): each rank has a chunk before any has a
+     * second, so both render, whatever the timing. */
+    snprintf(cmd, sizeof cmd, MPIRUN " " RANKS_FIRST " -n 1 '%s' %s : -wdir %s -n 1 '%s' %s", mpi_exe,
+             args, dir, mpi_exe, args);
     int rc = run(cmd, out, sizeof out);
     printf("%s", out);
     assert_int_equal(rc, 0);
@@ -159,13 +163,15 @@ static void test_failing_rank(void **state)
     (void)state;
     if (mpi_unavailable())
         skip();
-    static const char *extra[2] = {"-x SPECTRACE_TEST_FAIL_DEVICE=0:1", ""};
+    /* Rank 1 fails as it starts its first chunk, which RANKS_FIRST guarantees it
+     * gets (without it rank 0 might take every chunk first). */
+    static const char *extra[2] = {"-x SPECTRACE_TEST_FAIL_DEVICE=0:0", ""};
     static const char *arg1[2] = {"", "--device 9"};
     static const char *says[2] = {"error: rank 1: injected failure", "error: rank 1: device selection '9'"};
     for (int k = 0; k < 2; k++) {
         char cmd[4096], out[8192], args[512];
         snprintf(args, sizeof args, "render " SCENE " " COMMON " -q --spp 64 -o %s", path_in("fail.exr"));
-        snprintf(cmd, sizeof cmd, MPIRUN " -n 1 '%s' %s : %s -n 1 '%s' %s %s", mpi_exe, args, extra[k],
+        snprintf(cmd, sizeof cmd, MPIRUN " " RANKS_FIRST " -n 1 '%s' %s : %s -n 1 '%s' %s %s", mpi_exe, args, extra[k],
                  mpi_exe, args, arg1[k]);
         int rc = run(cmd, out, sizeof out);
         printf("%s", out);

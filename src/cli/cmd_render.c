@@ -7,12 +7,17 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+#include <limits.h>
+#include <sys/stat.h>
 
 #include "cl/cl_device.h"
 #include "cli/commands.h"
 #include "cli/render_args.h"
 #include "core/util.h"
+#include "io/atomic_file.h"
 #include "io/image_out.h"
+#include "io/input_file.h"
 #include "mpi/mpi_hook.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
@@ -40,11 +45,38 @@ typedef struct RenderJob {
 } RenderJob;
 
 static volatile sig_atomic_t stop_requested;
+static int signal_quiet; /* -q: on_signal prints nothing */
 
+/* SIGINT, SIGTERM and SIGHUP: the first stops after the current chunks (and
+ * writes what is complete), a second stops at once, dropping the chunks in
+ * progress. */
 static void on_signal(int sig)
 {
     (void)sig;
-    stop_requested = 1;
+    static const char first[] = "note: stopping after the current chunk (a second signal "
+                                "stops at once)\n";
+    if (stop_requested == 0 && !signal_quiet && write(2, first, sizeof first - 1) < 0)
+        stop_requested = 0; /* nothing to do when stderr is gone */
+    stop_requested = stop_requested ? 2 : 1;
+}
+
+static struct sigaction old_int, old_term, old_hup;
+
+static void signals_catch(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigaction(SIGINT, &sa, &old_int);
+    sigaction(SIGTERM, &sa, &old_term);
+    sigaction(SIGHUP, &sa, &old_hup);
+}
+
+static void signals_restore(void)
+{
+    sigaction(SIGINT, &old_int, NULL);
+    sigaction(SIGTERM, &old_term, NULL);
+    sigaction(SIGHUP, &old_hup, NULL);
 }
 
 /* SCENE's file name without folder and extension, for default output names. */
@@ -90,14 +122,90 @@ static int check_outputs(RenderJob *j, SptError *e)
     return SPT_EXIT_OK;
 }
 
-/* The sky of --env/--background, the scene, and the image size (--width 512 by
- * default, the other side from the camera's aspect ratio). */
+/* An output's identity: the file it would replace (device and inode) when that
+ * exists, else its folder's device and inode and its name. */
+typedef struct OutputId {
+    int exists;
+    struct stat st;
+    char name[NAME_MAX + 1];
+} OutputId;
+
+static void output_id(const char *path, OutputId *id)
+{
+    memset(id, 0, sizeof *id);
+    if (stat(path, &id->st) == 0) {
+        id->exists = 1;
+        return;
+    }
+    char real[PATH_MAX], dir[PATH_MAX];
+    const char *base;
+    atomic_resolve(path, real, sizeof real);
+    atomic_split_path(real, dir, sizeof dir, &base);
+    snprintf(id->name, sizeof id->name, "%s", base);
+    if (stat(dir, &id->st) != 0)
+        memset(&id->st, 0, sizeof id->st);
+}
+
+static int same_output(const OutputId *a, const OutputId *b)
+{
+    return a->exists == b->exists && a->st.st_dev == b->st.st_dev &&
+           a->st.st_ino == b->st.st_ino && !strcmp(a->name, b->name);
+}
+
+/* After the inputs are read and before any work: no output (-o or the
+ * checkpoint) may be one of the files read (scene, buffers, textures, the
+ * environment map, SPD files), an image output may not be the checkpoint being
+ * resumed, and no two outputs may be the same file. Compared by device and inode,
+ * so other names of a file (links, "./", "..") are caught too. */
+static int check_outputs_are_not_inputs(const RenderJob *j, SptError *e)
+{
+    const RenderArgs *a = &j->a;
+    const char *ckpt = a->checkpoint ? a->checkpoint : a->resume;
+    int n = a->outputs_count + (ckpt ? 1 : 0);
+    OutputId *ids = spt_calloc((size_t)n, sizeof *ids);
+    const char **names = spt_calloc((size_t)n, sizeof *names);
+    for (int i = 0; i < a->outputs_count; i++)
+        names[i] = a->outputs[i];
+    if (ckpt)
+        names[n - 1] = ckpt;
+    struct stat resume_st;
+    int have_resume = a->resume && stat(a->resume, &resume_st) == 0;
+    int rc = SPT_EXIT_OK;
+    for (int i = 0; i < n && !rc; i++) {
+        output_id(names[i], &ids[i]);
+        const char *input = ids[i].exists ? input_seen_match(&ids[i].st) : NULL;
+        int is_ckpt = ckpt && i == n - 1;
+        if (input)
+            rc = spt_fail(e, SPT_EXIT_USAGE, "%s: this %s is the input file %s; writing it "
+                          "would destroy it (choose another name)", names[i],
+                          is_ckpt ? "checkpoint" : "output", input);
+        else if (!is_ckpt && have_resume && ids[i].exists &&
+                 ids[i].st.st_dev == resume_st.st_dev && ids[i].st.st_ino == resume_st.st_ino)
+            rc = spt_fail(e, SPT_EXIT_USAGE, "%s: this output is the checkpoint %s being "
+                          "resumed (choose another name)", names[i], a->resume);
+        for (int k = 0; k < i && !rc; k++)
+            if (same_output(&ids[i], &ids[k]))
+                rc = spt_fail(e, SPT_EXIT_USAGE, "-o %s and %s %s name the same file (give "
+                              "each output its own name)", names[k],
+                              !is_ckpt ? "-o" : a->checkpoint ? "--checkpoint" : "--resume",
+                              names[i]);
+    }
+    free(ids);
+    free(names);
+    return rc;
+}
+
+/* The sky of --env/--background, the scene, the check that no output replaces an
+ * input, and the image size (--width 512 by default, the other side from the
+ * camera's aspect ratio). */
 static int load_scene(RenderJob *j, SptError *e)
 {
     RenderSettings *rs = &j->a.rs;
     int rc;
+    input_seen_reset();
     if ((rc = sky_from_args(&j->sky, j->a.env, j->a.background, e)) ||
-        (rc = scene_load_gltf(&j->scene, j->a.scene, e)))
+        (rc = scene_load_gltf(&j->scene, j->a.scene, e)) ||
+        (rc = check_outputs_are_not_inputs(j, e)))
         return rc;
     const SceneCamera *cam = &j->scene.camera;
     if (!rs->width && !rs->height)
@@ -136,7 +244,6 @@ static void complete_settings(RenderJob *j)
     rs->sky = &j->sky;
     rs->progress = !j->a.quiet;
     rs->stop = &stop_requested;
-    stop_requested = 0;
     render_args_test_hooks(rs);
     /* Without emitters or lights the default sky lights the scene
      * (src/render/render_lights.c); only a black sky leaves it dark. */
@@ -147,8 +254,7 @@ static void complete_settings(RenderJob *j)
 }
 
 /* The render itself, on this process's devices or (spectrace-mpi) over MPI
- * ranks, resuming and checkpointing as asked; SIGINT and SIGTERM stop it after
- * the current chunks. */
+ * ranks, resuming and checkpointing as asked; a signal stops it (on_signal). */
 static int render(RenderJob *j, SptError *e)
 {
     RenderArgs *a = &j->a;
@@ -160,18 +266,11 @@ static int render(RenderJob *j, SptError *e)
     if (j->ckpt.resumed && !a->quiet)
         fprintf(stderr, "resuming %s: %u of %ld samples per pixel done\n", a->resume,
                 j->ckpt.resumed, (long)rs->spp);
-    struct sigaction sa, old_int, old_term;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;
-    sigaction(SIGINT, &sa, &old_int);
-    sigaction(SIGTERM, &sa, &old_term);
     const SceneCamera *cam = &j->scene.camera;
     rc = spt_dist_render ? spt_dist_render(j->devs, j->nsel, &j->gpu, &j->scene, cam, rs,
                                            &j->film, &j->st, j->per_dev, e)
                          : render_devices(j->devs, j->nsel, &j->gpu, cam, rs, &j->film, &j->st,
                                           j->per_dev, e);
-    sigaction(SIGINT, &old_int, NULL);
-    sigaction(SIGTERM, &old_term, NULL);
     return rc;
 }
 
@@ -245,7 +344,9 @@ static void describe_devices(const RenderJob *j, char *out, size_t cap)
 }
 
 /* The film as every output image (with the render's metadata), then the final
- * checkpoint. */
+ * checkpoint: all written to temporary files first and renamed over their names
+ * only when every one was written, so a failed run (a full disk at the second
+ * output) leaves every existing file as it was. */
 static int write_outputs(RenderJob *j, SptError *e)
 {
     const RenderArgs *a = &j->a;
@@ -266,14 +367,22 @@ static int write_outputs(RenderJob *j, SptError *e)
     image_meta_add(&meta, "max_depth", depth_s);
     image_meta_add(&meta, "nan_dropped", nan_s);
     DisplayOptions disp = {(float)a->exposure, a->tonemap};
-    int rc;
-    for (int i = 0; i < a->outputs_count; i++) {
-        if ((rc = image_write(a->outputs[i], j->rgb, rs->width, rs->height, &meta, &disp, e)))
-            return rc;
-        if (!a->quiet)
-            fprintf(stderr, "wrote %s\n", a->outputs[i]);
-    }
-    return checkpoint_run_end(&j->ckpt, &j->film, a->quiet && !stop_requested, e);
+    const char *fail_at = getenv("SPECTRACE_TEST_FAIL_OUTPUT");
+    atomic_test_fail_commit_at = fail_at ? atoi(fail_at) : 0;
+    atomic_stage_begin();
+    int rc = SPT_EXIT_OK;
+    for (int i = 0; i < a->outputs_count && !rc; i++)
+        rc = image_write(a->outputs[i], j->rgb, rs->width, rs->height, &meta, &disp, e);
+    if (!rc)
+        rc = checkpoint_writer_finish(&j->ckpt.writer, &j->film, e);
+    int rc2 = atomic_stage_finish(!rc, e);
+    atomic_test_fail_commit_at = 0;
+    if (rc || rc2)
+        return rc ? rc : rc2;
+    for (int i = 0; i < a->outputs_count && !a->quiet; i++)
+        fprintf(stderr, "wrote %s\n", a->outputs[i]);
+    checkpoint_run_report(&j->ckpt, a->quiet && !stop_requested);
+    return SPT_EXIT_OK;
 }
 
 static void job_free(RenderJob *j)
@@ -296,8 +405,16 @@ int cmd_render(int argc, char **argv)
         free(j);
         return rc;
     }
+    /* Signals are caught from the start: one during loading ends the run once
+     * the step in progress is over (exit 130, nothing written). */
+    stop_requested = 0;
+    signal_quiet = j->a.quiet;
+    signals_catch();
     if ((rc = check_outputs(j, &e)) || (rc = load_scene(j, &e)) || (rc = open_devices(j, &e))) {
         spt_report(&e);
+    } else if (stop_requested) {
+        spt_error("render: stopped by a signal before rendering; nothing written");
+        rc = SPT_EXIT_INTERRUPTED;
     } else {
         complete_settings(j);
         if ((rc = render(j, &e))) {
@@ -315,7 +432,9 @@ int cmd_render(int argc, char **argv)
             }
         }
     }
+    signals_restore();
     job_free(j);
     free(j);
+    input_seen_reset();
     return rc;
 }

@@ -249,6 +249,8 @@ void render_args_test_hooks(RenderSettings *rs)
     const char *poison = getenv("SPECTRACE_TEST_POISON");
     rs->test.poison = poison && *poison;
     rs->test.poison_word = rs->test.poison ? (uint32_t)strtoul(poison, NULL, 0) : 0;
+    const char *first = getenv("SPECTRACE_TEST_RANKS_FIRST");
+    rs->test.ranks_first = first && *first && strcmp(first, "0") != 0;
     const char *film_nan = getenv("SPECTRACE_TEST_FILM_NAN");
     rs->test.film_nan = film_nan ? atol(film_nan) : 0;
     const char *path = getenv("SPECTRACE_KERNEL_PATH");

@@ -9,7 +9,10 @@
 #include <string.h>
 #include <strings.h>
 
+#include <sys/stat.h>
+
 #include "color/spd_data.h"
+#include "io/input_file.h"
 #include "shared/cie_data.h"
 #include "shared/spectrum.h"
 
@@ -326,9 +329,21 @@ int spd_named(Spd *out, const char *name, SptError *e)
 int spd_read_csv(Spd *out, const char *path, SptError *e)
 {
     memset(out, 0, sizeof *out);
-    FILE *f = fopen(path, "r");
-    if (!f)
-        return spt_fail(e, SPT_EXIT_INPUT, "%s: cannot read: %s", path, strerror(errno));
+    unsigned char *text = NULL;
+    size_t text_size = 0;
+    int rc0 = input_read(path, "SPD file", &text, &text_size, e);
+    if (rc0)
+        return rc0;
+    if (memchr(text, 0, text_size)) {
+        free(text);
+        return spt_fail(e, SPT_EXIT_INPUT, "%s: not a text file (it holds a zero byte)", path);
+    }
+    FILE *f = text_size ? fmemopen(text, text_size, "r") : NULL;
+    if (!f) {
+        free(text);
+        return spt_fail(e, SPT_EXIT_INPUT, "%s: no samples (expected lines of 'wavelength_nm,value')",
+                        path);
+    }
     char line[4096];
     int lineno = 0, n = 0, cap = 0, rc = 0, header_ok = 1;
     double *nm = NULL, *v = NULL;
@@ -396,6 +411,7 @@ done:
     free(nm);
     free(v);
     fclose(f);
+    free(text);
     return rc;
 }
 
@@ -408,10 +424,8 @@ int spd_parse(Spd *out, const char *text, SptError *e)
      * (so an unreadable file says why); anything else is an unknown name. */
     size_t n = strlen(text);
     int path_like = strchr(text, '/') || (n > 4 && !strcasecmp(text + n - 4, ".csv"));
-    FILE *f = fopen(text, "r");
-    if (f)
-        fclose(f);
-    else if (!path_like && errno == ENOENT)
+    struct stat st;
+    if (stat(text, &st) != 0 && !path_like && errno == ENOENT)
         return spt_fail(e, SPT_EXIT_INPUT, "%s", e1.msg);
     return spd_read_csv(out, text, e);
 }

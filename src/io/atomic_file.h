@@ -29,10 +29,34 @@ int atomic_temp_commit(const char *tmp, const char *path, SptError *e);
  * write and the close (a full disk may only show there). */
 int atomic_write_bytes(const char *path, const void *data, size_t n, SptError *e);
 
+/* Pre-flight check of an output path's name: the file name fits the file
+ * system's NAME_MAX (pathconf of its folder) and the whole path PATH_MAX; a
+ * symbolic link must point to an existing file (its target is what gets
+ * replaced). Returns SPT_EXIT_OK or SPT_EXIT_OUTPUT naming path and the limit. */
+int atomic_path_check(const char *path, SptError *e);
+
+/* The file a write to path replaces: path itself, or the target of a symbolic
+ * link (resolved with realpath when the target exists), written to out. An output
+ * that is a link keeps being a link: the target's content changes. */
+void atomic_resolve(const char *path, char *out, size_t out_size);
+
+/* Staged commits, so that a run with several outputs replaces all of them or none:
+ * after atomic_stage_begin, atomic_temp_commit makes each temporary file durable
+ * but keeps it; atomic_stage_finish(1) then renames every one over its
+ * destination, atomic_stage_finish(0) removes them all (nothing replaced). A
+ * failed rename during finish is reported; the later temporaries are removed. */
+void atomic_stage_begin(void);
+int atomic_stage_finish(int commit, SptError *e);
+
 /* Test hook: while non-zero, every commit fails after its temporary file was
  * written and before the rename, as a full disk would; the error says so. Only
  * tests set it. */
 extern int atomic_test_fail_commits;
+
+/* Test hook: when N > 0, the N-th commit from now on (counting from 1) fails in the
+ * same way, the others succeed; reset to 0 after it fired. Set by `spectrace
+ * render` from SPECTRACE_TEST_FAIL_OUTPUT=N (a full disk at the N-th output). */
+extern int atomic_test_fail_commit_at;
 
 /* Marks of a temporary file, for tests that check none is left behind. */
 #define SPT_ATOMIC_TEMP_MARK ".spt-tmp-"

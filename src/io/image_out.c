@@ -148,6 +148,9 @@ int image_output_check(const char *path, SptError *e)
         return spt_fail(e, SPT_EXIT_USAGE, "no output file name given");
     if (!image_format_known(path, NULL))
         return unknown_format(path, e);
+    int rc = atomic_path_check(path, e);
+    if (rc)
+        return rc;
     char dir[PATH_MAX];
     const char *base;
     atomic_split_path(path, dir, sizeof dir, &base);
@@ -165,7 +168,7 @@ int image_output_check(const char *path, SptError *e)
     if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
         return spt_fail(e, SPT_EXIT_OUTPUT, "%s: is a folder", path);
     char tmp[PATH_MAX + 64];
-    int rc = atomic_temp_create(path, tmp, sizeof tmp, e);
+    rc = atomic_temp_create(path, tmp, sizeof tmp, e);
     if (rc)
         return rc;
     unlink(tmp);

@@ -54,9 +54,10 @@ typedef struct ImageMeta {
 int image_meta_add(ImageMeta *meta, const char *key, const char *value);
 
 /* Pre-flight check before rendering: path has a known extension (else
- * SPT_EXIT_USAGE), its folder exists, is a folder and is writable (proved by
- * creating and removing a temporary file there), and path itself is not a folder
- * (else SPT_EXIT_OUTPUT). The message names the file and the reason. */
+ * SPT_EXIT_USAGE), its name fits the file system (atomic_path_check), its folder
+ * exists, is a folder and is writable (proved by creating and removing a
+ * temporary file there), and path itself is not a folder (else SPT_EXIT_OUTPUT).
+ * The message names the file and the reason. */
 int image_output_check(const char *path, SptError *e);
 
 /* Pre-flight check of the image size for path's format, once the resolution is

@@ -158,7 +158,28 @@ typedef struct Global {
     Film local_film;           /* rank 0's devices render into this */
     FinishMsg *finish;         /* per rank */
     int finished;              /* ranks other than 0 that reported */
+    unsigned char *started;    /* per rank: had a chunk, or reported its end */
+    int started_count;         /* ranks other than 0 marked in started */
+    int local_started;         /* rank 0's devices had a chunk, or ended */
 } Global;
+
+/* The test hook ranks_first (G locked): whether a rank that had its first chunk
+ * must wait before its next one, because some rank has not had its first yet.
+ * Rank 0's devices wait for every other rank; the others wait for rank 0. */
+static int g_hold_second(const Global *G)
+{
+    return G->rs->test.ranks_first && !G->abort && !g_stop &&
+           !(G->started_count == g_size - 1 && G->local_started);
+}
+
+/* Marks rank r as started (G locked). */
+static void g_started(Global *G, int r)
+{
+    if (r > 0 && r < g_size && !G->started[r]) {
+        G->started[r] = 1;
+        G->started_count++;
+    }
+}
 
 /* Takes up to want samples (G locked); 0 when nothing is left or stopping. */
 static int g_take(Global *G, uint32_t want, uint32_t *begin, uint32_t *n)
@@ -230,9 +251,16 @@ static int local_take(void *ctx, uint32_t want, uint32_t *begin, uint32_t *n)
 {
     Global *G = ctx;
     pthread_mutex_lock(&G->lock);
+    /* The test hook ranks_first: wait until each other rank has had a chunk. */
+    while (G->rs->test.ranks_first && G->started_count < g_size - 1 && !G->abort && !g_stop) {
+        pthread_mutex_unlock(&G->lock);
+        usleep(1000);
+        pthread_mutex_lock(&G->lock);
+    }
     int ok = g_take(G, want, begin, n);
     if (ok)
         inflight_add(&G->local, *begin, *n);
+    G->local_started = 1;
     pthread_mutex_unlock(&G->lock);
     return ok;
 }
@@ -270,7 +298,21 @@ static void *server_main(void *arg)
     Film in;
     film_init(&in, G->film->width, G->film->height);
     double *buf = spt_malloc(4 * np * sizeof(double));
+    /* Requests held back by the test hook ranks_first: 1 + the samples wanted. */
+    uint64_t *held = spt_calloc((size_t)g_size, sizeof *held);
     while (G->finished < g_size - 1) {
+        pthread_mutex_lock(&G->lock);
+        int hold = g_hold_second(G);
+        pthread_mutex_unlock(&G->lock);
+        for (int r = 1; r < g_size && !hold; r++)
+            if (held[r]) {
+                uint32_t reply[3] = {0, 0, 0};
+                pthread_mutex_lock(&G->lock);
+                reply[0] = (uint32_t)g_take(G, (uint32_t)(held[r] - 1), &reply[1], &reply[2]);
+                pthread_mutex_unlock(&G->lock);
+                held[r] = 0;
+                MPI_Send(reply, 3, MPI_UINT32_T, r, TAG_CHUNK, MPI_COMM_WORLD);
+            }
         MPI_Status st;
         int flag = 0;
         MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
@@ -283,7 +325,14 @@ static void *server_main(void *arg)
             uint32_t want, reply[3] = {0, 0, 0};
             MPI_Recv(&want, 1, MPI_UINT32_T, src, TAG_REQ, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
             pthread_mutex_lock(&G->lock);
+            if (G->started[src] && g_hold_second(G)) {
+                held[src] = 1 + (uint64_t)want;
+                pthread_mutex_unlock(&G->lock);
+                continue;
+            }
             reply[0] = (uint32_t)g_take(G, want, &reply[1], &reply[2]);
+            if (reply[0])
+                g_started(G, src);
             pthread_mutex_unlock(&G->lock);
             MPI_Send(reply, 3, MPI_UINT32_T, src, TAG_CHUNK, MPI_COMM_WORLD);
         } else if (st.MPI_TAG == TAG_DONE) {
@@ -309,6 +358,7 @@ static void *server_main(void *arg)
             pthread_mutex_lock(&G->lock);
             G->finish[src] = f;
             G->finished++;
+            g_started(G, src);
             if (f.rc)
                 G->abort = 1; /* a failed rank fails the run: hand out nothing more */
             pthread_mutex_unlock(&G->lock);
@@ -321,6 +371,7 @@ static void *server_main(void *arg)
             free(junk);
         }
     }
+    free(held);
     free(buf);
     film_free(&in);
     return NULL;
@@ -378,6 +429,7 @@ static int mpi_render(const ClDeviceInfo *const *infos, int count, const GpuScen
     G.decile = -1;
     G.t0 = spt_now();
     G.finish = spt_calloc((size_t)g_size, sizeof(FinishMsg));
+    G.started = spt_calloc((size_t)g_size, 1);
     film_init(&G.local_film, film->width, film->height);
     pthread_t server;
     pthread_create(&server, NULL, server_main, &G);
@@ -393,11 +445,11 @@ static int mpi_render(const ClDeviceInfo *const *infos, int count, const GpuScen
     RenderStats lst;
     SptError le = {0};
     int rc0 = render_devices(infos, count, g, cam, &lrs, &G.local_film, &lst, per_device, &le);
-    if (rc0) {
-        pthread_mutex_lock(&G.lock);
+    pthread_mutex_lock(&G.lock);
+    G.local_started = 1;
+    if (rc0)
         G.abort = 1;
-        pthread_mutex_unlock(&G.lock);
-    }
+    pthread_mutex_unlock(&G.lock);
     pthread_join(server, NULL);
     if (rs->progress && isatty(2))
         fputc('\n', stderr);
@@ -437,6 +489,7 @@ static int mpi_render(const ClDeviceInfo *const *infos, int count, const GpuScen
     free(G.ret_begin);
     free(G.ret_n);
     free(G.finish);
+    free(G.started);
     free(G.local.begin);
     free(G.local.n);
     pthread_mutex_destroy(&G.lock);

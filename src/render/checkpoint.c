@@ -15,12 +15,16 @@
 #include "cl/embedded.h"
 #include "io/exr.h"
 #include "io/image_out.h"
+#include "io/input_file.h"
 
 #define CKPT_VERSION 1
 
 /* FNV-1a 64 of a whole file's bytes. */
 static int hash_file(const char *path, unsigned long long *h, SptError *e)
 {
+    int rc = input_check(path, "scene file", e);
+    if (rc)
+        return rc;
     FILE *f = fopen(path, "rb");
     if (!f)
         return spt_fail(e, SPT_EXIT_INPUT, "%s: cannot read: %s", path, strerror(errno));
@@ -291,6 +295,9 @@ int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film
     *done = NULL;
     ExrLayers L;
     SptError e2 = {0};
+    int rc0 = input_check(path, "checkpoint", e);
+    if (rc0)
+        return rc0;
     if (exr_read_layers(path, NULL, 0, &L, &e2))
         return spt_fail(e, SPT_EXIT_INPUT, "%s (a damaged, truncated or unreadable checkpoint: "
                         "cannot resume from it)", e2.msg);
@@ -364,7 +371,7 @@ int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film
     for (size_t i = 0; i < n && !rc; i++) {
         for (int j = 0; j < 3; j++) {
             double v = (double)((const float *)c[j]->data)[i] + (double)((const float *)c[3 + j]->data)[i];
-            if (!isfinite(v))
+            if (!isfinite(v) || v < 0)
                 rc = 1;
             film->xyz[3 * i + j] = v;
         }
@@ -375,8 +382,8 @@ int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film
     if (rc) {
         free(flags);
         film_free(film);
-        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: a pixel has a non-finite sum or more "
-                      "samples than the %u done", path, ndone);
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: a pixel has a negative or non-finite "
+                      "sum, or more samples than the %u done", path, ndone);
         goto out;
     }
     *done = flags;
@@ -483,14 +490,20 @@ int checkpoint_run_begin(CheckpointRun *run, const char *scene_path, const char 
 int checkpoint_run_end(CheckpointRun *run, const Film *film, int quiet, SptError *e)
 {
     int rc = checkpoint_writer_finish(&run->writer, film, e);
-    if (!rc && run->writer.path && run->writer.done && !quiet) {
+    if (!rc)
+        checkpoint_run_report(run, quiet);
+    return rc;
+}
+
+void checkpoint_run_report(const CheckpointRun *run, int quiet)
+{
+    if (run->writer.path && run->writer.done && !quiet) {
         uint32_t n = 0;
         for (uint32_t i = 0; i < run->writer.total; i++)
             n += run->writer.done[i];
         fprintf(stderr, "wrote checkpoint %s (%u spp; continue with --resume %s)\n",
                 run->writer.path, n, run->writer.path);
     }
-    return rc;
 }
 
 void checkpoint_run_free(CheckpointRun *run)

@@ -110,6 +110,11 @@ int checkpoint_run_begin(CheckpointRun *run, const char *scene_path, const char 
  * naming it unless quiet. Returns 0 or SPT_EXIT_OUTPUT. */
 int checkpoint_run_end(CheckpointRun *run, const Film *film, int quiet, SptError *e);
 
+/* The note of checkpoint_run_end alone (the file written; nothing unless quiet is
+ * 0 and a checkpoint was written): for callers that write the final checkpoint
+ * with checkpoint_writer_finish among other outputs. */
+void checkpoint_run_report(const CheckpointRun *run, int quiet);
+
 void checkpoint_run_free(CheckpointRun *run);
 
 #endif

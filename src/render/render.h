@@ -27,6 +27,9 @@ typedef struct RenderTestHooks {
     int inject_nan;   /* pixel 0's radiance is NaN, which the NaN guard must drop */
     int take_turns;   /* the devices take chunks in turn (0, 1, ..., 0, 1, ...), so
                          each renders a known share whatever its speed */
+    int ranks_first;  /* spectrace-mpi: rank 0's devices take no chunk before every
+                         other rank has had its first one (or has ended), so each
+                         rank renders at least one chunk whatever the timing */
     int poison;       /* every path, shadow, queue, counter and film buffer is first
                          filled with the 32-bit word poison_word, so that a value
                          read before anything wrote it shows (NaN, all ones) */
@@ -50,7 +53,9 @@ typedef struct RenderSettings {
     const Sky *sky;          /* --env, --background (src/scene/sky.h); NULL = default */
     uint32_t sample_begin;   /* first sample index (a resumed render starts later) */
     int progress;            /* print progress to stderr */
-    volatile sig_atomic_t *stop; /* when set non-zero: finish the current chunk, stop */
+    volatile sig_atomic_t *stop; /* 1: finish the current chunks, then stop; 2 (a second
+                                    Ctrl-C): drop the chunks in progress at the next
+                                    wave of paths and stop at once */
     uint32_t pool_size;      /* paths in flight per device; 0 = the device's default */
     RenderTestHooks test;
     /* Optional hooks for other schedulers and for checkpoints (all NULL = off):

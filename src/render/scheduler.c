@@ -226,6 +226,7 @@ static void *worker_main(void *arg)
     }
     RenderParams p = *wk->base;
     p.pool_size = w.pool;
+    w.stop = rs->stop;
     float *sums = spt_malloc((size_t)rs->width * rs->height * 4 * sizeof(float));
     /* The test hooks that concern this device. */
     int fail_after = rs->test.fail_device == wk->index + 1 ? rs->test.fail_after : -1;
@@ -250,6 +251,8 @@ static void *worker_main(void *arg)
         }
         if (wk->rc) {
             sched_give_back(wk->s, begin, n);
+            if (wk->rc == SPT_EXIT_INTERRUPTED)
+                wk->rc = 0; /* stopped at once by a second signal: not a failure */
             break;
         }
         chunks++;

@@ -305,6 +305,8 @@ int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, 
         st->rays_shadow += counters[SPT_CNT_SHADOW];
         if (counters[SPT_CNT_DONE] >= p.work_end)
             break;
+        if (w->stop && *w->stop >= 2)
+            return spt_fail(e, SPT_EXIT_INTERRUPTED, "interrupted");
     }
     if ((rc = run_kernel(w, K_ACCUMULATE, npix, acc ? acc + 4 : NULL, e)))
         return rc;

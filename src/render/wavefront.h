@@ -38,6 +38,7 @@ typedef struct Wavefront {
     int ray_pairs;         /* 1: k_extend traces two rays per work-item (CPU devices) */
     void *host_mem[16];    /* memory of the scene buffers used in place (CPU devices) */
     int host_mem_count;
+    volatile sig_atomic_t *stop; /* RenderSettings.stop: at 2, render_chunk stops */
 } Wavefront;
 
 /* Opens info's device, builds the program and allocates every buffer for
@@ -49,7 +50,9 @@ void wavefront_free(Wavefront *w);
 
 /* Renders samples [sample_begin, sample_begin + n) of every pixel on w: sums
  * receives 4 floats per pixel (XYZ sums and the sample count); st gains the
- * chunk's paths, rays and (with profile) stage times. */
+ * chunk's paths, rays and (with profile) stage times. When *w->stop reaches 2
+ * between two waves of paths, returns SPT_EXIT_INTERRUPTED (the chunk is
+ * dropped). */
 int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, uint32_t n,
                  int profile, float *sums, RenderStats *st, SptError *e);
 

@@ -37,16 +37,23 @@ bool fs_read(std::vector<unsigned char> *out, std::string *err, const std::strin
         if (err) *err = "outside the scene folder";
         return false;
     }
-    FILE *f = fopen(path.c_str(), "rb");
-    if (!f) {
-        if (err) *err = strerror(errno);
+    unsigned char *bytes = nullptr;
+    size_t size = 0;
+    SptError e = {};
+    if (input_read(path.c_str(), "file", &bytes, &size, &e)) {
+        // The reason after "PATH: ": tinygltf names the file itself.
+        const char *why = strstr(e.msg, ": ");
+        if (err) *err = why ? why + 2 : e.msg;
         return false;
     }
-    out->clear();
-    unsigned char chunk[65536];
-    size_t n;
-    while ((n = fread(chunk, 1, sizeof chunk, f)) > 0) out->insert(out->end(), chunk, chunk + n);
-    fclose(f);
+    try {
+        out->assign(bytes, bytes + size);
+    } catch (...) {
+        free(bytes);
+        if (err) *err = "does not fit in memory";
+        return false;
+    }
+    free(bytes);
     // tinygltf refuses the whole file when an image file is empty; one zero byte
     // turns that into a corrupt image (a warning), and a buffer still fails its
     // size check.

@@ -146,14 +146,11 @@ extern "C" int scene_load_gltf_memory(Scene *s, const void *data, size_t size, c
 extern "C" int scene_load_gltf(Scene *s, const char *path, SptError *e)
 {
     memset(s, 0, sizeof *s);
-    FILE *f = fopen(path, "rb");
-    if (!f) return spt_fail(e, SPT_EXIT_INPUT, "%s: cannot open: %s", path, strerror(errno));
-    std::vector<unsigned char> bytes;
-    unsigned char chunk[1 << 16];
-    size_t n;
-    while ((n = fread(chunk, 1, sizeof chunk, f)) > 0) bytes.insert(bytes.end(), chunk, chunk + n);
-    bool failed = ferror(f);
-    fclose(f);
-    if (failed) return spt_fail(e, SPT_EXIT_INPUT, "%s: cannot read the file", path);
-    return spt_gltf::load(s, bytes.data(), bytes.size(), path, e);
+    unsigned char *bytes = nullptr;
+    size_t size = 0;
+    int rc = input_read(path, "scene file", &bytes, &size, e);
+    if (rc) return rc;
+    rc = spt_gltf::load(s, bytes, size, path, e);
+    free(bytes);
+    return rc;
 }

@@ -27,6 +27,7 @@ extern "C" {
 #include "shared/cie_data.h"
 #include "scene/mesh_decode.h"
 #include "scene/texture_io.h"
+#include "io/input_file.h"
 }
 
 namespace spt_gltf {
@@ -189,6 +190,10 @@ struct Loader {
 
     bool inside_folder(const std::string &path, std::string *real_out);
     int parse(const unsigned char *data, size_t size);
+    // The deepest JSON nesting accepted (docs/gltf.md); deeper text is refused
+    // before parsing, as the glTF library's recursion would overflow the stack.
+    static constexpr int k_max_json_depth = 128;
+    int check_json_depth(const unsigned char *json, size_t size);
     int diagnose_parse_failure(const unsigned char *json, size_t size, const std::string &err);
     int check_version_and_extensions();
     int check_buffer_views();

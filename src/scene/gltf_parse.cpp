@@ -149,6 +149,42 @@ static bool rewrite_fallback_buffers(const unsigned char *json, size_t size, std
     return changed;
 }
 
+// The deepest nesting of arrays and objects in JSON text (strings skipped), up to
+// just past limit, and the byte offset where it went past. The glTF library turns
+// JSON into values recursively, so text nested thousands deep would overflow the
+// stack: it is refused before the library sees it.
+static int json_depth_over(const unsigned char *json, size_t size, int limit, size_t *where)
+{
+    int depth = 0;
+    bool in_string = false;
+    for (size_t i = 0; i < size; i++) {
+        unsigned char c = json[i];
+        if (in_string) {
+            if (c == '\\') i++;
+            else if (c == '"') in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > limit) {
+                *where = i;
+                return depth;
+            }
+        } else if (c == ']' || c == '}') {
+            depth--;
+        }
+    }
+    return 0;
+}
+
+int Loader::check_json_depth(const unsigned char *json, size_t size)
+{
+    size_t where = 0;
+    if (json_depth_over(json, size, k_max_json_depth, &where))
+        return bad("JSON nested more than %d arrays and objects deep (at byte %zu); refused",
+                   k_max_json_depth, where);
+    return 0;
+}
+
 int Loader::parse(const unsigned char *data, size_t size)
 {
     if (size == 0) return bad("empty file (not glTF)");
@@ -185,6 +221,7 @@ int Loader::parse(const unsigned char *data, size_t size)
         }
         json = data + 20;
         json_size = h[3];
+        if (int r = check_json_depth(json, json_size)) return r;
         std::string fixed;
         if (rewrite_fallback_buffers(json, json_size, &fixed)) {
             // The same container around the rewritten JSON chunk.
@@ -203,6 +240,7 @@ int Loader::parse(const unsigned char *data, size_t size)
         }
     } else {
         if (size > UINT_MAX) return bad("a .gltf file of 4 GiB or more is not supported");
+        if (int r = check_json_depth(data, size)) return r;
         std::string fixed;
         if (rewrite_fallback_buffers(data, size, &fixed))
             ok = gltf.LoadASCIIFromString(&m, &err, &warn, fixed.data(), (unsigned)fixed.size(),

@@ -10,6 +10,7 @@
 #include "color/spd.h"
 #include "io/image_io.h"
 #include "io/image_out.h"
+#include "io/input_file.h"
 #include "shared/cie_data.h"
 
 /* The map of an image file, values as stored: an 8- or 16-bit integer file (PNG,
@@ -20,7 +21,9 @@ static int sky_load_map(Sky *sky, const char *path, SptError *e)
 {
     float *rgb = NULL;
     int w = 0, h = 0;
-    int rc = image_read_rgb(path, &rgb, &w, &h, e);
+    int rc = input_check(path, "environment map", e);
+    if (rc == SPT_EXIT_OK)
+        rc = image_read_rgb(path, &rgb, &w, &h, e);
     if (rc != SPT_EXIT_OK)
         return rc;
     ImageIoInfo info;

@@ -11,6 +11,10 @@
 #include <cstring>
 #include <string>
 
+extern "C" {
+#include "io/input_file.h"
+}
+
 using namespace OIIO;
 
 namespace {
@@ -142,6 +146,12 @@ extern "C" int texture_io_load_file(const char *path, TextureImage *img, char *w
                                     size_t why_size)
 {
     memset(img, 0, sizeof *img);
+    SptError e = {};
+    if (input_check(path, "image", &e)) {
+        const char *reason = strstr(e.msg, ": ");
+        say(why, why_size, reason ? reason + 2 : e.msg);
+        return -1;
+    }
     // PNG and JPEG go through memory (and the PNG check); other formats (EXR, HDR,
     // TIFF...) are opened by name so OpenImageIO picks the reader.
     FILE *f = fopen(path, "rb");
