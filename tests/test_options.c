@@ -32,7 +32,7 @@ static const struct {
     {"env-intensity", "2"},     {"background", "0.5,0.25,1"},
     {"aperture", "0.1"},        {"focus-distance", "2"},
     {"checkpoint", "ck.exr"},   {"checkpoint-every", "5"},
-    {"resume", "ck.exr"},
+    {"resume", "ck.exr"},       {"caustics", "on"},
 };
 
 /* What the list says of each option. */

@@ -176,9 +176,10 @@ static inline int render_scene_rgb(const Scene *s, const RenderSettings *rs, flo
     return rc;
 }
 
-/* Appends the quad y = height over [-6, 6]^2 (two triangles) with a new material
- * to s; returns the material. */
-static inline SceneMaterial *append_quad(Scene *s, float height)
+/* Appends the quad with corners c[0..3] (counter-clockwise about its front
+ * normal) as two triangles with a new Lambertian material (metallic 0, no
+ * specular layer) to s; returns the material. */
+static inline SceneMaterial *append_rect(Scene *s, const float c[4][3])
 {
     uint32_t t0 = s->tri_count, v0 = s->vertex_count;
     s->tri_count += 2;
@@ -188,10 +189,9 @@ static inline SceneMaterial *append_quad(Scene *s, float height)
     s->tri_mat = realloc(s->tri_mat, sizeof(uint32_t) * s->tri_count);
     s->vtx_normal = realloc(s->vtx_normal, sizeof(float) * 3 * s->vertex_count);
     s->vtx_uv = realloc(s->vtx_uv, sizeof(float) * 2 * s->vertex_count);
-    const float q[2][9] = {{-6, height, -6, -6, height, 6, 6, height, 6},
-                           {-6, height, -6, 6, height, 6, 6, height, -6}};
-    memcpy(s->tri_pos + 9 * t0, q, sizeof q);
+    static const int order[6] = {0, 1, 2, 0, 2, 3};
     for (uint32_t k = 0; k < 6; k++) {
+        memcpy(s->tri_pos + 9 * t0 + 3 * k, c[order[k]], 3 * sizeof(float));
         s->tri_vidx[3 * t0 + k] = v0 + k;
         s->vtx_normal[3 * (v0 + k)] = s->vtx_normal[3 * (v0 + k) + 1] = s->vtx_normal[3 * (v0 + k) + 2] = 0;
         s->vtx_uv[2 * (v0 + k)] = s->vtx_uv[2 * (v0 + k) + 1] = 0;
@@ -203,6 +203,14 @@ static inline SceneMaterial *append_quad(Scene *s, float height)
     m->specular = 0.0f;
     s->tri_mat[t0] = s->tri_mat[t0 + 1] = s->material_count++;
     return m;
+}
+
+/* Appends the quad y = height over [-6, 6]^2 (two triangles, facing +Y) with a
+ * new material to s; returns the material. */
+static inline SceneMaterial *append_quad(Scene *s, float height)
+{
+    const float c[4][3] = {{-6, height, -6}, {-6, height, 6}, {6, height, 6}, {6, height, -6}};
+    return append_rect(s, c);
 }
 
 /* Appends the box [lo, hi] (12 triangles, counter-clockwise seen from outside)

@@ -350,6 +350,26 @@ typedef struct ShadeFrame {
     uint bounce;
 } ShadeFrame;
 
+/* The camera paths' share of the path space beside the light-tracing pass
+ * (kernels/device/light_trace.h), which owns the paths camera - x1 - s+ -
+ * light: x1 a non-delta vertex (its lobe sampled as such), s+ one or more
+ * delta vertices, the light an emissive triangle of the light selection.
+ * lt_camera_next is a camera path's state after the vertex at depth `depth`
+ * sampled a lobe (delta or not); lt_camera_drops says whether emission of
+ * triangle prim reached with state lt is the light-tracing pass's. With the
+ * pass off (P.light_paths 0) every camera path keeps everything. */
+SPT_FN_INLINE uint lt_camera_next(uint lt, uint depth, int is_delta)
+{
+    if (depth == 1u)
+        return is_delta ? 0u : SPT_LT_CHAIN;
+    return is_delta ? (lt | SPT_LT_SPEC) : 0u;
+}
+
+SPT_FN_INLINE int lt_camera_drops(uint lt, uint prim, ALL_BUFFERS)
+{
+    return P.light_paths > 0u && lt == (SPT_LT_CHAIN | SPT_LT_SPEC) && tri_light_pdf[prim] > 0.0f;
+}
+
 /* A path that left the scene sees the environment, weighted against light
  * sampling by MIS; it ends. */
 SPT_FN_INLINE void shade_miss(uint i, float4 lam, float4 beta, ALL_BUFFERS)
@@ -394,9 +414,11 @@ SPT_FN_INLINE void shade_hit_geometry(ShadeHit *h, TexCtx *tc, ALL_BUFFERS)
 }
 
 /* Cut-out (MASK) and blended (BLEND) surfaces: with probability 1 - opacity the
- * path passes through unchanged, without counting a segment. Returns 1 when it
- * does (its ray now starts past the surface). */
-SPT_FN_INLINE int shade_alpha(const ShadeHit *h, const TexCtx *tc, ALL_BUFFERS)
+ * path passes through unchanged, without counting a segment, by the random
+ * numbers of (seed, pixel, sample). Returns 1 when it does (its ray now starts
+ * past the surface). */
+SPT_FN_INLINE int shade_alpha(const ShadeHit *h, const TexCtx *tc, uint seed, uint pixel, uint sample,
+                              ALL_BUFFERS)
 {
     const __global GpuMaterial *m = h->m;
     uint i = h->i;
@@ -405,10 +427,7 @@ SPT_FN_INLINE int shade_alpha(const ShadeHit *h, const TexCtx *tc, ALL_BUFFERS)
     float op = material_opacity(m, tc, h->prim, h->bu, h->bv, tri_shade, vtx_color, textures, texels);
     uint passes = ps_passes[i];
     if (op < 1.0f && passes < 64u) {
-        uint npx = (uint)(P.width * P.height);
-        uint wk = ps_work[i];
-        float u = spt_rand(P.seed ^ 0x9e3779b9u, wk % npx, P.sample_begin + wk / npx,
-                           h->depth * 64u + passes);
+        float u = spt_rand(seed ^ 0x9e3779b9u, pixel, sample, h->depth * 64u + passes);
         if (u >= op) {
             ps_passes[i] = passes + 1u;
             /* w carries the distance from the last real vertex, for MIS. */
@@ -428,6 +447,10 @@ SPT_FN_INLINE void shade_emission(ShadeHit *h, const TexCtx *tc, ALL_BUFFERS)
     uint i = h->i;
     if (!((m->flags & SPT_MAT_EMISSIVE) && (h->front || (m->flags & SPT_MAT_DOUBLE_SIDED_EMISSION))))
         return;
+    /* Light reached through delta vertices from a first non-delta vertex: the
+     * light-tracing pass counts those paths (kernels/device/light_trace.h). */
+    if (lt_camera_drops(ps_lt[i], h->prim, ALL_ARGS))
+        return;
     float4 le = material_emission(m, tc, h->lam, fabs(dot(h->ng, h->rd)), h->prim, h->bu, h->bv,
                                   tri_shade, vtx_color, spectra, textures, texels);
     float w = 1.0f;
@@ -445,7 +468,7 @@ SPT_FN_INLINE void shade_emission(ShadeHit *h, const TexCtx *tc, ALL_BUFFERS)
  * front) as +z, so the BSDF knows which side the path is on; an opaque one is
  * shaded from whichever side the path arrives. */
 SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *bp, ShadeFrame *f,
-                               ALL_BUFFERS)
+                               uint key, ALL_BUFFERS)
 {
     const __global GpuMaterial *m = h->m;
     uint prim = h->prim;
@@ -478,13 +501,8 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
     f->ns = ns;
     f->tg = tg;
     f->bt = bt;
-
-    uint npix = (uint)(P.width * P.height);
-    uint w_item = ps_work[h->i];
-    uint pixel = w_item % npix;
-    uint sample = P.sample_begin + w_item / npix;
     f->bounce = h->depth - 1u;
-    f->key = spt_rng_key(P.seed, pixel, sample);
+    f->key = key;
 }
 
 /* Next-event estimation: one light chosen in proportion to power among the
@@ -627,27 +645,38 @@ SPT_FN_INLINE int shade_roulette(ShadeHit *h, const ShadeFrame *f, int alive, AL
     return alive;
 }
 
+/* What path i brings to its hit (or miss): the hit, its depth, wavelengths, and
+ * its throughput, through the volume it crossed. */
+SPT_FN_INLINE void shade_hit_begin(uint i, ShadeHit *h, ALL_BUFFERS)
+{
+    h->i = i;
+    h->hit = ps_hit[i];
+    h->prim = as_uint(h->hit.w);
+    h->depth = ps_depth[i] + 1u;
+    h->lam = ps_lambda[i];
+    h->beta = ps_throughput[i];
+    uint medium = ps_medium[i];
+    if (medium != 0u && h->prim != NO_HIT)
+        h->beta *= volume_transmittance(materials + (medium - 1u), h->hit.x, h->lam, spectra);
+}
+
 /* Shades path i at its hit; returns 1 and fills the shadow ray (origin, direction
  * with tmax in w, contribution) when next-event estimation wants one. */
 static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFERS)
 {
     ShadeHit h;
-    h.i = i;
-    h.hit = ps_hit[i];
-    h.prim = as_uint(h.hit.w);
-    h.depth = ps_depth[i] + 1u;
-    h.lam = ps_lambda[i];
-    h.beta = ps_throughput[i];
-    uint medium = ps_medium[i];
-    if (medium != 0u && h.prim != NO_HIT)
-        h.beta *= volume_transmittance(materials + (medium - 1u), h.hit.x, h.lam, spectra);
+    shade_hit_begin(i, &h, ALL_ARGS);
     if (h.prim == NO_HIT) {
         shade_miss(i, h.lam, h.beta, ALL_ARGS);
         return 0;
     }
     TexCtx tc;
     shade_hit_geometry(&h, &tc, ALL_ARGS);
-    if (shade_alpha(&h, &tc, ALL_ARGS))
+    uint npix = (uint)(P.width * P.height);
+    uint w_item = ps_work[i];
+    uint pixel = w_item % npix;
+    uint sample = P.sample_begin + w_item / npix;
+    if (shade_alpha(&h, &tc, P.seed, pixel, sample, ALL_ARGS))
         return 0;
     shade_emission(&h, &tc, ALL_ARGS);
     if ((P.max_depth > 0 && h.depth >= (uint)P.max_depth) || (h.m->flags & SPT_MAT_UNLIT)) {
@@ -657,7 +686,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     }
     ShadeFrame f;
     BsdfParams bp;
-    shade_frame(&h, &tc, &bp, &f, ALL_ARGS);
+    shade_frame(&h, &tc, &bp, &f, spt_rng_key(P.seed, pixel, sample), ALL_ARGS);
     int shadow = shade_direct_light(&h, &tc, &bp, &f, sh_o, sh_d, sh_c, ALL_ARGS);
     BsdfSample bs;
     float3 wn;
@@ -670,6 +699,8 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
         ps_flags[i] = SPT_PATH_FINISHED;
         return shadow;
     }
+    if (P.light_paths > 0u)
+        ps_lt[i] = lt_camera_next(ps_lt[i], h.depth, bs.is_delta);
     /* Entering or leaving a volume (refraction through a transmissive surface). */
     if (!reflect && f.two_sided_bsdf)
         ps_medium[i] = wn_side < 0.0f && h.m->attenuation.kind != SPT_SPEC_NONE ? h.ts.material + 1u : 0u;

@@ -4,6 +4,9 @@
  * paths, start new ones from the chunk's work counter, queue every live path),
  * k_extend (closest hit), k_shade (emission with MIS, next-event estimation into
  * the shadow queue, BSDF sampling, Russian roulette), k_connect (shadow rays).
+ * With the light-tracing pass (kernels/device/light_trace.h), a chunk's work
+ * items past its camera paths (P.light_begin on) are light paths in the same
+ * pool and queues.
  * When a chunk's work is all done, k_accumulate sums its per-sample contributions
  * into per-pixel sums in sample order, so the image does not depend on how paths
  * were scheduled in the pool.
@@ -99,13 +102,23 @@ static SPT_ALWAYS_INLINE uint group_queue_slot(int want, __global uint *counter,
     return *l_base + (l_slot[lid] & 0xffffu);
 }
 
+/* Surface shading: the materials' textures and BSDFs at a hit, and shade_path
+ * in its steps; the light-tracing pass. */
+#include "device/shade_surface.h"
+#include "device/light_trace.h"
+
 __kernel void k_generate(ALL_BUFFERS)
 {
     __local uint l_slot[SPT_GROUP_MAX], l_base;
     uint i = get_global_id(0);
     uint flags = i < P.pool_size ? ps_flags[i] : SPT_PATH_ALIVE + 100u;
     int finished = flags == SPT_PATH_FINISHED;
-    if (finished) {
+    if (finished && (ps_lt[i] & SPT_LT_LIGHT)) {
+        /* A light path: its splat, if it made one, into the light film. */
+        lt_splat(i, ALL_ARGS);
+        flags = SPT_PATH_DEAD;
+        ps_flags[i] = flags;
+    } else if (finished) {
         /* Write the finished path's XYZ into its own contribution slot. */
         float4 rad = ps_radiance[i];
 #ifdef SPT_TEST_INJECT_NAN
@@ -130,7 +143,10 @@ __kernel void k_generate(ALL_BUFFERS)
     int wants = flags == SPT_PATH_DEAD;
     uint w = group_queue_slot(wants, &counters[SPT_CNT_WORK], total, finished,
                               &counters[SPT_CNT_DONE], l_slot, &l_base);
-    if (wants && w < total) {
+    if (wants && w < total && w >= P.light_begin) {
+        flags = lt_start(i, w, ALL_ARGS);
+        ps_flags[i] = flags;
+    } else if (wants && w < total) {
         uint npix = (uint)(P.width * P.height);
         uint pixel = w % npix;
         uint sample = P.sample_begin + w / npix;
@@ -170,6 +186,7 @@ __kernel void k_generate(ALL_BUFFERS)
         ps_passes[i] = 0;
         ps_medium[i] = 0;
         ps_bsdf_pdf[i] = 0.0f; /* camera ray: emission seen directly has MIS weight 1 */
+        ps_lt[i] = 0u;
         flags = SPT_PATH_ALIVE;
         ps_flags[i] = flags;
     }
@@ -221,10 +238,6 @@ __kernel void k_extend(ALL_BUFFERS)
     ps_hit[i] = extend_result(found, &h);
 }
 
-/* Surface shading: the materials' textures and BSDFs at a hit, and shade_path
- * in its steps. */
-#include "device/shade_surface.h"
-
 /* Prefetch distance of k_shade, in queue entries. */
 #define SPT_SHADE_AHEAD 8u
 
@@ -259,7 +272,8 @@ __kernel void k_shade(ALL_BUFFERS)
             }
         }
         i = queue_extend[g];
-        shadow = shade_path(i, &so, &sd, &sc, ALL_ARGS);
+        shadow = (ps_lt[i] & SPT_LT_LIGHT) ? lt_shade(i, &so, &sd, &sc, ALL_ARGS)
+                                           : shade_path(i, &so, &sd, &sc, ALL_ARGS);
     }
     uint s = group_queue_slot(shadow, &counters[SPT_CNT_SHADOW], 0xffffffffu, 0, counters, l_slot,
                               &l_base);
@@ -318,16 +332,24 @@ __kernel void k_connect(ALL_BUFFERS)
 }
 
 /* Sums the chunk's per-sample contributions of each pixel, in sample order, into
- * chunk_sum (XYZ, and the number of samples kept in w). */
+ * chunk_sum (XYZ, and the number of samples kept in w), and adds the light
+ * paths' splats (which count no sample). */
 __kernel void k_accumulate(ALL_BUFFERS)
 {
     uint pixel = get_global_id(0);
     uint npix = (uint)(P.width * P.height);
     if (pixel >= npix)
         return;
-    uint n = (P.work_end - P.work_begin) / npix;
+    uint n = (P.light_begin - P.work_begin) / npix;
     float4 s = (float4)(0.0f);
     for (uint k = 0; k < n; k++)
         s += contrib[pixel + k * npix];
+    if (P.light_paths > 0u) {
+        const __global uint *a = light_film + SPT_SPLAT_WORDS * pixel;
+        const float unit = 1.0f / (float)(1 << SPT_SPLAT_BITS);
+        s.x += (float)(((ulong)a[1] << 32) | a[0]) * unit;
+        s.y += (float)(((ulong)a[3] << 32) | a[2]) * unit;
+        s.z += (float)(((ulong)a[5] << 32) | a[4]) * unit;
+    }
     chunk_sum[pixel] = s;
 }

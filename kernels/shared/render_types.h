@@ -195,7 +195,15 @@ typedef struct RenderParams {
     float lens_radius;
     float focus_distance;
     float env_prob;         /* probability that light selection picks the environment */
-    float pad_;
+    /* The light-tracing pass (kernels/device/light_trace.h): light paths per
+     * sample index (0: no pass), and the chunk's work index of its first light
+     * path (the camera paths come first: work_begin .. light_begin). */
+    spt_u32 light_paths;
+    spt_u32 light_begin;
+    /* The scene's bounding sphere (a directional light's paths start on a disc
+     * that covers it). */
+    float scene_center[3];
+    float scene_radius;
     /* What rays that leave the scene see (kernels/shared/lights.h): a map, a uniform sky
      * or nothing; its data (texels, CDFs or a table) in the env_data buffer. */
     GpuEnvMap env;
@@ -208,6 +216,20 @@ typedef struct RenderParams {
 #define SPT_CNT_DONE 3     /* paths finished in this chunk */
 #define SPT_CNT_NAN 4      /* paths whose radiance was NaN/Inf and was dropped */
 #define SPT_CNT_COUNT 8
+
+/* Light-tracing state of a path (ps_lt), kernels/device/light_trace.h. A camera
+ * path: SPT_LT_CHAIN while its first vertex sampled a non-delta lobe and every
+ * vertex since a delta one, SPT_LT_SPEC once one did. A light path:
+ * SPT_LT_LIGHT, and SPT_LT_SPEC once it passed a delta vertex. */
+#define SPT_LT_CHAIN 1u
+#define SPT_LT_SPEC 2u
+#define SPT_LT_LIGHT 4u
+
+/* The light film (light_film): per pixel, X, Y and Z of the light paths'
+ * splats as 64-bit fixed-point sums (two words each, low first) in units of
+ * 2^-SPT_SPLAT_BITS, so the sum does not depend on the order of the atomics. */
+#define SPT_SPLAT_BITS 20
+#define SPT_SPLAT_WORDS 6u
 
 /* Path flags. */
 #define SPT_PATH_DEAD 0u       /* slot free */
@@ -230,7 +252,9 @@ typedef struct RenderParams {
     X(uint, flags)          \
     X(uint, passes)         \
     X(uint, medium)         \
-    X(float, bsdf_pdf)
+    X(float, bsdf_pdf)      \
+    X(uint, lt)             \
+    X(uint, splat)
 
 /* Shadow-ray queue entries, one buffer per field. */
 #define SPT_SHADOW_STATE(X) \
@@ -263,6 +287,7 @@ typedef struct RenderParams {
     X(uint, counters)                 \
     X(uint, queue_extend)             \
     X(float4, contrib)                \
-    X(float4, chunk_sum)
+    X(float4, chunk_sum)              \
+    X(uint, light_film)
 
 #endif

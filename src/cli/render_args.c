@@ -12,7 +12,7 @@
 #include "io/image_out.h"
 
 enum { KIND_LIST, KIND_INT, KIND_U32, KIND_DBL, KIND_FLT, KIND_STR, KIND_FLAG, KIND_TONEMAP,
-       KIND_HELP };
+       KIND_CAUSTICS, KIND_HELP };
 
 /* One row of the list, with where its value goes in RenderArgs. */
 typedef struct OptRow {
@@ -148,6 +148,12 @@ static int store(RenderArgs *a, const OptRow *r, const char *arg)
     case KIND_TONEMAP:
         ok = !image_tonemap_parse(arg, (int *)field);
         break;
+    case KIND_CAUSTICS:
+        ok = !strcmp(arg, "off") || !strcmp(arg, "on") || !strcmp(arg, "auto");
+        if (ok)
+            *(int *)field = !strcmp(arg, "off") ? SPT_CAUSTICS_OFF
+                            : !strcmp(arg, "on") ? SPT_CAUSTICS_ON : SPT_CAUSTICS_AUTO;
+        break;
     }
     if (!ok) {
         spt_error("render: --%s '%s': %s", r->option, arg, r->expect);
@@ -168,6 +174,7 @@ static void set_defaults(RenderArgs *a)
 #define DEF_FLT(f, def) f = (def);
 #define DEF_FLAG(f, def) f = (def);
 #define DEF_TONEMAP(f, def) f = (def);
+#define DEF_CAUSTICS(f, def) f = (def);
 #define DEF_HELP(f, def) f = (def);
 #define DEFAULT(where, kind, type, name, option, short_name, metavar, def, ...) \
     DEF_##kind(SPT_OPT_IF_RS_##where(a->rs.name) SPT_OPT_IF_CLI_##where(a->name), def)

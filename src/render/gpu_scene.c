@@ -481,6 +481,8 @@ int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
         r2 += d > 0.0f ? d * d : 0.0f;
     }
     g->scene_radius = r2 > 0.0f ? 0.5f * sqrtf(r2) : 1.0f;
+    for (int k = 0; k < 3; k++)
+        g->scene_center[k] = r2 > 0.0f ? 0.5f * (s->bounds_min[k] + s->bounds_max[k]) : 0.0f;
     g->lights = spt_calloc(s->light_count ? s->light_count : 1, sizeof(GpuLight));
     for (uint32_t i = 0; i < s->light_count; i++) {
         g->spectra = spt_realloc(g->spectra, (g->spectra_count + SPT_CIE_SAMPLES) * sizeof(float));

@@ -38,6 +38,7 @@ typedef struct GpuScene {
     GpuLight *lights;        /* punctual lights (spectra tables in spectra) */
     uint32_t light_count;
     float scene_radius;      /* of the bounding sphere, for light power estimates */
+    float scene_center[3];   /* its centre */
 } GpuScene;
 
 /* Builds the BVH and the device arrays of s. Returns 0 or an exit code. */

@@ -19,7 +19,7 @@
  *            the command line only (RenderArgs holds the SKY and CLI rows)
  *   kind     INT, U32 (whole numbers in [lo, hi]), DBL, FLT (numbers in [lo, hi],
  *            parsed as double), STR, FLAG, LIST (repeatable string), TONEMAP,
- *            HELP
+ *            CAUSTICS (auto, off, on: SPT_CAUSTICS_*), HELP
  *   type     the field's C type
  *   default  the value when the option is not given
  *   flags    SPT_OPT_* below
@@ -35,6 +35,9 @@
 #define SPT_OPT_NOT_ZERO 4u /* INT: 0 is refused */
 #define SPT_OPT_POSITIVE 8u /* DBL/FLT: must be > 0 */
 #define SPT_OPT_FINITE 16u  /* DBL/FLT: must be finite */
+
+/* --caustics (kind CAUSTICS): the light-tracing pass (kernels/device/light_trace.h). */
+enum { SPT_CAUSTICS_OFF = 0, SPT_CAUSTICS_ON = 1, SPT_CAUSTICS_AUTO = 2 };
 
 #define SPT_RENDER_OPTIONS(X)                                                                   \
     X(CLI, LIST, const char *, outputs, "output", 'o', "FILE", NULL, 0, 0, 0, "",               \
@@ -88,6 +91,12 @@
       SPT_OPT_IMAGE | SPT_OPT_MPI | SPT_OPT_FINITE, "expected a non-negative number",           \
       "focus distance in metres (default: the distance at the\n"                               \
       "image centre)")                                                                          \
+    X(RS, CAUSTICS, int, caustics, "caustics", 0, "MODE", SPT_CAUSTICS_OFF, 0, 0,                \
+      SPT_OPT_IMAGE | SPT_OPT_MPI, "expected auto, off or on",                                  \
+      "light tracing for caustics (light through glass or off\n"                               \
+      "smooth metal onto diffuse surfaces, punctual lights\n"                                  \
+      "behind glass): on, off (default) or auto (on when the\n"                                \
+      "scene has such surfaces and lights; pinhole camera only)")                               \
     X(CLI, STR, const char *, checkpoint, "checkpoint", 0, "FILE", NULL, 0, 0, 0, "",           \
       "write the resumable film (an EXR) every --checkpoint-every\n"                           \
       "seconds, at the end and when stopped by a signal")                                      \

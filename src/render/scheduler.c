@@ -10,6 +10,7 @@
 #include <pthread.h>
 #include <unistd.h>
 
+#include "device/bsdf.h"
 #include "render/render_lights.h"
 #include "render/wavefront.h"
 
@@ -263,6 +264,35 @@ static void *worker_main(void *arg)
     return NULL;
 }
 
+/* Whether the light-tracing pass runs (--caustics): on, or auto and the scene
+ * has a light (an emitter or a punctual light) and a surface with a delta lobe
+ * that passes or turns light (smooth transmission, smooth metal, a smooth
+ * clear coat). It needs a pinhole camera. */
+static int caustics_enabled(const RenderSettings *rs, const GpuScene *g, const SceneCamera *cam)
+{
+    if (rs->caustics == SPT_CAUSTICS_OFF)
+        return 0;
+    if (cam->orthographic || rs->aperture > 0) {
+        if (rs->caustics == SPT_CAUSTICS_ON)
+            spt_warn("--caustics on: the light-tracing pass needs a pinhole camera (this one is %s); "
+                     "rendering without it", cam->orthographic ? "orthographic" : "a thin lens");
+        return 0;
+    }
+    if (rs->caustics == SPT_CAUSTICS_ON)
+        return 1;
+    if (g->emitter_count == 0 && g->light_count == 0)
+        return 0;
+    for (uint32_t i = 0; i < g->material_count; i++) {
+        const GpuMaterial *m = &g->materials[i];
+        int smooth = m->roughness * m->roughness < BSDF_DELTA_ALPHA;
+        int cc_smooth = m->cc_roughness * m->cc_roughness < BSDF_DELTA_ALPHA;
+        if ((smooth && (m->transmission > 0.0f || m->metallic > 0.0f)) ||
+            (m->clearcoat > 0.0f && cc_smooth))
+            return 1;
+    }
+    return 0;
+}
+
 /* The parameters every chunk of a render shares. */
 static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *g,
                         const SceneCamera *cam, const RenderSettings *rs)
@@ -284,6 +314,11 @@ static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *
     for (uint32_t i = 0; i < g->material_count; i++)
         if (g->materials[i].flags & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND))
             p->has_alpha = 1;
+    p->scene_radius = g->scene_radius;
+    for (int k = 0; k < 3; k++)
+        p->scene_center[k] = g->scene_center[k];
+    /* One light path per pixel and sample index. */
+    p->light_paths = caustics_enabled(rs, g, cam) ? (uint32_t)(rs->width * rs->height) : 0u;
     p->lens_radius = rs->aperture;
     p->focus_distance = rs->focus_distance;
     if (rs->aperture > 0 && !(rs->focus_distance > 0)) {

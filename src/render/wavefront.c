@@ -147,8 +147,10 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
 #undef PLAN
     allocs[na].name = "film contributions";
     allocs[na++].bytes = (size_t)(npix * w->chunk_spp * 16ull);
+    allocs[na].name = "light film";
+    allocs[na++].bytes = (size_t)(npix * SPT_SPLAT_WORDS * 4ull);
     allocs[na].name = "path state";
-    allocs[na++].bytes = (size_t)w->pool * 160;
+    allocs[na++].bytes = (size_t)w->pool * 168;
     if ((rc = cl_device_check_memory(info, allocs, na, e)))
         return rc;
 
@@ -220,7 +222,9 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
         (rc = cl_buffer_create(&w->dev, "film contributions", CL_MEM_READ_WRITE,
                                (size_t)(npix * w->chunk_spp * 16ull), NULL, &w->b.contrib, e)) ||
         (rc = cl_buffer_create(&w->dev, "chunk sums", CL_MEM_READ_WRITE, (size_t)npix * 16,
-                               NULL, &w->b.chunk_sum, e)))
+                               NULL, &w->b.chunk_sum, e)) ||
+        (rc = cl_buffer_create(&w->dev, "light film", CL_MEM_READ_WRITE,
+                               (size_t)(npix * SPT_SPLAT_WORDS * 4ull), NULL, &w->b.light_film, e)))
         return rc;
     /* Test hook (RenderTestHooks poison): every path, shadow, queue, counter and
      * film buffer first holds the test's word, so that a value read before
@@ -280,8 +284,16 @@ int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, 
     uint32_t npix = (uint32_t)(p.width * p.height);
     p.sample_begin = sample_begin;
     p.work_begin = 0;
-    p.work_end = n * npix;
+    /* The camera paths of the chunk, then its light paths (light_paths per
+     * sample index). */
+    p.light_begin = n * npix;
+    p.work_end = p.light_begin + n * p.light_paths;
     cl_uint counters[SPT_CNT_COUNT] = {0};
+    if (p.light_paths > 0) {
+        cl_uint zero = 0;
+        SPT_CL_CHECK(e, clEnqueueFillBuffer(w->dev.queue, w->b.light_film, &zero, sizeof zero, 0,
+                                            (size_t)npix * SPT_SPLAT_WORDS * 4u, 0, NULL, NULL));
+    }
     SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0, sizeof counters,
                                          counters, 0, NULL, NULL));
     int rc;
@@ -313,6 +325,6 @@ int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, 
     SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.chunk_sum, CL_TRUE, 0,
                                         (size_t)npix * 16, sums, 0, NULL, NULL));
     st->nan_dropped += counters[SPT_CNT_NAN];
-    st->paths += p.work_end;
+    st->paths += p.light_begin;
     return 0;
 }

@@ -1,0 +1,340 @@
+/* The light-tracing pass of the wavefront kernels (kernels/device/wavefront.cl
+ * includes this after kernels/device/shade_surface.h): paths that start on the
+ * lights and reach the camera through a shadow ray, for the caustics that
+ * camera paths find badly (an area light seen through glass) or never (a
+ * punctual light behind glass). docs/architecture.md, "Caustics", has the
+ * method; in short:
+ *
+ * - Path space is split between the two techniques, so nothing counts twice.
+ *   The light paths own camera - x1 - s+ - light: x1 a vertex whose non-delta
+ *   lobe is taken, s+ one or more vertices whose delta lobes are taken, the
+ *   light an emissive triangle of the light selection or a punctual light. A
+ *   camera path drops exactly the emission it reaches that way
+ *   (lt_camera_drops in kernels/device/shade_surface.h); punctual lights it never
+ *   reaches. The environment stays the camera paths' alone.
+ * - A light path starts on a light picked by the renderer's light selection
+ *   (by power; the environment's share ends the path at once), carries its own
+ *   four wavelengths (a dispersive refraction keeps only the hero, as camera
+ *   paths do), and at each vertex picks a lobe as bsdf_sample does: a delta
+ *   lobe carries it on (with the adjoint's factors: no 1/eta^2 of radiance
+ *   transport, Veach's shading-normal correction), a non-delta lobe ends it,
+ *   connected to the pinhole camera (when a delta vertex came before) with
+ *   weight 1 / P(non-delta). So each light path makes at most one splat.
+ * - The splat: the camera's importance for a pinhole whose image plane lies at
+ *   distance 1 is W_e = 1 / (A_pixel cos^3 theta) within a pixel, so a light
+ *   vertex y with throughput beta adds beta f(to camera, to light) |cos_y| /
+ *   r^2 W_e, and the N = light_paths light paths of each sample index are
+ *   averaged: the film's sum over spp samples gains that over light_paths.
+ * - Determinism: light path k of sample index s (k < light_paths) takes its
+ *   random numbers from (seed ^ SPT_LT_SALT, k, s), and its splat goes to the
+ *   light film as 64-bit fixed-point sums by integer atomics (rounded up or
+ *   down at random, without bias): integer sums do not depend on the order of
+ *   the atomics, so a chunk's image is the same whatever the schedule. */
+#ifndef SPT_LIGHT_TRACE_H
+#define SPT_LIGHT_TRACE_H
+
+#define SPT_LT_SALT 0x6c8e9cf5u
+/* ps_splat of a path with no splat. */
+#define SPT_LT_NO_PIXEL 0xffffffffu
+
+/* Light path work item w: its index among its sample's light paths and its
+ * sample index. */
+SPT_FN_INLINE void lt_item(uint w, uint *lp, uint *sample, const RenderParams *p)
+{
+    uint lw = w - p->light_begin;
+    *lp = lw % p->light_paths;
+    *sample = p->sample_begin + lw / p->light_paths;
+}
+
+/* Starts light path i as work item w (w >= P.light_begin): its wavelengths,
+ * its light, its first ray, and in ps_radiance the emitted power's weight (the
+ * light's emission over the density of the start point and direction). Returns
+ * the path's flags: SPT_PATH_ALIVE, or SPT_PATH_FINISHED when it carries
+ * nothing (the environment was picked, or a zero sample). */
+SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
+{
+    uint lp, sample;
+    lt_item(w, &lp, &sample, &P);
+    uint key = spt_rng_key(P.seed ^ SPT_LT_SALT, lp, sample);
+    float4 lam, lpdf;
+    path_sample_wavelengths(spt_rand_key(key, SPT_DIM_WAVELENGTH), &lam, &lpdf);
+    float prob = 0.0f;
+    int e = -1;
+    if (P.select_count > 0u)
+        e = spt_discrete_sample(light_cdf, P.select_count,
+                                spt_rand_key(key, spt_dim_bounce(0u, SPT_DIM_LIGHT_SELECT)), &prob, 0);
+    float u1 = spt_rand_key(key, spt_dim_bounce(0u, SPT_DIM_LIGHT_U));
+    float u2 = spt_rand_key(key, spt_dim_bounce(0u, SPT_DIM_LIGHT_V));
+    float u3 = spt_rand_key(key, spt_dim_bounce(0u, SPT_DIM_BSDF_U));
+    float u4 = spt_rand_key(key, spt_dim_bounce(0u, SPT_DIM_BSDF_V));
+    float u5 = spt_rand_key(key, spt_dim_bounce(0u, SPT_DIM_BSDF_LOBE));
+    float3 o = (float3)(0.0f), d = (float3)(0.0f, 0.0f, 1.0f);
+    float4 power = (float4)(0.0f);
+    if (e >= 0 && (uint)e < P.emitter_count && prob > 0.0f) {
+        /* An emissive triangle: a uniform point, a cosine-weighted direction
+         * (either side, with probability 1/2 each, when both emit). */
+        uint lt = emitters[e];
+        vec3 a, b, c;
+        tri_positions(tri_shade, vtx_pos, lt, &a, &b, &c);
+        vec3 bary = spt_sample_triangle_bary(u1, u2);
+        float3 q = bary.x * a + bary.y * b + bary.z * c;
+        float3 cr = cross(b - a, c - a);
+        float area2 = length(cr);
+        const __global GpuMaterial *lm = materials + tri_shade[lt].material;
+        if (area2 > 0.0f) {
+            float3 ng = cr / area2, n = ng;
+            float side_p = 1.0f;
+            if (lm->flags & SPT_MAT_DOUBLE_SIDED_EMISSION) {
+                side_p = 0.5f;
+                if (u5 < 0.5f)
+                    n = -n;
+            }
+            vec3 t_, b_;
+            v3_basis(n, &t_, &b_);
+            vec3 l = bsdf_sample_cosine(u3, u4);
+            if (l.z > 0.0f) {
+                d = l.x * t_ + l.y * b_ + l.z * n;
+                TexCtx ltc = {{(float2)(0.0f), (float2)(0.0f)}, {(float2)(0.0f), (float2)(0.0f)},
+                              {(float2)(0.0f), (float2)(0.0f)}};
+                if (material_uses_uv(lm))
+                    ltc = tex_ctx(lm, lt, bary.y, bary.z, a, b, c, ng, d, 0.0f, tri_shade, vtx_uv, vtx_uv1);
+                float4 le = material_emission(lm, &ltc, lam, l.z, lt, bary.y, bary.z, tri_shade, vtx_color,
+                                              spectra, textures, texels);
+                /* Le cos / (prob / area  side_p  cos / pi) */
+                power = le * (0.5f * area2 * SPT_PI / (prob * side_p));
+                o = offset_origin(q, n);
+            }
+        }
+    } else if (e >= 0 && (uint)e < P.emitter_count + P.light_count && prob > 0.0f) {
+        const __global GpuLight *l = lights + ((uint)e - P.emitter_count);
+        float4 spd = (float4)(light_spec_value(l->spectrum, spectra, lam.x),
+                              light_spec_value(l->spectrum, spectra, lam.y),
+                              light_spec_value(l->spectrum, spectra, lam.z),
+                              light_spec_value(l->spectrum, spectra, lam.w));
+        float3 ax = (float3)(l->dir[0], l->dir[1], l->dir[2]);
+        vec3 t_, b_;
+        v3_basis(ax, &t_, &b_);
+        if (l->type == SPT_PUNCTUAL_DIRECTIONAL) {
+            /* Parallel rays from a disc of the scene's radius, tangent to its
+             * bounding sphere on the side the light comes from: E pi R^2 / prob. */
+            float R = P.scene_radius;
+            vec3 disk = spt_sample_concentric_disk(u3, u4);
+            float3 c = (float3)(P.scene_center[0], P.scene_center[1], P.scene_center[2]);
+            o = c + R * (disk.x * t_ + disk.y * b_) - ax * R;
+            d = ax;
+            power = spd * (SPT_PI * R * R / prob);
+        } else {
+            o = (float3)(l->pos[0], l->pos[1], l->pos[2]);
+            /* Point: uniform over the sphere; spot: uniform within the outer cone,
+             * times its falloff. I / (prob pdf). */
+            float cmin = l->type == SPT_PUNCTUAL_SPOT ? fmax(l->cos_outer, -1.0f) : -1.0f;
+            float span = 1.0f - cmin;
+            if (span > 0.0f) {
+                float ct = 1.0f - u3 * span;
+                float st = sqrt(fmax(0.0f, 1.0f - ct * ct));
+                float phi = 2.0f * SPT_PI * u4;
+                d = st * cos(phi) * t_ + st * sin(phi) * b_ + ct * ax;
+                power = spd * (light_spot_falloff(l, ct) * 2.0f * SPT_PI * span / prob);
+            }
+        }
+    }
+    ps_lambda[i] = lam;
+    ps_lambda_pdf[i] = lpdf;
+    ps_throughput[i] = (float4)(1.0f);
+    ps_radiance[i] = power;
+    ps_work[i] = w;
+    ps_depth[i] = 0;
+    ps_passes[i] = 0;
+    ps_medium[i] = 0;
+    ps_bsdf_pdf[i] = 0.0f;
+    ps_lt[i] = SPT_LT_LIGHT;
+    ps_splat[i] = SPT_LT_NO_PIXEL;
+    ps_ray_o[i] = (float4)(o, 0.0f);
+    ps_ray_d[i] = (float4)(normalize(d), 0.0f);
+    /* The shortest path the pass owns has 3 segments (light, delta vertex,
+     * x1, camera). */
+    int too_short = P.max_depth > 0 && P.max_depth < 3;
+    return max4(power) > 0.0f && !too_short ? SPT_PATH_ALIVE : SPT_PATH_FINISHED;
+}
+
+/* Whether u0 picks a delta lobe in bsdf_sample (whose lobe intervals over [0, 1)
+ * are: interface, specular, coat, sheen, diffuse; the first two are delta for a
+ * smooth base, the coat for a smooth coat), and in *pdelta the probability that
+ * it does. */
+SPT_FN_INLINE int lt_delta_lobe(const BsdfParams *bp, float3 wo, float u0, float *pdelta)
+{
+    *pdelta = 0.0f;
+    if (bsdf_is_lambert(bp))
+        return 0;
+    float ps, pd, pt, pc, psh;
+    bsdf_lobe_probs(bp, wo, &ps, &pd, &pt, &pc, &psh);
+    int smooth = bp->roughness * bp->roughness < BSDF_DELTA_ALPHA;
+    int coat = bsdf_has_coat(bp) && bsdf_coat_smooth(bp);
+    float base = smooth ? pt + ps : 0.0f;
+    *pdelta = base + (coat ? pc : 0.0f);
+    return u0 < base || (coat && u0 >= pt + ps && u0 < pt + ps + pc);
+}
+
+/* Connects light vertex h (frame f, BSDF bp) to the pinhole camera: fills the
+ * shadow ray and its contribution (the splat's spectral value, times `scale`),
+ * records the pixel in ps_splat and clears ps_radiance for k_connect to add to;
+ * returns 1, or 0 when the camera does not see the vertex's side or the point
+ * projects outside the image. */
+SPT_FN_INLINE int lt_connect(const ShadeHit *h, const BsdfParams *bp, const ShadeFrame *f, float scale,
+                             float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFERS)
+{
+    float3 cam = (float3)(P.cam_pos[0], P.cam_pos[1], P.cam_pos[2]);
+    float3 fwd = (float3)(P.cam_fwd[0], P.cam_fwd[1], P.cam_fwd[2]);
+    float3 right = (float3)(P.cam_right[0], P.cam_right[1], P.cam_right[2]);
+    float3 up = (float3)(P.cam_up[0], P.cam_up[1], P.cam_up[2]);
+    float3 dv = cam - h->p;
+    float r2 = dot(dv, dv);
+    if (!(r2 > 0.0f))
+        return 0;
+    float r = sqrt(r2);
+    float3 wc = dv / r;
+    /* Where the ray from the camera through the vertex meets the image plane
+     * (cam + fwd + sx right + sy up, as k_generate's rays leave). */
+    float cosc = -dot(wc, fwd);
+    if (!(cosc > 0.0f))
+        return 0;
+    float3 q = -wc / cosc;
+    float sx = dot(q, right) / dot(right, right), sy = dot(q, up) / dot(up, up);
+    float fx = 0.5f * (sx + 1.0f) * (float)P.width, fy = 0.5f * (1.0f - sy) * (float)P.height;
+    if (!(fx >= 0.0f && fx < (float)P.width && fy >= 0.0f && fy < (float)P.height))
+        return 0;
+    uint px = (uint)min((int)fx, P.width - 1), py = (uint)min((int)fy, P.height - 1);
+    float wc_side = dot(wc, f->ngf);
+    float3 wc_l = (float3)(dot(wc, f->tg), dot(wc, f->bt), dot(wc, f->ns));
+    /* The geometric and shading sides must agree; an opaque surface is seen
+     * only from the side the light arrived on. */
+    if (!(wc_side * wc_l.z > 0.0f) || (!f->two_sided_bsdf && !(wc_side > 0.0f)))
+        return 0;
+    /* f(to camera, to light) |cos at the light's side (shading)|, as a camera
+     * path sees it. */
+    float4 fv = bsdf_eval(bp, wc_l, f->wo_l);
+    float a_film = 4.0f * length(right) * length(up);
+    float npix = (float)(P.width * P.height);
+    /* |cos_y| / r^2 toward the camera (geometric) over the light's arriving
+     * geometric cosine, which the shading cosine in fv replaces (Veach's
+     * adjoint with shading normals); W_e = npix / (A_film cos^3). */
+    float g = fabs(wc_side) / (fmax(fabs(f->wo_side), 1e-8f) * r2);
+    float we = npix / (a_film * cosc * cosc * cosc);
+    float4 c = ps_radiance[h->i] * h->beta * fv * (g * we * scale / (float)P.light_paths);
+    if (!(max4(c) > 0.0f))
+        return 0;
+    ps_radiance[h->i] = (float4)(0.0f);
+    ps_splat[h->i] = py * (uint)P.width + px;
+    *sh_o = (float4)(offset_origin(h->p, wc_side > 0.0f ? f->ngf : -f->ngf), 0.0f);
+    *sh_d = (float4)(wc, r * (1.0f - 1e-4f));
+    *sh_c = c;
+    return 1;
+}
+
+/* Shades light path i at its hit: through a delta lobe it goes on, else it
+ * ends, connected to the camera when a delta vertex came before. Returns 1 and
+ * fills the shadow ray when it connects. */
+static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFERS)
+{
+    ShadeHit h;
+    shade_hit_begin(i, &h, ALL_ARGS);
+    /* Ends without a splat unless lt_connect records one. */
+    ps_flags[i] = SPT_PATH_FINISHED;
+    if (h.prim == NO_HIT)
+        return 0;
+    TexCtx tc;
+    shade_hit_geometry(&h, &tc, ALL_ARGS);
+    /* Textures with the footprint a camera ray would have here. */
+    float3 cam = (float3)(P.cam_pos[0], P.cam_pos[1], P.cam_pos[2]);
+    float dc = length(h.p - cam);
+    h.cone_w = P.cam_pos[3] + P.cam_fwd[3] * dc;
+    if (material_uses_uv(h.m) && dc > 0.0f)
+        tc = tex_ctx(h.m, h.prim, h.bu, h.bv, h.v0, h.v1, h.v2, h.ng, (h.p - cam) / dc, h.cone_w, tri_shade,
+                     vtx_uv, vtx_uv1);
+    uint lp, sample;
+    lt_item(ps_work[i], &lp, &sample, &P);
+    ps_flags[i] = SPT_PATH_ALIVE;
+    if (shade_alpha(&h, &tc, P.seed ^ SPT_LT_SALT, lp, sample, ALL_ARGS))
+        return 0;
+    ps_flags[i] = SPT_PATH_FINISHED;
+    /* A connection here makes a path of depth + 1 segments. */
+    if ((P.max_depth > 0 && h.depth + 1u > (uint)P.max_depth) || (h.m->flags & SPT_MAT_UNLIT))
+        return 0;
+    ShadeFrame f;
+    BsdfParams bp;
+    shade_frame(&h, &tc, &bp, &f, spt_rng_key(P.seed ^ SPT_LT_SALT, lp, sample), ALL_ARGS);
+    /* Vertex k of a light path takes the dimensions of bounce k (bounce 0 is
+     * the start on the light). */
+    f.bounce = h.depth;
+    float pdelta;
+    float u0 = spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_BSDF_LOBE));
+    if (!lt_delta_lobe(&bp, f.wo_l, u0, &pdelta)) {
+        if (!(ps_lt[i] & SPT_LT_SPEC) || !(pdelta < 1.0f))
+            return 0;
+        return lt_connect(&h, &bp, &f, 1.0f / (1.0f - pdelta), sh_o, sh_d, sh_c, ALL_ARGS);
+    }
+    BsdfSample bs;
+    float3 wn;
+    float wn_side;
+    int reflect;
+    int alive = shade_bsdf_bounce(&h, &bp, &f, &bs, &wn, &wn_side, &reflect, ALL_ARGS) && bs.is_delta;
+    if (alive) {
+        /* The adjoint: refraction scales importance by eta'^2 relative to
+         * radiance (bsdf_sample divided by it); shading normals by
+         * |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|). */
+        if (!reflect) {
+            float etap = f.wo_l.z > 0.0f ? bp.ior.x : 1.0f / bp.ior.x;
+            h.beta *= etap * etap;
+        }
+        float den = fabs(f.wo_side) * fabs(bs.wi.z);
+        h.beta *= den > 0.0f ? fabs(f.wo_l.z) * fabs(wn_side) / den : 0.0f;
+        alive = max4(h.beta) > 0.0f && isfinite(max4(h.beta));
+    }
+    alive = shade_roulette(&h, &f, alive, ALL_ARGS);
+    if (!alive)
+        return 0;
+    if (!reflect && f.two_sided_bsdf)
+        ps_medium[i] = wn_side < 0.0f && h.m->attenuation.kind != SPT_SPEC_NONE ? h.ts.material + 1u : 0u;
+    ps_flags[i] = SPT_PATH_ALIVE;
+    ps_lt[i] = SPT_LT_LIGHT | SPT_LT_SPEC;
+    ps_throughput[i] = h.beta;
+    ps_ray_o[i] = (float4)(offset_origin(h.p, wn_side > 0.0f ? f.ngf : -f.ngf), 0.0f);
+    ps_ray_d[i] = (float4)(wn, 0.0f);
+    ps_depth[i] = h.depth;
+    return 0;
+}
+
+/* Adds v >= 0 to the 64-bit fixed-point sum at acc (low word, high word),
+ * rounded down or up with probability of the remainder (u uniform in [0, 1)). */
+SPT_FN_INLINE void lt_film_add(__global uint *acc, float v, float u)
+{
+    float x = floor(fmin(v, 0x1p42f) * (float)(1 << SPT_SPLAT_BITS) + u);
+    ulong n = convert_ulong_sat(x);
+    uint lo = (uint)n, hi = (uint)(n >> 32);
+    uint old = atomic_add(acc, lo);
+    hi += old + lo < old ? 1u : 0u; /* the carry */
+    if (hi)
+        atomic_add(acc + 1, hi);
+}
+
+/* A finished light path's splat: its XYZ into the light film at its pixel. */
+SPT_FN_INLINE void lt_splat(uint i, ALL_BUFFERS)
+{
+    uint px = ps_splat[i];
+    if (px == SPT_LT_NO_PIXEL)
+        return;
+    float4 xyz = path_radiance_to_xyz(ps_radiance[i], ps_lambda[i], ps_lambda_pdf[i]);
+    if (!(isfinite(xyz.x) && isfinite(xyz.y) && isfinite(xyz.z))) {
+        atomic_inc(&counters[SPT_CNT_NAN]);
+        return;
+    }
+    uint lp, sample;
+    lt_item(ps_work[i], &lp, &sample, &P);
+    float u = spt_rand_key(spt_rng_key(P.seed ^ SPT_LT_SALT, lp, sample), spt_dim_bounce(0u, SPT_DIM_SPARE));
+    __global uint *acc = light_film + SPT_SPLAT_WORDS * px;
+    lt_film_add(acc, fmax(xyz.x, 0.0f), u);
+    lt_film_add(acc + 2, fmax(xyz.y, 0.0f), fmod(u + 0.3333333f, 1.0f));
+    lt_film_add(acc + 4, fmax(xyz.z, 0.0f), fmod(u + 0.6666667f, 1.0f));
+}
+
+#endif

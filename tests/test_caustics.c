@@ -1,0 +1,350 @@
+/* The light-tracing pass for caustics (kernels/device/light_trace.h, --caustics):
+ * a diffuse floor under a smooth glass slab lit from above. Below the slab the
+ * floor gets light only through the glass, and its irradiance follows from
+ * Snell's law and the Fresnel equations: a point source at height a (the air
+ * on the way) above the floor and a slab of thickness t and index n between
+ * them send the ray leaving at angle theta to the floor at distance
+ * r(theta) = a tan(theta) + t tan(theta_t), sin(theta_t) = sin(theta) / n, so
+ * E(r) = I(theta) T(theta) sin(theta) / (r dr/dtheta) with
+ * T = (1 - R(theta))^2 (the two interfaces, unpolarised Fresnel R), and at
+ * r = 0 E = I T / (a + t/n)^2. An area light is a sum of such sources, I =
+ * Le cos(theta) dA each; a directional light's beam passes with
+ * E = E_dir T(0) (parallel light does not spread). The floor's radiance is
+ * rho E / pi. With max_depth 4, nothing else reaches the floor there (the
+ * internal reflections need 6 segments, shadow rays do not pass glass).
+ *
+ * Also: camera paths alone (--caustics off) find the area light's caustic
+ * too, and must agree (the two techniques split path space, nothing counts
+ * twice); a scene without delta surfaces renders bit for bit as without the
+ * pass; and the pass's splats do not depend on the path pool (scheduling) and
+ * add up across chunks. */
+#include "test_util.h"
+#include "test_render_util.h"
+
+#define SLAB_TOP 1.2
+#define SLAB_BOTTOM 1.0
+#define SLAB_IOR 1.5
+#define FLOOR_ALBEDO 0.5
+
+enum { LIGHT_SPOT, LIGHT_AREA, LIGHT_DIRECTIONAL };
+
+/* The area light: a square of half-size AREA_HALF at height AREA_Y facing down,
+ * emitting white of film radiance AREA_LE. */
+#define AREA_HALF 0.2
+#define AREA_Y 2.0
+#define AREA_LE 20.0
+/* The spot: 100 cd at (0, 2, 0) pointing down, cones 0.3 and 0.35 rad. */
+#define SPOT_Y 2.0
+#define SPOT_I 100.0
+#define SPOT_INNER 0.3
+/* The directional light: 1000 lux straight down. */
+#define DIR_E 1000.0
+
+/* The floor (albedo 0.5, 4 x 4 m), the slab (3 x 3 m, clear smooth glass),
+ * one light, and a camera under the slab's level looking at the floor's
+ * centre from the side (so its rays never meet the glass). glass = 0 makes the
+ * slab a Lambertian (a scene without delta surfaces). */
+static void slab_scene(Scene *s, int light, int glass)
+{
+    memset(s, 0, sizeof *s);
+    const float floor_c[4][3] = {{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}};
+    SceneMaterial *fl = append_rect(s, floor_c);
+    for (int k = 0; k < 3; k++)
+        fl->base_color[k] = FLOOR_ALBEDO;
+    const float lo[3] = {-1.5f, (float)SLAB_BOTTOM, -1.5f}, hi[3] = {1.5f, (float)SLAB_TOP, 1.5f};
+    SceneMaterial *g = append_box(s, lo, hi);
+    g->metallic = 0.0f;
+    if (glass) {
+        g->roughness = 0.0f;
+        g->transmission = 1.0f;
+        g->ior = (float)SLAB_IOR;
+        for (int k = 0; k < 3; k++)
+            g->base_color[k] = 1.0f;
+    } else {
+        g->specular = 0.0f;
+        for (int k = 0; k < 3; k++)
+            g->base_color[k] = 0.5f;
+    }
+    if (light == LIGHT_AREA) {
+        const float h = (float)AREA_HALF, y = (float)AREA_Y;
+        /* Counter-clockwise seen from below: the front faces down. */
+        const float lc[4][3] = {{-h, y, -h}, {h, y, -h}, {h, y, h}, {-h, y, h}};
+        SceneMaterial *lm = append_rect(s, lc);
+        for (int k = 0; k < 3; k++) {
+            lm->base_color[k] = 0.0f;
+            lm->emissive[k] = 1.0f;
+        }
+        lm->emissive_strength = (float)AREA_LE;
+    } else {
+        s->light_count = 1;
+        s->lights = calloc(1, sizeof(SceneLight));
+        SceneLight *l = &s->lights[0];
+        l->type = light == LIGHT_SPOT ? SPT_LIGHT_SPOT : SPT_LIGHT_DIRECTIONAL;
+        l->position[1] = (float)SPOT_Y;
+        l->direction[1] = -1.0f;
+        l->intensity = light == LIGHT_SPOT ? (float)SPOT_I : (float)DIR_E;
+        l->inner_cone = (float)SPOT_INNER;
+        l->outer_cone = 0.35f;
+        for (int k = 0; k < 3; k++)
+            l->color[k] = 1.0f;
+    }
+    /* Camera at (0, 0.9, 2.5) toward the origin. */
+    double a = 0.9, b = 2.5, len = sqrt(a * a + b * b);
+    s->camera.position[1] = 0.9f;
+    s->camera.position[2] = 2.5f;
+    s->camera.forward[1] = (float)(-a / len);
+    s->camera.forward[2] = (float)(-b / len);
+    s->camera.up[1] = (float)(b / len);
+    s->camera.up[2] = (float)(-a / len);
+    s->camera.right[0] = 1.0f;
+    s->camera.yfov = 0.55f;
+    s->camera.aspect = 1.0f;
+    scene_update_bounds(s);
+}
+
+/* Unpolarised Fresnel reflectance of an air-glass interface at incidence
+ * cos_i from the air. */
+static double fresnel(double cos_i, double n)
+{
+    double sin_t = sqrt(fmax(0.0, 1.0 - cos_i * cos_i)) / n, cos_t = sqrt(fmax(0.0, 1.0 - sin_t * sin_t));
+    double rs = (cos_i - n * cos_t) / (cos_i + n * cos_t), rp = (n * cos_i - cos_t) / (n * cos_i + cos_t);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+/* The floor's irradiance at horizontal distance r from a point source of
+ * intensity I(theta) = i0 cos(theta)^cos_pow whose rays cross air of total
+ * height a and the slab; 0 beyond theta_max. */
+static double slab_irradiance(double r, double a, double i0, int cos_pow, double theta_max)
+{
+    const double t = SLAB_TOP - SLAB_BOTTOM, n = SLAB_IOR;
+    if (r < 1e-9) {
+        double T = 1.0 - fresnel(1.0, n);
+        return i0 * T * T / ((a + t / n) * (a + t / n));
+    }
+    double lo = 0.0, hi = 0.5 * M_PI - 1e-9;
+    for (int k = 0; k < 100; k++) {
+        double th = 0.5 * (lo + hi), st = sin(th) / n;
+        double rr = a * tan(th) + t * st / sqrt(1.0 - st * st);
+        if (rr < r)
+            lo = th;
+        else
+            hi = th;
+    }
+    double th = 0.5 * (lo + hi);
+    if (th > theta_max)
+        return 0.0;
+    double st = sin(th) / n, ct = sqrt(1.0 - st * st);
+    double drdth = a / (cos(th) * cos(th)) + t * cos(th) / (n * ct * ct * ct);
+    double T = 1.0 - fresnel(cos(th), n);
+    return i0 * pow(cos(th), cos_pow) * T * T * sin(th) / (r * drdth);
+}
+
+/* Where the ray of pixel (px, py)'s centre meets the floor (x, z); 0 when it
+ * does not. Mirrors the camera of slab_scene and k_generate's rays. */
+static int pixel_floor(const Scene *s, int w, int px, int py, double *x, double *z)
+{
+    double t = tan(0.5 * s->camera.yfov);
+    double sx = (2.0 * (px + 0.5) / w - 1.0) * t, sy = (1.0 - 2.0 * (py + 0.5) / w) * t;
+    double d[3];
+    for (int k = 0; k < 3; k++)
+        d[k] = s->camera.forward[k] + sx * s->camera.right[k] + sy * s->camera.up[k];
+    if (!(d[1] < 0.0))
+        return 0;
+    double u = -s->camera.position[1] / d[1];
+    *x = s->camera.position[0] + u * d[0];
+    *z = s->camera.position[2] + u * d[2];
+    return fabs(*x) < 2.0 && fabs(*z) < 2.0;
+}
+
+/* The floor's expected film Y at (x, z) under light. */
+static double expected_y(int light, double x, double z)
+{
+    double E = 0.0;
+    const double air = SLAB_BOTTOM + (SPOT_Y - SLAB_TOP);
+    if (light == LIGHT_SPOT) {
+        E = slab_irradiance(sqrt(x * x + z * z), air, SPOT_I, 0, SPOT_INNER);
+    } else if (light == LIGHT_DIRECTIONAL) {
+        double T = 1.0 - fresnel(1.0, SLAB_IOR);
+        E = DIR_E * T * T;
+    } else {
+        /* The square as a 48 x 48 grid of Lambertian sources. */
+        enum { G = 48 };
+        double cell = 2.0 * AREA_HALF / G;
+        for (int i = 0; i < G; i++)
+            for (int j = 0; j < G; j++) {
+                double lx = -AREA_HALF + (i + 0.5) * cell, lz = -AREA_HALF + (j + 0.5) * cell;
+                double r = sqrt((x - lx) * (x - lx) + (z - lz) * (z - lz));
+                E += slab_irradiance(r, SLAB_BOTTOM + (AREA_Y - SLAB_TOP), AREA_LE * cell * cell, 1, M_PI);
+            }
+    }
+    return FLOOR_ALBEDO / M_PI * E;
+}
+
+/* Renders slab_scene(light, glass) at W x W into film (initialised here). */
+static void render_slab(int light, int glass, int caustics, int spp, int depth, uint32_t pool,
+                        uint32_t sample_begin, Film *film)
+{
+    Scene s;
+    slab_scene(&s, light, glass);
+    if (!glass && s.light_count) {
+        /* Without glass: a point light under the slab, so the floor is lit. */
+        s.lights[0].type = SPT_LIGHT_POINT;
+        s.lights[0].position[1] = 0.8f;
+    }
+    GpuScene g;
+    SptError e = {0};
+    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+    RenderSettings rs = square_settings(48, spp, depth, 3);
+    rs.caustics = caustics;
+    rs.pool_size = pool;
+    rs.sample_begin = sample_begin;
+    RenderStats st;
+    film_init(film, rs.width, rs.height);
+    int rc = render_device(device, &g, &s.camera, &rs, film, &st, &e);
+    if (rc)
+        fprintf(stderr, "render: %s\n", e.msg);
+    assert_int_equal(rc, 0);
+    assert_int_equal(film_nonfinite_pixels(film), 0);
+    gpu_scene_free(&g);
+    scene_free(&s);
+}
+
+/* Compares the floor's film Y under the slab with expected_y: the mean over
+ * the pixels whose floor point lies within radius r_max of the axis (within
+ * rel), and the means of three rings (within 3 rel). Returns the pixel count. */
+static int check_floor(const Film *f, int light, double r_max, double rel, const char *what)
+{
+    Scene s;
+    slab_scene(&s, light, 1);
+    int w = f->width;
+    double got = 0, want = 0, ring_got[3] = {0}, ring_want[3] = {0};
+    int n = 0;
+    for (int py = 0; py < w; py++)
+        for (int px = 0; px < w; px++) {
+            double x, z;
+            if (!pixel_floor(&s, w, px, py, &x, &z))
+                continue;
+            double r = sqrt(x * x + z * z);
+            if (r >= r_max)
+                continue;
+            size_t i = (size_t)py * w + px;
+            double y = f->xyz[3 * i + 1] / f->count[i], e = expected_y(light, x, z);
+            got += y;
+            want += e;
+            int ring = (int)(3.0 * r / r_max);
+            ring_got[ring] += y;
+            ring_want[ring] += e;
+            n++;
+        }
+    scene_free(&s);
+    printf("%s: floor under the slab, %d pixels: mean Y %.5g, predicted %.5g (%+.2f%%); rings",
+           what, n, got / n, want / n, 100.0 * (got / want - 1.0));
+    for (int k = 0; k < 3; k++)
+        printf(" %+.2f%%", 100.0 * (ring_got[k] / ring_want[k] - 1.0));
+    printf("\n");
+    assert_true(n > 100);
+    assert_close_rel(got, want, rel);
+    for (int k = 0; k < 3; k++)
+        assert_close_rel(ring_got[k], ring_want[k], 3.0 * rel);
+    return n;
+}
+
+/* A spot light and a directional light through the slab: without the pass the
+ * floor under the slab is black (punctual lights never pass glass); with it,
+ * its radiance is the analytic one. */
+static void test_punctual_through_glass(void **state)
+{
+    (void)state;
+    Film f;
+    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_OFF, 4, 4, 0, 0, &f);
+    double dark = 0;
+    for (int i = 0; i < f.width * f.height; i++)
+        dark = fmax(dark, f.xyz[3 * i + 1] / f.count[i]);
+    printf("spot, --caustics off: brightest pixel Y %.3g (the floor under glass is black)\n", dark);
+    assert_true(dark == 0.0);
+    film_free(&f);
+
+    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_ON, 64, 4, 0, 0, &f);
+    check_floor(&f, LIGHT_SPOT, 0.5, 0.01, "spot through glass");
+    film_free(&f);
+    skip_if_quick();
+    render_slab(LIGHT_DIRECTIONAL, 1, SPT_CAUSTICS_ON, 128, 4, 0, 0, &f);
+    check_floor(&f, LIGHT_DIRECTIONAL, 0.6, 0.02, "directional through glass");
+    film_free(&f);
+}
+
+/* An area light through the slab: the light paths (on) and the camera paths
+ * alone (off) both find the analytic caustic, so the pass takes over exactly
+ * what the camera paths give up. */
+static void test_area_light_caustic(void **state)
+{
+    (void)state;
+    Film f;
+    render_slab(LIGHT_AREA, 1, SPT_CAUSTICS_ON, 64, 4, 0, 0, &f);
+    check_floor(&f, LIGHT_AREA, 0.5, 0.01, "area light, --caustics on");
+    film_free(&f);
+    skip_if_quick();
+    render_slab(LIGHT_AREA, 1, SPT_CAUSTICS_OFF, 1024, 4, 0, 0, &f);
+    check_floor(&f, LIGHT_AREA, 0.5, 0.03, "area light, --caustics off");
+    film_free(&f);
+}
+
+/* Without delta surfaces the pass adds nothing: the image is the same bit for
+ * bit (light paths end at their first vertex, and camera paths drop nothing). */
+static void test_no_delta_unchanged(void **state)
+{
+    (void)state;
+    skip_if_quick();
+    Film a, b;
+    render_slab(LIGHT_SPOT, 0, SPT_CAUSTICS_OFF, 8, -1, 0, 0, &a);
+    render_slab(LIGHT_SPOT, 0, SPT_CAUSTICS_ON, 8, -1, 0, 0, &b);
+    size_t n = (size_t)a.width * a.height;
+    assert_memory_equal(a.xyz, b.xyz, 3 * n * sizeof(double));
+    assert_memory_equal(a.count, b.count, n * sizeof(double));
+    double sum = 0;
+    for (size_t i = 0; i < 3 * n; i++)
+        sum += a.xyz[i];
+    assert_true(sum > 0.0);
+    film_free(&a);
+    film_free(&b);
+}
+
+/* The splats do not depend on scheduling: a small path pool (other paths in
+ * flight, other orders of the atomics) gives the same film bit for bit; and
+ * two renders of samples [0, 4) and [4, 8) add up to the render of [0, 8). */
+static void test_split_invariance(void **state)
+{
+    (void)state;
+    skip_if_quick();
+    Film a, b, c, d;
+    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_ON, 8, -1, 0, 0, &a);
+    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_ON, 8, -1, 1000, 0, &b);
+    size_t n = (size_t)a.width * a.height;
+    assert_memory_equal(a.xyz, b.xyz, 3 * n * sizeof(double));
+    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_ON, 4, -1, 0, 0, &c);
+    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_ON, 4, -1, 0, 4, &d);
+    film_add(&c, &d);
+    double worst = 0, sum = 0;
+    for (size_t i = 0; i < 3 * n; i++) {
+        worst = fmax(worst, fabs(c.xyz[i] - a.xyz[i]) / fmax(fabs(a.xyz[i]), 1e-6));
+        sum += a.xyz[i];
+    }
+    printf("split [0,8) vs [0,4) + [4,8): largest relative difference %.3g\n", worst);
+    assert_true(sum > 0.0);
+    assert_true(worst < 1e-5);
+    film_free(&a);
+    film_free(&b);
+    film_free(&c);
+    film_free(&d);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_punctual_through_glass),
+        cmocka_unit_test(test_area_light_caustic),
+        cmocka_unit_test(test_no_delta_unchanged),
+        cmocka_unit_test(test_split_invariance),
+    };
+    return cmocka_run_group_tests(tests, setup_cpu_device, teardown_cpu_device);
+}
