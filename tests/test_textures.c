@@ -155,6 +155,66 @@ static void test_base_color_empty_sampler(void **state)
     check_base_pattern("base_emptysampler.gltf");
 }
 
+/* The base colour pattern at texture coordinate (u, v) as glTF's bilinear
+ * filtering gives it: texel (i, j) of the 16 x 16 image (cells of 4 x 4 texels)
+ * covers [i / 16, (i + 1) / 16] x [j / 16, (j + 1) / 16] and has its value at its
+ * centre, wrap REPEAT, and the interpolation blends the texels' linear values
+ * (glTF 2.0: the sRGB transfer function is decoded before linear interpolation). */
+static void base_bilinear(double u, double v, double out[3])
+{
+    double tu = u * 16.0 - 0.5, tv = v * 16.0 - 0.5;
+    int i0 = (int)floor(tu), j0 = (int)floor(tv);
+    double fu = tu - i0, fv = tv - j0;
+    out[0] = out[1] = out[2] = 0.0;
+    for (int dj = 0; dj < 2; dj++)
+        for (int di = 0; di < 2; di++) {
+            int i = ((i0 + di) % 16 + 16) % 16, j = ((j0 + dj) % 16 + 16) % 16;
+            double w = (di ? fu : 1.0 - fu) * (dj ? fv : 1.0 - fv), c[3];
+            base_cell_colour(i / 4, j / 4, c);
+            for (int k = 0; k < 3; k++)
+                out[k] += w * c[k];
+        }
+}
+
+/* The whole image, texel by texel, against the filtered texture: at 64 x 64 a
+ * texel is 4 x 4 pixels and the bilinear function's kinks (the texel centres)
+ * fall on pixel boundaries, so a pixel's mean is the value at its centre. Each
+ * texel's 4 x 4-pixel mean must be within 10% of (value + 0.02): filtering the
+ * encoded values and decoding afterwards (Blender Cycles' way with 8-bit sRGB
+ * images) is up to 57% off at the cells' edges, texel centres at i / 16 instead
+ * of (i + 0.5) / 16 up to 200%, CLAMP_TO_EDGE at the border 68%; the renderer's
+ * own error (noise at 64 samples, the spectral upsampling of texels) stays
+ * under 4%. */
+static void test_base_color_texel_boundaries(void **state)
+{
+    (void)state;
+    skip_if_quick();
+    Image im = render_texture_scene("base_nosampler.gltf", 64, 64, 64, 2, NULL);
+    double worst = 0.0;
+    for (int ty = 0; ty < 16; ty++)
+        for (int tx = 0; tx < 16; tx++) {
+            double got[3] = {0, 0, 0}, want[3] = {0, 0, 0};
+            for (int y = 4 * ty; y < 4 * ty + 4; y++)
+                for (int x = 4 * tx; x < 4 * tx + 4; x++) {
+                    double c[3];
+                    base_bilinear((x + 0.5) / 64.0, (y + 0.5) / 64.0, c);
+                    for (int k = 0; k < 3; k++) {
+                        got[k] += im.rgb[3 * ((size_t)y * 64 + x) + k] / 16.0;
+                        want[k] += c[k] / 16.0;
+                    }
+                }
+            for (int k = 0; k < 3; k++) {
+                double r = fabs(got[k] - want[k]) / (want[k] + 0.02);
+                worst = fmax(worst, r);
+                if (!(r <= 0.1))
+                    fail_msg("texel (%d, %d) channel %d: %.4f, expected %.4f (bilinear on linear values)", tx, ty,
+                             k, got[k], want[k]);
+            }
+        }
+    print_message("  largest |got - expected| / (expected + 0.02) over the texels: %.3f\n", worst);
+    free(im.rgb);
+}
+
 /* ------------------------------------------------------------------------- */
 /* Data textures and layers share one 4 x 4 layout of four kinds of cell (no
  * symmetry under flips or transposes): tools/make_texture_scenes.py KIND_GRID. */
@@ -402,6 +462,13 @@ static void test_color0_vec3_float(void **state)
     (void)state;
     skip_if_quick();
     check_vertex_colors("color0_vec3_float.gltf", 0);
+}
+
+static void test_color0_vec3_ushort(void **state)
+{
+    (void)state;
+    skip_if_quick();
+    check_vertex_colors("color0_vec3_ushort.gltf", 0);
 }
 
 static void test_color0_vec4_ubyte(void **state)
@@ -670,6 +737,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_base_color_no_sampler),
         cmocka_unit_test(test_base_color_empty_sampler),
+        cmocka_unit_test(test_base_color_texel_boundaries),
         cmocka_unit_test(test_alpha_blend_and_mask),
         cmocka_unit_test(test_alpha_mask_minified),
         cmocka_unit_test(test_metallic_roughness),
@@ -678,6 +746,7 @@ int main(void)
         cmocka_unit_test(test_transmission_texture),
         cmocka_unit_test(test_texcoord1),
         cmocka_unit_test(test_color0_vec3_float),
+        cmocka_unit_test(test_color0_vec3_ushort),
         cmocka_unit_test(test_color0_vec4_ubyte),
         cmocka_unit_test(test_nearest_and_linear),
         cmocka_unit_test(test_horizon_converges_to_grey),

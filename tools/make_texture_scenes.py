@@ -335,15 +335,21 @@ VERTEX_COLORS = [(0.9, 0.1, 0.1, 1.0), (0.1, 0.9, 0.1, 0.5), (0.1, 0.1, 0.9, 1.0
 
 def color_scenes():
     """A white Lambertian plane of 2 x 2 quads whose COLOR_0 varies per vertex:
-    VEC3 floats (opaque), and VEC4 normalised unsigned bytes with alphaMode BLEND
-    (the alpha blends the plane over the white sky)."""
+    VEC3 floats and VEC3 normalised unsigned shorts (opaque), and VEC4 normalised
+    unsigned bytes with alphaMode BLEND (the alpha blends the plane over the white
+    sky)."""
     def vec3(s, attrs, xs, ys):
         attrs["COLOR_0"] = s.floats([c[:3] for c in VERTEX_COLORS], "VEC3")
+
+    def vec3u16(s, attrs, xs, ys):
+        # 6-byte elements padded to a stride of 8: glTF aligns vertex attributes to 4 bytes.
+        data = b"".join(struct.pack("<3Hxx", *(round(v * 65535) for v in c[:3])) for c in VERTEX_COLORS)
+        attrs["COLOR_0"] = s.acc(s.view(data, stride=8), U16, len(VERTEX_COLORS), "VEC3", normalized=True)
 
     def vec4u8(s, attrs, xs, ys):
         data = bytes(round(v * 255) for c in VERTEX_COLORS for v in c)
         attrs["COLOR_0"] = s.acc(s.view(data), U8, len(VERTEX_COLORS), "VEC4", normalized=True)
-    for name, extra, mode in (("color0_vec3_float.gltf", vec3, {}),
+    for name, extra, mode in (("color0_vec3_float.gltf", vec3, {}), ("color0_vec3_ushort.gltf", vec3u16, {}),
                               ("color0_vec4_ubyte.gltf", vec4u8, {"alphaMode": "BLEND"})):
         s = Scene()
         s.grid_plane(s.material(material({}, specular=0.0, **mode)), n=2, uv=False, extra=extra)
