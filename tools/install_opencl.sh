@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Installs the OpenCL implementations the tests run on besides PoCL, and Oclgrind
 # (`make deps` calls it; tools/README.md describes them):
-#   rusticl  Mesa's OpenCL on llvmpipe: Debian's mesa-opencl-icd (apt-get)
+#   rusticl  Mesa's OpenCL on llvmpipe: Debian's mesa-opencl-icd, fetched with
+#            apt-get download and unpacked (dpkg -x) into deps/rusticl/, its
+#            library dependencies apt-get installed (installing the package itself
+#            would register it in /etc/OpenCL/vendors for every program)
 #   intel    Intel's OpenCL runtime for CPUs: the PyPI wheels intel-opencl-rt, its
 #            undeclared intel-cmplr-lib-rt and a oneTBB newer than Debian's, unpacked
 #            (pip download, no pip install) into deps/intel-ocl/ of this checkout
@@ -53,6 +56,55 @@ apt_install() { # NAME PACKAGE
     absent "$name" "apt-get install $pkg failed: $(grep -E '^(E|W):' "$log" | head -1)"
   fi
   rm -f "$log"
+}
+
+# rusticl: mesa-opencl-icd's library under deps/rusticl (its llvmpipe driver is
+# built in; the package's other files are Mesa's older clover), and the
+# libraries it links installed from Debian.
+install_rusticl() {
+  local dir=deps/rusticl pkg=mesa-opencl-icd
+  local libdir=usr/lib/x86_64-linux-gnu
+  local want; want=$(apt-cache policy "$pkg" 2>/dev/null | awk '/Candidate:/ {print $2}')
+  if [ -f "$dir/VERSION" ] && [ -f "$dir/$libdir/libRusticlOpenCL.so.1" ] &&
+     { [ -z "$want" ] || [ "$(cat "$dir/VERSION")" = "$want" ]; }; then
+    rm -f deps/rusticl.absent; return 0
+  fi
+  if ! command -v apt-get >/dev/null 2>&1 || ! command -v dpkg-deb >/dev/null 2>&1; then
+    absent rusticl "apt-get and dpkg-deb are needed (Debian's $pkg)"; return 0
+  fi
+  local sudo=""
+  if [ "$(id -u)" -ne 0 ]; then
+    if command -v sudo >/dev/null 2>&1; then sudo="sudo -n"; else
+      absent rusticl "not root and no sudo to install $pkg's libraries"; return 0
+    fi
+  fi
+  echo "install_opencl: fetching $pkg into $dir" >&2
+  local tmp=$dir.tmp log; log=$(mktemp)
+  rm -rf "$tmp"; mkdir -p "$tmp/deb"
+  if ! (cd "$tmp/deb" && apt-get download "$pkg" >"$log" 2>&1) &&
+     ! { $sudo apt-get -o DPkg::Lock::Timeout=600 update -qq >>"$log" 2>&1 &&
+         (cd "$tmp/deb" && apt-get download "$pkg" >>"$log" 2>&1); }; then
+    absent rusticl "apt-get download $pkg failed: $(grep -E '^(E|W):' "$log" | head -1)"
+    rm -f "$log"; rm -rf "$tmp"; return 0
+  fi
+  local deb; deb=$(ls "$tmp"/deb/*.deb | head -1)
+  # Its dependencies, each the first of its alternatives, without versions.
+  local deps; deps=$(dpkg-deb -f "$deb" Depends | tr ',' '\n' |
+                     sed 's/|.*//; s/(.*)//; s/[[:space:]]//g' | grep -v '^$' | tr '\n' ' ')
+  # shellcheck disable=SC2086
+  if ! DEBIAN_FRONTEND=noninteractive $sudo apt-get -o DPkg::Lock::Timeout=600 install -y -qq \
+         --no-install-recommends $deps >"$log" 2>&1; then
+    absent rusticl "apt-get install of $pkg's libraries failed: $(grep -E '^(E|W):' "$log" | head -1)"
+    rm -f "$log"; rm -rf "$tmp"; return 0
+  fi
+  rm -f "$log"
+  dpkg-deb -x "$deb" "$tmp/root" || { absent rusticl "dpkg-deb -x $deb failed"; rm -rf "$tmp"; return 0; }
+  mkdir -p "$tmp/$libdir"
+  mv "$tmp/root/$libdir"/libRusticlOpenCL.so* "$tmp/$libdir/"
+  dpkg-deb -f "$deb" Version > "$tmp/VERSION"
+  rm -rf "$tmp/root" "$tmp/deb" "$dir"
+  mv "$tmp" "$dir"
+  rm -f deps/rusticl.absent
 }
 
 install_intel() {
@@ -115,7 +167,7 @@ targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=(rusticl intel oclgrind)
 for t in "${targets[@]}"; do
   case "$t" in
-    rusticl) apt_install rusticl mesa-opencl-icd ;;
+    rusticl) install_rusticl ;;
     oclgrind) apt_install oclgrind oclgrind ;;
     intel) install_intel ;;
     *) echo "error: install_opencl.sh: unknown implementation '$t' (known: rusticl, intel, oclgrind)" >&2; exit 2 ;;

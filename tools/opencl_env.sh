@@ -28,9 +28,12 @@ for n in "${list[@]}"; do
       [ -n "$lib" ] || { echo "pocl: not installed (Debian: apt-get install pocl-opencl-icd)" >&2; exit 1; }
       icds+=("pocl:$lib") ;;
     rusticl)
-      lib=$(system_lib libRusticlOpenCL.so.1)
+      # make deps unpacks Debian's mesa-opencl-icd into deps/rusticl; else a
+      # system-wide install of it.
+      lib=$root/deps/rusticl/usr/lib/x86_64-linux-gnu/libRusticlOpenCL.so.1
+      [ -f "$lib" ] || lib=$(system_lib libRusticlOpenCL.so.1)
       if [ -z "$lib" ]; then
-        why="not installed (Debian: apt-get install mesa-opencl-icd; make deps does)"
+        why="not installed (make deps unpacks Debian's mesa-opencl-icd into deps/rusticl)"
         [ -f "$root/deps/rusticl.absent" ] && why=$(cat "$root/deps/rusticl.absent")
         echo "rusticl: $why" >&2; exit 1
       fi
