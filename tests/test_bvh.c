@@ -333,6 +333,71 @@ static void test_sphere_matches_brute_force(void **state)
     free(t);
 }
 
+/* The GPU path's short-stack traversal with restarts (bvh_traverse_short)
+ * visits the full stack's items in the full stack's order, so closest hits
+ * (t, barycentrics, triangle) and any-hit answers are the same bit for bit,
+ * with stacks of 1, 2 and 3 entries (which overflow and restart on most rays
+ * that hit) and the kernels' size; a dense soup (boxes entered several at a
+ * time) and a sphere of small leaves (a deeper tree), rays from inside and
+ * outside, random tmax. */
+static void test_short_stack_matches_full(void **state)
+{
+    (void)state;
+    rng_state = 19;
+    const int caps[4] = {1, 2, 3, BVH_SHORT_STACK_SIZE};
+    for (int scene = 0; scene < 2; scene++) {
+        uint32_t n = 4000;
+        const float c[3] = {0.1f, -0.1f, 0.2f};
+        float *t = scene == 0 ? make_soup(n, 0.3) : bvh_gen_sphere(40, 80, 1.0f, c, 0.3f, &n);
+        BvhOptions opt = bvh_default_options();
+        opt.max_leaf = scene == 0 ? opt.max_leaf : 2;
+        Bvh bvh;
+        assert_int_equal(bvh_build_ex(&bvh, t, n, &opt, NULL), 0);
+        int restarted[4] = {0, 0, 0, 0}, hits = 0;
+        const int rays = 20000;
+        for (int r = 0; r < rays; r++) {
+            double o[3], d[3];
+            for (int a = 0; a < 3; a++)
+                o[a] = rnd_range(-1.6, 1.6);
+            rnd_dir(d);
+            vec3 org = v3((float)o[0], (float)o[1], (float)o[2]);
+            vec3 dir = v3((float)d[0], (float)d[1], (float)d[2]);
+            float tmax = r % 3 ? 1e30f : (float)rnd_range(0.05, 3.0);
+            BvhHit want = {0, 0, 0, 0};
+            int want_found = bvh_intersect(bvh.nodes, bvh.tri_data, org, dir, tmax, &want);
+            int want_occ = bvh_occluded(bvh.nodes, bvh.tri_data, org, dir, tmax);
+            hits += want_found;
+            for (int k = 0; k < 4; k++) {
+                BvhShort s;
+                bvh_short_init(&s, org, dir, tmax);
+                while (bvh_short_step(bvh.nodes, bvh.tri_data, &s, 0, caps[k]))
+                    ;
+                restarted[k] += s.dropped;
+                assert_int_equal(s.found, want_found);
+                if (want_found) {
+                    if (memcmp(&s.hit, &want, sizeof want))
+                        fail_msg("scene %d, ray %d, stack of %d: hit t=%.9g prim %u, full stack "
+                                 "t=%.9g prim %u", scene, r, caps[k], s.hit.t, s.hit.prim, want.t,
+                                 want.prim);
+                }
+                BvhHit h;
+                assert_int_equal(bvh_traverse_short(bvh.nodes, bvh.tri_data, org, dir, tmax, 1,
+                                                    caps[k], &h),
+                                 want_occ);
+            }
+        }
+        /* Both kinds of ray, and the small stacks did overflow. */
+        assert_true(hits > rays / 10 && hits < rays);
+        for (int k = 0; k < 3; k++)
+            assert_true(restarted[k] > rays / 20);
+        print_message("scene %d: rays that restarted with stacks of 1, 2, 3, %d: %d %d %d %d of "
+                      "%d\n", scene, BVH_SHORT_STACK_SIZE, restarted[0], restarted[1],
+                      restarted[2], restarted[3], rays);
+        bvh_free(&bvh);
+        free(t);
+    }
+}
+
 /* The full-sweep reference builder makes a valid tree too, with SAH cost no
  * higher than the binned one's by more than rounding (it searches a superset). */
 static void test_full_sweep_builder(void **state)
@@ -507,8 +572,9 @@ static void test_empty_scene(void **state)
 /* The kernels run this traversal: compiled by the OpenCL device from kernels/
  * (without fast-math options), with the lane-by-lane leaf test that GPUs run, with
  * the 16-lane ones of x86 CPUs (SPT_BVH_SIMD; AVX2 forced with
- * SPT_BVH_NO_AVX512, AVX-512 where the CPU has it) and with two rays traced
- * together (SPT_BVH_PAIRS), it reports the host's node size and returns
+ * SPT_BVH_NO_AVX512, AVX-512 where the CPU has it), with two rays traced
+ * together (SPT_BVH_PAIRS) and with the GPU path's short stack
+ * (SPT_BVH_SHORT_STACK; also with 2 entries, which restarts often), it reports the host's node size and returns
  * bit-identical hits to the host build for the same rays. Skipped without
  * an OpenCL device. */
 static const char *k_device_src =
@@ -638,11 +704,13 @@ static void test_device_matches_host(void **state)
         assert_int_equal(bvh_build_ex(&bvh, t, n, &opt, NULL), 0);
         if (m == 0)
             assert_true(bvh.stats.max_leaf_size > 8);
-        const char *options[3] = {
+        const char *options[5] = {
             NULL,
             "-DSPT_BVH_SIMD=1 -DSPT_BVH_NO_AVX512=1",
-            "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 -DSPT_BVH_STEP_PREFETCH=1"};
-        for (int o = 0; o < 3; o++) {
+            "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 -DSPT_BVH_STEP_PREFETCH=1",
+            "-DSPT_BVH_SHORT_STACK=1",
+            "-DSPT_BVH_SHORT_STACK=1 -DBVH_SHORT_STACK_SIZE=2"};
+        for (int o = 0; o < 5; o++) {
             int hits;
             assert_int_equal(device_differences(ctx, dev, q, options[o], &bvh, rays, nr, &hits), 0);
             assert_true(hits > nr / 4);
@@ -660,6 +728,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_soup_matches_brute_force),
         cmocka_unit_test(test_sphere_matches_brute_force),
+        cmocka_unit_test(test_short_stack_matches_full),
         cmocka_unit_test(test_full_sweep_builder),
         cmocka_unit_test(test_million_triangles),
         cmocka_unit_test(test_watertight),

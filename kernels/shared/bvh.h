@@ -37,11 +37,12 @@
  *
  * Depth: the binary tree is never deeper than BVH_MAX_DEPTH - 1 and gathering
  * never deepens it, and a node pushes at most 7 children, so the traversal
- * stack of BVH_STACK_SIZE entries cannot overflow. (On GPUs this 5.4 KB
- * private stack lives in slow memory; a shorter stack with a restart would
- * suit them better. CPUs trace two rays at once, with two stacks, and PoCL
- * keeps those of a whole work-group on a thread's stack: the kernels run in
- * groups of 64.)
+ * stack of BVH_STACK_SIZE entries cannot overflow. That stack takes 5.4 KB
+ * per ray: fine on a CPU (which traces two rays at once, with two stacks; PoCL
+ * keeps those of a whole work-group on a thread's stack, so the kernels run in
+ * groups of about 64), but on a GPU it would live in slow memory, so the GPU
+ * path (SPT_BVH_SHORT_STACK) keeps a short stack and restarts from the root
+ * when it overflowed (bvh_traverse_short).
  *
  * Ray-triangle test: watertight (Woop, Benthin and Wald 2013, "Watertight
  * Ray/Triangle Intersection"): a ray cannot pass between two triangles that share
@@ -529,6 +530,28 @@ SPT_FN_INLINE void bvh_trav_next(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOB
 #endif
 }
 
+/* The children of a node that a ray enters (mask, entry distances d), sorted
+ * by entry distance, farthest first, into kd (distances) and ks (slots); of
+ * equal distances the higher slot counts as nearer. Returns their number. */
+SPT_FN_INLINE int bvh_sort_entered(BvhEnter d, spt_u32 mask, float kd[BVH_WIDTH],
+                                   spt_u32 ks[BVH_WIDTH])
+{
+    int k = 0;
+    for (spt_u32 m = mask; m; m &= m - 1u) {
+        spt_u32 i = bvh_lowest_bit(m);
+        float di = BVH_ENTER_LANE(d, i);
+        int j = k++;
+        while (j > 0 && kd[j - 1] < di) {
+            kd[j] = kd[j - 1];
+            ks[j] = ks[j - 1];
+            j--;
+        }
+        kd[j] = di;
+        ks[j] = i;
+    }
+    return k;
+}
+
 /* One step of the traversal behind bvh_intersect (any_hit 0: closest hit) and
  * bvh_occluded (any_hit 1: stops at the first hit): tests the current item and
  * moves to the next. Returns 1 while there is more to do, 0 when s is finished
@@ -560,33 +583,21 @@ SPT_FN_INLINE int bvh_trav_step(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBA
                 /* Two: visit the nearer, defer the other. */
                 spt_u32 b = bvh_lowest_bit(rest);
                 float ka = BVH_ENTER_LANE(d, a), kb = BVH_ENTER_LANE(d, b);
-                spt_u32 near = kb < ka ? b : a, far = kb < ka ? a : b;
+                /* Of equal distances the higher slot (b) counts as nearer, as
+                 * in the sort below (bvh_short_step relies on one order). */
+                spt_u32 near = kb <= ka ? b : a, far = kb <= ka ? a : b;
                 s->stack_child[sp] = n->child[far];
                 s->stack_count[sp] = n->count[far];
                 bvh_prefetch(nodes, tris, n->child[far], n->count[far]);
-                s->stack_t[sp] = kb < ka ? ka : kb;
+                s->stack_t[sp] = kb <= ka ? ka : kb;
                 s->sp = sp + 1;
                 bvh_trav_next(nodes, tris, s, n->child[near], n->count[near]);
                 return 1;
             }
-            /* Three or more: insertion-sort the entered slots by entry
-             * distance, farthest first (of equal distances the higher slot
-             * counts as nearer), defer all but the nearest. */
+            /* Three or more: sort, defer all but the nearest. */
             float kd[BVH_WIDTH];
             spt_u32 ks[BVH_WIDTH];
-            int k = 0;
-            for (spt_u32 m = mask; m; m &= m - 1u) {
-                spt_u32 i = bvh_lowest_bit(m);
-                float di = BVH_ENTER_LANE(d, i);
-                int j = k++;
-                while (j > 0 && kd[j - 1] < di) {
-                    kd[j] = kd[j - 1];
-                    ks[j] = ks[j - 1];
-                    j--;
-                }
-                kd[j] = di;
-                ks[j] = i;
-            }
+            int k = bvh_sort_entered(d, mask, kd, ks);
             for (int j = 0; j < k - 1; j++) {
                 s->stack_child[sp] = n->child[ks[j]];
                 s->stack_count[sp] = n->count[ks[j]];
@@ -611,10 +622,182 @@ SPT_FN_INLINE int bvh_trav_step(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBA
     return 0;
 }
 
-/* The traversal of one ray: returns 1 and fills hit when it found a hit. */
+/* The traversal with a short stack and restarts (the GPU path): private
+ * memory per ray of BVH_SHORT_STACK_SIZE deferred items (16 bytes each) and a
+ * trail of one byte per tree level, about 250 bytes, where the full stack
+ * above takes 5.4 KB. It visits the same items in the same order as
+ * bvh_trav_step, so its hits are the same bit for bit (tests/test_bvh.c).
+ *
+ * A node at level l (the root is level 0) visits its entered children in
+ * order of entry distance, rank 0 the nearest; trail[l] holds the rank of the
+ * one being visited and BVH_TRAIL_LAST when it is the last. Deferred children
+ * go on the short stack with their level and rank; when it is full, the
+ * oldest entry (the bottom) is dropped. When the stack runs empty after a
+ * drop, the deepest level on the current item's path that is not on its last
+ * child still has children to visit: its rank is advanced and the traversal
+ * restarts at the root, following the trail's ranks down to that level, and
+ * from there goes on as usual (the restart trail of Laine 2010, "Restart
+ * Trail for Stackless BVH Traversal", for 8-wide nodes). The best hit only
+ * shrinks, so a node's entered children on a later visit are a prefix of
+ * those on an earlier one in the same order, and the ranks stay valid; a
+ * rank past them means the rest of that node is beyond the best hit. */
+#ifndef BVH_SHORT_STACK_SIZE
+#define BVH_SHORT_STACK_SIZE 8
+#endif
+#define BVH_TRAIL_LAST 8u
+
+typedef struct BvhShort {
+    BvhRay r;
+    float best;
+    int found, sp, depth, restart, dropped;
+    spt_u32 cur, count; /* the current item, at level depth */
+    BvhHit hit;
+    spt_u32 st_child[BVH_SHORT_STACK_SIZE], st_count[BVH_SHORT_STACK_SIZE];
+    spt_u32 st_tag[BVH_SHORT_STACK_SIZE]; /* parent level | rank << 8 | BVH_TRAIL_LAST << 8 */
+    float st_t[BVH_SHORT_STACK_SIZE];
+    spt_u8 trail[BVH_MAX_DEPTH];
+} BvhShort;
+
+/* After the item at level s->depth is done, with the stack empty: restarts
+ * for the deepest ancestor with children left (returns 1), or finishes
+ * (returns 0). */
+SPT_FN_INLINE int bvh_short_resume(BvhShort *s)
+{
+    for (int l = s->depth - 1; l >= 0; l--) {
+        spt_u32 t = s->trail[l];
+        if (!(t & BVH_TRAIL_LAST)) {
+            s->trail[l] = (spt_u8)(t + 1u);
+            s->restart = l;
+            s->depth = 0;
+            s->cur = 0;
+            s->count = 0;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* One step: tests the current item and moves to the next; 0 when finished.
+ * cap (<= BVH_SHORT_STACK_SIZE) is the stack size used (tests force restarts
+ * with small ones). */
+SPT_FN_INLINE int bvh_short_step(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
+                                 BvhShort *s, int any_hit, int cap)
+{
+    if (s->count) {
+        if (bvh_leaf_intersect(tris, s->cur, s->count, &s->r, &s->best, any_hit, &s->hit)) {
+            s->found = 1;
+            if (any_hit)
+                return 0;
+        }
+    } else {
+        const SPT_GLOBAL BvhNode *n = &nodes[s->cur];
+        int level = s->depth;
+        spt_u32 mask;
+        BvhEnter d = bvh_node_enter(n, &s->r, s->best, &mask);
+        float kd[BVH_WIDTH];
+        spt_u32 ks[BVH_WIDTH];
+        int k = 0, r = 0;
+        if (mask && !(mask & (mask - 1u))) {
+            ks[0] = bvh_lowest_bit(mask);
+            k = 1;
+        } else if (mask) {
+            k = bvh_sort_entered(d, mask, kd, ks);
+        }
+        if (s->restart >= 0) {
+            r = (int)(s->trail[level] & 7u);
+            if (r >= k) {
+                /* What is left of this node is beyond the best hit. */
+                s->restart = -1;
+                return bvh_short_resume(s);
+            }
+            if (level < s->restart) {
+                spt_u32 c = ks[k - 1 - r];
+                s->cur = n->child[c];
+                s->count = n->count[c];
+                s->depth = level + 1;
+                return 1;
+            }
+            s->restart = -1;
+        }
+        if (k) {
+            s->trail[level] = (spt_u8)((spt_u32)r | (r == k - 1 ? BVH_TRAIL_LAST : 0u));
+            for (int j = 0; j < k - 1 - r; j++) {
+                if (s->sp == cap) {
+                    for (int i = 0; i + 1 < cap; i++) {
+                        s->st_child[i] = s->st_child[i + 1];
+                        s->st_count[i] = s->st_count[i + 1];
+                        s->st_tag[i] = s->st_tag[i + 1];
+                        s->st_t[i] = s->st_t[i + 1];
+                    }
+                    s->sp = cap - 1;
+                    s->dropped = 1;
+                }
+                int sp = s->sp++;
+                s->st_child[sp] = n->child[ks[j]];
+                s->st_count[sp] = n->count[ks[j]];
+                s->st_t[sp] = kd[j];
+                s->st_tag[sp] = (spt_u32)level | (spt_u32)(k - 1 - j) << 8 |
+                                (j == 0 ? BVH_TRAIL_LAST << 8 : 0u);
+            }
+            spt_u32 c = ks[k - 1 - r];
+            s->cur = n->child[c];
+            s->count = n->count[c];
+            s->depth = level + 1;
+            return 1;
+        }
+    }
+    /* Next: the nearest deferred item the best hit does not rule out; a
+     * skipped one counts as visited. */
+    while (s->sp > 0) {
+        int sp = --s->sp;
+        spt_u32 tag = s->st_tag[sp], l = tag & 255u;
+        s->trail[l] = (spt_u8)(tag >> 8);
+        s->depth = (int)l + 1;
+        if (s->st_t[sp] <= s->best) {
+            s->cur = s->st_child[sp];
+            s->count = s->st_count[sp];
+            return 1;
+        }
+    }
+    return s->dropped ? bvh_short_resume(s) : 0;
+}
+
+/* Starts s at the root for the ray org + t dir, t in (0, tmax). */
+SPT_FN_INLINE void bvh_short_init(BvhShort *s, vec3 org, vec3 dir, float tmax)
+{
+    bvh_ray_init(&s->r, org, dir);
+    s->best = tmax;
+    s->found = 0;
+    s->sp = 0;
+    s->depth = 0;
+    s->restart = -1;
+    s->dropped = 0;
+    s->cur = 0;
+    s->count = 0;
+}
+
+/* bvh_traverse with the short stack, of cap entries (1 .. BVH_SHORT_STACK_SIZE). */
+SPT_FN int bvh_traverse_short(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
+                              vec3 org, vec3 dir, float tmax, int any_hit, int cap, BvhHit *hit)
+{
+    BvhShort s;
+    bvh_short_init(&s, org, dir, tmax);
+    while (bvh_short_step(nodes, tris, &s, any_hit, cap))
+        ;
+    if (s.found)
+        *hit = s.hit;
+    return s.found;
+}
+
+/* The traversal of one ray: returns 1 and fills hit when it found a hit. With
+ * SPT_BVH_SHORT_STACK (the kernels' GPU path) the short stack, else the full
+ * one. */
 SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
                         vec3 org, vec3 dir, float tmax, int any_hit, BvhHit *hit)
 {
+#if defined(SPT_BVH_SHORT_STACK)
+    return bvh_traverse_short(nodes, tris, org, dir, tmax, any_hit, BVH_SHORT_STACK_SIZE, hit);
+#else
     BvhTrav s;
     bvh_trav_init(&s, org, dir, tmax);
     while (bvh_trav_step(nodes, tris, &s, any_hit))
@@ -622,6 +805,7 @@ SPT_FN int bvh_traverse(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float 
     if (s.found)
         *hit = s.hit;
     return s.found;
+#endif
 }
 
 /* Closest hit of the ray org + t dir with t in (0, tmax): returns 1 and fills hit,
