@@ -51,9 +51,6 @@
  * roulette ends paths long before). */
 #define SPT_MAX_SEGMENTS 1024u
 
-/* The largest work-group the kernels run with (src/render/wavefront.c: at most 64). */
-#define SPT_GROUP_MAX 64
-
 /* Work-group aggregated queue slots: every work-item of the group calls this
  * with want = 0 or 1 (all must call it: it has barriers); it returns the index
  * in the queue whose counter is *counter for those that want one, from one

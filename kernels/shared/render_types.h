@@ -11,6 +11,10 @@
  *        times the normalised D65 table when flags has SPT_SPEC_ILLUMINANT;
  *   kind SPT_SPEC_TABLE: scale * table[offset + (l - 360)] on the 1 nm grid
  *        (linear interpolation), from the spectra buffer. */
+/* The largest work-group the kernels run with: their local arrays' size
+ * (src/render/wavefront.c picks each kernel's group size within it). */
+#define SPT_GROUP_MAX 256
+
 #define SPT_SPEC_NONE 0
 #define SPT_SPEC_SIGMOID 1
 #define SPT_SPEC_TABLE 2

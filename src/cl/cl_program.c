@@ -90,6 +90,12 @@ int cl_program_build_text(ClDevice *d, const char *name, const char *text,
     unsigned long long src_hash = cl_fnv1a(SPT_FNV1A_INIT, src, strlen(src));
     cl_buf_printf(&key, "device=%s\ndriver=%s\nplatform=%s\nplatform_version=%s\n", d->info.name,
                d->info.driver_version, d->info.platform_name, d->info.platform_version);
+    /* Intel's CPU runtime compiles differently with its vectoriser on or off
+     * (cl_runtime_defaults; the environment, not a build option). */
+    if (!strcmp(d->info.impl, "intel")) {
+        const char *vec = getenv("CL_CONFIG_USE_VECTORIZER");
+        cl_buf_printf(&key, "CL_CONFIG_USE_VECTORIZER=%s\n", vec ? vec : "(unset)");
+    }
     cl_buf_printf(&key, "source=%016llx+%zu\noptions=", src_hash, strlen(src));
     cl_buf_add(&key, opts.s, opts.len);
     unsigned long long key_hash = cl_fnv1a(SPT_FNV1A_INIT, key.s, key.len);

@@ -112,6 +112,57 @@ static uint32_t pool_size_for(const ClDeviceInfo *info, uint32_t asked, uint64_t
     return (uint32_t)(pool ? pool : 1);
 }
 
+/* The kernels' two code paths (kernels/shared/bvh.h): 1 for the CPU path, which
+ * tests a BVH leaf's triangles with one 16-lane test (x86 with AVX-512 or AVX2)
+ * and traces two rays per extend work-item, interleaved, each with a full
+ * traversal stack; 0 for the GPU path, one ray per work-item with a short
+ * stack, looping over a leaf's triangles, for devices whose work-items are SIMD
+ * lanes and which hide memory latency with other work-items. By device type,
+ * then by implementation where its CPU device runs work-items as lanes:
+ *   - GPUs and accelerators, and Oclgrind (a GPU to us): the GPU path;
+ *   - rusticl: llvmpipe vectorises a kernel across work-items like a GPU (it is
+ *     a CPU device to OpenCL): the GPU path;
+ *   - PoCL's CPU device runs a work-group's items one after another: the CPU
+ *     path;
+ *   - Intel's CPU runtime, with its vectoriser off (cl_runtime_defaults), runs
+ *     them one after another too; of the two paths measured there the CPU path
+ *     is the faster (docs/performance.md, "Implementations"): the CPU path;
+ *   - any other CPU device: the CPU path. */
+static int kernel_path_pairs(const ClDeviceInfo *info)
+{
+    if (!(info->type & CL_DEVICE_TYPE_CPU))
+        return 0;
+    if (!strcmp(info->impl, "rusticl") || !strcmp(info->impl, "oclgrind"))
+        return 0;
+    return 1;
+}
+
+/* Work-group size of kernel k on dev: 64 work-items (the queues take one global
+ * atomic per group; PoCL keeps a group's private traversal stacks on a
+ * thread's stack) rounded up to a whole number of the kernel's preferred
+ * multiple (a GPU's warp or wavefront; 128 on Intel's CPU runtime, where 128
+ * renders faster than 64), within the kernel's own limit on the device and
+ * SPT_GROUP_MAX (the kernels' local arrays). */
+static int group_size_for(cl_kernel k, cl_device_id dev, size_t *out, SptError *e)
+{
+    size_t max_wg = 1, mult = 1;
+    SPT_CL_CHECK(e, clGetKernelWorkGroupInfo(k, dev, CL_KERNEL_WORK_GROUP_SIZE, sizeof max_wg,
+                                             &max_wg, NULL));
+    SPT_CL_CHECK(e, clGetKernelWorkGroupInfo(k, dev, CL_KERNEL_PREFERRED_WORK_GROUP_SIZE_MULTIPLE,
+                                             sizeof mult, &mult, NULL));
+    if (max_wg > SPT_GROUP_MAX)
+        max_wg = SPT_GROUP_MAX;
+    if (max_wg < 1)
+        max_wg = 1;
+    if (mult < 1 || mult > max_wg)
+        mult = 1;
+    size_t local = (64 + mult - 1) / mult * mult;
+    if (local > max_wg)
+        local = max_wg / mult * mult;
+    *out = local;
+    return 0;
+}
+
 int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
                             const RenderSettings *rs, const RenderLights *L, SptError *e)
 {
@@ -156,12 +207,7 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
 
     if ((rc = cl_device_open(&w->dev, info, rs->profile, e)))
         return rc;
-    /* CPUs test a BVH leaf's triangles with one 16-lane test (x86 with AVX-512
-     * or AVX2) and trace two rays per extend work-item, interleaved
-     * (kernels/shared/bvh.h); GPUs, whose work-items are the SIMD lanes and which hide
-     * memory latency with other work-items, loop over a leaf's triangles and
-     * trace one ray each. */
-    w->ray_pairs = (info->type & CL_DEVICE_TYPE_CPU) != 0;
+    w->ray_pairs = kernel_path_pairs(info);
     /* The kernel_path test hook overrides that choice, so both paths run on any
      * device: tools/check_kernels.sh runs the CPU path under Oclgrind (a GPU to
      * us). */
@@ -181,7 +227,7 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
     int step_prefetch = w->ray_pairs && bvh_bytes > 0.25 * (double)cache;
     char options[160];
     snprintf(options, sizeof options, "%s%s%s",
-             w->ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "",
+             w->ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "-DSPT_BVH_SHORT_STACK=1 ",
              step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "",
              rs->test.inject_nan ? "-DSPT_TEST_INJECT_NAN=1" : "");
     if ((rc = cl_program_build(&w->dev, "kernels/device/wavefront.cl", options, &w->program, e)))
@@ -189,12 +235,8 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
     for (int i = 0; i < K_COUNT; i++) {
         cl_int err;
         SPT_CL_CHECK(e, (w->k[i] = clCreateKernel(w->program, kernel_names[i], &err), err));
-        /* 64 work-items per group where the kernel allows it: the queues take
-         * one global atomic per group. */
-        size_t max_wg = 1;
-        SPT_CL_CHECK(e, clGetKernelWorkGroupInfo(w->k[i], w->dev.info.id, CL_KERNEL_WORK_GROUP_SIZE,
-                                                 sizeof max_wg, &max_wg, NULL));
-        w->local[i] = max_wg < 64 ? max_wg : 64;
+        if ((rc = group_size_for(w->k[i], w->dev.info.id, &w->local[i], e)))
+            return rc;
     }
 #define MAKE_RO(type, name)                                                             \
     if ((rc = scene_buffer_create(w, #name, gpu_scene_buffer_bytes(g, L, #name),              \
