@@ -341,6 +341,136 @@ static void test_deep_hierarchy(void **state)
     scene_free(&s);
 }
 
+/* Base64 (RFC 4648) of n bytes into out (NUL-terminated). */
+static void base64(const void *data, size_t n, char *out)
+{
+    static const char t[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    const unsigned char *b = data;
+    size_t o = 0;
+    for (size_t i = 0; i < n; i += 3) {
+        unsigned v = (unsigned)b[i] << 16 | (i + 1 < n ? (unsigned)b[i + 1] << 8 : 0) |
+                     (i + 2 < n ? b[i + 2] : 0);
+        out[o++] = t[v >> 18 & 63];
+        out[o++] = t[v >> 12 & 63];
+        out[o++] = i + 1 < n ? t[v >> 6 & 63] : '=';
+        out[o++] = i + 2 < n ? t[v & 63] : '=';
+    }
+    out[o] = 0;
+}
+
+/* One triangle from a buffer (data URI of `bytes`) with the given bufferViews and
+ * accessors (accessor 0 is POSITION; "extra" adds attributes), loaded from
+ * memory; returns the loader's code, e.msg on failure. */
+static int load_one(Scene *s, const void *bytes, size_t n, const char *views, const char *accessors,
+                    const char *extra, const char *more_buffers, SptError *e)
+{
+    char b64[1024], json[8192];
+    base64(bytes, n, b64);
+    snprintf(json, sizeof json,
+             "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+             "\"nodes\":[{\"mesh\":0}],\"buffers\":[{\"byteLength\":%zu,\"uri\":"
+             "\"data:application/octet-stream;base64,%s\"}%s],\"bufferViews\":[%s],"
+             "\"accessors\":[%s],\"meshes\":[{\"primitives\":[{\"attributes\":"
+             "{\"POSITION\":0%s}}]}]}",
+             n, b64, more_buffers, views, accessors, extra);
+    return scene_load_gltf_memory(s, json, strlen(json), "valid.gltf", e);
+}
+
+/* Valid glTF the loader once refused (glTF 2.0 3.6.2.3): sparse accessors over a
+ * buffer view and over zeros (no bufferView), an accessor without bufferView
+ * (zeros), a buffer without uri in a .gltf that nothing reads, and a data URI
+ * buffer in a GLB. Positions are checked against the values the specification
+ * gives them. */
+static void test_valid_sparse_and_zeros(void **state)
+{
+    (void)state;
+    struct {
+        float pos[9];
+        uint32_t idx[2];
+        float val[6];
+    } d = {{0, 0, 0, 1, 0, 0, 0, 1, 0}, {1, 2}, {2, 0, 0, 0, 3, 0}};
+    const char *views = "{\"buffer\":0,\"byteLength\":36},{\"buffer\":0,\"byteOffset\":36,"
+                        "\"byteLength\":8},{\"buffer\":0,\"byteOffset\":44,\"byteLength\":24}";
+    const char *sparse = "\"sparse\":{\"count\":2,\"indices\":{\"bufferView\":1,"
+                         "\"componentType\":5125},\"values\":{\"bufferView\":2}}";
+    char acc[1024];
+    Scene s;
+    SptError e = {0};
+    /* Over the buffer view: vertices 1 and 2 replaced. */
+    snprintf(acc, sizeof acc, "{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":"
+             "\"VEC3\",%s}", sparse);
+    if (load_one(&s, &d, sizeof d, views, acc, "", "", &e)) fail_msg("%s", e.msg);
+    assert_int_equal(s.tri_count, 1);
+    assert_vertex(&s, 0, 0, 0, 0, 0);
+    assert_vertex(&s, 0, 1, 2, 0, 0);
+    assert_vertex(&s, 0, 2, 0, 3, 0);
+    scene_free(&s);
+    /* Over zeros, and a TEXCOORD_0 of zeros (no bufferView at all). */
+    snprintf(acc, sizeof acc, "{\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",%s},"
+             "{\"componentType\":5126,\"count\":3,\"type\":\"VEC2\"}", sparse);
+    if (load_one(&s, &d, sizeof d, views, acc, ",\"TEXCOORD_0\":1", "", &e)) fail_msg("%s", e.msg);
+    assert_int_equal(s.tri_count, 1);
+    assert_vertex(&s, 0, 1, 2, 0, 0);
+    assert_vertex(&s, 0, 2, 0, 3, 0);
+    scene_free(&s);
+    /* A buffer without uri that nothing reads (one of its views is unused too). */
+    char views2[512];
+    snprintf(views2, sizeof views2, "%s,{\"buffer\":1,\"byteLength\":16}", views);
+    snprintf(acc, sizeof acc, "{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":"
+             "\"VEC3\"}");
+    if (load_one(&s, &d, sizeof d, views2, acc, "", ",{\"byteLength\":64}", &e))
+        fail_msg("%s", e.msg);
+    assert_vertex(&s, 0, 2, 0, 1, 0);
+    scene_free(&s);
+    /* ... but reading it is refused, naming the accessor and the buffer. */
+    snprintf(acc, sizeof acc, "{\"bufferView\":3,\"componentType\":5126,\"count\":1,\"type\":"
+             "\"VEC3\"}");
+    assert_int_equal(load_one(&s, &d, sizeof d, views2, acc, "", ",{\"byteLength\":64}", &e),
+                     SPT_EXIT_INPUT);
+    assert_non_null(strstr(e.msg, "accessors[0]"));
+    assert_non_null(strstr(e.msg, "buffers[1], which has no uri"));
+    /* Broken sparse parts are refused, naming what is wrong. */
+    static const struct {
+        uint32_t idx[2];
+        const char *sparse, *want;
+    } bad[] = {
+        {{2, 1}, NULL, "sparse.indices[1] is 1"},
+        {{1, 3}, NULL, "sparse.indices[1] is 3"},
+        {{1, 2}, "\"sparse\":{\"count\":4,\"indices\":{\"bufferView\":1,\"componentType\":5125},"
+                 "\"values\":{\"bufferView\":2}}", "sparse.count 4"},
+        {{1, 2}, "\"sparse\":{\"count\":2,\"indices\":{\"bufferView\":1,\"componentType\":5125},"
+                 "\"values\":{\"bufferView\":2,\"byteOffset\":4}}", "sparse.values"},
+        {{1, 2}, "\"sparse\":{\"count\":2,\"indices\":{\"bufferView\":1,\"componentType\":5126},"
+                 "\"values\":{\"bufferView\":2}}", "sparse.indices.componentType"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        memcpy(d.idx, bad[i].idx, sizeof d.idx);
+        snprintf(acc, sizeof acc, "{\"bufferView\":0,\"componentType\":5126,\"count\":3,"
+                 "\"type\":\"VEC3\",%s}", bad[i].sparse ? bad[i].sparse : sparse);
+        assert_int_equal(load_one(&s, &d, sizeof d, views, acc, "", "", &e), SPT_EXIT_INPUT);
+        if (!strstr(e.msg, bad[i].want) || !strstr(e.msg, "accessors[0]"))
+            fail_msg("expected '%s' in: %s", bad[i].want, e.msg);
+    }
+    /* A GLB whose only buffer is a data URI (no BIN chunk). */
+    char b64[256], json[2048];
+    base64(d.pos, sizeof d.pos, b64);
+    int len = snprintf(json, sizeof json,
+        "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+        "\"nodes\":[{\"mesh\":0}],\"buffers\":[{\"byteLength\":36,\"uri\":"
+        "\"data:application/octet-stream;base64,%s\"}],\"bufferViews\":[{\"buffer\":0,"
+        "\"byteLength\":36}],\"accessors\":[{\"bufferView\":0,\"componentType\":5126,"
+        "\"count\":3,\"type\":\"VEC3\"}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+        "{\"POSITION\":0}}]}]}", b64);
+    while (len % 4) json[len++] = ' ';
+    unsigned char glb[2100];
+    uint32_t hdr[5] = {0x46546C67u, 2, 20 + (uint32_t)len, (uint32_t)len, 0x4E4F534Au};
+    memcpy(glb, hdr, 20);
+    memcpy(glb + 20, json, (size_t)len);
+    if (scene_load_gltf_memory(&s, glb, 20 + (size_t)len, "datauri.glb", &e)) fail_msg("%s", e.msg);
+    assert_vertex(&s, 0, 1, 1, 0, 0);
+    scene_free(&s);
+}
+
 static void test_default_camera_frames_box(void **state)
 {
     (void)state;
@@ -537,6 +667,7 @@ int main(void)
         cmocka_unit_test(test_lights_and_camera),
         cmocka_unit_test(test_orthographic_camera),
         cmocka_unit_test(test_deep_hierarchy),
+        cmocka_unit_test(test_valid_sparse_and_zeros),
         cmocka_unit_test(test_default_camera_frames_box),
         cmocka_unit_test(test_fuzz_regressions),
         cmocka_unit_test(test_info_command),

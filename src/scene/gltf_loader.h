@@ -199,6 +199,10 @@ struct Loader {
     int check_buffer_views();
     int check_accessor(int index, const std::string &obj, int want_components,
                        const std::vector<int> &types, int normalized_ok, bool *zeros);
+    int check_sparse(int index, const char *obj);
+    int check_view_has_data(int view, const char *obj, int index);
+    std::vector<int> dead_views; // views of .gltf buffers without uri (no data)
+    const unsigned char *sparse_data(int view, int offset) const;
     int read_floats(int index, int ncomp, std::vector<float> &out);
     int read_indices(int index, std::vector<uint32_t> &out);
     int node_local(int n, Mat4 *out);

@@ -105,11 +105,16 @@ const char *type_name(int n)
 // Likewise KHR_draco_mesh_compression primitives' indices accessors have no
 // bufferView (the faces are in the Draco data), which tinygltf refuses: their
 // "indices" is dropped (the loader takes the faces from Draco).
-static bool rewrite_fallback_buffers(const unsigned char *json, size_t size, std::string *out)
+// In a .gltf, a buffer without uri (valid while nothing reads it) gets the same
+// 4-byte data URI, and its buffer views become 4-byte views of it, listed in
+// *dead_views: an accessor that reads one is refused (check_accessor), an image
+// in one is unusable.
+static bool rewrite_fallback_buffers(const unsigned char *json, size_t size, bool glb,
+                                     std::string *out, std::vector<int> *dead_views)
 {
     static const char key[] = "EXT_meshopt_compression", draco[] = "KHR_draco_mesh_compression";
     if (std::search(json, json + size, key, key + sizeof key - 1) == json + size &&
-        std::search(json, json + size, draco, draco + sizeof draco - 1) == json + size)
+        std::search(json, json + size, draco, draco + sizeof draco - 1) == json + size && glb)
         return false;
     nlohmann::json j;
     try {
@@ -135,16 +140,30 @@ static bool rewrite_fallback_buffers(const unsigned char *json, size_t size, std
         if (changed) *out = j.dump();
         return changed;
     }
-    for (auto &b : j["buffers"]) {
-        if (!b.is_object() || b.contains("uri") || !b.contains("extensions")) continue;
-        const auto &x = b["extensions"];
-        if (!x.is_object() || !x.contains(key) || !x[key].is_object()) continue;
-        const auto &fb = x[key];
-        if (!fb.contains("fallback") || fb["fallback"] != true) continue;
+    std::vector<size_t> no_data; // .gltf buffers without uri (and not meshopt fallbacks)
+    for (size_t bi = 0; bi < j["buffers"].size(); bi++) {
+        auto &b = j["buffers"][bi];
+        if (!b.is_object() || b.contains("uri")) continue;
+        const nlohmann::json *x = b.contains("extensions") ? &b["extensions"] : nullptr;
+        bool fallback = x && x->is_object() && x->contains(key) && (*x)[key].is_object() &&
+                        (*x)[key].contains("fallback") && (*x)[key]["fallback"] == true;
+        if (!fallback && glb) continue; // buffers[0] is the BIN chunk
+        if (!fallback) no_data.push_back(bi);
         b["uri"] = "data:application/octet-stream;base64,AAAAAA==";
         b["byteLength"] = 4;
         changed = true;
     }
+    if (!no_data.empty() && j.contains("bufferViews") && j["bufferViews"].is_array())
+        for (size_t vi = 0; vi < j["bufferViews"].size(); vi++) {
+            auto &v = j["bufferViews"][vi];
+            if (!v.is_object() || !v.contains("buffer") || !v["buffer"].is_number_unsigned()) continue;
+            size_t bi = v["buffer"].get<size_t>();
+            if (std::find(no_data.begin(), no_data.end(), bi) == no_data.end()) continue;
+            v["byteOffset"] = 0;
+            v["byteLength"] = 4;
+            v.erase("byteStride");
+            dead_views->push_back((int)vi);
+        }
     if (changed) *out = j.dump();
     return changed;
 }
@@ -223,7 +242,7 @@ int Loader::parse(const unsigned char *data, size_t size)
         json_size = h[3];
         if (int r = check_json_depth(json, json_size)) return r;
         std::string fixed;
-        if (rewrite_fallback_buffers(json, json_size, &fixed)) {
+        if (rewrite_fallback_buffers(json, json_size, true, &fixed, &dead_views)) {
             // The same container around the rewritten JSON chunk.
             while (fixed.size() % 4) fixed += ' ';
             std::vector<unsigned char> glb(20);
@@ -242,7 +261,7 @@ int Loader::parse(const unsigned char *data, size_t size)
         if (size > UINT_MAX) return bad("a .gltf file of 4 GiB or more is not supported");
         if (int r = check_json_depth(data, size)) return r;
         std::string fixed;
-        if (rewrite_fallback_buffers(data, size, &fixed))
+        if (rewrite_fallback_buffers(data, size, false, &fixed, &dead_views))
             ok = gltf.LoadASCIIFromString(&m, &err, &warn, fixed.data(), (unsigned)fixed.size(),
                                           dir, tinygltf::REQUIRE_VERSION);
         else
@@ -409,8 +428,6 @@ int Loader::check_accessor(int index, const std::string &obj, int want_component
     if (index < 0 || (size_t)index >= m.accessors.size())
         return bad("%s: accessors[%d] does not exist", o, index);
     const auto &a = m.accessors[index];
-    if (a.sparse.isSparse)
-        return bad("%s (accessors[%d]): sparse accessors are not supported", o, index);
     if (a.count == 0) return bad("%s (accessors[%d]): count is 0", o, index);
     int ncomp = type_components(a.type);
     if (ncomp != want_components)
@@ -428,10 +445,11 @@ int Loader::check_accessor(int index, const std::string &obj, int want_component
         return bad("%s (accessors[%d]): normalized integers are not allowed here", o, index);
     if (!a.normalized && normalized_ok == 1 && a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
         return bad("%s (accessors[%d]): integer components must be normalized here", o, index);
-    *zeros = a.bufferView < 0;
-    if (*zeros) return 0;
+    *zeros = a.bufferView < 0 && !a.sparse.isSparse;
+    if (a.bufferView < 0) return a.sparse.isSparse ? check_sparse(index, o) : 0;
     if ((size_t)a.bufferView >= m.bufferViews.size())
         return bad("%s (accessors[%d]): bufferViews[%d] does not exist", o, index, a.bufferView);
+    if (int r = check_view_has_data(a.bufferView, o, index)) return r;
     const auto &bv = m.bufferViews[a.bufferView];
     uint64_t elem = (uint64_t)ncomp * (uint64_t)component_size(a.componentType);
     uint64_t stride = bv.byteStride ? bv.byteStride : elem;
@@ -446,56 +464,152 @@ int Loader::check_accessor(int index, const std::string &obj, int want_component
                    "end of bufferViews[%d] (%zu bytes)",
                    o, index, a.byteOffset, a.count, (unsigned long long)stride, a.bufferView,
                    bv.byteLength);
+    return a.sparse.isSparse ? check_sparse(index, o) : 0;
+}
+
+// A buffer view an accessor reads must lie in a buffer with data (not one
+// without uri in a .gltf: rewrite_fallback_buffers).
+int Loader::check_view_has_data(int view, const char *o, int index)
+{
+    if (std::find(dead_views.begin(), dead_views.end(), view) == dead_views.end()) return 0;
+    return bad("%s (accessors[%d]): bufferViews[%d] is in buffers[%d], which has no uri (no data)",
+               o, index, view, m.bufferViews[view].buffer);
+}
+
+// An unsigned integer index of component type ct (1, 2 or 4 bytes) at p.
+static uint32_t read_uint(const unsigned char *p, int ct)
+{
+    if (ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) return p[0];
+    if (ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT) {
+        uint16_t u;
+        memcpy(&u, p, 2);
+        return u;
+    }
+    uint32_t u;
+    memcpy(&u, p, 4);
+    return u;
+}
+
+// The sparse part of a checked accessor (glTF 2.0 3.6.2.3): its count, the index
+// component type, both ranges inside their buffer views (tightly packed), and
+// indices strictly increasing below the accessor's count.
+int Loader::check_sparse(int index, const char *o)
+{
+    const auto &a = m.accessors[index];
+    const auto &s = a.sparse;
+    if (s.count < 1 || (size_t)s.count > a.count)
+        return bad("%s (accessors[%d]): sparse.count %d is not in 1..%zu", o, index, s.count,
+                   a.count);
+    int ict = s.indices.componentType;
+    if (ict != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+        ict != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT && ict != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        return bad("%s (accessors[%d]): sparse.indices.componentType %d is not an unsigned "
+                   "byte, short or int", o, index, ict);
+    uint64_t elem = (uint64_t)type_components(a.type) * (uint64_t)component_size(a.componentType);
+    struct Part {
+        const char *name;
+        int view, offset;
+        uint64_t bytes;
+    } parts[2] = {{"indices", s.indices.bufferView, s.indices.byteOffset,
+                   (uint64_t)s.count * (uint64_t)component_size(ict)},
+                  {"values", s.values.bufferView, s.values.byteOffset, (uint64_t)s.count * elem}};
+    for (const Part &pt : parts) {
+        if (pt.view < 0 || (size_t)pt.view >= m.bufferViews.size())
+            return bad("%s (accessors[%d]): sparse.%s.bufferView %d does not exist", o, index,
+                       pt.name, pt.view);
+        if (int r = check_view_has_data(pt.view, o, index)) return r;
+        if (pt.offset < 0)
+            return bad("%s (accessors[%d]): sparse.%s.byteOffset %d is negative", o, index,
+                       pt.name, pt.offset);
+        size_t len = m.bufferViews[pt.view].byteLength;
+        if ((uint64_t)pt.offset > len || pt.bytes > len - (uint64_t)pt.offset)
+            return bad("%s (accessors[%d]): sparse.%s: %llu bytes from byteOffset %d run past the "
+                       "end of bufferViews[%d] (%zu bytes)", o, index, pt.name,
+                       (unsigned long long)pt.bytes, pt.offset, pt.view, len);
+    }
+    const unsigned char *ip = sparse_data(a.sparse.indices.bufferView, a.sparse.indices.byteOffset);
+    size_t isz = (size_t)component_size(ict);
+    int64_t prev = -1;
+    for (int i = 0; i < s.count; i++) {
+        uint32_t k = read_uint(ip + (size_t)i * isz, ict);
+        if ((int64_t)k <= prev || k >= a.count)
+            return bad("%s (accessors[%d]): sparse.indices[%d] is %u: indices must increase and "
+                       "stay below count %zu", o, index, i, k, a.count);
+        prev = k;
+    }
     return 0;
 }
 
-// Reads a checked accessor as floats: float components as they are, normalised
-// integers mapped to [0,1] or [-1,1] (glTF 2.0 3.11, max(c / 127, -1) for
-// signed ones), plain integers (KHR_mesh_quantization) as their values.
+const unsigned char *Loader::sparse_data(int view, int offset) const
+{
+    const auto &bv = m.bufferViews[view];
+    return m.buffers[bv.buffer].data.data() + bv.byteOffset + (size_t)offset;
+}
+
+// One component of type ct at p as a float, as glTF 2.0 3.11 maps normalised
+// integers (max(c / 127, -1) for signed ones); plain integers
+// (KHR_mesh_quantization) as their values.
+static float decode_component(const unsigned char *p, int ct, bool normalized)
+{
+    switch (ct) {
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+        float v;
+        memcpy(&v, p, 4);
+        return v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+        return normalized ? (float)p[0] / 255.0f : (float)p[0];
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+        int8_t b;
+        memcpy(&b, p, 1);
+        return normalized ? fmaxf((float)b / 127.0f, -1.0f) : (float)b;
+    }
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        int16_t h;
+        memcpy(&h, p, 2);
+        return normalized ? fmaxf((float)h / 32767.0f, -1.0f) : (float)h;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t u;
+        memcpy(&u, p, 2);
+        return normalized ? (float)u / 65535.0f : (float)u;
+    }
+    default: { // UNSIGNED_INT (not allowed for attributes, kept total)
+        uint32_t u;
+        memcpy(&u, p, 4);
+        return (float)u;
+    }
+    }
+}
+
+// Reads a checked accessor as floats (decode_component), then its sparse
+// substitutions over them.
 int Loader::read_floats(int index, int ncomp, std::vector<float> &out)
 {
     const auto &a = m.accessors[index];
     out.assign(a.count * (size_t)ncomp, 0.0f);
-    if (a.bufferView < 0) return 0;
-    const auto &bv = m.bufferViews[a.bufferView];
-    const unsigned char *base = m.buffers[bv.buffer].data.data() + bv.byteOffset + a.byteOffset;
     size_t cs = (size_t)component_size(a.componentType);
-    size_t stride = bv.byteStride ? bv.byteStride : cs * (size_t)ncomp;
-    for (size_t i = 0; i < a.count; i++)
-        for (int c = 0; c < ncomp; c++) {
-            const unsigned char *p = base + i * stride + (size_t)c * cs;
-            float v;
-            switch (a.componentType) {
-            case TINYGLTF_COMPONENT_TYPE_FLOAT: memcpy(&v, p, 4); break;
-            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
-                v = a.normalized ? (float)p[0] / 255.0f : (float)p[0];
-                break;
-            case TINYGLTF_COMPONENT_TYPE_BYTE: {
-                int8_t b;
-                memcpy(&b, p, 1);
-                v = a.normalized ? fmaxf((float)b / 127.0f, -1.0f) : (float)b;
-                break;
-            }
-            case TINYGLTF_COMPONENT_TYPE_SHORT: {
-                int16_t h;
-                memcpy(&h, p, 2);
-                v = a.normalized ? fmaxf((float)h / 32767.0f, -1.0f) : (float)h;
-                break;
-            }
-            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-                uint16_t u;
-                memcpy(&u, p, 2);
-                v = a.normalized ? (float)u / 65535.0f : (float)u;
-                break;
-            }
-            default: { // UNSIGNED_INT (not allowed for attributes, kept total)
-                uint32_t u;
-                memcpy(&u, p, 4);
-                v = (float)u;
-            }
-            }
-            out[i * (size_t)ncomp + (size_t)c] = v;
+    if (a.bufferView >= 0) {
+        const auto &bv = m.bufferViews[a.bufferView];
+        const unsigned char *base = m.buffers[bv.buffer].data.data() + bv.byteOffset + a.byteOffset;
+        size_t stride = bv.byteStride ? bv.byteStride : cs * (size_t)ncomp;
+        for (size_t i = 0; i < a.count; i++)
+            for (int c = 0; c < ncomp; c++)
+                out[i * (size_t)ncomp + (size_t)c] =
+                    decode_component(base + i * stride + (size_t)c * cs, a.componentType, a.normalized);
+    }
+    if (a.sparse.isSparse) {
+        const auto &s = a.sparse;
+        const unsigned char *ip = sparse_data(s.indices.bufferView, s.indices.byteOffset);
+        const unsigned char *vp = sparse_data(s.values.bufferView, s.values.byteOffset);
+        size_t isz = (size_t)component_size(s.indices.componentType);
+        for (int i = 0; i < s.count; i++) {
+            size_t k = read_uint(ip + (size_t)i * isz, s.indices.componentType);
+            for (int c = 0; c < ncomp; c++)
+                out[k * (size_t)ncomp + (size_t)c] = decode_component(
+                    vp + ((size_t)i * (size_t)ncomp + (size_t)c) * cs, a.componentType, a.normalized);
         }
+    }
     return 0;
 }
 
@@ -503,22 +617,22 @@ int Loader::read_indices(int index, std::vector<uint32_t> &out)
 {
     const auto &a = m.accessors[index];
     out.assign(a.count, 0);
-    if (a.bufferView < 0) return 0;
-    const auto &bv = m.bufferViews[a.bufferView];
-    const unsigned char *base = m.buffers[bv.buffer].data.data() + bv.byteOffset + a.byteOffset;
-    size_t cs = (size_t)component_size(a.componentType);
-    size_t stride = bv.byteStride ? bv.byteStride : cs;
-    for (size_t i = 0; i < a.count; i++) {
-        const unsigned char *p = base + i * stride;
-        if (cs == 1) {
-            out[i] = p[0];
-        } else if (cs == 2) {
-            uint16_t u;
-            memcpy(&u, p, 2);
-            out[i] = u;
-        } else {
-            memcpy(&out[i], p, 4);
-        }
+    if (a.bufferView >= 0) {
+        const auto &bv = m.bufferViews[a.bufferView];
+        const unsigned char *base = m.buffers[bv.buffer].data.data() + bv.byteOffset + a.byteOffset;
+        size_t cs = (size_t)component_size(a.componentType);
+        size_t stride = bv.byteStride ? bv.byteStride : cs;
+        for (size_t i = 0; i < a.count; i++) out[i] = read_uint(base + i * stride, a.componentType);
+    }
+    if (a.sparse.isSparse) {
+        const auto &s = a.sparse;
+        const unsigned char *ip = sparse_data(s.indices.bufferView, s.indices.byteOffset);
+        const unsigned char *vp = sparse_data(s.values.bufferView, s.values.byteOffset);
+        size_t isz = (size_t)component_size(s.indices.componentType);
+        size_t vsz = (size_t)component_size(a.componentType);
+        for (int i = 0; i < s.count; i++)
+            out[read_uint(ip + (size_t)i * isz, s.indices.componentType)] =
+                read_uint(vp + (size_t)i * vsz, a.componentType);
     }
     return 0;
 }
