@@ -12,6 +12,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "io/image_out.h"
+
 #define SCENE "tests/data/scenes/furnace.gltf"
 #define TINY "--width 8 --spp 1 -q --device 0"
 
@@ -79,6 +81,7 @@ static unsigned char *slurp(const char *path, size_t *n)
     fseek(f, 0, SEEK_SET);
     unsigned char *b = malloc((size_t)len + 1);
     assert_int_equal(fread(b, 1, (size_t)len, f), (size_t)len);
+    b[len] = 0;
     fclose(f);
     *n = (size_t)len;
     return b;
@@ -447,6 +450,59 @@ static void test_second_sigint_stops_at_once(void **state)
     assert_no_temporaries();
 }
 
+/* Values the renderer's float arithmetic cannot carry are refused with the file,
+ * the object and the value (they used to give a black image or NaN with exit 0):
+ * a point light of 1e38 cd, an environment texel of 3e38, an SPD sample of
+ * 1e308; a negative SPD sample is refused too. `color --` ends the options. */
+static void test_values_beyond_float(void **state)
+{
+    (void)state;
+    size_t n;
+    unsigned char *text = slurp("tests/data/scenes/mat_point_light.gltf", &n);
+    char *at = strstr((char *)text, "\"intensity\": 100000.0");
+    assert_non_null(at);
+    FILE *f = fopen(in_dir("light.gltf"), "wb");
+    assert_non_null(f);
+    fwrite(text, 1, (size_t)(at - (char *)text), f);
+    fputs("\"intensity\": 1e38", f);
+    fputs(at + strlen("\"intensity\": 100000.0"), f);
+    fclose(f);
+    free(text);
+    char args[1024];
+    snprintf(args, sizeof args, "render %s " TINY " -o %s", in_dir("light.gltf"), in_dir("l.exr"));
+    refused(args, 3, "intensity 1e+38 is too large");
+    assert_false(exists(in_dir("l.exr")));
+
+    float px[4 * 2 * 3];
+    for (int i = 0; i < 24; i++)
+        px[i] = 0.5f;
+    px[7] = 3e38f;
+    SptError e = {0};
+    assert_int_equal(image_write(in_dir("sun.exr"), px, 4, 2, NULL, NULL, &e), 0);
+    snprintf(args, sizeof args, "render " SCENE " " TINY " --env %s -o %s", in_dir("sun.exr"),
+             in_dir("s.exr"));
+    refused(args, 3, "texel (2, 0) has the value 3e+38");
+
+    write_text(in_dir("huge.csv"), "400,1e308\n700,1e308\n");
+    snprintf(args, sizeof args, "color %s", in_dir("huge.csv"));
+    refused(args, 3, "value 1e+308 is above 1e30");
+    write_text(in_dir("neg.csv"), "400,1\n550,-0.5\n700,1\n");
+    snprintf(args, sizeof args, "render " SCENE " " TINY " --background %s -o %s", in_dir("neg.csv"),
+             in_dir("n.exr"));
+    refused(args, 3, "value -0.5 is negative");
+    /* "--" ends the options: a file whose name starts with '-'. */
+    write_text(in_dir("-flat.csv"), "400,1\n700,1\n");
+    char err[4096], cmd[2048];
+    snprintf(cmd, sizeof cmd, "cd '%s' && '%s' color -- -flat.csv 2>&1 >/dev/null", dir,
+             getenv("SPECTRACE_EXE"));
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    size_t got = fread(err, 1, sizeof err - 1, p);
+    err[got] = 0;
+    assert_int_equal(pclose(p), 0);
+    assert_int_equal(got, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -457,6 +513,7 @@ int main(void)
         cmocka_unit_test(test_deep_json),
         cmocka_unit_test(test_sighup_writes),
         cmocka_unit_test(test_second_sigint_stops_at_once),
+        cmocka_unit_test(test_values_beyond_float),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -1,4 +1,5 @@
 /* `spectrace color [--reflectance] SPD`: the colour of an SPD, normalised to Y = 1. */
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -7,7 +8,7 @@
 #include "core/util.h"
 
 static const char color_usage[] =
-    "usage: spectrace color [--reflectance] SPD\n"
+    "usage: spectrace color [--reflectance] [--] SPD\n"
     "\n"
     "Prints the colour of SPD as three lines: CIE 1931 XYZ normalised so Y = 1, the\n"
     "linear sRGB of that XYZ (unclamped), and 8-bit sRGB (linear values clamped to\n"
@@ -40,15 +41,17 @@ static void print_value(double v)
  * exit code (SPT_EXIT_USAGE for bad arguments, SPT_EXIT_INPUT for a bad SPD). */
 int cmd_color(int argc, char **argv)
 {
-    int reflectance = 0;
+    int reflectance = 0, options = 1;
     const char *spd_text = NULL;
     for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+        if (options && !strcmp(argv[i], "--")) {
+            options = 0; /* what follows is the SPD, even when it starts with '-' */
+        } else if (options && (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h"))) {
             fputs(color_usage, stdout);
             return SPT_EXIT_OK;
-        } else if (!strcmp(argv[i], "--reflectance")) {
+        } else if (options && !strcmp(argv[i], "--reflectance")) {
             reflectance = 1;
-        } else if (argv[i][0] == '-' && argv[i][1] != 0) {
+        } else if (options && argv[i][0] == '-' && argv[i][1] != 0) {
             spt_error("color: unknown option '%s' (see spectrace color --help)", argv[i]);
             return SPT_EXIT_USAGE;
         } else if (spd_text) {
@@ -83,6 +86,11 @@ int cmd_color(int argc, char **argv)
             xyz[k] /= y;
     }
     spd_free(&spd);
+    if (!isfinite(xyz[0]) || !isfinite(xyz[1]) || !isfinite(xyz[2])) {
+        spt_error("%s: the SPD's colour is not finite (XYZ %g %g %g)", spd_text, xyz[0], xyz[1],
+                  xyz[2]);
+        return SPT_EXIT_INPUT;
+    }
     double rgb[3];
     xyz_to_linear_srgb(xyz, rgb);
     printf("XYZ");

@@ -75,6 +75,12 @@ int spd_from_samples(Spd *out, const double *nm, const double *value, int n, Spt
                             "sample %d (%g nm, %g) is not a positive finite wavelength with a finite value",
                             i, nm[i], value[i]);
         }
+        if (value[i] < 0 || value[i] > SPT_MAX_INPUT_VALUE) {
+            free(p);
+            return spt_fail(e, SPT_EXIT_INPUT, "sample %d (%g nm): value %g is %s", i, nm[i],
+                            value[i], value[i] < 0 ? "negative (a spectrum is never negative)"
+                                                   : "above 1e30 (the renderer computes in float)");
+        }
         p[i].nm = nm[i];
         p[i].v = value[i];
     }

@@ -15,6 +15,14 @@ enum {
     SPT_EXIT_INTERRUPTED = 130 /* stopped by a signal before anything could be written */
 };
 
+/* The largest radiometric value an input may give (an SPD sample, a light's
+ * intensity after its unit conversion, an environment texel times its intensity,
+ * an emissive strength): the kernels compute in float (at most 3.4e38) and
+ * multiply these by sampling weights, so larger values overflow to infinity and
+ * the samples are dropped (a black image). 1e30 is far above any physical
+ * scene (the sun is about 1e9 cd/m^2). */
+#define SPT_MAX_INPUT_VALUE 1e30
+
 /* A failure on user input: an exit code and one line of text naming the file, the
  * object and the reason (without the leading "error: "). */
 typedef struct SptError {

@@ -108,8 +108,13 @@ int light_from_scene(const SceneLight *sl, float *table, uint32_t table_offset, 
     }
     /* W/(sr nm) or W/(m^2 nm), into the film's units (kernels/shared/lights.h). */
     light_photometric_table(sl->color, sl->intensity, table);
-    for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
         table[i] *= SPT_LIGHT_FILM_PER_WATT;
+        if (!(table[i] <= SPT_MAX_INPUT_VALUE))
+            return spt_fail(e, SPT_EXIT_INPUT, "light '%s': intensity %g is too large: its "
+                            "spectrum reaches %g, above the 1e30 the renderer's float "
+                            "arithmetic can carry", sl->name, sl->intensity, (double)table[i]);
+    }
     out->spectrum.kind = SPT_SPEC_TABLE;
     out->spectrum.scale = 1.0f;
     out->spectrum.offset = table_offset;
@@ -141,11 +146,18 @@ int env_build_map(EnvLight *env, const float *rgb, int width, int height, float 
                         "%s: environment intensity %g or rotation %g is not usable", name,
                         intensity, rotation_rad);
     size_t n = (size_t)width * (size_t)height;
-    for (size_t i = 0; i < 3 * n; i++)
+    for (size_t i = 0; i < 3 * n; i++) {
         if (!(isfinite(rgb[i]) && rgb[i] >= 0.0f))
             return spt_fail(e, SPT_EXIT_INPUT,
                             "%s: environment texel (%zu, %zu) has a negative or non-finite value",
                             name, (i / 3) % (size_t)width, (i / 3) / (size_t)width);
+        if ((double)rgb[i] * intensity > SPT_MAX_INPUT_VALUE)
+            return spt_fail(e, SPT_EXIT_INPUT,
+                            "%s: environment texel (%zu, %zu) is %g (times intensity %g), above "
+                            "the 1e30 the renderer's float arithmetic can carry", name,
+                            (i / 3) % (size_t)width, (i / 3) / (size_t)width, (double)rgb[i],
+                            (double)intensity);
+    }
     GpuEnvMap *g = &env->env;
     g->kind = SPT_ENV_MAP;
     g->width = width;

@@ -434,6 +434,9 @@ int Loader::material_ext_scalars(const tinygltf::Material &mat, SceneMaterial *s
         if ((rc = ext_number(this, *x, "emissiveStrength", &d, eo + "KHR_materials_emissive_strength")))
             return rc;
         if (d < 0) return bad("%sKHR_materials_emissive_strength: negative strength", eo.c_str());
+        if (d > SPT_MAX_INPUT_VALUE)
+            return bad("%sKHR_materials_emissive_strength: %g is above 1e30, more than the "
+                       "renderer's float arithmetic can carry", eo.c_str(), d);
         sm->emissive_strength = (float)d;
     }
     if (const Value *x = ext("KHR_materials_ior")) {

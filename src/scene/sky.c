@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/stat.h>
 
 #include "color/spd.h"
 #include "io/image_io.h"
@@ -32,6 +33,14 @@ static int sky_load_map(Sky *sky, const char *path, SptError *e)
         strcmp(info.format_name, "hdr") != 0)
         for (size_t i = 0; i < (size_t)w * (size_t)h * 3; i++)
             rgb[i] = (float)srgb_decode(rgb[i]);
+    for (size_t i = 0; i < (size_t)w * (size_t)h * 3; i++)
+        if (!(rgb[i] >= 0.0f && rgb[i] <= SPT_MAX_INPUT_VALUE)) {
+            float v = rgb[i];
+            free(rgb);
+            return spt_fail(e, SPT_EXIT_INPUT, "%s: texel (%zu, %zu) has the value %g: an "
+                            "environment map's values must be finite, >= 0 and at most 1e30",
+                            path, (i / 3) % (size_t)w, (i / 3) / (size_t)w, (double)v);
+        }
     sky->kind = SPT_SKY_MAP;
     sky->map = rgb;
     sky->map_width = w;
@@ -51,6 +60,9 @@ static int sky_parse_background(Sky *sky, const char *bg, SptError *e)
     if (sscanf(bg, "%f,%f,%f%c", &rgb[0], &rgb[1], &rgb[2], &extra) == 3) {
         if (!(rgb[0] >= 0 && rgb[1] >= 0 && rgb[2] >= 0) || !isfinite(rgb[0] + rgb[1] + rgb[2]))
             return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': colour components must be finite and >= 0", bg);
+        if (rgb[0] > SPT_MAX_INPUT_VALUE || rgb[1] > SPT_MAX_INPUT_VALUE || rgb[2] > SPT_MAX_INPUT_VALUE)
+            return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': colour components must be at "
+                            "most 1e30 (the renderer computes in float)", bg);
         sky->kind = SPT_SKY_RGB;
         memcpy(sky->rgb, rgb, sizeof rgb);
         return SPT_EXIT_OK;
@@ -58,8 +70,14 @@ static int sky_parse_background(Sky *sky, const char *bg, SptError *e)
     /* An SPD, normalised to luminance Y = 1 when rendered. */
     Spd spd;
     SptError e2 = {0};
-    if (spd_parse(&spd, bg, &e2))
+    if (spd_parse(&spd, bg, &e2)) {
+        /* A file that is there but unusable is bad input (its message names it);
+         * anything else is a bad option value. */
+        struct stat st;
+        if (stat(bg, &st) == 0)
+            return spt_fail(e, e2.code, "--background: %s", e2.msg);
         return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': %s", bg, e2.msg);
+    }
     double xyz[3];
     spd_to_xyz(&spd, xyz);
     if (!(xyz[1] > 0)) {
