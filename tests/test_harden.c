@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "io/image_out.h"
+#include "render/checkpoint.h"
 
 #define SCENE "tests/data/scenes/furnace.gltf"
 #define TINY "--width 8 --spp 1 -q --device 0"
@@ -503,6 +504,36 @@ static void test_values_beyond_float(void **state)
     assert_int_equal(got, 0);
 }
 
+/* Inputs that libFuzzer found to crash, hang or exhaust memory in a reader
+ * (tests/data/fuzz/TARGET/, README there): each is refused as bad input. */
+static void test_fuzz_regressions(void **state)
+{
+    (void)state;
+    const char *folder = "tests/data/fuzz/checkpoint";
+    DIR *d = opendir(folder);
+    assert_non_null(d);
+    int count = 0;
+    struct dirent *de;
+    while ((de = readdir(d))) {
+        if (de->d_name[0] == '.' || !strstr(de->d_name, ".exr"))
+            continue;
+        char path[512];
+        snprintf(path, sizeof path, "%s/%s", folder, de->d_name);
+        CheckpointKey k;
+        memset(&k, 0, sizeof k);
+        Film film;
+        unsigned char *done = NULL;
+        SptError e = {0};
+        int rc = checkpoint_read(path, &k, 16, &film, &done, &e);
+        if (rc != SPT_EXIT_INPUT)
+            fail_msg("%s: checkpoint_read returned %d (%s), expected %d", path, rc, e.msg,
+                     SPT_EXIT_INPUT);
+        count++;
+    }
+    closedir(d);
+    assert_true(count >= 2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -514,6 +545,7 @@ int main(void)
         cmocka_unit_test(test_sighup_writes),
         cmocka_unit_test(test_second_sigint_stops_at_once),
         cmocka_unit_test(test_values_beyond_float),
+        cmocka_unit_test(test_fuzz_regressions),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -44,8 +44,9 @@ static const char usage_head[] =
 
 static const char usage_tail[] =
     "\n"
-    "Ctrl-C (SIGINT) or SIGTERM stops after the current pass and writes the image of\n"
-    "the samples done so far (and the checkpoint, with --checkpoint).\n";
+    "Ctrl-C (SIGINT), SIGTERM or SIGHUP stops after the current chunk and writes the\n"
+    "image of the samples done so far (and the checkpoint, with --checkpoint); a\n"
+    "second one stops at once, dropping the chunk in progress.\n";
 
 /* The help column starts at column 25; an option too long for its column is
  * followed by two spaces. */
@@ -186,8 +187,9 @@ int render_args_parse(RenderArgs *a, int argc, char **argv)
 {
     set_defaults(a);
     struct option opts[SPT_ARG_COUNT + 1];
-    char shorts[2 * SPT_ARG_COUNT + 1];
+    char shorts[2 * SPT_ARG_COUNT + 2];
     int ns = 0;
+    shorts[ns++] = ':'; /* getopt reports nothing: one error line of ours instead */
     for (int i = 0; i < SPT_ARG_COUNT; i++) {
         int arg = rows[i].kind != KIND_FLAG && rows[i].kind != KIND_HELP;
         opts[i].name = rows[i].option;
@@ -203,8 +205,20 @@ int render_args_parse(RenderArgs *a, int argc, char **argv)
     memset(&opts[SPT_ARG_COUNT], 0, sizeof opts[SPT_ARG_COUNT]);
     shorts[ns] = 0;
     int c;
-    optind = 1;
+    optind = 0; /* glibc: a full reset (1 keeps the place inside a group of short options) */
+    opterr = 0;
     while ((c = getopt_long(argc, argv, shorts, opts, NULL)) != -1) {
+        if (c == '?' || c == ':') {
+            const char *arg = optind - 1 < argc ? argv[optind - 1] : "";
+            char shortopt[3] = {'-', (char)optopt, 0};
+            /* A short option inside a group names only its letter. */
+            const char *name = optopt && strncmp(arg, "--", 2) ? shortopt : arg;
+            if (c == ':')
+                spt_error("render: option '%s' needs a value (try: spectrace render --help)", name);
+            else
+                spt_error("render: unknown option '%s' (try: spectrace render --help)", name);
+            return SPT_EXIT_USAGE;
+        }
         int row = -1;
         if (c >= 256 && c < 256 + SPT_ARG_COUNT)
             row = c - 256;

@@ -337,13 +337,23 @@ int spd_read_csv(Spd *out, const char *path, SptError *e)
     memset(out, 0, sizeof *out);
     unsigned char *text = NULL;
     size_t text_size = 0;
-    int rc0 = input_read(path, "SPD file", &text, &text_size, e);
-    if (rc0)
-        return rc0;
-    if (memchr(text, 0, text_size)) {
-        free(text);
+    int rc = input_read(path, "SPD file", &text, &text_size, e);
+    if (rc)
+        return rc;
+    rc = spd_parse_csv(out, path, (const char *)text, text_size, e);
+    free(text);
+    return rc;
+}
+
+int spd_parse_csv(Spd *out, const char *path, const char *text_in, size_t text_size, SptError *e)
+{
+    memset(out, 0, sizeof *out);
+    if (memchr(text_in, 0, text_size))
         return spt_fail(e, SPT_EXIT_INPUT, "%s: not a text file (it holds a zero byte)", path);
-    }
+    /* fmemopen reads from a copy (it may not be given const memory). */
+    char *text = text_size ? spt_malloc(text_size) : NULL;
+    if (text_size)
+        memcpy(text, text_in, text_size);
     FILE *f = text_size ? fmemopen(text, text_size, "r") : NULL;
     if (!f) {
         free(text);

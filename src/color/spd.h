@@ -34,6 +34,9 @@ int spd_named(Spd *out, const char *name, SptError *e);
  * # comments allowed); a bad line is an error naming the file and line number. */
 int spd_read_csv(Spd *out, const char *path, SptError *e);
 
+/* The same from text_size bytes of text in memory (path names it in errors). */
+int spd_parse_csv(Spd *out, const char *path, const char *text, size_t text_size, SptError *e);
+
 /* A name as spd_named accepts, or else a CSV file path. */
 int spd_parse(Spd *out, const char *text, SptError *e);
 

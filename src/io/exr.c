@@ -402,6 +402,9 @@ int exr_read_layers(const char *path, const char *const *required, int required_
     long long w = (long long)dw.max.x - dw.min.x + 1, h = (long long)dw.max.y - dw.min.y + 1;
     if (w <= 0 || h <= 0 || w > INT_MAX / 4 || h > INT_MAX || w * h > (long long)(SIZE_MAX / 8))
         rc = spt_fail(e, SPT_EXIT_INPUT, "%s: invalid data window %lldx%lld", path, w, h);
+    else if (w > SPT_EXR_READ_MAX_SIDE || h > SPT_EXR_READ_MAX_SIDE)
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: data window %lldx%lld is larger than any image "
+                      "spectrace writes (%d per side)", path, w, h, SPT_EXR_READ_MAX_SIDE);
     else if (chl->num_channels <= 0 || chl->num_channels > EXR_MAX_CHANNELS)
         rc = spt_fail(e, SPT_EXIT_INPUT, "%s: unsupported channel count %d", path,
                       chl->num_channels);

@@ -68,9 +68,12 @@ typedef struct ExrLayers {
 
 /* Reads every channel and the string/int/double attributes of path. Refuses with
  * SPT_EXIT_INPUT and a message naming path and the reason: a missing, damaged or
- * truncated file, a tiled, deep or multi-part file, subsampled channels, and a file
+ * truncated file, a tiled, deep or multi-part file, subsampled channels, a data
+ * window wider or taller than SPT_EXR_READ_MAX_SIDE (it reads what spectrace
+ * writes: checkpoints; a damaged header must not claim gigabytes), and a file
  * that lacks one of the `required_count` channel names in `required` (may be NULL
  * when 0). On failure *out is empty. */
+#define SPT_EXR_READ_MAX_SIDE 16384 /* the largest --width/--height */
 int exr_read_layers(const char *path, const char *const *required, int required_count,
                     ExrLayers *out, SptError *e);
 
