@@ -31,7 +31,7 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 # (loaders, image output, the command line, MPI) test host code only, or PoCL's
 # device split (test_cl), and run on PoCL alone.
 device_tests=(test_bsdf test_bvh test_lights test_materials test_render test_render_sky test_shading test_caustics
-              test_rng test_sampling test_textures test_multidevice test_checkpoint)
+              test_rng test_sampling test_textures test_multidevice test_checkpoint test_sweep)
 
 if [ $# -gt 0 ]; then
   names=("$@")
@@ -46,7 +46,7 @@ IFS=, read -r -a impl_list <<<"$impls"
 total_p=0; total_f=0; total_s=0; summary=(); failed_bins=()
 for impl in "${impl_list[@]}"; do
   # pocl runs every test; the others the device-facing ones, and test_multidevice
-  # across PoCL and themselves (one image from two implementations).
+  # and test_sweep across PoCL and themselves (one image from two implementations).
   bins=()
   for n in "${names[@]}"; do
     if [ "$impl" = pocl ] || [[ " ${device_tests[*]} " == *" $n "* ]]; then bins+=("$n"); fi
@@ -63,7 +63,7 @@ for impl in "${impl_list[@]}"; do
     bin=$build/tests/$name
     [ -x "$bin" ] || continue
     env_here=$envs
-    [ "$impl" != pocl ] && [ "$name" = test_multidevice ] && [ -n "$mixed" ] && env_here=$mixed
+    [ "$impl" != pocl ] && { [ "$name" = test_multidevice ] || [ "$name" = test_sweep ]; } && [ -n "$mixed" ] && env_here=$mixed
     echo "== $name ($impl)"
     log=$(mktemp)
     start=$(date +%s)
