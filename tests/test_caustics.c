@@ -13,7 +13,7 @@
  * rho E / pi. With max_depth 4, nothing else reaches the floor there (the
  * internal reflections need 6 segments, shadow rays do not pass glass).
  *
- * Also: camera paths alone (--caustics off) find the area light's caustic
+ * The same through a thin lens. Also: camera paths alone (--caustics off) find the area light's caustic
  * too, and must agree (the two techniques split path space, nothing counts
  * twice); a scene without delta surfaces renders bit for bit as without the
  * pass; and the pass's splats do not depend on the path pool (scheduling) and
@@ -180,6 +180,9 @@ static double expected_y(int light, double x, double z)
     return FLOOR_ALBEDO / M_PI * E;
 }
 
+/* The thin lens of render_slab's camera: radius (0: pinhole) and focus distance. */
+static float slab_aperture, slab_focus;
+
 /* Renders slab_scene(light, glass) at W x W into film (initialised here). */
 static void render_slab(int light, int glass, int caustics, int spp, int depth, uint32_t pool,
                         uint32_t sample_begin, Film *film)
@@ -198,6 +201,8 @@ static void render_slab(int light, int glass, int caustics, int spp, int depth, 
     rs.caustics = caustics;
     rs.pool_size = pool;
     rs.sample_begin = sample_begin;
+    rs.aperture = slab_aperture;
+    rs.focus_distance = slab_focus;
     RenderStats st;
     film_init(film, rs.width, rs.height);
     int rc = render_device(device, &g, &s.camera, &rs, film, &st, &e);
@@ -273,6 +278,21 @@ static void test_punctual_through_glass(void **state)
     film_free(&f);
 }
 
+/* A thin lens: light paths connect to points of its aperture. Focused on the
+ * floor's centre, with a lens of 3 cm, the floor's smooth caustic looks as it
+ * does through the pinhole. */
+static void test_thin_lens(void **state)
+{
+    (void)state;
+    Film f;
+    slab_aperture = 0.03f;
+    slab_focus = (float)sqrt(0.9 * 0.9 + 2.5 * 2.5);
+    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_ON, 64, 4, 0, 0, &f);
+    slab_aperture = slab_focus = 0.0f;
+    check_floor(&f, LIGHT_SPOT, 0.5, 0.015, "spot through glass, thin lens");
+    film_free(&f);
+}
+
 /* An area light through the slab: the light paths (on) and the camera paths
  * alone (off) both find the analytic caustic, so the pass takes over exactly
  * what the camera paths give up. */
@@ -342,6 +362,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_punctual_through_glass),
+        cmocka_unit_test(test_thin_lens),
         cmocka_unit_test(test_area_light_caustic),
         cmocka_unit_test(test_no_delta_unchanged),
         cmocka_unit_test(test_split_invariance),

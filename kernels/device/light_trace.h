@@ -21,7 +21,8 @@
  *   connected to the pinhole camera (when a delta vertex came before) with
  *   weight 1 / P(non-delta). So each light path makes at most one splat.
  * - The splat: the camera's importance for a pinhole whose image plane lies at
- *   distance 1 is W_e = 1 / (A_pixel cos^3 theta) within a pixel, so a light
+ *   distance 1 is W_e = 1 / (A_pixel cos^3 theta) within a pixel (a thin
+ *   lens: the same at a uniform point of the lens), so a light
  *   vertex y with throughput beta adds beta f(to camera, to light) |cos_y| /
  *   r^2 W_e, and the N = light_paths light paths of each sample index are
  *   averaged: the film's sum over spp samples gains that over light_paths.
@@ -175,30 +176,42 @@ SPT_FN_INLINE int lt_delta_lobe(const BsdfParams *bp, float3 wo, float u0, float
     return u0 < base || (coat && u0 >= pt + ps && u0 < pt + ps + pc);
 }
 
-/* Connects light vertex h (frame f, BSDF bp) to the pinhole camera: fills the
- * shadow ray and its contribution (the splat's spectral value, times `scale`),
- * records the pixel in ps_splat and clears ps_radiance for k_connect to add to;
+/* Connects light vertex h (frame f, BSDF bp) to the camera, a pinhole or a
+ * point of the thin lens (uniform over it, from lu, lv): fills the shadow ray
+ * and its contribution (the splat's spectral value, times `scale`), records
+ * the pixel in ps_splat and clears ps_radiance for k_connect to add to;
  * returns 1, or 0 when the camera does not see the vertex's side or the point
- * projects outside the image. */
+ * projects outside the image. A camera ray leaves lens point l toward the
+ * point cam + F d of the plane of focus (d = fwd + sx right + sy up, F the
+ * focus distance; l = cam for the pinhole), so the vertex is seen in the
+ * pixel of the d whose focus point lies on the line from l through it. The
+ * importance is the pinhole's with theta at l: the lens point's density
+ * cancels the lens's 1/A_lens. */
 SPT_FN_INLINE int lt_connect(const ShadeHit *h, const BsdfParams *bp, const ShadeFrame *f, float scale,
-                             float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFERS)
+                             float lu, float lv, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFERS)
 {
     float3 cam = (float3)(P.cam_pos[0], P.cam_pos[1], P.cam_pos[2]);
     float3 fwd = (float3)(P.cam_fwd[0], P.cam_fwd[1], P.cam_fwd[2]);
     float3 right = (float3)(P.cam_right[0], P.cam_right[1], P.cam_right[2]);
     float3 up = (float3)(P.cam_up[0], P.cam_up[1], P.cam_up[2]);
-    float3 dv = cam - h->p;
+    float3 lens = cam;
+    if (P.lens_radius > 0.0f) {
+        vec3 disk = spt_sample_concentric_disk(lu, lv);
+        lens += P.lens_radius * (disk.x * normalize(right) + disk.y * normalize(up));
+    }
+    float3 dv = lens - h->p;
     float r2 = dot(dv, dv);
     if (!(r2 > 0.0f))
         return 0;
     float r = sqrt(r2);
     float3 wc = dv / r;
-    /* Where the ray from the camera through the vertex meets the image plane
-     * (cam + fwd + sx right + sy up, as k_generate's rays leave). */
+    /* The camera ray's d (as k_generate's rays leave). */
     float cosc = -dot(wc, fwd);
     if (!(cosc > 0.0f))
         return 0;
     float3 q = -wc / cosc;
+    if (P.lens_radius > 0.0f)
+        q = (lens - cam) / P.focus_distance + q;
     float sx = dot(q, right) / dot(right, right), sy = dot(q, up) / dot(up, up);
     float fx = 0.5f * (sx + 1.0f) * (float)P.width, fy = 0.5f * (1.0f - sy) * (float)P.height;
     if (!(fx >= 0.0f && fx < (float)P.width && fy >= 0.0f && fy < (float)P.height))
@@ -271,7 +284,10 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFER
     if (!lt_delta_lobe(&bp, f.wo_l, u0, &pdelta)) {
         if (!(ps_lt[i] & SPT_LT_SPEC) || !(pdelta < 1.0f))
             return 0;
-        return lt_connect(&h, &bp, &f, 1.0f / (1.0f - pdelta), sh_o, sh_d, sh_c, ALL_ARGS);
+        return lt_connect(&h, &bp, &f, 1.0f / (1.0f - pdelta),
+                          spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_U)),
+                          spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_V)), sh_o, sh_d, sh_c,
+                          ALL_ARGS);
     }
     BsdfSample bs;
     float3 wn;

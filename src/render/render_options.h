@@ -36,8 +36,9 @@
 #define SPT_OPT_POSITIVE 8u /* DBL/FLT: must be > 0 */
 #define SPT_OPT_FINITE 16u  /* DBL/FLT: must be finite */
 
-/* --caustics (kind CAUSTICS): the light-tracing pass (kernels/device/light_trace.h). */
-enum { SPT_CAUSTICS_OFF = 0, SPT_CAUSTICS_ON = 1, SPT_CAUSTICS_AUTO = 2 };
+/* --caustics (kind CAUSTICS): the light-tracing pass (kernels/device/light_trace.h).
+ * Auto is 0, so a RenderSettings of zeros has the default. */
+enum { SPT_CAUSTICS_AUTO = 0, SPT_CAUSTICS_OFF = 1, SPT_CAUSTICS_ON = 2 };
 
 #define SPT_RENDER_OPTIONS(X)                                                                   \
     X(CLI, LIST, const char *, outputs, "output", 'o', "FILE", NULL, 0, 0, 0, "",               \
@@ -91,12 +92,12 @@ enum { SPT_CAUSTICS_OFF = 0, SPT_CAUSTICS_ON = 1, SPT_CAUSTICS_AUTO = 2 };
       SPT_OPT_IMAGE | SPT_OPT_MPI | SPT_OPT_FINITE, "expected a non-negative number",           \
       "focus distance in metres (default: the distance at the\n"                               \
       "image centre)")                                                                          \
-    X(RS, CAUSTICS, int, caustics, "caustics", 0, "MODE", SPT_CAUSTICS_OFF, 0, 0,                \
+    X(RS, CAUSTICS, int, caustics, "caustics", 0, "MODE", SPT_CAUSTICS_AUTO, 0, 0,               \
       SPT_OPT_IMAGE | SPT_OPT_MPI, "expected auto, off or on",                                  \
       "light tracing for caustics (light through glass or off\n"                               \
       "smooth metal onto diffuse surfaces, punctual lights\n"                                  \
-      "behind glass): on, off (default) or auto (on when the\n"                                \
-      "scene has such surfaces and lights; pinhole camera only)")                               \
+      "behind glass): auto (default: when the scene has such\n"                                \
+      "surfaces and a light), on or off; perspective cameras")                                  \
     X(CLI, STR, const char *, checkpoint, "checkpoint", 0, "FILE", NULL, 0, 0, 0, "",           \
       "write the resumable film (an EXR) every --checkpoint-every\n"                           \
       "seconds, at the end and when stopped by a signal")                                      \

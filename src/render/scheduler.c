@@ -267,15 +267,15 @@ static void *worker_main(void *arg)
 /* Whether the light-tracing pass runs (--caustics): on, or auto and the scene
  * has a light (an emitter or a punctual light) and a surface with a delta lobe
  * that passes or turns light (smooth transmission, smooth metal, a smooth
- * clear coat). It needs a pinhole camera. */
+ * clear coat). It needs a perspective camera (pinhole or thin lens). */
 static int caustics_enabled(const RenderSettings *rs, const GpuScene *g, const SceneCamera *cam)
 {
     if (rs->caustics == SPT_CAUSTICS_OFF)
         return 0;
-    if (cam->orthographic || rs->aperture > 0) {
+    if (cam->orthographic) {
         if (rs->caustics == SPT_CAUSTICS_ON)
-            spt_warn("--caustics on: the light-tracing pass needs a pinhole camera (this one is %s); "
-                     "rendering without it", cam->orthographic ? "orthographic" : "a thin lens");
+            spt_warn("--caustics on: the light-tracing pass needs a perspective camera (this one is "
+                     "orthographic); rendering without it");
         return 0;
     }
     if (rs->caustics == SPT_CAUSTICS_ON)
