@@ -358,6 +358,147 @@ static void test_split_invariance(void **state)
     film_free(&d);
 }
 
+/* A prism of dispersive glass (KHR_materials_dispersion 2, n_d
+ * 1.5; 2 is an Abbe number of 10) in a narrow white spot beam pointing down: the beam enters the prism's
+ * horizontal top at normal incidence and leaves through its bottom face, tilted
+ * by PRISM_ALPHA, bent by Snell's law with n(lambda) of the extension's Abbe
+ * law, so each wavelength lands elsewhere on the floor: blue (higher index)
+ * further from the axis than red. The flux-weighted centroid of each of the
+ * floor's X, Y and Z (seen by a camera looking straight down, where every
+ * pixel covers the same floor area) is predicted by the central ray of each
+ * wavelength, weighted by the light's D65, the two interfaces' Fresnel
+ * transmittance and the colour matching function. */
+#define PRISM_ALPHA 0.5
+#define PRISM_TOP 1.2
+#define PRISM_DISPERSION 2.0
+
+/* The prism: its cross-section in x-y is the triangle (-0.5, top), (0.5, top),
+ * (0.5, top - tan(alpha)), extruded over z in [-0.5, 0.5]. */
+static void append_prism(Scene *s)
+{
+    const float lo[3] = {-0.5f, (float)PRISM_TOP - 0.5f, -0.5f}, hi[3] = {0.5f, (float)PRISM_TOP, 0.5f};
+    SceneMaterial *m = append_box(s, lo, hi);
+    /* Bend the box into the prism: its bottom vertices onto the tilted plane
+     * y = top - (x + 0.5) tan(alpha). */
+    uint32_t t0 = s->tri_count - 12;
+    for (uint32_t k = 0; k < 36; k++) {
+        float *v = s->tri_pos + 9 * t0 + 3 * k;
+        if (v[1] < (float)PRISM_TOP - 0.25f)
+            v[1] = (float)(PRISM_TOP - (v[0] + 0.5) * tan(PRISM_ALPHA));
+    }
+    m->metallic = 0.0f;
+    m->roughness = 0.0f;
+    m->transmission = 1.0f;
+    m->ior = 1.5f;
+    m->dispersion = (float)PRISM_DISPERSION;
+    for (int k = 0; k < 3; k++)
+        m->base_color[k] = 1.0f;
+}
+
+/* Where the central ray of wavelength l lands on the floor (x), and the
+ * fraction of its flux the two interfaces let through. */
+static double prism_landing(double l, double *transmit)
+{
+    double n = 1.5 + 0.5 * (PRISM_DISPERSION / 20.0) * (523655.0 / (l * l) - 1.5168);
+    double a = PRISM_ALPHA, yh = PRISM_TOP - 0.5 * tan(a);
+    /* Inside, d = (0, -1), straight down; the bottom face's normal on the
+     * inside N = (sin a, cos a): incidence a, and Snell's law from index n
+     * into air, t = n d + (n cos_i - cos_t) N. */
+    double ci = cos(a), eta = n, st2 = eta * eta * (1.0 - ci * ci);
+    double ct = sqrt(1.0 - st2);
+    double tx = (eta * ci - ct) * sin(a), ty = -eta + (eta * ci - ct) * cos(a);
+    /* Fresnel out of the glass at incidence a equals that into it at the
+     * refraction angle (reciprocity). */
+    *transmit = (1.0 - fresnel(1.0, n)) * (1.0 - fresnel(ct, n));
+    return yh * tx / -ty;
+}
+
+static void test_prism_dispersion(void **state)
+{
+    (void)state;
+    skip_if_quick();
+    /* The predicted centroids. */
+    double want[3], wsum[3] = {0}, wx[3] = {0};
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        double l = SPT_CIE_LAMBDA_MIN + i, T, x = prism_landing(l, &T);
+        double cmf[3] = {SPT_CIE_X[i], SPT_CIE_Y[i], SPT_CIE_Z[i]};
+        for (int c = 0; c < 3; c++) {
+            double w = SPT_D65_NORM[i] * T * cmf[c];
+            wsum[c] += w;
+            wx[c] += w * x;
+        }
+    }
+    for (int c = 0; c < 3; c++)
+        want[c] = wx[c] / wsum[c];
+    Scene s;
+    memset(&s, 0, sizeof s);
+    const float floor_c[4][3] = {{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}};
+    SceneMaterial *fl = append_rect(&s, floor_c);
+    for (int k = 0; k < 3; k++)
+        fl->base_color[k] = FLOOR_ALBEDO;
+    append_prism(&s);
+    s.light_count = 1;
+    s.lights = calloc(1, sizeof(SceneLight));
+    SceneLight *l = &s.lights[0];
+    l->type = SPT_LIGHT_SPOT;
+    l->position[1] = 3.0f;
+    l->direction[1] = -1.0f;
+    l->intensity = 1000.0f;
+    l->inner_cone = 0.006f;
+    l->outer_cone = 0.01f;
+    for (int k = 0; k < 3; k++)
+        l->color[k] = 1.0f;
+    /* Looking straight down from 0.5 m at the beam's landing (the prism's
+     * lowest point is 0.65 m high), +x to the right. */
+    double x0 = want[1];
+    s.camera.position[0] = (float)x0;
+    s.camera.position[1] = 0.5f;
+    s.camera.forward[1] = -1.0f;
+    s.camera.up[2] = -1.0f;
+    s.camera.right[0] = 1.0f;
+    s.camera.yfov = 0.4f;
+    s.camera.aspect = 1.0f;
+    scene_update_bounds(&s);
+    GpuScene g;
+    SptError e = {0};
+    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+    RenderSettings rs = square_settings(64, 64, 4, 7);
+    rs.caustics = SPT_CAUSTICS_ON;
+    Film f;
+    RenderStats st;
+    film_init(&f, 64, 64);
+    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    double half = 0.5 * tan(0.5 * s.camera.yfov); /* the view's half-width on the floor */
+    double got[3], sum[3] = {0}, sx[3] = {0}, edge = 0, total = 0;
+    for (int py = 0; py < 64; py++)
+        for (int px = 0; px < 64; px++) {
+            size_t i = (size_t)py * 64 + px;
+            double x = x0 + (2.0 * (px + 0.5) / 64 - 1.0) * half;
+            for (int c = 0; c < 3; c++) {
+                double v = f.xyz[3 * i + c] / f.count[i];
+                sum[c] += v;
+                sx[c] += v * x;
+                total += v;
+                if (px < 2 || px > 61 || py < 2 || py > 61)
+                    edge += v;
+            }
+        }
+    for (int c = 0; c < 3; c++)
+        got[c] = sx[c] / sum[c];
+    printf("prism: centroids X %.5f Y %.5f Z %.5f m, predicted %.5f %.5f %.5f; Z - X %.2f mm "
+           "(predicted %.2f); flux at the view's edge %.2g of the total\n",
+           got[0], got[1], got[2], want[0], want[1], want[2], 1e3 * (got[2] - got[0]),
+           1e3 * (want[2] - want[0]), edge / total);
+    /* The beam lies inside the view; blue is bent further (to +x) than red. */
+    assert_true(edge < 1e-3 * total);
+    assert_true(want[2] > want[0] + 5e-3);
+    for (int c = 0; c < 3; c++)
+        assert_true(fabs(got[c] - want[c]) < 0.02 * fabs(want[2] - want[0]));
+    film_free(&f);
+    gpu_scene_free(&g);
+    scene_free(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -366,6 +507,7 @@ int main(void)
         cmocka_unit_test(test_area_light_caustic),
         cmocka_unit_test(test_no_delta_unchanged),
         cmocka_unit_test(test_split_invariance),
+        cmocka_unit_test(test_prism_dispersion),
     };
     return cmocka_run_group_tests(tests, setup_cpu_device, teardown_cpu_device);
 }
