@@ -10,12 +10,13 @@ set -u
 build=${1:-build}
 rounds=${2:-3}
 cd "$(dirname "$0")/.."
-export SPECTRACE_CACHE_DIR=${SPECTRACE_CACHE_DIR:-$PWD/$build/cache}
+case $build in /*) ;; *) build=$PWD/$build ;; esac # absolute or relative to the root
+export SPECTRACE_CACHE_DIR=${SPECTRACE_CACHE_DIR:-$build/cache}
 prog=$build/spectrace
 
 variants=()
 for impl in pocl intel rusticl; do
-  if env_text=$(tools/opencl_env.sh "$impl" "$PWD/$build/icd/bench-$impl" 2>&1); then
+  if env_text=$(tools/opencl_env.sh "$impl" "$build/icd/bench-$impl" 2>&1); then
     variants+=("$impl:cpu" "$impl:gpu")
   else
     echo "$impl: absent ($env_text)"
@@ -27,7 +28,7 @@ size_of() { [ "${1%%:*}" = rusticl ] && echo "64 --spp 4" || echo "256 --spp 16"
 # One render; prints Mpaths/s from spectrace's "rendered WxH, N spp in T s" line.
 run_one() { # IMPL:PATH
   local impl=${1%%:*} path=${1##*:} out
-  out=$( (eval "$(tools/opencl_env.sh "$impl" "$PWD/$build/icd/bench-$impl")"
+  out=$( (eval "$(tools/opencl_env.sh "$impl" "$build/icd/bench-$impl")"
           SPECTRACE_KERNEL_PATH=$path "$prog" render scenes/cornell_box.gltf \
             -o "$tmpdir/b.exr" --width $(size_of "$1") 2>&1) |
         sed -n 's/^rendered \([0-9]*\)x\([0-9]*\), \([0-9]*\) spp in \([0-9.]*\) s.*/\1 \2 \3 \4/p' |
