@@ -471,6 +471,52 @@ static void test_valid_sparse_and_zeros(void **state)
     scene_free(&s);
 }
 
+/* Indices, offsets and lengths that are not whole numbers in range are refused,
+ * naming the property and the value (the glTF library read "0", 0.5 and 2^64 as
+ * 0 or -1, which dropped a mesh silently, 2147483648 as -2147483648, and a
+ * negative byteOffset as a huge one). */
+static void test_index_numbers_refused(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *nodes, *accessor_extra, *view_extra, *want;
+    } cases[] = {
+        {"{\"mesh\":\"0\"}", "", "", "nodes[0].mesh: \"0\" is not an index"},
+        {"{\"mesh\":0.5}", "", "", "nodes[0].mesh: 0.5 is not an index"},
+        {"{\"mesh\":18446744073709551616}", "", "", "nodes[0].mesh: 1.8446744073709552e+19"},
+        {"{\"mesh\":2147483648}", "", "", "nodes[0].mesh: 2147483648 is not an index"},
+        {"{\"mesh\":0,\"children\":[-1]}", "", "", "nodes[0].children[0]: -1 is not an index"},
+        {"{\"mesh\":0}", ",\"byteOffset\":-12", "", "accessors[0].byteOffset: -12"},
+        {"{\"mesh\":0}", "", ",\"byteStride\":2147483644",
+         "bufferViews[0].byteStride: 2147483644 is not a multiple of 4"},
+    };
+    float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    char b64[64];
+    base64(pos, sizeof pos, b64);
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char json[4096];
+        snprintf(json, sizeof json,
+                 "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+                 "\"nodes\":[%s],\"buffers\":[{\"byteLength\":36,\"uri\":"
+                 "\"data:application/octet-stream;base64,%s\"}],\"bufferViews\":[{\"buffer\":0,"
+                 "\"byteLength\":36%s}],\"accessors\":[{\"bufferView\":0,\"componentType\":5126,"
+                 "\"count\":3,\"type\":\"VEC3\"%s}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+                 "{\"POSITION\":0}}]}]}",
+                 cases[i].nodes, b64, cases[i].view_extra, cases[i].accessor_extra);
+        Scene s;
+        SptError e = {0};
+        int rc = scene_load_gltf_memory(&s, json, strlen(json), "numbers.gltf", &e);
+        if (rc != SPT_EXIT_INPUT || !strstr(e.msg, cases[i].want))
+            fail_msg("case %zu: returned %d, '%s'; expected '%s'", i, rc, e.msg, cases[i].want);
+    }
+    /* "scene": -1 as well. */
+    const char *neg = "{\"asset\":{\"version\":\"2.0\"},\"scene\":-1}";
+    Scene s;
+    SptError e = {0};
+    assert_int_equal(scene_load_gltf_memory(&s, neg, strlen(neg), "scene.gltf", &e), SPT_EXIT_INPUT);
+    assert_non_null(strstr(e.msg, "scene: -1 is not an index"));
+}
+
 static void test_default_camera_frames_box(void **state)
 {
     (void)state;
@@ -668,6 +714,7 @@ int main(void)
         cmocka_unit_test(test_orthographic_camera),
         cmocka_unit_test(test_deep_hierarchy),
         cmocka_unit_test(test_valid_sparse_and_zeros),
+        cmocka_unit_test(test_index_numbers_refused),
         cmocka_unit_test(test_default_camera_frames_box),
         cmocka_unit_test(test_fuzz_regressions),
         cmocka_unit_test(test_info_command),

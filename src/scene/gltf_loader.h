@@ -194,6 +194,7 @@ struct Loader {
     // before parsing, as the glTF library's recursion would overflow the stack.
     static constexpr int k_max_json_depth = 128;
     int check_json_depth(const unsigned char *json, size_t size);
+    int check_json_numbers(const unsigned char *json, size_t size);
     int diagnose_parse_failure(const unsigned char *json, size_t size, const std::string &err);
     int check_version_and_extensions();
     int check_buffer_views();
