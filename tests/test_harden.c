@@ -504,6 +504,23 @@ static void test_values_beyond_float(void **state)
     assert_int_equal(got, 0);
 }
 
+/* A render whose film and outputs do not fit the host memory is refused before
+ * any work with the amount and the limit (exit 4; SPECTRACE_MAX_MEMORY_MB stands
+ * for a small machine), and nothing is written. */
+static void test_host_memory_refused(void **state)
+{
+    (void)state;
+    char args[1024], err[4096];
+    snprintf(args, sizeof args, "render " SCENE " --width 2048 --height 2048 --spp 1 -q --device 0 -o %s",
+             in_dir("mem.exr"));
+    int rc = run_env("SPECTRACE_MAX_MEMORY_MB=64", args, err, sizeof err);
+    if (rc != 4)
+        fail_msg("exit %d, expected 4: %s", rc, err);
+    one_error(err, "needs about 0.4 GiB of host memory");
+    assert_non_null(strstr(err, "more than the 0.1 GiB available"));
+    assert_false(exists(in_dir("mem.exr")));
+}
+
 /* Inputs that libFuzzer found to crash, hang or exhaust memory in a reader
  * (tests/data/fuzz/TARGET/, README there): each is refused as bad input. */
 static void test_fuzz_regressions(void **state)
@@ -546,6 +563,7 @@ int main(void)
         cmocka_unit_test(test_second_sigint_stops_at_once),
         cmocka_unit_test(test_values_beyond_float),
         cmocka_unit_test(test_fuzz_regressions),
+        cmocka_unit_test(test_host_memory_refused),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
