@@ -517,6 +517,50 @@ static void test_index_numbers_refused(void **state)
     assert_non_null(strstr(e.msg, "scene: -1 is not an index"));
 }
 
+/* A scene that will not fit the memory stops at the object that passes the
+ * limit, with one error (SPECTRACE_MAX_MEMORY_MB stands for a small machine):
+ * 10000 instances of a triangle against 1 MiB, and a texture against 0.01 MiB. */
+static void test_memory_budget(void **state)
+{
+    (void)state;
+    const int n = 10000;
+    size_t cap = (size_t)n * 16 + 4096, len = 0;
+    char *j = malloc(cap);
+    len += (size_t)sprintf(j + len, "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[");
+    for (int i = 0; i < n; i++)
+        len += (size_t)sprintf(j + len, "%s%d", i ? "," : "", i);
+    len += (size_t)sprintf(j + len, "]}],"
+        "\"buffers\":[{\"byteLength\":36,\"uri\":\"data:application/octet-stream;base64,"
+        "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA\"}],"
+        "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],"
+        "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}],"
+        "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}],\"nodes\":[");
+    for (int i = 0; i < n; i++)
+        len += (size_t)sprintf(j + len, "%s{\"mesh\":0}", i ? "," : "");
+    len += (size_t)sprintf(j + len, "]}");
+    Scene s;
+    SptError e = {0};
+    setenv("SPECTRACE_MAX_MEMORY_MB", "1", 1);
+    int rc = scene_load_gltf_memory(&s, j, len, "many.gltf", &e);
+    unsetenv("SPECTRACE_MAX_MEMORY_MB");
+    /* Each instance adds a triangle (160 bytes) and 3 vertices (64 each): 352
+     * bytes, so 1 MiB is passed by instance ceil(1048576 / 352 + 1e-9) = 2979. */
+    if (rc != SPT_EXIT_INPUT || !strstr(e.msg, "by meshes[0] (instance 2979)") ||
+        !strstr(e.msg, "SPECTRACE_MAX_MEMORY_MB"))
+        fail_msg("instances: returned %d: %s", rc, e.msg);
+    /* Without the limit they load. */
+    if ((rc = scene_load_gltf_memory(&s, j, len, "many.gltf", &e))) fail_msg("%s", e.msg);
+    assert_int_equal(s.tri_count, (uint32_t)n);
+    scene_free(&s);
+    free(j);
+    /* A 16x16 texture (3 or 4 KiB of floats) against 0.001 MiB (1048 bytes). */
+    setenv("SPECTRACE_MAX_MEMORY_MB", "0.001", 1);
+    rc = scene_load_gltf(&s, SPT_TEST_DATA("textures/texcoord1.gltf"), &e);
+    unsetenv("SPECTRACE_MAX_MEMORY_MB");
+    if (rc != SPT_EXIT_INPUT || !strstr(e.msg, "by images[0]"))
+        fail_msg("texture: returned %d: %s", rc, e.msg);
+}
+
 static void test_default_camera_frames_box(void **state)
 {
     (void)state;
@@ -715,6 +759,7 @@ int main(void)
         cmocka_unit_test(test_deep_hierarchy),
         cmocka_unit_test(test_valid_sparse_and_zeros),
         cmocka_unit_test(test_index_numbers_refused),
+        cmocka_unit_test(test_memory_budget),
         cmocka_unit_test(test_default_camera_frames_box),
         cmocka_unit_test(test_fuzz_regressions),
         cmocka_unit_test(test_info_command),

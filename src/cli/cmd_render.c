@@ -235,33 +235,10 @@ static int open_devices(RenderJob *j, SptError *e)
     return gpu_scene_build(&j->gpu, &j->scene, e);
 }
 
-/* The host memory a render may use, in bytes: SPECTRACE_MAX_MEMORY_MB when set,
- * else MemAvailable of /proc/meminfo (0 when neither is known: no check). */
-static double host_memory_limit(void)
-{
-    const char *s = getenv("SPECTRACE_MAX_MEMORY_MB");
-    if (s && *s) {
-        char *end;
-        double mb = strtod(s, &end);
-        if (!*end && mb > 0)
-            return mb * 1048576.0;
-        spt_warn("SPECTRACE_MAX_MEMORY_MB '%s' is not a positive number of MiB; ignored", s);
-    }
-    FILE *f = fopen("/proc/meminfo", "r");
-    double kb = 0;
-    char line[256];
-    while (f && fgets(line, sizeof line, f))
-        if (sscanf(line, "MemAvailable: %lf kB", &kb) == 1)
-            break;
-    if (f)
-        fclose(f);
-    return kb * 1024.0;
-}
-
 /* Before any device memory is taken: the host memory the image needs (the film's
  * double sums and counts, each device's chunk sums, and on a CPU device its
  * chunk buffer, which lives in host memory too; the output image and its
- * encoding) against host_memory_limit. Too much is refused with the amounts
+ * encoding) against spt_memory_limit. Too much is refused with the amounts
  * (SPT_EXIT_DEVICE, as a device's own limits are): the allocation would fail
  * later or the OpenCL implementation would abort. */
 static int check_host_memory(const RenderJob *j, SptError *e)
@@ -270,7 +247,7 @@ static int check_host_memory(const RenderJob *j, SptError *e)
     double per_pixel = 32.0 + 12.0 + 16.0; /* film, linear RGB, encoder copy */
     for (int i = 0; i < j->nsel; i++)
         per_pixel += 16.0 + ((j->devs[i]->type & CL_DEVICE_TYPE_CPU) ? 16.0 : 0.0);
-    double need = npix * per_pixel, limit = host_memory_limit();
+    double need = npix * per_pixel, limit = spt_memory_limit();
     if (limit > 0 && need > limit)
         return spt_fail(e, SPT_EXIT_DEVICE, "render: a %dx%d image needs about %.1f GiB of host "
                         "memory (film, per-device sums, output), more than the %.1f GiB "

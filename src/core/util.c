@@ -75,3 +75,24 @@ void *spt_malloc(size_t n) { return check(malloc(n ? n : 1), n); }
 void *spt_calloc(size_t count, size_t size) { return check(calloc(count ? count : 1, size ? size : 1), count * size); }
 void *spt_realloc(void *p, size_t n) { return check(realloc(p, n ? n : 1), n); }
 char *spt_strdup(const char *s) { return check(strdup(s), strlen(s) + 1); }
+
+double spt_memory_limit(void)
+{
+    const char *s = getenv("SPECTRACE_MAX_MEMORY_MB");
+    if (s && *s) {
+        char *end;
+        double mb = strtod(s, &end);
+        if (!*end && mb > 0)
+            return mb * 1048576.0;
+        spt_warn("SPECTRACE_MAX_MEMORY_MB '%s' is not a positive number of MiB; ignored", s);
+    }
+    FILE *f = fopen("/proc/meminfo", "r");
+    double kb = 0;
+    char line[256];
+    while (f && fgets(line, sizeof line, f))
+        if (sscanf(line, "MemAvailable: %lf kB", &kb) == 1)
+            break;
+    if (f)
+        fclose(f);
+    return kb * 1024.0;
+}

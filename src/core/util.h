@@ -43,6 +43,10 @@ void spt_note(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 /* Prints e as an error line and returns its code. */
 int spt_report(const SptError *e);
 
+/* The memory a render may use, in bytes: SPECTRACE_MAX_MEMORY_MB when set, else
+ * MemAvailable of /proc/meminfo; 0 when neither is known (no limit). */
+double spt_memory_limit(void);
+
 /* Monotonic wall clock in seconds. */
 double spt_now(void);
 

@@ -411,7 +411,19 @@ int Loader::emit_instance(int mi, const Mat4 &world)
         stats.flattened_triangles += (uint32_t)(tri_mat.size() - tris_before);
         stats.flattened_vertices += (uint32_t)(vertex_count - verts_before);
     }
-    return 0;
+    return charge_memory("meshes[" + std::to_string(mi) + "] (instance " +
+                         std::to_string(mesh_emitted[mi]) + ")");
+}
+
+int Loader::charge_memory(const std::string &what)
+{
+    double used = (double)tri_mat.size() * k_bytes_per_triangle +
+                  (double)vertex_count * k_bytes_per_vertex + mem_used_textures;
+    if (mem_limit <= 0 || used <= mem_limit) return 0;
+    return bad("the scene needs more than %.1f MiB of memory by %s (%zu triangles, %.1f MiB of "
+               "textures so far): more than the %.1f MiB available (SPECTRACE_MAX_MEMORY_MB sets "
+               "the limit)", used / 1048576.0, what.c_str(), tri_mat.size(),
+               mem_used_textures / 1048576.0, mem_limit / 1048576.0);
 }
 
 } // namespace spt_gltf

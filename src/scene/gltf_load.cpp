@@ -107,6 +107,7 @@ static int load(Scene *s, const unsigned char *data, size_t size, const char *na
         for (size_t i = 0; i < L.m.meshes.size(); i++)
             L.prim[i].resize(L.m.meshes[i].primitives.size());
         L.mesh_emitted.assign(L.m.meshes.size(), 0);
+        L.mem_limit = spt_memory_limit();
         L.decoded_state.assign(L.m.images.size(), 0);
         L.decoded.assign(L.m.images.size(), TextureImage());
         for (size_t i = 0; i < L.m.materials.size(); i++) {

@@ -200,6 +200,13 @@ struct Loader {
     int check_buffer_views();
     int check_accessor(int index, const std::string &obj, int want_components,
                        const std::vector<int> &types, int normalized_ok, bool *zeros);
+    // The memory the scene takes as it is read (approximate: triangles, vertices
+    // and decoded texels with what the BVH and the device copies add), against
+    // spt_memory_limit(): a scene too large stops at the object that passes it.
+    double mem_limit = 0, mem_used_textures = 0;
+    int over_budget_rc = 0;
+    static constexpr double k_bytes_per_triangle = 160, k_bytes_per_vertex = 64;
+    int charge_memory(const std::string &what);
     int check_sparse(int index, const char *obj);
     int check_view_has_data(int view, const char *obj, int index);
     std::vector<int> dead_views; // views of .gltf buffers without uri (no data)

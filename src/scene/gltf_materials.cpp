@@ -60,6 +60,8 @@ int Loader::decode_image(int image)
     }
     decoded[image] = ti;
     decoded_state[image] = 1;
+    mem_used_textures += (double)ti.width * ti.height * ti.channels * sizeof(float);
+    if ((over_budget_rc = charge_memory("images[" + std::to_string(image) + "]"))) return 0;
     return 1;
 }
 
@@ -174,7 +176,7 @@ int Loader::texture_ref(int tex, int texcoord, bool srgb, const std::string &obj
         out->tex = it->second;
         return 0;
     }
-    if (!decode_image(source)) return 0;
+    if (!decode_image(source)) return over_budget_rc;
     const TextureImage &ti = decoded[source];
     SceneTexture st = {};
     const auto &im = m.images[source];
