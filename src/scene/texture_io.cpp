@@ -142,8 +142,39 @@ bool png_structure_ok(const unsigned char *b, size_t size, char *why, size_t why
 
 } // namespace
 
+static int load_file(const char *path, TextureImage *img, char *why, size_t why_size);
+static int load_memory(const void *data, size_t size, const char *mime_type, TextureImage *img,
+                       char *why, size_t why_size);
+
+// The entry points: no exception of the image library (or std::bad_alloc for a
+// huge image) escapes; it becomes the reason of a failed load.
 extern "C" int texture_io_load_file(const char *path, TextureImage *img, char *why,
                                     size_t why_size)
+{
+    memset(img, 0, sizeof *img);
+    try {
+        return load_file(path, img, why, why_size);
+    } catch (const std::exception &ex) {
+        texture_io_free(img);
+        say(why, why_size, ex.what());
+        return -1;
+    }
+}
+
+extern "C" int texture_io_load_memory(const void *data, size_t size, const char *mime_type,
+                                      TextureImage *img, char *why, size_t why_size)
+{
+    memset(img, 0, sizeof *img);
+    try {
+        return load_memory(data, size, mime_type, img, why, why_size);
+    } catch (const std::exception &ex) {
+        texture_io_free(img);
+        say(why, why_size, ex.what());
+        return -1;
+    }
+}
+
+static int load_file(const char *path, TextureImage *img, char *why, size_t why_size)
 {
     memset(img, 0, sizeof *img);
     SptError e = {};
@@ -186,8 +217,8 @@ extern "C" int texture_io_load_file(const char *path, TextureImage *img, char *w
     return rc;
 }
 
-extern "C" int texture_io_load_memory(const void *data, size_t size, const char *mime_type,
-                                      TextureImage *img, char *why, size_t why_size)
+static int load_memory(const void *data, size_t size, const char *mime_type, TextureImage *img,
+                       char *why, size_t why_size)
 {
     memset(img, 0, sizeof *img);
     const unsigned char *b = (const unsigned char *)data;
