@@ -476,7 +476,7 @@ static int clamp_rgb_grey(const float rgb_in[3], float rgb[3], float coeffs[3])
  * fitted table in the cell of the largest channel (z) and the other two divided
  * by it (x, y), as Jakob and Hanika's lookup. Exact at the table's nodes only:
  * the coefficients are not linear in the colour, and between nodes the colour
- * of the interpolated spectrum can be off by 0.016 (a tenth of a small channel). */
+ * of the interpolated spectrum is off by up to 0.003 (64 cells per axis). */
 static void table_coeffs(const float rgb[3], float coeffs[3])
 {
     const int res = spt_rgb2spec_res;

@@ -78,7 +78,8 @@ int srgb_to_8bit(double linear);    /* round(255 * clamp(encode(linear), 0, 1)) 
 void rgb_to_coeffs(const float rgb[3], float coeffs[3]);
 /* The fitted table's trilinear interpolation alone, for per-texel and per-vertex
  * conversions (0.1 us instead of about 25 us):
- * exact at its nodes, up to 0.016 off in between. */
+ * exact at its nodes; in between, its spectrum's colour is within 0.003 of an
+ * 8-bit sRGB colour (tools/rgb2spec/rgb2spec_opt.c, tests/test_spectrum.c). */
 void rgb_to_coeffs_fast(const float rgb[3], float coeffs[3]);
 /* An illuminant from linear sRGB: scale * sigmoid(c)(l) * D65(l), with D65
  * normalised so that its Y is 1; so rgb (1,1,1) becomes D65 with Y = 1. The
