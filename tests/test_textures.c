@@ -129,30 +129,44 @@ static void base_cell_colour(int col, int row, double out[3])
     out[2] = srgb8_to_linear(levels[i % 3]);
 }
 
-static void check_base_pattern(const char *scene)
+static void check_base_pattern(const char *scene, const double factor[3])
 {
     Image im = render_texture_scene(scene, 64, 64, 16, 2, NULL);
     for (int row = 0; row < 4; row++)
         for (int col = 0; col < 4; col++) {
             double want[3];
             base_cell_colour(col, row, want);
+            for (int c = 0; c < 3; c++)
+                want[c] *= factor[c];
             assert_cell(&im, 4, 4, col, row, want, 0.06, 0.01);
         }
     free(im.rgb);
 }
 
+static const double one[3] = {1.0, 1.0, 1.0};
+
 /* The texture without a sampler, and with an empty sampler object. */
 static void test_base_color_no_sampler(void **state)
 {
     (void)state;
-    check_base_pattern("base_nosampler.gltf");
+    check_base_pattern("base_nosampler.gltf", one);
 }
 
 static void test_base_color_empty_sampler(void **state)
 {
     (void)state;
     skip_if_quick();
-    check_base_pattern("base_emptysampler.gltf");
+    check_base_pattern("base_emptysampler.gltf", one);
+}
+
+/* The texture times baseColorFactor (0.5, 0.8, 1): each channel of each cell
+ * scaled by its factor. */
+static void test_base_color_factor(void **state)
+{
+    (void)state;
+    skip_if_quick();
+    const double factor[3] = {0.5, 0.8, 1.0};
+    check_base_pattern("base_factor.gltf", factor);
 }
 
 /* The base colour pattern at texture coordinate (u, v) as glTF's bilinear
@@ -382,7 +396,7 @@ static void test_texcoord1(void **state)
 {
     (void)state;
     skip_if_quick();
-    check_base_pattern("texcoord1.gltf");
+    check_base_pattern("texcoord1.gltf", one);
 }
 
 /* COLOR_0 of a 3 x 3-vertex plane (tools/make_texture_scenes.py VERTEX_COLORS),
@@ -737,6 +751,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_base_color_no_sampler),
         cmocka_unit_test(test_base_color_empty_sampler),
+        cmocka_unit_test(test_base_color_factor),
         cmocka_unit_test(test_base_color_texel_boundaries),
         cmocka_unit_test(test_alpha_blend_and_mask),
         cmocka_unit_test(test_alpha_mask_minified),

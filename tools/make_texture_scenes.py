@@ -182,6 +182,15 @@ def base_scenes():
         s.grid_plane(s.material(lambert(baseColorTexture={"index": tex})))
         s.ortho_camera()
         s.save(name)
+    # The same texture times a coloured baseColorFactor.
+    s = Scene()
+    tex = s.texture(png)
+    s.grid_plane(s.material(lambert(baseColorFactor=list(BASE_FACTOR), baseColorTexture={"index": tex})))
+    s.ortho_camera()
+    s.save("base_factor.gltf")
+
+
+BASE_FACTOR = (0.5, 0.8, 1.0, 1.0)
 
 
 def grid_cells(values, px=4, channels=3):
