@@ -52,8 +52,11 @@ static void key_for(const char *path, CheckpointKey *k)
     exr_layers_free(&L);
 }
 
-/* Reads a checkpoint of a test render (32x32, seed, SCENE) into film; returns the
- * samples per pixel it holds. */
+/* The --aov of the renders whose checkpoints load_checkpoint reads. */
+static unsigned ckpt_aov;
+
+/* Reads a checkpoint of a test render (32x32, seed, SCENE, --aov ckpt_aov) into
+ * film; returns the samples per pixel it holds. */
 static uint32_t load_checkpoint(const char *path, uint32_t seed, uint32_t spp, Film *film)
 {
     RenderSettings rs;
@@ -62,6 +65,7 @@ static uint32_t load_checkpoint(const char *path, uint32_t seed, uint32_t spp, F
     rs.max_depth = -1;
     rs.seed = seed;
     rs.env_intensity = 1;
+    rs.aov = ckpt_aov;
     CheckpointKey k;
     SptError e = {0};
     if (checkpoint_key(&k, SCENE, &rs, &e))
@@ -99,6 +103,22 @@ static void assert_same_exr(const char *pa, const char *pb)
                 fail_msg("%s vs %s: pixel %zu %s: %.9g vs %.9g", pa, pb, i, rgb[c], x, y);
         }
     }
+    /* Every other channel (AOV layers) of a is in b and agrees within 1e-4
+     * relative (1e-3 for the variance, a difference of sums). */
+    for (int c = 0; c < a.channel_count; c++) {
+        const ExrChannel *ca = &a.channels[c], *cb = exr_layers_channel(&b, ca->name);
+        if (!cb)
+            fail_msg("%s has channel %s, %s has not", pa, ca->name, pb);
+        if (ca->type != SPT_EXR_FLOAT)
+            continue;
+        double tol = strncmp(ca->name, "variance.", 9) ? 1e-4 : 1e-3;
+        for (size_t i = 0; i < n; i++) {
+            double x = ((const float *)ca->data)[i], y = ((const float *)cb->data)[i];
+            if (fabs(x - y) > tol * fmax(fmax(fabs(x), fabs(y)), 1e-6))
+                fail_msg("%s vs %s: pixel %zu %s: %.9g vs %.9g", pa, pb, i, ca->name, x, y);
+        }
+    }
+    assert_int_equal(a.channel_count, b.channel_count);
     exr_layers_free(&a);
     exr_layers_free(&b);
 }

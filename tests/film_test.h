@@ -27,6 +27,27 @@ static void assert_same_film_tol(const Film *a, const Film *b, double tol)
     }
 }
 
+/* The AOV sums of two films agree within tol of each pixel's largest AOV sum of
+ * the same kind (albedo, normal, depth, position, squares). */
+static inline void assert_same_aov_tol(const Film *a, const Film *b, double tol)
+{
+    assert_non_null(a->aov);
+    assert_non_null(b->aov);
+    static const int first[6] = {SPT_AOV_S_ALBEDO, SPT_AOV_S_N, SPT_AOV_S_Z, SPT_AOV_S_P, SPT_AOV_S_SQ,
+                                 SPT_AOV_SUMS};
+    size_t n = (size_t)a->width * a->height;
+    for (size_t i = 0; i < n; i++)
+        for (int g = 0; g < 5; g++) {
+            const double *x = a->aov + SPT_AOV_SUMS * i, *y = b->aov + SPT_AOV_SUMS * i;
+            double m = 1e-12;
+            for (int c = first[g]; c < first[g + 1]; c++)
+                m = fmax(m, fabs(x[c]));
+            for (int c = first[g]; c < first[g + 1]; c++)
+                if (fabs(x[c] - y[c]) > tol * m)
+                    fail_msg("pixel %zu AOV sum %d: %.9g vs %.9g", i, c, x[c], y[c]);
+        }
+}
+
 /* The same within 1e-4: the films of one implementation. */
 static void assert_same_film(const Film *a, const Film *b)
 {

@@ -160,6 +160,39 @@ static void test_resume_split_invariance(void **state)
     film_free(&b);
 }
 
+/* The same with every AOV layer (--aov all): the checkpoint keeps their sums,
+ * and the resumed render's layers are those of the render in one go. */
+static void test_resume_split_invariance_aov(void **state)
+{
+    (void)state;
+    char cmd[1024], out[4096];
+    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --aov all --device 0 --spp 64 -o %s --checkpoint %s",
+             path_in("afull.exr"), path_in("afull_ck.exr"));
+    run_ok(cmd, out, sizeof out);
+    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --aov all --device 0 --spp 32 -o %s --checkpoint %s",
+             path_in("ahalf.exr"), path_in("ahalf_ck.exr"));
+    run_ok(cmd, out, sizeof out);
+    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --aov all --device all --spp 64 -o %s --resume %s",
+             path_in("aresumed.exr"), path_in("ahalf_ck.exr"));
+    run_ok(cmd, out, sizeof out);
+    Film a, b;
+    ckpt_aov = SPT_AOV_ALL;
+    assert_int_equal(load_checkpoint(path_in("afull_ck.exr"), 3, 64, &a), 64);
+    assert_int_equal(load_checkpoint(path_in("ahalf_ck.exr"), 3, 64, &b), 64);
+    ckpt_aov = 0;
+    assert_same_film(&a, &b);
+    assert_same_aov_tol(&a, &b, 1e-4);
+    assert_same_exr(path_in("afull.exr"), path_in("aresumed.exr"));
+    film_free(&a);
+    film_free(&b);
+    /* Resuming without the AOVs the checkpoint has: refused, naming the setting. */
+    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device 0 --spp 64 -o %s --resume %s",
+             path_in("arefused.exr"), path_in("afull_ck.exr"));
+    assert_int_equal(run(cmd, out, sizeof out), SPT_EXIT_INPUT);
+    assert_non_null(strstr(out, "aov"));
+    assert_false(exists(path_in("arefused.exr")));
+}
+
 /* Runs a refused resume: exit code 3 (or want), one error line containing
  * `says`, no output written and the checkpoint's bytes untouched. */
 static void refused(const char *args, const char *ckpt, int want, const char *says)
@@ -308,6 +341,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_file_round_trip),
         cmocka_unit_test(test_resume_split_invariance),
+        cmocka_unit_test(test_resume_split_invariance_aov),
         cmocka_unit_test(test_resume_refusals),
         cmocka_unit_test(test_sigint_then_resume),
     };

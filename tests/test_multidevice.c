@@ -43,8 +43,8 @@ static int teardown(void **state)
 
 /* Renders the Cornell box at 24x24, 32 spp on the devices listed in `which`
  * with the test hooks hooks. */
-static int render_on(const int *which, int n, RenderTestHooks hooks, Film *film,
-                     RenderDeviceStats *per, SptError *e)
+static int render_on_aov(const int *which, int n, RenderTestHooks hooks, unsigned aov, Film *film,
+                         RenderDeviceStats *per, SptError *e)
 {
     const ClDeviceInfo *infos[4];
     for (int i = 0; i < n; i++)
@@ -57,9 +57,16 @@ static int render_on(const int *which, int n, RenderTestHooks hooks, Film *film,
     rs.seed = 11;
     rs.pool_size = 512; /* small chunks: the work splits into many */
     rs.test = hooks;
-    film_init(film, rs.width, rs.height);
+    rs.aov = aov;
+    film_init_aov(film, rs.width, rs.height, aov != 0);
     RenderStats st;
     return render_devices(infos, n, &gpu, &scene.camera, &rs, film, &st, per, e);
+}
+
+static int render_on(const int *which, int n, RenderTestHooks hooks, Film *film,
+                     RenderDeviceStats *per, SptError *e)
+{
+    return render_on_aov(which, n, hooks, 0, film, per, e);
 }
 
 static void test_split_invariance(void **state)
@@ -77,6 +84,24 @@ static void test_split_invariance(void **state)
     assert_int_equal(per[0].samples, 16);
     assert_int_equal(per[1].samples, 16);
     assert_same_film(&one, &two);
+    film_free(&one);
+    film_free(&two);
+}
+
+/* The AOV layers (--aov) of two devices sharing the samples are those of one. */
+static void test_split_invariance_aov(void **state)
+{
+    (void)state;
+    Film one, two;
+    SptError e = {0};
+    RenderDeviceStats per[2];
+    const int d0[1] = {0}, d01[2] = {0, 1};
+    assert_int_equal(render_on_aov(d0, 1, no_hooks, SPT_AOV_ALL, &one, NULL, &e), 0);
+    assert_int_equal(render_on_aov(d01, 2, turns, SPT_AOV_ALL, &two, per, &e), 0);
+    assert_int_equal(per[0].samples, 16);
+    assert_int_equal(per[1].samples, 16);
+    assert_same_film(&one, &two);
+    assert_same_aov_tol(&one, &two, 1e-4);
     film_free(&one);
     film_free(&two);
 }
@@ -173,6 +198,7 @@ int main(void)
     setenv("POCL_MAX_PTHREAD_COUNT", "1", 1);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_split_invariance),
+        cmocka_unit_test(test_split_invariance_aov),
         cmocka_unit_test(test_balance),
         cmocka_unit_test(test_device_failure),
         cmocka_unit_test(test_split_across_implementations),
@@ -181,6 +207,6 @@ int main(void)
      * the test across the two: the others ran on PoCL alone. */
     const char *impl = getenv("SPECTRACE_TEST_IMPL");
     if (impl && strcmp(impl, "pocl") != 0)
-        return _cmocka_run_group_tests("multidevice", tests + 3, 1, setup, teardown);
+        return _cmocka_run_group_tests("multidevice", tests + 4, 1, setup, teardown);
     return cmocka_run_group_tests_name("multidevice", tests, setup, teardown);
 }

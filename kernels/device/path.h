@@ -301,6 +301,15 @@ static float4 path_radiance_to_xyz(float4 L, float4 lam, float4 pdf)
     return xyz * (1.0f / ((float)SPT_NUM_LAMBDA * SPT_CIE_Y_INTEGRAL));
 }
 
+/* Linear sRGB of XYZ: the matrix of src/color/spd.c (xyz_to_linear_srgb;
+ * docs/architecture.md, "The physics it implements"). */
+static float3 path_xyz_to_linear_srgb(float3 c)
+{
+    return (float3)(3.2406f * c.x - 1.5372f * c.y - 0.4986f * c.z,
+                    -0.9689f * c.x + 1.8758f * c.y + 0.0415f * c.z,
+                    0.0557f * c.x - 0.2040f * c.y + 1.0570f * c.z);
+}
+
 /* spt_sample_wavelengths (kernels/shared/spectrum.h) with less transcendental work, for
  * the generate kernel: atanh(t) as 0.5 log((1 + t) / (1 - t)), and the pdf from
  * the same t instead of a cosh of the wavelength. The density is the tanh CDF's

@@ -241,6 +241,51 @@ static float3 shading_normal(uint prim, float bu, float bv, float3 *ng, int foll
     return ns;
 }
 
+/* The base colour of material m at a hit (texture context c, packed triangle
+ * prim at (bu, bv)) at the wavelengths lam: the factor times the base colour
+ * texture times COLOR_0, clamped to [0, 1]. */
+static float4 material_base(const __global GpuMaterial *m, const TexCtx *c, uint prim, float bu, float bv,
+                            float4 lam, const __global TriShade *tri_shade,
+                            const __global float4 *vtx_color, const __global float *spectra,
+                            const __global GpuTexture *textures, const __global float4 *texels)
+{
+    float w;
+    float4 base = spec_eval(&m->reflectance, lam, spectra);
+    if (m->slot[SPT_TS_BASE].tex >= 0)
+        base *= slot_spectrum(m, SPT_TS_BASE, c, lam, textures, texels, &w);
+    if (m->flags & SPT_MAT_VERTEX_COLOR)
+        base *= tri_color(tri_shade, vtx_color, prim, bu, bv, lam, &w);
+    return clamp(base, 0.0f, 1.0f);
+}
+
+#ifdef SPT_AOV
+/* The albedo AOV of material m at a hit: the linear sRGB of its base colour
+ * (material_base) as a reflectance under D65, from the CIE 1931 functions and
+ * D65 every 10 nm over 360-830 nm (the 1 nm tables sampled: sigmoid spectra
+ * are smooth on that scale), normalised so that a reflectance of 1 is
+ * (1, 1, 1). The same for every sample: no wavelength noise. */
+static float3 material_albedo(const __global GpuMaterial *m, const TexCtx *c, uint prim, float bu, float bv,
+                              const __global TriShade *tri_shade, const __global float4 *vtx_color,
+                              const __global float *spectra, const __global GpuTexture *textures,
+                              const __global float4 *texels)
+{
+    float3 xyz = (float3)(0.0f);
+    float norm = 0.0f;
+    for (int k = 0; k < 12; k++) {
+        float4 lam = (float)SPT_CIE_LAMBDA_MIN + 10.0f * ((float)(4 * k) + (float4)(0.0f, 1.0f, 2.0f, 3.0f));
+        float4 s = material_base(m, c, prim, bu, bv, lam, tri_shade, vtx_color, spectra, textures, texels);
+        float4 d = (float4)(spt_d65_norm(lam.x), spt_d65_norm(lam.y), spt_d65_norm(lam.z),
+                            spt_d65_norm(lam.w));
+        float4 cx = cie_lookup4(SPT_CIE_X, lam), cy = cie_lookup4(SPT_CIE_Y, lam),
+               cz = cie_lookup4(SPT_CIE_Z, lam);
+        float4 sd = s * d;
+        xyz += (float3)(dot(sd, cx), dot(sd, cy), dot(sd, cz));
+        norm += dot(d, cy);
+    }
+    return path_xyz_to_linear_srgb(xyz / norm);
+}
+#endif
+
 /* The BSDF parameters of material m at a hit (texture context c, packed triangle
  * prim at (bu, bv)) for the wavelengths lam. Texture channels, as glTF 2.0 and its
  * extensions define them: base colour RGB (sRGB) and A; metallic B, roughness G;
@@ -254,12 +299,7 @@ static BsdfParams material_bsdf(const __global GpuMaterial *m, const TexCtx *c, 
 {
     BsdfParams bp;
     float w;
-    float4 base = spec_eval(&m->reflectance, lam, spectra);
-    if (m->slot[SPT_TS_BASE].tex >= 0)
-        base *= slot_spectrum(m, SPT_TS_BASE, c, lam, textures, texels, &w);
-    if (m->flags & SPT_MAT_VERTEX_COLOR)
-        base *= tri_color(tri_shade, vtx_color, prim, bu, bv, lam, &w);
-    bp.base = clamp(base, 0.0f, 1.0f);
+    bp.base = material_base(m, c, prim, bu, bv, lam, tri_shade, vtx_color, spectra, textures, texels);
     bp.metallic = m->metallic;
     bp.roughness = m->roughness;
     if (m->slot[SPT_TS_METALLIC_ROUGHNESS].tex >= 0) {
@@ -645,6 +685,32 @@ SPT_FN_INLINE int shade_roulette(ShadeHit *h, const ShadeFrame *f, int alive, AL
     return alive;
 }
 
+#ifdef SPT_AOV
+/* The AOVs of the sample of path i (aov_sample, 3 float4 per sample: see
+ * kernels/shared/render_types.h). The first hit gives the shading normal (on
+ * the side the camera sees), the depth along the camera's view axis and the
+ * position; the albedo is the first surface's that does not reflect or
+ * transmit specularly only (through a mirror or clear glass, the albedo seen
+ * behind it, as Open Image Denoise expects), or the last surface's when the
+ * path ends there. */
+SPT_FN_INLINE void shade_aov(const ShadeHit *h, const TexCtx *tc, const BsdfParams *bp, const ShadeFrame *f,
+                             int ends, ALL_BUFFERS)
+{
+    uint w = ps_work[h->i];
+    if (h->depth == 1u) {
+        float3 fwd = normalize(vload4(0, P.cam_fwd).xyz);
+        float z = dot(h->p - vload4(0, P.cam_pos).xyz, fwd);
+        aov_sample[3u * w + 1u] = (float4)(f->ns, z);
+        aov_sample[3u * w + 2u] = (float4)(h->p, 0.0f);
+    }
+    if (aov_sample[3u * w].w == 0.0f && (ends || !bsdf_is_delta(bp))) {
+        float3 a = material_albedo(h->m, tc, h->prim, h->bu, h->bv, tri_shade, vtx_color, spectra, textures,
+                                   texels);
+        aov_sample[3u * w] = (float4)(a, 1.0f);
+    }
+}
+#endif
+
 /* What path i brings to its hit (or miss): the hit, its depth, wavelengths, and
  * its throughput, through the volume it crossed. */
 SPT_FN_INLINE void shade_hit_begin(uint i, ShadeHit *h, ALL_BUFFERS)
@@ -680,6 +746,14 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
         return 0;
     shade_emission(&h, &tc, ALL_ARGS);
     if ((P.max_depth > 0 && h.depth >= (uint)P.max_depth) || (h.m->flags & SPT_MAT_UNLIT)) {
+#ifdef SPT_AOV
+        {
+            ShadeFrame fe;
+            BsdfParams bpe;
+            shade_frame(&h, &tc, &bpe, &fe, spt_rng_key(P.seed, pixel, sample), ALL_ARGS);
+            shade_aov(&h, &tc, &bpe, &fe, 1, ALL_ARGS);
+        }
+#endif
         ps_radiance[i] = h.L;
         ps_flags[i] = SPT_PATH_FINISHED;
         return 0;
@@ -687,6 +761,9 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     ShadeFrame f;
     BsdfParams bp;
     shade_frame(&h, &tc, &bp, &f, spt_rng_key(P.seed, pixel, sample), ALL_ARGS);
+#ifdef SPT_AOV
+    shade_aov(&h, &tc, &bp, &f, 0, ALL_ARGS);
+#endif
     int shadow = shade_direct_light(&h, &tc, &bp, &f, sh_o, sh_d, sh_c, ALL_ARGS);
     BsdfSample bs;
     float3 wn;

@@ -184,6 +184,12 @@ __kernel void k_generate(ALL_BUFFERS)
         ps_medium[i] = 0;
         ps_bsdf_pdf[i] = 0.0f; /* camera ray: emission seen directly has MIS weight 1 */
         ps_lt[i] = 0u;
+#ifdef SPT_AOV
+        /* A sample that sees nothing has zero AOVs; k_shade fills what it hits. */
+        aov_sample[3u * w + 0u] = (float4)(0.0f);
+        aov_sample[3u * w + 1u] = (float4)(0.0f);
+        aov_sample[3u * w + 2u] = (float4)(0.0f);
+#endif
         flags = SPT_PATH_ALIVE;
         ps_flags[i] = flags;
     }
@@ -349,4 +355,24 @@ __kernel void k_accumulate(ALL_BUFFERS)
         s.z += (float)(((ulong)a[5] << 32) | a[4]) * unit;
     }
     chunk_sum[pixel] = s;
+#ifdef SPT_AOV
+    /* The AOVs of the samples kept (w = 1; a dropped sample has w = 0) and the
+     * squares of their linear sRGB, in the same sample order. */
+    float4 alb = (float4)(0.0f), nz = (float4)(0.0f), pos = (float4)(0.0f), sq = (float4)(0.0f);
+    for (uint k = 0; k < n; k++) {
+        uint w = pixel + k * npix;
+        float4 c = contrib[w];
+        float keep = c.w;
+        float3 rgb = path_xyz_to_linear_srgb(c.xyz);
+        alb += keep * (float4)(aov_sample[3u * w].xyz, 0.0f);
+        nz += keep * aov_sample[3u * w + 1u];
+        pos += keep * (float4)(aov_sample[3u * w + 2u].xyz, 0.0f);
+        sq += keep * (float4)(rgb * rgb, 0.0f);
+    }
+    /* (albedo, Z), (N, 0), (P, 0), (squares, 0): src/render/film.h */
+    aov_sum[4u * pixel + 0u] = (float4)(alb.xyz, nz.w);
+    aov_sum[4u * pixel + 1u] = (float4)(nz.xyz, 0.0f);
+    aov_sum[4u * pixel + 2u] = pos;
+    aov_sum[4u * pixel + 3u] = sq;
+#endif
 }

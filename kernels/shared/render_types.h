@@ -287,11 +287,17 @@ typedef struct RenderParams {
     X(const GpuLight, lights)         \
     X(const float, env_data)
 
+/* With AOVs (kernels built with SPT_AOV): aov_sample holds 3 float4 per
+ * sample of the chunk, (albedo RGB, recorded flag), (N, Z), (P, 0), and
+ * aov_sum SPT_AOV_CHUNK_FLOATS / 4 float4 per pixel (src/render/film.h);
+ * without, one unused float4 each. */
 #define SPT_WORK_BUFFERS(X)           \
     X(uint, counters)                 \
     X(uint, queue_extend)             \
     X(float4, contrib)                \
     X(float4, chunk_sum)              \
-    X(uint, light_film)
+    X(uint, light_film)               \
+    X(float4, aov_sample)             \
+    X(float4, aov_sum)
 
 #endif

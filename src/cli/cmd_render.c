@@ -10,6 +10,7 @@
 #include <unistd.h>
 #include <limits.h>
 #include <sys/stat.h>
+#include <strings.h>
 
 #include "cl/cl_device.h"
 #include "cli/commands.h"
@@ -42,6 +43,9 @@ typedef struct RenderJob {
     RenderStats st;
     RenderDeviceStats per_dev[MAX_DEVICES];
     float *rgb;
+    float *aov;          /* the AOV layers' pixels (3 floats per pixel each) */
+    ExrChannel layers[16];
+    int layer_count;
 } RenderJob;
 
 static volatile sig_atomic_t stop_requested;
@@ -113,10 +117,17 @@ static int check_outputs(RenderJob *j, SptError *e)
         a->outputs[a->outputs_count++] = j->def_exr;
         a->outputs[a->outputs_count++] = j->def_png;
     }
-    int rc;
-    for (int i = 0; i < a->outputs_count; i++)
+    int rc, exr = 0;
+    for (int i = 0; i < a->outputs_count; i++) {
         if ((rc = image_output_check(a->outputs[i], e)))
             return rc;
+        size_t len = strlen(a->outputs[i]);
+        exr |= len >= 4 && !strcasecmp(a->outputs[i] + len - 4, ".exr");
+    }
+    if (a->rs.aov && !exr)
+        return spt_fail(e, SPT_EXIT_USAGE,
+                        "render: --aov adds layers to an EXR output, and no output is an .exr "
+                        "(add -o NAME.exr)");
     if (a->checkpoint || a->resume)
         return checkpoint_path_check(a->checkpoint ? a->checkpoint : a->resume, e);
     return SPT_EXIT_OK;
@@ -364,6 +375,36 @@ static void describe_devices(const RenderJob *j, char *out, size_t cap)
         fprintf(stderr, "devices: %s\n", out);
 }
 
+/* The AOV layers of --aov from the film, as EXR channels (OpenEXR's
+ * layer.channel names, as Cycles and Mitsuba write them). */
+static void make_layers(RenderJob *j)
+{
+    static const struct {
+        unsigned bit;
+        const char *names[3];
+    } layer[] = {
+        {SPT_AOV_ALBEDO, {"albedo.R", "albedo.G", "albedo.B"}},
+        {SPT_AOV_NORMAL, {"N.X", "N.Y", "N.Z"}},
+        {SPT_AOV_DEPTH, {"Z", NULL, NULL}},
+        {SPT_AOV_POSITION, {"P.X", "P.Y", "P.Z"}},
+        {SPT_AOV_VARIANCE, {"variance.R", "variance.G", "variance.B"}},
+        {SPT_AOV_SPP, {"spp", NULL, NULL}},
+    };
+    unsigned mask = j->a.rs.aov;
+    size_t npix = (size_t)j->film.width * j->film.height;
+    int nl = (int)(sizeof layer / sizeof layer[0]);
+    j->aov = spt_malloc((size_t)nl * 3 * npix * sizeof(float));
+    j->layer_count = 0;
+    for (int l = 0; l < nl; l++) {
+        if (!(mask & layer[l].bit) || (!j->film.aov && layer[l].bit != SPT_AOV_SPP))
+            continue;
+        float *px = j->aov + (size_t)l * 3 * npix;
+        int channels = film_aov_layer(&j->film, layer[l].bit, px);
+        for (int c = 0; c < channels; c++)
+            j->layers[j->layer_count++] = (ExrChannel){layer[l].names[c], SPT_EXR_FLOAT, px + c, channels};
+    }
+}
+
 /* The film as every output image (with the render's metadata), then the final
  * checkpoint: all written to temporary files first and renamed over their names
  * only when every one was written, so a failed run (a full disk at the second
@@ -387,6 +428,11 @@ static int write_outputs(RenderJob *j, SptError *e)
     snprintf(nan_s, sizeof nan_s, "%llu", (unsigned long long)j->st.nan_dropped);
     image_meta_add(&meta, "max_depth", depth_s);
     image_meta_add(&meta, "nan_dropped", nan_s);
+    if (rs->aov) {
+        make_layers(j);
+        meta.layers = j->layers;
+        meta.layer_count = j->layer_count;
+    }
     DisplayOptions disp = {(float)a->exposure, a->tonemap};
     const char *fail_at = getenv("SPECTRACE_TEST_FAIL_OUTPUT");
     atomic_test_fail_commit_at = fail_at ? atoi(fail_at) : 0;
@@ -410,6 +456,7 @@ static void job_free(RenderJob *j)
 {
     checkpoint_run_free(&j->ckpt);
     free(j->rgb);
+    free(j->aov);
     film_free(&j->film);
     gpu_scene_free(&j->gpu);
     cl_device_list_free(&j->devices);

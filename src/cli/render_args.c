@@ -10,9 +10,10 @@
 #include <string.h>
 
 #include "io/image_out.h"
+#include "render/film.h"
 
 enum { KIND_LIST, KIND_INT, KIND_U32, KIND_DBL, KIND_FLT, KIND_STR, KIND_FLAG, KIND_TONEMAP,
-       KIND_CAUSTICS, KIND_HELP };
+       KIND_CAUSTICS, KIND_AOV, KIND_HELP };
 
 /* One row of the list, with where its value goes in RenderArgs. */
 typedef struct OptRow {
@@ -155,6 +156,9 @@ static int store(RenderArgs *a, const OptRow *r, const char *arg)
             *(int *)field = !strcmp(arg, "off") ? SPT_CAUSTICS_OFF
                             : !strcmp(arg, "on") ? SPT_CAUSTICS_ON : SPT_CAUSTICS_AUTO;
         break;
+    case KIND_AOV:
+        ok = !film_aov_parse(arg, (unsigned *)field);
+        break;
     }
     if (!ok) {
         spt_error("render: --%s '%s': %s", r->option, arg, r->expect);
@@ -176,6 +180,7 @@ static void set_defaults(RenderArgs *a)
 #define DEF_FLAG(f, def) f = (def);
 #define DEF_TONEMAP(f, def) f = (def);
 #define DEF_CAUSTICS(f, def) f = (def);
+#define DEF_AOV(f, def) f = (def);
 #define DEF_HELP(f, def) f = (def);
 #define DEFAULT(where, kind, type, name, option, short_name, metavar, def, ...) \
     DEF_##kind(SPT_OPT_IF_RS_##where(a->rs.name) SPT_OPT_IF_CLI_##where(a->name), def)

@@ -20,6 +20,7 @@
 #define SPT_ARGS_FIELD_FLAG(type, name) type name;
 #define SPT_ARGS_FIELD_TONEMAP(type, name) type name;
 #define SPT_ARGS_FIELD_CAUSTICS(type, name) type name;
+#define SPT_ARGS_FIELD_AOV(type, name) type name;
 #define SPT_ARGS_FIELD_HELP(type, name) type name;
 #define SPT_ARGS_CLI_FIELD(where, kind, type, name, ...) \
     SPT_OPT_IF_CLI_##where(SPT_ARGS_FIELD_##kind(type, name))

@@ -236,14 +236,26 @@ int exr_write_layers(const char *path, int width, int height, const ExrChannel *
 int exr_write_rgb(const char *path, const float *rgb, int width, int height,
                   const ExrAttr *attrs, int attr_count, SptError *e)
 {
+    return exr_write_rgb_layers(path, rgb, width, height, NULL, 0, attrs, attr_count, e);
+}
+
+int exr_write_rgb_layers(const char *path, const float *rgb, int width, int height,
+                         const ExrChannel *layers, int layer_count, const ExrAttr *attrs,
+                         int attr_count, SptError *e)
+{
     if (!rgb)
         return spt_fail(e, SPT_EXIT_OUTPUT, "%s: no pixels to write", path);
-    ExrChannel ch[3] = {
-        {"R", SPT_EXR_FLOAT, rgb + 0, 3},
-        {"G", SPT_EXR_FLOAT, rgb + 1, 3},
-        {"B", SPT_EXR_FLOAT, rgb + 2, 3},
-    };
-    return write_atomic(path, width, height, ch, 3, attrs, attr_count, 1, e);
+    if (layer_count < 0 || layer_count > EXR_MAX_CHANNELS - 3 || (layer_count && !layers))
+        return spt_fail(e, SPT_EXIT_OUTPUT, "%s: invalid layer count %d", path, layer_count);
+    ExrChannel *ch = spt_malloc((size_t)(3 + layer_count) * sizeof *ch);
+    ch[0] = (ExrChannel){"R", SPT_EXR_FLOAT, rgb + 0, 3};
+    ch[1] = (ExrChannel){"G", SPT_EXR_FLOAT, rgb + 1, 3};
+    ch[2] = (ExrChannel){"B", SPT_EXR_FLOAT, rgb + 2, 3};
+    for (int i = 0; i < layer_count; i++)
+        ch[3 + i] = layers[i];
+    int rc = write_atomic(path, width, height, ch, 3 + layer_count, attrs, attr_count, 1, e);
+    free(ch);
+    return rc;
 }
 
 void exr_layers_free(ExrLayers *l)

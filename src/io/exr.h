@@ -56,6 +56,13 @@ int exr_write_layers(const char *path, int width, int height, const ExrChannel *
 int exr_write_rgb(const char *path, const float *rgb, int width, int height,
                   const ExrAttr *attrs, int attr_count, SptError *e);
 
+/* exr_write_rgb with more channels: layer_count channels of layers (names as
+ * OpenEXR's layer.channel convention has them, e.g. "albedo.R", "Z") beside R,
+ * G and B. */
+int exr_write_rgb_layers(const char *path, const float *rgb, int width, int height,
+                         const ExrChannel *layers, int layer_count, const ExrAttr *attrs,
+                         int attr_count, SptError *e);
+
 /* The content of a file read by exr_read_layers; free with exr_layers_free. */
 typedef struct ExrLayers {
     int width, height;

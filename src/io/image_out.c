@@ -246,7 +246,8 @@ static int write_exr(const char *path, const float *rgb, int width, int height,
             attrs[n++] = a;
         }
     }
-    return exr_write_rgb(path, rgb, width, height, attrs, n, e);
+    return exr_write_rgb_layers(path, rgb, width, height, meta ? meta->layers : NULL,
+                                meta ? meta->layer_count : 0, attrs, n, e);
 }
 
 /* Encodes through OpenImageIO in memory, then writes the bytes atomically. */

@@ -19,6 +19,7 @@
 #include <stdint.h>
 
 #include "core/util.h"
+#include "io/exr.h"
 
 /* Tone maps for display formats. */
 #define SPT_TONEMAP_NONE 0
@@ -42,6 +43,8 @@ typedef struct ImageMeta {
     const char *device;    /* e.g. "pthread-Intel(R) Xeon(R) (PoCL 5.0)" */
     uint32_t seed;
     const char *scene;     /* the scene path as given */
+    const ExrChannel *layers; /* EXR only: more channels beside R, G, B (AOV layers) */
+    int layer_count;
     int extra_count;
     struct {
         const char *key;   /* [A-Za-z0-9_.]+, stored as "spectrace:<key>" */

@@ -283,9 +283,7 @@ static void local_done(void *ctx, const Film *film, const unsigned char *done, u
     uint32_t begin, n;
     if (inflight_pop_done(&G->local, done, &begin, &n)) {
         g_chunk_done(G, begin, n, &G->local_film);
-        size_t np = (size_t)G->local_film.width * G->local_film.height;
-        memset(G->local_film.xyz, 0, 3 * np * sizeof(double));
-        memset(G->local_film.count, 0, np * sizeof(double));
+        film_clear(&G->local_film);
     }
     pthread_mutex_unlock(&G->lock);
 }
@@ -294,10 +292,10 @@ static void local_done(void *ctx, const Film *film, const unsigned char *done, u
 static void *server_main(void *arg)
 {
     Global *G = arg;
-    size_t np = (size_t)G->film->width * G->film->height;
     Film in;
-    film_init(&in, G->film->width, G->film->height);
-    double *buf = spt_malloc(4 * np * sizeof(double));
+    film_init_aov(&in, G->film->width, G->film->height, G->film->aov != NULL);
+    size_t nd = film_doubles(&in);
+    double *buf = spt_malloc(nd * sizeof(double));
     /* Requests held back by the test hook ranks_first: 1 + the samples wanted. */
     uint64_t *held = spt_calloc((size_t)g_size, sizeof *held);
     while (G->finished < g_size - 1) {
@@ -338,9 +336,8 @@ static void *server_main(void *arg)
         } else if (st.MPI_TAG == TAG_DONE) {
             DoneMsg d;
             MPI_Recv(&d, (int)sizeof d, MPI_BYTE, src, TAG_DONE, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-            MPI_Recv(buf, (int)(4 * np), MPI_DOUBLE, src, TAG_FILM, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-            memcpy(in.xyz, buf, 3 * np * sizeof(double));
-            memcpy(in.count, buf + 3 * np, np * sizeof(double));
+            MPI_Recv(buf, (int)nd, MPI_DOUBLE, src, TAG_FILM, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            film_unpack(&in, buf);
             pthread_mutex_lock(&G->lock);
             if (d.begin < G->total && d.n <= G->total - d.begin)
                 g_chunk_done(G, d.begin, d.n, &in);
@@ -430,7 +427,7 @@ static int mpi_render(const ClDeviceInfo *const *infos, int count, const GpuScen
     G.t0 = spt_now();
     G.finish = spt_calloc((size_t)g_size, sizeof(FinishMsg));
     G.started = spt_calloc((size_t)g_size, 1);
-    film_init(&G.local_film, film->width, film->height);
+    film_init_aov(&G.local_film, film->width, film->height, film->aov != NULL);
     pthread_t server;
     pthread_create(&server, NULL, server_main, &G);
 
@@ -537,13 +534,10 @@ static void remote_done(void *ctx, const Film *film, const unsigned char *done, 
     DoneMsg d;
     if (!inflight_pop_done(&w->inflight, done, &d.begin, &d.n))
         return;
-    size_t np = (size_t)w->film.width * w->film.height;
-    memcpy(w->buf, w->film.xyz, 3 * np * sizeof(double));
-    memcpy(w->buf + 3 * np, w->film.count, np * sizeof(double));
-    memset(w->film.xyz, 0, 3 * np * sizeof(double));
-    memset(w->film.count, 0, np * sizeof(double));
+    film_pack(&w->film, w->buf);
+    film_clear(&w->film);
     MPI_Send(&d, (int)sizeof d, MPI_BYTE, 0, TAG_DONE, MPI_COMM_WORLD);
-    MPI_Send(w->buf, (int)(4 * np), MPI_DOUBLE, 0, TAG_FILM, MPI_COMM_WORLD);
+    MPI_Send(w->buf, (int)film_doubles(&w->film), MPI_DOUBLE, 0, TAG_FILM, MPI_COMM_WORLD);
     w->samples += d.n;
 }
 
@@ -613,8 +607,8 @@ static int worker_run(const unsigned char *job, size_t len, const char *device_s
     rs.chunk_ctx = &w;
     rs.on_chunk = remote_done;
     rs.on_chunk_ctx = &w;
-    film_init(&w.film, rs.width, rs.height);
-    w.buf = spt_malloc((size_t)rs.width * rs.height * 4 * sizeof(double));
+    film_init_aov(&w.film, rs.width, rs.height, rs.aov != 0);
+    w.buf = spt_malloc(film_doubles(&w.film) * sizeof(double));
     RenderStats st;
     rc = render_devices(devs, nsel, &gpu, &js.cam, &rs, &w.film, &st, NULL, &e);
     fin->paths = st.paths;

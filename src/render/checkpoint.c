@@ -19,6 +19,12 @@
 
 #define CKPT_VERSION 1
 
+/* The channels of the film's AOV sums (src/render/film.h, in its order), after
+ * "aov_sum." (the sums rounded to float) and "aov_sum_lo." (what that lost). */
+static const char *const aov_sum_names[SPT_AOV_SUMS] = {
+    "albedo.R", "albedo.G", "albedo.B", "N.X", "N.Y", "N.Z", "Z",
+    "P.X",      "P.Y",      "P.Z",      "sq.R", "sq.G", "sq.B"};
+
 /* FNV-1a 64 of a whole file's bytes. */
 static int hash_file(const char *path, unsigned long long *h, SptError *e)
 {
@@ -101,6 +107,7 @@ int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSetting
 #define KEY_RS_DBL(name) key_add(k, #name, "%.17g", rs->name);
 #define KEY_RS_FLAG(name) key_add(k, #name, "%d", rs->name);
 #define KEY_RS_CAUSTICS(name) key_add(k, #name, "%d", rs->name);
+#define KEY_RS_AOV(name) key_add(k, #name, "%u", rs->name);
 #define KEY_SKY_STR(name)                                                                  \
     if ((rc = key_add_file(k, #name, rs->sky ? rs->sky->name : NULL, e)))                  \
         return rc;
@@ -218,13 +225,30 @@ int checkpoint_write(const char *path, const CheckpointKey *k, const Film *film,
     for (size_t i = 0; i < n; i++)
         cnt[i] = (uint32_t)film->count[i];
     film_to_linear_srgb(film, rgb);
-    ExrChannel ch[10] = {
+    ExrChannel ch[10 + 2 * SPT_AOV_SUMS] = {
         {"sum.X", SPT_EXR_FLOAT, hi + 0, 3},    {"sum.Y", SPT_EXR_FLOAT, hi + 1, 3},
         {"sum.Z", SPT_EXR_FLOAT, hi + 2, 3},    {"sum_lo.X", SPT_EXR_FLOAT, lo + 0, 3},
         {"sum_lo.Y", SPT_EXR_FLOAT, lo + 1, 3}, {"sum_lo.Z", SPT_EXR_FLOAT, lo + 2, 3},
         {"count", SPT_EXR_UINT, cnt, 1},        {"R", SPT_EXR_FLOAT, rgb + 0, 3},
         {"G", SPT_EXR_FLOAT, rgb + 1, 3},       {"B", SPT_EXR_FLOAT, rgb + 2, 3},
     };
+    int nch = 10;
+    float *ahi = NULL, *alo = NULL;
+    char names[2 * SPT_AOV_SUMS][32];
+    if (film->aov) {
+        ahi = spt_malloc(SPT_AOV_SUMS * n * sizeof(float));
+        alo = spt_malloc(SPT_AOV_SUMS * n * sizeof(float));
+        for (size_t i = 0; i < SPT_AOV_SUMS * n; i++) {
+            ahi[i] = (float)film->aov[i];
+            alo[i] = (float)(film->aov[i] - (double)ahi[i]);
+        }
+        for (int k = 0; k < SPT_AOV_SUMS; k++) {
+            snprintf(names[2 * k], sizeof names[0], "aov_sum.%s", aov_sum_names[k]);
+            snprintf(names[2 * k + 1], sizeof names[0], "aov_sum_lo.%s", aov_sum_names[k]);
+            ch[nch++] = (ExrChannel){names[2 * k], SPT_EXR_FLOAT, ahi + k, SPT_AOV_SUMS};
+            ch[nch++] = (ExrChannel){names[2 * k + 1], SPT_EXR_FLOAT, alo + k, SPT_AOV_SUMS};
+        }
+    }
     uint32_t ndone;
     char *ranges = ranges_format(done, total, &ndone);
     char seed[16];
@@ -238,8 +262,10 @@ int checkpoint_write(const char *path, const CheckpointKey *k, const Film *film,
         {"spectrace:spp_target", SPT_EXR_ATTR_INT, NULL, (int32_t)total, 0},
         {"spectrace:seed", SPT_EXR_ATTR_STRING, seed, 0, 0},
     };
-    int rc = exr_write_layers(path, film->width, film->height, ch, 10, at,
+    int rc = exr_write_layers(path, film->width, film->height, ch, nch, at,
                               (int)(sizeof at / sizeof at[0]), e);
+    free(ahi);
+    free(alo);
     free(ranges);
     free(hi);
     free(lo);
@@ -367,7 +393,30 @@ int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film
         goto out;
     }
     size_t n = (size_t)L.width * L.height;
-    film_init(film, L.width, L.height);
+    /* AOV sums: in the file of a render with --aov (whose value is in the key). */
+    const ExrChannel *ahi[SPT_AOV_SUMS], *alo[SPT_AOV_SUMS];
+    int aov = 0;
+    for (int k = 0; k < SPT_AOV_SUMS; k++) {
+        char name[32];
+        snprintf(name, sizeof name, "aov_sum.%s", aov_sum_names[k]);
+        ahi[k] = exr_layers_channel(&L, name);
+        snprintf(name, sizeof name, "aov_sum_lo.%s", aov_sum_names[k]);
+        alo[k] = exr_layers_channel(&L, name);
+        aov += ahi[k] && alo[k] && ahi[k]->type == SPT_EXR_FLOAT && alo[k]->type == SPT_EXR_FLOAT;
+    }
+    if (aov != 0 && aov != SPT_AOV_SUMS) {
+        free(flags);
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: some aov_sum channels missing", path);
+        goto out;
+    }
+    film_init_aov(film, L.width, L.height, aov != 0);
+    for (size_t i = 0; i < n && aov; i++)
+        for (int k = 0; k < SPT_AOV_SUMS; k++) {
+            double v = (double)((const float *)ahi[k]->data)[i] + (double)((const float *)alo[k]->data)[i];
+            if (!isfinite(v))
+                rc = 1;
+            film->aov[SPT_AOV_SUMS * i + k] = v;
+        }
     const uint32_t *cnt = c[6]->data;
     for (size_t i = 0; i < n && !rc; i++) {
         for (int j = 0; j < 3; j++) {
@@ -467,7 +516,7 @@ int checkpoint_run_begin(CheckpointRun *run, const char *scene_path, const char 
     CheckpointKey key;
     int rc;
     if (!out) {
-        film_init(film, rs->width, rs->height);
+        film_init_aov(film, rs->width, rs->height, rs->aov != 0);
         checkpoint_writer_init(&run->writer, NULL, 0, NULL, NULL, total);
         return 0;
     }
@@ -480,7 +529,7 @@ int checkpoint_run_begin(CheckpointRun *run, const char *scene_path, const char 
             run->resumed += run->done_in[i];
         rs->done_in = run->done_in;
     } else {
-        film_init(film, rs->width, rs->height);
+        film_init_aov(film, rs->width, rs->height, rs->aov != 0);
     }
     checkpoint_writer_init(&run->writer, out, every, &key, run->done_in, total);
     rs->on_chunk = checkpoint_on_chunk;

@@ -6,6 +6,8 @@
  *   sum_lo.X, sum_lo.Y, ...  float: what that rounding lost (sum - hi), so the
  *                            pair keeps about 48 bits of the double sums
  *   count                    uint: samples kept (NaN/Inf samples are dropped)
+ *   aov_sum.*, aov_sum_lo.*  float: with --aov, the film's AOV sums as such pairs
+ *                            (albedo.R, ..., N.X, ..., Z, P.X, ..., sq.R, ...)
  *   R, G, B                  float: a linear sRGB preview of the samples done
  * and the attributes
  *   spectrace:checkpoint     int 1 (the format version; absent: not a checkpoint)

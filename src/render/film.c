@@ -3,27 +3,44 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "color/spd.h"
 #include "core/util.h"
 
 void film_init(Film *f, int width, int height)
 {
+    film_init_aov(f, width, height, 0);
+}
+
+void film_init_aov(Film *f, int width, int height, int aov)
+{
     size_t n = (size_t)width * (size_t)height;
     f->width = width;
     f->height = height;
     f->xyz = spt_calloc(3 * n, sizeof(double));
     f->count = spt_calloc(n, sizeof(double));
+    f->aov = aov ? spt_calloc(SPT_AOV_SUMS * n, sizeof(double)) : NULL;
 }
 
 void film_free(Film *f)
 {
     free(f->xyz);
     free(f->count);
+    free(f->aov);
     memset(f, 0, sizeof *f);
 }
 
-void film_add_chunk(Film *f, const float *xyzn)
+void film_clear(Film *f)
+{
+    size_t n = (size_t)f->width * (size_t)f->height;
+    memset(f->xyz, 0, 3 * n * sizeof(double));
+    memset(f->count, 0, n * sizeof(double));
+    if (f->aov)
+        memset(f->aov, 0, SPT_AOV_SUMS * n * sizeof(double));
+}
+
+void film_add_chunk(Film *f, const float *xyzn, const float *aov)
 {
     size_t n = (size_t)f->width * (size_t)f->height;
     for (size_t i = 0; i < n; i++) {
@@ -31,6 +48,19 @@ void film_add_chunk(Film *f, const float *xyzn)
         f->xyz[3 * i + 1] += xyzn[4 * i + 1];
         f->xyz[3 * i + 2] += xyzn[4 * i + 2];
         f->count[i] += xyzn[4 * i + 3];
+    }
+    if (!f->aov || !aov)
+        return;
+    for (size_t i = 0; i < n; i++) {
+        const float *a = aov + SPT_AOV_CHUNK_FLOATS * i;
+        double *s = f->aov + SPT_AOV_SUMS * i;
+        for (int c = 0; c < 3; c++) {
+            s[SPT_AOV_S_ALBEDO + c] += a[c];
+            s[SPT_AOV_S_N + c] += a[4 + c];
+            s[SPT_AOV_S_P + c] += a[8 + c];
+            s[SPT_AOV_S_SQ + c] += a[12 + c];
+        }
+        s[SPT_AOV_S_Z] += a[3];
     }
 }
 
@@ -41,6 +71,97 @@ void film_add(Film *dst, const Film *src)
         dst->xyz[i] += src->xyz[i];
     for (size_t i = 0; i < n; i++)
         dst->count[i] += src->count[i];
+    if (dst->aov && src->aov)
+        for (size_t i = 0; i < SPT_AOV_SUMS * n; i++)
+            dst->aov[i] += src->aov[i];
+}
+
+size_t film_doubles(const Film *f)
+{
+    size_t n = (size_t)f->width * (size_t)f->height;
+    return (4 + (f->aov ? SPT_AOV_SUMS : 0)) * n;
+}
+
+void film_pack(const Film *f, double *out)
+{
+    size_t n = (size_t)f->width * (size_t)f->height;
+    memcpy(out, f->xyz, 3 * n * sizeof(double));
+    memcpy(out + 3 * n, f->count, n * sizeof(double));
+    if (f->aov)
+        memcpy(out + 4 * n, f->aov, SPT_AOV_SUMS * n * sizeof(double));
+}
+
+void film_unpack(Film *f, const double *in)
+{
+    size_t n = (size_t)f->width * (size_t)f->height;
+    memcpy(f->xyz, in, 3 * n * sizeof(double));
+    memcpy(f->count, in + 3 * n, n * sizeof(double));
+    if (f->aov)
+        memcpy(f->aov, in + 4 * n, SPT_AOV_SUMS * n * sizeof(double));
+}
+
+int film_aov_layer(const Film *f, unsigned which, float *out)
+{
+    size_t n = (size_t)f->width * (size_t)f->height;
+    int channels = which == SPT_AOV_DEPTH || which == SPT_AOV_SPP ? 1 : 3;
+    int first = which == SPT_AOV_ALBEDO ? SPT_AOV_S_ALBEDO
+                : which == SPT_AOV_NORMAL ? SPT_AOV_S_N
+                : which == SPT_AOV_DEPTH ? SPT_AOV_S_Z
+                : which == SPT_AOV_POSITION ? SPT_AOV_S_P : 0;
+    for (size_t i = 0; i < n; i++) {
+        double c = f->count[i];
+        if (which == SPT_AOV_SPP) {
+            out[i] = (float)c;
+            continue;
+        }
+        const double *s = f->aov + SPT_AOV_SUMS * i;
+        if (which == SPT_AOV_VARIANCE) {
+            /* The sample variance of the pixel's samples, over their number. */
+            double xyz[3] = {0, 0, 0}, mean[3] = {0, 0, 0};
+            if (c > 0) {
+                for (int k = 0; k < 3; k++)
+                    xyz[k] = f->xyz[3 * i + k] / c;
+                xyz_to_linear_srgb(xyz, mean);
+            }
+            for (int k = 0; k < 3; k++) {
+                double v = c >= 2 ? (s[SPT_AOV_S_SQ + k] - c * mean[k] * mean[k]) / ((c - 1) * c) : 0.0;
+                out[3 * i + k] = (float)(v > 0 ? v : 0.0);
+            }
+            continue;
+        }
+        for (int k = 0; k < channels; k++)
+            out[channels * i + k] = c > 0 ? (float)(s[first + k] / c) : 0.0f;
+    }
+    return channels;
+}
+
+int film_aov_parse(const char *list, unsigned *mask)
+{
+    static const struct {
+        const char *name;
+        unsigned bit;
+    } names[] = {{"albedo", SPT_AOV_ALBEDO},    {"N", SPT_AOV_NORMAL},    {"normal", SPT_AOV_NORMAL},
+                 {"Z", SPT_AOV_DEPTH},          {"depth", SPT_AOV_DEPTH}, {"P", SPT_AOV_POSITION},
+                 {"position", SPT_AOV_POSITION}, {"variance", SPT_AOV_VARIANCE},
+                 {"spp", SPT_AOV_SPP},          {"all", SPT_AOV_ALL}};
+    unsigned m = 0;
+    const char *p = list;
+    for (;;) {
+        const char *end = strchr(p, ',');
+        size_t len = end ? (size_t)(end - p) : strlen(p);
+        unsigned bit = 0;
+        for (size_t k = 0; k < sizeof names / sizeof names[0] && !bit; k++)
+            if (strlen(names[k].name) == len && !strncasecmp(p, names[k].name, len))
+                bit = names[k].bit;
+        if (!bit)
+            return -1;
+        m |= bit;
+        if (!end)
+            break;
+        p = end + 1;
+    }
+    *mask = m;
+    return 0;
 }
 
 void film_to_linear_srgb(const Film *f, float *rgb)
@@ -76,6 +197,9 @@ size_t film_nonfinite_pixels(const Film *f)
             for (int k = 0; k < 3; k++)
                 ok &= isfinite((float)rgb[k]);
         }
+        if (f->aov)
+            for (int k = 0; k < SPT_AOV_SUMS; k++)
+                ok &= isfinite((float)f->aov[SPT_AOV_SUMS * i + k]);
         bad += !ok;
     }
     return bad;

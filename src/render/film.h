@@ -1,35 +1,82 @@
-/* The film: per-pixel sums of XYZ and sample counts in double precision. Films
- * of disjoint sample ranges add up to the image of their union (film_add). */
+/* The film: per-pixel sums of XYZ and sample counts in double precision, and
+ * with AOVs (--aov) the per-pixel sums the AOV layers are made of. Films of
+ * disjoint sample ranges add up to the image of their union (film_add). */
 #ifndef SPT_FILM_H
 #define SPT_FILM_H
 
 #include <stddef.h>
 #include <stdint.h>
 
+/* The AOV layers of --aov (a bit mask). */
+#define SPT_AOV_ALBEDO 1u   /* albedo.R/G/B */
+#define SPT_AOV_NORMAL 2u   /* N.X/Y/Z */
+#define SPT_AOV_DEPTH 4u    /* Z */
+#define SPT_AOV_POSITION 8u /* P.X/Y/Z */
+#define SPT_AOV_VARIANCE 16u /* variance.R/G/B */
+#define SPT_AOV_SPP 32u     /* spp */
+#define SPT_AOV_ALL 63u
+
+/* The AOV sums of a pixel, SPT_AOV_SUMS doubles in this order: the sums over
+ * its kept samples of the albedo (linear sRGB), the shading normal (world), the
+ * depth (along the camera's view axis), the position (world) of the first hit,
+ * and the squares of the sample's linear sRGB radiance (the variance layer). The
+ * kernels' per-pixel sums (kernels/device/wavefront.cl, k_accumulate) come as
+ * SPT_AOV_CHUNK_FLOATS floats per pixel: (albedo RGB, Z), (N, 0), (P, 0),
+ * (squares RGB, 0). */
+#define SPT_AOV_SUMS 13
+#define SPT_AOV_CHUNK_FLOATS 16
+enum { SPT_AOV_S_ALBEDO = 0, SPT_AOV_S_N = 3, SPT_AOV_S_Z = 6, SPT_AOV_S_P = 7, SPT_AOV_S_SQ = 10 };
+
 typedef struct Film {
     int width, height;
     double *xyz;   /* 3 per pixel: sums */
     double *count; /* per pixel: samples kept */
+    double *aov;   /* SPT_AOV_SUMS per pixel, or NULL: no AOVs */
 } Film;
 
-/* Allocates a zeroed film. */
+/* Allocates a zeroed film; film_init_aov with aov != 0 also keeps the AOV sums. */
 void film_init(Film *f, int width, int height);
+void film_init_aov(Film *f, int width, int height, int aov);
 void film_free(Film *f);
 
-/* Adds per-pixel sums given as float4 (X, Y, Z, count) for every pixel. */
-void film_add_chunk(Film *f, const float *xyzn);
+/* Zeroes every sum and count. */
+void film_clear(Film *f);
 
-/* dst += src (same size). */
+/* Adds per-pixel sums given as float4 (X, Y, Z, count) for every pixel, and
+ * (when the film keeps AOVs) SPT_AOV_CHUNK_FLOATS floats of AOV sums per pixel. */
+void film_add_chunk(Film *f, const float *xyzn, const float *aov);
+
+/* dst += src (same size; the AOV sums when both keep them). */
 void film_add(Film *dst, const Film *src);
+
+/* The film as one array of doubles (for messages between processes):
+ * film_doubles values, packed and unpacked in the same order. */
+size_t film_doubles(const Film *f);
+void film_pack(const Film *f, double *out);
+void film_unpack(Film *f, const double *in);
 
 /* Linear sRGB (3 floats per pixel, rows top to bottom) of the mean XYZ of each
  * pixel; pixels without samples are black. rgb is malloc'd by the caller. */
 void film_to_linear_srgb(const Film *f, float *rgb);
 
+/* The AOV layer `which` (one SPT_AOV_* bit) of every pixel, as `channels` floats
+ * per pixel (3 for albedo, N, P and variance, 1 for Z and spp): the mean over
+ * the pixel's samples (N not renormalised; misses count as 0), the variance of
+ * the pixel's estimate (the sample variance of its samples' linear sRGB over
+ * their number; 0 below 2 samples), or the sample count. Returns channels; out
+ * is malloc'd by the caller with room for 3 floats per pixel. The film must keep
+ * AOVs (except for spp). */
+int film_aov_layer(const Film *f, unsigned which, float *out);
+
+/* Parses a --aov list ("albedo,N,Z,P,variance,spp" in any order, or "all";
+ * the names also as normal, depth, position; case-insensitive) into a mask.
+ * Returns 0, or -1 for an empty list or an unknown name. */
+int film_aov_parse(const char *list, unsigned *mask);
+
 /* Number of pixels whose sums, sample count or linear sRGB (film_to_linear_srgb)
- * are NaN or infinite as floats, the precision of every output and checkpoint.
- * No output may hold such a pixel: the kernels drop non-finite samples, so one is
- * an internal error. */
+ * are NaN or infinite as floats, the precision of every output and checkpoint;
+ * with AOVs, an AOV sum too. No output may hold such a pixel: the kernels drop
+ * non-finite samples, so one is an internal error. */
 size_t film_nonfinite_pixels(const Film *f);
 
 /* Smallest per-pixel sample count. */

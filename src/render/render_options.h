@@ -19,7 +19,8 @@
  *            the command line only (RenderArgs holds the SKY and CLI rows)
  *   kind     INT, U32 (whole numbers in [lo, hi]), DBL, FLT (numbers in [lo, hi],
  *            parsed as double), STR, FLAG, LIST (repeatable string), TONEMAP,
- *            CAUSTICS (auto, off, on: SPT_CAUSTICS_*), HELP
+ *            CAUSTICS (auto, off, on: SPT_CAUSTICS_*), AOV (a list of AOV layers
+ *            into a mask: src/render/film.h), HELP
  *   type     the field's C type
  *   default  the value when the option is not given
  *   flags    SPT_OPT_* below
@@ -68,6 +69,10 @@ enum { SPT_CAUSTICS_AUTO = 0, SPT_CAUSTICS_OFF = 1, SPT_CAUSTICS_ON = 2 };
       "OpenCL device(s): index, name substring, cpu or gpu, a comma\n"                         \
       "list, or all (default: SPECTRACE_DEVICE, else the first GPU,\n"                         \
       "else the CPU); several devices share the samples")                                      \
+    X(RS, AOV, unsigned, aov, "aov", 0, "LIST", 0, 0, 0, SPT_OPT_IMAGE | SPT_OPT_MPI,          \
+      "expected a comma list of albedo, N, Z, P, variance, spp, or all",                        \
+      "AOV layers added to the EXR, a comma list: albedo, N\n"                                \
+      "(normal), Z (depth), P (position), variance, spp; or all")                              \
     X(CLI, DBL, double, exposure, "exposure", 0, "EV", 0, -64, 64, 0,                           \
       "expected a number of stops from -64 to 64",                                              \
       "display outputs (PNG, JPEG) are scaled by 2^EV")                                         \

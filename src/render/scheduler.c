@@ -180,10 +180,11 @@ static void sched_give_back(Scheduler *s, uint32_t begin, uint32_t n)
     pthread_mutex_unlock(&s->lock);
 }
 
-static void sched_done(Scheduler *s, uint32_t begin, uint32_t n, uint64_t paths, const float *sums)
+static void sched_done(Scheduler *s, uint32_t begin, uint32_t n, uint64_t paths, const float *sums,
+                       const float *aov_sums)
 {
     pthread_mutex_lock(&s->lock);
-    film_add_chunk(s->film, sums);
+    film_add_chunk(s->film, sums, aov_sums);
     for (uint32_t i = 0; i < n; i++)
         s->done[begin + i] = 1;
     s->done_count += n;
@@ -229,6 +230,9 @@ static void *worker_main(void *arg)
     p.pool_size = w.pool;
     w.stop = rs->stop;
     float *sums = spt_malloc((size_t)rs->width * rs->height * 4 * sizeof(float));
+    float *aov_sums = w.aov ? spt_malloc((size_t)rs->width * rs->height * SPT_AOV_CHUNK_FLOATS *
+                                         sizeof(float))
+                            : NULL;
     /* The test hooks that concern this device. */
     int fail_after = rs->test.fail_device == wk->index + 1 ? rs->test.fail_after : -1;
     int slow_ms = rs->test.slow_device == wk->index + 1 ? rs->test.slow_ms : 0;
@@ -243,11 +247,11 @@ static void *worker_main(void *arg)
                 usleep((useconds_t)slow_ms * 1000u);
             uint64_t before = wk->st.paths;
             wk->rc = render_chunk(&w, &p, rs->sample_begin + begin, n, rs->profile, sums,
-                                  &wk->st, &wk->e);
+                                  aov_sums, &wk->st, &wk->e);
             if (!wk->rc) {
                 wk->busy_seconds += spt_now() - t;
                 wk->samples += n;
-                sched_done(wk->s, begin, n, wk->st.paths - before, sums);
+                sched_done(wk->s, begin, n, wk->st.paths - before, sums, aov_sums);
             }
         }
         if (wk->rc) {
@@ -259,6 +263,7 @@ static void *worker_main(void *arg)
         chunks++;
     }
     free(sums);
+    free(aov_sums);
     wavefront_free(&w);
     sched_leave(wk->s, wk->index);
     return NULL;

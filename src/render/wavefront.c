@@ -181,7 +181,10 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
     uint64_t spp = (16ull * w->pool + npix - 1) / npix;
     if (rs->spp > 0 && spp > ((uint64_t)rs->spp + 15) / 16)
         spp = ((uint64_t)rs->spp + 15) / 16;
-    uint64_t cap = (64ull << 20) / (npix * 16ull);
+    /* With AOVs a sample also keeps 3 float4 (aov_sample). */
+    w->aov = rs->aov != 0;
+    uint64_t sample_bytes = w->aov ? 64ull : 16ull;
+    uint64_t cap = (64ull << 20) / (npix * sample_bytes);
     if (spp > cap)
         spp = cap;
     if (spp < 1)
@@ -200,6 +203,12 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
     allocs[na++].bytes = (size_t)(npix * w->chunk_spp * 16ull);
     allocs[na].name = "light film";
     allocs[na++].bytes = (size_t)(npix * SPT_SPLAT_WORDS * 4ull);
+    if (w->aov) {
+        allocs[na].name = "AOV samples";
+        allocs[na++].bytes = (size_t)(npix * w->chunk_spp * 48ull);
+        allocs[na].name = "AOV sums";
+        allocs[na++].bytes = (size_t)(npix * 64ull);
+    }
     allocs[na].name = "path state";
     allocs[na++].bytes = (size_t)w->pool * 168;
     if ((rc = cl_device_check_memory(info, allocs, na, e)))
@@ -225,10 +234,11 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
      * scene those requests only cost time. */
     double bvh_bytes = (double)g->bvh.node_count * sizeof(BvhNode) + (double)g->bvh.tri_data_bytes;
     int step_prefetch = w->ray_pairs && bvh_bytes > 0.25 * (double)cache;
-    char options[160];
-    snprintf(options, sizeof options, "%s%s%s",
+    char options[192];
+    snprintf(options, sizeof options, "%s%s%s%s",
              w->ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "-DSPT_BVH_SHORT_STACK=1 ",
              step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "",
+             w->aov ? "-DSPT_AOV=1 " : "",
              rs->test.inject_nan ? "-DSPT_TEST_INJECT_NAN=1" : "");
     if ((rc = cl_program_build(&w->dev, "kernels/device/wavefront.cl", options, &w->program, e)))
         return rc;
@@ -266,7 +276,12 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
         (rc = cl_buffer_create(&w->dev, "chunk sums", CL_MEM_READ_WRITE, (size_t)npix * 16,
                                NULL, &w->b.chunk_sum, e)) ||
         (rc = cl_buffer_create(&w->dev, "light film", CL_MEM_READ_WRITE,
-                               (size_t)(npix * SPT_SPLAT_WORDS * 4ull), NULL, &w->b.light_film, e)))
+                               (size_t)(npix * SPT_SPLAT_WORDS * 4ull), NULL, &w->b.light_film, e)) ||
+        (rc = cl_buffer_create(&w->dev, "AOV samples", CL_MEM_READ_WRITE,
+                               w->aov ? (size_t)(npix * w->chunk_spp * 48ull) : 16, NULL,
+                               &w->b.aov_sample, e)) ||
+        (rc = cl_buffer_create(&w->dev, "AOV sums", CL_MEM_READ_WRITE,
+                               w->aov ? (size_t)npix * 64 : 16, NULL, &w->b.aov_sum, e)))
         return rc;
     /* Test hook (RenderTestHooks poison): every path, shadow, queue, counter and
      * film buffer first holds the test's word, so that a value read before
@@ -320,7 +335,7 @@ static int run_kernel(Wavefront *w, int k, size_t n, double *acc, SptError *e)
 /* Renders samples [sample_begin, sample_begin + n) of every pixel on w and adds
  * their per-pixel sums to film. */
 int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, uint32_t n,
-                        int profile, float *sums, RenderStats *st, SptError *e)
+                        int profile, float *sums, float *aov_sums, RenderStats *st, SptError *e)
 {
     RenderParams p = *base;
     uint32_t npix = (uint32_t)(p.width * p.height);
@@ -366,6 +381,9 @@ int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, 
         return rc;
     SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.chunk_sum, CL_TRUE, 0,
                                         (size_t)npix * 16, sums, 0, NULL, NULL));
+    if (w->aov && aov_sums)
+        SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.aov_sum, CL_TRUE, 0,
+                                            (size_t)npix * 64, aov_sums, 0, NULL, NULL));
     st->nan_dropped += counters[SPT_CNT_NAN];
     st->paths += p.light_begin;
     return 0;
