@@ -22,7 +22,7 @@ CPPFLAGS := -Isrc -Ikernels -I$(BUILD)/gen -DCL_TARGET_OPENCL_VERSION=120 -D_GNU
 CFLAGS := -std=c11 $(OPT) -g -Wall -Wextra -MMD -MP $(SANFLAGS)
 CXXFLAGS := -std=c++17 $(OPT) -g -Wall -Wextra -MMD -MP $(SANFLAGS) -I/usr/include/stb -I/usr/include/nlohmann
 LDFLAGS := $(SANFLAGS)
-LDLIBS = $(PKG_LIBS) -lmeshoptimizer -lm -lpthread
+LDLIBS = $(PKG_LIBS) -lmeshoptimizer -lm -lpthread -ldl
 
 ifeq ($(V),1)
 Q :=
@@ -49,7 +49,7 @@ MPI_PROG := $(BUILD)/spectrace-mpi
 MPI_LIBS = $(shell $(MPICC) --showme:link 2>/dev/null)
 TOOL_BINS := $(patsubst tools/%.c,$(BUILD)/tools/%,$(wildcard tools/*.c))
 
-.PHONY: all deps render test test-san check tests bench mpi check-kernels clean
+.PHONY: all deps render test test-san check tests bench mpi check-kernels clean denoise
 all: $(PROG) $(TEST_BINS)
 
 # The "mpi" group too: the tests run build/spectrace-mpi under mpirun. Then the
@@ -67,8 +67,15 @@ render: deps
 	@$(MAKE) --no-print-directory $(PROG)
 	@tools/render_default.sh $(PROG)
 
-# The tests: install what is missing, build, run every test binary.
+# Open Image Denoise for --denoise (optional): the PyPI package pyoidn's
+# libraries into deps/oidn/ (tools/install_oidn.sh), never system-wide.
+denoise:
+	@tools/install_oidn.sh
+
+# The tests: install what is missing, build, run every test binary. The tests
+# of --denoise skip, saying why, where Open Image Denoise cannot be installed.
 test: deps
+	@tools/install_oidn.sh --optional
 	@$(MAKE) --no-print-directory tests
 	@tests/run_tests.sh $(BUILD)
 

@@ -12,11 +12,13 @@ packages=(
   libcmocka-dev
   libdraco-dev libmeshoptimizer-dev
 )
-# Extra groups, asked for by name: "mpi" for build/spectrace-mpi.
+# Extra groups, asked for by name: "mpi" for build/spectrace-mpi, "pip" for
+# tools/install_oidn.sh.
 for group in "$@"; do
   case "$group" in
     mpi) packages+=(openmpi-bin libopenmpi-dev) ;;
-    *) echo "error: install_deps.sh: unknown package group '$group' (known: mpi)" >&2; exit 2 ;;
+    pip) packages+=(python3-pip) ;;
+    *) echo "error: install_deps.sh: unknown package group '$group' (known: mpi, pip)" >&2; exit 2 ;;
   esac
 done
 

@@ -17,6 +17,7 @@
 #include "cli/render_args.h"
 #include "core/util.h"
 #include "io/atomic_file.h"
+#include "io/denoise.h"
 #include "io/image_out.h"
 #include "io/input_file.h"
 #include "mpi/mpi_hook.h"
@@ -44,8 +45,11 @@ typedef struct RenderJob {
     RenderDeviceStats per_dev[MAX_DEVICES];
     float *rgb;
     float *aov;          /* the AOV layers' pixels (3 floats per pixel each) */
-    ExrChannel layers[16];
+    ExrChannel layers[24];
     int layer_count;
+    Denoiser den;        /* --denoise: Open Image Denoise, loaded before rendering */
+    float *noisy;        /* --denoise: the image before denoising */
+    double denoise_seconds;
 } RenderJob;
 
 static volatile sig_atomic_t stop_requested;
@@ -128,6 +132,9 @@ static int check_outputs(RenderJob *j, SptError *e)
         return spt_fail(e, SPT_EXIT_USAGE,
                         "render: --aov adds layers to an EXR output, and no output is an .exr "
                         "(add -o NAME.exr)");
+    /* --denoise without the library fails here, before any rendering. */
+    if (a->rs.denoise && (rc = denoiser_open(&j->den, e)))
+        return rc;
     if (a->checkpoint || a->resume)
         return checkpoint_path_check(a->checkpoint ? a->checkpoint : a->resume, e);
     return SPT_EXIT_OK;
@@ -405,6 +412,38 @@ static void make_layers(RenderJob *j)
     }
 }
 
+/* --denoise: the image (j->rgb) denoised by Open Image Denoise's RT filter,
+ * guided by the albedo and normal layers; j->noisy keeps the image as it was.
+ * The guides count as free of noise (cleanAux) for a pinhole camera; with a
+ * lens, whose blur makes them noisy, they are denoised first. */
+static int denoise(RenderJob *j, SptError *e)
+{
+    const RenderSettings *rs = &j->a.rs;
+    size_t np = (size_t)rs->width * rs->height;
+    float *albedo = spt_malloc(3 * np * sizeof(float)), *normal = spt_malloc(3 * np * sizeof(float));
+    film_aov_layer(&j->film, SPT_AOV_ALBEDO, albedo);
+    film_aov_layer(&j->film, SPT_AOV_NORMAL, normal);
+    j->noisy = j->rgb;
+    j->rgb = spt_malloc(3 * np * sizeof(float));
+    double t0 = spt_now();
+    int rc = denoiser_run(&j->den, j->noisy, albedo, normal, rs->width, rs->height, !(rs->aperture > 0),
+                          j->rgb, e);
+    j->denoise_seconds = spt_now() - t0;
+    free(albedo);
+    free(normal);
+    if (rc)
+        return rc;
+    size_t bad = 0;
+    for (size_t i = 0; i < 3 * np; i++)
+        bad += !isfinite(j->rgb[i]);
+    if (bad)
+        return spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: %zu values of the denoised image are NaN "
+                        "or infinite; no output written", bad);
+    if (!j->a.quiet)
+        fprintf(stderr, "denoised in %.2f s (Open Image Denoise, %s)\n", j->denoise_seconds, j->den.path);
+    return SPT_EXIT_OK;
+}
+
 /* The film as every output image (with the render's metadata), then the final
  * checkpoint: all written to temporary files first and renamed over their names
  * only when every one was written, so a failed run (a full disk at the second
@@ -415,6 +454,9 @@ static int write_outputs(RenderJob *j, SptError *e)
     const RenderSettings *rs = &a->rs;
     j->rgb = spt_malloc((size_t)rs->width * rs->height * 3 * sizeof(float));
     film_to_linear_srgb(&j->film, j->rgb);
+    int rc;
+    if (rs->denoise && (rc = denoise(j, e)))
+        return rc;
     ImageMeta meta;
     memset(&meta, 0, sizeof meta);
     meta.spp = (int)j->st.spp_done;
@@ -428,16 +470,20 @@ static int write_outputs(RenderJob *j, SptError *e)
     snprintf(nan_s, sizeof nan_s, "%llu", (unsigned long long)j->st.nan_dropped);
     image_meta_add(&meta, "max_depth", depth_s);
     image_meta_add(&meta, "nan_dropped", nan_s);
-    if (rs->aov) {
+    if (rs->aov)
         make_layers(j);
-        meta.layers = j->layers;
-        meta.layer_count = j->layer_count;
+    if (j->noisy) {
+        static const char *names[3] = {"noisy.R", "noisy.G", "noisy.B"};
+        for (int c = 0; c < 3; c++)
+            j->layers[j->layer_count++] = (ExrChannel){names[c], SPT_EXR_FLOAT, j->noisy + c, 3};
     }
+    meta.layers = j->layers;
+    meta.layer_count = j->layer_count;
     DisplayOptions disp = {(float)a->exposure, a->tonemap};
     const char *fail_at = getenv("SPECTRACE_TEST_FAIL_OUTPUT");
     atomic_test_fail_commit_at = fail_at ? atoi(fail_at) : 0;
     atomic_stage_begin();
-    int rc = SPT_EXIT_OK;
+    rc = SPT_EXIT_OK;
     for (int i = 0; i < a->outputs_count && !rc; i++)
         rc = image_write(a->outputs[i], j->rgb, rs->width, rs->height, &meta, &disp, e);
     if (!rc)
@@ -457,6 +503,8 @@ static void job_free(RenderJob *j)
     checkpoint_run_free(&j->ckpt);
     free(j->rgb);
     free(j->aov);
+    free(j->noisy);
+    denoiser_close(&j->den);
     film_free(&j->film);
     gpu_scene_free(&j->gpu);
     cl_device_list_free(&j->devices);

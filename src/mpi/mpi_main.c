@@ -607,7 +607,7 @@ static int worker_run(const unsigned char *job, size_t len, const char *device_s
     rs.chunk_ctx = &w;
     rs.on_chunk = remote_done;
     rs.on_chunk_ctx = &w;
-    film_init_aov(&w.film, rs.width, rs.height, rs.aov != 0);
+    film_init_aov(&w.film, rs.width, rs.height, render_keeps_aov(&rs));
     w.buf = spt_malloc(film_doubles(&w.film) * sizeof(double));
     RenderStats st;
     rc = render_devices(devs, nsel, &gpu, &js.cam, &rs, &w.film, &st, NULL, &e);

@@ -516,7 +516,7 @@ int checkpoint_run_begin(CheckpointRun *run, const char *scene_path, const char 
     CheckpointKey key;
     int rc;
     if (!out) {
-        film_init_aov(film, rs->width, rs->height, rs->aov != 0);
+        film_init_aov(film, rs->width, rs->height, render_keeps_aov(rs));
         checkpoint_writer_init(&run->writer, NULL, 0, NULL, NULL, total);
         return 0;
     }
@@ -529,7 +529,7 @@ int checkpoint_run_begin(CheckpointRun *run, const char *scene_path, const char 
             run->resumed += run->done_in[i];
         rs->done_in = run->done_in;
     } else {
-        film_init_aov(film, rs->width, rs->height, rs->aov != 0);
+        film_init_aov(film, rs->width, rs->height, render_keeps_aov(rs));
     }
     checkpoint_writer_init(&run->writer, out, every, &key, run->done_in, total);
     rs->on_chunk = checkpoint_on_chunk;

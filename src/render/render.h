@@ -75,6 +75,13 @@ typedef struct RenderSettings {
     void *on_chunk_ctx;
 } RenderSettings;
 
+/* Whether the film and the kernels keep AOV sums: for --aov, and for --denoise
+ * (its guides are the albedo and normal layers). */
+static inline int render_keeps_aov(const RenderSettings *rs)
+{
+    return rs->aov != 0 || rs->denoise;
+}
+
 /* Times and counts of a render. */
 typedef struct RenderStats {
     double seconds;          /* wall time of the sample loop */

@@ -73,6 +73,9 @@ enum { SPT_CAUSTICS_AUTO = 0, SPT_CAUSTICS_OFF = 1, SPT_CAUSTICS_ON = 2 };
       "expected a comma list of albedo, N, Z, P, variance, spp, or all",                        \
       "AOV layers added to the EXR, a comma list: albedo, N\n"                                \
       "(normal), Z (depth), P (position), variance, spp; or all")                              \
+    X(RS, FLAG, int, denoise, "denoise", 0, "", 0, 0, 0, SPT_OPT_IMAGE | SPT_OPT_MPI, "",         \
+      "denoise with Intel Open Image Denoise 2 (`make denoise`\n"                             \
+      "installs it); an EXR keeps the noisy image as noisy.R/G/B")                            \
     X(CLI, DBL, double, exposure, "exposure", 0, "EV", 0, -64, 64, 0,                           \
       "expected a number of stops from -64 to 64",                                              \
       "display outputs (PNG, JPEG) are scaled by 2^EV")                                         \

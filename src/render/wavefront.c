@@ -182,7 +182,7 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
     if (rs->spp > 0 && spp > ((uint64_t)rs->spp + 15) / 16)
         spp = ((uint64_t)rs->spp + 15) / 16;
     /* With AOVs a sample also keeps 3 float4 (aov_sample). */
-    w->aov = rs->aov != 0;
+    w->aov = render_keeps_aov(rs);
     uint64_t sample_bytes = w->aov ? 64ull : 16ull;
     uint64_t cap = (64ull << 20) / (npix * sample_bytes);
     if (spp > cap)
