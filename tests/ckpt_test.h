@@ -52,8 +52,9 @@ static void key_for(const char *path, CheckpointKey *k)
     exr_layers_free(&L);
 }
 
-/* The --aov of the renders whose checkpoints load_checkpoint reads. */
+/* The --aov and --spectral of the renders whose checkpoints load_checkpoint reads. */
 static unsigned ckpt_aov;
+static int ckpt_spectral;
 
 /* Reads a checkpoint of a test render (32x32, seed, SCENE, --aov ckpt_aov) into
  * film; returns the samples per pixel it holds. */
@@ -66,6 +67,7 @@ static uint32_t load_checkpoint(const char *path, uint32_t seed, uint32_t spp, F
     rs.seed = seed;
     rs.env_intensity = 1;
     rs.aov = ckpt_aov;
+    rs.spectral = ckpt_spectral;
     CheckpointKey k;
     SptError e = {0};
     if (checkpoint_key(&k, SCENE, &rs, &e))

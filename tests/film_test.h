@@ -48,6 +48,24 @@ static inline void assert_same_aov_tol(const Film *a, const Film *b, double tol)
         }
 }
 
+/* The spectral band sums of two films agree within tol of each pixel's largest
+ * band sum. */
+static inline void assert_same_bands_tol(const Film *a, const Film *b, double tol)
+{
+    assert_int_equal(a->bands, b->bands);
+    assert_true(a->bands > 0);
+    size_t n = (size_t)a->width * a->height;
+    for (size_t i = 0; i < n; i++) {
+        const double *x = a->spec + i * (size_t)a->bands, *y = b->spec + i * (size_t)b->bands;
+        double m = 1e-12;
+        for (int k = 0; k < a->bands; k++)
+            m = fmax(m, fabs(x[k]));
+        for (int k = 0; k < a->bands; k++)
+            if (fabs(x[k] - y[k]) > tol * m)
+                fail_msg("pixel %zu band %d: %.9g vs %.9g", i, k, x[k], y[k]);
+    }
+}
+
 /* The same within 1e-4: the films of one implementation. */
 static void assert_same_film(const Film *a, const Film *b)
 {

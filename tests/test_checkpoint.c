@@ -160,28 +160,32 @@ static void test_resume_split_invariance(void **state)
     film_free(&b);
 }
 
-/* The same with every AOV layer (--aov all): the checkpoint keeps their sums,
- * and the resumed render's layers are those of the render in one go. */
+/* The same with every AOV layer (--aov all) and 47 spectral bands: the
+ * checkpoint keeps their sums, and the resumed render's layers and bands are
+ * those of the render in one go. */
 static void test_resume_split_invariance_aov(void **state)
 {
     (void)state;
     char cmd[1024], out[4096];
-    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --aov all --device 0 --spp 64 -o %s --checkpoint %s",
+    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --aov all --spectral 47 --device 0 --spp 64 -o %s --checkpoint %s",
              path_in("afull.exr"), path_in("afull_ck.exr"));
     run_ok(cmd, out, sizeof out);
-    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --aov all --device 0 --spp 32 -o %s --checkpoint %s",
+    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --aov all --spectral 47 --device 0 --spp 32 -o %s --checkpoint %s",
              path_in("ahalf.exr"), path_in("ahalf_ck.exr"));
     run_ok(cmd, out, sizeof out);
-    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --aov all --device all --spp 64 -o %s --resume %s",
+    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --aov all --spectral 47 --device all --spp 64 -o %s --resume %s",
              path_in("aresumed.exr"), path_in("ahalf_ck.exr"));
     run_ok(cmd, out, sizeof out);
     Film a, b;
     ckpt_aov = SPT_AOV_ALL;
+    ckpt_spectral = 47;
     assert_int_equal(load_checkpoint(path_in("afull_ck.exr"), 3, 64, &a), 64);
     assert_int_equal(load_checkpoint(path_in("ahalf_ck.exr"), 3, 64, &b), 64);
     ckpt_aov = 0;
+    ckpt_spectral = 0;
     assert_same_film(&a, &b);
     assert_same_aov_tol(&a, &b, 1e-4);
+    assert_same_bands_tol(&a, &b, 1e-4);
     assert_same_exr(path_in("afull.exr"), path_in("aresumed.exr"));
     film_free(&a);
     film_free(&b);

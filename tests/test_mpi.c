@@ -15,8 +15,8 @@
 #include "scene/scene_pack.h"
 
 #define SCENE "scenes/cornell_box.gltf"
-/* Every AOV layer too: the ranks' films carry their sums. */
-#define COMMON "--width 32 --height 32 --seed 5 --device 0 --aov all"
+/* Every AOV layer and 47 spectral bands too: the ranks' films carry their sums. */
+#define COMMON "--width 32 --height 32 --seed 5 --device 0 --aov all --spectral 47"
 /* mpirun on one machine: as root (CI), more ranks than cores. Each rank's chunks
  * are slowed a little so both ranks take a share of a render this small. */
 #define MPIRUN "mpirun --allow-run-as-root --oversubscribe -x SPECTRACE_TEST_SLOW_DEVICE=0:25"
@@ -59,6 +59,7 @@ static int setup(void **state)
 {
     (void)state;
     ckpt_aov = SPT_AOV_ALL;
+    ckpt_spectral = 47;
     const char *e = getenv("SPECTRACE_EXE");
     if (!e)
         return -1;

@@ -58,7 +58,8 @@ static int render_on_aov(const int *which, int n, RenderTestHooks hooks, unsigne
     rs.pool_size = 512; /* small chunks: the work splits into many */
     rs.test = hooks;
     rs.aov = aov;
-    film_init_aov(film, rs.width, rs.height, aov != 0);
+    rs.spectral = aov ? 47 : 0; /* the AOV test covers the spectral bands too */
+    film_init_full(film, rs.width, rs.height, aov != 0, rs.spectral);
     RenderStats st;
     return render_devices(infos, n, &gpu, &scene.camera, &rs, film, &st, per, e);
 }
@@ -88,7 +89,8 @@ static void test_split_invariance(void **state)
     film_free(&two);
 }
 
-/* The AOV layers (--aov) of two devices sharing the samples are those of one. */
+/* The AOV layers (--aov) and spectral bands (--spectral 47) of two devices
+ * sharing the samples are those of one. */
 static void test_split_invariance_aov(void **state)
 {
     (void)state;
@@ -102,6 +104,7 @@ static void test_split_invariance_aov(void **state)
     assert_int_equal(per[1].samples, 16);
     assert_same_film(&one, &two);
     assert_same_aov_tol(&one, &two, 1e-4);
+    assert_same_bands_tol(&one, &two, 1e-4);
     film_free(&one);
     film_free(&two);
 }

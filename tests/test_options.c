@@ -33,7 +33,7 @@ static const struct {
     {"aperture", "0.1"},        {"focus-distance", "2"},
     {"checkpoint", "ck.exr"},   {"checkpoint-every", "5"},
     {"resume", "ck.exr"},       {"caustics", "on"},
-    {"aov", "albedo,N"},
+    {"aov", "albedo,N"},        {"spectral", "47"},
 };
 
 /* What the list says of each option. */
@@ -169,7 +169,7 @@ static void test_bad_values(void **state)
         {"--max-depth", "0"},    {"--max-depth", "-2"},  {"--seed", "-1"},
         {"--time", "0"},         {"--exposure", "65"},   {"--env-intensity", "-1"},
         {"--aperture", "inf"},   {"--env-rotation", "nan"}, {"--checkpoint-every", "-1"},
-        {"--tonemap", "aces"},   {"--aov", "albedo,alpha"},
+        {"--tonemap", "aces"},   {"--aov", "albedo,alpha"}, {"--spectral", "0"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         char *argv[] = {"render", (char *)bad[i][0], (char *)bad[i][1], SCENE};

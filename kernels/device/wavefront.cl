@@ -131,6 +131,20 @@ __kernel void k_generate(ALL_BUFFERS)
             xyz = (float4)(0.0f); /* w = 0: the sample is dropped, not counted */
         }
         contrib[ps_work[i]] = xyz;
+#ifdef SPT_BANDS
+        {
+            /* Each wavelength's weight L / (4 pdf), as the XYZ film weighs it
+             * without the colour matching function, and its band. */
+            float4 lam = ps_lambda[i], lp = ps_lambda_pdf[i];
+            float4 wv = select((float4)(0.0f), rad / lp, isgreater(lp, (float4)(0.0f))) * 0.25f;
+            if (xyz.w == 0.0f)
+                wv = (float4)(0.0f);
+            float4 band = clamp(floor((lam - 360.0f) * ((float)SPT_BANDS / 470.0f)), 0.0f,
+                                (float)(SPT_BANDS - 1));
+            spec_sample[2u * ps_work[i]] = wv;
+            spec_sample[2u * ps_work[i] + 1u] = band;
+        }
+#endif
         flags = SPT_PATH_DEAD;
         ps_flags[i] = flags;
     }
@@ -374,5 +388,19 @@ __kernel void k_accumulate(ALL_BUFFERS)
     aov_sum[4u * pixel + 1u] = (float4)(nz.xyz, 0.0f);
     aov_sum[4u * pixel + 2u] = pos;
     aov_sum[4u * pixel + 3u] = sq;
+#endif
+#ifdef SPT_BANDS
+    /* Every wavelength of every sample into its band, in sample order. */
+    __global float *bands = spec_sum + (size_t)pixel * SPT_BANDS;
+    for (int b = 0; b < SPT_BANDS; b++)
+        bands[b] = 0.0f;
+    for (uint k = 0; k < n; k++) {
+        uint w = pixel + k * npix;
+        float4 wv = spec_sample[2u * w], bd = spec_sample[2u * w + 1u];
+        bands[(int)bd.x] += wv.x;
+        bands[(int)bd.y] += wv.y;
+        bands[(int)bd.z] += wv.z;
+        bands[(int)bd.w] += wv.w;
+    }
 #endif
 }

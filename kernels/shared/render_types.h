@@ -290,7 +290,10 @@ typedef struct RenderParams {
 /* With AOVs (kernels built with SPT_AOV): aov_sample holds 3 float4 per
  * sample of the chunk, (albedo RGB, recorded flag), (N, Z), (P, 0), and
  * aov_sum SPT_AOV_CHUNK_FLOATS / 4 float4 per pixel (src/render/film.h);
- * without, one unused float4 each. */
+ * without, one unused float4 each. With spectral bands (kernels built with
+ * SPT_BANDS = their number): spec_sample holds 2 float4 per sample, the weights
+ * of its four wavelengths and their bands (as floats), and spec_sum SPT_BANDS
+ * floats per pixel (src/render/film.h); without, one unused element each. */
 #define SPT_WORK_BUFFERS(X)           \
     X(uint, counters)                 \
     X(uint, queue_extend)             \
@@ -298,6 +301,8 @@ typedef struct RenderParams {
     X(float4, chunk_sum)              \
     X(uint, light_film)               \
     X(float4, aov_sample)             \
-    X(float4, aov_sum)
+    X(float4, aov_sum)                \
+    X(float4, spec_sample)            \
+    X(float, spec_sum)
 
 #endif

@@ -1,14 +1,19 @@
-/* `spectrace color [--reflectance] SPD`: the colour of an SPD, normalised to Y = 1. */
+/* `spectrace color [--reflectance] SPD`: the colour of an SPD, normalised to Y = 1;
+ * `spectrace color --pixel X,Y FILE.exr`: the colour of a pixel of a spectral EXR. */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli/commands.h"
 #include "color/spd.h"
 #include "core/util.h"
+#include "io/exr.h"
+#include "shared/cie_data.h"
 
 static const char color_usage[] =
     "usage: spectrace color [--reflectance] [--] SPD\n"
+    "       spectrace color --pixel X,Y FILE.exr\n"
     "\n"
     "Prints the colour of SPD as three lines: CIE 1931 XYZ normalised so Y = 1, the\n"
     "linear sRGB of that XYZ (unclamped), and 8-bit sRGB (linear values clamped to\n"
@@ -23,9 +28,15 @@ static const char color_usage[] =
     "\n"
     "  --reflectance   treat SPD as a reflectance under D65: a perfect white\n"
     "                  reflector has Y = 1 (no renormalisation to Y = 1)\n"
+    "  --pixel X,Y     the spectrum of pixel (X, Y) (0-based, from the top left) of a\n"
+    "                  spectral EXR (spectrace render --spectral: channels S0.<nm>nm\n"
+    "                  of Fichet et al. 2021), linear between the channels'\n"
+    "                  wavelengths, in the film's units as the renderer integrates\n"
+    "                  them: XYZ = sum of L(l) cmf(l) over the sum of ybar (1 nm),\n"
+    "                  not renormalised\n"
     "\n"
-    "Exit codes: 0 ok, 2 usage, 3 unknown SPD name, unreadable or invalid CSV, or an\n"
-    "SPD without luminance.\n";
+    "Exit codes: 0 ok, 2 usage, 3 unknown SPD name, unreadable or invalid CSV, an\n"
+    "SPD without luminance, or an EXR without spectral channels.\n";
 
 /* Prints v with six decimals, never as -0.000000. */
 static void print_value(double v)
@@ -37,11 +48,66 @@ static void print_value(double v)
     printf(" %s", buf);
 }
 
+/* The wavelength in nm of an emissive spectral channel name "S0.<number>nm"
+ * (Fichet et al. 2021: a comma or a point as the decimal separator); 0 when
+ * the name is not one. */
+static double channel_nm(const char *name)
+{
+    if (strncmp(name, "S0.", 3))
+        return 0;
+    char buf[64];
+    snprintf(buf, sizeof buf, "%s", name + 3);
+    size_t n = strlen(buf);
+    if (n < 3 || strcmp(buf + n - 2, "nm"))
+        return 0;
+    buf[n - 2] = 0;
+    for (char *p = buf; *p; p++)
+        if (*p == ',')
+            *p = '.';
+    char *end;
+    double v = strtod(buf, &end);
+    return *end || !(v > 0) ? 0 : v;
+}
+
+/* The spectrum of pixel (x, y) of the spectral EXR at path into spd. */
+static int pixel_spd(const char *path, long x, long y, Spd *spd, SptError *e)
+{
+    ExrLayers L;
+    int rc = exr_read_layers(path, NULL, 0, &L, e);
+    if (rc)
+        return rc;
+    double *nm = spt_malloc(sizeof(double) * (size_t)(L.channel_count + 1));
+    double *val = spt_malloc(sizeof(double) * (size_t)(L.channel_count + 1));
+    int n = 0;
+    if (x < 0 || y < 0 || x >= L.width || y >= L.height) {
+        rc = spt_fail(e, SPT_EXIT_USAGE, "color: --pixel %ld,%ld is outside %s (%dx%d)", x, y, path,
+                      L.width, L.height);
+    } else {
+        for (int c = 0; c < L.channel_count; c++) {
+            double w = channel_nm(L.channels[c].name);
+            if (w > 0 && L.channels[c].type == SPT_EXR_FLOAT) {
+                nm[n] = w;
+                val[n++] = ((const float *)L.channels[c].data)[(size_t)y * L.width + (size_t)x];
+            }
+        }
+        if (n == 0)
+            rc = spt_fail(e, SPT_EXIT_INPUT, "%s: no spectral channels (S0.<wavelength>nm): not a spectral "
+                          "EXR (spectrace render --spectral N writes one)", path);
+        else
+            rc = spd_from_samples(spd, nm, val, n, e);
+    }
+    free(nm);
+    free(val);
+    exr_layers_free(&L);
+    return rc;
+}
+
 /* Parses the arguments, evaluates the SPD and prints the three lines; returns an
  * exit code (SPT_EXIT_USAGE for bad arguments, SPT_EXIT_INPUT for a bad SPD). */
 int cmd_color(int argc, char **argv)
 {
-    int reflectance = 0, options = 1;
+    int reflectance = 0, options = 1, pixel = 0;
+    long px = 0, py = 0;
     const char *spd_text = NULL;
     for (int i = 1; i < argc; i++) {
         if (options && !strcmp(argv[i], "--")) {
@@ -51,6 +117,14 @@ int cmd_color(int argc, char **argv)
             return SPT_EXIT_OK;
         } else if (options && !strcmp(argv[i], "--reflectance")) {
             reflectance = 1;
+        } else if (options && !strcmp(argv[i], "--pixel")) {
+            char tail;
+            if (i + 1 >= argc || sscanf(argv[i + 1], "%ld,%ld%c", &px, &py, &tail) != 2) {
+                spt_error("color: --pixel expects X,Y (whole numbers, e.g. --pixel 10,20)");
+                return SPT_EXIT_USAGE;
+            }
+            pixel = 1;
+            i++;
         } else if (options && argv[i][0] == '-' && argv[i][1] != 0) {
             spt_error("color: unknown option '%s' (see spectrace color --help)", argv[i]);
             return SPT_EXIT_USAGE;
@@ -66,12 +140,21 @@ int cmd_color(int argc, char **argv)
         spt_error("color: no SPD given (see spectrace color --help)");
         return SPT_EXIT_USAGE;
     }
+    if (pixel && reflectance) {
+        spt_error("color: --pixel and --reflectance do not go together (a pixel holds radiance)");
+        return SPT_EXIT_USAGE;
+    }
     Spd spd;
     SptError e = {0};
-    if (spd_parse(&spd, spd_text, &e))
+    if (pixel ? pixel_spd(spd_text, px, py, &spd, &e) : spd_parse(&spd, spd_text, &e))
         return spt_report(&e);
     double xyz[3];
-    if (reflectance) {
+    if (pixel) {
+        /* As the renderer's film: the 1 nm sums over the sum of ybar. */
+        spd_to_xyz(&spd, xyz);
+        for (int k = 0; k < 3; k++)
+            xyz[k] /= SPT_CIE_Y_INTEGRAL;
+    } else if (reflectance) {
         spd_reflectance_to_xyz(&spd, xyz);
     } else {
         spd_to_xyz(&spd, xyz);

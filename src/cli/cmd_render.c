@@ -45,8 +45,10 @@ typedef struct RenderJob {
     RenderDeviceStats per_dev[MAX_DEVICES];
     float *rgb;
     float *aov;          /* the AOV layers' pixels (3 floats per pixel each) */
-    ExrChannel layers[24];
+    ExrChannel *layers;  /* AOV, noisy and spectral channels of an EXR output */
     int layer_count;
+    float *bands;        /* --spectral: each band's mean spectral radiance */
+    char (*band_names)[40];
     Denoiser den;        /* --denoise: Open Image Denoise, loaded before rendering */
     float *noisy;        /* --denoise: the image before denoising */
     double denoise_seconds;
@@ -128,10 +130,10 @@ static int check_outputs(RenderJob *j, SptError *e)
         size_t len = strlen(a->outputs[i]);
         exr |= len >= 4 && !strcasecmp(a->outputs[i] + len - 4, ".exr");
     }
-    if (a->rs.aov && !exr)
+    if ((a->rs.aov || a->rs.spectral) && !exr)
         return spt_fail(e, SPT_EXIT_USAGE,
-                        "render: --aov adds layers to an EXR output, and no output is an .exr "
-                        "(add -o NAME.exr)");
+                        "render: --%s adds layers to an EXR output, and no output is an .exr "
+                        "(add -o NAME.exr)", a->rs.aov ? "aov" : "spectral");
     /* --denoise without the library fails here, before any rendering. */
     if (a->rs.denoise && (rc = denoiser_open(&j->den, e)))
         return rc;
@@ -401,7 +403,6 @@ static void make_layers(RenderJob *j)
     size_t npix = (size_t)j->film.width * j->film.height;
     int nl = (int)(sizeof layer / sizeof layer[0]);
     j->aov = spt_malloc((size_t)nl * 3 * npix * sizeof(float));
-    j->layer_count = 0;
     for (int l = 0; l < nl; l++) {
         if (!(mask & layer[l].bit) || (!j->film.aov && layer[l].bit != SPT_AOV_SPP))
             continue;
@@ -444,6 +445,31 @@ static int denoise(RenderJob *j, SptError *e)
     return SPT_EXIT_OK;
 }
 
+/* --spectral: the bands as the emissive channels of Fichet, Pacanowski and
+ * Wilkie 2021 ("An OpenEXR Layout for Spectral Images", JCGT 10(3)): "S0."
+ * (Stokes component 0: unpolarised radiance), the band's centre wavelength
+ * with a comma as the decimal separator, and the unit, e.g. "S0.545,000000nm";
+ * with the attributes spectralLayoutVersion "1.0" and emissiveUnits
+ * "W.m^-2.sr^-1" (set by write_outputs). Each value is the band's mean
+ * spectral radiance per nm. */
+static void spectral_layers(RenderJob *j)
+{
+    int nb = j->film.bands;
+    size_t np = (size_t)j->film.width * j->film.height;
+    j->bands = spt_malloc((size_t)nb * np * sizeof(float));
+    j->band_names = spt_malloc((size_t)nb * sizeof *j->band_names);
+    film_spectral_layer(&j->film, j->bands);
+    double width = (SPT_SPECTRAL_MAX_NM - SPT_SPECTRAL_MIN_NM) / nb;
+    for (int b = 0; b < nb; b++) {
+        snprintf(j->band_names[b], sizeof j->band_names[b], "S0.%.6fnm",
+                 SPT_SPECTRAL_MIN_NM + (b + 0.5) * width);
+        char *dot = strchr(j->band_names[b] + 3, '.');
+        if (dot)
+            *dot = ',';
+        j->layers[j->layer_count++] = (ExrChannel){j->band_names[b], SPT_EXR_FLOAT, j->bands + b, nb};
+    }
+}
+
 /* The film as every output image (with the render's metadata), then the final
  * checkpoint: all written to temporary files first and renamed over their names
  * only when every one was written, so a failed run (a full disk at the second
@@ -470,8 +496,17 @@ static int write_outputs(RenderJob *j, SptError *e)
     snprintf(nan_s, sizeof nan_s, "%llu", (unsigned long long)j->st.nan_dropped);
     image_meta_add(&meta, "max_depth", depth_s);
     image_meta_add(&meta, "nan_dropped", nan_s);
+    j->layers = spt_malloc((size_t)(32 + (rs->spectral > 0 ? rs->spectral : 0)) * sizeof(ExrChannel));
+    j->layer_count = 0;
     if (rs->aov)
         make_layers(j);
+    ExrAttr spectral_attrs[2] = {{"spectralLayoutVersion", SPT_EXR_ATTR_STRING, "1.0", 0, 0},
+                                 {"emissiveUnits", SPT_EXR_ATTR_STRING, "W.m^-2.sr^-1", 0, 0}};
+    if (rs->spectral > 0) {
+        spectral_layers(j);
+        meta.exr_attrs = spectral_attrs;
+        meta.exr_attr_count = 2;
+    }
     if (j->noisy) {
         static const char *names[3] = {"noisy.R", "noisy.G", "noisy.B"};
         for (int c = 0; c < 3; c++)
@@ -504,6 +539,9 @@ static void job_free(RenderJob *j)
     free(j->rgb);
     free(j->aov);
     free(j->noisy);
+    free(j->layers);
+    free(j->bands);
+    free(j->band_names);
     denoiser_close(&j->den);
     film_free(&j->film);
     gpu_scene_free(&j->gpu);

@@ -13,7 +13,7 @@
 #include "io/atomic_file.h"
 
 /* Most channels a file may have here (checkpoints need a handful). */
-#define EXR_MAX_CHANNELS 64
+#define EXR_MAX_CHANNELS 2048
 
 /* OpenEXRCore reports details through a callback; keep the last message of this
  * thread so the SptError can carry it instead of a bare error code. */

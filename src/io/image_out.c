@@ -230,9 +230,11 @@ enum { META_MAX = 5 + SPT_IMAGE_META_MAX_EXTRA };
 static int write_exr(const char *path, const float *rgb, int width, int height,
                      const ImageMeta *meta, SptError *e)
 {
-    ExrAttr attrs[META_MAX];
+    ExrAttr attrs[META_MAX + 8];
     int n = 0;
     MetaText store;
+    for (int i = 0; meta && i < meta->exr_attr_count && i < 8; i++)
+        attrs[n++] = meta->exr_attrs[i];
     if (meta) {
         const char *names[META_MAX], *values[META_MAX];
         int count = meta_pairs(meta, &store, names, values);

@@ -45,6 +45,8 @@ typedef struct ImageMeta {
     const char *scene;     /* the scene path as given */
     const ExrChannel *layers; /* EXR only: more channels beside R, G, B (AOV layers) */
     int layer_count;
+    const ExrAttr *exr_attrs; /* EXR only: attributes named as given (layouts' own) */
+    int exr_attr_count;
     int extra_count;
     struct {
         const char *key;   /* [A-Za-z0-9_.]+, stored as "spectrace:<key>" */

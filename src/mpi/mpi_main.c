@@ -293,7 +293,7 @@ static void *server_main(void *arg)
 {
     Global *G = arg;
     Film in;
-    film_init_aov(&in, G->film->width, G->film->height, G->film->aov != NULL);
+    film_init_full(&in, G->film->width, G->film->height, G->film->aov != NULL, G->film->bands);
     size_t nd = film_doubles(&in);
     double *buf = spt_malloc(nd * sizeof(double));
     /* Requests held back by the test hook ranks_first: 1 + the samples wanted. */
@@ -427,7 +427,7 @@ static int mpi_render(const ClDeviceInfo *const *infos, int count, const GpuScen
     G.t0 = spt_now();
     G.finish = spt_calloc((size_t)g_size, sizeof(FinishMsg));
     G.started = spt_calloc((size_t)g_size, 1);
-    film_init_aov(&G.local_film, film->width, film->height, film->aov != NULL);
+    film_init_full(&G.local_film, film->width, film->height, film->aov != NULL, film->bands);
     pthread_t server;
     pthread_create(&server, NULL, server_main, &G);
 
@@ -607,7 +607,7 @@ static int worker_run(const unsigned char *job, size_t len, const char *device_s
     rs.chunk_ctx = &w;
     rs.on_chunk = remote_done;
     rs.on_chunk_ctx = &w;
-    film_init_aov(&w.film, rs.width, rs.height, render_keeps_aov(&rs));
+    film_init_full(&w.film, rs.width, rs.height, render_keeps_aov(&rs), rs.spectral);
     w.buf = spt_malloc(film_doubles(&w.film) * sizeof(double));
     RenderStats st;
     rc = render_devices(devs, nsel, &gpu, &js.cam, &rs, &w.film, &st, NULL, &e);

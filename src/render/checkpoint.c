@@ -225,13 +225,15 @@ int checkpoint_write(const char *path, const CheckpointKey *k, const Film *film,
     for (size_t i = 0; i < n; i++)
         cnt[i] = (uint32_t)film->count[i];
     film_to_linear_srgb(film, rgb);
-    ExrChannel ch[10 + 2 * SPT_AOV_SUMS] = {
+    ExrChannel *ch = spt_malloc((size_t)(10 + 2 * SPT_AOV_SUMS + 2 * film->bands) * sizeof *ch);
+    ExrChannel base[10] = {
         {"sum.X", SPT_EXR_FLOAT, hi + 0, 3},    {"sum.Y", SPT_EXR_FLOAT, hi + 1, 3},
         {"sum.Z", SPT_EXR_FLOAT, hi + 2, 3},    {"sum_lo.X", SPT_EXR_FLOAT, lo + 0, 3},
         {"sum_lo.Y", SPT_EXR_FLOAT, lo + 1, 3}, {"sum_lo.Z", SPT_EXR_FLOAT, lo + 2, 3},
         {"count", SPT_EXR_UINT, cnt, 1},        {"R", SPT_EXR_FLOAT, rgb + 0, 3},
         {"G", SPT_EXR_FLOAT, rgb + 1, 3},       {"B", SPT_EXR_FLOAT, rgb + 2, 3},
     };
+    memcpy(ch, base, sizeof base);
     int nch = 10;
     float *ahi = NULL, *alo = NULL;
     char names[2 * SPT_AOV_SUMS][32];
@@ -247,6 +249,24 @@ int checkpoint_write(const char *path, const CheckpointKey *k, const Film *film,
             snprintf(names[2 * k + 1], sizeof names[0], "aov_sum_lo.%s", aov_sum_names[k]);
             ch[nch++] = (ExrChannel){names[2 * k], SPT_EXR_FLOAT, ahi + k, SPT_AOV_SUMS};
             ch[nch++] = (ExrChannel){names[2 * k + 1], SPT_EXR_FLOAT, alo + k, SPT_AOV_SUMS};
+        }
+    }
+    /* Spectral band sums: "band_sum.NNN" and "band_sum_lo.NNN" (band NNN). */
+    float *shi = NULL, *slo = NULL;
+    char (*bnames)[32] = film->bands ? spt_malloc((size_t)(2 * film->bands) * sizeof *bnames) : NULL;
+    if (film->bands) {
+        size_t nb = (size_t)film->bands * n;
+        shi = spt_malloc(nb * sizeof(float));
+        slo = spt_malloc(nb * sizeof(float));
+        for (size_t i = 0; i < nb; i++) {
+            shi[i] = (float)film->spec[i];
+            slo[i] = (float)(film->spec[i] - (double)shi[i]);
+        }
+        for (int b = 0; b < film->bands; b++) {
+            snprintf(bnames[2 * b], sizeof bnames[0], "band_sum.%03d", b);
+            snprintf(bnames[2 * b + 1], sizeof bnames[0], "band_sum_lo.%03d", b);
+            ch[nch++] = (ExrChannel){bnames[2 * b], SPT_EXR_FLOAT, shi + b, film->bands};
+            ch[nch++] = (ExrChannel){bnames[2 * b + 1], SPT_EXR_FLOAT, slo + b, film->bands};
         }
     }
     uint32_t ndone;
@@ -266,6 +286,10 @@ int checkpoint_write(const char *path, const CheckpointKey *k, const Film *film,
                               (int)(sizeof at / sizeof at[0]), e);
     free(ahi);
     free(alo);
+    free(shi);
+    free(slo);
+    free(bnames);
+    free(ch);
     free(ranges);
     free(hi);
     free(lo);
@@ -409,7 +433,33 @@ int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film
         rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: some aov_sum channels missing", path);
         goto out;
     }
-    film_init_aov(film, L.width, L.height, aov != 0);
+    /* Spectral band sums: in the file of a render with --spectral. */
+    int bands = 0;
+    while (bands < 470) {
+        char name[32];
+        snprintf(name, sizeof name, "band_sum.%03d", bands);
+        if (!exr_layers_channel(&L, name))
+            break;
+        bands++;
+    }
+    film_init_full(film, L.width, L.height, aov != 0, bands);
+    for (int b = 0; b < bands && !rc; b++) {
+        char name[32];
+        snprintf(name, sizeof name, "band_sum.%03d", b);
+        const ExrChannel *hi = exr_layers_channel(&L, name);
+        snprintf(name, sizeof name, "band_sum_lo.%03d", b);
+        const ExrChannel *lo = exr_layers_channel(&L, name);
+        if (!hi || !lo || hi->type != SPT_EXR_FLOAT || lo->type != SPT_EXR_FLOAT) {
+            rc = 1;
+            break;
+        }
+        for (size_t i = 0; i < n; i++) {
+            double v = (double)((const float *)hi->data)[i] + (double)((const float *)lo->data)[i];
+            if (!isfinite(v))
+                rc = 1;
+            film->spec[i * (size_t)bands + (size_t)b] = v;
+        }
+    }
     for (size_t i = 0; i < n && aov; i++)
         for (int k = 0; k < SPT_AOV_SUMS; k++) {
             double v = (double)((const float *)ahi[k]->data)[i] + (double)((const float *)alo[k]->data)[i];
@@ -516,7 +566,7 @@ int checkpoint_run_begin(CheckpointRun *run, const char *scene_path, const char 
     CheckpointKey key;
     int rc;
     if (!out) {
-        film_init_aov(film, rs->width, rs->height, render_keeps_aov(rs));
+        film_init_full(film, rs->width, rs->height, render_keeps_aov(rs), rs->spectral);
         checkpoint_writer_init(&run->writer, NULL, 0, NULL, NULL, total);
         return 0;
     }
@@ -529,7 +579,7 @@ int checkpoint_run_begin(CheckpointRun *run, const char *scene_path, const char 
             run->resumed += run->done_in[i];
         rs->done_in = run->done_in;
     } else {
-        film_init_aov(film, rs->width, rs->height, render_keeps_aov(rs));
+        film_init_full(film, rs->width, rs->height, render_keeps_aov(rs), rs->spectral);
     }
     checkpoint_writer_init(&run->writer, out, every, &key, run->done_in, total);
     rs->on_chunk = checkpoint_on_chunk;

@@ -8,6 +8,7 @@
  *   count                    uint: samples kept (NaN/Inf samples are dropped)
  *   aov_sum.*, aov_sum_lo.*  float: with --aov, the film's AOV sums as such pairs
  *                            (albedo.R, ..., N.X, ..., Z, P.X, ..., sq.R, ...)
+ *   band_sum.NNN, band_sum_lo.NNN  float: with --spectral, band NNN's sums
  *   R, G, B                  float: a linear sRGB preview of the samples done
  * and the attributes
  *   spectrace:checkpoint     int 1 (the format version; absent: not a checkpoint)

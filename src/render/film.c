@@ -15,12 +15,19 @@ void film_init(Film *f, int width, int height)
 
 void film_init_aov(Film *f, int width, int height, int aov)
 {
+    film_init_full(f, width, height, aov, 0);
+}
+
+void film_init_full(Film *f, int width, int height, int aov, int bands)
+{
     size_t n = (size_t)width * (size_t)height;
     f->width = width;
     f->height = height;
     f->xyz = spt_calloc(3 * n, sizeof(double));
     f->count = spt_calloc(n, sizeof(double));
     f->aov = aov ? spt_calloc(SPT_AOV_SUMS * n, sizeof(double)) : NULL;
+    f->bands = bands > 0 ? bands : 0;
+    f->spec = f->bands ? spt_calloc((size_t)f->bands * n, sizeof(double)) : NULL;
 }
 
 void film_free(Film *f)
@@ -28,6 +35,7 @@ void film_free(Film *f)
     free(f->xyz);
     free(f->count);
     free(f->aov);
+    free(f->spec);
     memset(f, 0, sizeof *f);
 }
 
@@ -38,9 +46,11 @@ void film_clear(Film *f)
     memset(f->count, 0, n * sizeof(double));
     if (f->aov)
         memset(f->aov, 0, SPT_AOV_SUMS * n * sizeof(double));
+    if (f->spec)
+        memset(f->spec, 0, (size_t)f->bands * n * sizeof(double));
 }
 
-void film_add_chunk(Film *f, const float *xyzn, const float *aov)
+void film_add_chunk(Film *f, const float *xyzn, const float *aov, const float *spec)
 {
     size_t n = (size_t)f->width * (size_t)f->height;
     for (size_t i = 0; i < n; i++) {
@@ -49,6 +59,9 @@ void film_add_chunk(Film *f, const float *xyzn, const float *aov)
         f->xyz[3 * i + 2] += xyzn[4 * i + 2];
         f->count[i] += xyzn[4 * i + 3];
     }
+    if (f->spec && spec)
+        for (size_t i = 0; i < (size_t)f->bands * n; i++)
+            f->spec[i] += spec[i];
     if (!f->aov || !aov)
         return;
     for (size_t i = 0; i < n; i++) {
@@ -74,12 +87,26 @@ void film_add(Film *dst, const Film *src)
     if (dst->aov && src->aov)
         for (size_t i = 0; i < SPT_AOV_SUMS * n; i++)
             dst->aov[i] += src->aov[i];
+    if (dst->spec && src->spec && dst->bands == src->bands)
+        for (size_t i = 0; i < (size_t)dst->bands * n; i++)
+            dst->spec[i] += src->spec[i];
+}
+
+void film_spectral_layer(const Film *f, float *out)
+{
+    size_t n = (size_t)f->width * (size_t)f->height;
+    double width = (SPT_SPECTRAL_MAX_NM - SPT_SPECTRAL_MIN_NM) / f->bands;
+    for (size_t i = 0; i < n; i++)
+        for (int b = 0; b < f->bands; b++) {
+            size_t k = i * (size_t)f->bands + (size_t)b;
+            out[k] = f->count[i] > 0 ? (float)(f->spec[k] / (f->count[i] * width)) : 0.0f;
+        }
 }
 
 size_t film_doubles(const Film *f)
 {
     size_t n = (size_t)f->width * (size_t)f->height;
-    return (4 + (f->aov ? SPT_AOV_SUMS : 0)) * n;
+    return (4 + (f->aov ? SPT_AOV_SUMS : 0) + (size_t)f->bands) * n;
 }
 
 void film_pack(const Film *f, double *out)
@@ -89,6 +116,8 @@ void film_pack(const Film *f, double *out)
     memcpy(out + 3 * n, f->count, n * sizeof(double));
     if (f->aov)
         memcpy(out + 4 * n, f->aov, SPT_AOV_SUMS * n * sizeof(double));
+    if (f->spec)
+        memcpy(out + (4 + (f->aov ? SPT_AOV_SUMS : 0)) * n, f->spec, (size_t)f->bands * n * sizeof(double));
 }
 
 void film_unpack(Film *f, const double *in)
@@ -98,6 +127,8 @@ void film_unpack(Film *f, const double *in)
     memcpy(f->count, in + 3 * n, n * sizeof(double));
     if (f->aov)
         memcpy(f->aov, in + 4 * n, SPT_AOV_SUMS * n * sizeof(double));
+    if (f->spec)
+        memcpy(f->spec, in + (4 + (f->aov ? SPT_AOV_SUMS : 0)) * n, (size_t)f->bands * n * sizeof(double));
 }
 
 int film_aov_layer(const Film *f, unsigned which, float *out)
@@ -200,6 +231,8 @@ size_t film_nonfinite_pixels(const Film *f)
         if (f->aov)
             for (int k = 0; k < SPT_AOV_SUMS; k++)
                 ok &= isfinite((float)f->aov[SPT_AOV_SUMS * i + k]);
+        for (int k = 0; k < f->bands; k++)
+            ok &= isfinite((float)f->spec[(size_t)f->bands * i + (size_t)k]);
         bad += !ok;
     }
     return bad;

@@ -27,24 +27,41 @@
 #define SPT_AOV_CHUNK_FLOATS 16
 enum { SPT_AOV_S_ALBEDO = 0, SPT_AOV_S_N = 3, SPT_AOV_S_Z = 6, SPT_AOV_S_P = 7, SPT_AOV_S_SQ = 10 };
 
+/* Spectral bands (--spectral N): N equal bands over 360-830 nm; each sample's
+ * wavelength j adds L(lambda_j) / (4 pdf(lambda_j)) to the band containing
+ * lambda_j (the weight the XYZ film gives it, without the colour matching
+ * function), so a band's sum over the samples, over their number and the
+ * band's width, is the mean spectral radiance in the band. */
+#define SPT_SPECTRAL_MIN_NM 360.0
+#define SPT_SPECTRAL_MAX_NM 830.0
+
 typedef struct Film {
     int width, height;
     double *xyz;   /* 3 per pixel: sums */
     double *count; /* per pixel: samples kept */
     double *aov;   /* SPT_AOV_SUMS per pixel, or NULL: no AOVs */
+    int bands;     /* spectral bands (0: none) */
+    double *spec;  /* bands per pixel: sums */
 } Film;
 
 /* Allocates a zeroed film; film_init_aov with aov != 0 also keeps the AOV sums. */
 void film_init(Film *f, int width, int height);
 void film_init_aov(Film *f, int width, int height, int aov);
+/* Also keeps bands spectral band sums per pixel (0: none). */
+void film_init_full(Film *f, int width, int height, int aov, int bands);
 void film_free(Film *f);
 
 /* Zeroes every sum and count. */
 void film_clear(Film *f);
 
 /* Adds per-pixel sums given as float4 (X, Y, Z, count) for every pixel, and
- * (when the film keeps AOVs) SPT_AOV_CHUNK_FLOATS floats of AOV sums per pixel. */
-void film_add_chunk(Film *f, const float *xyzn, const float *aov);
+ * (when the film keeps AOVs) SPT_AOV_CHUNK_FLOATS floats of AOV sums per pixel,
+ * and (with bands) f->bands floats of band sums per pixel. */
+void film_add_chunk(Film *f, const float *xyzn, const float *aov, const float *spec);
+
+/* The mean spectral radiance of every band of every pixel (bands floats per
+ * pixel): its sum over the pixel's samples and the band's width in nm. */
+void film_spectral_layer(const Film *f, float *out);
 
 /* dst += src (same size; the AOV sums when both keep them). */
 void film_add(Film *dst, const Film *src);

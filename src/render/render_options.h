@@ -73,6 +73,10 @@ enum { SPT_CAUSTICS_AUTO = 0, SPT_CAUSTICS_OFF = 1, SPT_CAUSTICS_ON = 2 };
       "expected a comma list of albedo, N, Z, P, variance, spp, or all",                        \
       "AOV layers added to the EXR, a comma list: albedo, N\n"                                \
       "(normal), Z (depth), P (position), variance, spp; or all")                              \
+    X(RS, INT, int, spectral, "spectral", 0, "N", 0, 1, 470, SPT_OPT_IMAGE | SPT_OPT_MPI,       \
+      "expected a number of bands from 1 to 470",                                                \
+      "N spectral bands over 360-830 nm in the EXR (47: 10 nm),\n"                             \
+      "as Fichet, Pacanowski and Wilkie 2021 lay them out")                                    \
     X(RS, FLAG, int, denoise, "denoise", 0, "", 0, 0, 0, SPT_OPT_IMAGE | SPT_OPT_MPI, "",         \
       "denoise with Intel Open Image Denoise 2 (`make denoise`\n"                             \
       "installs it); an EXR keeps the noisy image as noisy.R/G/B")                            \

@@ -181,10 +181,10 @@ static void sched_give_back(Scheduler *s, uint32_t begin, uint32_t n)
 }
 
 static void sched_done(Scheduler *s, uint32_t begin, uint32_t n, uint64_t paths, const float *sums,
-                       const float *aov_sums)
+                       const float *aov_sums, const float *spec_sums)
 {
     pthread_mutex_lock(&s->lock);
-    film_add_chunk(s->film, sums, aov_sums);
+    film_add_chunk(s->film, sums, aov_sums, spec_sums);
     for (uint32_t i = 0; i < n; i++)
         s->done[begin + i] = 1;
     s->done_count += n;
@@ -233,6 +233,9 @@ static void *worker_main(void *arg)
     float *aov_sums = w.aov ? spt_malloc((size_t)rs->width * rs->height * SPT_AOV_CHUNK_FLOATS *
                                          sizeof(float))
                             : NULL;
+    float *spec_sums = w.bands ? spt_malloc((size_t)rs->width * rs->height * (size_t)w.bands *
+                                            sizeof(float))
+                               : NULL;
     /* The test hooks that concern this device. */
     int fail_after = rs->test.fail_device == wk->index + 1 ? rs->test.fail_after : -1;
     int slow_ms = rs->test.slow_device == wk->index + 1 ? rs->test.slow_ms : 0;
@@ -247,11 +250,11 @@ static void *worker_main(void *arg)
                 usleep((useconds_t)slow_ms * 1000u);
             uint64_t before = wk->st.paths;
             wk->rc = render_chunk(&w, &p, rs->sample_begin + begin, n, rs->profile, sums,
-                                  aov_sums, &wk->st, &wk->e);
+                                  aov_sums, spec_sums, &wk->st, &wk->e);
             if (!wk->rc) {
                 wk->busy_seconds += spt_now() - t;
                 wk->samples += n;
-                sched_done(wk->s, begin, n, wk->st.paths - before, sums, aov_sums);
+                sched_done(wk->s, begin, n, wk->st.paths - before, sums, aov_sums, spec_sums);
             }
         }
         if (wk->rc) {
@@ -264,6 +267,7 @@ static void *worker_main(void *arg)
     }
     free(sums);
     free(aov_sums);
+    free(spec_sums);
     wavefront_free(&w);
     sched_leave(wk->s, wk->index);
     return NULL;

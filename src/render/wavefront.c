@@ -183,7 +183,8 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
         spp = ((uint64_t)rs->spp + 15) / 16;
     /* With AOVs a sample also keeps 3 float4 (aov_sample). */
     w->aov = render_keeps_aov(rs);
-    uint64_t sample_bytes = w->aov ? 64ull : 16ull;
+    w->bands = rs->spectral > 0 ? rs->spectral : 0;
+    uint64_t sample_bytes = (w->aov ? 64ull : 16ull) + (w->bands ? 32ull : 0ull);
     uint64_t cap = (64ull << 20) / (npix * sample_bytes);
     if (spp > cap)
         spp = cap;
@@ -208,6 +209,12 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
         allocs[na++].bytes = (size_t)(npix * w->chunk_spp * 48ull);
         allocs[na].name = "AOV sums";
         allocs[na++].bytes = (size_t)(npix * 64ull);
+    }
+    if (w->bands) {
+        allocs[na].name = "spectral samples";
+        allocs[na++].bytes = (size_t)(npix * w->chunk_spp * 32ull);
+        allocs[na].name = "spectral band sums";
+        allocs[na++].bytes = (size_t)(npix * 4ull * (uint64_t)w->bands);
     }
     allocs[na].name = "path state";
     allocs[na++].bytes = (size_t)w->pool * 168;
@@ -234,11 +241,13 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
      * scene those requests only cost time. */
     double bvh_bytes = (double)g->bvh.node_count * sizeof(BvhNode) + (double)g->bvh.tri_data_bytes;
     int step_prefetch = w->ray_pairs && bvh_bytes > 0.25 * (double)cache;
-    char options[192];
-    snprintf(options, sizeof options, "%s%s%s%s",
+    char options[256], bands_def[32] = "";
+    if (w->bands)
+        snprintf(bands_def, sizeof bands_def, "-DSPT_BANDS=%d ", w->bands);
+    snprintf(options, sizeof options, "%s%s%s%s%s",
              w->ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "-DSPT_BVH_SHORT_STACK=1 ",
              step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "",
-             w->aov ? "-DSPT_AOV=1 " : "",
+             w->aov ? "-DSPT_AOV=1 " : "", bands_def,
              rs->test.inject_nan ? "-DSPT_TEST_INJECT_NAN=1" : "");
     if ((rc = cl_program_build(&w->dev, "kernels/device/wavefront.cl", options, &w->program, e)))
         return rc;
@@ -281,7 +290,13 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
                                w->aov ? (size_t)(npix * w->chunk_spp * 48ull) : 16, NULL,
                                &w->b.aov_sample, e)) ||
         (rc = cl_buffer_create(&w->dev, "AOV sums", CL_MEM_READ_WRITE,
-                               w->aov ? (size_t)npix * 64 : 16, NULL, &w->b.aov_sum, e)))
+                               w->aov ? (size_t)npix * 64 : 16, NULL, &w->b.aov_sum, e)) ||
+        (rc = cl_buffer_create(&w->dev, "spectral samples", CL_MEM_READ_WRITE,
+                               w->bands ? (size_t)(npix * w->chunk_spp * 32ull) : 16, NULL,
+                               &w->b.spec_sample, e)) ||
+        (rc = cl_buffer_create(&w->dev, "spectral band sums", CL_MEM_READ_WRITE,
+                               w->bands ? (size_t)npix * 4 * (size_t)w->bands : 16, NULL,
+                               &w->b.spec_sum, e)))
         return rc;
     /* Test hook (RenderTestHooks poison): every path, shadow, queue, counter and
      * film buffer first holds the test's word, so that a value read before
@@ -335,7 +350,8 @@ static int run_kernel(Wavefront *w, int k, size_t n, double *acc, SptError *e)
 /* Renders samples [sample_begin, sample_begin + n) of every pixel on w and adds
  * their per-pixel sums to film. */
 int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, uint32_t n,
-                        int profile, float *sums, float *aov_sums, RenderStats *st, SptError *e)
+                        int profile, float *sums, float *aov_sums, float *spec_sums, RenderStats *st,
+                        SptError *e)
 {
     RenderParams p = *base;
     uint32_t npix = (uint32_t)(p.width * p.height);
@@ -384,6 +400,10 @@ int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, 
     if (w->aov && aov_sums)
         SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.aov_sum, CL_TRUE, 0,
                                             (size_t)npix * 64, aov_sums, 0, NULL, NULL));
+    if (w->bands && spec_sums)
+        SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.spec_sum, CL_TRUE, 0,
+                                            (size_t)npix * 4 * (size_t)w->bands, spec_sums, 0, NULL,
+                                            NULL));
     st->nan_dropped += counters[SPT_CNT_NAN];
     st->paths += p.light_begin;
     return 0;

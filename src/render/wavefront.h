@@ -37,6 +37,7 @@ typedef struct Wavefront {
     uint32_t chunk_spp;
     int ray_pairs;         /* 1: k_extend traces two rays per work-item (CPU devices) */
     int aov;               /* 1: the kernels keep AOVs (built with SPT_AOV) */
+    int bands;             /* spectral bands (built with SPT_BANDS), 0: none */
     void *host_mem[16];    /* memory of the scene buffers used in place (CPU devices) */
     int host_mem_count;
     volatile sig_atomic_t *stop; /* RenderSettings.stop: at 2, render_chunk stops */
@@ -51,11 +52,12 @@ void wavefront_free(Wavefront *w);
 
 /* Renders samples [sample_begin, sample_begin + n) of every pixel on w: sums
  * receives 4 floats per pixel (XYZ sums and the sample count), and with AOVs
- * aov_sums SPT_AOV_CHUNK_FLOATS per pixel (src/render/film.h); st gains the
- * chunk's paths, rays and (with profile) stage times. When *w->stop reaches 2
- * between two waves of paths, returns SPT_EXIT_INTERRUPTED (the chunk is
- * dropped). */
+ * aov_sums SPT_AOV_CHUNK_FLOATS per pixel (src/render/film.h), with spectral
+ * bands spec_sums w->bands per pixel; st gains the chunk's paths, rays and
+ * (with profile) stage times. When *w->stop reaches 2 between two waves of
+ * paths, returns SPT_EXIT_INTERRUPTED (the chunk is dropped). */
 int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, uint32_t n,
-                 int profile, float *sums, float *aov_sums, RenderStats *st, SptError *e);
+                 int profile, float *sums, float *aov_sums, float *spec_sums, RenderStats *st,
+                 SptError *e);
 
 #endif
