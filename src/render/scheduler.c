@@ -281,6 +281,15 @@ static int caustics_enabled(const RenderSettings *rs, const GpuScene *g, const S
 {
     if (rs->caustics == SPT_CAUSTICS_OFF)
         return 0;
+    /* Light paths splat XYZ into the image only: the spectral bands and the
+     * variance layer are made of camera samples, which then carry every
+     * path (caustics included) themselves. */
+    if (rs->spectral > 0 || (rs->aov & SPT_AOV_VARIANCE)) {
+        if (rs->caustics == SPT_CAUSTICS_ON)
+            spt_warn("--caustics on: the light-tracing pass adds to the image only, not to %s; "
+                     "rendering without it", rs->spectral > 0 ? "--spectral's bands" : "the variance layer");
+        return 0;
+    }
     if (cam->orthographic) {
         if (rs->caustics == SPT_CAUSTICS_ON)
             spt_warn("--caustics on: the light-tracing pass needs a perspective camera (this one is "
