@@ -11,6 +11,11 @@ Scenes:
                          and emission 1 at every wavelength (360-830 nm)
   plane_irradiance.gltf  Lambertian plane (albedo 0.5) under a parallel coaxial
                          emissive square (radiance 2), camera framing the centre
+  grey_box_sky.gltf      a Lambertian cube (albedo 0.5, one face normal per face)
+                         seen across a corner, no light: under the default white
+                         sky (D65, radiance 1) every face has radiance 0.5, the sky
+                         1; a convex object sees only the sky, so the per-pixel
+                         noise is that of the estimator alone (the sampler test)
 Every material is pure Lambertian (KHR_materials_specular specularFactor 0, which
 removes glTF's dielectric specular layer), as the analytic values assume.
 Plain Python (json, struct, base64, math); no numpy needed.
@@ -94,6 +99,53 @@ def plane_irradiance(path):
     g.write(path)
 
 
+GREY_ALBEDO = 0.5
+GREY_HALF = 1.0
+GREY_YFOV_DEG = 40.0
+
+
+def cube_outward_faces(h):
+    """24 vertices (4 per face, each with its face normal) and 12 triangles of the
+    cube [-h, h]^3 whose counter-clockwise front faces point outward."""
+    v, n, tris = [], [], []
+    for axis in range(3):
+        for sgn in (-1, 1):
+            a, b = (axis + 1) % 3, (axis + 2) % 3
+            base = len(v)
+            for ua, ub in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+                p = [0.0, 0.0, 0.0]
+                p[axis], p[a], p[b] = sgn * h, ua * h, ub * h
+                v.append(tuple(p))
+                nn = [0.0, 0.0, 0.0]
+                nn[axis] = float(sgn)
+                n.append(tuple(nn))
+            q = [base, base + 1, base + 2, base + 3]
+            if sgn < 0:   # outward = -axis: reverse the loop that is counter-clockwise about +axis
+                q = q[::-1]
+            tris += [(q[0], q[1], q[2]), (q[0], q[2], q[3])]
+    return v, n, tris
+
+
+def grey_box_sky(path):
+    g = GltfBuilder("spectrace tools/make_test_scenes.py")
+    mat = g.material("grey", (GREY_ALBEDO,) * 3, pure_diffuse=True)
+    v, n, t = cube_outward_faces(GREY_HALF)
+    g.mesh("cube", v, t, mat, n)
+    # The camera on the diagonal (1, 1, 1) * 2.6, looking at the origin: three faces
+    # fill most of the frame. Rotation: yaw 45 degrees about +Y, then pitch down
+    # by atan(1/sqrt(2)) about the node's +X.
+    yaw, pitch = math.radians(45.0), -math.atan(1.0 / math.sqrt(2.0))
+    qy = (0.0, math.sin(yaw / 2), 0.0, math.cos(yaw / 2))
+    qx = (math.sin(pitch / 2), 0.0, 0.0, math.cos(pitch / 2))
+    x1, y1, z1, w1 = qy
+    x2, y2, z2, w2 = qx
+    q = (w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2, w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+         w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2, w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2)
+    d = 2.6 * GREY_HALF
+    g.camera("camera", math.radians(GREY_YFOV_DEG), (d, d, d), rotation=q)
+    g.write(path)
+
+
 def corner_view_factor(a, b, h):
     """View factor from a differential area to a parallel a x b rectangle at
     distance h whose corner lies on the area's normal."""
@@ -149,6 +201,7 @@ def main(argv):
     furnace(os.path.join(out, "furnace.gltf"), spectral=False)
     furnace(os.path.join(out, "furnace_spectral.gltf"), spectral=True)
     plane_irradiance(os.path.join(out, "plane_irradiance.gltf"))
+    grey_box_sky(os.path.join(out, "grey_box_sky.gltf"))
 
     a = FURNACE_ALBEDO
     geo = lambda d: 1.0 / (1 - a) if d < 0 else (1 - a ** d) / (1 - a)  # noqa: E731
@@ -183,11 +236,18 @@ def main(argv):
             "rgb_unlimited": [plane_value] * 3,
             "by_max_depth": {str(d): [0.0 if d == 1 else plane_value] * 3 for d in DEPTHS},
         },
+        "grey_box_sky.gltf": {
+            "albedo": GREY_ALBEDO, "sky": "spectrace's default white sky: D65 of radiance 1 (linear sRGB 1, 1, 1)",
+            "formula": "every face: rho * 1 (a convex Lambertian object under a uniform sky); the sky: 1",
+            "face_rgb": [GREY_ALBEDO] * 3,
+            "by_max_depth": {str(d): [0.0 if d == 1 else GREY_ALBEDO] * 3 for d in DEPTHS},
+        },
     }
     assert abs(fc - fc_num) < 1e-12
     with open(os.path.join(out, "expected.json"), "w") as f:
         f.write(dump_json(expected) + "\n")
-    print("wrote furnace.gltf, furnace_spectral.gltf, plane_irradiance.gltf, expected.json in %s" % out)
+    print("wrote furnace.gltf, furnace_spectral.gltf, plane_irradiance.gltf, grey_box_sky.gltf, "
+          "expected.json in %s" % out)
     print("furnace: %.6f unlimited; furnace_spectral: %s" % (geo(-1), " ".join("%.6f" % (c * geo(-1)) for c in ee_rgb)))
     print("plane: F centre %.8f, framed corner %.8f, framed mean %.8f -> radiance %.8f"
           % (fc, f_corner, f_mean, plane_value))
