@@ -26,7 +26,8 @@ static const struct {
     {"output", "x.png"},        {"spp", "64"},
     {"time", "5"},              {"width", "100"},
     {"height", "60"},           {"max-depth", "3"},
-    {"seed", "9"},              {"device", "0"},
+    {"seed", "9"},              {"sampler", "independent"},
+    {"device", "0"},
     {"exposure", "1.5"},        {"tonemap", "neutral"},
     {"env", env_map},           {"env-rotation", "30"},
     {"env-intensity", "2"},     {"background", "0.5,0.25,1"},
@@ -136,7 +137,7 @@ static void test_values_reach_their_fields(void **state)
     (void)state;
     char *argv[] = {"render", "--spp", "64", "--width", "100", "--seed", "4294967295",
                     "--env-rotation", "-30", "--max-depth", "-1", "--tonemap", "neutral",
-                    "-o", "a.png", "-o", "b.exr", "--profile", "-q", SCENE};
+                    "--sampler", "Independent", "-o", "a.png", "-o", "b.exr", "--profile", "-q", SCENE};
     RenderArgs a;
     assert_int_equal(render_args_parse(&a, sizeof argv / sizeof argv[0], argv), SPT_EXIT_OK);
     assert_int_equal(a.rs.spp, 64);
@@ -147,6 +148,7 @@ static void test_values_reach_their_fields(void **state)
     assert_true(a.rs.env_intensity == 1.0f); /* the default */
     assert_int_equal(a.rs.max_depth, -1);
     assert_int_equal(a.tonemap, SPT_TONEMAP_NEUTRAL);
+    assert_int_equal(a.rs.sampler, SPT_SAMPLER_INDEPENDENT);
     assert_int_equal(a.outputs_count, 2);
     assert_string_equal(a.outputs[1], "b.exr");
     assert_int_equal(a.rs.profile, 1);
@@ -158,6 +160,7 @@ static void test_values_reach_their_fields(void **state)
     assert_int_equal(render_args_parse(&a, 4, timed), SPT_EXIT_OK);
     assert_int_equal(a.rs.spp, 1 << 24);
     assert_true(a.rs.time_limit == 2.0);
+    assert_int_equal(a.rs.sampler, SPT_SAMPLER_SOBOL); /* the default */
 }
 
 /* Values outside a row's range are refused with a usage error. */
@@ -170,6 +173,7 @@ static void test_bad_values(void **state)
         {"--time", "0"},         {"--exposure", "65"},   {"--env-intensity", "-1"},
         {"--aperture", "inf"},   {"--env-rotation", "nan"}, {"--checkpoint-every", "-1"},
         {"--tonemap", "aces"},   {"--aov", "albedo,alpha"}, {"--spectral", "0"},
+                                 {"--sampler", "zsobol"}, {"--sampler", ""},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         char *argv[] = {"render", (char *)bad[i][0], (char *)bad[i][1], SCENE};

@@ -71,6 +71,72 @@ static void test_default_sky(void **state)
     scene_free(&s);
 }
 
+/* The grey box under the default sky (tests/data/scenes/grey_box_sky.gltf): every
+ * face pixel has the expected value 0.5 (a convex Lambertian object of albedo 0.5
+ * sees only the sky of radiance 1), so a face pixel's squared error is its
+ * noise. Face pixels are those below 0.75 whose 8 neighbours are too (the
+ * silhouette mixes in the sky). Returns the mean value and the mean squared
+ * error per channel of one render with the given sampler. */
+static int grey_box_noise(spt_u32 sampler, int w, int spp, double mean[3], double mse[3])
+{
+    Scene s;
+    SptError e = {0};
+    if (scene_load_gltf(&s, "tests/data/scenes/grey_box_sky.gltf", &e)) {
+        fprintf(stderr, "%s\n", e.msg);
+        return -1;
+    }
+    RenderSettings rs = square_settings(w, spp, -1, 3u);
+    rs.sampler = sampler;
+    float *rgb = malloc(sizeof(float) * 3 * (size_t)w * (size_t)w);
+    int rc = render_scene_rgb(&s, &rs, rgb, &e);
+    scene_free(&s);
+    int n = 0;
+    for (int c = 0; c < 3; c++)
+        mean[c] = mse[c] = 0;
+    for (int y = 1; !rc && y < w - 1; y++)
+        for (int x = 1; x < w - 1; x++) {
+            int face = 1;
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++)
+                    face &= rgb[3 * ((y + dy) * w + x + dx) + 1] < 0.75f;
+            if (!face)
+                continue;
+            n++;
+            for (int c = 0; c < 3; c++) {
+                double v = rgb[3 * (y * w + x) + c];
+                mean[c] += v;
+                mse[c] += (v - 0.5) * (v - 0.5);
+            }
+        }
+    free(rgb);
+    if (rc || n < w * w / 2)
+        return -1;
+    for (int c = 0; c < 3; c++) {
+        mean[c] /= n;
+        mse[c] /= n;
+    }
+    return 0;
+}
+
+/* --sampler: the Sobol sampler (the default) leaves the grey box's faces with at
+ * most half the squared error of the independent sampler at the same samples
+ * (at 64 spp it measured 1/14 to 1/20 per channel), and both are
+ * unbiased. */
+static void test_sampler_noise(void **state)
+{
+    (void)state;
+    double m_sob[3], e_sob[3], m_ind[3], e_ind[3];
+    assert_int_equal(grey_box_noise(SPT_SAMPLER_SOBOL, 64, 64, m_sob, e_sob), 0);
+    assert_int_equal(grey_box_noise(SPT_SAMPLER_INDEPENDENT, 64, 64, m_ind, e_ind), 0);
+    for (int c = 0; c < 3; c++) {
+        printf("grey box, channel %d: mean %.5f (sobol) %.5f (independent), per-pixel std %.5f "
+               "(sobol) %.5f (independent)\n", c, m_sob[c], m_ind[c], sqrt(e_sob[c]), sqrt(e_ind[c]));
+        assert_close(m_sob[c], 0.5, 0.002);
+        assert_close(m_ind[c], 0.5, 0.004);
+        assert_true(e_sob[c] <= 0.5 * e_ind[c]);
+    }
+}
+
 /* KHR_lights_punctual in the renderer, units included: a pure Lambertian plane
  * (albedo 0.5) under a spot light of 100 cd pointing down from 2 m (cones 0.3
  * and 0.5 rad), then under the spot and a directional light of 1000 lux at 45
@@ -373,6 +439,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_default_sky),
+        cmocka_unit_test(test_sampler_noise),
         cmocka_unit_test(test_punctual_lights),
         cmocka_unit_test(test_named_light_spectra),
         cmocka_unit_test(test_env_map),

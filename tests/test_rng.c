@@ -10,7 +10,7 @@
 #include "shared/sampling.h"
 
 /* Chi-square tests in this binary, for the Sidak correction. */
-#define RNG_CHI2_TESTS 8
+#define RNG_CHI2_TESTS 10
 
 /* Fails with the chi-square report unless r passed. */
 static void rng_require(const Chi2Result *r)
@@ -224,23 +224,34 @@ static void test_sobol_dim1_closed_form(void **state)
     }
 }
 
-/* The kernels' shortcuts spt_sample_pair and spt_sample_wavelength_u give exactly
- * spt_sample_1d of the dims they stand for. */
+/* The kernels' shortcuts spt_sample_pair, spt_sample_wavelength_u and the
+ * SptSampler functions give exactly spt_sample_1d of the dims they stand for
+ * (spt_rand for the independent sampler), at the camera dims and at the dims of
+ * several bounces. */
 static void test_sample_pair_matches_1d(void **state)
 {
     (void)state;
+    enum { GROUPS = SPT_DIM_BOUNCE_BASE / 2u + 6u * SPT_DIM_BOUNCE_BLOCK / 2u };
     for (spt_u32 n = 0; n < 20000u; n++) {
         spt_u32 seed = n % 7u, pixel = spt_hash_u32(n) % 1000003u, sample = n * 37u % 4099u;
         spt_u32 key = spt_sobol_pixel_key(seed, pixel);
-        for (spt_u32 group = 0; group < 2u; group++) {
-            float u0, u1;
+        SptSampler sob = spt_sampler(SPT_SAMPLER_SOBOL, seed, pixel, sample);
+        SptSampler ind = spt_sampler(SPT_SAMPLER_INDEPENDENT, seed, pixel, sample);
+        for (spt_u32 group = 0; group < GROUPS; group++) {
+            spt_u32 d = 2u * group;
+            float u0, u1, s0, s1, i0, i1;
             spt_sample_pair(key, sample, group, &u0, &u1);
-            if (u0 != spt_sample_1d(seed, pixel, sample, 2u * group) ||
-                u1 != spt_sample_1d(seed, pixel, sample, 2u * group + 1u))
-                fail_msg("pair group %u of (%u, %u, %u): (%.9g, %.9g), spt_sample_1d (%.9g, %.9g)",
-                         group, seed, pixel, sample, u0, u1,
-                         spt_sample_1d(seed, pixel, sample, 2u * group),
-                         spt_sample_1d(seed, pixel, sample, 2u * group + 1u));
+            spt_sampler_pair(sob, d, &s0, &s1);
+            spt_sampler_pair(ind, d, &i0, &i1);
+            float w0 = spt_sample_1d(seed, pixel, sample, d), w1 = spt_sample_1d(seed, pixel, sample, d + 1u);
+            if (u0 != w0 || u1 != w1 || s0 != w0 || s1 != w1)
+                fail_msg("pair group %u of (%u, %u, %u): (%.9g, %.9g) and (%.9g, %.9g), spt_sample_1d "
+                         "(%.9g, %.9g)", group, seed, pixel, sample, u0, u1, s0, s1, w0, w1);
+            if (spt_sampler_1d(sob, d) != w0 || spt_sampler_1d(sob, d + 1u) != w1)
+                fail_msg("spt_sampler_1d of dims %u, %u differs from spt_sample_1d", d, d + 1u);
+            if (i0 != spt_rand(seed, pixel, sample, d) || i1 != spt_rand(seed, pixel, sample, d + 1u) ||
+                spt_sampler_1d(ind, d + 1u) != i1)
+                fail_msg("the independent sampler's dims %u, %u are not spt_rand's", d, d + 1u);
         }
         assert_true(spt_sample_wavelength_u(key, sample) ==
                     spt_sample_1d(seed, pixel, sample, SPT_DIM_WAVELENGTH));
@@ -272,8 +283,10 @@ static int is_02_net(const float *x, const float *y, int k, char *why, size_t wh
     return 1;
 }
 
-/* Every power-of-two prefix (and later aligned blocks) of a pixel's 2D pixel and
- * lens samples is a (0,k,2)-net, for several pixels and seeds. */
+/* Every power-of-two prefix (and later aligned blocks) of a pixel's 2D samples
+ * is a (0,k,2)-net: the pixel and lens pairs, and at bounces 0, 1 and 7 the
+ * pairs (light choice, BSDF lobe), the point on the light, the BSDF direction
+ * and (roulette, spare), for several pixels and seeds. */
 static void test_sobol_prefixes_are_nets(void **state)
 {
     (void)state;
@@ -281,19 +294,71 @@ static void test_sobol_prefixes_are_nets(void **state)
     static float x[1 << K], y[1 << K];
     char why[200];
     static const spt_u32 pixels[3] = {0u, 1u, 987654u};
+    spt_u32 dims[2 + 3 * 4], nd = 0;
+    dims[nd++] = SPT_DIM_PIXEL_X;
+    dims[nd++] = SPT_DIM_LENS_U;
+    static const spt_u32 bounces[3] = {0u, 1u, 7u};
+    for (int b = 0; b < 3; b++)
+        for (spt_u32 k = 0; k < SPT_DIM_BOUNCE_BLOCK; k += 2u)
+            dims[nd++] = spt_dim_bounce(bounces[b], k);
+    assert_int_equal(spt_dim_bounce(0, SPT_DIM_LIGHT_SELECT) + 1u, spt_dim_bounce(0, SPT_DIM_BSDF_LOBE));
+    assert_int_equal(spt_dim_bounce(0, SPT_DIM_LIGHT_U) + 1u, spt_dim_bounce(0, SPT_DIM_LIGHT_V));
+    assert_int_equal(spt_dim_bounce(0, SPT_DIM_BSDF_U) + 1u, spt_dim_bounce(0, SPT_DIM_BSDF_V));
     for (int pi = 0; pi < 3; pi++)
-        for (spt_u32 pair = 0; pair < 2; pair++)
+        for (spt_u32 j = 0; j < nd; j++) {
+            spt_u32 d = dims[j];
+            assert_int_equal(d % 2u, 0);
             for (int k = 0; k <= K; k++)
                 for (spt_u32 block = 0; block < 3; block++) {
                     spt_u32 start = block << k;
                     for (int i = 0; i < (1 << k); i++) {
-                        x[i] = spt_sample_1d(42u, pixels[pi], start + (spt_u32)i, 2u * pair);
-                        y[i] = spt_sample_1d(42u, pixels[pi], start + (spt_u32)i, 2u * pair + 1u);
+                        x[i] = spt_sample_1d(42u + (spt_u32)pi, pixels[pi], start + (spt_u32)i, d);
+                        y[i] = spt_sample_1d(42u + (spt_u32)pi, pixels[pi], start + (spt_u32)i, d + 1u);
                     }
                     if (!is_02_net(x, y, k, why, sizeof why))
-                        fail_msg("pixel %u, dims %u-%u, samples %u..%u: %s", pixels[pi],
-                                 2u * pair, 2u * pair + 1u, start, start + (1u << k) - 1u, why);
+                        fail_msg("pixel %u, dims %u-%u, samples %u..%u: %s", pixels[pi], d, d + 1u, start,
+                                 start + (1u << k) - 1u, why);
                 }
+        }
+}
+
+/* The integral of a smooth function over a pixel's BSDF direction pair
+ * converges faster than 1/N with the Sobol sampler (Owen scrambling: N^-1.5 for
+ * smooth integrands), and like 1/sqrt(N) with the independent one. The RMS error
+ * over 512 pixels (independent scrambles) of the N-sample estimate of the
+ * integral of u exp(u v) over the unit square, e - 2. */
+static double smooth_rms_error(spt_u32 kind, spt_u32 n)
+{
+    enum { PIXELS = 512 };
+    const double exact = exp(1.0) - 2.0;
+    spt_u32 d = spt_dim_bounce(0, SPT_DIM_BSDF_U);
+    double se = 0;
+    for (spt_u32 p = 0; p < PIXELS; p++) {
+        double sum = 0;
+        for (spt_u32 i = 0; i < n; i++) {
+            float u, v;
+            spt_sampler_pair(spt_sampler(kind, 5u, p * 7919u, i), d, &u, &v);
+            sum += u * exp((double)u * v);
+        }
+        double err = sum / n - exact;
+        se += err * err;
+    }
+    return sqrt(se / PIXELS);
+}
+
+static void test_sobol_converges_faster(void **state)
+{
+    (void)state;
+    double sob16 = smooth_rms_error(SPT_SAMPLER_SOBOL, 16u), sob1k = smooth_rms_error(SPT_SAMPLER_SOBOL, 1024u);
+    double ind16 = smooth_rms_error(SPT_SAMPLER_INDEPENDENT, 16u),
+           ind1k = smooth_rms_error(SPT_SAMPLER_INDEPENDENT, 1024u);
+    double sob_slope = log(sob1k / sob16) / log(64.0), ind_slope = log(ind1k / ind16) / log(64.0);
+    printf("smooth 2D integrand, RMS error at 16 and 1024 samples: sobol %.3g %.3g (slope %.2f), "
+           "independent %.3g %.3g (slope %.2f)\n", sob16, sob1k, sob_slope, ind16, ind1k, ind_slope);
+    /* 1/N would be a slope of -1; Owen-scrambled Sobol reaches about -1.5. */
+    assert_true(sob_slope < -1.25);
+    assert_true(ind_slope > -0.65 && ind_slope < -0.35);
+    assert_true(sob1k < 0.02 * ind1k);
 }
 
 /* Every Sobol dim (and the wavelength dim) is stratified in 1D: the first 2^k
@@ -331,6 +396,25 @@ static int first_point_sample(void *ctx, uint32_t i, double p[3])
     return 1;
 }
 
+/* Dims of different groups over the samples of one pixel: the point on the
+ * light against the BSDF direction at bounce 0, and the BSDF direction at bounce
+ * 0 against bounce 1. */
+static int light_bsdf_sample(void *ctx, uint32_t i, double p[3])
+{
+    (void)ctx;
+    p[0] = spt_sample_1d(1u, 5u, i, spt_dim_bounce(0, SPT_DIM_LIGHT_U));
+    p[1] = spt_sample_1d(1u, 5u, i, spt_dim_bounce(0, SPT_DIM_BSDF_V));
+    return 1;
+}
+
+static int bounce01_sample(void *ctx, uint32_t i, double p[3])
+{
+    (void)ctx;
+    p[0] = spt_sample_1d(1u, 5u, i, spt_dim_bounce(0, SPT_DIM_BSDF_U));
+    p[1] = spt_sample_1d(1u, 5u, i, spt_dim_bounce(1, SPT_DIM_BSDF_U));
+    return 1;
+}
+
 /* Pixel dim 0 against lens dim 2 over the samples of one pixel: the two Sobol
  * groups must be decorrelated by their shuffles (identical shuffles would put
  * every point on the diagonal). */
@@ -362,6 +446,16 @@ static void test_sobol_scrambles_differ(void **state)
     g.name = "pixel x against lens u";
     g.samples = 1u << 16;
     g.sample = pixel_lens_sample;
+    chi2_grid_run(&g, &r);
+    rng_require(&r);
+
+    g.name = "light u against BSDF v at bounce 0";
+    g.sample = light_bsdf_sample;
+    chi2_grid_run(&g, &r);
+    rng_require(&r);
+
+    g.name = "BSDF u at bounce 0 against bounce 1";
+    g.sample = bounce01_sample;
     chi2_grid_run(&g, &r);
     rng_require(&r);
 
@@ -530,6 +624,7 @@ int main(void)
         cmocka_unit_test(test_sample_pair_matches_1d),
         cmocka_unit_test(test_sobol_prefixes_are_nets),
         cmocka_unit_test(test_sobol_1d_stratified),
+        cmocka_unit_test(test_sobol_converges_faster),
         cmocka_unit_test(test_sobol_scrambles_differ),
         cmocka_unit_test(test_device_matches_host),
     };

@@ -275,12 +275,14 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFER
         return 0;
     ShadeFrame f;
     BsdfParams bp;
-    shade_frame(&h, &tc, &bp, &f, spt_rng_key(P.seed ^ SPT_LT_SALT, lp, sample), ALL_ARGS);
+    /* Light paths take independent samples: a light path is not a pixel's. */
+    shade_frame(&h, &tc, &bp, &f, spt_sampler(SPT_SAMPLER_INDEPENDENT, P.seed ^ SPT_LT_SALT, lp, sample),
+                ALL_ARGS);
     /* Vertex k of a light path takes the dimensions of bounce k (bounce 0 is
      * the start on the light). */
     f.bounce = h.depth;
     float pdelta;
-    float u0 = spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_BSDF_LOBE));
+    float u0 = spt_sampler_1d(f.smp, spt_dim_bounce(f.bounce, SPT_DIM_BSDF_LOBE));
     if (!lt_delta_lobe(&bp, f.wo_l, u0, &pdelta)) {
         if (!(ps_lt[i] & SPT_LT_SPEC) || !(pdelta < 1.0f))
             return 0;

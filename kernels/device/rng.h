@@ -27,21 +27,35 @@
  *   samples is a (0,k,2)-net in Sobol dims 0-1 (and stratified in every 1D
  *   projection), whatever the total sample count.
  *
- * Dimension plan for the renderer (use spt_sample_1d, which picks the generator):
+ * Dimension plan for the renderer. Every dim d of a sample is Sobol dim (d & 1)
+ * of the scrambled sequence of group d >> 1, whose shuffle seed is a hash of
+ * (seed, pixel, group): consecutive dims 2g, 2g + 1 form a 2D pair.
  *
- *   dim 0-1  pixel position x, y   Sobol dims 0,1, shuffle seed (seed, pixel, group 0)
- *   dim 2-3  lens u, v             Sobol dims 0,1, shuffle seed (seed, pixel, group 1)
- *   dim 4    hero wavelength       Sobol dim 0,    shuffle seed (seed, pixel, group 2)
- *   dim 5 + bounce * 8 + k         spt_rand, k = SPT_DIM_BSDF_LOBE .. SPT_DIM_SPARE
+ *   dims 0-1   pixel position x, y      group 0
+ *   dims 2-3   lens u, v                group 1
+ *   dim 4      hero wavelength          group 2 (dim 5 is spare)
+ *   dims 6 + 8 b + k, bounce b (0 = the camera ray's hit), k:
+ *     0-1      light selection, BSDF lobe choice
+ *     2-3      point on the light
+ *     4-5      BSDF direction
+ *     6-7      Russian roulette, spare
  *
- * The Sobol groups are "padded" (Burley 2020, section 4): each 2D pair uses the
- * best 2D projection (Sobol dims 0 and 1, a (0,2)-sequence) with its own
- * shuffle, which decorrelates the pairs from each other. */
+ * The groups are "padded" (Burley 2020, section 4; pbrt-v4's PaddedSobolSampler):
+ * each pair uses the best 2D projection (Sobol dims 0 and 1, a (0,2)-sequence)
+ * with its own index shuffle and value scrambles, which decorrelates the groups
+ * from each other while each stays stratified over a pixel's samples. The same
+ * sample index therefore gives well spread light, BSDF and roulette samples at
+ * every bounce, not only well spread pixel positions.
+ *
+ * The independent sampler (SPT_SAMPLER_INDEPENDENT, `--sampler independent`)
+ * takes every dim from spt_rand instead: the reference the Sobol sampler is
+ * measured against. */
 #ifndef SPT_RNG_H
 #define SPT_RNG_H
 
 #include "shared/portable.h"
 #include "shared/vecmath.h"
+#include "shared/render_types.h" /* SPT_SAMPLER_* */
 
 /* ---- Dimension plan ---------------------------------------------------------- */
 
@@ -50,18 +64,16 @@
 #define SPT_DIM_LENS_U 2u
 #define SPT_DIM_LENS_V 3u
 #define SPT_DIM_WAVELENGTH 4u
-/* Dims below this use the Sobol sampler in spt_sample_1d. */
-#define SPT_DIM_SOBOL_END 5u
 /* First dim of bounce 0, and the dims each bounce owns. */
-#define SPT_DIM_BOUNCE_BASE 5u
+#define SPT_DIM_BOUNCE_BASE 6u
 #define SPT_DIM_BOUNCE_BLOCK 8u
-/* Offsets k inside a bounce block. */
-#define SPT_DIM_BSDF_LOBE 0u    /* choice of BSDF lobe / layer */
-#define SPT_DIM_BSDF_U 1u       /* BSDF direction sample */
-#define SPT_DIM_BSDF_V 2u
-#define SPT_DIM_LIGHT_SELECT 3u /* light selection (spt_discrete_sample) */
-#define SPT_DIM_LIGHT_U 4u      /* point on the light */
-#define SPT_DIM_LIGHT_V 5u
+/* Offsets k inside a bounce block; pairs (2j, 2j + 1) share a Sobol group. */
+#define SPT_DIM_LIGHT_SELECT 0u /* light selection (spt_discrete_sample) */
+#define SPT_DIM_BSDF_LOBE 1u    /* choice of BSDF lobe / layer */
+#define SPT_DIM_LIGHT_U 2u      /* point on the light */
+#define SPT_DIM_LIGHT_V 3u
+#define SPT_DIM_BSDF_U 4u       /* BSDF direction sample */
+#define SPT_DIM_BSDF_V 5u
 #define SPT_DIM_ROULETTE 6u     /* Russian roulette */
 #define SPT_DIM_SPARE 7u        /* reserved (e.g. transmission / dispersion choice) */
 
@@ -311,20 +323,17 @@ SPT_FN spt_u32 spt_sobol_seed(spt_u32 seed, spt_u32 pixel, spt_u32 group)
 /* ---- The renderer's sampler -------------------------------------------------- */
 
 /* Sample value of dim for (seed, pixel, sample), following the dimension plan
- * above: dims < SPT_DIM_SOBOL_END from the padded Owen-scrambled Sobol sampler,
- * the rest from spt_rand. In [0, 1). */
+ * above: Sobol dim (dim & 1) of group dim >> 1. In [0, 1). This is the
+ * definition; the kernels use the faster spt_sample_pair and friends, which the
+ * tests check against it. */
 SPT_FN float spt_sample_1d(spt_u32 seed, spt_u32 pixel, spt_u32 sample, spt_u32 dim)
 {
-    if (dim < SPT_DIM_SOBOL_END) {
-        spt_u32 group = dim >> 1;
-        return spt_sobol_owen(sample, dim & 1u, spt_sobol_seed(seed, pixel, group));
-    }
-    return spt_rand(seed, pixel, sample, dim);
+    return spt_sobol_owen(sample, dim & 1u, spt_sobol_seed(seed, pixel, dim >> 1));
 }
 
-/* Both dims of Sobol pair group (0: pixel x, y; 1: lens u, v) of a sample, given
- * its pixel's spt_sobol_pixel_key: exactly spt_sample_1d of dims 2 group and
- * 2 group + 1, with the group's seed and the index shuffle computed once. */
+/* Both dims of Sobol pair group (dims 2 group and 2 group + 1) of a sample, given
+ * its pixel's spt_sobol_pixel_key: exactly spt_sample_1d of those dims, with the
+ * group's seed and the index shuffle computed once. */
 SPT_FN SPT_ALWAYS_INLINE void spt_sample_pair(spt_u32 pixel_key, spt_u32 sample, spt_u32 group, float *u0, float *u1)
 {
     spt_u32 seed = spt_hash_u32(pixel_key ^ group);
@@ -340,6 +349,44 @@ SPT_FN SPT_ALWAYS_INLINE void spt_sample_pair(spt_u32 pixel_key, spt_u32 sample,
 SPT_FN float spt_sample_wavelength_u(spt_u32 pixel_key, spt_u32 sample)
 {
     return spt_sobol_owen(sample, 0u, spt_hash_u32(pixel_key ^ 2u));
+}
+
+/* What the kernels need to draw any dim of one sample with either sampler. */
+typedef struct SptSampler {
+    spt_u32 kind;      /* SPT_SAMPLER_* */
+    spt_u32 pixel_key; /* spt_sobol_pixel_key(seed, pixel) */
+    spt_u32 rand_key;  /* spt_rng_key(seed, pixel, sample) */
+    spt_u32 sample;
+} SptSampler;
+
+SPT_FN SptSampler spt_sampler(spt_u32 kind, spt_u32 seed, spt_u32 pixel, spt_u32 sample)
+{
+    SptSampler s;
+    s.kind = kind;
+    s.pixel_key = spt_sobol_pixel_key(seed, pixel);
+    s.rand_key = spt_rng_key(seed, pixel, sample);
+    s.sample = sample;
+    return s;
+}
+
+/* Dims dim and dim + 1 (dim even) of the sample: spt_sample_1d of them for the
+ * Sobol sampler, spt_rand for the independent one. */
+SPT_FN SPT_ALWAYS_INLINE void spt_sampler_pair(SptSampler s, spt_u32 dim, float *u0, float *u1)
+{
+    if (s.kind == SPT_SAMPLER_INDEPENDENT) {
+        *u0 = spt_rand_key(s.rand_key, dim);
+        *u1 = spt_rand_key(s.rand_key, dim + 1u);
+    } else {
+        spt_sample_pair(s.pixel_key, s.sample, dim >> 1, u0, u1);
+    }
+}
+
+/* Dim dim of the sample, as spt_sampler_pair. */
+SPT_FN float spt_sampler_1d(SptSampler s, spt_u32 dim)
+{
+    if (s.kind == SPT_SAMPLER_INDEPENDENT)
+        return spt_rand_key(s.rand_key, dim);
+    return spt_sobol_owen(s.sample, dim & 1u, spt_hash_u32(s.pixel_key ^ (dim >> 1)));
 }
 
 #endif

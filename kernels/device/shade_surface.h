@@ -386,7 +386,7 @@ typedef struct ShadeFrame {
     float3 ns, tg, bt;  /* the shading normal and its tangent basis */
     float3 wo_l;        /* the direction to the previous vertex, local */
     float wo_side;      /* its side of the face */
-    uint key;           /* spt_rand_key(key, d) = spt_rand(P.seed, pixel, sample, d) */
+    SptSampler smp;     /* the path's sample: its dims (kernels/device/rng.h) */
     uint bounce;
 } ShadeFrame;
 
@@ -508,7 +508,7 @@ SPT_FN_INLINE void shade_emission(ShadeHit *h, const TexCtx *tc, ALL_BUFFERS)
  * front) as +z, so the BSDF knows which side the path is on; an opaque one is
  * shaded from whichever side the path arrives. */
 SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *bp, ShadeFrame *f,
-                               uint key, ALL_BUFFERS)
+                               SptSampler smp, ALL_BUFFERS)
 {
     const __global GpuMaterial *m = h->m;
     uint prim = h->prim;
@@ -542,7 +542,7 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
     f->tg = tg;
     f->bt = bt;
     f->bounce = h->depth - 1u;
-    f->key = key;
+    f->smp = smp;
 }
 
 /* Next-event estimation: one light chosen in proportion to power among the
@@ -553,18 +553,16 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
                                      const ShadeFrame *f, float4 *sh_o, float4 *sh_d, float4 *sh_c,
                                      ALL_BUFFERS)
 {
-    uint depth = h->depth, bounce = f->bounce, key = f->key;
+    uint depth = h->depth, bounce = f->bounce;
     float4 lam = h->lam;
     float3 p = h->p, ngf = f->ngf, tg = f->tg, bt = f->bt, ns = f->ns, wo_l = f->wo_l;
     if (!(P.select_count > 0u && (P.max_depth <= 0 || depth + 1u <= (uint)P.max_depth) &&
           !bsdf_is_delta(bp)))
         return 0;
-    float prob;
-    int e = spt_discrete_sample(light_cdf, P.select_count,
-                                spt_rand_key(key, spt_dim_bounce(bounce, SPT_DIM_LIGHT_SELECT)),
-                                &prob, 0);
-    float ul = spt_rand_key(key, spt_dim_bounce(bounce, SPT_DIM_LIGHT_U));
-    float vl = spt_rand_key(key, spt_dim_bounce(bounce, SPT_DIM_LIGHT_V));
+    float prob, usel, ul, vl;
+    usel = spt_sampler_1d(f->smp, spt_dim_bounce(bounce, SPT_DIM_LIGHT_SELECT));
+    spt_sampler_pair(f->smp, spt_dim_bounce(bounce, SPT_DIM_LIGHT_U), &ul, &vl);
+    int e = spt_discrete_sample(light_cdf, P.select_count, usel, &prob, 0);
     float3 wi = (float3)(0.0f, 0.0f, 1.0f);
     float dist = 0.0f, light_pdf = 0.0f;
     float4 le = (float4)(0.0f);
@@ -639,11 +637,10 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
 SPT_FN_INLINE int shade_bsdf_bounce(ShadeHit *h, const BsdfParams *bp, const ShadeFrame *f, BsdfSample *bs,
                                     float3 *wn, float *wn_side, int *reflect, ALL_BUFFERS)
 {
-    uint i = h->i, key = f->key, bounce = f->bounce;
-    *bs = bsdf_sample(bp, f->wo_l,
-                      spt_rand_key(key, spt_dim_bounce(bounce, SPT_DIM_BSDF_LOBE)),
-                      spt_rand_key(key, spt_dim_bounce(bounce, SPT_DIM_BSDF_U)),
-                      spt_rand_key(key, spt_dim_bounce(bounce, SPT_DIM_BSDF_V)));
+    uint i = h->i, bounce = f->bounce;
+    float ub, vb;
+    spt_sampler_pair(f->smp, spt_dim_bounce(bounce, SPT_DIM_BSDF_U), &ub, &vb);
+    *bs = bsdf_sample(bp, f->wo_l, spt_sampler_1d(f->smp, spt_dim_bounce(bounce, SPT_DIM_BSDF_LOBE)), ub, vb);
     *wn = bs->wi.x * f->tg + bs->wi.y * f->bt + bs->wi.z * f->ns;
     *wn_side = dot(*wn, f->ngf);
     /* Reflection stays on wo's side of the face, refraction crosses it. */
@@ -676,7 +673,7 @@ SPT_FN_INLINE int shade_roulette(ShadeHit *h, const ShadeFrame *f, int alive, AL
         alive = 0;
     if (alive && h->depth >= P.rr_depth) {
         float qs = fmin(max4(h->beta), 0.95f);
-        float u = spt_rand_key(f->key, spt_dim_bounce(f->bounce, SPT_DIM_ROULETTE));
+        float u = spt_sampler_1d(f->smp, spt_dim_bounce(f->bounce, SPT_DIM_ROULETTE));
         if (u >= qs)
             alive = 0;
         else
@@ -750,7 +747,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
         {
             ShadeFrame fe;
             BsdfParams bpe;
-            shade_frame(&h, &tc, &bpe, &fe, spt_rng_key(P.seed, pixel, sample), ALL_ARGS);
+            shade_frame(&h, &tc, &bpe, &fe, spt_sampler(P.sampler, P.seed, pixel, sample), ALL_ARGS);
             shade_aov(&h, &tc, &bpe, &fe, 1, ALL_ARGS);
         }
 #endif
@@ -760,7 +757,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     }
     ShadeFrame f;
     BsdfParams bp;
-    shade_frame(&h, &tc, &bp, &f, spt_rng_key(P.seed, pixel, sample), ALL_ARGS);
+    shade_frame(&h, &tc, &bp, &f, spt_sampler(P.sampler, P.seed, pixel, sample), ALL_ARGS);
 #ifdef SPT_AOV
     shade_aov(&h, &tc, &bp, &f, 0, ALL_ARGS);
 #endif

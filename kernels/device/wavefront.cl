@@ -161,9 +161,9 @@ __kernel void k_generate(ALL_BUFFERS)
         uint npix = (uint)(P.width * P.height);
         uint pixel = w % npix;
         uint sample = P.sample_begin + w / npix;
-        uint pkey = spt_sobol_pixel_key(P.seed, pixel);
+        SptSampler smp = spt_sampler(P.sampler, P.seed, pixel, sample);
         float jx, jy;
-        spt_sample_pair(pkey, sample, 0u, &jx, &jy); /* SPT_DIM_PIXEL_X, _Y */
+        spt_sampler_pair(smp, SPT_DIM_PIXEL_X, &jx, &jy);
         float px = (float)(pixel % (uint)P.width) + jx;
         float py = (float)(pixel / (uint)P.width) + jy;
         float sx = 2.0f * px / (float)P.width - 1.0f;
@@ -178,7 +178,7 @@ __kernel void k_generate(ALL_BUFFERS)
             /* Thin lens: a point on the lens aperture, aimed at the point of the
              * pinhole ray on the plane of focus (perpendicular to fwd). */
             float lu, lv;
-            spt_sample_pair(pkey, sample, 1u, &lu, &lv); /* SPT_DIM_LENS_U, _V */
+            spt_sampler_pair(smp, SPT_DIM_LENS_U, &lu, &lv);
             vec3 disk = spt_sample_concentric_disk(lu, lv);
             float3 focus = org + d * P.focus_distance; /* dot(d, fwd) = 1 */
             org += P.lens_radius * (disk.x * normalize(right) + disk.y * normalize(up));
@@ -187,7 +187,7 @@ __kernel void k_generate(ALL_BUFFERS)
         ps_ray_o[i] = (float4)(org, 0.0f);
         ps_ray_d[i] = (float4)(normalize(d), P.cam_pos[3]); /* w: the ray cone's width */
         float4 lam, pdf;
-        path_sample_wavelengths(spt_sample_wavelength_u(pkey, sample), &lam, &pdf);
+        path_sample_wavelengths(spt_sampler_1d(smp, SPT_DIM_WAVELENGTH), &lam, &pdf);
         ps_lambda[i] = lam;
         ps_lambda_pdf[i] = pdf;
         ps_throughput[i] = (float4)(1.0f);

@@ -170,6 +170,10 @@ typedef struct GpuEnvMap {
     SpecRef uniform;
 } GpuEnvMap; /* 64 bytes */
 
+/* The samplers of RenderParams.sampler (kernels/device/rng.h). */
+#define SPT_SAMPLER_SOBOL 0u       /* padded Owen-scrambled Sobol in every dim */
+#define SPT_SAMPLER_INDEPENDENT 1u /* a hash of (seed, pixel, sample, dim) */
+
 /* Everything a pass needs besides buffers; passed by value. */
 typedef struct RenderParams {
     /* camera: position, right/up scaled by tan(fov/2) (and aspect), forward; the
@@ -208,6 +212,7 @@ typedef struct RenderParams {
      * that covers it). */
     float scene_center[3];
     float scene_radius;
+    spt_u32 sampler;        /* SPT_SAMPLER_SOBOL or SPT_SAMPLER_INDEPENDENT (kernels/device/rng.h) */
     /* What rays that leave the scene see (kernels/shared/lights.h): a map, a uniform sky
      * or nothing; its data (texels, CDFs or a table) in the env_data buffer. */
     GpuEnvMap env;

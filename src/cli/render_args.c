@@ -13,7 +13,7 @@
 #include "render/film.h"
 
 enum { KIND_LIST, KIND_INT, KIND_U32, KIND_DBL, KIND_FLT, KIND_STR, KIND_FLAG, KIND_TONEMAP,
-       KIND_CAUSTICS, KIND_AOV, KIND_HELP };
+       KIND_CAUSTICS, KIND_SAMPLER, KIND_AOV, KIND_HELP };
 
 /* One row of the list, with where its value goes in RenderArgs. */
 typedef struct OptRow {
@@ -156,6 +156,9 @@ static int store(RenderArgs *a, const OptRow *r, const char *arg)
             *(int *)field = !strcmp(arg, "off") ? SPT_CAUSTICS_OFF
                             : !strcmp(arg, "on") ? SPT_CAUSTICS_ON : SPT_CAUSTICS_AUTO;
         break;
+    case KIND_SAMPLER:
+        ok = !render_sampler_parse(arg, (uint32_t *)field);
+        break;
     case KIND_AOV:
         ok = !film_aov_parse(arg, (unsigned *)field);
         break;
@@ -180,6 +183,7 @@ static void set_defaults(RenderArgs *a)
 #define DEF_FLAG(f, def) f = (def);
 #define DEF_TONEMAP(f, def) f = (def);
 #define DEF_CAUSTICS(f, def) f = (def);
+#define DEF_SAMPLER(f, def) f = (def);
 #define DEF_AOV(f, def) f = (def);
 #define DEF_HELP(f, def) f = (def);
 #define DEFAULT(where, kind, type, name, option, short_name, metavar, def, ...) \

@@ -107,6 +107,7 @@ int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSetting
 #define KEY_RS_DBL(name) key_add(k, #name, "%.17g", rs->name);
 #define KEY_RS_FLAG(name) key_add(k, #name, "%d", rs->name);
 #define KEY_RS_CAUSTICS(name) key_add(k, #name, "%d", rs->name);
+#define KEY_RS_SAMPLER(name) key_add(k, #name, "%u", rs->name);
 #define KEY_RS_AOV(name) key_add(k, #name, "%u", rs->name);
 #define KEY_SKY_STR(name)                                                                  \
     if ((rc = key_add_file(k, #name, rs->sky ? rs->sky->name : NULL, e)))                  \

@@ -101,6 +101,11 @@ typedef struct RenderDeviceStats {
     int failed;              /* dropped after an error */
 } RenderDeviceStats;
 
+/* The sampler named name ("sobol" or "independent", any case) as its
+ * SPT_SAMPLER_* value (kernels/shared/render_types.h) in *sampler; -1 for other
+ * names. */
+int render_sampler_parse(const char *name, uint32_t *sampler);
+
 /* Renders on count devices at once: each has its own context, program and path
  * pool, and takes chunks of samples from a shared counter, so a faster device
  * takes more; a device that fails is dropped with one warning and its chunk goes

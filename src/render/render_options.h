@@ -19,8 +19,9 @@
  *            the command line only (RenderArgs holds the SKY and CLI rows)
  *   kind     INT, U32 (whole numbers in [lo, hi]), DBL, FLT (numbers in [lo, hi],
  *            parsed as double), STR, FLAG, LIST (repeatable string), TONEMAP,
- *            CAUSTICS (auto, off, on: SPT_CAUSTICS_*), AOV (a list of AOV layers
- *            into a mask: src/render/film.h), HELP
+ *            CAUSTICS (auto, off, on: SPT_CAUSTICS_*), SAMPLER (sobol or
+ *            independent: SPT_SAMPLER_*), AOV (a list of AOV layers into a
+ *            mask: src/render/film.h), HELP
  *   type     the field's C type
  *   default  the value when the option is not given
  *   flags    SPT_OPT_* below
@@ -65,6 +66,10 @@ enum { SPT_CAUSTICS_AUTO = 0, SPT_CAUSTICS_OFF = 1, SPT_CAUSTICS_ON = 2 };
       "expected a whole number from 0 to 4294967295",                                           \
       "random seed (default 0); the same seed on the same device\n"                            \
       "gives the same image bit for bit")                                                      \
+    X(RS, SAMPLER, uint32_t, sampler, "sampler", 0, "NAME", 0, 0, 0, SPT_OPT_IMAGE | SPT_OPT_MPI, \
+      "expected sobol or independent",                                                          \
+      "sobol (default): Owen-scrambled Sobol points in every\n"                                 \
+      "dimension of a path; independent: uniform random numbers")                              \
     X(CLI, STR, const char *, device, "device", 0, "SEL", NULL, 0, 0, 0, "",                    \
       "OpenCL device(s): index, name substring, cpu or gpu, a comma\n"                         \
       "list, or all (default: SPECTRACE_DEVICE, else the first GPU,\n"                         \

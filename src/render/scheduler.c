@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <pthread.h>
 #include <unistd.h>
 
@@ -311,6 +312,19 @@ static int caustics_enabled(const RenderSettings *rs, const GpuScene *g, const S
     return 0;
 }
 
+int render_sampler_parse(const char *name, uint32_t *sampler)
+{
+    if (name && !strcasecmp(name, "sobol")) {
+        *sampler = SPT_SAMPLER_SOBOL;
+        return 0;
+    }
+    if (name && !strcasecmp(name, "independent")) {
+        *sampler = SPT_SAMPLER_INDEPENDENT;
+        return 0;
+    }
+    return -1;
+}
+
 /* The parameters every chunk of a render shares. */
 static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *g,
                         const SceneCamera *cam, const RenderSettings *rs)
@@ -320,6 +334,7 @@ static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *
     p->width = rs->width;
     p->height = rs->height;
     p->seed = rs->seed;
+    p->sampler = rs->sampler;
     p->max_depth = rs->max_depth;
     p->emitter_count = g->emitter_count;
     p->light_count = g->light_count;
