@@ -310,20 +310,19 @@ static float3 path_xyz_to_linear_srgb(float3 c)
                     0.0557f * c.x - 0.2040f * c.y + 1.0570f * c.z);
 }
 
-/* spt_sample_wavelengths (kernels/shared/spectrum.h) with less transcendental work, for
- * the generate kernel: atanh(t) as 0.5 log((1 + t) / (1 - t)), and the pdf from
- * the same t instead of a cosh of the wavelength. The density is the tanh CDF's
- * derivative, k / ((T1 - T0) cosh^2(k (l - 538))), and cosh^2(atanh(t)) =
- * 1 / (1 - t^2), so pdf = k (1 - t^2) / (T1 - T0): the same density, evaluated
- * exactly where the inverse CDF put the sample. */
+/* spt_sample_wavelengths (kernels/shared/spectrum.h) on the four lanes at once:
+ * the same arithmetic per lane. */
 static void path_sample_wavelengths(float u, float4 *lambda, float4 *pdf)
 {
     float4 ui = u + (float4)(0.0f, 0.25f, 0.5f, 0.75f);
     ui = select(ui, ui - 1.0f, isgreaterequal(ui, 1.0f));
-    float4 t = SPT_WL_T0 + ui * (SPT_WL_T1 - SPT_WL_T0);
-    float4 l = SPT_WL_CENTER + (0.5f / SPT_WL_K) * log((1.0f + t) / (1.0f - t));
-    *lambda = clamp(l, (float)SPT_CIE_LAMBDA_MIN, (float)SPT_CIE_LAMBDA_MAX);
-    *pdf = (SPT_WL_K / (SPT_WL_T1 - SPT_WL_T0)) * (1.0f - t * t);
+    float4 x = ui * (float)SPT_WL_BINS;
+    int4 k = clamp(convert_int4(x), (int4)(0), (int4)(SPT_WL_BINS - 1));
+    float4 a = (float4)(SPT_WL_INV_CDF[k.x], SPT_WL_INV_CDF[k.y], SPT_WL_INV_CDF[k.z], SPT_WL_INV_CDF[k.w]);
+    float4 b = (float4)(SPT_WL_INV_CDF[k.x + 1], SPT_WL_INV_CDF[k.y + 1], SPT_WL_INV_CDF[k.z + 1],
+                        SPT_WL_INV_CDF[k.w + 1]);
+    *pdf = 1.0f / ((float)SPT_WL_BINS * (b - a));
+    *lambda = a + (x - convert_float4(k)) * (b - a);
 }
 
 /* Largest component of v. */

@@ -7,6 +7,7 @@
 
 #include "shared/portable.h"
 #include "shared/cie_data.h"
+#include "shared/wavelength_pdf.h"
 
 /* Linear interpolation of a 1 nm table over 360..830 at lambda; 0 outside. */
 #define SPT_TABLE_LERP(table, lambda)                                               \
@@ -42,29 +43,48 @@ SPT_FN float spt_sigmoid_poly(float c0, float c1, float c2, float lambda)
 SPT_FN float spt_d65_norm(float lambda) { SPT_TABLE_LERP(SPT_D65_NORM, lambda); }
 #endif
 
-/* Wavelength importance sampling (the visible-wavelength density of Radziszewski
- * et al. 2009 as used by pbrt-v4): p(l) proportional to 1 / cosh^2(k (l - 538)),
- * k = 0.0072 / nm, over 360..830 nm. Its CDF is a tanh, so sampling inverts it
- * exactly with atanh. */
-#define SPT_WL_K 0.0072f
-#define SPT_WL_CENTER 538.0f
-/* tanh(k (360 - 538)) and tanh(k (830 - 538)), the CDF's ends (computed in double). */
-#define SPT_WL_T0 (-0.856910625469828f)
-#define SPT_WL_T1 0.970591346940270f
+/* Wavelength importance sampling: the density of kernels/shared/wavelength_pdf.h
+ * (proportional to the norm of the linear sRGB colour matching functions; see
+ * tools/gen_wavelength_pdf.py), sampled by linear interpolation of its inverse
+ * CDF table. The density sampled is thus piecewise constant: bin k, [l_k,
+ * l_k+1), has probability 1 / SPT_WL_BINS spread evenly over it. */
 
-SPT_FN float spt_wavelength_pdf(float lambda)
+/* The wavelength (nm) of CDF value u in [0, 1), and its density in *pdf. */
+SPT_FN float spt_sample_wavelength_pdf(float u, float *pdf)
 {
-    if (!(lambda >= (float)SPT_CIE_LAMBDA_MIN && lambda <= (float)SPT_CIE_LAMBDA_MAX))
-        return 0.0f;
-    float c = coshf(SPT_WL_K * (lambda - SPT_WL_CENTER));
-    return SPT_WL_K / ((SPT_WL_T1 - SPT_WL_T0) * c * c);
+    float x = u * (float)SPT_WL_BINS;
+    int k = (int)x;
+    if (k > SPT_WL_BINS - 1)
+        k = SPT_WL_BINS - 1;
+    if (k < 0)
+        k = 0;
+    float a = SPT_WL_INV_CDF[k], b = SPT_WL_INV_CDF[k + 1];
+    *pdf = 1.0f / ((float)SPT_WL_BINS * (b - a));
+    return a + (x - (float)k) * (b - a);
 }
 
 /* The wavelength (nm) of CDF value u in [0, 1). */
 SPT_FN float spt_sample_wavelength(float u)
 {
-    float l = SPT_WL_CENTER + atanhf(SPT_WL_T0 + u * (SPT_WL_T1 - SPT_WL_T0)) / SPT_WL_K;
-    return fminf(fmaxf(l, (float)SPT_CIE_LAMBDA_MIN), (float)SPT_CIE_LAMBDA_MAX);
+    float pdf;
+    return spt_sample_wavelength_pdf(u, &pdf);
+}
+
+/* The density at lambda (0 outside 360..830 nm): that of the bin holding it,
+ * found by bisection of the table. */
+SPT_FN float spt_wavelength_pdf(float lambda)
+{
+    if (!(lambda >= SPT_WL_INV_CDF[0] && lambda <= SPT_WL_INV_CDF[SPT_WL_BINS]))
+        return 0.0f;
+    int lo = 0, hi = SPT_WL_BINS; /* SPT_WL_INV_CDF[lo] <= lambda < SPT_WL_INV_CDF[hi] */
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if (SPT_WL_INV_CDF[mid] <= lambda)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return 1.0f / ((float)SPT_WL_BINS * (SPT_WL_INV_CDF[lo + 1] - SPT_WL_INV_CDF[lo]));
 }
 
 /* A path's four wavelengths: lambda[i] = inverse CDF of (u + i/4) mod 1, so the
@@ -75,8 +95,7 @@ SPT_FN void spt_sample_wavelengths(float u, float *lambda, float *pdf)
         float ui = u + (float)i / (float)SPT_NUM_LAMBDA;
         if (ui >= 1.0f)
             ui -= 1.0f;
-        lambda[i] = spt_sample_wavelength(ui);
-        pdf[i] = spt_wavelength_pdf(lambda[i]);
+        lambda[i] = spt_sample_wavelength_pdf(ui, &pdf[i]);
     }
 }
 
