@@ -300,8 +300,10 @@ static void test_area_light_caustic(void **state)
 {
     (void)state;
     Film f;
-    render_slab(LIGHT_AREA, 1, SPT_CAUSTICS_ON, 64, 4, 0, 0, &f);
-    check_floor(&f, LIGHT_AREA, 0.5, 0.01, "area light, --caustics on");
+    /* 256 spp: the mean's noise is about 0.65% there (1.2% at 64 spp, where a
+     * 1% tolerance was a coin toss between seeds and samplers). */
+    render_slab(LIGHT_AREA, 1, SPT_CAUSTICS_ON, 256, 4, 0, 0, &f);
+    check_floor(&f, LIGHT_AREA, 0.5, 0.02, "area light, --caustics on");
     film_free(&f);
     skip_if_quick();
     render_slab(LIGHT_AREA, 1, SPT_CAUSTICS_OFF, 1024, 4, 0, 0, &f);
