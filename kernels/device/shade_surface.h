@@ -387,6 +387,8 @@ typedef struct ShadeFrame {
     float3 wo_l;        /* the direction to the previous vertex, local */
     float wo_side;      /* its side of the face */
     SptSampler smp;     /* the path's sample: its dims (kernels/device/rng.h) */
+    uint key;           /* smp.rand_key: spt_rand_key(key, d) = spt_rand(seed, pixel, sample, d),
+                           for dims the sampler does not serve */
     uint bounce;
 } ShadeFrame;
 
@@ -543,6 +545,7 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
     f->bt = bt;
     f->bounce = h->depth - 1u;
     f->smp = smp;
+    f->key = smp.rand_key;
 }
 
 /* Next-event estimation: one light chosen in proportion to power among the
