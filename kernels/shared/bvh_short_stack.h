@@ -1,0 +1,173 @@
+/* The traversal with a short stack and restarts, the kernels' GPU path
+ * (included by kernels/shared/bvh.h, whose types and node steps it uses). */
+#ifndef SPT_KERNELS_BVH_SHORT_STACK_H
+#define SPT_KERNELS_BVH_SHORT_STACK_H
+
+/* The traversal with a short stack and restarts (the GPU path): private
+ * memory per ray of BVH_SHORT_STACK_SIZE deferred items (16 bytes each) and a
+ * trail of one byte per tree level, about 250 bytes, where the full stack
+ * (bvh_trav_step, kernels/shared/bvh.h) takes 5.4 KB. It visits the same items in the same order as
+ * bvh_trav_step, so its hits are the same bit for bit (tests/test_bvh.c).
+ *
+ * A node at level l (the root is level 0) visits its entered children in
+ * order of entry distance, rank 0 the nearest; trail[l] holds the rank of the
+ * one being visited and BVH_TRAIL_LAST when it is the last. Deferred children
+ * go on the short stack with their level and rank; when it is full, the
+ * oldest entry (the bottom) is dropped. When the stack runs empty after a
+ * drop, the deepest level on the current item's path that is not on its last
+ * child still has children to visit: its rank is advanced and the traversal
+ * restarts at the root, following the trail's ranks down to that level, and
+ * from there goes on as usual (the restart trail of Laine 2010, "Restart
+ * Trail for Stackless BVH Traversal", for 8-wide nodes). The best hit only
+ * shrinks, so a node's entered children on a later visit are a prefix of
+ * those on an earlier one in the same order, and the ranks stay valid; a
+ * rank past them means the rest of that node is beyond the best hit. */
+#ifndef BVH_SHORT_STACK_SIZE
+#define BVH_SHORT_STACK_SIZE 8
+#endif
+#define BVH_TRAIL_LAST 8u
+
+typedef struct BvhShort {
+    BvhRay r;
+    float best;
+    int found, sp, depth, restart, dropped;
+    spt_u32 cur, count; /* the current item, at level depth */
+    BvhHit hit;
+    spt_u32 st_child[BVH_SHORT_STACK_SIZE], st_count[BVH_SHORT_STACK_SIZE];
+    spt_u32 st_tag[BVH_SHORT_STACK_SIZE]; /* parent level | rank << 8 | BVH_TRAIL_LAST << 8 */
+    float st_t[BVH_SHORT_STACK_SIZE];
+    spt_u8 trail[BVH_MAX_DEPTH];
+} BvhShort;
+
+/* After the item at level s->depth is done, with the stack empty: restarts
+ * for the deepest ancestor with children left (returns 1), or finishes
+ * (returns 0). */
+SPT_FN_INLINE int bvh_short_resume(BvhShort *s)
+{
+    for (int l = s->depth - 1; l >= 0; l--) {
+        spt_u32 t = s->trail[l];
+        if (!(t & BVH_TRAIL_LAST)) {
+            s->trail[l] = (spt_u8)(t + 1u);
+            s->restart = l;
+            s->depth = 0;
+            s->cur = 0;
+            s->count = 0;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* One step: tests the current item and moves to the next; 0 when finished.
+ * cap (<= BVH_SHORT_STACK_SIZE) is the stack size used (tests force restarts
+ * with small ones). */
+SPT_FN_INLINE int bvh_short_step(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
+                                 BvhShort *s, int any_hit, int cap)
+{
+    if (s->count) {
+        if (bvh_leaf_intersect(tris, s->cur, s->count, &s->r, &s->best, any_hit, &s->hit)) {
+            s->found = 1;
+            if (any_hit)
+                return 0;
+        }
+    } else {
+        const SPT_GLOBAL BvhNode *n = &nodes[s->cur];
+        int level = s->depth;
+        spt_u32 mask;
+        BvhEnter d = bvh_node_enter(n, &s->r, s->best, &mask);
+        float kd[BVH_WIDTH];
+        spt_u32 ks[BVH_WIDTH];
+        int k = 0, r = 0;
+        if (mask && !(mask & (mask - 1u))) {
+            ks[0] = bvh_lowest_bit(mask);
+            k = 1;
+        } else if (mask) {
+            k = bvh_sort_entered(d, mask, kd, ks);
+        }
+        if (s->restart >= 0) {
+            r = (int)(s->trail[level] & 7u);
+            if (r >= k) {
+                /* What is left of this node is beyond the best hit. */
+                s->restart = -1;
+                return bvh_short_resume(s);
+            }
+            if (level < s->restart) {
+                spt_u32 c = ks[k - 1 - r];
+                s->cur = n->child[c];
+                s->count = n->count[c];
+                s->depth = level + 1;
+                return 1;
+            }
+            s->restart = -1;
+        }
+        if (k) {
+            s->trail[level] = (spt_u8)((spt_u32)r | (r == k - 1 ? BVH_TRAIL_LAST : 0u));
+            for (int j = 0; j < k - 1 - r; j++) {
+                if (s->sp == cap) {
+                    for (int i = 0; i + 1 < cap; i++) {
+                        s->st_child[i] = s->st_child[i + 1];
+                        s->st_count[i] = s->st_count[i + 1];
+                        s->st_tag[i] = s->st_tag[i + 1];
+                        s->st_t[i] = s->st_t[i + 1];
+                    }
+                    s->sp = cap - 1;
+                    s->dropped = 1;
+                }
+                int sp = s->sp++;
+                s->st_child[sp] = n->child[ks[j]];
+                s->st_count[sp] = n->count[ks[j]];
+                s->st_t[sp] = kd[j];
+                s->st_tag[sp] = (spt_u32)level | (spt_u32)(k - 1 - j) << 8 |
+                                (j == 0 ? BVH_TRAIL_LAST << 8 : 0u);
+            }
+            spt_u32 c = ks[k - 1 - r];
+            s->cur = n->child[c];
+            s->count = n->count[c];
+            s->depth = level + 1;
+            return 1;
+        }
+    }
+    /* Next: the nearest deferred item the best hit does not rule out; a
+     * skipped one counts as visited. */
+    while (s->sp > 0) {
+        int sp = --s->sp;
+        spt_u32 tag = s->st_tag[sp], l = tag & 255u;
+        s->trail[l] = (spt_u8)(tag >> 8);
+        s->depth = (int)l + 1;
+        if (s->st_t[sp] <= s->best) {
+            s->cur = s->st_child[sp];
+            s->count = s->st_count[sp];
+            return 1;
+        }
+    }
+    return s->dropped ? bvh_short_resume(s) : 0;
+}
+
+/* Starts s at the root for the ray org + t dir, t in (0, tmax). */
+SPT_FN_INLINE void bvh_short_init(BvhShort *s, vec3 org, vec3 dir, float tmax)
+{
+    bvh_ray_init(&s->r, org, dir);
+    s->best = tmax;
+    s->found = 0;
+    s->sp = 0;
+    s->depth = 0;
+    s->restart = -1;
+    s->dropped = 0;
+    s->cur = 0;
+    s->count = 0;
+}
+
+/* bvh_traverse with the short stack, of cap entries (1 .. BVH_SHORT_STACK_SIZE). */
+SPT_FN int bvh_traverse_short(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float *tris,
+                              vec3 org, vec3 dir, float tmax, int any_hit, int cap, BvhHit *hit)
+{
+    BvhShort s;
+    bvh_short_init(&s, org, dir, tmax);
+    while (bvh_short_step(nodes, tris, &s, any_hit, cap))
+        ;
+    if (s.found)
+        *hit = s.hit;
+    return s.found;
+}
+
+#endif
