@@ -137,36 +137,7 @@ static void test_roughdielectric_vs_mitsuba(void **state)
  * (1); a smooth dielectric loses nothing, so it shows exactly 1. */
 
 #define FURNACE_SIZE 48
-#define FURNACE_CAM_Z 4.0
-
-/* A sphere of radius 1 at the origin (a convex polyhedron with flat faces, so
- * no point of it sees another from outside), material m; camera at +Z 4
- * looking toward -Z, yfov 0.6 rad. */
-static void furnace_scene(Scene *s, const SceneMaterial *m)
-{
-    memset(s, 0, sizeof *s);
-    uint32_t n = 0;
-    const float c[3] = {0, 0, 0};
-    s->tri_pos = bvh_gen_sphere(48, 96, 1.0f, c, 0.0f, &n);
-    s->tri_count = n;
-    s->vertex_count = 3 * n;
-    s->tri_vidx = malloc(sizeof(uint32_t) * 3 * n);
-    s->tri_mat = calloc(n, sizeof(uint32_t));
-    s->vtx_normal = calloc((size_t)9 * n, sizeof(float));
-    s->vtx_uv = calloc((size_t)6 * n, sizeof(float));
-    for (uint32_t i = 0; i < 3 * n; i++)
-        s->tri_vidx[i] = i;
-    s->material_count = 1;
-    s->materials = calloc(1, sizeof(SceneMaterial));
-    s->materials[0] = *m;
-    s->camera.position[2] = (float)FURNACE_CAM_Z;
-    s->camera.forward[2] = -1.0f;
-    s->camera.up[1] = 1.0f;
-    s->camera.right[0] = 1.0f;
-    s->camera.yfov = 0.6f;
-    s->camera.aspect = 1.0f;
-    scene_update_bounds(s);
-}
+#define FURNACE_CAM_Z 4.0 /* sphere_scene_material's camera (tests/test_render_util.h) */
 
 /* Cosine between the surface normal of the unit sphere and the direction back
  * to the camera, for the ray through image-plane point (u, v) in [-1, 1]^2
@@ -282,7 +253,7 @@ static void test_furnace_white_metal(void **state)
         m.metallic = 1.0f;
         m.roughness = rough[k];
         Scene s;
-        furnace_scene(&s, &m);
+        sphere_scene_material(&s, &m);
         Film f;
         RenderStats st;
         assert_int_equal(render_scene(&s, FURNACE_SIZE, FURNACE_SIZE, 64, -1, 21, NULL, &f, &st), 0);
@@ -328,7 +299,7 @@ static void test_furnace_layers(void **state)
             m.sheen_color[c] = 1.0f;
         m.sheen_roughness = k == 0 ? 0.5f : 0.2f;
         Scene s;
-        furnace_scene(&s, &m);
+        sphere_scene_material(&s, &m);
         Film f;
         RenderStats st;
         assert_int_equal(render_scene(&s, FURNACE_SIZE, FURNACE_SIZE, 64, -1, 23, NULL, &f, &st), 0);
@@ -365,7 +336,7 @@ static void test_furnace_glass(void **state)
         m.transmission = 1.0f;
         m.ior = 1.5f;
         Scene s;
-        furnace_scene(&s, &m);
+        sphere_scene_material(&s, &m);
         Film f;
         RenderStats st;
         assert_int_equal(render_scene(&s, FURNACE_SIZE, FURNACE_SIZE, 128, -1, 22, NULL, &f, &st), 0);

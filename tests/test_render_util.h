@@ -110,9 +110,9 @@ static inline int json_triple(const char *path, const char *section, const char 
 }
 
 /* A scene built in code: a sphere of radius 1 at the origin (a convex
- * polyhedron, so no point sees another), albedo `albedo`, no light; camera at
- * +Z 4 looking toward -Z. */
-static inline void sphere_scene(Scene *s, float albedo)
+ * polyhedron with flat faces, so no point sees another), material m, no light;
+ * camera at +Z 4 looking toward -Z, yfov 0.6 rad. */
+static inline void sphere_scene_material(Scene *s, const SceneMaterial *m)
 {
     memset(s, 0, sizeof *s);
     uint32_t n = 0;
@@ -128,12 +128,7 @@ static inline void sphere_scene(Scene *s, float albedo)
         s->tri_vidx[i] = i;
     s->material_count = 1;
     s->materials = calloc(1, sizeof(SceneMaterial));
-    scene_material_default(&s->materials[0]);
-    /* Lambertian: metallic 0 and no specular layer (KHR_materials_specular 0). */
-    s->materials[0].metallic = 0.0f;
-    s->materials[0].specular = 0.0f;
-    for (int k = 0; k < 3; k++)
-        s->materials[0].base_color[k] = albedo;
+    s->materials[0] = *m;
     s->camera.position[2] = 4.0f;
     s->camera.forward[2] = -1.0f;
     s->camera.up[1] = 1.0f;
@@ -141,6 +136,19 @@ static inline void sphere_scene(Scene *s, float albedo)
     s->camera.yfov = 0.6f;
     s->camera.aspect = 1.0f;
     scene_update_bounds(s);
+}
+
+/* The same sphere, Lambertian of albedo `albedo` (metallic 0 and no specular
+ * layer: KHR_materials_specular 0). */
+static inline void sphere_scene(Scene *s, float albedo)
+{
+    SceneMaterial m;
+    scene_material_default(&m);
+    m.metallic = 0.0f;
+    m.specular = 0.0f;
+    for (int k = 0; k < 3; k++)
+        m.base_color[k] = albedo;
+    sphere_scene_material(s, &m);
 }
 
 /* Settings of a w x w render of spp samples at max_depth with seed; the rest
