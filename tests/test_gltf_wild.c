@@ -2,8 +2,9 @@
  * the wild" (tests/data/gltf/wild_*, written by tools/gen_wild_tests.py):
  * texture transforms against hand-computed matrices, the specular-glossiness
  * conversion against hand-solved values, warnings and refusals of extensions,
- * quantised, meshopt and Draco copies of one mesh against the plain copy, and a
- * WebP texture against its known texels. */
+ * quantised, meshopt and Draco copies of one mesh against the plain copy, a
+ * WebP texture against its known texels; the glTF-Validator's valid test files
+ * (tests/data/gltf/validator/) and GLB buffers with and without a BIN chunk. */
 #include "test_util.h"
 
 #include <stdio.h>
@@ -371,6 +372,175 @@ static void test_webp_texture(void **state)
     scene_free(&s);
 }
 
+/* Reads a test data file whole (NUL-terminated); *n its size. */
+static char *read_data(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) fail_msg("cannot open %s", path);
+    fseek(f, 0, SEEK_END);
+    long size = ftell(f);
+    rewind(f);
+    char *text = malloc((size_t)size + 1);
+    assert_non_null(text);
+    assert_int_equal(fread(text, 1, (size_t)size, f), (size_t)size);
+    fclose(f);
+    text[size] = 0;
+    *n = (size_t)size;
+    return text;
+}
+
+/* path's JSON with more top-level members (added after its first '{'), loaded
+ * from memory under path's name; returns the loader's code. */
+static int load_with(Scene *s, const char *path, const char *members, SptError *e)
+{
+    size_t n;
+    char *text = read_data(path, &n);
+    char *brace = strchr(text, '{');
+    assert_non_null(brace);
+    size_t cap = n + strlen(members) + 2, head = (size_t)(brace + 1 - text);
+    char *json = malloc(cap);
+    assert_non_null(json);
+    int len = snprintf(json, cap, "%.*s%s,%s", (int)head, text, members, brace + 1);
+    int rc = scene_load_gltf_memory(s, json, (size_t)len, path, e);
+    free(json);
+    free(text);
+    return rc;
+}
+
+/* Files of the Khronos glTF-Validator's own tests that it reports valid
+ * (tests/data/gltf/validator/, README there) load without an error: accessors
+ * without a bufferView (zeros), sparse accessors over zeros and over a buffer
+ * view, a .gltf buffer without uri, a mesh on a node of a file with no scene.
+ * Where the files place a mesh, its zero positions make degenerate triangles,
+ * which are dropped and counted. */
+static void test_validator_valid_files(void **state)
+{
+    (void)state;
+    static const char *const files[] = {
+        DATA("validator/accessor/valid.gltf"),
+        DATA("validator/accessor_data/get_elements_sparse.gltf"),
+        DATA("validator/mesh/primitive_generated_tangent_space.gltf"),
+        DATA("validator/node/valid.gltf"),
+    };
+    static char err[16384];
+    Scene s;
+    SptError e = {0};
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        int rc = load_capture(&s, files[i], &e, err, sizeof err);
+        if (rc) fail_msg("%s refused (%d): %s", files[i], rc, e.msg);
+        if (strstr(err, "error:")) fail_msg("%s: an error line:\n%s", files[i], err);
+        /* node/valid.gltf has no scene: its root node's mesh is drawn, a triangle
+         * of three zero positions (POSITION has no bufferView). */
+        if (strstr(files[i], "node/")) {
+            assert_int_equal(s.stats.primitives, 1);
+            assert_int_equal(s.stats.dropped_degenerate, 1);
+        } else {
+            assert_int_equal(s.stats.primitives, 0); /* no node places their meshes */
+        }
+        assert_int_equal(s.tri_count, 0);
+        scene_free(&s);
+    }
+    /* The tangent-space file's mesh placed on a node: four primitives sharing one
+     * POSITION accessor without bufferView, so four zero-area triangles. */
+    const char *place = "\"scene\":0,\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}]";
+    if (load_with(&s, files[2], place, &e)) fail_msg("%s", e.msg);
+    assert_int_equal(s.stats.primitives, 4);
+    assert_int_equal(s.stats.dropped_degenerate, 4);
+    assert_int_equal(s.tri_count, 0);
+    scene_free(&s);
+    /* accessor/valid.gltf's sparse accessor reads buffers[0], which has no uri: a
+     * primitive that uses it is refused, naming the accessor and the buffer. */
+    char more[512];
+    snprintf(more, sizeof more, "%s,\"meshes\":[{\"primitives\":[{\"attributes\":"
+             "{\"POSITION\":0}}]}]", place);
+    assert_int_equal(load_with(&s, files[0], more, &e), SPT_EXIT_INPUT);
+    if (!strstr(e.msg, "valid.gltf: meshes[0].primitives[0].attributes.POSITION (accessors[0])") ||
+        !strstr(e.msg, "buffers[0], which has no uri"))
+        fail_msg("unexpected message: %s", e.msg);
+}
+
+/* A GLB of the JSON text json (padded) and, when bin_len > 0, a BIN chunk of
+ * bin_len bytes of bin, into out; returns its size. */
+static size_t make_glb(unsigned char *out, size_t cap, const char *json, const void *bin,
+                       uint32_t bin_len)
+{
+    uint32_t jlen = (uint32_t)strlen(json), jpad = (jlen + 3) & ~3u;
+    uint32_t bpad = (bin_len + 3) & ~3u;
+    size_t total = 20 + jpad + (bin_len ? 8 + bpad : 0);
+    assert_true(total <= cap);
+    uint32_t hdr[5] = {0x46546C67u, 2, (uint32_t)total, jpad, 0x4E4F534Au};
+    memcpy(out, hdr, 20);
+    memcpy(out + 20, json, jlen);
+    memset(out + 20 + jlen, ' ', jpad - jlen);
+    if (bin_len) {
+        uint32_t ch[2] = {bpad, 0x004E4942u};
+        memcpy(out + 20 + jpad, ch, 8);
+        memcpy(out + 28 + jpad, bin, bin_len);
+        memset(out + 28 + jpad + bin_len, 0, bpad - bin_len);
+    }
+    return total;
+}
+
+/* GLB buffers (glTF 2.0, GLB file format): buffers[0] without uri is the BIN
+ * chunk, so without one, or with one shorter than its byteLength, the file is
+ * refused by name (the validator's BUFFER_MISSING_GLB_DATA; byteLength 0 is
+ * below the schema's minimum of 1 as well). Another buffer without uri holds no
+ * data: valid while nothing reads it (the validator's valid_placeholder.glb). */
+static void test_glb_buffers(void **state)
+{
+    (void)state;
+    static const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const char *tri = "\"scene\":0,\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+                      "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}],"
+                      "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,"
+                      "\"type\":\"VEC3\"}]";
+    static const struct {
+        const char *buffers, *views; /* JSON arrays' contents */
+        int bin, with_tri;           /* a BIN chunk (the positions); the triangle */
+        const char *want;            /* NULL: loads */
+    } cases[] = {
+        {"{\"byteLength\":4}", NULL, 0, 0,
+         "buffers[0]: has no uri, so its data is the GLB's BIN chunk, and the file has no BIN chunk"},
+        {"{\"byteLength\":0}", NULL, 0, 0, "buffers[0]: has no uri"},
+        {"{\"byteLength\":36}", "{\"buffer\":0,\"byteLength\":36}", 0, 1, "has no BIN chunk"},
+        {"{\"byteLength\":40}", "{\"buffer\":0,\"byteLength\":36}", 1, 1,
+         "buffers[0]: byteLength 40 is more than the 36 bytes of the GLB's BIN chunk"},
+        {"{\"byteLength\":36},{\"byteLength\":8}", "{\"buffer\":0,\"byteLength\":36}", 1, 1, NULL},
+        {"{\"byteLength\":1,\"uri\":\"data:application/octet-stream;base64,AA==\"},"
+         "{\"byteLength\":8}", NULL, 0, 0, NULL},
+        {"{\"byteLength\":36},{\"byteLength\":36}", "{\"buffer\":1,\"byteLength\":36}", 1, 1,
+         "(accessors[0]): bufferViews[0] is in buffers[1], which has no uri"},
+    };
+    static char json[2048];
+    static unsigned char glb[4096];
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        int len = snprintf(json, sizeof json, "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[%s]",
+                           cases[i].buffers);
+        if (cases[i].views)
+            len += snprintf(json + len, sizeof json - (size_t)len, ",\"bufferViews\":[%s]",
+                            cases[i].views);
+        if (cases[i].with_tri) len += snprintf(json + len, sizeof json - (size_t)len, ",%s", tri);
+        snprintf(json + len, sizeof json - (size_t)len, "}");
+        size_t n = make_glb(glb, sizeof glb, json, pos, cases[i].bin ? sizeof pos : 0);
+        Scene s;
+        SptError e = {0};
+        int rc = scene_load_gltf_memory(&s, glb, n, "buffers.glb", &e);
+        if (!cases[i].want) {
+            if (rc) fail_msg("case %zu refused: %s", i, e.msg);
+            if (cases[i].with_tri) {
+                assert_int_equal(s.tri_count, 1);
+                assert_close(s.tri_pos[3], 1, 0);
+                assert_close(s.tri_pos[7], 1, 0);
+            }
+            scene_free(&s);
+            continue;
+        }
+        assert_int_equal(rc, SPT_EXIT_INPUT);
+        if (strncmp(e.msg, "buffers.glb: ", 13) || !strstr(e.msg, cases[i].want))
+            fail_msg("case %zu: expected 'buffers.glb: ...%s' in: %s", i, cases[i].want, e.msg);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -384,6 +554,8 @@ int main(void)
         cmocka_unit_test(test_meshopt_damaged),
         cmocka_unit_test(test_webp_texture),
         cmocka_unit_test(test_shared_vertices_and_instances),
+        cmocka_unit_test(test_validator_valid_files),
+        cmocka_unit_test(test_glb_buffers),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -105,17 +105,18 @@ const char *type_name(int n)
 // Likewise KHR_draco_mesh_compression primitives' indices accessors have no
 // bufferView (the faces are in the Draco data), which tinygltf refuses: their
 // "indices" is dropped (the loader takes the faces from Draco).
-// In a .gltf, a buffer without uri (valid while nothing reads it) gets the same
-// 4-byte data URI, and its buffer views become 4-byte views of it, listed in
-// *dead_views: an accessor that reads one is refused (check_accessor), an image
-// in one is unusable.
+// A buffer without uri that holds no data (valid while nothing reads it: any in
+// a .gltf, any but buffers[0] in a .glb) gets the same 4-byte data URI, and its
+// buffer views become 4-byte views of it, listed in *dead_views: an accessor
+// that reads one is refused (check_accessor), an image in one is unusable.
+// In a .glb, buffers[0] without uri is the BIN chunk (glTF 2.0 4.4.3.3): with
+// no BIN chunk (bin_len 0), or one shorter than its byteLength, *why says so
+// and the file is refused.
 static bool rewrite_fallback_buffers(const unsigned char *json, size_t size, bool glb,
-                                     std::string *out, std::vector<int> *dead_views)
+                                     uint64_t bin_len, std::string *out,
+                                     std::vector<int> *dead_views, std::string *why)
 {
     static const char key[] = "EXT_meshopt_compression", draco[] = "KHR_draco_mesh_compression";
-    if (std::search(json, json + size, key, key + sizeof key - 1) == json + size &&
-        std::search(json, json + size, draco, draco + sizeof draco - 1) == json + size && glb)
-        return false;
     nlohmann::json j;
     try {
         j = nlohmann::json::parse(json, json + size);
@@ -147,7 +148,23 @@ static bool rewrite_fallback_buffers(const unsigned char *json, size_t size, boo
         const nlohmann::json *x = b.contains("extensions") ? &b["extensions"] : nullptr;
         bool fallback = x && x->is_object() && x->contains(key) && (*x)[key].is_object() &&
                         (*x)[key].contains("fallback") && (*x)[key]["fallback"] == true;
-        if (!fallback && glb) continue; // buffers[0] is the BIN chunk
+        if (!fallback && glb && bi == 0) { // the BIN chunk
+            uint64_t want = b.contains("byteLength") && b["byteLength"].is_number_unsigned()
+                                ? b["byteLength"].get<uint64_t>()
+                                : 0;
+            char msg[200];
+            if (bin_len == 0)
+                snprintf(msg, sizeof msg, "buffers[0]: has no uri, so its data is the GLB's BIN "
+                                          "chunk, and the file has no BIN chunk");
+            else if (want > bin_len)
+                snprintf(msg, sizeof msg, "buffers[0]: byteLength %llu is more than the %llu "
+                                          "bytes of the GLB's BIN chunk",
+                         (unsigned long long)want, (unsigned long long)bin_len);
+            else
+                continue;
+            *why = msg;
+            return false;
+        }
         if (!fallback) no_data.push_back(bi);
         b["uri"] = "data:application/octet-stream;base64,AAAAAA==";
         b["byteLength"] = 4;
@@ -205,8 +222,13 @@ int Loader::parse(const unsigned char *data, size_t size)
         json = data + 20;
         json_size = h[3];
         if (int r = check_json_depth(json, json_size)) return r;
-        std::string fixed;
-        if (rewrite_fallback_buffers(json, json_size, true, &fixed, &dead_views)) {
+        std::string fixed, why;
+        uint32_t bin_len = 0; // the BIN chunk's length, checked above; 0: no BIN chunk
+        if (json_end < length) memcpy(&bin_len, data + json_end, 4);
+        bool rewritten =
+            rewrite_fallback_buffers(json, json_size, true, bin_len, &fixed, &dead_views, &why);
+        if (!why.empty()) return bad("%s", why.c_str());
+        if (rewritten) {
             // The same container around the rewritten JSON chunk.
             while (fixed.size() % 4) fixed += ' ';
             std::vector<unsigned char> glb(20);
@@ -224,8 +246,8 @@ int Loader::parse(const unsigned char *data, size_t size)
     } else {
         if (size > UINT_MAX) return bad("a .gltf file of 4 GiB or more is not supported");
         if (int r = check_json_depth(data, size)) return r;
-        std::string fixed;
-        if (rewrite_fallback_buffers(data, size, false, &fixed, &dead_views))
+        std::string fixed, why;
+        if (rewrite_fallback_buffers(data, size, false, 0, &fixed, &dead_views, &why))
             ok = gltf.LoadASCIIFromString(&m, &err, &warn, fixed.data(), (unsigned)fixed.size(),
                                           dir, tinygltf::REQUIRE_VERSION);
         else
