@@ -454,7 +454,8 @@ static void test_second_sigint_stops_at_once(void **state)
 /* Values the renderer's float arithmetic cannot carry are refused with the file,
  * the object and the value (they used to give a black image or NaN with exit 0):
  * a point light of 1e38 cd, an environment texel of 3e38, an SPD sample of
- * 1e308; a negative SPD sample is refused too. `color --` ends the options. */
+ * 1e308; a negative SPD sample is refused too. `color --` ends the options.
+ * Each error names the file first (the light's check runs after loading). */
 static void test_values_beyond_float(void **state)
 {
     (void)state;
@@ -471,7 +472,8 @@ static void test_values_beyond_float(void **state)
     free(text);
     char args[1024];
     snprintf(args, sizeof args, "render %s " TINY " -o %s", in_dir("light.gltf"), in_dir("l.exr"));
-    refused(args, 3, "intensity 1e+38 is too large");
+    refused(args, 3, "light.gltf: extensions.KHR_lights_punctual.lights[0] ('lamp'): "
+                     "intensity 1e+38 is too large");
     assert_false(exists(in_dir("l.exr")));
 
     float px[4 * 2 * 3];

@@ -385,12 +385,23 @@ static void texture_upload(GpuTexture *gt, const SceneTexture *t, uint32_t kind,
     *count += total;
 }
 
+/* rc, with the scene's file put in front of e's message about its content. */
+static int in_scene_file(const Scene *s, int rc, SptError *e)
+{
+    if (s->path && e) {
+        char msg[sizeof e->msg];
+        memcpy(msg, e->msg, sizeof msg);
+        spt_fail(e, rc, "%s: %s", s->path, msg);
+    }
+    return rc;
+}
+
 int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
 {
     memset(g, 0, sizeof *g);
     int rc = bvh_build(&g->bvh, s->tri_pos, s->tri_count, e);
     if (rc)
-        return rc;
+        return in_scene_file(s, rc, e);
     uint32_t n = g->bvh.prim_count;
     g->tri_shade = spt_calloc(n ? n : 1, sizeof(TriShade));
     for (uint32_t i = 0; i < n; i++) {
@@ -490,7 +501,7 @@ int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
                               &g->lights[g->light_count], e);
         if (rc) {
             gpu_scene_free(g);
-            return rc;
+            return in_scene_file(s, rc, e);
         }
         g->spectra_count += SPT_CIE_SAMPLES;
         g->light_count++;

@@ -3,6 +3,7 @@
 #include "render/host_lights.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -68,24 +69,32 @@ int light_from_scene(const SceneLight *sl, float *table, uint32_t table_offset, 
                      SptError *e)
 {
     memset(out, 0, sizeof *out);
+    /* The light in messages: its object in the file (and its name, unless the
+     * loader's "light" for an unnamed one), else its name. */
+    char who[256];
+    if (sl->object[0] && strcmp(sl->name, "light") != 0)
+        snprintf(who, sizeof who, "%s ('%s')", sl->object, sl->name);
+    else if (sl->object[0])
+        snprintf(who, sizeof who, "%s", sl->object);
+    else
+        snprintf(who, sizeof who, "light '%s'", sl->name);
     if (sl->type != SPT_LIGHT_POINT && sl->type != SPT_LIGHT_SPOT &&
         sl->type != SPT_LIGHT_DIRECTIONAL)
-        return spt_fail(e, SPT_EXIT_INPUT, "light '%s': unknown type %d", sl->name, sl->type);
+        return spt_fail(e, SPT_EXIT_INPUT, "%s: unknown type %d", who, sl->type);
     if (!(isfinite(sl->intensity) && sl->intensity >= 0.0f))
-        return spt_fail(e, SPT_EXIT_INPUT, "light '%s': intensity %g is not a finite value >= 0",
-                        sl->name, sl->intensity);
+        return spt_fail(e, SPT_EXIT_INPUT, "%s: intensity %g is not a finite value >= 0",
+                        who, sl->intensity);
     if (!all_finite(sl->color, 3) || sl->color[0] < 0.0f || sl->color[1] < 0.0f ||
         sl->color[2] < 0.0f)
-        return spt_fail(e, SPT_EXIT_INPUT, "light '%s': colour (%g, %g, %g) must be finite and >= 0",
-                        sl->name, sl->color[0], sl->color[1], sl->color[2]);
+        return spt_fail(e, SPT_EXIT_INPUT, "%s: colour (%g, %g, %g) must be finite and >= 0",
+                        who, sl->color[0], sl->color[1], sl->color[2]);
     if (!all_finite(sl->position, 3) || !all_finite(sl->direction, 3))
-        return spt_fail(e, SPT_EXIT_INPUT, "light '%s': position or direction is not finite",
-                        sl->name);
+        return spt_fail(e, SPT_EXIT_INPUT, "%s: position or direction is not finite", who);
     double dl = sqrt((double)sl->direction[0] * sl->direction[0] +
                      (double)sl->direction[1] * sl->direction[1] +
                      (double)sl->direction[2] * sl->direction[2]);
     if (sl->type != SPT_LIGHT_POINT && !(dl > 0.0))
-        return spt_fail(e, SPT_EXIT_INPUT, "light '%s': zero direction", sl->name);
+        return spt_fail(e, SPT_EXIT_INPUT, "%s: zero direction", who);
     out->type = (spt_u32)sl->type;
     for (int a = 0; a < 3; a++) {
         out->pos[a] = sl->position[a];
@@ -111,9 +120,9 @@ int light_from_scene(const SceneLight *sl, float *table, uint32_t table_offset, 
     for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
         table[i] *= SPT_LIGHT_FILM_PER_WATT;
         if (!(table[i] <= SPT_MAX_INPUT_VALUE))
-            return spt_fail(e, SPT_EXIT_INPUT, "light '%s': intensity %g is too large: its "
+            return spt_fail(e, SPT_EXIT_INPUT, "%s: intensity %g is too large: its "
                             "spectrum reaches %g, above the 1e30 the renderer's float "
-                            "arithmetic can carry", sl->name, sl->intensity, (double)table[i]);
+                            "arithmetic can carry", who, sl->intensity, (double)table[i]);
     }
     out->spectrum.kind = SPT_SPEC_TABLE;
     out->spectrum.scale = 1.0f;

@@ -196,6 +196,7 @@ int Loader::light_from(int li, const Mat4 &world, int node)
     SceneLight sl = {};
     snprintf(sl.name, sizeof sl.name, "%s", l.name.empty() ? "light" : l.name.c_str());
     std::string obj = "extensions.KHR_lights_punctual.lights[" + std::to_string(li) + "]";
+    snprintf(sl.object, sizeof sl.object, "%s", obj.c_str());
     if (l.type == "point")
         sl.type = SPT_LIGHT_POINT;
     else if (l.type == "spot")

@@ -93,6 +93,8 @@ enum { SPT_LIGHT_POINT = 0, SPT_LIGHT_SPOT = 1, SPT_LIGHT_DIRECTIONAL = 2 };
 
 typedef struct SceneLight {
     char name[128];
+    char object[64];      /* the file's object, "extensions.KHR_lights_punctual.lights[N]";
+                             "" for a light made in code */
     int type;
     float position[3];    /* world space */
     float direction[3];   /* world space, unit: where the light points (-Z of its node) */
