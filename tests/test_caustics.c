@@ -40,6 +40,40 @@ enum { LIGHT_SPOT, LIGHT_AREA, LIGHT_DIRECTIONAL };
 /* The directional light: 1000 lux straight down. */
 #define DIR_E 1000.0
 
+/* A square camera at (0, y, z) looking down the y-z plane along (0, -a, -b),
+ * +x to the right; then the scene's bounds. */
+static void aim_camera(Scene *s, double y, double z, double a, double b, float yfov)
+{
+    double len = sqrt(a * a + b * b);
+    s->camera.position[1] = (float)y;
+    s->camera.position[2] = (float)z;
+    s->camera.forward[1] = (float)(-a / len);
+    s->camera.forward[2] = (float)(-b / len);
+    s->camera.up[1] = (float)(b / len);
+    s->camera.up[2] = (float)(-a / len);
+    s->camera.right[0] = 1.0f;
+    s->camera.yfov = yfov;
+    s->camera.aspect = 1.0f;
+    scene_update_bounds(s);
+}
+
+/* Renders s with rs on the test device into film (initialised here), which
+ * must come out finite. */
+static void render_caustic_scene(const Scene *s, const RenderSettings *rs, Film *film)
+{
+    GpuScene g;
+    SptError e = {0};
+    assert_int_equal(gpu_scene_build(&g, s, &e), 0);
+    RenderStats st;
+    film_init(film, rs->width, rs->height);
+    int rc = render_device(device, &g, &s->camera, rs, film, &st, &e);
+    if (rc)
+        fprintf(stderr, "render: %s\n", e.msg);
+    assert_int_equal(rc, 0);
+    assert_int_equal(film_nonfinite_pixels(film), 0);
+    gpu_scene_free(&g);
+}
+
 /* The floor (albedo 0.5, 4 x 4 m), the slab (3 x 3 m, clear smooth glass),
  * one light, and a camera under the slab's level looking at the floor's
  * centre from the side (so its rays never meet the glass). glass = 0 makes the
@@ -89,17 +123,7 @@ static void slab_scene(Scene *s, int light, int glass)
             l->color[k] = 1.0f;
     }
     /* Camera at (0, 0.9, 2.5) toward the origin. */
-    double a = 0.9, b = 2.5, len = sqrt(a * a + b * b);
-    s->camera.position[1] = 0.9f;
-    s->camera.position[2] = 2.5f;
-    s->camera.forward[1] = (float)(-a / len);
-    s->camera.forward[2] = (float)(-b / len);
-    s->camera.up[1] = (float)(b / len);
-    s->camera.up[2] = (float)(-a / len);
-    s->camera.right[0] = 1.0f;
-    s->camera.yfov = 0.55f;
-    s->camera.aspect = 1.0f;
-    scene_update_bounds(s);
+    aim_camera(s, 0.9, 2.5, 0.9, 2.5, 0.55f);
 }
 
 /* Unpolarised Fresnel reflectance of an air-glass interface at incidence
@@ -194,23 +218,13 @@ static void render_slab(int light, int glass, int caustics, int spp, int depth, 
         s.lights[0].type = SPT_LIGHT_POINT;
         s.lights[0].position[1] = 0.8f;
     }
-    GpuScene g;
-    SptError e = {0};
-    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
     RenderSettings rs = square_settings(48, spp, depth, 3);
     rs.caustics = caustics;
     rs.pool_size = pool;
     rs.sample_begin = sample_begin;
     rs.aperture = slab_aperture;
     rs.focus_distance = slab_focus;
-    RenderStats st;
-    film_init(film, rs.width, rs.height);
-    int rc = render_device(device, &g, &s.camera, &rs, film, &st, &e);
-    if (rc)
-        fprintf(stderr, "render: %s\n", e.msg);
-    assert_int_equal(rc, 0);
-    assert_int_equal(film_nonfinite_pixels(film), 0);
-    gpu_scene_free(&g);
+    render_caustic_scene(&s, &rs, film);
     scene_free(&s);
 }
 
@@ -358,6 +372,153 @@ static void test_split_invariance(void **state)
     film_free(&b);
     film_free(&c);
     film_free(&d);
+}
+
+/* A closed box whose six walls are Lambertian (albedo BOX_ALBEDO) and emit
+ * BOX_LE on their inside, with a clear smooth glass cube in it: the radiance
+ * is BOX_LE / (1 - BOX_ALBEDO) everywhere in the air (a wall sends out its
+ * emission plus BOX_ALBEDO of a uniform field, and lossless glass keeps a
+ * uniform field uniform), so every pixel of a camera inside sees it, through
+ * the glass too. With the pass on, the paths through the glass are split
+ * between the two techniques at every depth (a wall seen from the camera,
+ * lit by a wall that sees a light through the glass: the light paths'), so a
+ * share counted twice or by neither shows as a departure from the furnace.
+ * light_patch instead makes the box's walls plain and puts one light, a
+ * square under the ceiling, above the cube (the closed-box caustic scene of
+ * test_closed_box_one_light). */
+#define BOX_ALBEDO 0.8
+#define BOX_LE 1.0
+
+static void closed_box_scene(Scene *s, int light_patch)
+{
+    memset(s, 0, sizeof *s);
+    const float lo[3] = {-1, -1, -1}, hi[3] = {1, 1, 1};
+    SceneMaterial *w = append_box(s, lo, hi);
+    /* Faces inward: each triangle's winding reversed. */
+    for (uint32_t t = s->tri_count - 12; t < s->tri_count; t++)
+        for (int k = 0; k < 3; k++) {
+            float tmp = s->tri_pos[9 * t + 3 + k];
+            s->tri_pos[9 * t + 3 + k] = s->tri_pos[9 * t + 6 + k];
+            s->tri_pos[9 * t + 6 + k] = tmp;
+        }
+    w->metallic = 0.0f;
+    w->specular = 0.0f;
+    for (int k = 0; k < 3; k++) {
+        w->base_color[k] = (float)BOX_ALBEDO;
+        w->emissive[k] = light_patch ? 0.0f : 1.0f;
+    }
+    w->emissive_strength = (float)BOX_LE;
+    const float glo[3] = {-0.5f, -0.7f, -0.5f}, ghi[3] = {0.5f, 0.2f, 0.5f};
+    SceneMaterial *g = append_box(s, glo, ghi);
+    g->metallic = 0.0f;
+    g->roughness = 0.0f;
+    g->transmission = 1.0f;
+    g->ior = 1.5f;
+    for (int k = 0; k < 3; k++)
+        g->base_color[k] = 1.0f;
+    if (light_patch) {
+        /* Counter-clockwise seen from below: the front faces down. */
+        const float h = 0.25f, y = 0.99f;
+        const float lc[4][3] = {{-h, y, -h}, {h, y, -h}, {h, y, h}, {-h, y, h}};
+        SceneMaterial *lm = append_rect(s, lc);
+        for (int k = 0; k < 3; k++) {
+            lm->base_color[k] = 0.0f;
+            lm->emissive[k] = 1.0f;
+        }
+        lm->emissive_strength = 10.0f;
+    }
+    /* From near the front wall, a little above the cube, toward the box's
+     * centre below. */
+    aim_camera(s, 0.3, 0.95, 0.35, 1.0, 1.2f);
+}
+
+static void render_closed_box(int light_patch, int caustics, int w, int spp, Film *film)
+{
+    Scene s;
+    closed_box_scene(&s, light_patch);
+    RenderSettings rs = square_settings(w, spp, -1, 5);
+    rs.caustics = caustics;
+    render_caustic_scene(&s, &rs, film);
+    scene_free(&s);
+}
+
+/* The furnace of closed_box_scene with the pass on: the mean of each quarter
+ * of the image (the glass cube fills much of the lower half) and of the
+ * whole, against BOX_LE / (1 - BOX_ALBEDO). */
+static void test_closed_box_furnace(void **state)
+{
+    (void)state;
+    skip_if_quick();
+    Film f;
+    enum { W = 32 };
+    render_closed_box(0, SPT_CAUSTICS_ON, W, 64, &f);
+    double want = BOX_LE / (1.0 - BOX_ALBEDO), q[4] = {0}, all = 0;
+    for (int py = 0; py < W; py++)
+        for (int px = 0; px < W; px++) {
+            size_t i = (size_t)py * W + px;
+            double y = f.xyz[3 * i + 1] / f.count[i];
+            q[2 * (py >= W / 2) + (px >= W / 2)] += y / (W * W / 4);
+            all += y / (W * W);
+        }
+    printf("closed furnace box with a glass cube, --caustics on: mean Y %.4f (%+.2f%%), quarters %+.2f%% "
+           "%+.2f%% %+.2f%% %+.2f%%, expected %.4f\n",
+           all, 100.0 * (all / want - 1.0), 100.0 * (q[0] / want - 1.0), 100.0 * (q[1] / want - 1.0),
+           100.0 * (q[2] / want - 1.0), 100.0 * (q[3] / want - 1.0), want);
+    assert_close_rel(all, want, 0.01);
+    for (int k = 0; k < 4; k++)
+        assert_close_rel(q[k], want, 0.03);
+    film_free(&f);
+}
+
+/* One light in the closed box (closed_box_scene's light_patch): the caustic
+ * of the glass cube on the floor lights the walls in turn (camera - wall -
+ * floor - glass - light, the light paths' with the pass on), and camera paths
+ * alone (--caustics off, at 8 times the samples) find the same light: the
+ * means of the image's 4 x 4 blocks agree within their noise (the standard
+ * error of each block's mean from its pixels' spread) and the whole image's
+ * within 1%. */
+static void test_closed_box_one_light(void **state)
+{
+    (void)state;
+    skip_if_quick();
+    enum { W = 32, B = 4 };
+    Film on, off;
+    render_closed_box(1, SPT_CAUSTICS_ON, W, 64, &on);
+    render_closed_box(1, SPT_CAUSTICS_OFF, W, 512, &off);
+    double sum_on = 0, sum_off = 0, worst = 0;
+    for (int by = 0; by < B; by++)
+        for (int bx = 0; bx < B; bx++) {
+            double m[2] = {0}, m2[2] = {0};
+            int n = 0;
+            for (int py = by * W / B; py < (by + 1) * W / B; py++)
+                for (int px = bx * W / B; px < (bx + 1) * W / B; px++, n++) {
+                    size_t i = (size_t)py * W + px;
+                    const Film *f[2] = {&on, &off};
+                    for (int k = 0; k < 2; k++) {
+                        double y = f[k]->xyz[3 * i + 1] / f[k]->count[i];
+                        m[k] += y;
+                        m2[k] += y * y;
+                    }
+                }
+            /* Pixels of a block differ in their expected values too, so the
+             * spread overstates each estimate's noise: a loose bound. */
+            double var = 0;
+            for (int k = 0; k < 2; k++) {
+                double mean = m[k] / n;
+                var += fmax(m2[k] / n - mean * mean, 0.0) / n;
+            }
+            double z = (m[0] - m[1]) / n / sqrt(var);
+            worst = fmax(worst, fabs(z));
+            sum_on += m[0];
+            sum_off += m[1];
+        }
+    printf("closed box, one light over a glass cube: mean Y --caustics on %.5g, off %.5g (%+.2f%%); "
+           "largest block difference %.2f standard errors\n",
+           sum_on / (W * W), sum_off / (W * W), 100.0 * (sum_on / sum_off - 1.0), worst);
+    assert_close_rel(sum_on, sum_off, 0.01);
+    assert_true(worst < 4.0);
+    film_free(&on);
+    film_free(&off);
 }
 
 /* A prism of dispersive glass (KHR_materials_dispersion 2, n_d
@@ -509,6 +670,8 @@ int main(void)
         cmocka_unit_test(test_area_light_caustic),
         cmocka_unit_test(test_no_delta_unchanged),
         cmocka_unit_test(test_split_invariance),
+        cmocka_unit_test(test_closed_box_furnace),
+        cmocka_unit_test(test_closed_box_one_light),
         cmocka_unit_test(test_prism_dispersion),
     };
     return cmocka_run_group_tests(tests, setup_cpu_device, teardown_cpu_device);

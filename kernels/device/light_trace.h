@@ -6,20 +6,26 @@
  * method; in short:
  *
  * - Path space is split between the two techniques, so nothing counts twice.
- *   The light paths own camera - x1 - s+ - light: x1 a vertex whose non-delta
- *   lobe is taken, s+ one or more vertices whose delta lobes are taken, the
- *   light an emissive triangle of the light selection or a punctual light. A
- *   camera path drops exactly the emission it reaches that way
- *   (lt_camera_drops in kernels/device/shade_surface.h); punctual lights it never
- *   reaches. The environment stays the camera paths' alone.
+ *   Name a path's vertices from the camera, camera - x1 - ... - xk - light,
+ *   each by the lobe it took: D (non-delta) or S (delta). The light paths own
+ *   the paths with x1 D and xk S (the light an emissive triangle of the light
+ *   selection or a punctual light): from the light, one or more S vertices,
+ *   then a D vertex, then anything, down to x1. A camera path drops exactly
+ *   the emission it reaches that way (lt_camera_drops in
+ *   kernels/device/shade_surface.h); punctual lights it never reaches. The
+ *   camera paths keep the rest: x1 S (a light path cannot connect through a
+ *   delta vertex), xk D (next-event estimation and MIS find those well), the
+ *   environment, and emitters outside the light selection.
  * - A light path starts on a light picked by the renderer's light selection
  *   (by power; the environment's share ends the path at once), carries its own
  *   four wavelengths (a dispersive refraction keeps only the hero, as camera
- *   paths do), and at each vertex picks a lobe as bsdf_sample does: a delta
- *   lobe carries it on (with the adjoint's factors: no 1/eta^2 of radiance
- *   transport, Veach's shading-normal correction), a non-delta lobe ends it,
- *   connected to the pinhole camera (when a delta vertex came before) with
- *   weight 1 / P(non-delta). So each light path makes at most one splat.
+ *   paths do), and samples the BSDFs with the camera paths' code (with the
+ *   adjoint's factors: no 1/eta^2 of radiance transport, Veach's
+ *   shading-normal correction) and Russian roulette. Its first vertex must
+ *   take a delta lobe, else it ends (the camera paths own all that follows);
+ *   after that it connects to the camera (pinhole or thin lens) at every
+ *   vertex with a non-delta lobe, by a shadow ray whose splat goes to the
+ *   pixel the vertex projects to, and goes on.
  * - The splat: the camera's importance for a pinhole whose image plane lies at
  *   distance 1 is W_e = 1 / (A_pixel cos^3 theta) within a pixel (a thin
  *   lens: the same at a uniform point of the lens), so a light
@@ -27,7 +33,7 @@
  *   r^2 W_e, and the N = light_paths light paths of each sample index are
  *   averaged: the film's sum over spp samples gains that over light_paths.
  * - Determinism: light path k of sample index s (k < light_paths) takes its
- *   random numbers from (seed ^ SPT_LT_SALT, k, s), and its splat goes to the
+ *   random numbers from (seed ^ SPT_LT_SALT, k, s), and its splats go to the
  *   light film as 64-bit fixed-point sums by integer atomics (rounded up or
  *   down at random, without bias): integer sums do not depend on the order of
  *   the atomics, so a chunk's image is the same whatever the schedule. */
@@ -35,8 +41,6 @@
 #define SPT_LIGHT_TRACE_H
 
 #define SPT_LT_SALT 0x6c8e9cf5u
-/* ps_splat of a path with no splat. */
-#define SPT_LT_NO_PIXEL 0xffffffffu
 
 /* Light path work item w: its index among its sample's light paths and its
  * sample index. */
@@ -149,7 +153,6 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
     ps_medium[i] = 0;
     ps_bsdf_pdf[i] = 0.0f;
     ps_lt[i] = SPT_LT_LIGHT;
-    ps_splat[i] = SPT_LT_NO_PIXEL;
     ps_ray_o[i] = (float4)(o, 0.0f);
     ps_ray_d[i] = (float4)(normalize(d), 0.0f);
     /* The shortest path the pass owns has 3 segments (light, delta vertex,
@@ -178,17 +181,18 @@ SPT_FN_INLINE int lt_delta_lobe(const BsdfParams *bp, float3 wo, float u0, float
 
 /* Connects light vertex h (frame f, BSDF bp) to the camera, a pinhole or a
  * point of the thin lens (uniform over it, from lu, lv): fills the shadow ray
- * and its contribution (the splat's spectral value, times `scale`), records
- * the pixel in ps_splat and clears ps_radiance for k_connect to add to;
- * returns 1, or 0 when the camera does not see the vertex's side or the point
- * projects outside the image. A camera ray leaves lens point l toward the
+ * and its splat: the contribution's XYZ in sh_c's xyz and a uniform number u
+ * for its rounding in w, the pixel in sh_o's w (as bits), for k_connect to add
+ * to the light film when the ray is not blocked; returns 1, or 0 when the
+ * camera does not see the vertex's side, the point projects outside the
+ * image, or the contribution is zero (or not finite: counted as such). A camera ray leaves lens point l toward the
  * point cam + F d of the plane of focus (d = fwd + sx right + sy up, F the
  * focus distance; l = cam for the pinhole), so the vertex is seen in the
  * pixel of the d whose focus point lies on the line from l through it. The
  * importance is the pinhole's with theta at l: the lens point's density
  * cancels the lens's 1/A_lens. */
-SPT_FN_INLINE int lt_connect(const ShadeHit *h, const BsdfParams *bp, const ShadeFrame *f, float scale,
-                             float lu, float lv, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFERS)
+SPT_FN_INLINE int lt_connect(const ShadeHit *h, const BsdfParams *bp, const ShadeFrame *f, float lu,
+                             float lv, float u, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFERS)
 {
     float3 cam = (float3)(P.cam_pos[0], P.cam_pos[1], P.cam_pos[2]);
     float3 fwd = (float3)(P.cam_fwd[0], P.cam_fwd[1], P.cam_fwd[2]);
@@ -233,25 +237,32 @@ SPT_FN_INLINE int lt_connect(const ShadeHit *h, const BsdfParams *bp, const Shad
      * adjoint with shading normals); W_e = npix / (A_film cos^3). */
     float g = fabs(wc_side) / (fmax(fabs(f->wo_side), 1e-8f) * r2);
     float we = npix / (a_film * cosc * cosc * cosc);
-    float4 c = ps_radiance[h->i] * h->beta * fv * (g * we * scale / (float)P.light_paths);
+    float4 c = ps_radiance[h->i] * h->beta * fv * (g * we / (float)P.light_paths);
     if (!(max4(c) > 0.0f))
         return 0;
-    ps_radiance[h->i] = (float4)(0.0f);
-    ps_splat[h->i] = py * (uint)P.width + px;
-    *sh_o = (float4)(offset_origin(h->p, wc_side > 0.0f ? f->ngf : -f->ngf), 0.0f);
+    /* With the wavelengths' pdf of this vertex: a dispersive refraction after
+     * it changes the path's. */
+    float4 xyz = path_radiance_to_xyz(c, ps_lambda[h->i], ps_lambda_pdf[h->i]);
+    if (!(isfinite(xyz.x) && isfinite(xyz.y) && isfinite(xyz.z))) {
+        atomic_inc(&counters[SPT_CNT_NAN]);
+        return 0;
+    }
+    uint pixel = py * (uint)P.width + px;
+    *sh_o = (float4)(offset_origin(h->p, wc_side > 0.0f ? f->ngf : -f->ngf), as_float(pixel));
     *sh_d = (float4)(wc, r * (1.0f - 1e-4f));
-    *sh_c = c;
+    *sh_c = (float4)(fmax(xyz.x, 0.0f), fmax(xyz.y, 0.0f), fmax(xyz.z, 0.0f), u);
     return 1;
 }
 
-/* Shades light path i at its hit: through a delta lobe it goes on, else it
- * ends, connected to the camera when a delta vertex came before. Returns 1 and
+/* Shades light path i at its hit: at its first vertex only a delta lobe lets
+ * it go on; at later ones it connects to the camera (when the BSDF has a
+ * non-delta lobe) and samples the BSDF as a camera path does. Returns 1 and
  * fills the shadow ray when it connects. */
 static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFERS)
 {
     ShadeHit h;
     shade_hit_begin(i, &h, ALL_ARGS);
-    /* Ends without a splat unless lt_connect records one. */
+    /* Ends here unless it goes on below. */
     ps_flags[i] = SPT_PATH_FINISHED;
     if (h.prim == NO_HIT)
         return 0;
@@ -281,24 +292,33 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFER
     /* Vertex k of a light path takes the dimensions of bounce k (bounce 0 is
      * the start on the light). */
     f.bounce = h.depth;
-    float pdelta;
-    float u0 = spt_sampler_1d(f.smp, spt_dim_bounce(f.bounce, SPT_DIM_BSDF_LOBE));
-    if (!lt_delta_lobe(&bp, f.wo_l, u0, &pdelta)) {
-        if (!(ps_lt[i] & SPT_LT_SPEC) || !(pdelta < 1.0f))
+    int past_delta = (ps_lt[i] & SPT_LT_SPEC) != 0u, shadow = 0;
+    if (past_delta) {
+        /* Every vertex after the first delta one connects: the path camera -
+         * here - ... - light has x1 non-delta and its last vertex delta. */
+        if (!bsdf_is_delta(&bp))
+            shadow = lt_connect(&h, &bp, &f, spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_U)),
+                                spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_V)),
+                                spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_SPARE)), sh_o, sh_d, sh_c,
+                                ALL_ARGS);
+    } else {
+        /* The first vertex: a non-delta lobe makes every path through here
+         * the camera paths' (its last vertex is non-delta). */
+        float pdelta;
+        float u0 = spt_sampler_1d(f.smp, spt_dim_bounce(f.bounce, SPT_DIM_BSDF_LOBE));
+        if (!lt_delta_lobe(&bp, f.wo_l, u0, &pdelta))
             return 0;
-        return lt_connect(&h, &bp, &f, 1.0f / (1.0f - pdelta),
-                          spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_U)),
-                          spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_V)), sh_o, sh_d, sh_c,
-                          ALL_ARGS);
     }
     BsdfSample bs;
     float3 wn;
     float wn_side;
     int reflect;
-    int alive = shade_bsdf_bounce(&h, &bp, &f, &bs, &wn, &wn_side, &reflect, ALL_ARGS) && bs.is_delta;
+    int alive = shade_bsdf_bounce(&h, &bp, &f, &bs, &wn, &wn_side, &reflect, ALL_ARGS) &&
+                (past_delta || bs.is_delta);
     if (alive) {
-        /* The adjoint: refraction scales importance by eta'^2 relative to
-         * radiance (bsdf_sample divided by it); shading normals by
+        /* The adjoint: refraction (delta or not) scales importance by eta'^2
+         * relative to radiance (bsdf_sample divided by it, eta' taken on wo's
+         * side); shading normals by
          * |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|). */
         if (!reflect) {
             float etap = f.wo_l.z > 0.0f ? bp.ior.x : 1.0f / bp.ior.x;
@@ -310,7 +330,7 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFER
     }
     alive = shade_roulette(&h, &f, alive, ALL_ARGS);
     if (!alive)
-        return 0;
+        return shadow;
     if (!reflect && f.two_sided_bsdf)
         ps_medium[i] = wn_side < 0.0f && h.m->attenuation.kind != SPT_SPEC_NONE ? h.ts.material + 1u : 0u;
     ps_flags[i] = SPT_PATH_ALIVE;
@@ -319,7 +339,7 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFER
     ps_ray_o[i] = (float4)(offset_origin(h.p, wn_side > 0.0f ? f.ngf : -f.ngf), 0.0f);
     ps_ray_d[i] = (float4)(wn, 0.0f);
     ps_depth[i] = h.depth;
-    return 0;
+    return shadow;
 }
 
 /* Adds v >= 0 to the 64-bit fixed-point sum at acc (low word, high word),
@@ -335,24 +355,15 @@ SPT_FN_INLINE void lt_film_add(__global uint *acc, float v, float u)
         atomic_add(acc + 1, hi);
 }
 
-/* A finished light path's splat: its XYZ into the light film at its pixel. */
-SPT_FN_INLINE void lt_splat(uint i, ALL_BUFFERS)
+/* A light path's connection that reached the camera: its XYZ (xyz, with the
+ * uniform number for the rounding in w) into the light film at pixel. */
+SPT_FN_INLINE void lt_splat(uint pixel, float4 xyz, ALL_BUFFERS)
 {
-    uint px = ps_splat[i];
-    if (px == SPT_LT_NO_PIXEL)
-        return;
-    float4 xyz = path_radiance_to_xyz(ps_radiance[i], ps_lambda[i], ps_lambda_pdf[i]);
-    if (!(isfinite(xyz.x) && isfinite(xyz.y) && isfinite(xyz.z))) {
-        atomic_inc(&counters[SPT_CNT_NAN]);
-        return;
-    }
-    uint lp, sample;
-    lt_item(ps_work[i], &lp, &sample, &P);
-    float u = spt_rand_key(spt_rng_key(P.seed ^ SPT_LT_SALT, lp, sample), spt_dim_bounce(0u, SPT_DIM_SPARE));
-    __global uint *acc = light_film + SPT_SPLAT_WORDS * px;
-    lt_film_add(acc, fmax(xyz.x, 0.0f), u);
-    lt_film_add(acc + 2, fmax(xyz.y, 0.0f), fmod(u + 0.3333333f, 1.0f));
-    lt_film_add(acc + 4, fmax(xyz.z, 0.0f), fmod(u + 0.6666667f, 1.0f));
+    float u = xyz.w;
+    __global uint *acc = light_film + SPT_SPLAT_WORDS * pixel;
+    lt_film_add(acc, xyz.x, u);
+    lt_film_add(acc + 2, xyz.y, fmod(u + 0.3333333f, 1.0f));
+    lt_film_add(acc + 4, xyz.z, fmod(u + 0.6666667f, 1.0f));
 }
 
 #endif

@@ -49,18 +49,19 @@ typedef struct ShadeFrame {
 } ShadeFrame;
 
 /* The camera paths' share of the path space beside the light-tracing pass
- * (kernels/device/light_trace.h), which owns the paths camera - x1 - s+ -
- * light: x1 a non-delta vertex (its lobe sampled as such), s+ one or more
- * delta vertices, the light an emissive triangle of the light selection.
- * lt_camera_next is a camera path's state after the vertex at depth `depth`
- * sampled a lobe (delta or not); lt_camera_drops says whether emission of
+ * (kernels/device/light_trace.h), which owns the paths camera - x1 - ... - xk -
+ * light whose first vertex x1 took a non-delta lobe and whose last vertex xk
+ * took a delta lobe, the light an emissive triangle of the light selection
+ * (or a punctual light, which camera paths never reach). ps_lt keeps
+ * SPT_LT_CHAIN once x1 took a non-delta lobe and SPT_LT_SPEC while the last
+ * vertex took a delta one: lt_camera_next is the state after the vertex at
+ * depth `depth` sampled its lobe, lt_camera_drops says whether emission of
  * triangle prim reached with state lt is the light-tracing pass's. With the
  * pass off (P.light_paths 0) every camera path keeps everything. */
 SPT_FN_INLINE uint lt_camera_next(uint lt, uint depth, int is_delta)
 {
-    if (depth == 1u)
-        return is_delta ? 0u : SPT_LT_CHAIN;
-    return is_delta ? (lt | SPT_LT_SPEC) : 0u;
+    uint chain = depth == 1u ? (is_delta ? 0u : SPT_LT_CHAIN) : (lt & SPT_LT_CHAIN);
+    return chain | (is_delta ? SPT_LT_SPEC : 0u);
 }
 
 SPT_FN_INLINE int lt_camera_drops(uint lt, uint prim, ALL_BUFFERS)
@@ -145,8 +146,9 @@ SPT_FN_INLINE void shade_emission(ShadeHit *h, const TexCtx *tc, ALL_BUFFERS)
     uint i = h->i;
     if (!((m->flags & SPT_MAT_EMISSIVE) && (h->front || (m->flags & SPT_MAT_DOUBLE_SIDED_EMISSION))))
         return;
-    /* Light reached through delta vertices from a first non-delta vertex: the
-     * light-tracing pass counts those paths (kernels/device/light_trace.h). */
+    /* Light reached through a delta vertex on a path whose first vertex was
+     * non-delta: the light-tracing pass counts those paths
+     * (kernels/device/light_trace.h). */
     if (lt_camera_drops(ps_lt[i], h->prim, ALL_ARGS))
         return;
     float4 le = material_emission(m, tc, h->lam, fabs(dot(h->ng, h->rd)), h->prim, h->bu, h->bv,

@@ -111,8 +111,7 @@ __kernel void k_generate(ALL_BUFFERS)
     uint flags = i < P.pool_size ? ps_flags[i] : SPT_PATH_ALIVE + 100u;
     int finished = flags == SPT_PATH_FINISHED;
     if (finished && (ps_lt[i] & SPT_LT_LIGHT)) {
-        /* A light path: its splat, if it made one, into the light film. */
-        lt_splat(i, ALL_ARGS);
+        /* A light path: its splats went to the light film in k_connect. */
         flags = SPT_PATH_DEAD;
         ps_flags[i] = flags;
     } else if (finished) {
@@ -343,8 +342,15 @@ __kernel void k_connect(ALL_BUFFERS)
                 break;
         }
     }
-    /* A path queues at most one shadow ray per iteration: no race on its radiance. */
     uint i = sh_path[g];
+    if (ps_lt[i] & SPT_LT_LIGHT) {
+        /* A light path's connection to the camera: a splat (XYZ, its rounding's
+         * number in w) at the pixel in the ray's origin's w. */
+        float4 c = sh_contrib[g];
+        lt_splat(as_uint(sh_ray_o[g].w), (float4)(transmit * c.xyz, c.w), ALL_ARGS);
+        return;
+    }
+    /* A path queues at most one shadow ray per iteration: no race on its radiance. */
     ps_radiance[i] += transmit * sh_contrib[g];
 }
 

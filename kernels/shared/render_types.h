@@ -227,9 +227,9 @@ typedef struct RenderParams {
 #define SPT_CNT_COUNT 8
 
 /* Light-tracing state of a path (ps_lt), kernels/device/light_trace.h. A camera
- * path: SPT_LT_CHAIN while its first vertex sampled a non-delta lobe and every
- * vertex since a delta one, SPT_LT_SPEC once one did. A light path:
- * SPT_LT_LIGHT, and SPT_LT_SPEC once it passed a delta vertex. */
+ * path: SPT_LT_CHAIN once its first vertex sampled a non-delta lobe,
+ * SPT_LT_SPEC while its last vertex sampled a delta one. A light path:
+ * SPT_LT_LIGHT, and SPT_LT_SPEC once its first vertex sampled a delta lobe. */
 #define SPT_LT_CHAIN 1u
 #define SPT_LT_SPEC 2u
 #define SPT_LT_LIGHT 4u
@@ -262,8 +262,7 @@ typedef struct RenderParams {
     X(uint, passes)         \
     X(uint, medium)         \
     X(float, bsdf_pdf)      \
-    X(uint, lt)             \
-    X(uint, splat)
+    X(uint, lt)
 
 /* Shadow-ray queue entries, one buffer per field. */
 #define SPT_SHADOW_STATE(X) \
