@@ -7,11 +7,13 @@
 
 #include <dirent.h>
 #include <fcntl.h>
+#include <math.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "io/exr.h"
 #include "io/image_out.h"
 #include "render/checkpoint.h"
 
@@ -432,18 +434,95 @@ static void test_sighup_writes(void **state)
     assert_true(exists(in_dir("hup.exr")));
 }
 
-/* A second Ctrl-C stops at once: a 2048x2048 render of one sample per pixel is one
- * chunk (minutes on a CPU); the first SIGINT waits for it, the second drops it,
- * so the run ends with exit 130 and nothing written. (Without the second stop it
- * would finish the chunk and write the image with exit 0.) */
+/* The signal tests fix the path pool, so that which chunks are long (more
+ * camera paths than SPT_LONG_CHUNK_POOLS pools) does not depend on the device. */
+#define POOL "SPECTRACE_POOL"
+
+/* A first Ctrl-C drops a long chunk at once: a 2048x2048 render of one sample
+ * per pixel is one chunk of 64 pools of 65536 (a minute on a loaded CPU); the
+ * run stops within a wave of paths, with exit 130 and nothing written, as no
+ * sample of every pixel is complete. (Had it waited for the chunk, it would
+ * write the image with exit 0.) */
+static void test_first_sigint_drops_long_chunk(void **state)
+{
+    (void)state;
+    char args[1024], err[16384];
+    snprintf(args, sizeof args,
+             "render " SCENE " --width 2048 --height 2048 --spp 1 --device 0 -o %s", in_dir("long.exr"));
+    setenv(POOL, "65536", 1);
+    int sig = SIGINT;
+    int rc = run_signalled(args, "device 0:", &sig, 1, err, sizeof err);
+    unsetenv(POOL);
+    if (rc != 130)
+        fail_msg("exit %d, expected 130:\n%s", rc, err);
+    assert_non_null(strstr(err, "error: render: stopped"));
+    assert_false(exists(in_dir("long.exr")));
+    assert_no_temporaries();
+}
+
+/* ... and writes the samples complete before it: 1024x640 at 2 spp is two
+ * chunks of one sample (40 pools of 16384 each); SIGINT once the first is done
+ * (its progress line). The run ends with exit 0 and an image whose every pixel
+ * holds the same whole number of samples (the spp layer), the one its
+ * spectrace:spp attribute and the note give: 1, or 2 had the second chunk
+ * finished before the signal. */
+static void test_first_sigint_writes_whole_samples(void **state)
+{
+    (void)state;
+    char args[1024], err[16384];
+    const char *out = in_dir("whole.exr");
+    snprintf(args, sizeof args, "render " SCENE " --width 1024 --height 640 --spp 2 --aov spp "
+             "--device 0 -o %s", out);
+    setenv(POOL, "16384", 1);
+    int sig = SIGINT;
+    int rc = run_signalled(args, "render:", &sig, 1, err, sizeof err);
+    unsetenv(POOL);
+    if (rc != 0)
+        fail_msg("exit %d, expected 0:\n%s", rc, err);
+    const char *note = strstr(err, "stopped by a signal after ");
+    assert_non_null(note);
+    int done = atoi(note + strlen("stopped by a signal after "));
+    assert_true(done == 1 || done == 2);
+    ExrLayers L;
+    SptError e = {0};
+    static const char *want[] = {"R", "G", "B", "spp"};
+    if (exr_read_layers(out, want, 4, &L, &e))
+        fail_msg("%s", e.msg);
+    assert_int_equal(L.width, 1024);
+    assert_int_equal(L.height, 640);
+    const ExrAttr *a = exr_layers_attr(&L, "spectrace:spp", SPT_EXR_ATTR_INT);
+    assert_non_null(a);
+    assert_int_equal(a->i, done);
+    const float *spp = exr_layers_channel(&L, "spp")->data;
+    const float *r = exr_layers_channel(&L, "R")->data;
+    size_t npix = (size_t)1024 * 640, off = 0, bad = 0;
+    for (size_t i = 0; i < npix; i++) {
+        if (spp[i] != (float)done)
+            off++;
+        if (!(isfinite(r[i]) && r[i] >= 0.0f))
+            bad++;
+    }
+    exr_layers_free(&L);
+    if (off || bad)
+        fail_msg("%zu pixels without %d samples, %zu not finite and >= 0", off, done, bad);
+    assert_no_temporaries();
+}
+
+/* A second Ctrl-C stops at once: 1600x1280 at one sample per pixel is one
+ * regular chunk (31 pools of 65536: seconds on a CPU); the first SIGINT waits
+ * for it, the second drops it, so the run ends with exit 130 and nothing
+ * written. (Without the second stop it would finish the chunk and write the
+ * image with exit 0.) */
 static void test_second_sigint_stops_at_once(void **state)
 {
     (void)state;
     char args[1024], err[16384];
-    snprintf(args, sizeof args, "render " SCENE " --width 2048 --height 2048 --spp 1 --device 0 -o %s",
-             in_dir("int.exr"));
+    snprintf(args, sizeof args,
+             "render " SCENE " --width 1600 --height 1280 --spp 1 --device 0 -o %s", in_dir("int.exr"));
+    setenv(POOL, "65536", 1);
     int sigs[2] = {SIGINT, SIGINT};
     int rc = run_signalled(args, "device 0:", sigs, 2, err, sizeof err);
+    unsetenv(POOL);
     if (rc != 130)
         fail_msg("exit %d, expected 130:\n%s", rc, err);
     assert_non_null(strstr(err, "error: render: stopped"));
@@ -562,6 +641,8 @@ int main(void)
         cmocka_unit_test(test_input_files),
         cmocka_unit_test(test_deep_json),
         cmocka_unit_test(test_sighup_writes),
+        cmocka_unit_test(test_first_sigint_drops_long_chunk),
+        cmocka_unit_test(test_first_sigint_writes_whole_samples),
         cmocka_unit_test(test_second_sigint_stops_at_once),
         cmocka_unit_test(test_values_beyond_float),
         cmocka_unit_test(test_fuzz_regressions),

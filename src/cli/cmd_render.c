@@ -58,13 +58,13 @@ static volatile sig_atomic_t stop_requested;
 static int signal_quiet; /* -q: on_signal prints nothing */
 
 /* SIGINT, SIGTERM and SIGHUP: the first stops after the current chunks (and
- * writes what is complete), a second stops at once, dropping the chunks in
- * progress. */
+ * writes what is complete; a long chunk, render/wavefront.h, is dropped at
+ * once), a second stops at once, dropping the chunks in progress. */
 static void on_signal(int sig)
 {
     (void)sig;
-    static const char first[] = "note: stopping after the current chunk (a second signal "
-                                "stops at once)\n";
+    static const char first[] = "note: stopping after the current chunk, or at once if it "
+                                "is long (a second signal stops at once)\n";
     if (stop_requested == 0 && !signal_quiet && write(2, first, sizeof first - 1) < 0)
         stop_requested = 0; /* nothing to do when stderr is gone */
     stop_requested = stop_requested ? 2 : 1;

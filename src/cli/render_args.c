@@ -47,7 +47,8 @@ static const char usage_tail[] =
     "\n"
     "Ctrl-C (SIGINT), SIGTERM or SIGHUP stops after the current chunk and writes the\n"
     "image of the samples done so far (and the checkpoint, with --checkpoint); a\n"
-    "second one stops at once, dropping the chunk in progress.\n";
+    "chunk that takes long (one sample of a large image) is dropped at once instead,\n"
+    "and a second signal stops at once, dropping the chunk in progress.\n";
 
 /* The help column starts at column 25; an option too long for its column is
  * followed by two spaces. */

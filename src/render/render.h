@@ -53,7 +53,8 @@ typedef struct RenderSettings {
     const Sky *sky;          /* --env, --background (src/scene/sky.h); NULL = default */
     uint32_t sample_begin;   /* first sample index (a resumed render starts later) */
     int progress;            /* print progress to stderr */
-    volatile sig_atomic_t *stop; /* 1: finish the current chunks, then stop; 2 (a second
+    volatile sig_atomic_t *stop; /* 1: finish the current chunks (drop a long one,
+                                    SPT_LONG_CHUNK_POOLS), then stop; 2 (a second
                                     Ctrl-C): drop the chunks in progress at the next
                                     wave of paths and stop at once */
     uint32_t pool_size;      /* paths in flight per device; 0 = the device's default */

@@ -374,6 +374,11 @@ int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, 
         if ((rc = set_args(w->k[k], &w->b, &p, e)))
             return rc;
     double *acc = profile ? st->stage_seconds : NULL;
+    /* A first stop request waits for a regular chunk (at most about 32 pools of
+     * camera paths, well under a second), but drops a longer one: one sample of
+     * an image larger than 32 pools (a chunk is never less), which can take a
+     * minute. The film only ever receives whole chunks. */
+    int long_chunk = (uint64_t)n * npix > SPT_LONG_CHUNK_POOLS * (uint64_t)w->pool;
     for (;;) {
         static const cl_uint two_zeros[2] = {0, 0};
         SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_FALSE, 0,
@@ -390,7 +395,7 @@ int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, 
         st->rays_shadow += counters[SPT_CNT_SHADOW];
         if (counters[SPT_CNT_DONE] >= p.work_end)
             break;
-        if (w->stop && *w->stop >= 2)
+        if (w->stop && (*w->stop >= 2 || (*w->stop == 1 && long_chunk)))
             return spt_fail(e, SPT_EXIT_INTERRUPTED, "interrupted");
     }
     if ((rc = run_kernel(w, K_ACCUMULATE, npix, acc ? acc + 4 : NULL, e)))

@@ -40,7 +40,8 @@ typedef struct Wavefront {
     int bands;             /* spectral bands (built with SPT_BANDS), 0: none */
     void *host_mem[16];    /* memory of the scene buffers used in place (CPU devices) */
     int host_mem_count;
-    volatile sig_atomic_t *stop; /* RenderSettings.stop: at 2, render_chunk stops */
+    volatile sig_atomic_t *stop; /* RenderSettings.stop: at 2 (1 for a long chunk),
+                                    render_chunk stops */
 } Wavefront;
 
 /* Opens info's device, builds the program and allocates every buffer for
@@ -50,12 +51,17 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
                      const RenderSettings *rs, const RenderLights *L, SptError *e);
 void wavefront_free(Wavefront *w);
 
+/* A chunk of more camera paths than this many pools is long: a first stop
+ * request (*stop 1) drops it rather than waiting for it. */
+#define SPT_LONG_CHUNK_POOLS 32u
+
 /* Renders samples [sample_begin, sample_begin + n) of every pixel on w: sums
  * receives 4 floats per pixel (XYZ sums and the sample count), and with AOVs
  * aov_sums SPT_AOV_CHUNK_FLOATS per pixel (src/render/film.h), with spectral
  * bands spec_sums w->bands per pixel; st gains the chunk's paths, rays and
- * (with profile) stage times. When *w->stop reaches 2 between two waves of
- * paths, returns SPT_EXIT_INTERRUPTED (the chunk is dropped). */
+ * (with profile) stage times. When *w->stop reaches 2 (or 1, for a long
+ * chunk) between two waves of paths, returns SPT_EXIT_INTERRUPTED (the chunk is
+ * dropped, nothing of it is in sums). */
 int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, uint32_t n,
                  int profile, float *sums, float *aov_sums, float *spec_sums, RenderStats *st,
                  SptError *e);
