@@ -121,9 +121,11 @@ static int grey_box_noise(spt_u32 sampler, int w, int spp, double mean[3], doubl
 /* --sampler: the Sobol sampler (the default) leaves the grey box's faces with at
  * most half the squared error of the independent sampler at the same samples
  * (at 64 spp it measured 1/9 to 1/17 per channel), and both are unbiased. The
- * colour noise is held too: a per-pixel std of at most 0.008 in every channel
- * (measured 0.0067, 0.0045, 0.0069; 0.011 in blue with a wavelength density
- * fitted to ybar, whose blue weights vary most). */
+ * colour noise is held too: a per-pixel std of at most 0.0055 in every channel
+ * (measured 0.0043, 0.0015, 0.0049; 0.0067, 0.0045, 0.0069 when the sky's
+ * light samples were spread over the whole sphere, half of them below the
+ * face's horizon; 0.011 in blue with a wavelength density fitted to ybar,
+ * whose blue weights vary most). */
 static void test_sampler_noise(void **state)
 {
     (void)state;
@@ -136,7 +138,7 @@ static void test_sampler_noise(void **state)
         assert_close(m_sob[c], 0.5, 0.002);
         assert_close(m_ind[c], 0.5, 0.004);
         assert_true(e_sob[c] <= 0.5 * e_ind[c]);
-        assert_true(sqrt(e_sob[c]) <= 0.008);
+        assert_true(sqrt(e_sob[c]) <= 0.0055);
     }
 }
 

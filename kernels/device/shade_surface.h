@@ -80,8 +80,13 @@ SPT_FN_INLINE void shade_miss(uint i, float4 lam, float4 beta, ALL_BUFFERS)
         env_eval(&P.env, env_data, d, la, le);
         float w = 1.0f;
         float prev_pdf = ps_bsdf_pdf[i];
+        /* The uniform sky's light-sampling density depends on the normal of the
+         * vertex the ray left, so shade_path kept it (ps_env_pdf); a map's
+         * depends on the direction only. */
         if (prev_pdf > 0.0f && P.env_prob > 0.0f)
-            w = spt_power_heuristic(prev_pdf, P.env_prob * env_pdf(&P.env, env_data, d));
+            w = spt_power_heuristic(prev_pdf, P.env.kind == SPT_ENV_UNIFORM
+                                                  ? ps_env_pdf[i]
+                                                  : P.env_prob * env_pdf(&P.env, env_data, d));
         ps_radiance[i] += beta * (float4)(le[0], le[1], le[2], le[3]) * w;
     }
     ps_flags[i] = SPT_PATH_FINISHED;
@@ -264,7 +269,7 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
         delta = 1;
     } else if (e >= 0) {
         float epdf;
-        wi = env_sample(&P.env, env_data, ul, vl, &epdf);
+        wi = env_sample_at(&P.env, env_data, ns, tg, bt, f->two_sided_bsdf, ul, vl, &epdf);
         dist = SPT_LIGHT_FAR;
         light_pdf = prob * epdf;
         if (light_pdf > 0.0f) {
@@ -443,6 +448,8 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     ps_ray_o[i] = (float4)(offset_origin(h.p, wn_side > 0.0f ? f.ngf : -f.ngf), 0.0f);
     ps_ray_d[i] = (float4)(wn, h.cone_w);
     ps_bsdf_pdf[i] = bs.is_delta ? 0.0f : bs.pdf;
+    if (P.env.kind == SPT_ENV_UNIFORM && !bs.is_delta)
+        ps_env_pdf[i] = P.env_prob * env_pdf_at(&P.env, env_data, f.ns, f.two_sided_bsdf, wn);
     ps_depth[i] = h.depth;
     return shadow;
 }

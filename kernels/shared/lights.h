@@ -28,10 +28,11 @@
  * [emissive triangles | punctual lights | environment]. Next-event estimation
  * picks an entry with spt_discrete_sample (probability P). Triangle: as before,
  * pdf = P / area (converted to solid angle). Punctual: light_punctual_sample,
- * contribution f cos value / P, no MIS (delta). Environment: env_sample gives wi
- * and pdf; the light-sampling pdf is P_env * pdf, MIS-weighted against the BSDF
- * pdf; a BSDF ray that escapes adds env_eval weighted by the power heuristic of
- * its BSDF pdf against P_env * env_pdf(wi). The GpuEnvMap is passed by pointer
+ * contribution f cos value / P, no MIS (delta). Environment: env_sample_at gives
+ * wi and pdf (for the shading point's normal and sides); the light-sampling pdf
+ * is P_env * pdf, MIS-weighted against the BSDF pdf; a BSDF ray that escapes adds
+ * env_eval weighted by the power heuristic of its BSDF pdf against
+ * P_env * env_pdf_at(wi) at the vertex it left. The GpuEnvMap is passed by pointer
  * to a private copy (e.g. a kernel parameter or a struct read from a buffer). */
 #ifndef SPT_LIGHTS_H
 #define SPT_LIGHTS_H
@@ -246,6 +247,49 @@ SPT_FN vec3 env_sample(const GpuEnvMap *env, const SPT_GLOBAL float *data, float
     vec3 m = v3(-sinf(phi) * st, cosf(theta), cosf(phi) * st);
     *pdf = prow * pcol * (float)(env->width * env->height) / (2.0f * SPT_PI * SPT_PI * st);
     return env_to_world(env, m);
+}
+
+/* Next-event estimation of the environment from a surface point whose BSDF is
+ * zero but on the side of the unit shading normal n (two_sided 0), or on both
+ * sides (two_sided 1, a transmissive surface); t and b complete n's frame.
+ * The uniform background is sampled in proportion to |cos| to n over those sides
+ * (density cos/pi on one side, |cos|/(2 pi) over both; u1 < 1/2 picks n's side,
+ * then is stretched back to [0,1)), so none of its samples falls below a point's
+ * horizon, where the BSDF is 0, and a Lambertian surface's estimate is exact.
+ * A map keeps env_sample's distribution over the sphere. The density is
+ * env_pdf_at of the direction. */
+SPT_FN vec3 env_sample_at(const GpuEnvMap *env, const SPT_GLOBAL float *data, vec3 n, vec3 t, vec3 b,
+                          spt_i32 two_sided, float u1, float u2, float *pdf)
+{
+    if (env->kind != SPT_ENV_UNIFORM)
+        return env_sample(env, data, u1, u2, pdf);
+    float side = 1.0f, share = 1.0f;
+    if (two_sided) {
+        share = 0.5f;
+        if (u1 < 0.5f) {
+            u1 = 2.0f * u1;
+        } else {
+            u1 = 2.0f * u1 - 1.0f;
+            side = -1.0f;
+        }
+        u1 = fminf(u1, SPT_ONE_MINUS_EPSILON);
+    }
+    vec3 l = spt_sample_cosine_hemisphere(u1, u2);
+    *pdf = share * l.z * SPT_INV_PI;
+    return v3_add(v3_add(v3_scale(t, l.x), v3_scale(b, l.y)), v3_scale(n, side * l.z));
+}
+
+/* The solid-angle density with which env_sample_at picks world direction d (unit)
+ * at a point of normal n with the BSDF's sides two_sided: what next-event
+ * estimation's MIS weight needs for a BSDF-sampled ray that escapes. */
+SPT_FN float env_pdf_at(const GpuEnvMap *env, const SPT_GLOBAL float *data, vec3 n, spt_i32 two_sided, vec3 d)
+{
+    if (env->kind != SPT_ENV_UNIFORM)
+        return env_pdf(env, data, d);
+    float c = v3_dot(n, d);
+    if (two_sided)
+        return 0.5f * fabsf(c) * SPT_INV_PI;
+    return c > 0.0f ? c * SPT_INV_PI : 0.0f;
 }
 
 #endif

@@ -262,6 +262,7 @@ typedef struct RenderParams {
     X(uint, passes)         \
     X(uint, medium)         \
     X(float, bsdf_pdf)      \
+    X(float, env_pdf)       \
     X(uint, lt)
 
 /* Shadow-ray queue entries, one buffer per field. */
