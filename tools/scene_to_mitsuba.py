@@ -407,6 +407,10 @@ def xyz_film(width, height, window=None):
             inside = (nm > a) & (nm < b)
             nm = np.concatenate([[a - 1e-3, a], nm[inside], [b, b + 1e-3]])
             v = np.concatenate([[0.0, np.interp(a, obs["nm"], v)], v[inside], [np.interp(b, obs["nm"], v), 0.0]])
+            if not v.any():
+                # Mitsuba refuses a response without mass (zbar past 650 nm):
+                # 1e-20 inside the window leaves that channel 0 to 1e-20.
+                v[1:-1] = 1e-20
         film["cie_" + name] = {"type": "irregular", "wavelengths": ", ".join("%.6f" % q for q in nm),
                                "values": ", ".join("%.9g" % q for q in v)}
     return film
