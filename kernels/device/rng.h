@@ -38,7 +38,8 @@
  *     0-1      light selection, BSDF lobe choice
  *     2-3      point on the light
  *     4-5      BSDF direction
- *     6-7      Russian roulette, spare
+ *     6-7      Russian roulette, alpha (the first cut-out or blended surface
+ *              passed on the way to the next hit)
  *
  * The groups are "padded" (Burley 2020, section 4; pbrt-v4's PaddedSobolSampler):
  * each pair uses the best 2D projection (Sobol dims 0 and 1, a (0,2)-sequence)
@@ -75,7 +76,8 @@
 #define SPT_DIM_BSDF_U 4u       /* BSDF direction sample */
 #define SPT_DIM_BSDF_V 5u
 #define SPT_DIM_ROULETTE 6u     /* Russian roulette */
-#define SPT_DIM_SPARE 7u        /* reserved (e.g. transmission / dispersion choice) */
+#define SPT_DIM_ALPHA 7u        /* passing a cut-out / blended surface (shade_alpha_with) */
+#define SPT_DIM_SPARE 7u        /* the same dim, where a light path's hashed numbers use it */
 
 /* The number of Sobol dims spt_sobol_u32 and spt_sobol_owen support. */
 #define SPT_SOBOL_DIMS 8u

@@ -118,11 +118,15 @@ SPT_FN_INLINE void shade_hit_geometry(ShadeHit *h, TexCtx *tc, ALL_BUFFERS)
 }
 
 /* Cut-out (MASK) and blended (BLEND) surfaces: with probability 1 - opacity the
- * path passes through unchanged, without counting a segment, by the random
- * numbers of (seed, pixel, sample). Returns 1 when it does (its ray now starts
- * past the surface). */
-SPT_FN_INLINE int shade_alpha(const ShadeHit *h, const TexCtx *tc, uint seed, uint pixel, uint sample,
-                              ALL_BUFFERS)
+ * path passes through unchanged, without counting a segment. Returns 1 when it
+ * does (its ray now starts past the surface). The coin: with use_smp, for the
+ * first surface met since the path's last real vertex (ray_o.w, the distance
+ * passed through such surfaces, is still 0: every pass adds a positive
+ * distance), dim SPT_DIM_ALPHA of this bounce from the path's sampler, so a
+ * pixel's samples cover a blended surface's opacity evenly; otherwise, and for
+ * further surfaces, the hashed numbers of (seed, pixel, sample). */
+SPT_FN_INLINE int shade_alpha_with(const ShadeHit *h, const TexCtx *tc, int use_smp, SptSampler smp, uint seed,
+                                   uint pixel, uint sample, ALL_BUFFERS)
 {
     const __global GpuMaterial *m = h->m;
     uint i = h->i;
@@ -131,17 +135,27 @@ SPT_FN_INLINE int shade_alpha(const ShadeHit *h, const TexCtx *tc, uint seed, ui
     float op = material_opacity(m, tc, h->prim, h->bu, h->bv, tri_shade, vtx_color, textures, texels);
     uint passes = ps_passes[i];
     if (op < 1.0f && passes < 64u) {
-        float u = spt_rand(seed ^ 0x9e3779b9u, pixel, sample, h->depth * 64u + passes);
+        float4 o = ps_ray_o[i];
+        float u = use_smp && o.w == 0.0f ? spt_sampler_1d(smp, spt_dim_bounce(h->depth - 1u, SPT_DIM_ALPHA))
+                                         : spt_rand(seed ^ 0x9e3779b9u, pixel, sample, h->depth * 64u + passes);
         if (u >= op) {
             ps_passes[i] = passes + 1u;
             /* w carries the distance from the last real vertex, for MIS. */
             float3 o2 = offset_origin(h->p, h->front ? -h->ng : h->ng);
-            ps_ray_o[i] = (float4)(o2, ps_ray_o[i].w + dot(o2 - ps_ray_o[i].xyz, h->rd));
+            ps_ray_o[i] = (float4)(o2, o.w + dot(o2 - o.xyz, h->rd));
             ps_throughput[i] = h->beta;
             return 1; /* same direction, depth and MIS state */
         }
     }
     return 0;
+}
+
+/* shade_alpha_with on the hashed numbers alone (the light paths'). */
+SPT_FN_INLINE int shade_alpha(const ShadeHit *h, const TexCtx *tc, uint seed, uint pixel, uint sample,
+                              ALL_BUFFERS)
+{
+    SptSampler none = {0u, 0u, 0u, 0u};
+    return shade_alpha_with(h, tc, 0, none, seed, pixel, sample, ALL_ARGS);
 }
 
 /* Emission on the front face, weighted against light sampling by MIS. */
@@ -405,7 +419,8 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     uint w_item = ps_work[i];
     uint pixel = w_item % npix;
     uint sample = P.sample_begin + w_item / npix;
-    if (shade_alpha(&h, &tc, P.seed, pixel, sample, ALL_ARGS))
+    SptSampler smp = spt_sampler(P.sampler, P.seed, pixel, sample);
+    if (shade_alpha_with(&h, &tc, 1, smp, P.seed, pixel, sample, ALL_ARGS))
         return 0;
     shade_emission(&h, &tc, ALL_ARGS);
     if ((P.max_depth > 0 && h.depth >= (uint)P.max_depth) || (h.m->flags & SPT_MAT_UNLIT)) {
@@ -413,7 +428,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
         {
             ShadeFrame fe;
             BsdfParams bpe;
-            shade_frame(&h, &tc, &bpe, &fe, spt_sampler(P.sampler, P.seed, pixel, sample), ALL_ARGS);
+            shade_frame(&h, &tc, &bpe, &fe, smp, ALL_ARGS);
             shade_aov(&h, &tc, &bpe, &fe, 1, ALL_ARGS);
         }
 #endif
@@ -423,7 +438,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     }
     ShadeFrame f;
     BsdfParams bp;
-    shade_frame(&h, &tc, &bp, &f, spt_sampler(P.sampler, P.seed, pixel, sample), ALL_ARGS);
+    shade_frame(&h, &tc, &bp, &f, smp, ALL_ARGS);
 #ifdef SPT_AOV
     shade_aov(&h, &tc, &bp, &f, 0, ALL_ARGS);
 #endif
