@@ -35,4 +35,12 @@ echo "== implementations (tools/bench_impls.sh)"
 tools/bench_impls.sh "$build" || status=1
 # ---- end implementations ----
 
+# ---- against Mitsuba 3: paths/s (Cornell box 512x512 64 spp, a 1M-triangle mesh
+# scene at 16 spp, depth 8) and the equal-time race at 256x256 (T seconds:
+# SPECTRACE_BENCH_TIME, default 20; reference SPECTRACE_BENCH_REF_SPP, default
+# 4096), relMSE ratio best-Mitsuba / spectrace (tools/bench_mitsuba.py) ----
+echo "== against Mitsuba 3 (tools/bench_mitsuba.py)"
+python3 tools/bench_mitsuba.py --spectrace "$build/spectrace" || status=1
+# ---- end against Mitsuba 3 ----
+
 exit $status
