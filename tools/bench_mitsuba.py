@@ -148,11 +148,12 @@ class MitsubaScene:
 
     def count(self, sampler, n):
         """The largest sample count <= n that the sampler takes as it is
-        (ldsampler: a power of 4; multijitter: most counts), 0 when none."""
+        (ldsampler: a power of 4 from 4 on, as it rounds 1 up to 4;
+        multijitter: most counts), 0 when none."""
         if n < 1:
             return 0
         if sampler == "ldsampler":
-            return 4 ** int(math.log(n, 4) + 1e-9)
+            return 4 ** int(math.log(n, 4) + 1e-9) if n >= 4 else 0
         for k in range(n, 0, -1):
             if self.mi.load_dict({"type": sampler, "sample_count": k}).sample_count() <= n:
                 return k
