@@ -327,6 +327,22 @@ class GltfBuilder:
         self.node({"name": name, "translation": [float(c) for c in position],
                    "extensions": {"KHR_lights_punctual": {"light": len(ext["lights"]) - 1}}})
 
+    def spot_light(self, name, intensity, position, inner_cone, outer_cone, rotation=None,
+                   color=(1.0, 1.0, 1.0)):
+        """A KHR_lights_punctual spot light of `intensity` candela at position,
+        pointing along the node's -Z (turned by the quaternion rotation), with
+        cone half-angles inner_cone < outer_cone (radians)."""
+        ext = self.doc.setdefault("extensions", {}).setdefault("KHR_lights_punctual", {"lights": []})
+        ext["lights"].append({"name": name, "type": "spot", "intensity": float(intensity),
+                              "color": [float(c) for c in color],
+                              "spot": {"innerConeAngle": float(inner_cone), "outerConeAngle": float(outer_cone)}})
+        self.extensions_used.add("KHR_lights_punctual")
+        node = {"name": name, "translation": [float(c) for c in position],
+                "extensions": {"KHR_lights_punctual": {"light": len(ext["lights"]) - 1}}}
+        if rotation is not None:
+            node["rotation"] = [float(c) for c in rotation]
+        self.node(node)
+
     def mesh(self, name, positions, triangles, material, normals=None):
         """A triangle mesh node. positions: [(x,y,z)], triangles: [(i,j,k)]
         counter-clockwise seen from the front."""

@@ -27,6 +27,18 @@ Analytic scene:
                            under a KHR_lights_punctual point light of 1e5 cd
                            1 m above it; camera at 0.5 m looking straight down
 
+Caustic scene (compared with Mitsuba's particle tracer, ptracer):
+
+  caustic_sphere.gltf      a faceted glass sphere (ior 1.5, radius 0.5, centre
+                           1 m above the floor) over a Lambertian floor (albedo
+                           0.8, specularFactor 0) under a spot light of 1000 cd
+                           3 m above the floor pointing down (cones 0.5 and
+                           0.501 rad: a hard-edged beam, see
+                           tests/data/mitsuba/README.md); the camera between the
+                           sphere and the floor, 0.45 m up, looking straight
+                           down (yfov 100 degrees): all it sees lies in the
+                           sphere's shadow and is lit only through the glass
+
 Plain Python (the glTF writer of tools/make_cornell_box.py).
 """
 import math
@@ -126,6 +138,33 @@ def point_light_scene(path):
                           "units": "metres"})
 
 
+# Caustic scene: spot light, glass sphere, floor, camera under the sphere.
+CS_LIGHT_Y = 3.0
+CS_INTENSITY = 1000.0          # candela
+CS_CONES = (0.5, 0.501)        # inner, outer half-angles (rad)
+CS_SPHERE_CENTER = (0.0, 1.0, 0.0)
+CS_SPHERE_RADIUS = 0.5
+CS_FLOOR_ALBEDO = 0.8
+CS_FLOOR_HALF = 3.0
+CS_CAM_Y = 0.45
+CS_YFOV_DEG = 100.0
+
+
+def caustic_sphere_scene(path):
+    g = GltfBuilder(GEN)
+    floor = g.material("floor", (CS_FLOOR_ALBEDO,) * 3, pure_diffuse=True)
+    s = CS_FLOOR_HALF
+    g.quads_mesh("floor", [orient_quad([(-s, 0, -s), (s, 0, -s), (s, 0, s), (-s, 0, s)], (0, 1, 0))], floor)
+    glass = g.pbr_material("glass", (1.0, 1.0, 1.0), 0.0, 0.0, extensions={
+        "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5}})
+    pos, tris, _ = uv_sphere(SPHERE_STACKS, SPHERE_SLICES, CS_SPHERE_RADIUS, CS_SPHERE_CENTER)
+    g.mesh_from("sphere", g.geometry(pos, tris), glass)
+    r = math.sqrt(0.5)   # -90 degrees about +X: the node's -Z points down (-y); image up is -z
+    g.spot_light("spot", CS_INTENSITY, (0.0, CS_LIGHT_Y, 0.0), CS_CONES[0], CS_CONES[1], rotation=(-r, 0.0, 0.0, r))
+    g.camera("camera", math.radians(CS_YFOV_DEG), (0.0, CS_CAM_Y, 0.0), rotation=(-r, 0.0, 0.0, r))
+    g.write(path, extras={"about": "caustic test scene (tests/data/scenes/README.md)", "units": "metres"})
+
+
 def main(argv):
     out = argv[1] if len(argv) > 1 else OUT
     os.makedirs(out, exist_ok=True)
@@ -138,6 +177,9 @@ def main(argv):
     print("wrote %s (%d bytes)" % (p, os.path.getsize(p)))
     p = os.path.join(out, "mat_point_light.gltf")
     point_light_scene(p)
+    print("wrote %s (%d bytes)" % (p, os.path.getsize(p)))
+    p = os.path.join(out, "caustic_sphere.gltf")
+    caustic_sphere_scene(p)
     print("wrote %s (%d bytes)" % (p, os.path.getsize(p)))
     return 0
 
