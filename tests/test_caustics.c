@@ -678,33 +678,6 @@ static void test_prism_dispersion(void **state)
  * probability; the seeds are fixed, so the outcome is deterministic). */
 #define CS_WELCH_BOUND 6.0
 
-/* Reads the n numbers following `key` after `section` in the JSON file at path. */
-static int json_numbers(const char *path, const char *section, const char *key, double *v, int n)
-{
-    FILE *f = fopen(path, "r");
-    if (!f)
-        return -1;
-    static char buf[1 << 16];
-    size_t len = fread(buf, 1, sizeof buf - 1, f);
-    fclose(f);
-    buf[len] = 0;
-    const char *p = strstr(buf, section);
-    p = p ? strstr(p, key) : NULL;
-    if (!p)
-        return -1;
-    p += strlen(key);
-    for (int i = 0; i < n; i++) {
-        while (*p && !(*p == '-' || (*p >= '0' && *p <= '9')))
-            p++;
-        char *end;
-        v[i] = strtod(p, &end);
-        if (end == p)
-            return -1;
-        p = end;
-    }
-    return 0;
-}
-
 static void test_sphere_caustic_mitsuba(void **state)
 {
     (void)state;

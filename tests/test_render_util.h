@@ -93,20 +93,37 @@ static inline void film_mean(const Film *f, double mean[3])
     free(rgb);
 }
 
-/* Reads the 3 numbers after `"key": [` following `section` in a JSON file. */
-static inline int json_triple(const char *path, const char *section, const char *key, double v[3])
+/* Reads the n numbers following `key` after `section` in the JSON file at path. */
+static inline int json_numbers(const char *path, const char *section, const char *key, double *v, int n)
 {
     FILE *f = fopen(path, "r");
     if (!f)
         return -1;
     static char buf[1 << 16];
-    size_t n = fread(buf, 1, sizeof buf - 1, f);
+    size_t len = fread(buf, 1, sizeof buf - 1, f);
     fclose(f);
-    buf[n] = 0;
+    buf[len] = 0;
     const char *p = strstr(buf, section);
     p = p ? strstr(p, key) : NULL;
-    p = p ? strchr(p, '[') : NULL;
-    return p && sscanf(p, "[%lf ,%lf ,%lf", &v[0], &v[1], &v[2]) == 3 ? 0 : -1;
+    if (!p)
+        return -1;
+    p += strlen(key);
+    for (int i = 0; i < n; i++) {
+        while (*p && !(*p == '-' || (*p >= '0' && *p <= '9')))
+            p++;
+        char *end;
+        v[i] = strtod(p, &end);
+        if (end == p)
+            return -1;
+        p = end;
+    }
+    return 0;
+}
+
+/* The 3 numbers of `"key": [a, b, c]` following `section` in a JSON file. */
+static inline int json_triple(const char *path, const char *section, const char *key, double v[3])
+{
+    return json_numbers(path, section, key, v, 3);
 }
 
 /* A scene built in code: a sphere of radius 1 at the origin (a convex
