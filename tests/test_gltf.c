@@ -648,6 +648,11 @@ static const BadCase bad_cases[] = {
     {"bad_extras_key.gltf", "materials[0] 'lamp'", "emision"},
     {"bad_extras_conductor.gltf", "materials[0] 'lamp'.extras.spectrace.conductor", NULL},
     {"bad_light.gltf", "KHR_lights_punctual.lights[0].spot", NULL},
+    {"bad_light_extras_name.gltf", "KHR_lights_punctual.lights[0] 'lamp'.extras.spectrace.emission", "D56"},
+    {"bad_light_extras_table.gltf", "KHR_lights_punctual.lights[0] 'lamp'.extras.spectrace.emission[1]", NULL},
+    {"bad_light_extras_key.gltf", "KHR_lights_punctual.lights[0] 'lamp'.extras.spectrace", "emision"},
+    {"bad_light_extras_dark.gltf", "KHR_lights_punctual.lights[0] 'lamp'.extras.spectrace.emission",
+     "no luminance"},
     {"bad_light_index.gltf", "nodes[0].extensions.KHR_lights_punctual.light", NULL},
 };
 

@@ -2,7 +2,8 @@
  * law and the KHR_lights_punctual spot formula, the photometric conversion
  * against the CIE tables, the environment map's sampling against its pdf
  * (chi-square), its normalisation and colour, the uniform background's
- * irradiance, the selection distribution, and the device build of the header. */
+ * irradiance, the selection distribution, the device build of the header, and
+ * lights with spectra of their own (extras.spectrace.emission). */
 #include "test_cl_util.h"
 
 #include <stdlib.h>
@@ -202,6 +203,89 @@ static void test_bad_lights(void **state)
     sl = make_light(SPT_LIGHT_SPOT, 0, 0, 0, 1.0f);
     sl.direction[1] = 0.0f;
     assert_int_equal(light_from_scene(&sl, table, 0, &gl, &e), SPT_EXIT_INPUT);
+}
+
+/* ybar at nm by linear interpolation of the 1 nm CIE table. */
+static double ybar_at(double nm)
+{
+    double x = nm - SPT_CIE_LAMBDA_MIN;
+    int i = (int)floor(x);
+    return SPT_CIE_Y[i] * (1.0 - (x - i)) + SPT_CIE_Y[i + 1] * (x - i);
+}
+
+/* Lights with spectra of their own (tests/data/gltf/spectral_lights.gltf,
+ * extras.spectrace.emission): the shape is the SPD's, the level such that
+ * 683 integral(ybar I) = the intensity, the colour unused.
+ * - mercury at 100 cd: each line's power, from the NIST relative intensities
+ *   (NIST Handbook of Basic Atomic Spectroscopic Data, strong lines of Hg I:
+ *   404.656 nm 1800, 407.783 150, 435.833 4000, 546.074 1100, 576.960 240,
+ *   579.066 280), is I_j = 100 rel_j / (683 sum_k rel_k ybar(l_k)) W/sr,
+ *   found in the two grid bins around it with its wavelength as their centroid;
+ *   nothing elsewhere (the colour, red, is not used);
+ * - an inline table of 1 over 400-700 nm at 50 cd: 50 / (683 sum ybar) W/(sr nm)
+ *   inside, 0 outside;
+ * - D65 at 3 lx: the white RGB light's table (itself D65 to the upsampling fit). */
+static void test_spectral_lights(void **state)
+{
+    (void)state;
+    Scene s;
+    SptError e = {0};
+    if (scene_load_gltf(&s, "tests/data/gltf/spectral_lights.gltf", &e))
+        fail_msg("%s", e.msg);
+    assert_int_equal(s.light_count, 3);
+    float t[3][SPT_CIE_SAMPLES];
+    GpuLight gl;
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(light_from_scene(&s.lights[k], t[k], 0, &gl, &e), SPT_EXIT_OK);
+        for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+            t[k][i] /= SPT_LIGHT_FILM_PER_WATT;
+    }
+    static const double hg_nm[6] = {404.656, 407.783, 435.833, 546.074, 576.960, 579.066};
+    static const double hg_rel[6] = {1800, 150, 4000, 1100, 240, 280};
+    double norm = 0.0, mass = 0.0, total = 0.0, lum = 0.0;
+    for (int j = 0; j < 6; j++)
+        norm += hg_rel[j] * ybar_at(hg_nm[j]);
+    for (int j = 0; j < 6; j++) {
+        int i = (int)floor(hg_nm[j]) - SPT_CIE_LAMBDA_MIN;
+        double want = 100.0 * hg_rel[j] / (683.0 * norm), got = t[0][i] + t[0][i + 1];
+        double centroid = SPT_CIE_LAMBDA_MIN + i + t[0][i + 1] / got;
+        print_message("  Hg %.3f nm: %.6g W/sr (expected %.6g), centroid %.4f nm\n", hg_nm[j], got, want,
+                      centroid);
+        assert_close_rel(got, want, 1e-5);
+        assert_close(centroid, hg_nm[j], 1e-4);
+        mass += got;
+    }
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        lum += 683.0 * SPT_CIE_Y[i] * t[0][i];
+        total += t[0][i];
+    }
+    assert_close_rel(mass, total, 1e-6); /* nothing besides the lines */
+    assert_close_rel(lum, 100.0, 1e-5);
+    double ysum = 0.0;
+    for (int l = 400; l <= 700; l++)
+        ysum += SPT_CIE_Y[l - SPT_CIE_LAMBDA_MIN];
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        int l = SPT_CIE_LAMBDA_MIN + i;
+        assert_close_rel(t[1][i], l >= 400 && l <= 700 ? 50.0 / (683.0 * ysum) : 0.0, 1e-5);
+    }
+    SceneLight white = make_light(SPT_LIGHT_DIRECTIONAL, 0, 0, 0, 3.0f);
+    float tw[SPT_CIE_SAMPLES];
+    assert_int_equal(light_from_scene(&white, tw, 0, &gl, &e), SPT_EXIT_OK);
+    double worst = 0.0;
+    /* At the named D65's own 5 nm samples (its table, CIE 15, ends at 780 nm). */
+    for (int i = 0; i <= 780 - SPT_CIE_LAMBDA_MIN; i += 5)
+        worst = fmax(worst, fabs(t[2][i] * SPT_LIGHT_FILM_PER_WATT / tw[i] - 1.0));
+    print_message("  D65 light vs white RGB light: largest relative difference %.2g\n", worst);
+    assert_true(worst < 3e-3);
+    /* A light made in code whose spectrum has no luminance is refused by name. */
+    SceneLight dark = make_light(SPT_LIGHT_POINT, 0, 1, 0, 1.0f);
+    const double nm[2] = {250, 300}, v[2] = {1, 1};
+    assert_int_equal(spd_from_samples(&dark.spd, nm, v, 2, &e), 0);
+    assert_int_equal(light_from_scene(&dark, tw, 0, &gl, &e), SPT_EXIT_INPUT);
+    assert_non_null(strstr(e.msg, "'test'"));
+    assert_non_null(strstr(e.msg, "no luminance"));
+    spd_free(&dark.spd);
+    scene_free(&s);
 }
 
 /* ---- Environment ------------------------------------------------------------- */
@@ -851,6 +935,7 @@ int main(void)
         cmocka_unit_test(test_directional),
         cmocka_unit_test(test_photometric_conversion),
         cmocka_unit_test(test_bad_lights),
+        cmocka_unit_test(test_spectral_lights),
         cmocka_unit_test(test_env_sample_chi2),
         cmocka_unit_test(test_uniform_sample_chi2),
         cmocka_unit_test(test_uniform_sample_at_chi2),

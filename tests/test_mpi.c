@@ -192,9 +192,10 @@ static void test_failing_rank(void **state)
 static void test_scene_pack_round_trip(void **state)
 {
     (void)state;
-    static const char *files[4] = {"tests/data/gltf/materials.gltf", "tests/data/scenes/furnace_spectral.gltf",
-                                   "tests/data/textures/texcoord1.gltf", "tests/data/textures/color0_vec4_ubyte.gltf"};
-    for (int f = 0; f < 4; f++) {
+    static const char *files[5] = {"tests/data/gltf/materials.gltf", "tests/data/scenes/furnace_spectral.gltf",
+                                   "tests/data/textures/texcoord1.gltf", "tests/data/textures/color0_vec4_ubyte.gltf",
+                                   "tests/data/gltf/spectral_lights.gltf"};
+    for (int f = 0; f < 5; f++) {
         Scene a, b;
         SptError e = {0};
         if (scene_load_gltf(&a, files[f], &e))
@@ -228,9 +229,22 @@ static void test_scene_pack_round_trip(void **state)
             if (x->count)
                 assert_memory_equal(x->value, y->value, (size_t)x->count * sizeof(double));
         }
+        /* Lights' spectra (file 4: lines, an inline table, a named table). */
+        assert_int_equal(b.light_count, a.light_count);
+        assert_int_equal(a.light_count, f == 4 ? 3 : 0);
+        for (uint32_t i = 0; i < a.light_count; i++) {
+            const Spd *x = &a.lights[i].spd, *y = &b.lights[i].spd;
+            assert_int_equal(x->count, y->count);
+            assert_int_equal(x->line_count, y->line_count);
+            assert_true(x->count + x->line_count > 0);
+            if (x->count)
+                assert_memory_equal(x->value, y->value, (size_t)x->count * sizeof(double));
+            if (x->line_count)
+                assert_memory_equal(x->line_nm, y->line_nm, (size_t)x->line_count * sizeof(double));
+        }
         assert_string_equal(a.path, b.path);
-        printf("%s: %zu bytes, %u triangles, %u textures, %u materials\n", files[f], n, a.tri_count,
-               a.texture_count, a.material_count);
+        printf("%s: %zu bytes, %u triangles, %u textures, %u materials, %u lights\n", files[f], n,
+               a.tri_count, a.texture_count, a.material_count, a.light_count);
         /* A truncated block is refused. */
         Scene c;
         assert_int_equal(scene_unpack(&c, bytes, n / 2, "half", &e), SPT_EXIT_INPUT);

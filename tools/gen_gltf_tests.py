@@ -255,6 +255,21 @@ def valid_files():
         {"type": "directional", "intensity": 3}]}}
     g.gltf("lights.gltf")
 
+    # Lights with spectra of their own (extras.spectrace.emission): a named SPD
+    # of lines (its colour is replaced), an inline table, a named continuum.
+    g = tri_scene()
+    g.node(translation=[0, 2, 0], extensions={"KHR_lights_punctual": {"light": 0}})
+    g.node(translation=[0, 3, 0], rotation=[-s, 0, 0, s], extensions={"KHR_lights_punctual": {"light": 1}})
+    g.node(extensions={"KHR_lights_punctual": {"light": 2}})
+    g.doc["extensionsUsed"] = ["KHR_lights_punctual"]
+    g.doc["extensions"] = {"KHR_lights_punctual": {"lights": [
+        {"type": "point", "name": "hg", "color": [1, 0, 0], "intensity": 100,
+         "extras": {"spectrace": {"emission": "mercury"}}},
+        {"type": "spot", "intensity": 50, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5},
+         "extras": {"spectrace": {"emission": [[700, 1], [400, 1]]}}},
+        {"type": "directional", "intensity": 3, "extras": {"spectrace": {"emission": "D65"}}}]}}
+    g.gltf("spectral_lights.gltf")
+
     g = tri_scene()
     g.node(camera=0, translation=[0, 0, 5])
     g.doc["cameras"] = [{"type": "orthographic", "orthographic": {"xmag": 2, "ymag": 1, "znear": 0.01, "zfar": 50}}]
@@ -382,6 +397,16 @@ def bad_files():
     bad("bad_light.gltf", lambda d: (d.update(extensions={"KHR_lights_punctual": {"lights": [
         {"type": "spot", "spot": {"innerConeAngle": 0.8, "outerConeAngle": 0.4}}]}}),
         d["nodes"][0].update(extensions={"KHR_lights_punctual": {"light": 0}})))
+    def light_extras(x):
+        def f(d):
+            d.update(extensions={"KHR_lights_punctual": {"lights": [
+                {"type": "point", "name": "lamp", "extras": {"spectrace": x}}]}})
+            d["nodes"][0].update(extensions={"KHR_lights_punctual": {"light": 0}})
+        return f
+    bad("bad_light_extras_name.gltf", light_extras({"emission": "D56"}))
+    bad("bad_light_extras_table.gltf", light_extras({"emission": [[400, 1], [500, -1]]}))
+    bad("bad_light_extras_key.gltf", light_extras({"emision": "D65"}))
+    bad("bad_light_extras_dark.gltf", light_extras({"emission": [[200, 1], [300, 1]]}))
     bad("bad_light_index.gltf", lambda d: d["nodes"][0].update(extensions={"KHR_lights_punctual": {"light": 3}}))
 
 

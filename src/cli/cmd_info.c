@@ -126,9 +126,20 @@ static void print_lights(const Scene *s)
     printf("lights       %u punctual\n", s->light_count);
     for (uint32_t i = 0; i < s->light_count; i++) {
         const SceneLight *l = &s->lights[i];
-        printf("  [%u] %-12s %-20s colour %.3g %.3g %.3g, %g %s", i, type[l->type], l->name,
-               l->color[0], l->color[1], l->color[2], l->intensity,
-               l->type == SPT_LIGHT_DIRECTIONAL ? "lx" : "cd");
+        printf("  [%u] %-12s %-20s ", i, type[l->type], l->name);
+        if (l->spd.count > 0 || l->spd.line_count > 0) {
+            /* extras.spectrace.emission replaces the colour: its chromaticity and
+             * luminous efficacy instead. */
+            double xyz[3];
+            spd_to_xyz(&l->spd, xyz);
+            double sum = xyz[0] + xyz[1] + xyz[2];
+            printf("spectrum (%d samples, %d lines) xy %.4f %.4f, %.4g lm/W", l->spd.count,
+                   l->spd.line_count, sum > 0 ? xyz[0] / sum : 0.0, sum > 0 ? xyz[1] / sum : 0.0,
+                   spd_luminous_efficacy(&l->spd));
+        } else {
+            printf("colour %.3g %.3g %.3g", l->color[0], l->color[1], l->color[2]);
+        }
+        printf(", %g %s", l->intensity, l->type == SPT_LIGHT_DIRECTIONAL ? "lx" : "cd");
         if (l->type != SPT_LIGHT_DIRECTIONAL)
             printf(", at %.4g %.4g %.4g", l->position[0], l->position[1], l->position[2]);
         if (l->type != SPT_LIGHT_POINT)

@@ -56,6 +56,21 @@ double light_photometric_table(const float rgb[3], double photometric, float *ta
     return p > 0.0 ? 683.0 * y / p : 0.0;
 }
 
+double light_spd_table(const Spd *spd, double photometric, float *table)
+{
+    spd_to_grid(spd, table);
+    double y = 0.0, p = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        y += grid_weight(i) * SPT_CIE_Y[i] * table[i];
+        p += grid_weight(i) * table[i];
+    }
+    /* 683 * integral(ybar k S) = photometric, as for a colour. */
+    double k = (y > 0.0 && photometric > 0.0) ? photometric / (683.0 * y) : 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+        table[i] = (float)(k * table[i]);
+    return p > 0.0 && y > 0.0 ? 683.0 * y / p : 0.0;
+}
+
 /* 1 when all n values are finite, else 0. */
 static int all_finite(const float *v, int n)
 {
@@ -116,7 +131,13 @@ int light_from_scene(const SceneLight *sl, float *table, uint32_t table_offset, 
         out->spot_offset = 1.0f;
     }
     /* W/(sr nm) or W/(m^2 nm), into the film's units (kernels/shared/lights.h). */
-    light_photometric_table(sl->color, sl->intensity, table);
+    if (sl->spd.count > 0 || sl->spd.line_count > 0) {
+        if (!(light_spd_table(&sl->spd, sl->intensity, table) > 0.0))
+            return spt_fail(e, SPT_EXIT_INPUT, "%s: its spectrum has no luminance (nothing "
+                            "visible in 360-830 nm), so no level gives it its intensity", who);
+    } else {
+        light_photometric_table(sl->color, sl->intensity, table);
+    }
     for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
         table[i] *= SPT_LIGHT_FILM_PER_WATT;
         if (!(table[i] <= SPT_MAX_INPUT_VALUE))

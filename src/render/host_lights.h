@@ -9,7 +9,9 @@
  * 683 lm/W * integral(ybar S) dl = Iv, i.e. radiometric total = Iv / K with
  * K = 683 integral(ybar S) / integral(S) the luminous efficacy of S (sums over
  * the 1 nm grid 360..830). The table is I(l) in W/(sr nm) (point, spot) or E(l)
- * in W/(m^2 nm) (directional). */
+ * in W/(m^2 nm) (directional). A light with a spectrum of its own (SceneLight
+ * spd, from extras.spectrace.emission) gets that shape instead of the colour's,
+ * scaled the same way: the colour is then not used. */
 #ifndef SPT_HOST_LIGHTS_H
 #define SPT_HOST_LIGHTS_H
 
@@ -30,14 +32,20 @@ SPT_STATIC_ASSERT(sizeof(GpuEnvMap) == 64, "GpuEnvMap layout");
  * luminous efficacy K (lm/W) of the colour's spectrum, 0 for black. */
 double light_photometric_table(const float rgb[3], double photometric, float *table);
 
+/* The same for the shape spd (spd_to_grid: a spectral line becomes its power
+ * per nm in its 1 nm bin): table = k spd with 683 * sum(ybar table) =
+ * photometric. Returns the luminous efficacy of spd, 0 when it has no luminance
+ * (the table is then all zeros). */
+double light_spd_table(const Spd *spd, double photometric, float *table);
+
 /* The device light of scene light sl: geometry copied, spot cone turned into the
  * specification's scale/offset, spectrum (light_photometric_table's, times
  * SPT_LIGHT_FILM_PER_WATT: the film's units, where 1 cd/m^2 reads Y = 1) written
  * as a table into table
  * (SPT_CIE_SAMPLES floats) which the caller places at table_offset of the
  * renderer's spectra buffer. Returns SPT_EXIT_OK, or SPT_EXIT_INPUT naming the
- * light when its type is unknown or its intensity, colour, position or
- * direction is negative or not finite. */
+ * light when its type is unknown, its intensity, colour, position or
+ * direction is negative or not finite, or its spectrum has no luminance. */
 int light_from_scene(const SceneLight *sl, float *table, uint32_t table_offset, GpuLight *out,
                      SptError *e);
 

@@ -74,6 +74,7 @@ int Loader::finish(Scene *s)
     texs.clear();
     s->light_count = (uint32_t)lights.size();
     s->lights = copy_out(lights);
+    lights.clear(); // their SPDs too
     s->stats = stats;
     scene_update_bounds(s);
     if (have_camera) {
@@ -130,6 +131,7 @@ out:
         spd_free(&sm.emission_spd);
         spd_free(&sm.reflectance_spd);
     }
+    for (auto &l : L.lights) spd_free(&l.spd);
     for (auto &t : L.texs) free(t.texels);
     for (auto &d : L.decoded) texture_io_free(&d);
     if (rc) scene_free(s);

@@ -232,6 +232,7 @@ struct Loader {
     int spec_gloss(const Value &x, SceneMaterial *sm, const std::string &obj);
     int decode_image(int image);
     int spectral_extras(const Value &extras, SceneMaterial *sm, const std::string &obj);
+    int light_extras(const Value &extras, SceneLight *sl, const std::string &obj);
     int parse_spd(const Value &v, Spd *out, const std::string &obj);
     int read_primitive(int mesh, int p);
     int read_draco(int mesh, int p, const Value &ext, std::vector<uint32_t> &idx);

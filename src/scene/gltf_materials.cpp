@@ -302,6 +302,31 @@ int Loader::spectral_extras(const Value &extras, SceneMaterial *sm, const std::s
     return 0;
 }
 
+// A light's spectral extras: extras.spectrace.emission, the shape of its
+// spectrum (named or inline alike; the intensity sets the level when the light
+// is built, render/host_lights.h).
+int Loader::light_extras(const Value &extras, SceneLight *sl, const std::string &obj)
+{
+    if (!extras.IsObject() || !extras.Has("spectrace")) return 0;
+    const Value &sp = extras.Get("spectrace");
+    std::string o = obj + ".extras.spectrace";
+    if (!sp.IsObject()) return bad("%s: expected an object", o.c_str());
+    for (const auto &k : sp.Keys())
+        if (k != "emission")
+            return bad("%s: unknown key '%s' (expected emission)", o.c_str(), k.c_str());
+    if (!sp.Has("emission")) return 0;
+    int rc;
+    if ((rc = parse_spd(sp.Get("emission"), &sl->spd, o + ".emission"))) return rc;
+    double xyz[3];
+    spd_to_xyz(&sl->spd, xyz);
+    if (!(xyz[1] > 0)) {
+        spd_free(&sl->spd);
+        return bad("%s.emission: the SPD has no luminance (nothing visible in 360-830 nm), so "
+                   "no level gives the light its intensity", o.c_str());
+    }
+    return 0;
+}
+
 // Perceived brightness of a linear RGB colour, as in the conversion below.
 static double perceived_brightness(const double c[3])
 {

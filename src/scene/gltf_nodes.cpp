@@ -239,7 +239,15 @@ int Loader::light_from(int li, const Mat4 &world, int node)
         sl.direction[k] = (float)dir[k];
     }
     if (sl.type == SPT_LIGHT_POINT && !normalize3(dir)) sl.direction[2] = -1.0f;
-    lights.push_back(sl);
+    int rc;
+    std::string named = obj + (l.name.empty() ? "" : " '" + l.name + "'");
+    if ((rc = light_extras(l.extras, &sl, named))) return rc;
+    try {
+        lights.push_back(sl);
+    } catch (...) {
+        spd_free(&sl.spd);
+        throw;
+    }
     return 0;
 }
 

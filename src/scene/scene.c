@@ -94,6 +94,7 @@ void scene_free(Scene *s)
     free(s->materials);
     for (uint32_t i = 0; i < s->texture_count; i++) free(s->textures[i].texels);
     free(s->textures);
+    for (uint32_t i = 0; i < s->light_count; i++) spd_free(&s->lights[i].spd);
     free(s->lights);
     memset(s, 0, sizeof *s);
 }

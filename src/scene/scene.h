@@ -100,6 +100,10 @@ typedef struct SceneLight {
     float direction[3];   /* world space, unit: where the light points (-Z of its node) */
     float color[3];       /* linear RGB, default 1 */
     float intensity;      /* candela (point, spot) or lux (directional), as in the file */
+    /* extras.spectrace.emission: the spectrum's shape (count and line_count 0 =
+     * absent: the colour's), replacing the colour; scaled to the intensity when
+     * the light is built (render/host_lights.h). */
+    Spd spd;
     float range;          /* 0 = infinite */
     float inner_cone, outer_cone; /* radians (spot) */
 } SceneLight;

@@ -74,6 +74,8 @@ void *scene_pack(const Scene *s, size_t *size)
         put_array(&b, t->texels, t->texels ? (size_t)t->width * t->height * t->channels * sizeof(float) : 0);
     }
     put_array(&b, s->lights, (size_t)s->light_count * sizeof(SceneLight));
+    for (uint32_t i = 0; i < s->light_count; i++)
+        put_spd(&b, &s->lights[i].spd);
     *size = b.len;
     return b.p;
 }
@@ -191,8 +193,14 @@ int scene_unpack(Scene *s, const void *bytes, size_t size, const char *what, Spt
     uint32_t nl = s->light_count;
     s->light_count = 0;
     s->lights = get_array(&r, (size_t)nl * sizeof(SceneLight));
+    for (uint32_t i = 0; i < nl && s->lights; i++) {
+        Spd *sp = &s->lights[i].spd;
+        sp->nm = sp->value = sp->line_nm = sp->line_power = NULL;
+    }
     if (s->lights)
         s->light_count = nl;
+    for (uint32_t i = 0; i < s->light_count; i++)
+        get_spd(&r, &s->lights[i].spd);
     if (r.bad || r.at != r.len || (nl && !s->lights) || (nmat && !s->materials) ||
         (ntex && !s->textures)) {
         scene_free(s);
