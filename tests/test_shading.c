@@ -1,6 +1,7 @@
 /* The renderer on PoCL: surface shading inputs where the image shows them:
  * unlit materials, normal maps, volume absorption, dispersion, alpha blend and
- * mask. */
+ * mask; point lights of RGB and spectral emission against the inverse-square
+ * law. */
 #include "test_util.h"
 #include "test_render_util.h"
 
@@ -258,6 +259,112 @@ static void test_alpha_blend_and_mask(void **state)
     }
 }
 
+/* A point light of 10 cd 2 m over a Lambertian floor of albedo 0.5, seen
+ * from 3 m straight above (direct light only): the floor's luminance is
+ * rho E / pi with E = I cos(theta) / r^2, whatever the light's spectrum, since
+ * a punctual light's intensity is photometric (docs/gltf.md). Four lights: a
+ * white RGB colour (D65 as an illuminant), the named D65 and A SPDs and the
+ * mercury lines (extras.spectrace.emission). Each image's mean Y over the
+ * pixels' expected values must be 1; its chromaticity that of the spectrum
+ * (D65 and A: CIE 15's 0.31272 0.32903 and 0.44757 0.40745; mercury: summed
+ * here from the NIST lines and the CIE 1931 tables), and the white and D65
+ * lights' images agree pixel by pixel (same samples, the same spectrum up to
+ * the upsampling's fit). */
+#define SPL_W 32
+
+static void render_point_light(const char *spd, double rgb_xyz[3], double *ratio, float *img)
+{
+    Scene s;
+    memset(&s, 0, sizeof s);
+    const float floor_c[4][3] = {{-4, 0, -4}, {-4, 0, 4}, {4, 0, 4}, {4, 0, -4}};
+    SceneMaterial *fl = append_rect(&s, floor_c);
+    for (int k = 0; k < 3; k++)
+        fl->base_color[k] = 0.5f;
+    s.light_count = 1;
+    s.lights = calloc(1, sizeof(SceneLight));
+    SceneLight *l = &s.lights[0];
+    strcpy(l->name, "bulb");
+    l->type = SPT_LIGHT_POINT;
+    l->position[1] = 2.0f;
+    l->direction[1] = -1.0f;
+    l->intensity = 10.0f;
+    for (int k = 0; k < 3; k++)
+        l->color[k] = 1.0f;
+    SptError e = {0};
+    if (spd)
+        assert_int_equal(spd_named(&l->spd, spd, &e), 0);
+    const float tf = 0.1f; /* tan of the half field of view */
+    s.camera.position[1] = 3.0f;
+    s.camera.forward[1] = -1.0f;
+    s.camera.up[2] = -1.0f;
+    s.camera.right[0] = 1.0f;
+    s.camera.yfov = 2.0f * atanf(tf);
+    s.camera.aspect = 1.0f;
+    scene_update_bounds(&s);
+    GpuScene g;
+    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+    RenderSettings rs = square_settings(SPL_W, 256, 2, 5);
+    Film f;
+    RenderStats st;
+    film_init(&f, SPL_W, SPL_W);
+    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    double sum_y = 0, sum_want = 0;
+    for (int k = 0; k < 3; k++)
+        rgb_xyz[k] = 0;
+    for (int py = 0; py < SPL_W; py++)
+        for (int px = 0; px < SPL_W; px++) {
+            size_t i = (size_t)py * SPL_W + px;
+            double x = 3.0 * tf * (2.0 * (px + 0.5) / SPL_W - 1.0), z = 3.0 * tf * (2.0 * (py + 0.5) / SPL_W - 1.0);
+            double r = sqrt(x * x + z * z + 4.0);
+            sum_want += 0.5 / M_PI * 10.0 * (2.0 / r) / (r * r);
+            for (int k = 0; k < 3; k++)
+                rgb_xyz[k] += f.xyz[3 * i + k] / f.count[i];
+            sum_y += f.xyz[3 * i + 1] / f.count[i];
+            img[i] = (float)(f.xyz[3 * i + 1] / f.count[i]);
+        }
+    *ratio = sum_y / sum_want;
+    film_free(&f);
+    gpu_scene_free(&g);
+    scene_free(&s);
+}
+
+static void test_spectral_point_light(void **state)
+{
+    (void)state;
+    static const char *spds[4] = {NULL, "D65", "A", "mercury"};
+    /* Mercury's chromaticity from the NIST lines (tests/test_lights.c). */
+    static const double hg_nm[6] = {404.656, 407.783, 435.833, 546.074, 576.960, 579.066};
+    static const double hg_rel[6] = {1800, 150, 4000, 1100, 240, 280};
+    double hg[3] = {0};
+    for (int j = 0; j < 6; j++) {
+        double x = hg_nm[j] - SPT_CIE_LAMBDA_MIN;
+        int i = (int)x;
+        double fr = x - i;
+        hg[0] += hg_rel[j] * ((1 - fr) * SPT_CIE_X[i] + fr * SPT_CIE_X[i + 1]);
+        hg[1] += hg_rel[j] * ((1 - fr) * SPT_CIE_Y[i] + fr * SPT_CIE_Y[i + 1]);
+        hg[2] += hg_rel[j] * ((1 - fr) * SPT_CIE_Z[i] + fr * SPT_CIE_Z[i + 1]);
+    }
+    const double want_xy[4][2] = {{0.31272, 0.32903}, {0.31272, 0.32903}, {0.44757, 0.40745},
+                                  {hg[0] / (hg[0] + hg[1] + hg[2]), hg[1] / (hg[0] + hg[1] + hg[2])}};
+    const double tol_y[4] = {0.01, 0.01, 0.01, 0.05}; /* mercury: lines are 2 nm of the samples */
+    static float img[4][SPL_W * SPL_W];
+    for (int k = 0; k < 4; k++) {
+        double xyz[3], ratio;
+        render_point_light(spds[k], xyz, &ratio, img[k]);
+        double sum = xyz[0] + xyz[1] + xyz[2], cx = xyz[0] / sum, cy = xyz[1] / sum;
+        printf("point light, %s: mean Y %.4f of rho I cos / (pi r^2), chromaticity %.4f %.4f (expected %.4f %.4f)\n",
+               spds[k] ? spds[k] : "white RGB", ratio, cx, cy, want_xy[k][0], want_xy[k][1]);
+        assert_close(ratio, 1.0, tol_y[k]);
+        assert_close(cx, want_xy[k][0], 0.003);
+        assert_close(cy, want_xy[k][1], 0.003);
+    }
+    double worst = 0;
+    for (int i = 0; i < SPL_W * SPL_W; i++)
+        worst = fmax(worst, fabs(img[1][i] / img[0][i] - 1.0));
+    printf("white RGB and D65 lights: largest per-pixel difference in Y %.2g\n", worst);
+    assert_true(worst < 0.01);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -266,6 +373,7 @@ int main(void)
         cmocka_unit_test(test_volume_absorption),
         cmocka_unit_test(test_dispersion_furnace),
         cmocka_unit_test(test_alpha_blend_and_mask),
+        cmocka_unit_test(test_spectral_point_light),
     };
     return cmocka_run_group_tests_name("shading", tests, setup_cpu_device, teardown_cpu_device);
 }
