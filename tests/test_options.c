@@ -4,6 +4,7 @@
  * the field the list names. */
 #include "test_util.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -12,6 +13,7 @@
 #include "io/exr.h"
 #include "io/image_out.h"
 #include "render/checkpoint.h"
+#include "render/render.h"
 #include "scene/sky.h"
 
 #define SCENE "scenes/cornell_box.gltf"
@@ -203,6 +205,65 @@ static void test_parse_after_failed_group(void **state)
     assert_int_equal(render_args_parse(&a, 3, argv3), SPT_EXIT_USAGE);
 }
 
+/* --time's chunk sizes (render_deadline_chunk) with synthetic times: a device
+ * of r seconds per sample (scaled by load(k) in its chunk k) that starts
+ * `start` seconds into a limit of T seconds, chunks of at most 16 samples.
+ * Returns the seconds at which its last chunk ends; *samples and *chunks
+ * receive the totals. */
+static double simulate_deadline(double T, double start, double r, double swing, uint32_t *samples,
+                                int *chunks)
+{
+    double t = start, per = 0.0;
+    *samples = 0;
+    *chunks = 0;
+    uint32_t n;
+    while ((n = render_deadline_chunk(16, T - t, per)) > 0) {
+        assert_true(n <= 16);
+        double rate = r * (1.0 + swing * sin(1.7 * *chunks));
+        t += n * rate;
+        per = rate;
+        *samples += n;
+        (*chunks)++;
+        assert_true(*chunks < 100);
+    }
+    return t;
+}
+
+static void test_deadline_chunks(void **state)
+{
+    (void)state;
+    /* The cases of the rule. */
+    assert_int_equal(render_deadline_chunk(0, 10.0, 0.1), 0);   /* nothing wanted */
+    assert_int_equal(render_deadline_chunk(16, 0.0, 0.1), 0);   /* time is up */
+    assert_int_equal(render_deadline_chunk(16, -1.0, 0.0), 0);
+    assert_int_equal(render_deadline_chunk(16, 5.0, 0.0), 1);   /* no rate yet: one sample */
+    assert_int_equal(render_deadline_chunk(16, 0.09, 0.1), 0);  /* one sample does not fit */
+    assert_int_equal(render_deadline_chunk(16, 0.15, 0.1), 1);  /* one fits: at least one */
+    assert_int_equal(render_deadline_chunk(16, 1.0, 0.1), 5);   /* half of the 10 that fit */
+    assert_int_equal(render_deadline_chunk(16, 100.0, 0.1), 16); /* capped */
+    /* A steady device ends before T, within one sample's time of it, where
+     * whole 16-sample chunks from the start would end at 0.5 + 16 k 0.37 s, up
+     * to 16 samples' time (5.9 s) past T. */
+    uint32_t samples;
+    int chunks;
+    double end = simulate_deadline(5.0, 0.5, 0.37, 0.0, &samples, &chunks);
+    assert_true(end <= 5.0);
+    assert_true(5.0 - end < 0.37);
+    assert_int_equal(samples, 12); /* floor((5 - 0.5) / 0.37) */
+    assert_true(chunks <= 8);
+    /* 20 s at 1/16 s a sample (exact in binary): the chunks grow to 16 and
+     * shrink at the end. */
+    end = simulate_deadline(20.0, 0.25, 0.0625, 0.0, &samples, &chunks);
+    assert_true(end <= 20.0 && 20.0 - end < 0.0625);
+    assert_int_equal(samples, 316); /* (20 - 0.25) / 0.0625 */
+    assert_true(chunks < 40);
+    /* A load that changes the rate by up to 30% from chunk to chunk: past T
+     * by less than two samples' time. */
+    end = simulate_deadline(5.0, 0.5, 0.37, 0.3, &samples, &chunks);
+    assert_true(end < 5.0 + 2.0 * 0.37);
+    assert_true(samples >= 9);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -210,6 +271,7 @@ int main(void)
         cmocka_unit_test(test_values_reach_their_fields),
         cmocka_unit_test(test_bad_values),
         cmocka_unit_test(test_parse_after_failed_group),
+        cmocka_unit_test(test_deadline_chunks),
     };
     return cmocka_run_group_tests_name("options", tests, setup, teardown);
 }

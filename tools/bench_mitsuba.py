@@ -28,7 +28,7 @@ taken against a reference of N samples per pixel rendered by Mitsuba
 scene and settings), and the tool prints the ratio best-Mitsuba relMSE /
 spectrace relMSE (above 1: spectrace cleaner in the same seconds). A reference
 of few samples adds its own noise to every relMSE alike and so pulls the ratio
-toward 1. spectrace's own seconds (its last chunk may run past T) are printed
+toward 1. spectrace's own seconds (its chunks are sized to end by T) are printed
 beside the figures.
 
 Defaults: --time 20 (SPECTRACE_BENCH_TIME), --ref-spp 4096
@@ -291,7 +291,7 @@ def race(a, mi, scenes, tmp):
             print("%-8s Mitsuba %-11s %5d spp in %6.2f s: relMSE %.4g (median %.3g)"
                   % (name, smp, done_band * len(ms.bands), msecs, e, med), flush=True)
         if best is not None:
-            # spectrace stops at a chunk's end, possibly past T: its relMSE scaled
+            # spectrace may end a little before or past T: its relMSE scaled
             # to T seconds (relMSE ~ 1 / time) gives the second ratio.
             print("%-8s ratio best-Mitsuba / spectrace relMSE: %.2f (%.2f with spectrace's relMSE scaled to %g s; "
                   "Mitsuba's rate %.3f Mpaths/s, %.0f spp in %g s)"

@@ -42,7 +42,8 @@ typedef struct RenderTestHooks {
 
 /* What a render does. The options of the command line (the RS rows of
  * src/render/render_options.h) are spp (samples per pixel to reach, counting
- * from sample_begin), time_limit (seconds, 0 = none; stops at a chunk
+ * from sample_begin), time_limit (seconds, 0 = none; chunks sized by
+ * render_deadline_chunk to end by it; stops at a chunk
  * boundary), width, height, max_depth (path segments from the camera; <= 0
  * unlimited), seed, env_rotation (degrees about +Y), env_intensity (a map's
  * scale), aperture (lens radius in metres, 0 = pinhole), focus_distance (metres,
@@ -116,6 +117,17 @@ int render_sampler_parse(const char *name, uint32_t *sampler);
 int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
                    const SceneCamera *cam, const RenderSettings *rs, Film *film,
                    RenderStats *stats, RenderDeviceStats *per_device, SptError *e);
+
+/* Samples per pixel of a device's next chunk under --time (a pure function of
+ * its inputs): at most want; left: the seconds left until the time limit;
+ * per_sample: the seconds per sample of the device's last chunk (0 before its
+ * first). The first chunk is one sample, which measures the rate; each later
+ * one takes half the time left (at least one sample), so chunks shrink toward
+ * the deadline and the render ends within a sample's time before it instead
+ * of a whole chunk after; 0 (take no more) when not even one sample fits.
+ * Chunks are whole samples of every pixel, so every pixel keeps the same
+ * number of samples. */
+uint32_t render_deadline_chunk(uint32_t want, double left, double per_sample);
 
 /* Renders samples [rs->sample_begin, rs->sample_begin + rs->spp) of every pixel
  * of g with camera cam on device info, adding them to film (which must be

@@ -51,7 +51,7 @@ enum { SPT_CAUSTICS_AUTO = 0, SPT_CAUSTICS_OFF = 1, SPT_CAUSTICS_ON = 2 };
       "expected a whole number from 1 to 16777216", "samples per pixel (default 16)")           \
     X(RS, DBL, double, time_limit, "time", 0, "SECONDS", 0, -HUGE_VAL, HUGE_VAL,                \
       SPT_OPT_MPI | SPT_OPT_POSITIVE, "expected a positive number of seconds",                  \
-      "render for this long instead (whole passes; --spp is the cap)")                          \
+      "render for this long instead (whole samples per pixel; --spp is the cap)")               \
     X(RS, INT, int, width, "width", 0, "W", 0, 1, 16384, SPT_OPT_IMAGE | SPT_OPT_MPI,          \
       "expected a whole number from 1 to 16384", "image width (default 512)")                   \
     X(RS, INT, int, height, "height", 0, "H", 0, 1, 16384, SPT_OPT_IMAGE | SPT_OPT_MPI,        \

@@ -82,6 +82,7 @@ typedef struct Scheduler {
     int workers;              /* devices rendering */
     int turn;                 /* with rs->test.take_turns: the worker whose turn it is */
     unsigned char *gone;      /* per worker: has stopped taking chunks */
+    int deadline;             /* a worker stopped because no sample fits the time left */
 } Scheduler;
 
 /* Passes the turn to the next worker still taking chunks. */
@@ -151,6 +152,21 @@ static int sched_take(Scheduler *s, int who, uint32_t want, uint32_t *begin, uin
     s->active += ok;
     pthread_mutex_unlock(&s->lock);
     return ok;
+}
+
+uint32_t render_deadline_chunk(uint32_t want, double left, double per_sample)
+{
+    if (want == 0 || !(left > 0.0))
+        return 0;
+    if (!(per_sample > 0.0))
+        return 1;
+    double fit = left / per_sample;
+    if (fit < 1.0)
+        return 0;
+    double n = floor(0.5 * fit);
+    if (n < 1.0)
+        n = 1.0;
+    return n < (double)want ? (uint32_t)n : want;
 }
 
 /* Worker who takes no more chunks. */
@@ -242,7 +258,19 @@ static void *worker_main(void *arg)
     int slow_ms = rs->test.slow_device == wk->index + 1 ? rs->test.slow_ms : 0;
     int chunks = 0;
     uint32_t begin, n;
-    while (sched_take(wk->s, wk->index, w.chunk_spp, &begin, &n)) {
+    double per_sample = 0.0; /* seconds per sample of this device's last chunk */
+    for (;;) {
+        uint32_t want = w.chunk_spp;
+        if (rs->time_limit > 0 &&
+            !(want = render_deadline_chunk(want, rs->time_limit - (spt_now() - wk->s->t0),
+                                           per_sample))) {
+            pthread_mutex_lock(&wk->s->lock);
+            wk->s->deadline = 1;
+            pthread_mutex_unlock(&wk->s->lock);
+            break;
+        }
+        if (!sched_take(wk->s, wk->index, want, &begin, &n))
+            break;
         double t = spt_now();
         if (chunks == fail_after) {
             wk->rc = spt_fail(&wk->e, SPT_EXIT_DEVICE, "injected failure (test hook)");
@@ -253,6 +281,7 @@ static void *worker_main(void *arg)
             wk->rc = render_chunk(&w, &p, rs->sample_begin + begin, n, rs->profile, sums,
                                   aov_sums, spec_sums, &wk->st, &wk->e);
             if (!wk->rc) {
+                per_sample = (spt_now() - t) / n;
                 wk->busy_seconds += spt_now() - t;
                 wk->samples += n;
                 sched_done(wk->s, begin, n, wk->st.paths - before, sums, aov_sums, spec_sums);
@@ -449,7 +478,7 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
             }
         }
     }
-    int stopped = (rs->stop && *rs->stop) ||
+    int stopped = (rs->stop && *rs->stop) || s.deadline ||
                   (rs->time_limit > 0 && spt_now() - s.t0 >= rs->time_limit);
     if (failed == count && count > 1)
         rc = spt_fail(e, SPT_EXIT_DEVICE, "every device failed; the last error: %s", e->msg);
