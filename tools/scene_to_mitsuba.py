@@ -381,6 +381,9 @@ def rgb_reflectance(rgb, colour="exact"):
     """A Mitsuba spectrum for a reflectance given as linear sRGB."""
     if colour == "mitsuba":
         return {"type": "rgb", "value": [float(c) for c in rgb]}
+    if not max(float(c) for c in rgb) > 0:
+        # Black (an emitter's base colour): Mitsuba refuses a table of zeros.
+        return {"type": "uniform", "value": 0.0}
     return _table(reflectance_spectrum(rgb))
 
 
