@@ -828,88 +828,6 @@ static void test_prism_mercury_lines(void **state)
     }
 }
 
-/* A glass sphere (ior 1.5) over a Lambertian floor under a spot light
- * (tests/data/scenes/caustic_sphere.gltf, tools/make_material_scenes.py),
- * seen from under the sphere: everything in view lies in the sphere's shadow
- * and is lit through the glass only. Compared with Mitsuba 3's particle
- * tracer (tests/data/mitsuba/caustic_sphere_means.json: 4 x 4 block means and
- * their standard errors from 16 passes) block by block with Welch's test:
- * spectrace renders CS_RUNS independent 64 spp passes (seeds 1..CS_RUNS) whose
- * spread gives its own standard errors. */
-#define CS_W 64
-#define CS_RUNS 8
-/* |difference| / sqrt(se_ours^2 + se_ref^2) per block and channel: 48 tests of
- * statistics with about 7 to 15 degrees of freedom (Student t: P(|t_7| > 6)
- * is 5e-4, so 48 tests of a correct renderer exceed it with about 2%
- * probability; the seeds are fixed, so the outcome is deterministic). */
-#define CS_WELCH_BOUND 6.0
-
-static void test_sphere_caustic_mitsuba(void **state)
-{
-    (void)state;
-    skip_if_quick();
-    const char *ref = "tests/data/mitsuba/caustic_sphere_means.json";
-    double ref_mean[48], ref_se[48], ref_img[3];
-    assert_int_equal(json_numbers(ref, "\"max_depth_-1\"", "\"block_means_4x4\"", ref_mean, 48), 0);
-    assert_int_equal(json_numbers(ref, "\"max_depth_-1\"", "\"block_stderr_4x4\"", ref_se, 48), 0);
-    assert_int_equal(json_triple(ref, "\"max_depth_-1\"", "\"mean\"", ref_img), 0);
-    Scene s;
-    SptError e = {0};
-    int rc = scene_load_gltf(&s, "tests/data/scenes/caustic_sphere.gltf", &e);
-    if (rc)
-        fprintf(stderr, "load: %s\n", e.msg);
-    assert_int_equal(rc, 0);
-    double sum[48] = {0}, sum2[48] = {0}, img[3] = {0};
-    float *rgb = malloc((size_t)CS_W * CS_W * 3 * sizeof(float));
-    for (int run = 0; run < CS_RUNS; run++) {
-        RenderSettings rs = square_settings(CS_W, 64, -1, (uint32_t)(run + 1));
-        rs.caustics = SPT_CAUSTICS_ON;
-        Film f;
-        render_caustic_scene(&s, &rs, &f);
-        film_to_linear_srgb(&f, rgb);
-        film_free(&f);
-        const int bs = CS_W / 4;
-        for (int by = 0; by < 4; by++)
-            for (int bx = 0; bx < 4; bx++)
-                for (int c = 0; c < 3; c++) {
-                    double b = 0;
-                    for (int y = by * bs; y < (by + 1) * bs; y++)
-                        for (int x = bx * bs; x < (bx + 1) * bs; x++)
-                            b += rgb[3 * (y * CS_W + x) + c];
-                    b /= bs * bs;
-                    int k = 3 * (4 * by + bx) + c;
-                    sum[k] += b;
-                    sum2[k] += b * b;
-                    img[c] += b / 16.0 / CS_RUNS;
-                }
-    }
-    free(rgb);
-    scene_free(&s);
-    double worst = 0;
-    int worst_k = 0;
-    for (int k = 0; k < 48; k++) {
-        double m = sum[k] / CS_RUNS;
-        double var = fmax(0.0, (sum2[k] - CS_RUNS * m * m) / (CS_RUNS - 1));
-        double se = sqrt(var / CS_RUNS), d = fabs(m - ref_mean[k]);
-        double t = d / sqrt(se * se + ref_se[k] * ref_se[k]);
-        if (k % 3 == 1)
-            printf("%s%8.4f (%+.2f%%, t %.2f)%s", k % 12 == 1 ? "  " : " ", m, 100.0 * (m / ref_mean[k] - 1.0),
-                   t, k % 12 == 10 ? "\n" : "");
-        assert_true(ref_se[k] > 0.0 && se > 0.0); /* every block sees light */
-        if (t > worst) {
-            worst = t;
-            worst_k = k;
-        }
-    }
-    printf("sphere caustic vs Mitsuba ptracer (green block means above): image mean %.4f %.4f %.4f, "
-           "Mitsuba %.4f %.4f %.4f; largest Welch statistic %.2f (block %d, %d, channel %d), bound %.1f\n",
-           img[0], img[1], img[2], ref_img[0], ref_img[1], ref_img[2], worst, worst_k / 12, worst_k / 3 % 4,
-           worst_k % 3, CS_WELCH_BOUND);
-    assert_true(worst < CS_WELCH_BOUND);
-    for (int c = 0; c < 3; c++)
-        assert_close_rel(img[c], ref_img[c], 0.01);
-}
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -922,7 +840,6 @@ int main(void)
         cmocka_unit_test(test_closed_box_one_light),
         cmocka_unit_test(test_prism_dispersion),
         cmocka_unit_test(test_prism_mercury_lines),
-        cmocka_unit_test(test_sphere_caustic_mitsuba),
     };
     return cmocka_run_group_tests(tests, setup_cpu_device, teardown_cpu_device);
 }

@@ -38,6 +38,13 @@ Caustic scene (compared with Mitsuba's particle tracer, ptracer):
                            sphere and the floor, 0.45 m up, looking straight
                            down (yfov 100 degrees): all it sees lies in the
                            sphere's shadow and is lit only through the glass
+  caustic_sphere_area.gltf the same sphere, floor and camera under a square
+                           area light instead (1 m x 1 m, 3 m above the
+                           floor, facing down, emissive (1, 1, 1) x 50; the
+                           floor's albedo 0.8): the view's middle is lit only
+                           through the glass, its corners also directly (they
+                           lie in the penumbra); compared with Mitsuba's path
+                           tracer
 
 Plain Python (the glTF writer of tools/make_cornell_box.py).
 """
@@ -148,9 +155,11 @@ CS_FLOOR_ALBEDO = 0.8
 CS_FLOOR_HALF = 3.0
 CS_CAM_Y = 0.45
 CS_YFOV_DEG = 100.0
+CS_AREA_HALF = 0.5             # the area light's half-size (m), at CS_LIGHT_Y facing down
+CS_AREA_STRENGTH = 50.0        # emissive (1, 1, 1) x 50
 
 
-def caustic_sphere_scene(path):
+def caustic_sphere_scene(path, area=False):
     g = GltfBuilder(GEN)
     floor = g.material("floor", (CS_FLOOR_ALBEDO,) * 3, pure_diffuse=True)
     s = CS_FLOOR_HALF
@@ -160,7 +169,14 @@ def caustic_sphere_scene(path):
     pos, tris, _ = uv_sphere(SPHERE_STACKS, SPHERE_SLICES, CS_SPHERE_RADIUS, CS_SPHERE_CENTER)
     g.mesh_from("sphere", g.geometry(pos, tris), glass)
     r = math.sqrt(0.5)   # -90 degrees about +X: the node's -Z points down (-y); image up is -z
-    g.spot_light("spot", CS_INTENSITY, (0.0, CS_LIGHT_Y, 0.0), CS_CONES[0], CS_CONES[1], rotation=(-r, 0.0, 0.0, r))
+    if area:
+        light = g.material("light", (0.0, 0.0, 0.0), emissive=(1.0, 1.0, 1.0), strength=CS_AREA_STRENGTH,
+                           pure_diffuse=True)
+        h, y = CS_AREA_HALF, CS_LIGHT_Y
+        g.quads_mesh("light", [orient_quad([(-h, y, -h), (h, y, -h), (h, y, h), (-h, y, h)], (0, -1, 0))], light)
+    else:
+        g.spot_light("spot", CS_INTENSITY, (0.0, CS_LIGHT_Y, 0.0), CS_CONES[0], CS_CONES[1],
+                     rotation=(-r, 0.0, 0.0, r))
     g.camera("camera", math.radians(CS_YFOV_DEG), (0.0, CS_CAM_Y, 0.0), rotation=(-r, 0.0, 0.0, r))
     g.write(path, extras={"about": "caustic test scene (tests/data/scenes/README.md)", "units": "metres"})
 
@@ -180,6 +196,9 @@ def main(argv):
     print("wrote %s (%d bytes)" % (p, os.path.getsize(p)))
     p = os.path.join(out, "caustic_sphere.gltf")
     caustic_sphere_scene(p)
+    print("wrote %s (%d bytes)" % (p, os.path.getsize(p)))
+    p = os.path.join(out, "caustic_sphere_area.gltf")
+    caustic_sphere_scene(p, area=True)
     print("wrote %s (%d bytes)" % (p, os.path.getsize(p)))
     return 0
 

@@ -1,0 +1,169 @@
+/* The light-tracing pass (kernels/device/light_trace.h) against Mitsuba 3: a
+ * faceted glass sphere (ior 1.5, radius 0.5 m, centre 1 m up) over a
+ * Lambertian floor (albedo 0.8), seen from under the sphere by a camera looking
+ * straight down (tests/data/scenes/caustic_sphere*.gltf,
+ * tools/make_material_scenes.py), lit
+ *
+ * - by a spot light, against Mitsuba's particle tracer (ptracer): all in view
+ *   lies in the sphere's shadow, lit through the glass only;
+ * - by a square area light, against Mitsuba's path tracer (path) at a high
+ *   sample count: the view's middle is lit through the glass only, its corners
+ *   also directly (the penumbra), so the caustic comes from spectrace's light
+ *   paths and the direct light from its camera paths, while Mitsuba's camera
+ *   paths find both.
+ *
+ * Each reference (tests/data/mitsuba/caustic_sphere*_means.json, with the
+ * command that wrote it) holds the means of the image's 4 x 4 blocks per linear
+ * sRGB channel and their standard errors from the spread of its independent
+ * passes. spectrace renders a few independent passes (seeds 1..runs) whose
+ * spread gives its own standard errors, and each block and channel is compared
+ * with Welch's test. */
+#include "test_util.h"
+#include "test_render_util.h"
+
+#define CS_W 64
+#define CS_BLOCKS 48 /* 4 x 4 blocks x 3 channels */
+
+/* Welch's statistic of two means with standard errors se_a and se_b. */
+static double welch(double a, double se_a, double b, double se_b)
+{
+    return fabs(a - b) / sqrt(se_a * se_a + se_b * se_b);
+}
+
+/* Renders the scene file `scene` at CS_W x CS_W in `runs` independent passes
+ * of spp samples (seeds 1..runs) with --caustics `caustics` and compares the
+ * 4 x 4 block means with the Mitsuba reference `ref` ("max_depth_-1" entry)
+ * by Welch's statistic |difference| / sqrt(se_ours^2 + se_ref^2). Returns the
+ * largest statistic over the 48 blocks and channels; *img_rel is the largest
+ * relative difference of the image means per channel and *img_t the largest
+ * Welch statistic of the image means. */
+static double welch_vs_mitsuba(const char *scene, const char *ref, int runs, int spp, int caustics,
+                               double *img_rel, double *img_t, const char *what)
+{
+    double ref_mean[CS_BLOCKS], ref_se[CS_BLOCKS], ref_img[3], ref_img_se[3];
+    assert_int_equal(json_numbers(ref, "\"max_depth_-1\"", "\"block_means_4x4\"", ref_mean, CS_BLOCKS), 0);
+    assert_int_equal(json_numbers(ref, "\"max_depth_-1\"", "\"block_stderr_4x4\"", ref_se, CS_BLOCKS), 0);
+    assert_int_equal(json_triple(ref, "\"max_depth_-1\"", "\"mean\"", ref_img), 0);
+    assert_int_equal(json_triple(ref, "\"max_depth_-1\"", "\"stderr_of_mean\"", ref_img_se), 0);
+    Scene s;
+    GpuScene g;
+    SptError e = {0};
+    int rc = scene_load_gltf(&s, scene, &e);
+    if (rc)
+        fprintf(stderr, "load: %s\n", e.msg);
+    assert_int_equal(rc, 0);
+    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+    double sum[CS_BLOCKS] = {0}, sum2[CS_BLOCKS] = {0}, img[3] = {0}, img2[3] = {0};
+    float *rgb = malloc((size_t)CS_W * CS_W * 3 * sizeof(float));
+    for (int run = 0; run < runs; run++) {
+        double run_img[3] = {0};
+        RenderSettings rs = square_settings(CS_W, spp, -1, (uint32_t)(run + 1));
+        rs.caustics = caustics;
+        Film f;
+        RenderStats st;
+        film_init(&f, CS_W, CS_W);
+        rc = render_device(device, &g, &s.camera, &rs, &f, &st, &e);
+        if (rc)
+            fprintf(stderr, "render: %s\n", e.msg);
+        assert_int_equal(rc, 0);
+        assert_int_equal(film_nonfinite_pixels(&f), 0);
+        film_to_linear_srgb(&f, rgb);
+        film_free(&f);
+        const int bs = CS_W / 4;
+        for (int by = 0; by < 4; by++)
+            for (int bx = 0; bx < 4; bx++)
+                for (int c = 0; c < 3; c++) {
+                    double b = 0;
+                    for (int y = by * bs; y < (by + 1) * bs; y++)
+                        for (int x = bx * bs; x < (bx + 1) * bs; x++)
+                            b += rgb[3 * (y * CS_W + x) + c];
+                    b /= bs * bs;
+                    int k = 3 * (4 * by + bx) + c;
+                    sum[k] += b;
+                    sum2[k] += b * b;
+                    run_img[c] += b / 16.0;
+                }
+        for (int c = 0; c < 3; c++) {
+            img[c] += run_img[c] / runs;
+            img2[c] += run_img[c] * run_img[c];
+        }
+    }
+    free(rgb);
+    gpu_scene_free(&g);
+    scene_free(&s);
+    double worst = 0;
+    int worst_k = 0;
+    for (int k = 0; k < CS_BLOCKS; k++) {
+        double m = sum[k] / runs;
+        double var = fmax(0.0, (sum2[k] - runs * m * m) / (runs - 1));
+        double se = sqrt(var / runs), t = welch(m, se, ref_mean[k], ref_se[k]);
+        if (k % 3 == 1)
+            printf("%s%8.4f (%+.2f%%, t %.2f)%s", k % 12 == 1 ? "  " : " ", m, 100.0 * (m / ref_mean[k] - 1.0),
+                   t, k % 12 == 10 ? "\n" : "");
+        assert_true(ref_se[k] > 0.0 && se > 0.0); /* every block sees light */
+        if (t > worst) {
+            worst = t;
+            worst_k = k;
+        }
+    }
+    *img_rel = *img_t = 0;
+    for (int c = 0; c < 3; c++) {
+        double se = sqrt(fmax(0.0, (img2[c] - runs * img[c] * img[c]) / (runs - 1)) / runs);
+        *img_rel = fmax(*img_rel, fabs(img[c] / ref_img[c] - 1.0));
+        *img_t = fmax(*img_t, welch(img[c], se, ref_img[c], ref_img_se[c]));
+    }
+    printf("%s (green block means above): image mean %.4f %.4f %.4f, Mitsuba %.4f %.4f %.4f (largest "
+           "difference %.2f%%, Welch statistic %.2f); largest block Welch statistic %.2f (block %d, %d, "
+           "channel %d)\n",
+           what, img[0], img[1], img[2], ref_img[0], ref_img[1], ref_img[2], 100.0 * *img_rel, *img_t, worst,
+           worst_k / 12, worst_k / 3 % 4, worst_k % 3);
+    return worst;
+}
+
+/* The spot light against Mitsuba's particle tracer (16 passes of 512 spp):
+ * 8 passes of 64 spp. Each block's statistic has about 7 to 15 degrees of
+ * freedom (Student t: P(|t_7| > 6) is 5e-4, so 48 tests of a correct
+ * renderer exceed 6 with about 2% probability; the seeds are fixed, so the
+ * outcome is deterministic). */
+#define CS_WELCH_BOUND 6.0
+
+static void test_sphere_caustic_mitsuba(void **state)
+{
+    (void)state;
+    skip_if_quick();
+    double rel, img_t;
+    double t = welch_vs_mitsuba("tests/data/scenes/caustic_sphere.gltf", "tests/data/mitsuba/caustic_sphere_means.json",
+                                8, 64, SPT_CAUSTICS_ON, &rel, &img_t, "spot light through the sphere vs Mitsuba ptracer");
+    assert_true(t < CS_WELCH_BOUND);
+    assert_true(rel < 0.01);
+}
+
+/* The area light against Mitsuba's path tracer (tests/data/mitsuba/
+ * caustic_sphere_area_means.json: 16 passes of 2048 spp, block standard
+ * errors 0.06-0.6%): 8 passes of 32 spp with the pass on (the light paths
+ * carry the caustic, the camera paths the corners' direct light), block
+ * standard errors about 0.5-3%, so the test's power is ours. Welch's
+ * statistics as for the spot: the blocks below CS_WELCH_BOUND, the image
+ * mean (one statistic per channel; P(|t_7| > 4) is 0.005) below 4. A glass of
+ * ior 1.45 instead of 1.5 gives a block statistic of 16 (1.52: 5). */
+static void test_sphere_area_light_mitsuba(void **state)
+{
+    (void)state;
+    skip_if_quick();
+    double rel, img_t;
+    double t = welch_vs_mitsuba("tests/data/scenes/caustic_sphere_area.gltf",
+                                "tests/data/mitsuba/caustic_sphere_area_means.json", 8, 32, SPT_CAUSTICS_ON, &rel,
+                                &img_t, "area light through the sphere vs Mitsuba path");
+    assert_true(t < CS_WELCH_BOUND);
+    assert_true(img_t < 4.0);
+}
+
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_sphere_caustic_mitsuba),
+        cmocka_unit_test(test_sphere_area_light_mitsuba),
+    };
+    return cmocka_run_group_tests(tests, setup_cpu_device, teardown_cpu_device);
+}
