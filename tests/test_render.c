@@ -113,24 +113,32 @@ static void test_plane_irradiance(void **state)
  * forced on this CPU device with the kernel_path test hook, gives the film of
  * the CPU path (paired rays, the leaf's SIMD test): both find the same closest
  * hits with the same arithmetic, so the films agree within assert_same_film's
- * 1e-4 (on PoCL they are identical bit for bit). The GPU path also runs under
- * Oclgrind, a GPU to spectrace (make check-kernels). */
+ * 1e-4 (on PoCL they are identical bit for bit). The CPU path runs whole paths
+ * in k_paths; in the stage kernels (the stages hook) it gives the same film.
+ * The GPU path also runs under Oclgrind, a GPU to spectrace (make
+ * check-kernels). */
 static void test_gpu_path_on_cpu_device(void **state)
 {
     (void)state;
     skip_if_quick();
-    Film a, b;
+    Film a, b, c;
     RenderStats st;
     g_hooks.kernel_path = SPT_KERNEL_PATH_GPU;
     int rc = render_gltf("scenes/cornell_box.gltf", 32, 32, 16, -1, 9, &a, &st);
     g_hooks.kernel_path = SPT_KERNEL_PATH_CPU;
     int rc2 = render_gltf("scenes/cornell_box.gltf", 32, 32, 16, -1, 9, &b, &st);
+    g_hooks.stages = 1;
+    int rc3 = render_gltf("scenes/cornell_box.gltf", 32, 32, 16, -1, 9, &c, &st);
+    g_hooks.stages = 0;
     g_hooks.kernel_path = SPT_KERNEL_PATH_DEVICE;
     assert_int_equal(rc, 0);
     assert_int_equal(rc2, 0);
+    assert_int_equal(rc3, 0);
     assert_same_film(&a, &b);
+    assert_same_film(&c, &b);
     film_free(&a);
     film_free(&b);
+    film_free(&c);
 }
 
 /* The same seed on the same device gives the same film bit for bit; another seed

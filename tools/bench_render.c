@@ -6,7 +6,9 @@
  *
  * Paths per second come from runs without profiling, as `spectrace render` runs
  * (profiling waits for each kernel before queueing the next); one more, profiled,
- * run gives the stage split. The sphere's extend rays are all bounce rays but the
+ * run gives the stage split (on CPU devices, where k_paths runs whole paths,
+ * one line). The sphere runs take the stage kernels (RenderTestHooks stages), so
+ * that the extend stage has its own time. The sphere's extend rays are all bounce rays but the
  * first of each path, a camera ray from the sphere's centre; camera rays are
  * coherent (one origin, neighbouring directions), so the figure that counts is the
  * bounce rays' alone: (rays of the depth-5 run - rays of a camera-only run) /
@@ -68,7 +70,7 @@ static void make_sphere_scene(Scene *s)
 }
 
 static int run(const ClDeviceInfo *dev, const Scene *s, int w, int h, int spp, int depth,
-               int profile, RenderStats *st)
+               int profile, int stages, RenderStats *st)
 {
     GpuScene g;
     SptError e = {0};
@@ -81,6 +83,7 @@ static int run(const ClDeviceInfo *dev, const Scene *s, int w, int h, int spp, i
         rs.spp = spp;
         rs.max_depth = depth;
         rs.profile = profile;
+        rs.test.stages = stages;
         Film f;
         film_init(&f, w, h);
         rc = render_device(dev, &g, &s->camera, &rs, &f, st, &e);
@@ -114,11 +117,12 @@ int main(int argc, char **argv)
         fprintf(stderr, "error: %s\n", e.msg);
         return 1;
     }
-    double pps[16], stage[5] = {0};
-    static const char *names[5] = {"generate", "extend", "shade", "connect", "accumulate"};
+    double pps[16], stage[SPT_STAGES] = {0};
+    static const char *names[SPT_STAGES] = {"generate", "extend",     "shade",
+                                            "connect",  "accumulate", "paths"};
     for (int r = 0; do_cornell && r < runs && r < 16; r++) {
         RenderStats st;
-        if (run(dev, &cb, 512, 512, 64, 8, 0, &st))
+        if (run(dev, &cb, 512, 512, 64, 8, 0, 0, &st))
             return 1;
         pps[r] = st.paths / st.seconds;
         printf("  cornell run %d: %.3f Mpaths/s (%.2f s; %.2f extend and %.2f shadow rays per "
@@ -130,15 +134,17 @@ int main(int argc, char **argv)
         printf("cornell box 512x512 64 spp max depth 8: median %.3f Mpaths/s over %d runs\n",
                median(pps, runs < 16 ? runs : 16) * 1e-6, runs);
         RenderStats st;
-        if (run(dev, &cb, 512, 512, 64, 8, 1, &st))
+        if (run(dev, &cb, 512, 512, 64, 8, 1, 0, &st))
             return 1;
         double tot = 0;
-        for (int k = 0; k < 5; k++)
+        for (int k = 0; k < SPT_STAGES; k++)
             tot += (stage[k] = st.stage_seconds[k]);
         printf("  where the time goes (one more run, profiled: %.3f Mpaths/s with the waits):\n",
                st.paths / st.seconds * 1e-6);
-        for (int k = 0; k < 5; k++)
-            printf("  %-10s %7.3f s  %5.1f%%\n", names[k], stage[k], tot > 0 ? 100 * stage[k] / tot : 0);
+        for (int k = 0; k < SPT_STAGES; k++)
+            if (stage[k] > 0)
+                printf("  %-10s %7.3f s  %5.1f%%\n", names[k], stage[k],
+                       tot > 0 ? 100 * stage[k] / tot : 0);
         scene_free(&cb);
     }
     if (!do_sphere) {
@@ -150,7 +156,7 @@ int main(int argc, char **argv)
     double all[16], bounce[16], camera[16];
     for (int r = 0; r < runs && r < 16; r++) {
         RenderStats st, cam;
-        if (run(dev, &sp, 256, 256, 16, 5, 1, &st) || run(dev, &sp, 256, 256, 16, 1, 1, &cam))
+        if (run(dev, &sp, 256, 256, 16, 5, 1, 1, &st) || run(dev, &sp, 256, 256, 16, 1, 1, 1, &cam))
             return 1;
         all[r] = st.rays_extend / st.stage_seconds[1];
         camera[r] = cam.rays_extend / cam.stage_seconds[1];

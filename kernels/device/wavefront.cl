@@ -104,6 +104,95 @@ static SPT_ALWAYS_INLINE uint group_queue_slot(int want, __global uint *counter,
 #include "device/shade_surface.h"
 #include "device/light_trace.h"
 
+/* A finished camera path: its XYZ into its own contribution slot (and its
+ * spectral bands); a NaN or infinite one is dropped and counted. */
+static void path_finish(uint i, ALL_BUFFERS)
+{
+    float4 rad = ps_radiance[i];
+#ifdef SPT_TEST_INJECT_NAN
+    /* Test hook (SPECTRACE_TEST_INJECT_NAN): pixel 0's radiance becomes NaN. */
+    if (ps_work[i] % (uint)(P.width * P.height) == 0u)
+        rad.x = NAN;
+#endif
+    float4 xyz = path_radiance_to_xyz(rad, ps_lambda[i], ps_lambda_pdf[i]);
+    if (isfinite(xyz.x) && isfinite(xyz.y) && isfinite(xyz.z)) {
+        xyz.w = 1.0f;
+    } else {
+        atomic_inc(&counters[SPT_CNT_NAN]);
+        xyz = (float4)(0.0f); /* w = 0: the sample is dropped, not counted */
+    }
+    contrib[ps_work[i]] = xyz;
+#ifdef SPT_BANDS
+    {
+        /* Each wavelength's weight L / (4 pdf), as the XYZ film weighs it
+         * without the colour matching function, and its band. */
+        float4 lam = ps_lambda[i], lp = ps_lambda_pdf[i];
+        float4 wv = select((float4)(0.0f), rad / lp, isgreater(lp, (float4)(0.0f))) * 0.25f;
+        if (xyz.w == 0.0f)
+            wv = (float4)(0.0f);
+        float4 band = clamp(floor((lam - 360.0f) * ((float)SPT_BANDS / 470.0f)), 0.0f,
+                            (float)(SPT_BANDS - 1));
+        spec_sample[2u * ps_work[i]] = wv;
+        spec_sample[2u * ps_work[i] + 1u] = band;
+    }
+#endif
+}
+
+/* Starts work item w of the chunk in slot i (a camera path, or a light path
+ * from P.light_begin on); returns its flags. */
+static uint path_start(uint i, uint w, ALL_BUFFERS)
+{
+    if (w >= P.light_begin)
+        return lt_start(i, w, ALL_ARGS);
+    uint npix = (uint)(P.width * P.height);
+    uint pixel = w % npix;
+    uint sample = P.sample_begin + w / npix;
+    SptSampler smp = spt_sampler(P.sampler, P.seed, pixel, sample);
+    float jx, jy;
+    spt_sampler_pair(smp, SPT_DIM_PIXEL_X, &jx, &jy);
+    float px = (float)(pixel % (uint)P.width) + jx;
+    float py = (float)(pixel / (uint)P.width) + jy;
+    float sx = 2.0f * px / (float)P.width - 1.0f;
+    float sy = 1.0f - 2.0f * py / (float)P.height;
+    float3 fwd = vload4(0, P.cam_fwd).xyz, right = vload4(0, P.cam_right).xyz,
+           up = vload4(0, P.cam_up).xyz, org = vload4(0, P.cam_pos).xyz;
+    float3 d = fwd + sx * right + sy * up;
+    if (P.orthographic) {
+        org += sx * right + sy * up;
+        d = fwd;
+    } else if (P.lens_radius > 0.0f) {
+        /* Thin lens: a point on the lens aperture, aimed at the point of the
+         * pinhole ray on the plane of focus (perpendicular to fwd). */
+        float lu, lv;
+        spt_sampler_pair(smp, SPT_DIM_LENS_U, &lu, &lv);
+        vec3 disk = spt_sample_concentric_disk(lu, lv);
+        float3 focus = org + d * P.focus_distance; /* dot(d, fwd) = 1 */
+        org += P.lens_radius * (disk.x * normalize(right) + disk.y * normalize(up));
+        d = focus - org;
+    }
+    ps_ray_o[i] = (float4)(org, 0.0f);
+    ps_ray_d[i] = (float4)(normalize(d), P.cam_pos[3]); /* w: the ray cone's width */
+    float4 lam, pdf;
+    path_sample_wavelengths(spt_sampler_1d(smp, SPT_DIM_WAVELENGTH), &lam, &pdf);
+    ps_lambda[i] = lam;
+    ps_lambda_pdf[i] = pdf;
+    ps_throughput[i] = (float4)(1.0f);
+    ps_radiance[i] = (float4)(0.0f);
+    ps_work[i] = w;
+    ps_depth[i] = 0;
+    ps_passes[i] = 0;
+    ps_medium[i] = 0;
+    ps_bsdf_pdf[i] = 0.0f; /* camera ray: emission seen directly has MIS weight 1 */
+    ps_lt[i] = 0u;
+#ifdef SPT_AOV
+    /* A sample that sees nothing has zero AOVs; k_shade fills what it hits. */
+    aov_sample[3u * w + 0u] = (float4)(0.0f);
+    aov_sample[3u * w + 1u] = (float4)(0.0f);
+    aov_sample[3u * w + 2u] = (float4)(0.0f);
+#endif
+    return SPT_PATH_ALIVE;
+}
+
 __kernel void k_generate(ALL_BUFFERS)
 {
     __local uint l_slot[SPT_GROUP_MAX], l_base;
@@ -115,35 +204,7 @@ __kernel void k_generate(ALL_BUFFERS)
         flags = SPT_PATH_DEAD;
         ps_flags[i] = flags;
     } else if (finished) {
-        /* Write the finished path's XYZ into its own contribution slot. */
-        float4 rad = ps_radiance[i];
-#ifdef SPT_TEST_INJECT_NAN
-        /* Test hook (SPECTRACE_TEST_INJECT_NAN): pixel 0's radiance becomes NaN. */
-        if (ps_work[i] % (uint)(P.width * P.height) == 0u)
-            rad.x = NAN;
-#endif
-        float4 xyz = path_radiance_to_xyz(rad, ps_lambda[i], ps_lambda_pdf[i]);
-        if (isfinite(xyz.x) && isfinite(xyz.y) && isfinite(xyz.z)) {
-            xyz.w = 1.0f;
-        } else {
-            atomic_inc(&counters[SPT_CNT_NAN]);
-            xyz = (float4)(0.0f); /* w = 0: the sample is dropped, not counted */
-        }
-        contrib[ps_work[i]] = xyz;
-#ifdef SPT_BANDS
-        {
-            /* Each wavelength's weight L / (4 pdf), as the XYZ film weighs it
-             * without the colour matching function, and its band. */
-            float4 lam = ps_lambda[i], lp = ps_lambda_pdf[i];
-            float4 wv = select((float4)(0.0f), rad / lp, isgreater(lp, (float4)(0.0f))) * 0.25f;
-            if (xyz.w == 0.0f)
-                wv = (float4)(0.0f);
-            float4 band = clamp(floor((lam - 360.0f) * ((float)SPT_BANDS / 470.0f)), 0.0f,
-                                (float)(SPT_BANDS - 1));
-            spec_sample[2u * ps_work[i]] = wv;
-            spec_sample[2u * ps_work[i] + 1u] = band;
-        }
-#endif
+        path_finish(i, ALL_ARGS);
         flags = SPT_PATH_DEAD;
         ps_flags[i] = flags;
     }
@@ -153,57 +214,8 @@ __kernel void k_generate(ALL_BUFFERS)
     int wants = flags == SPT_PATH_DEAD;
     uint w = group_queue_slot(wants, &counters[SPT_CNT_WORK], total, finished,
                               &counters[SPT_CNT_DONE], l_slot, &l_base);
-    if (wants && w < total && w >= P.light_begin) {
-        flags = lt_start(i, w, ALL_ARGS);
-        ps_flags[i] = flags;
-    } else if (wants && w < total) {
-        uint npix = (uint)(P.width * P.height);
-        uint pixel = w % npix;
-        uint sample = P.sample_begin + w / npix;
-        SptSampler smp = spt_sampler(P.sampler, P.seed, pixel, sample);
-        float jx, jy;
-        spt_sampler_pair(smp, SPT_DIM_PIXEL_X, &jx, &jy);
-        float px = (float)(pixel % (uint)P.width) + jx;
-        float py = (float)(pixel / (uint)P.width) + jy;
-        float sx = 2.0f * px / (float)P.width - 1.0f;
-        float sy = 1.0f - 2.0f * py / (float)P.height;
-        float3 fwd = vload4(0, P.cam_fwd).xyz, right = vload4(0, P.cam_right).xyz,
-               up = vload4(0, P.cam_up).xyz, org = vload4(0, P.cam_pos).xyz;
-        float3 d = fwd + sx * right + sy * up;
-        if (P.orthographic) {
-            org += sx * right + sy * up;
-            d = fwd;
-        } else if (P.lens_radius > 0.0f) {
-            /* Thin lens: a point on the lens aperture, aimed at the point of the
-             * pinhole ray on the plane of focus (perpendicular to fwd). */
-            float lu, lv;
-            spt_sampler_pair(smp, SPT_DIM_LENS_U, &lu, &lv);
-            vec3 disk = spt_sample_concentric_disk(lu, lv);
-            float3 focus = org + d * P.focus_distance; /* dot(d, fwd) = 1 */
-            org += P.lens_radius * (disk.x * normalize(right) + disk.y * normalize(up));
-            d = focus - org;
-        }
-        ps_ray_o[i] = (float4)(org, 0.0f);
-        ps_ray_d[i] = (float4)(normalize(d), P.cam_pos[3]); /* w: the ray cone's width */
-        float4 lam, pdf;
-        path_sample_wavelengths(spt_sampler_1d(smp, SPT_DIM_WAVELENGTH), &lam, &pdf);
-        ps_lambda[i] = lam;
-        ps_lambda_pdf[i] = pdf;
-        ps_throughput[i] = (float4)(1.0f);
-        ps_radiance[i] = (float4)(0.0f);
-        ps_work[i] = w;
-        ps_depth[i] = 0;
-        ps_passes[i] = 0;
-        ps_medium[i] = 0;
-        ps_bsdf_pdf[i] = 0.0f; /* camera ray: emission seen directly has MIS weight 1 */
-        ps_lt[i] = 0u;
-#ifdef SPT_AOV
-        /* A sample that sees nothing has zero AOVs; k_shade fills what it hits. */
-        aov_sample[3u * w + 0u] = (float4)(0.0f);
-        aov_sample[3u * w + 1u] = (float4)(0.0f);
-        aov_sample[3u * w + 2u] = (float4)(0.0f);
-#endif
-        flags = SPT_PATH_ALIVE;
+    if (wants && w < total) {
+        flags = path_start(i, w, ALL_ARGS);
         ps_flags[i] = flags;
     }
     uint q = group_queue_slot(flags == SPT_PATH_ALIVE, &counters[SPT_CNT_EXTEND], 0xffffffffu, 0,
@@ -301,21 +313,20 @@ __kernel void k_shade(ALL_BUFFERS)
     }
 }
 
-__kernel void k_connect(ALL_BUFFERS)
+/* Traces the shadow ray (origin so, direction and tmax sd, contribution sc)
+ * of path i and, unless it is blocked, adds its contribution to the path's
+ * radiance, or a light path's splat to the light film. */
+static void connect_shadow(float4 so, float4 d, float4 sc, uint i, ALL_BUFFERS)
 {
-    uint g = get_global_id(0);
-    if (g >= counters[SPT_CNT_SHADOW])
-        return;
-    float4 d = sh_ray_d[g];
     float transmit = 1.0f;
     if (P.node_count > 0u && !P.has_alpha) {
-        if (bvh_occluded(nodes, tris, sh_ray_o[g].xyz, d.xyz, d.w))
+        if (bvh_occluded(nodes, tris, so.xyz, d.xyz, d.w))
             return;
     } else if (P.node_count > 0u) {
         /* Surfaces with alpha let light through: walk the hits along the shadow
          * ray, multiplying by 1 - opacity (the expected transmission of the
          * stochastic opacity camera rays see). */
-        float3 o = sh_ray_o[g].xyz;
+        float3 o = so.xyz;
         float tmax = d.w;
         for (int k = 0; k < 16; k++) {
             BvhHit h;
@@ -342,17 +353,115 @@ __kernel void k_connect(ALL_BUFFERS)
                 break;
         }
     }
-    uint i = sh_path[g];
     if (ps_lt[i] & SPT_LT_LIGHT) {
         /* A light path's connection to the camera: a splat (XYZ, its rounding's
          * number in w) at the pixel in the ray's origin's w. */
-        float4 c = sh_contrib[g];
-        lt_splat(as_uint(sh_ray_o[g].w), (float4)(transmit * c.xyz, c.w), ALL_ARGS);
+        lt_splat(as_uint(so.w), (float4)(transmit * sc.xyz, sc.w), ALL_ARGS);
         return;
     }
     /* A path queues at most one shadow ray per iteration: no race on its radiance. */
-    ps_radiance[i] += transmit * sh_contrib[g];
+    ps_radiance[i] += transmit * sc;
 }
+
+__kernel void k_connect(ALL_BUFFERS)
+{
+    uint g = get_global_id(0);
+    if (g >= counters[SPT_CNT_SHADOW])
+        return;
+    connect_shadow(sh_ray_o[g], sh_ray_d[g], sh_contrib[g], sh_path[g], ALL_ARGS);
+}
+
+#if defined(SPT_BVH_PAIRS)
+/* The CPU devices' form of the loop (src/render/wavefront.c, "megakernel";
+ * docs/performance.md): k_paths runs whole paths, with the same steps as the
+ * stage kernels (path_start, extend, shade_path or lt_shade, connect_shadow,
+ * path_finish), so a sample's numbers and result are the same; its path
+ * state stays in the cache instead of passing through the pool's buffers and
+ * queues four times per segment. Each work-item keeps two paths, in slots 2 g
+ * and 2 g + 1, whose closest-hit rays are traced together (bvh_intersect2),
+ * and gives a slot whose path ended the next work item of
+ * [P.work_begin, P.work_end) from counter SPT_CNT_WORK (counting from
+ * P.work_begin; the host zeroes it per launch), until none is left. A CPU
+ * runs a work-group's items one after another, so each thread keeps one
+ * work-item's two paths in flight. */
+
+/* The end of path i: a camera path's contribution (a light path's splats went
+ * to the light film at its connections). */
+static void mega_end(uint i, ALL_BUFFERS)
+{
+    if (!(ps_lt[i] & SPT_LT_LIGHT))
+        path_finish(i, ALL_ARGS);
+}
+
+/* Starts the next work item in slot i; 1 when one is alive there, 0 when the
+ * launch's work is all taken. */
+static int mega_next(uint i, ALL_BUFFERS)
+{
+    for (;;) {
+        uint w = P.work_begin + atomic_inc(&counters[SPT_CNT_WORK]);
+        if (w >= P.work_end)
+            return 0;
+        uint flags = path_start(i, w, ALL_ARGS);
+        ps_flags[i] = flags;
+        if (flags == SPT_PATH_ALIVE)
+            return 1;
+        mega_end(i, ALL_ARGS);
+    }
+}
+
+/* Shades path i at its hit (ps_hit) and traces its shadow ray; when the path
+ * ended, starts the next. Returns mega_next's 1 or 0, or 1 while the path goes
+ * on. */
+static int mega_shade(uint i, uint *nshadow, ALL_BUFFERS)
+{
+    float4 so, sd, sc;
+    int shadow = (ps_lt[i] & SPT_LT_LIGHT) ? lt_shade(i, &so, &sd, &sc, ALL_ARGS)
+                                           : shade_path(i, &so, &sd, &sc, ALL_ARGS);
+    if (shadow) {
+        connect_shadow(so, sd, sc, i, ALL_ARGS);
+        *nshadow += 1u;
+    }
+    if (ps_flags[i] != SPT_PATH_FINISHED)
+        return 1;
+    mega_end(i, ALL_ARGS);
+    return mega_next(i, ALL_ARGS);
+}
+
+__kernel void k_paths(ALL_BUFFERS)
+{
+    uint s0 = 2u * get_global_id(0), s1 = s0 + 1u;
+    uint nray = 0u, nshadow = 0u;
+    int a0 = s0 < P.pool_size && mega_next(s0, ALL_ARGS);
+    int a1 = a0 && s1 < P.pool_size && mega_next(s1, ALL_ARGS);
+    while (a0 | a1) {
+        if (a0 && a1 && P.node_count > 0u) {
+            int found[2];
+            BvhHit hit[2];
+            bvh_intersect2(nodes, tris, ps_ray_o[s0].xyz, ps_ray_d[s0].xyz, ps_ray_o[s1].xyz,
+                           ps_ray_d[s1].xyz, 1e30f, found, hit);
+            ps_hit[s0] = extend_result(found[0], &hit[0]);
+            ps_hit[s1] = extend_result(found[1], &hit[1]);
+        } else {
+            uint i = a0 ? s0 : s1;
+            BvhHit h;
+            int found = P.node_count > 0u &&
+                        bvh_intersect(nodes, tris, ps_ray_o[i].xyz, ps_ray_d[i].xyz, 1e30f, &h);
+            ps_hit[i] = extend_result(found, &h);
+            if (a0 && a1)
+                ps_hit[s1] = extend_result(0, &h);
+        }
+        nray += (uint)a0 + (uint)a1;
+        if (a0)
+            a0 = mega_shade(s0, &nshadow, ALL_ARGS);
+        if (a1)
+            a1 = mega_shade(s1, &nshadow, ALL_ARGS);
+    }
+    if (nray)
+        atomic_add(&counters[SPT_CNT_EXTEND], nray);
+    if (nshadow)
+        atomic_add(&counters[SPT_CNT_SHADOW], nshadow);
+}
+#endif
 
 /* Sums the chunk's per-sample contributions of each pixel, in sample order, into
  * chunk_sum (XYZ, and the number of samples kept in w), and adds the light

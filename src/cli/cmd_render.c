@@ -355,13 +355,21 @@ static void report_speed(const RenderJob *j)
             a->rs.width, a->rs.height, st->spp_done, st->seconds,
             st->seconds > 0 ? st->paths / st->seconds * 1e-6 : 0.0, st->build_seconds);
     if (a->rs.profile) {
-        static const char *names[5] = {"generate", "extend", "shade", "connect", "accumulate"};
+        /* Each stage's seconds, share, and time per path segment (closest-hit
+         * ray); k_paths (the CPU devices' megakernel) runs the first four in one. */
+        static const char *names[SPT_STAGES] = {"generate", "extend",     "shade",
+                                                "connect",  "accumulate", "paths"};
         double tot = 0;
-        for (int i = 0; i < 5; i++)
+        for (int i = 0; i < SPT_STAGES; i++)
             tot += st->stage_seconds[i];
-        for (int i = 0; i < 5; i++)
-            fprintf(stderr, "  %-10s %8.3f s  %5.1f%%\n", names[i], st->stage_seconds[i],
-                    tot > 0 ? 100.0 * st->stage_seconds[i] / tot : 0.0);
+        fprintf(stderr, "  %llu path segments, %llu shadow rays\n",
+                (unsigned long long)st->rays_extend, (unsigned long long)st->rays_shadow);
+        for (int i = 0; i < SPT_STAGES; i++)
+            if (st->stage_seconds[i] > 0 || i < 5)
+                fprintf(stderr, "  %-10s %8.3f s  %5.1f%%  %7.1f ns/segment\n", names[i],
+                        st->stage_seconds[i], tot > 0 ? 100.0 * st->stage_seconds[i] / tot : 0.0,
+                        st->rays_extend ? st->stage_seconds[i] * 1e9 / (double)st->rays_extend
+                                        : 0.0);
     }
 }
 

@@ -56,7 +56,8 @@ void render_args_usage(FILE *f);
  * MS ms before each chunk), SPECTRACE_TEST_INJECT_NAN = 1 (pixel 0's radiance is
  * NaN), SPECTRACE_TEST_POISON = WORD (buffers start filled with WORD),
  * SPECTRACE_TEST_FILM_NAN = N (the first N film pixels become NaN),
- * SPECTRACE_KERNEL_PATH = cpu or gpu (that code path on any device); and the
+ * SPECTRACE_KERNEL_PATH = cpu, gpu (that code path on any device) or
+ * cpu-stages (the CPU path in the stage kernels instead of k_paths); and the
  * path pool size SPECTRACE_POOL into rs.pool_size. Only tests, tools and
  * benchmarks set them. */
 void render_args_test_hooks(RenderSettings *rs);

@@ -38,6 +38,8 @@ typedef struct RenderTestHooks {
                          made NaN after the render, as a render gone wrong would */
     int kernel_path;  /* SPT_KERNEL_PATH_CPU or _GPU: that code path on any device
                          (0: the device's own) */
+    int stages;       /* 1: the stage kernels on the CPU path too, instead of
+                         k_paths (comparisons; the extend stage's own time) */
 } RenderTestHooks;
 
 /* What a render does. The options of the command line (the RS rows of
@@ -84,6 +86,9 @@ static inline int render_keeps_aov(const RenderSettings *rs)
     return rs->aov != 0 || rs->denoise;
 }
 
+/* Kernel stages timed by --profile (src/render/wavefront.h, K_*). */
+#define SPT_STAGES 6
+
 /* Times and counts of a render. */
 typedef struct RenderStats {
     double seconds;          /* wall time of the sample loop */
@@ -93,7 +98,8 @@ typedef struct RenderStats {
     uint64_t rays_shadow;    /* shadow rays (k_connect) */
     uint64_t nan_dropped;    /* samples whose radiance was NaN/Inf */
     uint32_t spp_done;       /* samples per pixel completed */
-    double stage_seconds[5]; /* generate, extend, shade, connect, accumulate (profile) */
+    double stage_seconds[SPT_STAGES]; /* generate, extend, shade, connect, accumulate,
+                                         whole paths (k_paths) (profile) */
 } RenderStats;
 
 /* What one device of a multi-device render did. */

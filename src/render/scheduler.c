@@ -457,7 +457,7 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
         stats->nan_dropped += wk[i].st.nan_dropped;
         if (wk[i].st.build_seconds > stats->build_seconds)
             stats->build_seconds = wk[i].st.build_seconds;
-        for (int k = 0; k < 5; k++)
+        for (int k = 0; k < SPT_STAGES; k++)
             stats->stage_seconds[k] += wk[i].st.stage_seconds[k];
         if (per_device) {
             per_device[i].samples = wk[i].samples;

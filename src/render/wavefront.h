@@ -11,7 +11,7 @@
 #include "render/render.h"
 #include "render/render_lights.h"
 
-enum { K_GENERATE, K_EXTEND, K_SHADE, K_CONNECT, K_ACCUMULATE, K_COUNT };
+enum { K_GENERATE, K_EXTEND, K_SHADE, K_CONNECT, K_ACCUMULATE, K_PATHS, K_COUNT };
 
 /* Every device buffer. */
 typedef struct Buffers {
@@ -36,6 +36,7 @@ typedef struct Wavefront {
     uint32_t pool;
     uint32_t chunk_spp;
     int ray_pairs;         /* 1: k_extend traces two rays per work-item (CPU devices) */
+    int mega;              /* 1: k_paths runs whole paths (CPU devices), not the stages */
     int aov;               /* 1: the kernels keep AOVs (built with SPT_AOV) */
     int bands;             /* spectral bands (built with SPT_BANDS), 0: none */
     void *host_mem[16];    /* memory of the scene buffers used in place (CPU devices) */
