@@ -17,7 +17,11 @@
  * sRGB channel and their standard errors from the spread of its independent
  * passes. spectrace renders a few independent passes (seeds 1..runs) whose
  * spread gives its own standard errors, and each block and channel is compared
- * with Welch's test. */
+ * with Welch's test.
+ *
+ * Also: with another number of light paths per camera path than the default
+ * (--light-paths), the image still does not depend on how the samples are
+ * split. */
 #include "test_util.h"
 #include "test_render_util.h"
 
@@ -132,8 +136,9 @@ static void test_sphere_caustic_mitsuba(void **state)
     (void)state;
     skip_if_quick();
     double rel, img_t;
-    double t = welch_vs_mitsuba("tests/data/scenes/caustic_sphere.gltf", "tests/data/mitsuba/caustic_sphere_means.json",
-                                8, 64, SPT_CAUSTICS_ON, &rel, &img_t, "spot light through the sphere vs Mitsuba ptracer");
+    double t = welch_vs_mitsuba("tests/data/scenes/caustic_sphere.gltf",
+                                "tests/data/mitsuba/caustic_sphere_means.json", 8, 64, SPT_CAUSTICS_ON, &rel, &img_t,
+                                "spot light through the sphere vs Mitsuba ptracer");
     assert_true(t < CS_WELCH_BOUND);
     assert_true(rel < 0.01);
 }
@@ -158,10 +163,53 @@ static void test_sphere_area_light_mitsuba(void **state)
     assert_true(img_t < 4.0);
 }
 
+/* Light path k of sample index s is a function of (seed, k, s) whatever the
+ * number of light paths per sample index, and a sample index's splats are
+ * divided by that number: with 0.37 light paths per camera path (not a
+ * divisor of the pixels), samples [0, 3) and [3, 8) add up to [0, 8), and a
+ * small path pool (another schedule) gives the same film bit for bit. */
+static void test_light_paths_split(void **state)
+{
+    (void)state;
+    Scene s;
+    GpuScene g;
+    SptError e = {0};
+    assert_int_equal(scene_load_gltf(&s, "tests/data/scenes/caustic_sphere_area.gltf", &e), 0);
+    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+    enum { W = 24 };
+    const uint32_t begin[4] = {0, 0, 3, 0}, count[4] = {8, 3, 5, 8}, pool[4] = {0, 0, 0, 1000};
+    Film f[4];
+    for (int k = 0; k < 4; k++) {
+        RenderSettings rs = square_settings(W, (int)count[k], -1, 5);
+        rs.caustics = SPT_CAUSTICS_ON;
+        rs.light_paths = 0.37f;
+        rs.sample_begin = begin[k];
+        rs.pool_size = pool[k];
+        RenderStats st;
+        film_init(&f[k], W, W);
+        assert_int_equal(render_device(device, &g, &s.camera, &rs, &f[k], &st, &e), 0);
+    }
+    film_add(&f[1], &f[2]);
+    size_t n = (size_t)W * W;
+    double worst = 0, sum = 0;
+    for (size_t i = 0; i < 3 * n; i++) {
+        worst = fmax(worst, fabs(f[1].xyz[i] - f[0].xyz[i]) / fmax(fabs(f[0].xyz[i]), 1e-6));
+        sum += f[0].xyz[i];
+    }
+    printf("--light-paths 0.37: [0,8) vs [0,3) + [3,8): largest relative difference %.3g\n", worst);
+    assert_true(sum > 0.0);
+    assert_true(worst < 1e-5);
+    assert_memory_equal(f[0].xyz, f[3].xyz, 3 * n * sizeof(double));
+    for (int k = 0; k < 4; k++)
+        film_free(&f[k]);
+    gpu_scene_free(&g);
+    scene_free(&s);
+}
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_light_paths_split),
         cmocka_unit_test(test_sphere_caustic_mitsuba),
         cmocka_unit_test(test_sphere_area_light_mitsuba),
     };

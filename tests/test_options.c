@@ -37,6 +37,7 @@ static const struct {
     {"checkpoint", "ck.exr"},   {"checkpoint-every", "5"},
     {"resume", "ck.exr"},       {"caustics", "on"},
     {"aov", "albedo,N"},        {"spectral", "47"},
+    {"light-paths", "0.5"},
 };
 
 /* What the list says of each option. */
@@ -131,6 +132,10 @@ static void test_image_options_are_in_the_key(void **state)
     }
     assert_true(image >= 10);
     assert_true(other >= 10);
+    /* --light-paths at its default gives the key of no option: the key holds
+     * the value rendered with (a RenderSettings' 0 is the default too). */
+    key_of("light-paths", "2", &k);
+    assert_string_equal(k.settings, base.settings);
 }
 
 /* Each example lands in the field of its row, by the row's kind. */
@@ -176,6 +181,8 @@ static void test_bad_values(void **state)
         {"--aperture", "inf"},   {"--env-rotation", "nan"}, {"--checkpoint-every", "-1"},
         {"--tonemap", "aces"},   {"--aov", "albedo,alpha"}, {"--spectral", "0"},
                                  {"--sampler", "zsobol"}, {"--sampler", ""},
+        {"--light-paths", "0"},  {"--light-paths", "-1"}, {"--light-paths", "8.5"},
+        {"--light-paths", "nan"}, {"--light-paths", "inf"}, {"--light-paths", "1/2"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         char *argv[] = {"render", (char *)bad[i][0], (char *)bad[i][1], SCENE};

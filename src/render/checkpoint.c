@@ -90,10 +90,16 @@ static int key_add_file(CheckpointKey *k, const char *name, const char *value, S
     return 0;
 }
 
-int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSettings *rs,
+int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSettings *given,
                    SptError *e)
 {
     memset(k, 0, sizeof *k);
+    /* The settings as rendered: light_paths 0 (a RenderSettings of zeros) is
+     * the default, which the command line writes out. */
+    RenderSettings eff = *given;
+    if (!(eff.light_paths > 0.0f))
+        eff.light_paths = (float)SPT_LIGHT_PATHS_DEFAULT;
+    const RenderSettings *rs = &eff;
     unsigned long long h;
     int rc = hash_file(scene_path, &h, e);
     if (rc)

@@ -42,6 +42,14 @@
  * Auto is 0, so a RenderSettings of zeros has the default. */
 enum { SPT_CAUSTICS_AUTO = 0, SPT_CAUSTICS_OFF = 1, SPT_CAUSTICS_ON = 2 };
 
+/* --light-paths: light paths per camera path of the light-tracing pass (the
+ * measurement that chose the default is in docs/architecture.md, "Caustics").
+ * A RenderSettings with 0 gets the default. At most SPT_LIGHT_PATHS_MAX, so a
+ * chunk's work items (camera and light paths) stay within 32 bits at the
+ * largest image (16384 x 16384 at one sample per chunk). */
+#define SPT_LIGHT_PATHS_DEFAULT 2.0
+#define SPT_LIGHT_PATHS_MAX 8.0
+
 #define SPT_RENDER_OPTIONS(X)                                                                   \
     X(CLI, LIST, const char *, outputs, "output", 'o', "FILE", NULL, 0, 0, 0, "",               \
       "output image; repeatable; the format follows the extension:\n"                          \
@@ -115,6 +123,11 @@ enum { SPT_CAUSTICS_AUTO = 0, SPT_CAUSTICS_OFF = 1, SPT_CAUSTICS_ON = 2 };
       "smooth metal onto diffuse surfaces, punctual lights\n"                                  \
       "behind glass): auto (default: when the scene has such\n"                                \
       "surfaces and a light), on or off; perspective cameras")                                  \
+    X(RS, FLT, float, light_paths, "light-paths", 0, "R", SPT_LIGHT_PATHS_DEFAULT, 0,           \
+      SPT_LIGHT_PATHS_MAX, SPT_OPT_IMAGE | SPT_OPT_MPI | SPT_OPT_POSITIVE | SPT_OPT_FINITE,     \
+      "expected a number of light paths per camera path above 0 and at most 8",                 \
+      "light paths per camera path of the light tracing (default\n"                            \
+      "2): fewer where caustics are a small part of the image")                                 \
     X(CLI, STR, const char *, checkpoint, "checkpoint", 0, "FILE", NULL, 0, 0, 0, "",           \
       "write the resumable film (an EXR) every --checkpoint-every\n"                           \
       "seconds, at the end and when stopped by a signal")                                      \

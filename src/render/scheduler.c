@@ -379,8 +379,13 @@ static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *
     p->scene_radius = g->scene_radius;
     for (int k = 0; k < 3; k++)
         p->scene_center[k] = g->scene_center[k];
-    /* One light path per pixel and sample index. */
-    p->light_paths = caustics_enabled(rs, g, cam) ? (uint32_t)(rs->width * rs->height) : 0u;
+    /* rs->light_paths (0: the default) light paths per camera path: that many
+     * times the pixels per sample index, rounded, at least one. */
+    if (caustics_enabled(rs, g, cam)) {
+        double r = rs->light_paths > 0.0f ? (double)rs->light_paths : SPT_LIGHT_PATHS_DEFAULT;
+        double n = floor(fmin(r, SPT_LIGHT_PATHS_MAX) * (double)rs->width * (double)rs->height + 0.5);
+        p->light_paths = n < 1.0 ? 1u : (uint32_t)n;
+    }
     p->lens_radius = rs->aperture;
     p->focus_distance = rs->focus_distance;
     if (rs->aperture > 0 && !(rs->focus_distance > 0)) {
