@@ -737,6 +737,13 @@ static void test_info_command(void **state)
     assert_int_equal(rc, 0);
     assert_non_null(strstr(out, "1 kept, 5 dropped (3 NaN/Inf/huge coordinates, 2 degenerate)"));
     assert_non_null(strstr(out, "bvh "));
+    /* Lights with spectra show them instead of the colour: the mercury lines,
+     * and D65 at CIE 15's chromaticity (0.31272, 0.32903). */
+    rc = run_spectrace("info --no-bvh tests/data/gltf/spectral_lights.gltf", out, sizeof out);
+    assert_int_equal(rc, 0);
+    assert_non_null(strstr(out, "hg                   spectrum (0 samples, 6 lines)"));
+    assert_non_null(strstr(out, "xy 0.3127 0.3290"));
+    assert_null(strstr(out, "colour"));
     rc = run_spectrace("info tests/data/gltf/bad_two_parents.gltf", out, sizeof out);
     assert_int_equal(rc, SPT_EXIT_INPUT);
     const char *want = "error: tests/data/gltf/bad_two_parents.gltf: nodes[1]";
