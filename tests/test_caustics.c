@@ -686,7 +686,8 @@ static void test_prism_dispersion(void **state)
  * - the groups' fluxes relative to 435.8 nm's are those of the NIST
  *   intensities times the two interfaces' Fresnel transmittance times
  *   xbar + ybar + zbar at each line, within 15% (Monte Carlo noise: a line is
- *   2 nm of the spectrum, about 2000 light paths at 404.7 nm). */
+ *   2 nm of the spectrum; the 404.7 nm group's ratio came out 2-10% high over
+ *   six seeds at these 512 samples, within 1.5% over two at 4096). */
 #define HG_W 128
 #define HG_H 16
 #define HG_SPP 512
