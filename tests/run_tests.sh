@@ -30,7 +30,7 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 # The tests that run our kernels, and so run on every implementation. The others
 # (loaders, image output, the command line, MPI) test host code only, or PoCL's
 # device split (test_cl), and run on PoCL alone.
-device_tests=(test_bsdf test_bvh test_lights test_materials test_render test_render_sky test_shading test_caustics test_caustics_ref
+device_tests=(test_bsdf test_bvh test_lights test_materials test_render test_render_sky test_shading test_caustics test_caustics_ref test_prism
               test_rng test_sampling test_textures test_multidevice test_checkpoint test_sweep test_aov
               test_spectral)
 
@@ -44,7 +44,7 @@ impls=${SPECTRACE_TEST_IMPLS:-all}
 [ "$impls" = all ] && impls=pocl,rusticl,intel
 IFS=, read -r -a impl_list <<<"$impls"
 
-rusticl_left_out=(test_checkpoint test_aov test_materials test_caustics)
+rusticl_left_out=(test_checkpoint test_aov test_materials test_caustics test_prism)
 
 total_p=0; total_f=0; total_s=0; summary=(); failed_bins=()
 for impl in "${impl_list[@]}"; do

@@ -283,4 +283,30 @@ static inline SceneMaterial *append_box(Scene *s, const float lo[3], const float
     return m;
 }
 
+/* Renders s with rs on the test device into film (initialised here), which
+ * must come out finite. */
+static inline void render_caustic_scene(const Scene *s, const RenderSettings *rs, Film *film)
+{
+    GpuScene g;
+    SptError e = {0};
+    assert_int_equal(gpu_scene_build(&g, s, &e), 0);
+    RenderStats st;
+    film_init(film, rs->width, rs->height);
+    int rc = render_device(device, &g, &s->camera, rs, film, &st, &e);
+    if (rc)
+        fprintf(stderr, "render: %s\n", e.msg);
+    assert_int_equal(rc, 0);
+    assert_int_equal(film_nonfinite_pixels(film), 0);
+    gpu_scene_free(&g);
+}
+
+/* Unpolarised Fresnel reflectance of an air-glass interface at incidence
+ * cos_i from the air. */
+static inline double fresnel(double cos_i, double n)
+{
+    double sin_t = sqrt(fmax(0.0, 1.0 - cos_i * cos_i)) / n, cos_t = sqrt(fmax(0.0, 1.0 - sin_t * sin_t));
+    double rs = (cos_i - n * cos_t) / (cos_i + n * cos_t), rp = (n * cos_i - cos_t) / (n * cos_i + cos_t);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
 #endif
