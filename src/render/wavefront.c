@@ -240,7 +240,7 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
      * start to end (kernels/device/wavefront.cl). A CPU runs a work-group's
      * items one after another, so the stage kernels' queues, barriers and
      * passes over the path state only cost time there: the Cornell box takes
-     * about 11% less CPU time, the 1M-triangle mesh the same
+     * about 10% less CPU time, the 1M-triangle mesh the same
      * (docs/performance.md). A GPU keeps the stages, whose queues keep its
      * lanes on the same work. The stages test hook keeps them on a CPU too. */
     w->mega = w->ray_pairs && !rs->test.stages;
