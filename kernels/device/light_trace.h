@@ -1,23 +1,27 @@
 /* The light-tracing pass of the wavefront kernels (kernels/device/wavefront.cl
  * includes this after kernels/device/shade_surface.h): paths that start on the
  * lights and reach the camera through a shadow ray, for the caustics that
- * camera paths find badly (an area light seen through glass) or never (a
- * punctual light behind glass). docs/architecture.md, "Caustics", has the
+ * camera paths find badly (an area light or the sky seen through glass) or
+ * never (a punctual light behind glass). docs/architecture.md, "Caustics", has the
  * method; in short:
  *
  * - Path space is split between the two techniques, so nothing counts twice.
  *   Name a path's vertices from the camera, camera - x1 - ... - xk - light,
  *   each by the lobe it took: D (non-delta) or S (delta). The light paths own
  *   the paths with x1 D and xk S (the light an emissive triangle of the light
- *   selection or a punctual light): from the light, one or more S vertices,
- *   then a D vertex, then anything, down to x1. A camera path drops exactly
- *   the emission it reaches that way (lt_camera_drops in
+ *   selection, the environment when the selection holds it, or a punctual
+ *   light): from the light, one or more S vertices, then a D vertex, then
+ *   anything, down to x1. A camera path drops exactly the emission it
+ *   reaches that way, an emitter's or the environment's seen by a ray that
+ *   left the scene (lt_camera_drops and lt_camera_drops_env in
  *   kernels/device/shade_surface.h); punctual lights it never reaches. The
  *   camera paths keep the rest: x1 S (a light path cannot connect through a
- *   delta vertex), xk D (next-event estimation and MIS find those well), the
- *   environment, and emitters outside the light selection.
+ *   delta vertex), xk D (next-event estimation and MIS find those well), and
+ *   emitters outside the light selection.
  * - A light path starts on a light picked by the renderer's light selection
- *   (by power; the environment's share ends the path at once), carries its own
+ *   (by power; the environment's share starts it on a disc that covers the
+ *   scene, its rays parallel to a direction of the environment's sampling
+ *   density, as a directional light's are to its own), carries its own
  *   four wavelengths (a dispersive refraction keeps only the hero, as camera
  *   paths do), and samples the BSDFs with the camera paths' code (with the
  *   adjoint's factors: no 1/eta^2 of radiance transport, Veach's
@@ -55,7 +59,7 @@ SPT_FN_INLINE void lt_item(uint w, uint *lp, uint *sample, const RenderParams *p
  * its light, its first ray, and in ps_radiance the emitted power's weight (the
  * light's emission over the density of the start point and direction). Returns
  * the path's flags: SPT_PATH_ALIVE, or SPT_PATH_FINISHED when it carries
- * nothing (the environment was picked, or a zero sample). */
+ * nothing (a zero sample, or a max_depth too small for any path it owns). */
 SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
 {
     uint lp, sample;
@@ -141,6 +145,27 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
                 d = st * cos(phi) * t_ + st * sin(phi) * b_ + ct * ax;
                 power = spd * (light_spot_falloff(l, ct) * 2.0f * SPT_PI * span / prob);
             }
+        }
+    } else if (e >= 0 && prob > 0.0f && P.env.kind != SPT_ENV_NONE) {
+        /* The environment: a direction w toward the sky by env_sample's density
+         * (the uniform sky: uniform over the sphere; a map: its texels' by
+         * luminance), then parallel rays along -w from a disc of the scene's
+         * radius perpendicular to w, tangent to its bounding sphere on the sky's
+         * side: L(w) pi R^2 / (prob pdf(w)). */
+        float epdf;
+        float3 w = normalize(env_sample(&P.env, env_data, u1, u2, &epdf));
+        if (epdf > 0.0f) {
+            float la[4], lv[4];
+            lambda_array(lam, la);
+            env_eval(&P.env, env_data, w, la, lv);
+            vec3 t_, b_;
+            v3_basis(w, &t_, &b_);
+            float R = P.scene_radius;
+            vec3 disk = spt_sample_concentric_disk(u3, u4);
+            float3 c = (float3)(P.scene_center[0], P.scene_center[1], P.scene_center[2]);
+            o = c + R * (disk.x * t_ + disk.y * b_) + w * R;
+            d = -w;
+            power = (float4)(lv[0], lv[1], lv[2], lv[3]) * (SPT_PI * R * R / (prob * epdf));
         }
     }
     ps_lambda[i] = lam;

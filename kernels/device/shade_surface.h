@@ -51,13 +51,15 @@ typedef struct ShadeFrame {
 /* The camera paths' share of the path space beside the light-tracing pass
  * (kernels/device/light_trace.h), which owns the paths camera - x1 - ... - xk -
  * light whose first vertex x1 took a non-delta lobe and whose last vertex xk
- * took a delta lobe, the light an emissive triangle of the light selection
- * (or a punctual light, which camera paths never reach). ps_lt keeps
- * SPT_LT_CHAIN once x1 took a non-delta lobe and SPT_LT_SPEC while the last
- * vertex took a delta one: lt_camera_next is the state after the vertex at
- * depth `depth` sampled its lobe, lt_camera_drops says whether emission of
- * triangle prim reached with state lt is the light-tracing pass's. With the
- * pass off (P.light_paths 0) every camera path keeps everything. */
+ * took a delta lobe, the light an emissive triangle of the light selection,
+ * the environment when the selection holds it, or a punctual light (which
+ * camera paths never reach). ps_lt keeps SPT_LT_CHAIN once x1 took a
+ * non-delta lobe and SPT_LT_SPEC while the last vertex took a delta one:
+ * lt_camera_next is the state after the vertex at depth `depth` sampled its
+ * lobe; lt_camera_drops says whether emission of triangle prim reached with
+ * state lt is the light-tracing pass's, lt_camera_drops_env the same for the
+ * environment seen by a ray that left the scene. With the pass off
+ * (P.light_paths 0) every camera path keeps everything. */
 SPT_FN_INLINE uint lt_camera_next(uint lt, uint depth, int is_delta)
 {
     uint chain = depth == 1u ? (is_delta ? 0u : SPT_LT_CHAIN) : (lt & SPT_LT_CHAIN);
@@ -69,11 +71,19 @@ SPT_FN_INLINE int lt_camera_drops(uint lt, uint prim, ALL_BUFFERS)
     return P.light_paths > 0u && lt == (SPT_LT_CHAIN | SPT_LT_SPEC) && tri_light_pdf[prim] > 0.0f;
 }
 
+SPT_FN_INLINE int lt_camera_drops_env(uint lt, ALL_BUFFERS)
+{
+    return P.light_paths > 0u && lt == (SPT_LT_CHAIN | SPT_LT_SPEC) && P.env_prob > 0.0f;
+}
+
 /* A path that left the scene sees the environment, weighted against light
- * sampling by MIS; it ends. */
+ * sampling by MIS; it ends. Left through a delta vertex on a path whose first
+ * vertex was non-delta, the light-tracing pass counts it instead (no light
+ * sample covers a delta vertex's direction, so that escape has MIS weight 1:
+ * all of it is the pass's). */
 SPT_FN_INLINE void shade_miss(uint i, float4 lam, float4 beta, ALL_BUFFERS)
 {
-    if (P.env.kind != SPT_ENV_NONE) {
+    if (P.env.kind != SPT_ENV_NONE && !lt_camera_drops_env(ps_lt[i], ALL_ARGS)) {
         float3 d = ps_ray_d[i].xyz;
         float la[4], le[4];
         lambda_array(lam, la);

@@ -304,10 +304,13 @@ static void *worker_main(void *arg)
 }
 
 /* Whether the light-tracing pass runs (--caustics): on, or auto and the scene
- * has a light (an emitter or a punctual light) and a surface with a delta lobe
- * that passes or turns light (smooth transmission, smooth metal, a smooth
- * clear coat). It needs a perspective camera (pinhole or thin lens). */
-static int caustics_enabled(const RenderSettings *rs, const GpuScene *g, const SceneCamera *cam)
+ * has a light (an emitter, a punctual light, or a sky that the light
+ * selection holds: --env, --background or the default white sky) and a
+ * surface with a delta lobe that passes or turns light (smooth transmission,
+ * smooth metal, a smooth clear coat). It needs a perspective camera (pinhole
+ * or thin lens). */
+static int caustics_enabled(const RenderSettings *rs, const RenderLights *L, const GpuScene *g,
+                            const SceneCamera *cam)
 {
     if (rs->caustics == SPT_CAUSTICS_OFF)
         return 0;
@@ -328,7 +331,7 @@ static int caustics_enabled(const RenderSettings *rs, const GpuScene *g, const S
     }
     if (rs->caustics == SPT_CAUSTICS_ON)
         return 1;
-    if (g->emitter_count == 0 && g->light_count == 0)
+    if (g->emitter_count == 0 && g->light_count == 0 && !(L->env_prob > 0.0f))
         return 0;
     for (uint32_t i = 0; i < g->material_count; i++) {
         const GpuMaterial *m = &g->materials[i];
@@ -381,7 +384,7 @@ static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *
         p->scene_center[k] = g->scene_center[k];
     /* rs->light_paths (0: the default) light paths per camera path: that many
      * times the pixels per sample index, rounded, at least one. */
-    if (caustics_enabled(rs, g, cam)) {
+    if (caustics_enabled(rs, L, g, cam)) {
         double r = rs->light_paths > 0.0f ? (double)rs->light_paths : SPT_LIGHT_PATHS_DEFAULT;
         double n = floor(fmin(r, SPT_LIGHT_PATHS_MAX) * (double)rs->width * (double)rs->height + 0.5);
         p->light_paths = n < 1.0 ? 1u : (uint32_t)n;
