@@ -9,8 +9,8 @@
  *   Name a path's vertices from the camera, camera - x1 - ... - xk - light,
  *   each by the lobe it took: D (non-delta) or S (delta). The light paths own
  *   the paths with x1 D and xk S (the light an emissive triangle of the light
- *   selection, the environment when the selection holds it, or a punctual
- *   light): from the light, one or more S vertices, then a D vertex, then
+ *   selection, an environment map when the selection holds it, or a punctual
+ *   light; a uniform sky stays the camera paths'): from the light, one or more S vertices, then a D vertex, then
  *   anything, down to x1. A camera path drops exactly the emission it
  *   reaches that way, an emitter's or the environment's seen by a ray that
  *   left the scene (lt_camera_drops and lt_camera_drops_env in
@@ -19,9 +19,9 @@
  *   delta vertex), xk D (next-event estimation and MIS find those well), and
  *   emitters outside the light selection.
  * - A light path starts on a light picked by the renderer's light selection
- *   (by power; the environment's share starts it on a disc that covers the
- *   scene, its rays parallel to a direction of the environment's sampling
- *   density, as a directional light's are to its own), carries its own
+ *   (by power; an environment map's share starts it on a disc outside the
+ *   scene that covers the surfaces that may be delta, its rays parallel to a
+ *   direction of the map's sampling density; a uniform sky's ends it), carries its own
  *   four wavelengths (a dispersive refraction keeps only the hero, as camera
  *   paths do), and samples the BSDFs with the camera paths' code (with the
  *   adjoint's factors: no 1/eta^2 of radiance transport, Veach's
@@ -146,26 +146,31 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
                 power = spd * (light_spot_falloff(l, ct) * 2.0f * SPT_PI * span / prob);
             }
         }
-    } else if (e >= 0 && prob > 0.0f && P.env.kind != SPT_ENV_NONE) {
-        /* The environment: a direction w toward the sky by env_sample's density
-         * (the uniform sky: uniform over the sphere; a map: its texels' by
-         * luminance), then parallel rays along -w from a disc of the scene's
-         * radius perpendicular to w, tangent to its bounding sphere on the sky's
-         * side: L(w) pi R^2 / (prob pdf(w)). */
+    } else if (e >= 0 && prob > 0.0f && P.env.kind == SPT_ENV_MAP) {
+        /* An environment map (a uniform sky's share ends the path: camera paths
+         * find it through glass well, and keep it): a direction w toward the
+         * sky by env_sample's density (the texels' luminance), then parallel rays along -w through a disc of radius Rc
+         * perpendicular to w that covers the sphere (centre cc) of the surfaces
+         * that may be delta: a light path goes on only from such a surface, and
+         * every ray that meets one crosses that disc. The disc lies at
+         * Rs + |cc - cs| along w from cc, so it and the ray's line behind it
+         * are outside the scene's bounding sphere (centre cs, radius Rs):
+         * L(w) pi Rc^2 / (prob pdf(w)). */
         float epdf;
         float3 w = normalize(env_sample(&P.env, env_data, u1, u2, &epdf));
-        if (epdf > 0.0f) {
+        float Rc = P.caustic_radius;
+        if (epdf > 0.0f && Rc > 0.0f) {
             float la[4], lv[4];
             lambda_array(lam, la);
             env_eval(&P.env, env_data, w, la, lv);
             vec3 t_, b_;
             v3_basis(w, &t_, &b_);
-            float R = P.scene_radius;
             vec3 disk = spt_sample_concentric_disk(u3, u4);
-            float3 c = (float3)(P.scene_center[0], P.scene_center[1], P.scene_center[2]);
-            o = c + R * (disk.x * t_ + disk.y * b_) + w * R;
+            float3 cc = (float3)(P.caustic_center[0], P.caustic_center[1], P.caustic_center[2]);
+            float3 cs = (float3)(P.scene_center[0], P.scene_center[1], P.scene_center[2]);
+            o = cc + Rc * (disk.x * t_ + disk.y * b_) + w * (P.scene_radius + length(cc - cs));
             d = -w;
-            power = (float4)(lv[0], lv[1], lv[2], lv[3]) * (SPT_PI * R * R / (prob * epdf));
+            power = (float4)(lv[0], lv[1], lv[2], lv[3]) * (SPT_PI * Rc * Rc / (prob * epdf));
         }
     }
     ps_lambda[i] = lam;

@@ -52,14 +52,15 @@ typedef struct ShadeFrame {
  * (kernels/device/light_trace.h), which owns the paths camera - x1 - ... - xk -
  * light whose first vertex x1 took a non-delta lobe and whose last vertex xk
  * took a delta lobe, the light an emissive triangle of the light selection,
- * the environment when the selection holds it, or a punctual light (which
+ * an environment map when the selection holds it, or a punctual light (which
  * camera paths never reach). ps_lt keeps SPT_LT_CHAIN once x1 took a
  * non-delta lobe and SPT_LT_SPEC while the last vertex took a delta one:
  * lt_camera_next is the state after the vertex at depth `depth` sampled its
  * lobe; lt_camera_drops says whether emission of triangle prim reached with
  * state lt is the light-tracing pass's, lt_camera_drops_env the same for the
- * environment seen by a ray that left the scene. With the pass off
- * (P.light_paths 0) every camera path keeps everything. */
+ * environment seen by a ray that left the scene (a map only: a uniform sky,
+ * which every BSDF sample through glass sees, stays the camera paths').
+ * With the pass off (P.light_paths 0) every camera path keeps everything. */
 SPT_FN_INLINE uint lt_camera_next(uint lt, uint depth, int is_delta)
 {
     uint chain = depth == 1u ? (is_delta ? 0u : SPT_LT_CHAIN) : (lt & SPT_LT_CHAIN);
@@ -73,7 +74,8 @@ SPT_FN_INLINE int lt_camera_drops(uint lt, uint prim, ALL_BUFFERS)
 
 SPT_FN_INLINE int lt_camera_drops_env(uint lt, ALL_BUFFERS)
 {
-    return P.light_paths > 0u && lt == (SPT_LT_CHAIN | SPT_LT_SPEC) && P.env_prob > 0.0f;
+    return P.light_paths > 0u && lt == (SPT_LT_CHAIN | SPT_LT_SPEC) && P.env_prob > 0.0f &&
+           P.env.kind == SPT_ENV_MAP;
 }
 
 /* A path that left the scene sees the environment, weighted against light

@@ -212,6 +212,11 @@ typedef struct RenderParams {
      * that covers it). */
     float scene_center[3];
     float scene_radius;
+    /* The bounding sphere of the triangles whose material may take a delta
+     * lobe (radius 0: none): the environment's light paths start on a disc
+     * that covers it, since only those that meet such a triangle first go on. */
+    float caustic_center[3];
+    float caustic_radius;
     spt_u32 sampler;        /* SPT_SAMPLER_SOBOL or SPT_SAMPLER_INDEPENDENT (kernels/device/rng.h) */
     /* What rays that leave the scene see (kernels/shared/lights.h): a map, a uniform sky
      * or nothing; its data (texels, CDFs or a table) in the env_data buffer. */

@@ -303,9 +303,53 @@ static void *worker_main(void *arg)
     return NULL;
 }
 
+/* Whether material m may take a delta lobe somewhere: a smooth base (its
+ * roughness factor, or a roughness texture that may lower it) or a clear coat
+ * that may be smooth. A light path goes on only through such a surface. */
+static int material_may_be_delta(const GpuMaterial *m)
+{
+    if (m->roughness * m->roughness < BSDF_DELTA_ALPHA || m->slot[SPT_TS_METALLIC_ROUGHNESS].tex >= 0)
+        return 1;
+    return m->clearcoat > 0.0f && (m->cc_roughness * m->cc_roughness < BSDF_DELTA_ALPHA ||
+                                   m->slot[SPT_TS_CLEARCOAT_ROUGHNESS].tex >= 0);
+}
+
+/* The bounding sphere of the triangles whose material may take a delta lobe
+ * (p->caustic_center, p->caustic_radius; radius 0 when there are none): the
+ * box around their vertices, its half diagonal widened by float rounding. A
+ * light path from the environment whose first vertex takes a delta lobe
+ * crosses that sphere, so its rays need to cover no more than it. */
+static void caustic_bounds(RenderParams *p, const GpuScene *g)
+{
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    int any = 0;
+    for (uint32_t i = 0; i < g->bvh.prim_count; i++) {
+        const TriShade *ts = &g->tri_shade[i];
+        if (!material_may_be_delta(&g->materials[ts->material]))
+            continue;
+        any = 1;
+        for (int v = 0; v < 3; v++)
+            for (int k = 0; k < 3; k++) {
+                float x = g->vtx_pos[3 * (size_t)ts->v[v] + k];
+                lo[k] = fminf(lo[k], x);
+                hi[k] = fmaxf(hi[k], x);
+            }
+    }
+    if (!any)
+        return;
+    double r2 = 0, m = 0;
+    for (int k = 0; k < 3; k++) {
+        p->caustic_center[k] = 0.5f * (lo[k] + hi[k]);
+        r2 += 0.25 * ((double)hi[k] - lo[k]) * ((double)hi[k] - lo[k]);
+        m = fmax(m, fmax(fabs((double)lo[k]), fabs((double)hi[k])));
+    }
+    p->caustic_radius = (float)(sqrt(r2) * (1.0 + 1e-5) + 1e-5 * m + 1e-6);
+}
+
 /* Whether the light-tracing pass runs (--caustics): on, or auto and the scene
- * has a light (an emitter, a punctual light, or a sky that the light
- * selection holds: --env, --background or the default white sky) and a
+ * has a light (an emitter, a punctual light, or an --env map that the light
+ * selection holds; not a uniform sky, whose light through glass the camera
+ * paths keep) and a
  * surface with a delta lobe that passes or turns light (smooth transmission,
  * smooth metal, a smooth clear coat). It needs a perspective camera (pinhole
  * or thin lens). */
@@ -331,7 +375,8 @@ static int caustics_enabled(const RenderSettings *rs, const RenderLights *L, con
     }
     if (rs->caustics == SPT_CAUSTICS_ON)
         return 1;
-    if (g->emitter_count == 0 && g->light_count == 0 && !(L->env_prob > 0.0f))
+    if (g->emitter_count == 0 && g->light_count == 0 &&
+        !(L->env.env.kind == SPT_ENV_MAP && L->env_prob > 0.0f))
         return 0;
     for (uint32_t i = 0; i < g->material_count; i++) {
         const GpuMaterial *m = &g->materials[i];
@@ -382,6 +427,7 @@ static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *
     p->scene_radius = g->scene_radius;
     for (int k = 0; k < 3; k++)
         p->scene_center[k] = g->scene_center[k];
+    caustic_bounds(p, g);
     /* rs->light_paths (0: the default) light paths per camera path: that many
      * times the pixels per sample index, rounded, at least one. */
     if (caustics_enabled(rs, L, g, cam)) {
