@@ -1,19 +1,20 @@
 /* The light-tracing pass of the wavefront kernels (kernels/device/wavefront.cl
  * includes this after kernels/device/shade_surface.h): paths that start on the
  * lights and reach the camera through a shadow ray, for the caustics that
- * camera paths find badly (an area light or the sky seen through glass) or
- * never (a punctual light behind glass). docs/architecture.md, "Caustics", has the
- * method; in short:
+ * camera paths find badly (an area light or a map's sun seen through glass)
+ * or never (a punctual light behind glass). docs/architecture.md, "Caustics",
+ * has the method; in short:
  *
  * - Path space is split between the two techniques, so nothing counts twice.
  *   Name a path's vertices from the camera, camera - x1 - ... - xk - light,
  *   each by the lobe it took: D (non-delta) or S (delta). The light paths own
  *   the paths with x1 D and xk S (the light an emissive triangle of the light
  *   selection, an environment map when the selection holds it, or a punctual
- *   light; a uniform sky stays the camera paths'): from the light, one or more S vertices, then a D vertex, then
- *   anything, down to x1. A camera path drops exactly the emission it
- *   reaches that way, an emitter's or the environment's seen by a ray that
- *   left the scene (lt_camera_drops and lt_camera_drops_env in
+ *   light; a uniform sky stays the camera paths'): from the light, one or
+ *   more S vertices, then a D vertex, then anything, down to x1. A camera
+ *   path drops exactly the emission it reaches that way, an emitter's or the
+ *   map's seen by a ray that left the scene (lt_camera_drops and
+ *   lt_camera_drops_env in
  *   kernels/device/shade_surface.h); punctual lights it never reaches. The
  *   camera paths keep the rest: x1 S (a light path cannot connect through a
  *   delta vertex), xk D (next-event estimation and MIS find those well), and
@@ -21,8 +22,8 @@
  * - A light path starts on a light picked by the renderer's light selection
  *   (by power; an environment map's share starts it on a disc outside the
  *   scene that covers the surfaces that may be delta, its rays parallel to a
- *   direction of the map's sampling density; a uniform sky's ends it), carries its own
- *   four wavelengths (a dispersive refraction keeps only the hero, as camera
+ *   direction of the map's sampling density; a uniform sky's ends it),
+ *   carries its own four wavelengths (a dispersive refraction keeps only the hero, as camera
  *   paths do), and samples the BSDFs with the camera paths' code (with the
  *   adjoint's factors: no 1/eta^2 of radiance transport, Veach's
  *   shading-normal correction) and Russian roulette. Its first vertex must
@@ -149,10 +150,11 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
     } else if (e >= 0 && prob > 0.0f && P.env.kind == SPT_ENV_MAP) {
         /* An environment map (a uniform sky's share ends the path: camera paths
          * find it through glass well, and keep it): a direction w toward the
-         * sky by env_sample's density (the texels' luminance), then parallel rays along -w through a disc of radius Rc
-         * perpendicular to w that covers the sphere (centre cc) of the surfaces
-         * that may be delta: a light path goes on only from such a surface, and
-         * every ray that meets one crosses that disc. The disc lies at
+         * sky by env_sample's density (the texels' luminance), then parallel
+         * rays along -w through a disc of radius Rc perpendicular to w that
+         * covers the sphere (centre cc) of the surfaces that may be delta: a
+         * light path goes on only from such a surface, and every ray that
+         * meets one crosses that disc. The disc lies at
          * Rs + |cc - cs| along w from cc, so it and the ray's line behind it
          * are outside the scene's bounding sphere (centre cs, radius Rs):
          * L(w) pi Rc^2 / (prob pdf(w)). */
