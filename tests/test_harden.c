@@ -364,8 +364,8 @@ static void test_deep_json(void **state)
  * line starting with wait_for, sends it the signals sigs[0..nsig) (each once the
  * previous one's note is on stderr, or at once), then reads stderr to the end
  * into err. Returns the exit status (-1: killed by a signal). */
-static int run_signalled(const char *args, const char *wait_for, const int *sigs, int nsig,
-                         char *err, size_t cap)
+static int run_signalled_then(const char *args, const char *wait_for, const char *then_on,
+                              const int *sigs, int nsig, char *err, size_t cap)
 {
     char buf[2048];
     snprintf(buf, sizeof buf, "%s", args);
@@ -405,8 +405,8 @@ static int run_signalled(const char *args, const char *wait_for, const int *sigs
         if (waiting && !strncmp(line, wait_for, strlen(wait_for)))
             waiting = 0;
         /* The first signal once the awaited line is there, the next once the
-         * handler's note shows it was caught. */
-        if (!waiting && sent < nsig && (sent == 0 || !strncmp(line, "note: stopping", 14))) {
+         * line then_on shows (the handler's note: the first was caught). */
+        if (!waiting && sent < nsig && (sent == 0 || !strncmp(line, then_on, strlen(then_on)))) {
             kill(pid, sigs[sent++]);
             while (sent < nsig && sent > 1)
                 kill(pid, sigs[sent++]);
@@ -416,6 +416,12 @@ static int run_signalled(const char *args, const char *wait_for, const int *sigs
     int st;
     waitpid(pid, &st, 0);
     return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+static int run_signalled(const char *args, const char *wait_for, const int *sigs, int nsig,
+                         char *err, size_t cap)
+{
+    return run_signalled_then(args, wait_for, "note: stopping", sigs, nsig, err, cap);
 }
 
 /* SIGHUP is SIGTERM: after one chunk is done (its progress line), a render that
@@ -512,7 +518,9 @@ static void test_first_sigint_writes_whole_samples(void **state)
  * regular chunk (31 pools of 65536: seconds on a CPU); the first SIGINT waits
  * for it, the second drops it, so the run ends with exit 130 and nothing
  * written. (Without the second stop it would finish the chunk and write the
- * image with exit 0.) */
+ * image with exit 0.) The device line comes while the devices open, so the
+ * first signal may also land before rendering, which ends with exit 130 too;
+ * the second then comes during the clean-up and must not kill the process. */
 static void test_second_sigint_stops_at_once(void **state)
 {
     (void)state;
@@ -527,6 +535,26 @@ static void test_second_sigint_stops_at_once(void **state)
         fail_msg("exit %d, expected 130:\n%s", rc, err);
     assert_non_null(strstr(err, "error: render: stopped"));
     assert_false(exists(in_dir("int.exr")));
+    assert_no_temporaries();
+}
+
+/* A signal during the clean-up of a stopped run does not kill it: a long
+ * chunk (as in test_first_sigint_drops_long_chunk) so that the first SIGINT,
+ * with the device line, stops the run, and the second once the run has said
+ * it stopped; the exit stays 130 and nothing is written. */
+static void test_sigint_during_cleanup(void **state)
+{
+    (void)state;
+    char args[1024], err[16384];
+    snprintf(args, sizeof args,
+             "render " SCENE " --width 2048 --height 2048 --spp 1 --device 0 -o %s", in_dir("late.exr"));
+    setenv(POOL, "65536", 1);
+    int sigs[2] = {SIGINT, SIGINT};
+    int rc = run_signalled_then(args, "device 0:", "error: render: stopped", sigs, 2, err, sizeof err);
+    unsetenv(POOL);
+    if (rc != 130)
+        fail_msg("exit %d, expected 130:\n%s", rc, err);
+    assert_false(exists(in_dir("late.exr")));
     assert_no_temporaries();
 }
 
@@ -644,6 +672,7 @@ int main(void)
         cmocka_unit_test(test_first_sigint_drops_long_chunk),
         cmocka_unit_test(test_first_sigint_writes_whole_samples),
         cmocka_unit_test(test_second_sigint_stops_at_once),
+        cmocka_unit_test(test_sigint_during_cleanup),
         cmocka_unit_test(test_values_beyond_float),
         cmocka_unit_test(test_fuzz_regressions),
         cmocka_unit_test(test_host_memory_refused),

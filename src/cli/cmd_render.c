@@ -82,8 +82,13 @@ static void signals_catch(void)
     sigaction(SIGHUP, &sa, &old_hup);
 }
 
+/* Once a signal was caught the run ends with exit 130, and a further signal
+ * during the clean-up (one sent after the first was noted) must not kill the
+ * process midway: the handler stays. */
 static void signals_restore(void)
 {
+    if (stop_requested)
+        return;
     sigaction(SIGINT, &old_int, NULL);
     sigaction(SIGTERM, &old_term, NULL);
     sigaction(SIGHUP, &old_hup, NULL);
