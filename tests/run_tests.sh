@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Runs every test binary in BUILD/tests from the source root on PoCL, then the
-# device-facing tests (those that run kernels) once more on each other OpenCL
-# implementation that tools/install_opencl.sh installed: rusticl (Mesa, llvmpipe)
-# and intel (Intel's CPU runtime). Each implementation is made the only one a test
+# device-facing tests (those that run kernels) once more on PoCL with the
+# kernels' GPU code path (pocl-gpu: SPECTRACE_KERNEL_PATH=gpu, the path GPUs
+# take, src/render/wavefront.c), and on each other OpenCL implementation that
+# tools/install_opencl.sh installed: rusticl (Mesa, llvmpipe) and intel (Intel's
+# CPU runtime). Each implementation is made the only one a test
 # sees through OCL_ICD_VENDORS (tools/opencl_env.sh; nothing under /etc is used),
 # and SPECTRACE_TEST_IMPL names it to the tests. One line per implementation gives
 # its counts of cmocka test cases, an absent one says why, and the last line sums
@@ -11,7 +13,7 @@
 # nothing failed.
 # Usage: tests/run_tests.sh BUILD_DIR [TEST_NAME...]
 # SPECTRACE_TEST_IMPLS: the implementations to run, "all" (the default) or a comma
-# list such as "pocl" (make test-san: the sanitizers check our host code, which is
+# list such as "pocl" or "pocl,pocl-gpu" (make test-san: the sanitizers check our host code, which is
 # the same whichever implementation runs the kernels).
 set -u
 build=${1:?usage: tests/run_tests.sh BUILD_DIR [TEST_NAME...]}
@@ -42,10 +44,17 @@ else
 fi
 
 impls=${SPECTRACE_TEST_IMPLS:-all}
-[ "$impls" = all ] && impls=pocl,rusticl,intel
+[ "$impls" = all ] && impls=pocl,pocl-gpu,rusticl,intel
 IFS=, read -r -a impl_list <<<"$impls"
 
-rusticl_left_out=(test_checkpoint test_aov test_materials test_caustics test_prism test_caustics_sky)
+# rusticl (Mesa 22.3's, on llvmpipe) spends about 10 ms of its own time per
+# kernel launch here (a 64x64 Cornell box at 4 spp takes 25 s), so it runs a
+# subset: it builds the same program and runs the GPU path's kernels in each of
+# these, while pocl-gpu runs every device test on that path.
+rusticl_subset=(test_bsdf test_bvh test_lights test_rng test_sampling test_textures test_multidevice test_sweep)
+# test_multidevice and test_sweep split one render across PoCL and another
+# implementation; pocl-gpu is PoCL itself.
+pocl_gpu_left_out=(test_multidevice test_sweep)
 
 total_p=0; total_f=0; total_s=0; summary=(); failed_bins=()
 for impl in "${impl_list[@]}"; do
@@ -54,27 +63,28 @@ for impl in "${impl_list[@]}"; do
   bins=(); summary_left=()
   for n in "${names[@]}"; do
     if [ "$impl" = pocl ] || [[ " ${device_tests[*]} " == *" $n "* ]]; then
-      # Left out on rusticl, where a kernel launch costs about 10 ms: these
-      # took 2-7 minutes each there even in the quick form (test_caustics skips
-      # every case after its renders). PoCL and Intel's runtime run them.
-      if [ "$impl" = rusticl ] && [ $# -eq 0 ] && [[ " ${rusticl_left_out[*]} " == *" $n "* ]]; then
+      if [ "$impl" = rusticl ] && [ $# -eq 0 ] && [[ " ${rusticl_subset[*]} " != *" $n "* ]]; then
         summary_left+=("$n"); continue
       fi
+      [ "$impl" = pocl-gpu ] && [[ " ${pocl_gpu_left_out[*]} " == *" $n "* ]] && continue
       bins+=("$n")
     fi
   done
   [ ${#bins[@]} -eq 0 ] && continue
-  if ! envs=$(tools/opencl_env.sh "$impl" "$PWD/$build/icd/$impl" 2>&1); then
+  base=$impl; [ "$impl" = pocl-gpu ] && base=pocl
+  if ! envs=$(tools/opencl_env.sh "$base" "$PWD/$build/icd/$base" 2>&1); then
     summary+=("$impl: absent ($envs)")
-    if [ "$impl" = pocl ]; then total_f=$((total_f + 1)); failed_bins+=("pocl"); fi
+    if [ "$base" = pocl ]; then total_f=$((total_f + 1)); failed_bins+=("$impl"); fi
     continue
   fi
-  mixed=$(tools/opencl_env.sh "pocl,$impl" "$PWD/$build/icd/pocl+$impl" 2>/dev/null)
+  mixed=""; [ "$base" != pocl ] && mixed=$(tools/opencl_env.sh "pocl,$impl" "$PWD/$build/icd/pocl+$impl" 2>/dev/null)
   p_sum=0; f_sum=0; s_sum=0
   for name in "${bins[@]}"; do
     bin=$build/tests/$name
     [ -x "$bin" ] || continue
     env_here=$envs
+    [ "$impl" = pocl-gpu ] && env_here="$envs
+export SPECTRACE_KERNEL_PATH=gpu"
     [ "$impl" != pocl ] && { [ "$name" = test_multidevice ] || [ "$name" = test_sweep ]; } && [ -n "$mixed" ] && env_here=$mixed
     echo "== $name ($impl)"
     log=$(mktemp)

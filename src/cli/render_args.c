@@ -284,13 +284,6 @@ void render_args_test_hooks(RenderSettings *rs)
     rs->test.ranks_first = first && *first && strcmp(first, "0") != 0;
     const char *film_nan = getenv("SPECTRACE_TEST_FILM_NAN");
     rs->test.film_nan = film_nan ? atol(film_nan) : 0;
-    const char *path = getenv("SPECTRACE_KERNEL_PATH");
-    rs->test.kernel_path = !path ? SPT_KERNEL_PATH_DEVICE
-                           : !strcmp(path, "cpu") ? SPT_KERNEL_PATH_CPU
-                           : !strcmp(path, "gpu") ? SPT_KERNEL_PATH_GPU
-                           : !strcmp(path, "cpu-stages") ? SPT_KERNEL_PATH_CPU
-                                                  : SPT_KERNEL_PATH_DEVICE;
-    rs->test.stages = path && !strcmp(path, "cpu-stages");
     const char *pool = getenv("SPECTRACE_POOL");
     if (pool && atoi(pool) > 0)
         rs->pool_size = (uint32_t)atoi(pool);

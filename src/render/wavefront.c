@@ -142,6 +142,20 @@ static int kernel_path_pairs(const ClDeviceInfo *info)
     return 1;
 }
 
+/* SPECTRACE_KERNEL_PATH, the kernel_path test hook from the environment: "cpu",
+ * "gpu", or "cpu-stages" (the CPU path without the megakernel, *stages = 1);
+ * else (unset or another word) the device's own path. */
+static void kernel_path_env(int *path, int *stages)
+{
+    const char *v = getenv("SPECTRACE_KERNEL_PATH");
+    *path = !v                          ? SPT_KERNEL_PATH_DEVICE
+            : !strcmp(v, "cpu")         ? SPT_KERNEL_PATH_CPU
+            : !strcmp(v, "gpu")         ? SPT_KERNEL_PATH_GPU
+            : !strcmp(v, "cpu-stages")  ? SPT_KERNEL_PATH_CPU
+                                        : SPT_KERNEL_PATH_DEVICE;
+    *stages = *stages || (v && !strcmp(v, "cpu-stages"));
+}
+
 /* Work-group size of kernel k on dev: 64 work-items (the queues take one global
  * atomic per group; PoCL keeps a group's private traversal stacks on a
  * thread's stack) rounded up to a whole number of the kernel's preferred
@@ -231,10 +245,15 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
     w->ray_pairs = kernel_path_pairs(info);
     /* The kernel_path test hook overrides that choice, so both paths run on any
      * device: tools/check_kernels.sh runs the CPU path under Oclgrind (a GPU to
-     * us). */
-    if (rs->test.kernel_path == SPT_KERNEL_PATH_CPU)
+     * us), tests/run_tests.sh the device tests on PoCL's CPU with the GPU path.
+     * The hook comes from the caller's settings or, where they leave it to the
+     * device, from SPECTRACE_KERNEL_PATH (docs/testing.md). */
+    int path = rs->test.kernel_path, stages = rs->test.stages;
+    if (path == SPT_KERNEL_PATH_DEVICE)
+        kernel_path_env(&path, &stages);
+    if (path == SPT_KERNEL_PATH_CPU)
         w->ray_pairs = 1;
-    else if (rs->test.kernel_path == SPT_KERNEL_PATH_GPU)
+    else if (path == SPT_KERNEL_PATH_GPU)
         w->ray_pairs = 0;
     /* The megakernel: on the CPU path, k_paths runs each work-item's paths from
      * start to end (kernels/device/wavefront.cl). A CPU runs a work-group's
@@ -243,7 +262,7 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
      * about 10% less CPU time, the 1M-triangle mesh the same
      * (docs/performance.md). A GPU keeps the stages, whose queues keep its
      * lanes on the same work. The stages test hook keeps them on a CPU too. */
-    w->mega = w->ray_pairs && !rs->test.stages;
+    w->mega = w->ray_pairs && !stages;
     cl_ulong cache = 0;
     if (w->ray_pairs)
         SPT_CL_CHECK(e, clGetDeviceInfo(info->id, CL_DEVICE_GLOBAL_MEM_CACHE_SIZE, sizeof cache,
