@@ -17,12 +17,15 @@ OPT ?= -O2
 PKGS := OpenCL OpenImageIO OpenEXR tinygltf draco
 # Recursive (=) so pkg-config runs when a recipe needs it, after install_deps.
 PKG_CFLAGS = $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
-PKG_LIBS = $(shell pkg-config --libs $(PKGS) 2>/dev/null)
+# The programs link all but OpenImageIO, which only libspectrace-oiio.so links
+# (src/io/oiio_lib.h).
+PKG_LIBS = $(shell pkg-config --libs $(filter-out OpenImageIO,$(PKGS)) 2>/dev/null)
+OIIO_LIBS = $(shell pkg-config --libs OpenImageIO 2>/dev/null)
 CPPFLAGS := -Isrc -Ikernels -I$(BUILD)/gen -DCL_TARGET_OPENCL_VERSION=120 -D_GNU_SOURCE
 CFLAGS := -std=c11 $(OPT) -g -Wall -Wextra -MMD -MP $(SANFLAGS)
 CXXFLAGS := -std=c++17 $(OPT) -g -Wall -Wextra -MMD -MP $(SANFLAGS) -I/usr/include/stb -I/usr/include/nlohmann
 LDFLAGS := $(SANFLAGS)
-LDLIBS = $(PKG_LIBS) -lmeshoptimizer -lm -lpthread -ldl
+LDLIBS = $(PKG_LIBS) -lmeshoptimizer -lm -lpthread -ldl -Wl,--dynamic-list=src/io/oiio_exports.list
 
 ifeq ($(V),1)
 Q :=
@@ -32,7 +35,11 @@ endif
 
 # The library: every source under src/ except the two programs' main files.
 SRC_C := $(filter-out src/cli/main.c src/mpi/mpi_main.c,$(wildcard src/*/*.c))
-SRC_CXX := $(wildcard src/*/*.cpp)
+# The OpenImageIO code is the shared library libspectrace-oiio.so, loaded when
+# first needed (src/io/oiio_lib.h).
+OIIO_SRCS := src/io/image_io.cpp src/scene/texture_io.cpp
+SRC_CXX := $(filter-out $(OIIO_SRCS),$(wildcard src/*/*.cpp))
+OIIO_LIB := $(BUILD)/libspectrace-oiio.so
 KERNEL_FILES := $(sort $(wildcard kernels/*/*.h kernels/*/*.cl))
 GEN_C := $(BUILD)/gen/kernel_sources.c \
          $(if $(wildcard tools/rgb2spec/rgb2spec_opt.c),$(BUILD)/gen/rgb2spec_data.c)
@@ -51,6 +58,18 @@ TOOL_BINS := $(patsubst tools/%.c,$(BUILD)/tools/%,$(wildcard tools/*.c))
 
 .PHONY: all deps render test test-san check tests bench mpi check-kernels clean denoise
 all: $(PROG) $(TEST_BINS)
+
+# Every program loads it from beside itself or the folder above.
+$(OIIO_LIB): $(OIIO_SRCS:src/%.cpp=$(BUILD)/obj/pic/%.o)
+	@echo "LINK $@"
+	$(Q)$(CXX) -shared $(LDFLAGS) -o $@ $^ $(OIIO_LIBS)
+
+$(BUILD)/obj/pic/%.o: src/%.cpp
+	@mkdir -p $(dir $@)
+	@echo "CXX  $< (shared)"
+	$(Q)$(CXX) $(CPPFLAGS) $(CXXFLAGS) -fPIC $(PKG_CFLAGS) -c -o $@ $<
+
+$(BUILD)/obj/io/oiio_lib.o: CPPFLAGS += -DSPT_OIIO_BUILD_DIR='"$(abspath $(BUILD))"'
 
 # The "mpi" group too: the tests run build/spectrace-mpi under mpirun. Then the
 # other OpenCL implementations the tests run on (rusticl, Intel's CPU runtime in
@@ -106,11 +125,11 @@ bench: deps
 	@$(MAKE) --no-print-directory OPT=-O3 $(PROG) $(MPI_PROG) $(TOOL_BINS)
 	@tools/bench.sh $(BUILD)
 
-$(PROG): $(BUILD)/obj/cli/main.o $(LIB)
+$(PROG): $(BUILD)/obj/cli/main.o $(LIB) | $(OIIO_LIB)
 	@echo "LINK $@"
 	$(Q)$(CXX) $(LDFLAGS) -o $@ $^ $(LDLIBS)
 
-$(MPI_PROG): $(BUILD)/obj/mpi/mpi_main.o $(BUILD)/obj/mpi/cli_main.o $(LIB)
+$(MPI_PROG): $(BUILD)/obj/mpi/mpi_main.o $(BUILD)/obj/mpi/cli_main.o $(LIB) | $(OIIO_LIB)
 	@echo "LINK $@"
 	$(Q)$(CXX) $(LDFLAGS) -o $@ $^ $(LDLIBS) $(MPI_LIBS)
 
@@ -146,7 +165,7 @@ $(BUILD)/obj/gen/%.o: $(BUILD)/gen/%.c
 
 # Host tools (table generators, embedders, benchmarks) are plain C, built unsanitized
 # and optimised, since some run during the build.
-$(BUILD)/tools/%: tools/%.c $(LIB)
+$(BUILD)/tools/%: tools/%.c $(LIB) | $(OIIO_LIB)
 	@mkdir -p $(dir $@)
 	@echo "CC   $<"
 	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) $(PKG_CFLAGS) -o $@ $< $(LIB) $(LDLIBS) -lstdc++
@@ -166,7 +185,7 @@ $(BUILD)/gen/rgb2spec_data.c: tools/rgb2spec/rgb2spec_opt.c kernels/shared/cie_d
 	$(Q)$(CC) -std=c11 -O2 -Ikernels -o $(BUILD)/tools/rgb2spec_opt tools/rgb2spec/rgb2spec_opt.c -lm -lpthread
 	$(Q)$(BUILD)/tools/rgb2spec_opt $@.tmp && mv $@.tmp $@
 
-$(BUILD)/tests/%: tests/%.c tests/test_util.h $(LIB)
+$(BUILD)/tests/%: tests/%.c tests/test_util.h $(LIB) | $(OIIO_LIB)
 	@mkdir -p $(dir $@)
 	@echo "CC   $<"
 	$(Q)$(CC) $(CPPFLAGS) -Itests $(CFLAGS) $(PKG_CFLAGS) -o $@ $< $(LIB) $(LDFLAGS) $(LDLIBS) -lcmocka -lstdc++

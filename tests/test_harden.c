@@ -558,6 +558,41 @@ static void test_sigint_during_cleanup(void **state)
     assert_no_temporaries();
 }
 
+/* OpenImageIO's library (libspectrace-oiio.so, src/io/oiio_lib.h) is loaded only
+ * when an image other than EXR is read or written: without it (a folder that
+ * does not hold it in SPECTRACE_OIIO_DIR) a PNG output fails before rendering
+ * with one error line naming the output and exit 5, leaving the existing file
+ * as it was, while an EXR-only render of an untextured scene succeeds. */
+static void test_image_library_when_needed(void **state)
+{
+    (void)state;
+    char args[1024], err[16384];
+    const char *png = in_dir("lib.png"), *exr = in_dir("lib.exr");
+    FILE *f = fopen(png, "w");
+    assert_non_null(f);
+    fputs("keep", f);
+    fclose(f);
+    snprintf(args, sizeof args, "render " SCENE " " TINY " -o %s", png);
+    int rc = run_env("SPECTRACE_OIIO_DIR=/nonexistent", args, err, sizeof err);
+    if (rc != SPT_EXIT_OUTPUT)
+        fail_msg("exit %d, expected %d:\n%s", rc, SPT_EXIT_OUTPUT, err);
+    char want[512];
+    snprintf(want, sizeof want, "error: %s: cannot load the image writer: "
+             "libspectrace-oiio.so was not found", png);
+    if (!strstr(err, want) || strstr(err, "device 0:"))
+        fail_msg("expected one error before rendering, got:\n%s", err);
+    size_t n;
+    unsigned char *kept = slurp(png, &n);
+    assert_true(n == 4 && !memcmp(kept, "keep", 4));
+    free(kept);
+    snprintf(args, sizeof args, "render " SCENE " " TINY " -o %s", exr);
+    rc = run_env("SPECTRACE_OIIO_DIR=/nonexistent", args, err, sizeof err);
+    if (rc != 0)
+        fail_msg("EXR-only render: exit %d:\n%s", rc, err);
+    assert_true(exists(exr));
+    assert_no_temporaries();
+}
+
 /* Values the renderer's float arithmetic cannot carry are refused with the file,
  * the object and the value (they used to give a black image or NaN with exit 0):
  * a point light of 1e38 cd, an environment texel of 3e38, an SPD sample of
@@ -673,6 +708,7 @@ int main(void)
         cmocka_unit_test(test_first_sigint_writes_whole_samples),
         cmocka_unit_test(test_second_sigint_stops_at_once),
         cmocka_unit_test(test_sigint_during_cleanup),
+        cmocka_unit_test(test_image_library_when_needed),
         cmocka_unit_test(test_values_beyond_float),
         cmocka_unit_test(test_fuzz_regressions),
         cmocka_unit_test(test_host_memory_refused),

@@ -1,6 +1,7 @@
 // The only OpenImageIO code of spectrace (contracts in src/io/image_io.h). No C++
 // exception or OIIO type crosses the C interface.
 #include "io/image_io.h"
+#include "io/oiio_lib.h"
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
@@ -41,7 +42,7 @@ std::unique_ptr<ImageInput> open_input(const char *path, SptError *e)
 
 } // namespace
 
-extern "C" int image_io_encode(const char *path, const void *pixels, int pixel_type,
+extern "C" int oiio_image_encode(const char *path, const void *pixels, int pixel_type,
                                int width, int height, int channels,
                                const ImageIoAttr *attrs, int attr_count, unsigned char **data,
                                size_t *size, SptError *e)
@@ -95,7 +96,7 @@ extern "C" int image_io_encode(const char *path, const void *pixels, int pixel_t
     }
 }
 
-extern "C" int image_io_info(const char *path, ImageIoInfo *info, SptError *e)
+extern "C" int oiio_image_info(const char *path, ImageIoInfo *info, SptError *e)
 {
     try {
         memset(info, 0, sizeof *info);
@@ -118,7 +119,7 @@ extern "C" int image_io_info(const char *path, ImageIoInfo *info, SptError *e)
     }
 }
 
-extern "C" int image_io_read(const char *path, float **pixels, int *width, int *height,
+extern "C" int oiio_image_read(const char *path, float **pixels, int *width, int *height,
                              int *channels, SptError *e)
 {
     *pixels = nullptr;
@@ -152,7 +153,7 @@ extern "C" int image_io_read(const char *path, float **pixels, int *width, int *
     }
 }
 
-extern "C" int image_io_attr(const char *path, const char *name, char *out,
+extern "C" int oiio_image_attr(const char *path, const char *name, char *out,
                              size_t out_size, SptError *e)
 {
     try {

@@ -37,6 +37,11 @@ int image_io_encode(const char *path, const void *pixels, int pixel_type, int wi
                     int height, int channels, const ImageIoAttr *attrs, int attr_count,
                     unsigned char **data, size_t *size, SptError *e);
 
+/* Loads the OpenImageIO library (src/io/oiio_lib.h) now, as the functions here do
+ * on first use. Returns SPT_EXIT_OK, or SPT_EXIT_OUTPUT naming path (the output
+ * that needs it) and why the library could not be loaded. */
+int image_io_load(const char *path, SptError *e);
+
 /* What a file holds, from its header. */
 typedef struct ImageIoInfo {
     int width, height, channels;

@@ -167,6 +167,10 @@ int image_output_check(const char *path, SptError *e)
         return spt_fail(e, SPT_EXIT_OUTPUT, "%s: '%s' is not a folder", path, dir);
     if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
         return spt_fail(e, SPT_EXIT_OUTPUT, "%s: is a folder", path);
+    /* Every format but EXR is written through OpenImageIO's library, which is
+     * loaded now, so that a missing one fails before any rendering. */
+    if (format_of(path) != FMT_EXR && (rc = image_io_load(path, e)))
+        return rc;
     char tmp[PATH_MAX + 64];
     rc = atomic_temp_create(path, tmp, sizeof tmp, e);
     if (rc)

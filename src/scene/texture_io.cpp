@@ -1,5 +1,6 @@
 // Texture decoding through OpenImageIO (see src/scene/texture_io.h for the contract).
 #include "scene/texture_io.h"
+#include "io/oiio_lib.h"
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
@@ -148,7 +149,7 @@ static int load_memory(const void *data, size_t size, const char *mime_type, Tex
 
 // The entry points: no exception of the image library (or std::bad_alloc for a
 // huge image) escapes; it becomes the reason of a failed load.
-extern "C" int texture_io_load_file(const char *path, TextureImage *img, char *why,
+extern "C" int oiio_texture_load_file(const char *path, TextureImage *img, char *why,
                                     size_t why_size)
 {
     memset(img, 0, sizeof *img);
@@ -161,7 +162,7 @@ extern "C" int texture_io_load_file(const char *path, TextureImage *img, char *w
     }
 }
 
-extern "C" int texture_io_load_memory(const void *data, size_t size, const char *mime_type,
+extern "C" int oiio_texture_load_memory(const void *data, size_t size, const char *mime_type,
                                       TextureImage *img, char *why, size_t why_size)
 {
     memset(img, 0, sizeof *img);
@@ -203,7 +204,7 @@ static int load_file(const char *path, TextureImage *img, char *why, size_t why_
             if (bytes.size() > SPT_TEXTURE_MAX_BYTES) break;
         }
         fclose(f);
-        return texture_io_load_memory(bytes.data(), bytes.size(), nullptr, img, why, why_size);
+        return oiio_texture_load_memory(bytes.data(), bytes.size(), nullptr, img, why, why_size);
     }
     fclose(f);
     ImageSpec config = unassociated_alpha();
@@ -254,24 +255,4 @@ static int load_memory(const void *data, size_t size, const char *mime_type, Tex
     int rc = read_opened(in.get(), img, why, why_size);
     in->close();
     return rc;
-}
-
-extern "C" void texture_io_srgb_to_linear(float *texels, size_t texel_count, int channels)
-{
-    int colour = channels >= 3 ? 3 : 1; // grey(+alpha) or RGB(+alpha)
-    for (size_t i = 0; i < texel_count; i++) {
-        for (int c = 0; c < colour; c++) {
-            float *v = &texels[i * (size_t)channels + (size_t)c];
-            double x = *v;
-            // Inverse sRGB transfer (IEC 61966-2-1), as in docs/architecture.md.
-            x = x <= 0.04045 ? x / 12.92 : pow((x + 0.055) / 1.055, 2.4);
-            *v = (float)x;
-        }
-    }
-}
-
-extern "C" void texture_io_free(TextureImage *img)
-{
-    free(img->texels);
-    memset(img, 0, sizeof *img);
 }
