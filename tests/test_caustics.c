@@ -40,23 +40,6 @@ enum { LIGHT_SPOT, LIGHT_AREA, LIGHT_DIRECTIONAL };
 /* The directional light: 1000 lux straight down. */
 #define DIR_E 1000.0
 
-/* A square camera at (0, y, z) looking down the y-z plane along (0, -a, -b),
- * +x to the right; then the scene's bounds. */
-static void aim_camera(Scene *s, double y, double z, double a, double b, float yfov)
-{
-    double len = sqrt(a * a + b * b);
-    s->camera.position[1] = (float)y;
-    s->camera.position[2] = (float)z;
-    s->camera.forward[1] = (float)(-a / len);
-    s->camera.forward[2] = (float)(-b / len);
-    s->camera.up[1] = (float)(b / len);
-    s->camera.up[2] = (float)(-a / len);
-    s->camera.right[0] = 1.0f;
-    s->camera.yfov = yfov;
-    s->camera.aspect = 1.0f;
-    scene_update_bounds(s);
-}
-
 /* The floor (albedo 0.5, 4 x 4 m), the slab (3 x 3 m, clear smooth glass),
  * one light, and a camera under the slab's level looking at the floor's
  * centre from the side (so its rays never meet the glass). glass = 0 makes the

@@ -73,20 +73,13 @@ static double welch_vs_mitsuba(const char *scene, const char *ref, int runs, int
         assert_int_equal(film_nonfinite_pixels(&f), 0);
         film_to_linear_srgb(&f, rgb);
         film_free(&f);
-        const int bs = CS_W / 4;
-        for (int by = 0; by < 4; by++)
-            for (int bx = 0; bx < 4; bx++)
-                for (int c = 0; c < 3; c++) {
-                    double b = 0;
-                    for (int y = by * bs; y < (by + 1) * bs; y++)
-                        for (int x = bx * bs; x < (bx + 1) * bs; x++)
-                            b += rgb[3 * (y * CS_W + x) + c];
-                    b /= bs * bs;
-                    int k = 3 * (4 * by + bx) + c;
-                    sum[k] += b;
-                    sum2[k] += b * b;
-                    run_img[c] += b / 16.0;
-                }
+        double b[48];
+        block_means_4x4(rgb, CS_W, b);
+        for (int k = 0; k < 48; k++) {
+            sum[k] += b[k];
+            sum2[k] += b[k] * b[k];
+            run_img[k % 3] += b[k] / 16.0;
+        }
         for (int c = 0; c < 3; c++) {
             img[c] += run_img[c] / runs;
             img2[c] += run_img[c] * run_img[c];

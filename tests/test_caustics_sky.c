@@ -35,23 +35,6 @@
 #define SLAB_TOP 0.8f
 #define ROOF_Y 3.0f
 
-/* A square camera at (0, y, z) looking down the y-z plane along (0, -a, -b). */
-static void aim(Scene *s, double y, double z, double a, double b, float yfov)
-{
-    double len = sqrt(a * a + b * b);
-    memset(&s->camera, 0, sizeof s->camera);
-    s->camera.position[1] = (float)y;
-    s->camera.position[2] = (float)z;
-    s->camera.forward[1] = (float)(-a / len);
-    s->camera.forward[2] = (float)(-b / len);
-    s->camera.up[1] = (float)(b / len);
-    s->camera.up[2] = (float)(-a / len);
-    s->camera.right[0] = 1.0f;
-    s->camera.yfov = yfov;
-    s->camera.aspect = 1.0f;
-    scene_update_bounds(s);
-}
-
 enum { VIEW_UNDER, VIEW_THROUGH };
 
 /* The furnace scene: the white floor, the glass slab, a white roof over half
@@ -85,9 +68,9 @@ static void furnace_scene(Scene *s, int view)
     for (int k = 0; k < 3; k++)
         rf->base_color[k] = 1.0f;
     if (view == VIEW_UNDER)
-        aim(s, 0.5, 2.5, 0.5, 2.5, 0.35f);
+        aim_camera(s, 0.5, 2.5, 0.5, 2.5, 0.35f);
     else
-        aim(s, 2.0, 2.6, 2.0, 2.0, 0.9f);
+        aim_camera(s, 2.0, 2.6, 2.0, 2.0, 0.9f);
 }
 
 /* Renders s with rs into rgb (linear sRGB, w x w x 3). */
@@ -288,20 +271,13 @@ static void test_sun_sphere_on_off(void **state)
             rs.caustics = side == 0 ? SPT_CAUSTICS_ON : SPT_CAUSTICS_OFF;
             rs.sky = &sky;
             render_rgb(&s, &rs, rgb);
-            const int bs = SS_W / 4;
-            for (int by = 0; by < 4; by++)
-                for (int bx = 0; bx < 4; bx++)
-                    for (int c = 0; c < 3; c++) {
-                        double b = 0;
-                        for (int y = by * bs; y < (by + 1) * bs; y++)
-                            for (int x = bx * bs; x < (bx + 1) * bs; x++)
-                                b += rgb[3 * (y * SS_W + x) + c];
-                        b /= bs * bs;
-                        int k = 3 * (4 * by + bx) + c;
-                        sum[side][k] += b;
-                        sum2[side][k] += b * b;
-                        img[side] += b / NB / SS_RUNS;
-                    }
+            double b[48];
+            block_means_4x4(rgb, SS_W, b);
+            for (int k = 0; k < 48; k++) {
+                sum[side][k] += b[k];
+                sum2[side][k] += b[k] * b[k];
+                img[side] += b[k] / NB / SS_RUNS;
+            }
         }
     free(rgb);
     scene_free(&s);

@@ -45,6 +45,31 @@ static void append_prism(Scene *s)
         m->base_color[k] = 1.0f;
 }
 
+/* The floor (albedo FLOOR_ALBEDO, 4 x 4 m), the prism, and one white spot light
+ * at (0, y, 0) pointing down with the intensity and cone angles given: returns
+ * the light. */
+static SceneLight *prism_beam_scene(Scene *s, float y, float intensity, float inner, float outer)
+{
+    memset(s, 0, sizeof *s);
+    const float floor_c[4][3] = {{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}};
+    SceneMaterial *fl = append_rect(s, floor_c);
+    for (int k = 0; k < 3; k++)
+        fl->base_color[k] = FLOOR_ALBEDO;
+    append_prism(s);
+    s->light_count = 1;
+    s->lights = calloc(1, sizeof(SceneLight));
+    SceneLight *l = &s->lights[0];
+    l->type = SPT_LIGHT_SPOT;
+    l->position[1] = y;
+    l->direction[1] = -1.0f;
+    l->intensity = intensity;
+    l->inner_cone = inner;
+    l->outer_cone = outer;
+    for (int k = 0; k < 3; k++)
+        l->color[k] = 1.0f;
+    return l;
+}
+
 /* Where the central ray of wavelength l lands on the floor (x), and the
  * fraction of its flux the two interfaces let through. */
 static double prism_landing(double l, double *transmit)
@@ -81,23 +106,7 @@ static void test_prism_dispersion(void **state)
     for (int c = 0; c < 3; c++)
         want[c] = wx[c] / wsum[c];
     Scene s;
-    memset(&s, 0, sizeof s);
-    const float floor_c[4][3] = {{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}};
-    SceneMaterial *fl = append_rect(&s, floor_c);
-    for (int k = 0; k < 3; k++)
-        fl->base_color[k] = FLOOR_ALBEDO;
-    append_prism(&s);
-    s.light_count = 1;
-    s.lights = calloc(1, sizeof(SceneLight));
-    SceneLight *l = &s.lights[0];
-    l->type = SPT_LIGHT_SPOT;
-    l->position[1] = 3.0f;
-    l->direction[1] = -1.0f;
-    l->intensity = 1000.0f;
-    l->inner_cone = 0.006f;
-    l->outer_cone = 0.01f;
-    for (int k = 0; k < 3; k++)
-        l->color[k] = 1.0f;
+    prism_beam_scene(&s, 3.0f, 1000.0f, 0.006f, 0.01f);
     /* Looking straight down from 0.5 m at the beam's landing (the prism's
      * lowest point is 0.65 m high), +x to the right. */
     double x0 = want[1];
@@ -204,23 +213,9 @@ static void test_prism_mercury_lines(void **state)
     for (int j = 0; j < 6; j++)
         hg_x[j] = prism_landing(hg_nm[j], &hg_t[j]);
     Scene s;
-    memset(&s, 0, sizeof s);
-    const float floor_c[4][3] = {{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}};
-    SceneMaterial *fl = append_rect(&s, floor_c);
-    for (int k = 0; k < 3; k++)
-        fl->base_color[k] = FLOOR_ALBEDO;
-    append_prism(&s);
-    s.light_count = 1;
-    s.lights = calloc(1, sizeof(SceneLight));
-    SceneLight *l = &s.lights[0];
-    l->type = SPT_LIGHT_SPOT;
-    l->position[1] = (float)PRISM_TOP + 0.05f;
-    l->direction[1] = -1.0f;
     /* The specification's falloff leaves a cone this narrow very dim (its
      * scale is capped at 1000): a large intensity makes up for it. */
-    l->intensity = 1e10f;
-    l->inner_cone = 0.0f;
-    l->outer_cone = 5e-4f;
+    SceneLight *l = prism_beam_scene(&s, (float)PRISM_TOP + 0.05f, 1e10f, 0.0f, 5e-4f);
     SptError e = {0};
     assert_int_equal(spd_named(&l->spd, "mercury", &e), 0);
     double xc = 0.5 * (hg_x[0] + hg_x[5]), h = 0.5, half_w = 0.05;

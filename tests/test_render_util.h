@@ -78,6 +78,40 @@ static inline int render_gltf(const char *path, int w, int h, int spp, int depth
     return rc;
 }
 
+/* A square camera at (0, y, z) looking down the y-z plane along (0, -a, -b),
+ * +x to the right; its other fields zero. */
+static inline void aim_camera(Scene *s, double y, double z, double a, double b, float yfov)
+{
+    double len = sqrt(a * a + b * b);
+    memset(&s->camera, 0, sizeof s->camera);
+    s->camera.position[1] = (float)y;
+    s->camera.position[2] = (float)z;
+    s->camera.forward[1] = (float)(-a / len);
+    s->camera.forward[2] = (float)(-b / len);
+    s->camera.up[1] = (float)(b / len);
+    s->camera.up[2] = (float)(-a / len);
+    s->camera.right[0] = 1.0f;
+    s->camera.yfov = yfov;
+    s->camera.aspect = 1.0f;
+    scene_update_bounds(s);
+}
+
+/* The means of each channel over the 4 x 4 blocks of a w x w interleaved RGB
+ * image (w a multiple of 4): out[3 * (4 * by + bx) + c]. */
+static inline void block_means_4x4(const float *rgb, int w, double out[48])
+{
+    const int bs = w / 4;
+    for (int by = 0; by < 4; by++)
+        for (int bx = 0; bx < 4; bx++)
+            for (int c = 0; c < 3; c++) {
+                double b = 0;
+                for (int y = by * bs; y < (by + 1) * bs; y++)
+                    for (int x = bx * bs; x < (bx + 1) * bs; x++)
+                        b += rgb[3 * (y * w + x) + c];
+                out[3 * (4 * by + bx) + c] = b / (bs * bs);
+            }
+}
+
 /* Mean linear sRGB of a film. */
 static inline void film_mean(const Film *f, double mean[3])
 {
