@@ -617,6 +617,10 @@ static void test_values_beyond_float(void **state)
     refused(args, 3, "light.gltf: extensions.KHR_lights_punctual.lights[0] ('lamp'): "
                      "intensity 1e+38 is too large");
     assert_false(exists(in_dir("l.exr")));
+    /* spectrace info describes the scene, then refuses the light as render does. */
+    snprintf(args, sizeof args, "info %s", in_dir("light.gltf"));
+    refused(args, 3, "light.gltf: extensions.KHR_lights_punctual.lights[0] ('lamp'): "
+                     "intensity 1e+38 is too large");
 
     float px[4 * 2 * 3];
     for (int i = 0; i < 24; i++)

@@ -6,6 +6,7 @@
 
 #include "accel/bvh_build.h"
 #include "cli/commands.h"
+#include "render/host_lights.h"
 #include "scene/scene.h"
 #include "core/util.h"
 
@@ -214,6 +215,15 @@ int cmd_info(int argc, char **argv)
     double tex_bytes = print_textures(&s);
     printf("emissive     %u triangle(s)\n", st->emissive_triangles);
     print_lights(&s);
+    /* A light that render would refuse (src/render/host_lights.c: its level,
+     * its spectrum) is an error here too, after the description. */
+    int light_rc = SPT_EXIT_OK;
+    for (uint32_t i = 0; i < s.light_count && !light_rc; i++) {
+        float table[SPT_CIE_SAMPLES];
+        GpuLight gl;
+        if ((light_rc = light_from_scene(&s.lights[i], table, 0, &gl, &e)))
+            spt_error("%s: %s", path, e.msg);
+    }
     print_camera(&s.camera);
     if (s.tri_count)
         printf("bounds       %.4g %.4g %.4g .. %.4g %.4g %.4g\n", s.bounds_min[0], s.bounds_min[1],
@@ -262,5 +272,5 @@ int cmd_info(int argc, char **argv)
         }
     }
     scene_free(&s);
-    return rc;
+    return rc ? rc : light_rc;
 }
