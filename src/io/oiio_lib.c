@@ -93,70 +93,73 @@ static int lib_ready(void)
     return lib_error[0] == 0;
 }
 
+/* SPT_EXIT_OK when the library is loaded, else code with one line naming path
+ * and what (the image "writer" or "reader") could not be loaded. */
+static int lib_need(const char *path, const char *what, int code, SptError *e)
+{
+    if (lib_ready())
+        return SPT_EXIT_OK;
+    return spt_fail(e, code, "%s: cannot load the image %s: %s", path, what, lib_error);
+}
+
 int image_io_load(const char *path, SptError *e)
 {
-    if (!lib_ready())
-        return spt_fail(e, SPT_EXIT_OUTPUT, "%s: cannot load the image writer: %s", path,
-                        lib_error);
-    return SPT_EXIT_OK;
+    return lib_need(path, "writer", SPT_EXIT_OUTPUT, e);
 }
 
 int image_io_encode(const char *path, const void *pixels, int pixel_type, int width,
                     int height, int channels, const ImageIoAttr *attrs, int attr_count,
                     unsigned char **data, size_t *size, SptError *e)
 {
-    if (!lib_ready())
-        return spt_fail(e, SPT_EXIT_OUTPUT, "%s: cannot load the image writer: %s", path,
-                        lib_error);
-    return lib.oiio_image_encode(path, pixels, pixel_type, width, height, channels, attrs,
-                                 attr_count, data, size, e);
+    int rc = lib_need(path, "writer", SPT_EXIT_OUTPUT, e);
+    return rc ? rc
+              : lib.oiio_image_encode(path, pixels, pixel_type, width, height, channels,
+                                      attrs, attr_count, data, size, e);
 }
 
 int image_io_info(const char *path, ImageIoInfo *info, SptError *e)
 {
-    if (!lib_ready())
-        return spt_fail(e, SPT_EXIT_INPUT, "%s: cannot load the image reader: %s", path,
-                        lib_error);
-    return lib.oiio_image_info(path, info, e);
+    int rc = lib_need(path, "reader", SPT_EXIT_INPUT, e);
+    return rc ? rc : lib.oiio_image_info(path, info, e);
 }
 
 int image_io_read(const char *path, float **pixels, int *width, int *height, int *channels,
                   SptError *e)
 {
-    if (!lib_ready())
-        return spt_fail(e, SPT_EXIT_INPUT, "%s: cannot load the image reader: %s", path,
-                        lib_error);
-    return lib.oiio_image_read(path, pixels, width, height, channels, e);
+    int rc = lib_need(path, "reader", SPT_EXIT_INPUT, e);
+    return rc ? rc : lib.oiio_image_read(path, pixels, width, height, channels, e);
 }
 
 int image_io_attr(const char *path, const char *name, char *out, size_t out_size, SptError *e)
 {
-    if (!lib_ready()) {
-        spt_fail(e, SPT_EXIT_INPUT, "%s: cannot load the image reader: %s", path, lib_error);
-        return -1;
-    }
-    return lib.oiio_image_attr(path, name, out, out_size, e);
+    return lib_need(path, "reader", SPT_EXIT_INPUT, e)
+               ? -1
+               : lib.oiio_image_attr(path, name, out, out_size, e);
+}
+
+/* 0 when the library is loaded, else -1 with an empty img and the reason in why. */
+static int texture_lib_need(TextureImage *img, char *why, size_t why_size)
+{
+    if (lib_ready())
+        return 0;
+    memset(img, 0, sizeof *img);
+    snprintf(why, why_size, "cannot load the image reader: %s", lib_error);
+    return -1;
 }
 
 int texture_io_load_file(const char *path, TextureImage *img, char *why, size_t why_size)
 {
-    if (!lib_ready()) {
-        memset(img, 0, sizeof *img);
-        snprintf(why, why_size, "cannot load the image reader: %s", lib_error);
-        return -1;
-    }
-    return lib.oiio_texture_load_file(path, img, why, why_size);
+    return texture_lib_need(img, why, why_size) ? -1
+                                                : lib.oiio_texture_load_file(path, img, why,
+                                                                             why_size);
 }
 
 int texture_io_load_memory(const void *data, size_t size, const char *mime_type,
                            TextureImage *img, char *why, size_t why_size)
 {
-    if (!lib_ready()) {
-        memset(img, 0, sizeof *img);
-        snprintf(why, why_size, "cannot load the image reader: %s", lib_error);
-        return -1;
-    }
-    return lib.oiio_texture_load_memory(data, size, mime_type, img, why, why_size);
+    return texture_lib_need(img, why, why_size)
+               ? -1
+               : lib.oiio_texture_load_memory(data, size, mime_type, img, why, why_size);
 }
 
 void texture_io_srgb_to_linear(float *texels, size_t texel_count, int channels)
