@@ -20,9 +20,13 @@
  *   delta vertex), xk D (next-event estimation and MIS find those well), and
  *   emitters outside the light selection.
  * - A light path starts on a light picked by the renderer's light selection
- *   (by power; an environment map's share starts it on a disc outside the
- *   scene that covers the surfaces that may be delta, its rays parallel to a
- *   direction of the map's sampling density; a uniform sky's ends it),
+ *   (by power), its first ray aimed at the caustic sphere, the bounding
+ *   sphere of the surfaces that may be delta: an emissive triangle's or a
+ *   point or spot light's uniform within the cone the sphere subtends (lt_aim;
+ *   as the light emits when its point lies within the sphere), a directional
+ *   light's or an environment map's from a disc outside the scene that covers
+ *   the sphere, its rays parallel to the light's direction or to a direction
+ *   of the map's sampling density (a uniform sky's share ends it). It
  *   carries its own four wavelengths (a dispersive refraction keeps only the hero, as camera
  *   paths do), and samples the BSDFs with the camera paths' code (with the
  *   adjoint's factors: no 1/eta^2 of radiance transport, Veach's
@@ -54,6 +58,41 @@ SPT_FN_INLINE void lt_item(uint w, uint *lp, uint *sample, const RenderParams *p
     uint lw = w - p->light_begin;
     *lp = lw % p->light_paths;
     *sample = p->sample_begin + lw / p->light_paths;
+}
+
+/* A light path's first direction from q aimed at the caustic sphere (the
+ * sphere of the surfaces that may be delta, p->caustic_center and radius): only
+ * a path whose first vertex is such a surface goes on, and every ray that meets
+ * one starts within the cone the sphere subtends from q. Fills *d with a
+ * direction uniform in that cone and *omega with the cone's solid angle (the
+ * direction's density is 1 / omega) and returns 1; returns 0 (nothing set)
+ * when there is no sphere or q lies within it or nearly so (sin^2 of the cone's
+ * half angle above SPT_LT_AIM_MAX_S2), where the caller samples the light as
+ * it would without the sphere. src/render/scheduler.c (caustic_share) mirrors
+ * this choice to size the pass. */
+#define SPT_LT_AIM_MAX_S2 0.9f
+SPT_FN_INLINE int lt_aim(const RenderParams *p, float3 q, float u1, float u2, float3 *d, float *omega)
+{
+    float rc = p->caustic_radius;
+    if (!(rc > 0.0f))
+        return 0;
+    float3 v = (float3)(p->caustic_center[0], p->caustic_center[1], p->caustic_center[2]) - q;
+    float dist2 = dot(v, v);
+    float s2 = rc * rc / dist2;
+    if (!(s2 < SPT_LT_AIM_MAX_S2))
+        return 0;
+    /* 1 - cos(theta_max), without cancellation for small cones. */
+    float span = s2 / (1.0f + sqrt(1.0f - s2));
+    float x = u1 * span; /* 1 - cos(theta) */
+    float ct = 1.0f - x;
+    float st = sqrt(fmax(0.0f, x * (2.0f - x)));
+    float phi = 2.0f * SPT_PI * u2;
+    float3 ax = v * rsqrt(dist2);
+    vec3 t_, b_;
+    v3_basis(ax, &t_, &b_);
+    *d = st * cos(phi) * t_ + st * sin(phi) * b_ + ct * ax;
+    *omega = 2.0f * SPT_PI * span;
+    return 1;
 }
 
 /* Starts light path i as work item w (w >= P.light_begin): its wavelengths,
@@ -91,7 +130,28 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
         float3 cr = cross(b - a, c - a);
         float area2 = length(cr);
         const __global GpuMaterial *lm = materials + tri_shade[lt].material;
-        if (area2 > 0.0f) {
+        float3 dg;
+        float omega;
+        if (area2 > 0.0f && lt_aim(&P, q, u3, u4, &dg, &omega)) {
+            /* Aimed at the caustic sphere: the side the direction leaves by
+             * (none when that side does not emit). */
+            float3 ng = cr / area2;
+            float cn = dot(dg, ng);
+            int two = (lm->flags & SPT_MAT_DOUBLE_SIDED_EMISSION) != 0;
+            if (cn > 0.0f || (two && cn < 0.0f)) {
+                float3 n = cn > 0.0f ? ng : -ng;
+                d = dg;
+                TexCtx ltc = {{(float2)(0.0f), (float2)(0.0f)}, {(float2)(0.0f), (float2)(0.0f)},
+                              {(float2)(0.0f), (float2)(0.0f)}};
+                if (material_uses_uv(lm))
+                    ltc = tex_ctx(lm, lt, bary.y, bary.z, a, b, c, ng, d, 0.0f, tri_shade, vtx_uv, vtx_uv1);
+                float4 le = material_emission(lm, &ltc, lam, fabs(cn), lt, bary.y, bary.z, tri_shade,
+                                              vtx_color, spectra, textures, texels);
+                /* Le cos / (prob / area  1 / omega) */
+                power = le * (fabs(cn) * omega * 0.5f * area2 / prob);
+                o = offset_origin(q, n);
+            }
+        } else if (area2 > 0.0f) {
             float3 ng = cr / area2, n = ng;
             float side_p = 1.0f;
             if (lm->flags & SPT_MAT_DOUBLE_SIDED_EMISSION) {
@@ -124,15 +184,36 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
         float3 ax = (float3)(l->dir[0], l->dir[1], l->dir[2]);
         vec3 t_, b_;
         v3_basis(ax, &t_, &b_);
+        float3 cs = (float3)(P.scene_center[0], P.scene_center[1], P.scene_center[2]);
+        float3 pos = (float3)(l->pos[0], l->pos[1], l->pos[2]);
+        float3 dg;
+        float omega;
         if (l->type == SPT_PUNCTUAL_DIRECTIONAL) {
-            /* Parallel rays from a disc of the scene's radius, tangent to its
+            /* Parallel rays from a disc perpendicular to the light: of the
+             * caustic sphere's radius Rc around its centre cc, outside the
+             * scene's bounding sphere (as an environment map's, below), or
+             * without a caustic sphere of the scene's radius, tangent to its
              * bounding sphere on the side the light comes from: E pi R^2 / prob. */
             float R = P.scene_radius;
+            float3 c = cs;
+            float back = R;
+            if (P.caustic_radius > 0.0f) {
+                c = (float3)(P.caustic_center[0], P.caustic_center[1], P.caustic_center[2]);
+                back = P.scene_radius + length(c - cs);
+                R = P.caustic_radius;
+            }
             vec3 disk = spt_sample_concentric_disk(u3, u4);
-            float3 c = (float3)(P.scene_center[0], P.scene_center[1], P.scene_center[2]);
-            o = c + R * (disk.x * t_ + disk.y * b_) - ax * R;
+            o = c + R * (disk.x * t_ + disk.y * b_) - ax * back;
             d = ax;
             power = spd * (SPT_PI * R * R / prob);
+        } else if (lt_aim(&P, pos, u3, u4, &dg, &omega) &&
+                   (l->type != SPT_PUNCTUAL_SPOT ||
+                    omega < 2.0f * SPT_PI * (1.0f - fmax(l->cos_outer, -1.0f)))) {
+            /* Aimed at the caustic sphere (a spot's only when that cone is the
+             * smaller): I falloff omega / prob. */
+            o = pos;
+            d = dg;
+            power = spd * (light_spot_falloff(l, dot(dg, ax)) * omega / prob);
         } else {
             o = (float3)(l->pos[0], l->pos[1], l->pos[2]);
             /* Point: uniform over the sphere; spot: uniform within the outer cone,

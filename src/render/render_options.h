@@ -127,7 +127,9 @@ enum { SPT_CAUSTICS_AUTO = 0, SPT_CAUSTICS_OFF = 1, SPT_CAUSTICS_ON = 2 };
       SPT_LIGHT_PATHS_MAX, SPT_OPT_IMAGE | SPT_OPT_MPI | SPT_OPT_POSITIVE | SPT_OPT_FINITE,     \
       "expected a number of light paths per camera path above 0 and at most 8",                 \
       "light paths per camera path of the light tracing (default\n"                            \
-      "2): fewer where caustics are a small part of the image")                                 \
+      "2), counted as if sent from the lights unaimed: the pass aims\n"                       \
+      "them at the glass and mirrors, so it traces fewer; lower it\n"                         \
+      "where caustics are a small part of the image")                                           \
     X(CLI, STR, const char *, checkpoint, "checkpoint", 0, "FILE", NULL, 0, 0, 0, "",           \
       "write the resumable film (an EXR) every --checkpoint-every\n"                           \
       "seconds, at the end and when stopped by a signal")                                      \

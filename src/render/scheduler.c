@@ -315,8 +315,9 @@ static int material_may_be_delta(const GpuMaterial *m)
 }
 
 /* The bounding sphere of the triangles whose material may take a delta lobe
- * (p->caustic_center, p->caustic_radius; radius 0 when there are none): the
- * box around their vertices, its half diagonal widened by float rounding. A
+ * (p->caustic_center, p->caustic_radius; radius 0 when there are none): about
+ * the centre of the box around their vertices, through the farthest of them,
+ * widened by float rounding. A
  * light path from the environment whose first vertex takes a delta lobe
  * crosses that sphere, so its rays need to cover no more than it. */
 static void caustic_bounds(RenderParams *p, const GpuScene *g)
@@ -337,13 +338,138 @@ static void caustic_bounds(RenderParams *p, const GpuScene *g)
     }
     if (!any)
         return;
-    double r2 = 0, m = 0;
+    double m = 0;
     for (int k = 0; k < 3; k++) {
         p->caustic_center[k] = 0.5f * (lo[k] + hi[k]);
-        r2 += 0.25 * ((double)hi[k] - lo[k]) * ((double)hi[k] - lo[k]);
         m = fmax(m, fmax(fabs((double)lo[k]), fabs((double)hi[k])));
     }
+    /* The farthest vertex from the box's centre (a sphere's mesh gets its own
+     * radius, not the box's half diagonal, sqrt(3) times as long). */
+    double r2 = 0;
+    for (uint32_t i = 0; i < g->bvh.prim_count; i++) {
+        const TriShade *ts = &g->tri_shade[i];
+        if (!material_may_be_delta(&g->materials[ts->material]))
+            continue;
+        for (int v = 0; v < 3; v++) {
+            double d2 = 0;
+            for (int k = 0; k < 3; k++) {
+                double x = (double)g->vtx_pos[3 * (size_t)ts->v[v] + k] - p->caustic_center[k];
+                d2 += x * x;
+            }
+            r2 = fmax(r2, d2);
+        }
+    }
     p->caustic_radius = (float)(sqrt(r2) * (1.0 + 1e-5) + 1e-5 * m + 1e-6);
+}
+
+/* Whether the ray from o along unit d meets the sphere (c, r), or starts in it. */
+static int ray_meets_sphere(vec3 o, vec3 d, vec3 c, float r)
+{
+    vec3 v = v3_sub(c, o);
+    float v2 = v3_dot(v, v), t = v3_dot(v, d);
+    return v2 <= r * r || (t > 0.0f && v2 - t * t <= r * r);
+}
+
+/* Whether lt_aim (kernels/device/light_trace.h) aims a light path from q at
+ * the caustic sphere, and the cone's solid angle. */
+static int aims(const RenderParams *p, vec3 q, float *omega)
+{
+    if (!(p->caustic_radius > 0.0f))
+        return 0;
+    vec3 v = v3_sub(v3(p->caustic_center[0], p->caustic_center[1], p->caustic_center[2]), q);
+    float s2 = p->caustic_radius * p->caustic_radius / v3_dot(v, v);
+    if (!(s2 < 0.9f))
+        return 0;
+    *omega = 2.0f * SPT_PI * (s2 / (1.0f + sqrtf(1.0f - s2)));
+    return 1;
+}
+
+static float share_u(uint64_t *state)
+{
+    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return (float)((z ^ (z >> 31)) >> 40) * 0x1p-24f;
+}
+
+/* The light-tracing pass sizing: the light paths' first rays are aimed at the
+ * caustic sphere (lt_aim), where sampling the lights' emission as such would
+ * send most of them elsewhere, to end at their first vertex. --light-paths R
+ * asks for as many paths that head for the sphere as R light paths per camera
+ * path sampled without aiming would give: the pass traces R s per camera path,
+ * s = (the share of unaimed paths whose first ray meets the sphere) / (the
+ * share of the pass's paths that do: all that are aimed, the rest as
+ * unaimed). Estimated from SHARE_N light samples drawn as lt_start draws them
+ * (stratified over the light selection, fixed numbers: the same on every
+ * rank and device); 1 without a caustic sphere or a light that reaches it. */
+#define SHARE_N 16384
+static double caustic_share(const RenderParams *p, const RenderLights *L, const GpuScene *g)
+{
+    if (!(p->caustic_radius > 0.0f) || L->select.n == 0)
+        return 1.0;
+    vec3 cc = v3(p->caustic_center[0], p->caustic_center[1], p->caustic_center[2]);
+    vec3 cs = v3(p->scene_center[0], p->scene_center[1], p->scene_center[2]);
+    float rc = p->caustic_radius;
+    uint64_t st = 0x5eed5eedull;
+    double old_hits = 0, new_hits = 0;
+    for (int k = 0; k < SHARE_N; k++) {
+        float prob;
+        int e = spt_discrete_sample(L->select.cdf, L->select.n, ((float)k + share_u(&st)) / SHARE_N, &prob, NULL);
+        float u1 = share_u(&st), u2 = share_u(&st), u3 = share_u(&st), u4 = share_u(&st), u5 = share_u(&st);
+        float omega;
+        if (e < 0 || !(prob > 0.0f))
+            continue;
+        if ((uint32_t)e < g->emitter_count) {
+            const TriShade *ts = &g->tri_shade[g->emitters[e]];
+            vec3 a = v3_load(g->vtx_pos + 3 * (size_t)ts->v[0]);
+            vec3 b = v3_load(g->vtx_pos + 3 * (size_t)ts->v[1]);
+            vec3 c = v3_load(g->vtx_pos + 3 * (size_t)ts->v[2]);
+            vec3 cr = v3_cross(v3_sub(b, a), v3_sub(c, a));
+            float area2 = v3_length(cr);
+            if (!(area2 > 0.0f))
+                continue;
+            vec3 q = spt_sample_triangle(a, b, c, u1, u2);
+            vec3 n = v3_scale(cr, 1.0f / area2);
+            if ((g->materials[ts->material].flags & SPT_MAT_DOUBLE_SIDED_EMISSION) && u5 < 0.5f)
+                n = v3_scale(n, -1.0f);
+            vec3 t_, b_;
+            v3_basis(n, &t_, &b_);
+            vec3 l = spt_sample_cosine_hemisphere(u3, u4);
+            vec3 d = v3_add(v3_add(v3_scale(t_, l.x), v3_scale(b_, l.y)), v3_scale(n, l.z));
+            int hit = ray_meets_sphere(q, v3_normalize(d), cc, rc);
+            old_hits += hit;
+            new_hits += aims(p, q, &omega) ? 1 : hit;
+        } else if ((uint32_t)e < g->emitter_count + g->light_count) {
+            const GpuLight *l = &g->lights[(uint32_t)e - g->emitter_count];
+            vec3 ax = v3(l->dir[0], l->dir[1], l->dir[2]), t_, b_;
+            v3_basis(ax, &t_, &b_);
+            if (l->type == SPT_PUNCTUAL_DIRECTIONAL) {
+                vec3 disk = spt_sample_concentric_disk(u3, u4);
+                float R = p->scene_radius;
+                vec3 o = v3_add(v3_add(cs, v3_scale(v3_add(v3_scale(t_, disk.x), v3_scale(b_, disk.y)), R)),
+                                v3_scale(ax, -R));
+                old_hits += ray_meets_sphere(o, ax, cc, rc);
+                new_hits += 1;
+                continue;
+            }
+            vec3 pos = v3(l->pos[0], l->pos[1], l->pos[2]);
+            float cmin = l->type == SPT_PUNCTUAL_SPOT ? fmaxf(l->cos_outer, -1.0f) : -1.0f;
+            float ct = 1.0f - u3 * (1.0f - cmin), sn = sqrtf(fmaxf(0.0f, 1.0f - ct * ct));
+            float phi = 2.0f * SPT_PI * u4;
+            vec3 d = v3_add(v3_add(v3_scale(t_, sn * cosf(phi)), v3_scale(b_, sn * sinf(phi))), v3_scale(ax, ct));
+            int hit = ray_meets_sphere(pos, v3_normalize(d), cc, rc);
+            old_hits += hit;
+            new_hits += aims(p, pos, &omega) && (l->type != SPT_PUNCTUAL_SPOT ||
+                                                 omega < 2.0f * SPT_PI * (1.0f - cmin))
+                            ? 1
+                            : hit;
+        } else if (L->env.env.kind == SPT_ENV_MAP) {
+            /* Already aimed (its disc covers the sphere). */
+            old_hits += 1;
+            new_hits += 1;
+        }
+    }
+    return new_hits > 0 ? old_hits / new_hits : 1.0;
 }
 
 /* Whether the light-tracing pass runs (--caustics): on, or auto and the scene
@@ -428,11 +554,14 @@ static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *
     for (int k = 0; k < 3; k++)
         p->scene_center[k] = g->scene_center[k];
     caustic_bounds(p, g);
-    /* rs->light_paths (0: the default) light paths per camera path: that many
-     * times the pixels per sample index, rounded, at least one. */
+    /* rs->light_paths (0: the default) light paths per camera path, times
+     * caustic_share: that many times the pixels per sample index, rounded, at
+     * least one. */
     if (caustics_enabled(rs, L, g, cam)) {
         double r = rs->light_paths > 0.0f ? (double)rs->light_paths : SPT_LIGHT_PATHS_DEFAULT;
-        double n = floor(fmin(r, SPT_LIGHT_PATHS_MAX) * (double)rs->width * (double)rs->height + 0.5);
+        double n = floor(fmin(r, SPT_LIGHT_PATHS_MAX) * caustic_share(p, L, g) * (double)rs->width *
+                             (double)rs->height +
+                         0.5);
         p->light_paths = n < 1.0 ? 1u : (uint32_t)n;
     }
     p->lens_radius = rs->aperture;
