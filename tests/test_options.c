@@ -168,6 +168,9 @@ static void test_values_reach_their_fields(void **state)
     assert_int_equal(a.rs.spp, 1 << 24);
     assert_true(a.rs.time_limit == 2.0);
     assert_int_equal(a.rs.sampler, SPT_SAMPLER_SOBOL); /* the default */
+    char *zs[] = {"render", "--sampler", "ZSobol", SCENE};
+    assert_int_equal(render_args_parse(&a, 4, zs), SPT_EXIT_OK);
+    assert_int_equal(a.rs.sampler, SPT_SAMPLER_ZSOBOL);
 }
 
 /* Values outside a row's range are refused with a usage error. */
@@ -180,7 +183,7 @@ static void test_bad_values(void **state)
         {"--time", "0"},         {"--exposure", "65"},   {"--env-intensity", "-1"},
         {"--aperture", "inf"},   {"--env-rotation", "nan"}, {"--checkpoint-every", "-1"},
         {"--tonemap", "aces"},   {"--aov", "albedo,alpha"}, {"--spectral", "0"},
-                                 {"--sampler", "zsobol"}, {"--sampler", ""},
+                                 {"--sampler", "zsobolx"}, {"--sampler", ""},
         {"--light-paths", "0"},  {"--light-paths", "-1"}, {"--light-paths", "8.5"},
         {"--light-paths", "nan"}, {"--light-paths", "inf"}, {"--light-paths", "1/2"},
     };

@@ -77,7 +77,20 @@ static void test_default_sky(void **state)
  * noise. Face pixels are those below 0.75 whose 8 neighbours are too (the
  * silhouette mixes in the sky). Returns the mean value and the mean squared
  * error per channel of one render with the given sampler. */
+static int grey_box_noise_blocks(spt_u32 sampler, int w, int spp, double mean[3], double mse[3],
+                                 double block_mse[3]);
+
 static int grey_box_noise(spt_u32 sampler, int w, int spp, double mean[3], double mse[3])
+{
+    return grey_box_noise_blocks(sampler, w, spp, mean, mse, NULL);
+}
+
+/* As grey_box_noise, and in block_mse (unless NULL) the mean squared error of
+ * the means of the aligned 2 x 2 pixel blocks whose pixels are all face
+ * pixels: a quarter of mse when neighbouring pixels' errors are independent,
+ * less when they cancel. */
+static int grey_box_noise_blocks(spt_u32 sampler, int w, int spp, double mean[3], double mse[3],
+                                 double block_mse[3])
 {
     Scene s;
     SptError e = {0};
@@ -108,8 +121,32 @@ static int grey_box_noise(spt_u32 sampler, int w, int spp, double mean[3], doubl
                 mse[c] += (v - 0.5) * (v - 0.5);
             }
         }
+    int nb = 0;
+    if (block_mse) {
+        for (int c = 0; c < 3; c++)
+            block_mse[c] = 0;
+        for (int y = 0; !rc && y + 1 < w; y += 2)
+            for (int x = 0; x + 1 < w; x += 2) {
+                int face = 1;
+                for (int dy = -1; dy <= 2; dy++)
+                    for (int dx = -1; dx <= 2; dx++) {
+                        int yy = y + dy, xx = x + dx;
+                        face &= yy >= 0 && yy < w && xx >= 0 && xx < w && rgb[3 * (yy * w + xx) + 1] < 0.75f;
+                    }
+                if (!face)
+                    continue;
+                nb++;
+                for (int c = 0; c < 3; c++) {
+                    double v = 0.25 * (rgb[3 * (y * w + x) + c] + rgb[3 * (y * w + x + 1) + c] +
+                                       rgb[3 * ((y + 1) * w + x) + c] + rgb[3 * ((y + 1) * w + x + 1) + c]);
+                    block_mse[c] += (v - 0.5) * (v - 0.5);
+                }
+            }
+        for (int c = 0; c < 3; c++)
+            block_mse[c] /= nb > 0 ? nb : 1;
+    }
     free(rgb);
-    if (rc || n < w * w / 2)
+    if (rc || n < w * w / 2 || (block_mse && nb < w * w / 16))
         return -1;
     for (int c = 0; c < 3; c++) {
         mean[c] /= n;
@@ -139,6 +176,31 @@ static void test_sampler_noise(void **state)
         assert_close(m_ind[c], 0.5, 0.004);
         assert_true(e_sob[c] <= 0.5 * e_ind[c]);
         assert_true(sqrt(e_sob[c]) <= 0.0055);
+    }
+}
+
+/* --sampler zsobol: unbiased and about as good per pixel as the Sobol sampler
+ * at 4 samples per pixel (squared error at most 1.3 times; measured 1.06,
+ * 1.14, 0.98), and its errors cancel between neighbours: the means of 2 x 2
+ * pixel blocks keep at most 0.6 times the squared error that the Sobol
+ * sampler's keep (whose pixels' errors are independent: a quarter of a
+ * pixel's; measured 0.30, 0.29 and 0.44 in red, green and blue). */
+static void test_zsobol_blue_noise(void **state)
+{
+    (void)state;
+    double m_z[3], e_z[3], b_z[3], m_s[3], e_s[3], b_s[3], m_i[3], e_i[3];
+    /* The independent sampler's figure is printed for comparison: at 4
+     * samples neither Sobol form beats it per pixel on this scene. */
+    assert_int_equal(grey_box_noise_blocks(SPT_SAMPLER_ZSOBOL, 64, 4, m_z, e_z, b_z), 0);
+    assert_int_equal(grey_box_noise_blocks(SPT_SAMPLER_SOBOL, 64, 4, m_s, e_s, b_s), 0);
+    assert_int_equal(grey_box_noise(SPT_SAMPLER_INDEPENDENT, 64, 4, m_i, e_i), 0);
+    for (int c = 0; c < 3; c++) {
+        printf("grey box 4 spp, channel %d: mean %.5f (zsobol) %.5f (sobol); per-pixel std %.5f (zsobol) "
+               "%.5f (sobol) %.5f (independent); 2x2 block mean std %.5f (zsobol) %.5f (sobol)\n",
+               c, m_z[c], m_s[c], sqrt(e_z[c]), sqrt(e_s[c]), sqrt(e_i[c]), sqrt(b_z[c]), sqrt(b_s[c]));
+        assert_close(m_z[c], 0.5, 0.004);
+        assert_true(e_z[c] <= 1.3 * e_s[c]);
+        assert_true(b_z[c] <= 0.6 * b_s[c]);
     }
 }
 
@@ -445,6 +507,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_default_sky),
         cmocka_unit_test(test_sampler_noise),
+        cmocka_unit_test(test_zsobol_blue_noise),
         cmocka_unit_test(test_punctual_lights),
         cmocka_unit_test(test_named_light_spectra),
         cmocka_unit_test(test_env_map),

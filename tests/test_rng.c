@@ -10,7 +10,7 @@
 #include "shared/sampling.h"
 
 /* Chi-square tests in this binary, for the Sidak correction. */
-#define RNG_CHI2_TESTS 10
+#define RNG_CHI2_TESTS 11
 
 /* Fails with the chi-square report unless r passed. */
 static void rng_require(const Chi2Result *r)
@@ -466,6 +466,120 @@ static void test_sobol_scrambles_differ(void **state)
     assert_true(same < 4);
 }
 
+/* ---- ZSobol ------------------------------------------------------------------ */
+
+/* Dims (d, d + 1) of sample s of pixel (x, y) under ZSobol, 2^l samples per
+ * pixel, in a 64 x 48 image. */
+static void zs_point(spt_u32 seed, spt_u32 x, spt_u32 y, spt_u32 l, spt_u32 s, spt_u32 d, float *u, float *v)
+{
+    *u = spt_zsobol_1d(seed, x, y, 64u, 48u, l, s, d);
+    *v = spt_zsobol_1d(seed, x, y, 64u, 48u, l, s, d + 1u);
+}
+
+/* A pixel's 2^l samples are a (0,l,2)-net in every pair of dims, and so are
+ * their first 2^k for k < l of l's parity (the Sobol index's low base-4
+ * digits, below them the single bit of an odd l, vary first), for several
+ * pixels, seeds, l and pair groups. */
+static void test_zsobol_pixel_nets(void **state)
+{
+    (void)state;
+    static float x[1 << 10], y[1 << 10];
+    char why[200];
+    static const spt_u32 px[3][2] = {{0u, 0u}, {5u, 3u}, {63u, 47u}};
+    static const spt_u32 dims[5] = {SPT_DIM_PIXEL_X, SPT_DIM_LENS_U, 6u, 10u, 6u + 8u * 7u + 4u};
+    for (spt_u32 l = 0; l <= 10u; l++)
+        for (int p = 0; p < 3; p++)
+            for (int j = 0; j < 5; j++) {
+                for (spt_u32 s = 0; s < (1u << l); s++)
+                    zs_point(7u + (spt_u32)p, px[p][0], px[p][1], l, s, dims[j], &x[s], &y[s]);
+                if (!is_02_net(x, y, (int)l, why, sizeof why))
+                    fail_msg("pixel (%u, %u), 2^%u samples, dims %u-%u: %s", px[p][0], px[p][1], l, dims[j],
+                             dims[j] + 1u, why);
+                for (spt_u32 k = l & 1u; k < l; k += 2u)
+                    if (!is_02_net(x, y, (int)k, why, sizeof why))
+                        fail_msg("pixel (%u, %u), 2^%u samples, the first 2^%u, dims %u-%u: %s", px[p][0],
+                                 px[p][1], l, k, dims[j], dims[j] + 1u, why);
+            }
+}
+
+/* Ahmed and Wonka's property: the samples of an aligned block of 2^b x 2^b
+ * pixels together form a (0, l + 2b, 2)-net, so neighbouring pixels fill each
+ * other's gaps (blue-noise error); at one sample per pixel, for example, each
+ * 4 x 4 block's 16 pixels hold one point in each 1/4 x 1/4 square. */
+static void test_zsobol_pixel_blocks_are_nets(void **state)
+{
+    (void)state;
+    static float x[1 << 10], y[1 << 10];
+    char why[200];
+    for (spt_u32 l = 0; l <= 3u; l++)
+        for (spt_u32 b = 1; b <= 3u; b++) {
+            spt_u32 side = 1u << b;
+            for (spt_u32 by = 0; by < 48u; by += side)
+                for (spt_u32 bx = 0; bx < 64u; bx += side)
+                    for (spt_u32 d = 0; d < 12u; d += 2u) {
+                        spt_u32 n = 0;
+                        for (spt_u32 py = by; py < by + side; py++)
+                            for (spt_u32 pxl = bx; pxl < bx + side; pxl++)
+                                for (spt_u32 s = 0; s < (1u << l); s++, n++)
+                                    zs_point(3u, pxl, py, l, s, d, &x[n], &y[n]);
+                        if (!is_02_net(x, y, (int)(l + 2u * b), why, sizeof why))
+                            fail_msg("block of %u x %u pixels at (%u, %u), 2^%u samples, dims %u-%u: %s", side,
+                                     side, bx, by, l, d, d + 1u, why);
+                    }
+        }
+}
+
+/* Every pixel's first sample is a uniform random point at 2^20 samples per
+ * pixel (as a --time render's cap may make it: the pixel's bits lie far above
+ * the sample's there, and only the digit permutations keep the pixels apart). */
+static int zs_first_point(void *ctx, uint32_t i, double p[3])
+{
+    (void)ctx;
+    p[0] = spt_zsobol_1d(1u, i % 256u, i / 256u, 256u, 256u, 20u, 0u, SPT_DIM_PIXEL_X);
+    p[1] = spt_zsobol_1d(1u, i % 256u, i / 256u, 256u, 256u, 20u, 0u, SPT_DIM_PIXEL_Y);
+    return 1;
+}
+
+/* The kernels' form (spt_sampler_for, spt_sampler_pair and spt_sampler_1d)
+ * gives spt_zsobol_1d's values, and the first samples of 2^16 pixels pass a
+ * chi-square for uniformity. */
+static void test_zsobol_sampler(void **state)
+{
+    (void)state;
+    RenderParams p;
+    memset(&p, 0, sizeof p);
+    p.width = 37;
+    p.height = 23;
+    p.seed = 99u;
+    p.sampler = SPT_SAMPLER_ZSOBOL;
+    p.zsobol_log2spp = 5u;
+    p.zsobol_digits = spt_zsobol_digits(37u, 23u, 5u);
+    for (spt_u32 pixel = 0; pixel < 37u * 23u; pixel += 17u)
+        for (spt_u32 s = 0; s < 32u; s += 3u) {
+            SptSampler smp = spt_sampler_for(&p, pixel, s);
+            for (spt_u32 d = 0; d < 40u; d += 2u) {
+                float u, v;
+                spt_sampler_pair(smp, d, &u, &v);
+                float eu = spt_zsobol_1d(99u, pixel % 37u, pixel / 37u, 37u, 23u, 5u, s, d);
+                float ev = spt_zsobol_1d(99u, pixel % 37u, pixel / 37u, 37u, 23u, 5u, s, d + 1u);
+                assert_true(u == eu && v == ev);
+                assert_true(spt_sampler_1d(smp, d) == eu && spt_sampler_1d(smp, d + 1u) == ev);
+            }
+        }
+    Chi2Grid g = {0};
+    g.domain = CHI2_PLANE;
+    g.x1 = g.y1 = 1.0;
+    g.res_x = g.res_y = 16;
+    g.num_tests = RNG_CHI2_TESTS;
+    g.pdf = uniform_pdf;
+    Chi2Result r;
+    g.name = "ZSobol: first sample of 2^16 pixels at 2^20 samples per pixel";
+    g.samples = 1u << 16;
+    g.sample = zs_first_point;
+    chi2_grid_run(&g, &r);
+    rng_require(&r);
+}
+
 /* ---- Host and device agree ------------------------------------------------------ */
 
 static const char device_src[] =
@@ -475,11 +589,13 @@ static const char device_src[] =
     "                          __global const float *cdf, uint ncdf)\n"
     "{\n"
     "    uint i = get_global_id(0);\n"
-    "    bits[4 * i + 0] = spt_rand_bits(spt_rng_key(7u, i * 3u, i / 5u), i % 41u);\n"
-    "    bits[4 * i + 1] = spt_sobol_owen_u32(i, i % SPT_SOBOL_DIMS, 0x9e3779b9u * i);\n"
-    "    bits[4 * i + 2] = as_uint(spt_sample_1d(3u, i / 64u, i % 64u, i % 13u));\n"
+    "    bits[5 * i + 0] = spt_rand_bits(spt_rng_key(7u, i * 3u, i / 5u), i % 41u);\n"
+    "    bits[5 * i + 1] = spt_sobol_owen_u32(i, i % SPT_SOBOL_DIMS, 0x9e3779b9u * i);\n"
+    "    bits[5 * i + 2] = as_uint(spt_sample_1d(3u, i / 64u, i % 64u, i % 13u));\n"
     "    float prob, ur;\n"
-    "    bits[4 * i + 3] = (uint)spt_discrete_sample(cdf, ncdf, spt_rand(1u, i, 0u, 0u), &prob, &ur);\n"
+    "    bits[5 * i + 3] = (uint)spt_discrete_sample(cdf, ncdf, spt_rand(1u, i, 0u, 0u), &prob, &ur);\n"
+    "    bits[5 * i + 4] = as_uint(spt_zsobol_1d(3u, i % 37u, i / 37u, 37u, 111u, i % 7u,\n"
+    "                                            (i * 13u) & ((1u << (i % 7u)) - 1u), i % 13u));\n"
     "    float u1 = spt_rand(2u, i, 0u, 0u), u2 = spt_rand(2u, i, 0u, 1u);\n"
     "    vec3 c = spt_sample_cosine_hemisphere(u1, u2);\n"
     "    vec3 s = spt_sample_uniform_sphere(u1, u2);\n"
@@ -491,9 +607,12 @@ static const char device_src[] =
     "}\n";
 
 /* The same computations as k_rng_check, on the host, for item i. */
-static void host_check(spt_u32 i, const float *cdf, spt_u32 ncdf, spt_u32 bits[4], float f[12])
+static void host_check(spt_u32 i, const float *cdf, spt_u32 ncdf, spt_u32 bits[5], float f[12])
 {
     float u = spt_sample_1d(3u, i / 64u, i % 64u, i % 13u);
+    float z = spt_zsobol_1d(3u, i % 37u, i / 37u, 37u, 111u, i % 7u, (i * 13u) & ((1u << (i % 7u)) - 1u),
+                            i % 13u);
+    memcpy(&bits[4], &z, sizeof z);
     bits[0] = spt_rand_bits(spt_rng_key(7u, i * 3u, i / 5u), i % 41u);
     bits[1] = spt_sobol_owen_u32(i, i % SPT_SOBOL_DIMS, 0x9e3779b9u * i);
     memcpy(&bits[2], &u, sizeof u);
@@ -525,7 +644,7 @@ static void run_device_check(ClDevice *d, const char *options, float float_tol)
     cl_kernel k = clCreateKernel(prog, "k_rng_check", &err);
     assert_int_equal(err, CL_SUCCESS);
     cl_mem bits_buf = NULL, f_buf = NULL, cdf_buf = NULL;
-    assert_int_equal(cl_buffer_create(d, "bits", CL_MEM_WRITE_ONLY, sizeof(cl_uint) * 4 * N, NULL,
+    assert_int_equal(cl_buffer_create(d, "bits", CL_MEM_WRITE_ONLY, sizeof(cl_uint) * 5 * N, NULL,
                                       &bits_buf, &e),
                      0);
     assert_int_equal(cl_buffer_create(d, "floats", CL_MEM_WRITE_ONLY, sizeof(float) * 12 * N,
@@ -542,7 +661,7 @@ static void run_device_check(ClDevice *d, const char *options, float float_tol)
     size_t global = N;
     assert_int_equal(clEnqueueNDRangeKernel(d->queue, k, 1, NULL, &global, NULL, 0, NULL, NULL),
                      CL_SUCCESS);
-    static cl_uint bits[4 * N];
+    static cl_uint bits[5 * N];
     static float f[12 * N];
     assert_int_equal(clEnqueueReadBuffer(d->queue, bits_buf, CL_TRUE, 0, sizeof bits, bits, 0,
                                          NULL, NULL),
@@ -557,13 +676,13 @@ static void run_device_check(ClDevice *d, const char *options, float float_tol)
     clReleaseProgram(prog);
     float worst = 0.0f;
     for (spt_u32 i = 0; i < N; i++) {
-        spt_u32 hb[4];
+        spt_u32 hb[5];
         float hf[12];
         host_check(i, cdf, NCDF, hb, hf);
-        for (int j = 0; j < 4; j++)
-            if (bits[4 * i + j] != hb[j])
+        for (int j = 0; j < 5; j++)
+            if (bits[5 * i + j] != hb[j])
                 fail_msg("options \"%s\": item %u, integer output %d: device 0x%08x, host 0x%08x",
-                         options, i, j, bits[4 * i + j], hb[j]);
+                         options, i, j, bits[5 * i + j], hb[j]);
         for (int j = 0; j < 12; j++) {
             /* Output 2, the cosine-hemisphere z = sqrt(1 - x^2 - y^2), is
              * compared through z^2: near the horizon sqrt magnifies an error
@@ -624,6 +743,9 @@ int main(void)
         cmocka_unit_test(test_sample_pair_matches_1d),
         cmocka_unit_test(test_sobol_prefixes_are_nets),
         cmocka_unit_test(test_sobol_1d_stratified),
+        cmocka_unit_test(test_zsobol_pixel_nets),
+        cmocka_unit_test(test_zsobol_pixel_blocks_are_nets),
+        cmocka_unit_test(test_zsobol_sampler),
         cmocka_unit_test(test_sobol_converges_faster),
         cmocka_unit_test(test_sobol_scrambles_differ),
         cmocka_unit_test(test_device_matches_host),

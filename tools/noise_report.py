@@ -3,7 +3,7 @@
 under the default sky, and the relMSE of a scene against a reference render.
 
     python3 tools/noise_report.py grey [--spectrace BIN] [--size 128] [--spp 256]
-        [--seeds 4] [--sampler sobol|independent]
+        [--seeds 4] [--sampler sobol|zsobol|independent]
     python3 tools/noise_report.py relmse REF.exr A.exr [B.exr ...]
 
 grey: renders tests/data/scenes/grey_box_sky.gltf (a Lambertian cube of albedo
@@ -121,7 +121,7 @@ def main():
     g.add_argument("--size", type=int, default=128)
     g.add_argument("--spp", type=int, default=256)
     g.add_argument("--seeds", type=int, default=4)
-    g.add_argument("--sampler", default="sobol", choices=("sobol", "independent"))
+    g.add_argument("--sampler", default="sobol", choices=("sobol", "zsobol", "independent"))
     r = sub.add_parser("relmse", help="relMSE of images against a reference")
     r.add_argument("ref")
     r.add_argument("images", nargs="+")

@@ -48,6 +48,22 @@
  * sample index therefore gives well spread light, BSDF and roulette samples at
  * every bounce, not only well spread pixel positions.
  *
+ * The ZSobol sampler (SPT_SAMPLER_ZSOBOL, `--sampler zsobol`; pbrt-v4's
+ * ZSobolSampler, after Ahmed and Wonka 2020, "Screen-Space Blue-Noise
+ * Diffusion of Monte Carlo Sampling Error via Hierarchical Ordering of
+ * Pixels") numbers the samples of the whole image along a Morton curve: sample
+ * s of pixel (x, y) is index morton(x, y) 2^L + s of one Sobol sequence, L =
+ * log2 of the samples per pixel rounded up (so the count must be known before
+ * rendering), and each base-4 digit of that index is permuted by a hash of the
+ * digits above it and of the pair group, which keeps every aligned block of 4^j
+ * indices an aligned block of Sobol points. A pixel's 2^L samples are then a
+ * (0,L,2)-net in each pair of dims, and so are the samples of each aligned
+ * 2^j x 2^j block of pixels together: neighbouring pixels' errors are
+ * anti-correlated, noise of a high frequency (blue), which the eye and a
+ * denoiser average away better. Each pair group g takes Sobol dims 0-1 at its
+ * own permuted index, the values Owen-scrambled by a hash of (seed, g, the
+ * pixel's 8 x 8 tile).
+ *
  * The independent sampler (SPT_SAMPLER_INDEPENDENT, `--sampler independent`)
  * takes every dim from spt_rand instead: the reference the Sobol sampler is
  * measured against. */
@@ -353,12 +369,137 @@ SPT_FN float spt_sample_wavelength_u(spt_u32 pixel_key, spt_u32 sample)
     return spt_sobol_owen(sample, 0u, spt_hash_u32(pixel_key ^ 2u));
 }
 
-/* What the kernels need to draw any dim of one sample with either sampler. */
+/* ---- ZSobol ------------------------------------------------------------------ */
+
+/* The 24 permutations of the base-4 digits {0, 1, 2, 3} in lexicographic
+ * order, each as four 2-bit fields: digit d goes to field d. */
+SPT_CONSTANT spt_u32 SPT_ZSOBOL_PERMS[24] = {0xe4u, 0xb4u, 0xd8u, 0x78u, 0x9cu, 0x6cu, 0xe1u, 0xb1u, 0xc9u, 0x39u, 0x8du, 0x2du, 0xd2u, 0x72u, 0xc6u, 0x36u, 0x4eu, 0x1eu, 0x93u, 0x63u, 0x87u, 0x27u, 0x4bu, 0x1bu};
+
+/* Bits 0..15 of v spread to the even bits of the result. */
+SPT_FN spt_u32 spt_spread_bits(spt_u32 v)
+{
+    v &= 0x0000ffffu;
+    v = (v | (v << 8)) & 0x00ff00ffu;
+    v = (v | (v << 4)) & 0x0f0f0f0fu;
+    v = (v | (v << 2)) & 0x33333333u;
+    v = (v | (v << 1)) & 0x55555555u;
+    return v;
+}
+
+/* The Morton index of pixel (x, y), both below 2^16: x in the even bits. */
+SPT_FN spt_u32 spt_morton2(spt_u32 x, spt_u32 y)
+{
+    return spt_spread_bits(x) | (spt_spread_bits(y) << 1);
+}
+
+/* log2 of the smallest power of two >= n (0 for n <= 1). */
+SPT_FN spt_u32 spt_ceil_log2(spt_u32 n)
+{
+    spt_u32 k = 0u;
+    while (k < 32u && ((spt_u32)1u << k) < n)
+        k++;
+    return k;
+}
+
+/* The base-4 digits of a ZSobol index for an image of width x height pixels
+ * and 2^log2spp samples per pixel (pbrt-v4's nBase4Digits). */
+SPT_FN spt_u32 spt_zsobol_digits(spt_u32 width, spt_u32 height, spt_u32 log2spp)
+{
+    return spt_ceil_log2(width > height ? width : height) + (log2spp + 1u) / 2u;
+}
+
+/* Chris Wellons' "lowbias32" (hash-prospector): two multiply rounds, enough
+ * for picking one of 24 permutations, at half triple32's cost. */
+SPT_FN spt_u32 spt_hash_fast_u32(spt_u32 x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
+/* The Sobol index (its low 32 bits: a 32-bit value needs no more) of Morton
+ * index m (morton(pixel) 2^log2spp + sample) for the permutations of tag:
+ * from the top, each base-4 digit through the permutation a hash of the
+ * digits above it picks; with an odd log2spp the last, single bit is flipped
+ * by such a hash. */
+SPT_FN spt_u32 spt_zsobol_index(spt_u64 m, spt_u32 digits, spt_u32 log2spp, spt_u32 tag)
+{
+    spt_u32 odd = log2spp & 1u;
+    spt_u32 index = 0u;
+    for (spt_i32 i = (spt_i32)digits - 1; i >= (spt_i32)odd; --i) {
+        spt_u32 shift = 2u * (spt_u32)i - odd;
+        spt_u64 higher = m >> (shift + 2u);
+        if (shift >= 32u)
+            continue; /* beyond the index's low 32 bits */
+        spt_u32 h = spt_hash_fast_u32((spt_u32)higher ^ ((spt_u32)(higher >> 32) * 0x9e3779b9u) ^ tag);
+        spt_u32 digit = (spt_u32)(m >> shift) & 3u;
+        /* (h >> 8) 24 / 2^24: one of the 24 from the hash's top bits. */
+        digit = (SPT_ZSOBOL_PERMS[((h >> 8) * 24u) >> 24] >> (2u * digit)) & 3u;
+        index |= digit << shift;
+    }
+    if (odd) {
+        spt_u64 higher = m >> 1;
+        spt_u32 h = spt_hash_fast_u32((spt_u32)higher ^ ((spt_u32)(higher >> 32) * 0x9e3779b9u) ^ tag);
+        index |= ((spt_u32)m & 1u) ^ (h >> 31);
+    }
+    return index;
+}
+
+/* The permutation tag of pair group g (dims 2 g, 2 g + 1) under seed, and the
+ * value scramble seeds of its two dims: the same for every pixel. */
+SPT_FN spt_u32 spt_zsobol_tag(spt_u32 seed, spt_u32 group)
+{
+    return spt_hash_u32(spt_hash_u32(seed ^ 0x9b05688cu) ^ group);
+}
+
+/* The pixels of a tile share their value scrambles: log2 of its side. */
+#define SPT_ZSOBOL_TILE_LOG2 3u
+
+/* The tile of Morton index m: its Morton index over the tiles. */
+SPT_FN spt_u32 spt_zsobol_tile(spt_u64 m, spt_u32 log2spp)
+{
+    return (spt_u32)(m >> (log2spp + 2u * SPT_ZSOBOL_TILE_LOG2));
+}
+
+/* Sobol dim d (0 or 1) of Sobol index index, Owen-scrambled for tag and the
+ * tile: one scramble per tile of 8 x 8 pixels (pbrt-v4 has one for the whole
+ * image), so the blocks of pixels up to a tile stay nets while the tiles'
+ * errors are independent: one unlucky scramble does not set every pixel's
+ * error, and the image's mean squared error varies from seed to seed as the
+ * padded sampler's does. */
+SPT_FN float spt_zsobol_value(spt_u32 index, spt_u32 d, spt_u32 tag, spt_u32 tile)
+{
+    spt_u32 h = spt_hash_u32(tag ^ spt_hash_u32(tile ^ (d ? 0x1f83d9abu : 0x5be0cd19u)));
+    return spt_u32_to_unit(spt_reverse_bits(spt_lk_hash(spt_sobol_rev_u32(index, d), h)));
+}
+
+/* The definition of a ZSobol sample value, as spt_sample_1d is the padded
+ * sampler's: dim of sample s of pixel (x, y) with 2^log2spp samples per pixel
+ * in a width x height image. */
+SPT_FN float spt_zsobol_1d(spt_u32 seed, spt_u32 x, spt_u32 y, spt_u32 width, spt_u32 height,
+                           spt_u32 log2spp, spt_u32 sample, spt_u32 dim)
+{
+    spt_u64 m = ((spt_u64)spt_morton2(x, y) << log2spp) | sample;
+    spt_u32 tag = spt_zsobol_tag(seed, dim >> 1);
+    return spt_zsobol_value(spt_zsobol_index(m, spt_zsobol_digits(width, height, log2spp), log2spp, tag),
+                            dim & 1u, tag, spt_zsobol_tile(m, log2spp));
+}
+
+/* ---- The renderer's sampler -------------------------------------------------- */
+
+/* What the kernels need to draw any dim of one sample with any sampler. */
 typedef struct SptSampler {
     spt_u32 kind;      /* SPT_SAMPLER_* */
     spt_u32 pixel_key; /* spt_sobol_pixel_key(seed, pixel) */
     spt_u32 rand_key;  /* spt_rng_key(seed, pixel, sample) */
     spt_u32 sample;
+    /* ZSobol: the Morton index (morton(pixel) 2^log2spp + sample), its digits
+     * and log2spp, and the seed's part of the tags. */
+    spt_u64 zindex;
+    spt_u32 zdigits, zlog2spp, zseed;
 } SptSampler;
 
 SPT_FN SptSampler spt_sampler(spt_u32 kind, spt_u32 seed, spt_u32 pixel, spt_u32 sample)
@@ -368,16 +509,41 @@ SPT_FN SptSampler spt_sampler(spt_u32 kind, spt_u32 seed, spt_u32 pixel, spt_u32
     s.pixel_key = spt_sobol_pixel_key(seed, pixel);
     s.rand_key = spt_rng_key(seed, pixel, sample);
     s.sample = sample;
+    s.zindex = 0u;
+    s.zdigits = 0u;
+    s.zlog2spp = 0u;
+    s.zseed = 0u;
+    return s;
+}
+
+/* The sampler of a camera path's sample of the render p: spt_sampler, and for
+ * ZSobol its Morton index from the pixel's position. */
+SPT_FN SptSampler spt_sampler_for(const RenderParams *p, spt_u32 pixel, spt_u32 sample)
+{
+    SptSampler s = spt_sampler(p->sampler, p->seed, pixel, sample);
+    if (p->sampler == SPT_SAMPLER_ZSOBOL) {
+        spt_u32 w = (spt_u32)p->width;
+        s.zlog2spp = p->zsobol_log2spp;
+        s.zdigits = p->zsobol_digits;
+        s.zindex = ((spt_u64)spt_morton2(pixel % w, pixel / w) << s.zlog2spp) | sample;
+        s.zseed = spt_hash_u32(p->seed ^ 0x9b05688cu);
+    }
     return s;
 }
 
 /* Dims dim and dim + 1 (dim even) of the sample: spt_sample_1d of them for the
- * Sobol sampler, spt_rand for the independent one. */
+ * Sobol sampler, spt_zsobol_1d for ZSobol, spt_rand for the independent one. */
 SPT_FN SPT_ALWAYS_INLINE void spt_sampler_pair(SptSampler s, spt_u32 dim, float *u0, float *u1)
 {
     if (s.kind == SPT_SAMPLER_INDEPENDENT) {
         *u0 = spt_rand_key(s.rand_key, dim);
         *u1 = spt_rand_key(s.rand_key, dim + 1u);
+    } else if (s.kind == SPT_SAMPLER_ZSOBOL) {
+        spt_u32 tag = spt_hash_u32(s.zseed ^ (dim >> 1));
+        spt_u32 index = spt_zsobol_index(s.zindex, s.zdigits, s.zlog2spp, tag);
+        spt_u32 tile = spt_zsobol_tile(s.zindex, s.zlog2spp);
+        *u0 = spt_zsobol_value(index, 0u, tag, tile);
+        *u1 = spt_zsobol_value(index, 1u, tag, tile);
     } else {
         spt_sample_pair(s.pixel_key, s.sample, dim >> 1, u0, u1);
     }
@@ -388,6 +554,11 @@ SPT_FN float spt_sampler_1d(SptSampler s, spt_u32 dim)
 {
     if (s.kind == SPT_SAMPLER_INDEPENDENT)
         return spt_rand_key(s.rand_key, dim);
+    if (s.kind == SPT_SAMPLER_ZSOBOL) {
+        spt_u32 tag = spt_hash_u32(s.zseed ^ (dim >> 1));
+        return spt_zsobol_value(spt_zsobol_index(s.zindex, s.zdigits, s.zlog2spp, tag), dim & 1u, tag,
+                                spt_zsobol_tile(s.zindex, s.zlog2spp));
+    }
     return spt_sobol_owen(s.sample, dim & 1u, spt_hash_u32(s.pixel_key ^ (dim >> 1)));
 }
 

@@ -147,7 +147,7 @@ static uint path_start(uint i, uint w, ALL_BUFFERS)
     uint npix = (uint)(P.width * P.height);
     uint pixel = w % npix;
     uint sample = P.sample_begin + w / npix;
-    SptSampler smp = spt_sampler(P.sampler, P.seed, pixel, sample);
+    SptSampler smp = spt_sampler_for(&P, pixel, sample);
     float jx, jy;
     spt_sampler_pair(smp, SPT_DIM_PIXEL_X, &jx, &jy);
     float px = (float)(pixel % (uint)P.width) + jx;

@@ -19,6 +19,7 @@
   typedef uint spt_u32;
   typedef int spt_i32;
   typedef uchar spt_u8;
+  typedef ulong spt_u64;
   /* C spellings of the float maths built-ins, so shared code reads the same on
    * both sides. */
   #define sqrtf sqrt
@@ -54,6 +55,7 @@
   typedef uint32_t spt_u32;
   typedef int32_t spt_i32;
   typedef uint8_t spt_u8;
+  typedef uint64_t spt_u64;
   #define SPT_STATIC_ASSERT(cond, msg) _Static_assert(cond, msg)
   #define SPT_ALWAYS_INLINE
 #endif

@@ -173,6 +173,7 @@ typedef struct GpuEnvMap {
 /* The samplers of RenderParams.sampler (kernels/device/rng.h). */
 #define SPT_SAMPLER_SOBOL 0u       /* padded Owen-scrambled Sobol in every dim */
 #define SPT_SAMPLER_INDEPENDENT 1u /* a hash of (seed, pixel, sample, dim) */
+#define SPT_SAMPLER_ZSOBOL 2u      /* Sobol over the pixels in Morton order (blue-noise error) */
 
 /* Everything a pass needs besides buffers; passed by value. */
 typedef struct RenderParams {
@@ -217,7 +218,11 @@ typedef struct RenderParams {
      * that covers it, since only those that meet such a triangle first go on. */
     float caustic_center[3];
     float caustic_radius;
-    spt_u32 sampler;        /* SPT_SAMPLER_SOBOL or SPT_SAMPLER_INDEPENDENT (kernels/device/rng.h) */
+    spt_u32 sampler;        /* SPT_SAMPLER_* (kernels/device/rng.h) */
+    /* SPT_SAMPLER_ZSOBOL: log2 of the samples per pixel rounded up to a power
+     * of two, and the base-4 digits of a Morton index (spt_zsobol_digits). */
+    spt_u32 zsobol_log2spp;
+    spt_u32 zsobol_digits;
     /* What rays that leave the scene see (kernels/shared/lights.h): a map, a uniform sky
      * or nothing; its data (texels, CDFs or a table) in the env_data buffer. */
     GpuEnvMap env;

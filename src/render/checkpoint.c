@@ -144,6 +144,14 @@ int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSetting
         kh = cl_fnv1a(kh, spt_kernel_files[i].text, strlen(spt_kernel_files[i].text));
     }
     key_add(k, "kernels", "%016llx", kh);
+    /* ZSobol's sequence depends on the samples per pixel, rounded up to a
+     * power of two: a resumed render must keep that power. */
+    if (rs->sampler == SPT_SAMPLER_ZSOBOL) {
+        int l = 0;
+        while (l < 31 && (1L << l) < (long)rs->spp)
+            l++;
+        key_add(k, "zsobol_spp", "%ld", 1L << l);
+    }
     k->settings[strlen(k->settings) - 1] = 0; /* the last ';' */
     k->seed = rs->seed;
     k->width = rs->width;

@@ -109,7 +109,7 @@ typedef struct RenderDeviceStats {
     int failed;              /* dropped after an error */
 } RenderDeviceStats;
 
-/* The sampler named name ("sobol" or "independent", any case) as its
+/* The sampler named name ("sobol", "zsobol" or "independent", any case) as its
  * SPT_SAMPLER_* value (kernels/shared/render_types.h) in *sampler; -1 for other
  * names. */
 int render_sampler_parse(const char *name, uint32_t *sampler);

@@ -75,9 +75,12 @@ enum { SPT_CAUSTICS_AUTO = 0, SPT_CAUSTICS_OFF = 1, SPT_CAUSTICS_ON = 2 };
       "random seed (default 0); the same seed on the same device\n"                            \
       "gives the same image bit for bit")                                                      \
     X(RS, SAMPLER, uint32_t, sampler, "sampler", 0, "NAME", 0, 0, 0, SPT_OPT_IMAGE | SPT_OPT_MPI, \
-      "expected sobol or independent",                                                          \
+      "expected sobol, zsobol or independent",                                                  \
       "sobol (default): Owen-scrambled Sobol points in every\n"                                 \
-      "dimension of a path; independent: uniform random numbers")                              \
+      "dimension of a path; zsobol: the same spread over the\n"                               \
+      "pixels in Morton order, so neighbours' errors cancel (blue\n"                          \
+      "noise; its sequence follows --spp rounded up to a power\n"                             \
+      "of two); independent: uniform random numbers")                                         \
     X(CLI, STR, const char *, device, "device", 0, "SEL", NULL, 0, 0, 0, "",                    \
       "OpenCL device(s): index, name substring, cpu or gpu, a comma\n"                         \
       "list, or all (default: SPECTRACE_DEVICE, else the first GPU,\n"                         \

@@ -14,6 +14,7 @@
 #include "device/bsdf.h"
 #include "render/render_lights.h"
 #include "render/wavefront.h"
+#include "device/rng.h"
 
 /* The camera of the kernels: right and up scaled so that screen coordinates in
  * [-1, 1] span the field of view at the image's aspect ratio. */
@@ -525,6 +526,10 @@ int render_sampler_parse(const char *name, uint32_t *sampler)
         *sampler = SPT_SAMPLER_INDEPENDENT;
         return 0;
     }
+    if (name && !strcasecmp(name, "zsobol")) {
+        *sampler = SPT_SAMPLER_ZSOBOL;
+        return 0;
+    }
     return -1;
 }
 
@@ -538,6 +543,12 @@ static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *
     p->height = rs->height;
     p->seed = rs->seed;
     p->sampler = rs->sampler;
+    if (rs->sampler == SPT_SAMPLER_ZSOBOL) {
+        /* The samples per pixel (the cap under --time) rounded up to a power
+         * of two fix the sequence (kernels/device/rng.h, ZSobol). */
+        p->zsobol_log2spp = spt_ceil_log2((uint32_t)(rs->spp > 0 ? rs->spp : 1));
+        p->zsobol_digits = spt_zsobol_digits((uint32_t)rs->width, (uint32_t)rs->height, p->zsobol_log2spp);
+    }
     p->max_depth = rs->max_depth;
     p->emitter_count = g->emitter_count;
     p->light_count = g->light_count;
