@@ -426,15 +426,27 @@ static int pixel_lens_sample(void *ctx, uint32_t i, double p[3])
     return 1;
 }
 
-static void test_sobol_scrambles_differ(void **state)
+/* A chi-square grid of 16 x 16 cells over the unit square against the
+ * uniform density, for the points that sample() makes. */
+static Chi2Grid uniform_square_grid(const char *name, uint32_t samples,
+                                    int (*sample)(void *, uint32_t, double[3]))
 {
-    (void)state;
     Chi2Grid g = {0};
     g.domain = CHI2_PLANE;
     g.x1 = g.y1 = 1.0;
     g.res_x = g.res_y = 16;
     g.num_tests = RNG_CHI2_TESTS;
     g.pdf = uniform_pdf;
+    g.name = name;
+    g.samples = samples;
+    g.sample = sample;
+    return g;
+}
+
+static void test_sobol_scrambles_differ(void **state)
+{
+    (void)state;
+    Chi2Grid g = uniform_square_grid("", 0, NULL);
     Chi2Result r;
 
     g.name = "first sample of 2^18 pixels";
@@ -566,16 +578,9 @@ static void test_zsobol_sampler(void **state)
                 assert_true(spt_sampler_1d(smp, d) == eu && spt_sampler_1d(smp, d + 1u) == ev);
             }
         }
-    Chi2Grid g = {0};
-    g.domain = CHI2_PLANE;
-    g.x1 = g.y1 = 1.0;
-    g.res_x = g.res_y = 16;
-    g.num_tests = RNG_CHI2_TESTS;
-    g.pdf = uniform_pdf;
+    Chi2Grid g = uniform_square_grid("ZSobol: first sample of 2^16 pixels at 2^20 samples per pixel", 1u << 16,
+                                     zs_first_point);
     Chi2Result r;
-    g.name = "ZSobol: first sample of 2^16 pixels at 2^20 samples per pixel";
-    g.samples = 1u << 16;
-    g.sample = zs_first_point;
     chi2_grid_run(&g, &r);
     rng_require(&r);
 }

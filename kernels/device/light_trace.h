@@ -22,7 +22,7 @@
  * - A light path starts on a light picked by the renderer's light selection
  *   (by power), its first ray aimed at the caustic sphere, the bounding
  *   sphere of the surfaces that may be delta: an emissive triangle's or a
- *   point or spot light's uniform within the cone the sphere subtends (lt_aim;
+ *   point or spot light's uniform within the cone the sphere subtends (lt_aim_dir;
  *   as the light emits when its point lies within the sphere), a directional
  *   light's or an environment map's from a disc outside the scene that covers
  *   the sphere, its rays parallel to the light's direction or to a direction
@@ -60,39 +60,21 @@ SPT_FN_INLINE void lt_item(uint w, uint *lp, uint *sample, const RenderParams *p
     *sample = p->sample_begin + lw / p->light_paths;
 }
 
-/* A light path's first direction from q aimed at the caustic sphere (the
- * sphere of the surfaces that may be delta, p->caustic_center and radius): only
- * a path whose first vertex is such a surface goes on, and every ray that meets
- * one starts within the cone the sphere subtends from q. Fills *d with a
- * direction uniform in that cone and *omega with the cone's solid angle (the
- * direction's density is 1 / omega) and returns 1; returns 0 (nothing set)
- * when there is no sphere or q lies within it or nearly so (sin^2 of the cone's
- * half angle above SPT_LT_AIM_MAX_S2), where the caller samples the light as
- * it would without the sphere. src/render/scheduler.c (caustic_share) mirrors
- * this choice to size the pass. */
-#define SPT_LT_AIM_MAX_S2 0.9f
-SPT_FN_INLINE int lt_aim(const RenderParams *p, float3 q, float u1, float u2, float3 *d, float *omega)
+/* A light path's first direction from q aimed at the caustic sphere, whose
+ * cone from q has 1 - cos(half angle) span (lt_aim_cone): only a path whose
+ * first vertex is a surface that may be delta goes on, and every ray that
+ * meets one starts within that cone. Uniform within the cone (density 1 /
+ * its solid angle). */
+SPT_FN_INLINE float3 lt_aim_dir(const RenderParams *p, float3 q, float span, float u1, float u2)
 {
-    float rc = p->caustic_radius;
-    if (!(rc > 0.0f))
-        return 0;
-    float3 v = (float3)(p->caustic_center[0], p->caustic_center[1], p->caustic_center[2]) - q;
-    float dist2 = dot(v, v);
-    float s2 = rc * rc / dist2;
-    if (!(s2 < SPT_LT_AIM_MAX_S2))
-        return 0;
-    /* 1 - cos(theta_max), without cancellation for small cones. */
-    float span = s2 / (1.0f + sqrt(1.0f - s2));
+    float3 ax = normalize((float3)(p->caustic_center[0], p->caustic_center[1], p->caustic_center[2]) - q);
     float x = u1 * span; /* 1 - cos(theta) */
     float ct = 1.0f - x;
     float st = sqrt(fmax(0.0f, x * (2.0f - x)));
     float phi = 2.0f * SPT_PI * u2;
-    float3 ax = v * rsqrt(dist2);
     vec3 t_, b_;
     v3_basis(ax, &t_, &b_);
-    *d = st * cos(phi) * t_ + st * sin(phi) * b_ + ct * ax;
-    *omega = 2.0f * SPT_PI * span;
-    return 1;
+    return st * cos(phi) * t_ + st * sin(phi) * b_ + ct * ax;
 }
 
 /* Starts light path i as work item w (w >= P.light_begin): its wavelengths,
@@ -130,11 +112,11 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
         float3 cr = cross(b - a, c - a);
         float area2 = length(cr);
         const __global GpuMaterial *lm = materials + tri_shade[lt].material;
-        float3 dg;
-        float omega;
-        if (area2 > 0.0f && lt_aim(&P, q, u3, u4, &dg, &omega)) {
+        float omega, span;
+        if (area2 > 0.0f && lt_aim_cone(&P, q, &omega, &span)) {
             /* Aimed at the caustic sphere: the side the direction leaves by
              * (none when that side does not emit). */
+            float3 dg = lt_aim_dir(&P, q, span, u3, u4);
             float3 ng = cr / area2;
             float cn = dot(dg, ng);
             int two = (lm->flags & SPT_MAT_DOUBLE_SIDED_EMISSION) != 0;
@@ -186,8 +168,7 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
         v3_basis(ax, &t_, &b_);
         float3 cs = (float3)(P.scene_center[0], P.scene_center[1], P.scene_center[2]);
         float3 pos = (float3)(l->pos[0], l->pos[1], l->pos[2]);
-        float3 dg;
-        float omega;
+        float omega, span;
         if (l->type == SPT_PUNCTUAL_DIRECTIONAL) {
             /* Parallel rays from a disc perpendicular to the light: of the
              * caustic sphere's radius Rc around its centre cc, outside the
@@ -206,16 +187,13 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
             o = c + R * (disk.x * t_ + disk.y * b_) - ax * back;
             d = ax;
             power = spd * (SPT_PI * R * R / prob);
-        } else if (lt_aim(&P, pos, u3, u4, &dg, &omega) &&
-                   (l->type != SPT_PUNCTUAL_SPOT ||
-                    omega < 2.0f * SPT_PI * (1.0f - fmax(l->cos_outer, -1.0f)))) {
-            /* Aimed at the caustic sphere (a spot's only when that cone is the
-             * smaller): I falloff omega / prob. */
+        } else if (lt_aims_punctual(&P, l, &omega, &span)) {
+            /* Aimed at the caustic sphere: I falloff omega / prob. */
             o = pos;
-            d = dg;
-            power = spd * (light_spot_falloff(l, dot(dg, ax)) * omega / prob);
+            d = lt_aim_dir(&P, pos, span, u3, u4);
+            power = spd * (light_spot_falloff(l, dot(d, ax)) * omega / prob);
         } else {
-            o = (float3)(l->pos[0], l->pos[1], l->pos[2]);
+            o = pos;
             /* Point: uniform over the sphere; spot: uniform within the outer cone,
              * times its falloff. I / (prob pdf). */
             float cmin = l->type == SPT_PUNCTUAL_SPOT ? fmax(l->cos_outer, -1.0f) : -1.0f;

@@ -102,6 +102,39 @@ SPT_FN float light_spot_falloff(const SPT_GLOBAL GpuLight *l, float cos_angle)
     return t * t;
 }
 
+/* ---- Light paths aimed at the caustic sphere (kernels/device/light_trace.h) ---- */
+
+/* Whether a light path from q is aimed at the caustic sphere (the sphere of
+ * the surfaces that may be delta, p->caustic_center and radius): when there is
+ * one and q lies outside it by a margin (sin^2 of the cone's half angle below
+ * 0.9; nearer, most directions meet it anyway). Then 1, with the cone's solid
+ * angle in *omega and 1 - cos of its half angle in *span (without
+ * cancellation for small cones); else 0. The host's sizing of the pass
+ * (src/render/scheduler.c, caustic_share) calls it too. */
+SPT_FN int lt_aim_cone(const RenderParams *p, vec3 q, float *omega, float *span)
+{
+    float rc = p->caustic_radius;
+    if (!(rc > 0.0f))
+        return 0;
+    vec3 v = v3_sub(v3(p->caustic_center[0], p->caustic_center[1], p->caustic_center[2]), q);
+    float s2 = rc * rc / v3_dot(v, v);
+    if (!(s2 < 0.9f))
+        return 0;
+    *span = s2 / (1.0f + sqrtf(1.0f - s2));
+    *omega = 2.0f * SPT_PI * *span;
+    return 1;
+}
+
+/* Whether punctual light l's (a point or spot light's) light paths are aimed:
+ * lt_aim_cone at its position, and for a spot only when that cone is the
+ * narrower of the two. */
+SPT_FN int lt_aims_punctual(const RenderParams *p, const SPT_GLOBAL GpuLight *l, float *omega, float *span)
+{
+    if (l->type == SPT_PUNCTUAL_DIRECTIONAL || !lt_aim_cone(p, v3(l->pos[0], l->pos[1], l->pos[2]), omega, span))
+        return 0;
+    return l->type != SPT_PUNCTUAL_SPOT || *omega < 2.0f * SPT_PI * (1.0f - fmaxf(l->cos_outer, -1.0f));
+}
+
 /* Samples punctual light l from shading point p: fills s with the direction to
  * the light, the distance, and value[i] = I(lambda[i]) falloff / r^2 (point,
  * spot) or E(lambda[i]) (directional), pdf 1 and is_delta 1. A point at the

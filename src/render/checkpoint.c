@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 
 #include "cl/cl_device.h"
+#include "device/rng.h"
 #include "cl/embedded.h"
 #include "io/exr.h"
 #include "io/image_out.h"
@@ -146,12 +147,8 @@ int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSetting
     key_add(k, "kernels", "%016llx", kh);
     /* ZSobol's sequence depends on the samples per pixel, rounded up to a
      * power of two: a resumed render must keep that power. */
-    if (rs->sampler == SPT_SAMPLER_ZSOBOL) {
-        int l = 0;
-        while (l < 31 && (1L << l) < (long)rs->spp)
-            l++;
-        key_add(k, "zsobol_spp", "%ld", 1L << l);
-    }
+    if (rs->sampler == SPT_SAMPLER_ZSOBOL)
+        key_add(k, "zsobol_spp", "%llu", 1ull << spt_ceil_log2((uint32_t)(rs->spp > 0 ? rs->spp : 1)));
     k->settings[strlen(k->settings) - 1] = 0; /* the last ';' */
     k->seed = rs->seed;
     k->width = rs->width;

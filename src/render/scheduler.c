@@ -371,20 +371,6 @@ static int ray_meets_sphere(vec3 o, vec3 d, vec3 c, float r)
     return v2 <= r * r || (t > 0.0f && v2 - t * t <= r * r);
 }
 
-/* Whether lt_aim (kernels/device/light_trace.h) aims a light path from q at
- * the caustic sphere, and the cone's solid angle. */
-static int aims(const RenderParams *p, vec3 q, float *omega)
-{
-    if (!(p->caustic_radius > 0.0f))
-        return 0;
-    vec3 v = v3_sub(v3(p->caustic_center[0], p->caustic_center[1], p->caustic_center[2]), q);
-    float s2 = p->caustic_radius * p->caustic_radius / v3_dot(v, v);
-    if (!(s2 < 0.9f))
-        return 0;
-    *omega = 2.0f * SPT_PI * (s2 / (1.0f + sqrtf(1.0f - s2)));
-    return 1;
-}
-
 static float share_u(uint64_t *state)
 {
     uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
@@ -394,7 +380,7 @@ static float share_u(uint64_t *state)
 }
 
 /* The light-tracing pass sizing: the light paths' first rays are aimed at the
- * caustic sphere (lt_aim), where sampling the lights' emission as such would
+ * caustic sphere (lt_aim_cone), where sampling the lights' emission as such would
  * send most of them elsewhere, to end at their first vertex. --light-paths R
  * asks for as many paths that head for the sphere as R light paths per camera
  * path sampled without aiming would give: the pass traces R s per camera path,
@@ -417,7 +403,7 @@ static double caustic_share(const RenderParams *p, const RenderLights *L, const 
         float prob;
         int e = spt_discrete_sample(L->select.cdf, L->select.n, ((float)k + share_u(&st)) / SHARE_N, &prob, NULL);
         float u1 = share_u(&st), u2 = share_u(&st), u3 = share_u(&st), u4 = share_u(&st), u5 = share_u(&st);
-        float omega;
+        float omega, span;
         if (e < 0 || !(prob > 0.0f))
             continue;
         if ((uint32_t)e < g->emitter_count) {
@@ -439,7 +425,7 @@ static double caustic_share(const RenderParams *p, const RenderLights *L, const 
             vec3 d = v3_add(v3_add(v3_scale(t_, l.x), v3_scale(b_, l.y)), v3_scale(n, l.z));
             int hit = ray_meets_sphere(q, v3_normalize(d), cc, rc);
             old_hits += hit;
-            new_hits += aims(p, q, &omega) ? 1 : hit;
+            new_hits += lt_aim_cone(p, q, &omega, &span) ? 1 : hit;
         } else if ((uint32_t)e < g->emitter_count + g->light_count) {
             const GpuLight *l = &g->lights[(uint32_t)e - g->emitter_count];
             vec3 ax = v3(l->dir[0], l->dir[1], l->dir[2]), t_, b_;
@@ -460,10 +446,7 @@ static double caustic_share(const RenderParams *p, const RenderLights *L, const 
             vec3 d = v3_add(v3_add(v3_scale(t_, sn * cosf(phi)), v3_scale(b_, sn * sinf(phi))), v3_scale(ax, ct));
             int hit = ray_meets_sphere(pos, v3_normalize(d), cc, rc);
             old_hits += hit;
-            new_hits += aims(p, pos, &omega) && (l->type != SPT_PUNCTUAL_SPOT ||
-                                                 omega < 2.0f * SPT_PI * (1.0f - cmin))
-                            ? 1
-                            : hit;
+            new_hits += lt_aims_punctual(p, l, &omega, &span) ? 1 : hit;
         } else if (L->env.env.kind == SPT_ENV_MAP) {
             /* Already aimed (its disc covers the sphere). */
             old_hits += 1;
