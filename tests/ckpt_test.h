@@ -111,7 +111,11 @@ static void assert_same_exr(const char *pa, const char *pb)
         const ExrChannel *ca = &a.channels[c], *cb = exr_layers_channel(&b, ca->name);
         if (!cb)
             fail_msg("%s has channel %s, %s has not", pa, ca->name, pb);
-        if (ca->type != SPT_EXR_FLOAT)
+        /* R, G and B were compared above, against the pixel's largest: a
+         * channel of a bright pixel near 0 (a colour at the gamut's edge, B
+         * -4e-8 beside G 0.92) differs there by float rounding of X, Y, Z. */
+        if (ca->type != SPT_EXR_FLOAT || !strcmp(ca->name, "R") || !strcmp(ca->name, "G") ||
+            !strcmp(ca->name, "B"))
             continue;
         double tol = strncmp(ca->name, "variance.", 9) ? 1e-4 : 1e-3;
         for (size_t i = 0; i < n; i++) {
