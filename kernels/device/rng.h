@@ -58,7 +58,8 @@
  * digits above it and of the pair group, which keeps every aligned block of 4^j
  * indices an aligned block of Sobol points. A pixel's 2^L samples are then a
  * (0,L,2)-net in each pair of dims, and so are the samples of each aligned
- * 2^j x 2^j block of pixels together: neighbouring pixels' errors are
+ * 2^j x 2^j block of pixels together, up to the 8 x 8 tiles whose pixels
+ * share their value scrambles: neighbouring pixels' errors are
  * anti-correlated, noise of a high frequency (blue), which the eye and a
  * denoiser average away better. Each pair group g takes Sobol dims 0-1 at its
  * own permuted index, the values Owen-scrambled by a hash of (seed, g, the
@@ -373,7 +374,10 @@ SPT_FN float spt_sample_wavelength_u(spt_u32 pixel_key, spt_u32 sample)
 
 /* The 24 permutations of the base-4 digits {0, 1, 2, 3} in lexicographic
  * order, each as four 2-bit fields: digit d goes to field d. */
-SPT_CONSTANT spt_u32 SPT_ZSOBOL_PERMS[24] = {0xe4u, 0xb4u, 0xd8u, 0x78u, 0x9cu, 0x6cu, 0xe1u, 0xb1u, 0xc9u, 0x39u, 0x8du, 0x2du, 0xd2u, 0x72u, 0xc6u, 0x36u, 0x4eu, 0x1eu, 0x93u, 0x63u, 0x87u, 0x27u, 0x4bu, 0x1bu};
+SPT_CONSTANT spt_u32 SPT_ZSOBOL_PERMS[24] = {
+    0xe4u, 0xb4u, 0xd8u, 0x78u, 0x9cu, 0x6cu, 0xe1u, 0xb1u, 0xc9u, 0x39u, 0x8du, 0x2du,
+    0xd2u, 0x72u, 0xc6u, 0x36u, 0x4eu, 0x1eu, 0x93u, 0x63u, 0x87u, 0x27u, 0x4bu, 0x1bu,
+};
 
 /* Bits 0..15 of v spread to the even bits of the result. */
 SPT_FN spt_u32 spt_spread_bits(spt_u32 v)
