@@ -302,6 +302,63 @@ static void test_no_delta_unchanged(void **state)
     film_free(&b);
 }
 
+/* The closest-hit rays (camera and light paths) of a 48 x 48, 4 spp render of
+ * s with --caustics caustics, and its film in *film. */
+static uint64_t render_counting(const Scene *s, int caustics, Film *film)
+{
+    GpuScene g;
+    SptError e = {0};
+    assert_int_equal(gpu_scene_build(&g, s, &e), 0);
+    RenderSettings rs = square_settings(48, 4, -1, 3);
+    rs.caustics = caustics;
+    RenderStats st;
+    film_init(film, rs.width, rs.height);
+    int rc = render_device(device, &g, &s->camera, &rs, film, &st, &e);
+    if (rc)
+        fprintf(stderr, "render: %s\n", e.msg);
+    assert_int_equal(rc, 0);
+    gpu_scene_free(&g);
+    return st.rays_extend;
+}
+
+/* A glass material that only the scene's list holds, on no triangle, makes no
+ * caustics: --caustics auto then traces no light paths (the same closest-hit
+ * rays and film as with the pass off), while on the slab it turns the pass on
+ * (more rays than with it off). */
+static void test_unused_glass_no_pass(void **state)
+{
+    (void)state;
+    for (int used = 0; used <= 1; used++) {
+        Scene s;
+        slab_scene(&s, LIGHT_SPOT, used);
+        if (!used) {
+            /* A Lambertian slab, a point light under it (render_slab's), and
+             * a smooth glass material at the end of the list. */
+            s.lights[0].type = SPT_LIGHT_POINT;
+            s.lights[0].position[1] = 0.8f;
+            s.materials = realloc(s.materials, sizeof(SceneMaterial) * (s.material_count + 1));
+            SceneMaterial *m = &s.materials[s.material_count++];
+            scene_material_default(m);
+            m->metallic = 0.0f;
+            m->roughness = 0.0f;
+            m->transmission = 1.0f;
+        }
+        Film a, b;
+        uint64_t rays_auto = render_counting(&s, SPT_CAUSTICS_AUTO, &a);
+        uint64_t rays_off = render_counting(&s, SPT_CAUSTICS_OFF, &b);
+        if (used) {
+            assert_true(rays_auto > rays_off);
+        } else {
+            assert_true(rays_auto == rays_off);
+            size_t n = (size_t)a.width * a.height;
+            assert_memory_equal(a.xyz, b.xyz, 3 * n * sizeof(double));
+        }
+        film_free(&a);
+        film_free(&b);
+        scene_free(&s);
+    }
+}
+
 /* The splats do not depend on scheduling: a small path pool (other paths in
  * flight, other orders of the atomics) gives the same film bit for bit; and
  * two renders of samples [0, 4) and [4, 8) add up to the render of [0, 8). */
@@ -485,6 +542,7 @@ int main(void)
         cmocka_unit_test(test_thin_lens),
         cmocka_unit_test(test_area_light_caustic),
         cmocka_unit_test(test_no_delta_unchanged),
+        cmocka_unit_test(test_unused_glass_no_pass),
         cmocka_unit_test(test_split_invariance),
         cmocka_unit_test(test_closed_box_furnace),
         cmocka_unit_test(test_closed_box_one_light),

@@ -456,13 +456,38 @@ static double caustic_share(const RenderParams *p, const RenderLights *L, const 
     return new_hits > 0 ? old_hits / new_hits : 1.0;
 }
 
+/* Whether material m has a delta lobe that passes or turns light: smooth
+ * transmission, smooth metal, a smooth clear coat. */
+static int material_turns_light(const GpuMaterial *m)
+{
+    int smooth = m->roughness * m->roughness < BSDF_DELTA_ALPHA;
+    int cc_smooth = m->cc_roughness * m->cc_roughness < BSDF_DELTA_ALPHA;
+    return (smooth && (m->transmission > 0.0f || m->metallic > 0.0f)) || (m->clearcoat > 0.0f && cc_smooth);
+}
+
+/* Whether a triangle of the scene has a material that material_turns_light:
+ * a material that only the file defines, on no rendered triangle, makes no
+ * caustics. */
+static int scene_turns_light(const GpuScene *g)
+{
+    unsigned char *used = spt_calloc(g->material_count ? g->material_count : 1, 1);
+    int any = 0;
+    for (uint32_t i = 0; i < g->bvh.prim_count; i++)
+        if (g->tri_shade[i].material < g->material_count)
+            used[g->tri_shade[i].material] = 1;
+    for (uint32_t i = 0; i < g->material_count && !any; i++)
+        any = used[i] && material_turns_light(&g->materials[i]);
+    free(used);
+    return any;
+}
+
 /* Whether the light-tracing pass runs (--caustics): on, or auto and the scene
  * has a light (an emitter, a punctual light, or an --env map that the light
  * selection holds; not a uniform sky, whose light through glass the camera
  * paths keep) and a
- * surface with a delta lobe that passes or turns light (smooth transmission,
- * smooth metal, a smooth clear coat). It needs a perspective camera (pinhole
- * or thin lens). */
+ * triangle whose surface has a delta lobe that passes or turns light
+ * (material_turns_light). It needs a perspective camera (pinhole or thin
+ * lens). */
 static int caustics_enabled(const RenderSettings *rs, const RenderLights *L, const GpuScene *g,
                             const SceneCamera *cam)
 {
@@ -488,15 +513,7 @@ static int caustics_enabled(const RenderSettings *rs, const RenderLights *L, con
     if (g->emitter_count == 0 && g->light_count == 0 &&
         !(L->env.env.kind == SPT_ENV_MAP && L->env_prob > 0.0f))
         return 0;
-    for (uint32_t i = 0; i < g->material_count; i++) {
-        const GpuMaterial *m = &g->materials[i];
-        int smooth = m->roughness * m->roughness < BSDF_DELTA_ALPHA;
-        int cc_smooth = m->cc_roughness * m->cc_roughness < BSDF_DELTA_ALPHA;
-        if ((smooth && (m->transmission > 0.0f || m->metallic > 0.0f)) ||
-            (m->clearcoat > 0.0f && cc_smooth))
-            return 1;
-    }
-    return 0;
+    return scene_turns_light(g);
 }
 
 int render_sampler_parse(const char *name, uint32_t *sampler)
