@@ -28,14 +28,28 @@
 #define PARAM(type, name) __global type *name,
 #define PS_PARAM(type, name) __global type *ps_##name,
 #define SH_PARAM(type, name) __global type *sh_##name,
-/* Every kernel takes every buffer, in the order of these lists, so the host sets
- * arguments from the same lists (src/render/wavefront.c). */
+/* Every kernel takes every buffer, in the order of these lists, and then the
+ * RenderParams by value, so the host sets arguments from the same lists
+ * (src/render/wavefront.c). */
+#define KERNEL_ARGS            \
+    SPT_SCENE_BUFFERS(PARAM)   \
+    SPT_WORK_BUFFERS(PARAM)    \
+    SPT_PATH_STATE(PS_PARAM)   \
+    SPT_SHADOW_STATE(SH_PARAM) \
+    const RenderParams params
+/* The kernels' helpers take the same buffers and a pointer to the parameters,
+ * which every kernel sets first (KERNEL_PARAMS), and read them as P: passed by
+ * value, the struct was copied onto the stack at every call that was not
+ * inlined (CPU compilers leave the large helpers calls), and the loads of the
+ * copy waited on its partly overlapping stores. */
 #define ALL_BUFFERS            \
     SPT_SCENE_BUFFERS(PARAM)   \
     SPT_WORK_BUFFERS(PARAM)    \
     SPT_PATH_STATE(PS_PARAM)   \
     SPT_SHADOW_STATE(SH_PARAM) \
-    const RenderParams P
+    const RenderParams *pp
+#define KERNEL_PARAMS const RenderParams *pp = &params
+#define P (*pp)
 #define ARG(type, name) name,
 #define PS_ARG(type, name) ps_##name,
 #define SH_ARG(type, name) sh_##name,
@@ -44,7 +58,7 @@
     SPT_WORK_BUFFERS(ARG)        \
     SPT_PATH_STATE(PS_ARG)       \
     SPT_SHADOW_STATE(SH_ARG)     \
-    P
+    pp
 
 #define NO_HIT 0xffffffffu
 /* Segments after which a path ends whatever its throughput (a guard; Russian
@@ -193,9 +207,10 @@ static uint path_start(uint i, uint w, ALL_BUFFERS)
     return SPT_PATH_ALIVE;
 }
 
-__kernel void k_generate(ALL_BUFFERS)
+__kernel void k_generate(KERNEL_ARGS)
 {
     __local uint l_slot[SPT_GROUP_MAX], l_base;
+    KERNEL_PARAMS;
     uint i = get_global_id(0);
     uint flags = i < P.pool_size ? ps_flags[i] : SPT_PATH_ALIVE + 100u;
     int finished = flags == SPT_PATH_FINISHED;
@@ -234,8 +249,9 @@ static float4 extend_result(int found, const BvhHit *h)
 
 /* Closest hits of the queued rays: on CPUs (SPT_BVH_PAIRS) work-item g traces
  * queue entries 2 g and 2 g + 1 together (bvh_intersect2), elsewhere entry g. */
-__kernel void k_extend(ALL_BUFFERS)
+__kernel void k_extend(KERNEL_ARGS)
 {
+    KERNEL_PARAMS;
     uint n = counters[SPT_CNT_EXTEND];
 #if defined(SPT_BVH_PAIRS)
     uint g = 2u * get_global_id(0);
@@ -269,9 +285,10 @@ __kernel void k_extend(ALL_BUFFERS)
 /* Prefetch distance of k_shade, in queue entries. */
 #define SPT_SHADE_AHEAD 8u
 
-__kernel void k_shade(ALL_BUFFERS)
+__kernel void k_shade(KERNEL_ARGS)
 {
     __local uint l_slot[SPT_GROUP_MAX], l_base;
+    KERNEL_PARAMS;
     uint g = get_global_id(0);
     float4 so, sd, sc;
     int shadow = 0;
@@ -363,8 +380,9 @@ static void connect_shadow(float4 so, float4 d, float4 sc, uint i, ALL_BUFFERS)
     ps_radiance[i] += transmit * sc;
 }
 
-__kernel void k_connect(ALL_BUFFERS)
+__kernel void k_connect(KERNEL_ARGS)
 {
+    KERNEL_PARAMS;
     uint g = get_global_id(0);
     if (g >= counters[SPT_CNT_SHADOW])
         return;
@@ -427,8 +445,9 @@ static int mega_shade(uint i, uint *nshadow, ALL_BUFFERS)
     return mega_next(i, ALL_ARGS);
 }
 
-__kernel void k_paths(ALL_BUFFERS)
+__kernel void k_paths(KERNEL_ARGS)
 {
+    KERNEL_PARAMS;
     uint s0 = 2u * get_global_id(0), s1 = s0 + 1u;
     uint nray = 0u, nshadow = 0u;
     int a0 = s0 < P.pool_size && mega_next(s0, ALL_ARGS);
@@ -466,8 +485,9 @@ __kernel void k_paths(ALL_BUFFERS)
 /* Sums the chunk's per-sample contributions of each pixel, in sample order, into
  * chunk_sum (XYZ, and the number of samples kept in w), and adds the light
  * paths' splats (which count no sample). */
-__kernel void k_accumulate(ALL_BUFFERS)
+__kernel void k_accumulate(KERNEL_ARGS)
 {
+    KERNEL_PARAMS;
     uint pixel = get_global_id(0);
     uint npix = (uint)(P.width * P.height);
     if (pixel >= npix)
