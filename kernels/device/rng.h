@@ -554,7 +554,7 @@ SPT_FN SPT_ALWAYS_INLINE void spt_sampler_pair(SptSampler s, spt_u32 dim, float 
 }
 
 /* Dim dim of the sample, as spt_sampler_pair. */
-SPT_FN float spt_sampler_1d(SptSampler s, spt_u32 dim)
+SPT_FN SPT_ALWAYS_INLINE float spt_sampler_1d(SptSampler s, spt_u32 dim)
 {
     if (s.kind == SPT_SAMPLER_INDEPENDENT)
         return spt_rand_key(s.rand_key, dim);

@@ -430,7 +430,7 @@ static int mega_next(uint i, ALL_BUFFERS)
 /* Shades path i at its hit (ps_hit) and traces its shadow ray; when the path
  * ended, starts the next. Returns mega_next's 1 or 0, or 1 while the path goes
  * on. */
-static int mega_shade(uint i, uint *nshadow, ALL_BUFFERS)
+SPT_FN_INLINE int mega_shade(uint i, uint *nshadow, ALL_BUFFERS)
 {
     float4 so, sd, sc;
     int shadow = (ps_lt[i] & SPT_LT_LIGHT) ? lt_shade(i, &so, &sd, &sc, ALL_ARGS)
