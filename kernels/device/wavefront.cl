@@ -460,6 +460,20 @@ __kernel void k_paths(KERNEL_ARGS)
                            ps_ray_d[s1].xyz, 1e30f, found, hit);
             ps_hit[s0] = extend_result(found[0], &hit[0]);
             ps_hit[s1] = extend_result(found[1], &hit[1]);
+#if defined(SPT_BVH_STEP_PREFETCH)
+            /* In a scene larger than the cache, the second hit's triangle and
+             * its vertices' positions and normals are asked for now, so they
+             * arrive while the first path is shaded (on the 1M-triangle mesh
+             * of tools/bench_mitsuba.py these loads were a sixth of
+             * shade_path's time). */
+            if (found[1]) {
+                TriShade t1 = tri_shade[hit[1].prim];
+                for (int k = 0; k < 3; k++) {
+                    SPT_PREFETCH(vtx_pos + 3u * t1.v[k]);
+                    SPT_PREFETCH(vtx_normal + 3u * t1.v[k]);
+                }
+            }
+#endif
         } else {
             uint i = a0 ? s0 : s1;
             BvhHit h;
