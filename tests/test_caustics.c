@@ -302,6 +302,78 @@ static void test_no_delta_unchanged(void **state)
     film_free(&b);
 }
 
+/* slab_scene's floor and light with two glass cubes under the light instead
+ * of the slab: one at height 0.8-1.1, the other lower and to the side (height
+ * 0.2-0.5), so that from the light their bounding spheres' cones overlap. Of
+ * two glass materials (two caustic spheres) or, shared = 1, of one (one
+ * sphere around both); the same scene either way. */
+static void two_cubes_scene(Scene *s, int light, int shared)
+{
+    slab_scene(s, light, 1);
+    /* The slab's 12 triangles (after the floor's 2) become the upper cube. */
+    for (uint32_t t = 2; t < 14; t++)
+        for (int c = 0; c < 3; c++) {
+            float *v = s->tri_pos + 9 * t + 3 * c;
+            v[0] = v[0] > 0.0f ? 0.15f : -0.15f;
+            v[1] = v[1] > 1.1f ? 1.1f : 0.8f;
+            v[2] = v[2] > 0.0f ? 0.15f : -0.15f;
+        }
+    const float lo[3] = {0.05f, 0.2f, -0.15f}, hi[3] = {0.35f, 0.5f, 0.15f};
+    SceneMaterial *g = append_box(s, lo, hi);
+    *g = s->materials[1];
+    if (shared)
+        for (uint32_t t = s->tri_count - 12; t < s->tri_count; t++)
+            s->tri_mat[t] = 1;
+}
+
+/* Renders two_cubes_scene at 48 x 48 with the pass on; returns the mean film Y
+ * of the pixels that see the floor within 0.6 of the point under the light
+ * (the cubes' caustics and shadows). */
+static double render_two_cubes(int light, int shared, int spp, uint32_t seed)
+{
+    Scene s;
+    two_cubes_scene(&s, light, shared);
+    RenderSettings rs = square_settings(48, spp, 4, seed);
+    rs.caustics = SPT_CAUSTICS_ON;
+    Film f;
+    render_caustic_scene(&s, &rs, &f);
+    double sum = 0;
+    int n = 0;
+    for (int py = 0; py < 48; py++)
+        for (int px = 0; px < 48; px++) {
+            double x, z;
+            if (!pixel_floor(&s, 48, px, py, &x, &z) || x * x + z * z > 0.36)
+                continue;
+            size_t i = (size_t)py * 48 + px;
+            sum += f.xyz[3 * i + 1] / f.count[i];
+            n++;
+        }
+    assert_true(n > 100);
+    film_free(&f);
+    scene_free(&s);
+    return sum / n;
+}
+
+/* Light paths aimed at two caustic spheres whose cones overlap (a cone in
+ * proportion to its solid angle, a direction's density counting every cone
+ * it lies in; for the directional light, discs) give the floor of the same
+ * scene as one sphere around both cubes, for the area light's, the spot's
+ * and the directional light's aiming. */
+static void test_two_caustic_spheres(void **state)
+{
+    (void)state;
+    skip_if_quick();
+    const int lights[3] = {LIGHT_AREA, LIGHT_SPOT, LIGHT_DIRECTIONAL};
+    for (int k = 0; k < 3; k++) {
+        double two = render_two_cubes(lights[k], 0, 256, 5);
+        double one = render_two_cubes(lights[k], 1, 256, 6);
+        printf("light %d: two spheres %.5f, one sphere %.5f (%.2f%%)\n", lights[k], two, one,
+               100.0 * (two / one - 1.0));
+        assert_true(one > 0.0);
+        assert_true(fabs(two / one - 1.0) < 0.02);
+    }
+}
+
 /* The closest-hit rays (camera and light paths) of a 48 x 48, 4 spp render of
  * s with --caustics caustics, and its film in *film. */
 static uint64_t render_counting(const Scene *s, int caustics, Film *film)
@@ -543,6 +615,7 @@ int main(void)
         cmocka_unit_test(test_area_light_caustic),
         cmocka_unit_test(test_no_delta_unchanged),
         cmocka_unit_test(test_unused_glass_no_pass),
+        cmocka_unit_test(test_two_caustic_spheres),
         cmocka_unit_test(test_split_invariance),
         cmocka_unit_test(test_closed_box_furnace),
         cmocka_unit_test(test_closed_box_one_light),

@@ -20,13 +20,14 @@
  *   delta vertex), xk D (next-event estimation and MIS find those well), and
  *   emitters outside the light selection.
  * - A light path starts on a light picked by the renderer's light selection
- *   (by power), its first ray aimed at the caustic sphere, the bounding
- *   sphere of the surfaces that may be delta: an emissive triangle's or a
- *   point or spot light's uniform within the cone the sphere subtends (lt_aim_dir;
- *   as the light emits when its point lies within the sphere), a directional
- *   light's or an environment map's from a disc outside the scene that covers
- *   the sphere, its rays parallel to the light's direction or to a direction
- *   of the map's sampling density (a uniform sky's share ends it). It
+ *   (by power), its first ray aimed at the caustic spheres, the bounding
+ *   spheres of the surfaces that may be delta (one per material): an
+ *   emissive triangle's or a point or spot light's within the cones the
+ *   spheres subtend (lt_aim_dir; as the light emits when its point lies in
+ *   or near a sphere), a directional light's or an environment map's from
+ *   discs outside the scene that cover the spheres (lt_aim_parallel), its
+ *   rays parallel to the light's direction or to a direction of the map's
+ *   sampling density (a uniform sky's share ends it). It
  *   carries its own four wavelengths (a dispersive refraction keeps only the hero, as camera
  *   paths do), and samples the BSDFs with the camera paths' code (with the
  *   adjoint's factors: no 1/eta^2 of radiance transport, Veach's
@@ -60,21 +61,71 @@ SPT_FN_INLINE void lt_item(uint w, uint *lp, uint *sample, const RenderParams *p
     *sample = p->sample_begin + lw / p->light_paths;
 }
 
-/* A light path's first direction from q aimed at the caustic sphere, whose
- * cone from q has 1 - cos(half angle) span (lt_aim_cone): only a path whose
+/* A light path's first direction from q aimed at the caustic spheres, whose
+ * cones from q have omega solid angle in all (lt_aim_cones): only a path whose
  * first vertex is a surface that may be delta goes on, and every ray that
- * meets one starts within that cone. Uniform within the cone (density 1 /
- * its solid angle). */
-SPT_FN_INLINE float3 lt_aim_dir(const RenderParams *p, float3 q, float span, float u1, float u2)
+ * meets one starts within one of those cones. A cone in proportion to its
+ * solid angle (u1 picks it and is reused within it), then uniform within
+ * it: the density of a direction is (the cones it lies in) / omega, and
+ * *count is that number (at least the chosen cone). */
+SPT_FN_INLINE float3 lt_aim_dir(const RenderParams *p, float3 q, float omega, float u1, float u2,
+                                float *count)
 {
-    float3 ax = normalize((float3)(p->caustic_center[0], p->caustic_center[1], p->caustic_center[2]) - q);
+    uint n = p->caustic_count, k = 0u;
+    float span = lt_caustic_span(p, 0u, q), share = 2.0f * SPT_PI * span / omega, acc = 0.0f;
+    while (k + 1u < n && u1 >= acc + share) {
+        acc += share;
+        k++;
+        span = lt_caustic_span(p, k, q);
+        share = 2.0f * SPT_PI * span / omega;
+    }
+    u1 = fmin(fmax((u1 - acc) / share, 0.0f), 0x1.fffffep-1f);
+    float3 ax = normalize((float3)(p->caustic[k][0], p->caustic[k][1], p->caustic[k][2]) - q);
     float x = u1 * span; /* 1 - cos(theta) */
     float ct = 1.0f - x;
     float st = sqrt(fmax(0.0f, x * (2.0f - x)));
     float phi = 2.0f * SPT_PI * u2;
     vec3 t_, b_;
     v3_basis(ax, &t_, &b_);
-    return st * cos(phi) * t_ + st * sin(phi) * b_ + ct * ax;
+    float3 d = st * cos(phi) * t_ + st * sin(phi) * b_ + ct * ax;
+    float c = 1.0f;
+    float3 dn = normalize(d);
+    for (uint j = 0u; j < n; j++)
+        if (j != k && lt_meets_caustic(p, j, q, dn))
+            c += 1.0f;
+    *count = c;
+    return d;
+}
+
+/* Parallel light along ax toward the caustic spheres: a ray through a disc
+ * perpendicular to ax covering one sphere (u0 picks it, in proportion to its
+ * disc's area), at u1, u2 on that disc, starting outside the scene's bounding
+ * sphere: its origin in *o; returns the discs' total area over the number of
+ * discs the ray's line crosses (the weight of a ray of density 1 per area
+ * over the discs, counted where they overlap). */
+SPT_FN_INLINE float lt_aim_parallel(const RenderParams *p, float3 ax, float u0, float u1, float u2, float3 *o)
+{
+    uint n = p->caustic_count, k = 0u;
+    float total = 0.0f;
+    for (uint j = 0u; j < n; j++)
+        total += p->caustic[j][3] * p->caustic[j][3];
+    float share = p->caustic[0][3] * p->caustic[0][3] / total, acc = 0.0f;
+    while (k + 1u < n && u0 >= acc + share) {
+        acc += share;
+        k++;
+        share = p->caustic[k][3] * p->caustic[k][3] / total;
+    }
+    vec3 t_, b_;
+    v3_basis(ax, &t_, &b_);
+    vec3 disk = spt_sample_concentric_disk(u1, u2);
+    float3 c = (float3)(p->caustic[k][0], p->caustic[k][1], p->caustic[k][2]);
+    float3 cs = (float3)(p->scene_center[0], p->scene_center[1], p->scene_center[2]);
+    *o = c + p->caustic[k][3] * (disk.x * t_ + disk.y * b_) - ax * (p->scene_radius + length(c - cs));
+    float crossed = 1.0f;
+    for (uint j = 0u; j < n; j++)
+        if (j != k && lt_meets_caustic(p, j, *o, ax))
+            crossed += 1.0f;
+    return SPT_PI * total / crossed;
 }
 
 /* Starts light path i as work item w (w >= P.light_begin): its wavelengths,
@@ -112,11 +163,11 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
         float3 cr = cross(b - a, c - a);
         float area2 = length(cr);
         const __global GpuMaterial *lm = materials + tri_shade[lt].material;
-        float omega, span;
-        if (area2 > 0.0f && lt_aim_cone(&P, q, &omega, &span)) {
-            /* Aimed at the caustic sphere: the side the direction leaves by
+        float omega, cones;
+        if (area2 > 0.0f && lt_aim_cones(&P, q, &omega)) {
+            /* Aimed at the caustic spheres: the side the direction leaves by
              * (none when that side does not emit). */
-            float3 dg = lt_aim_dir(&P, q, span, u3, u4);
+            float3 dg = lt_aim_dir(&P, q, omega, u3, u4, &cones);
             float3 ng = cr / area2;
             float cn = dot(dg, ng);
             int two = (lm->flags & SPT_MAT_DOUBLE_SIDED_EMISSION) != 0;
@@ -129,8 +180,8 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
                     ltc = tex_ctx(lm, lt, bary.y, bary.z, a, b, c, ng, d, 0.0f, tri_shade, vtx_uv, vtx_uv1);
                 float4 le = material_emission(lm, &ltc, lam, fabs(cn), lt, bary.y, bary.z, tri_shade,
                                               vtx_color, spectra, textures, texels);
-                /* Le cos / (prob / area  1 / omega) */
-                power = le * (fabs(cn) * omega * 0.5f * area2 / prob);
+                /* Le cos / (prob / area  cones / omega) */
+                power = le * (fabs(cn) * (omega / cones) * 0.5f * area2 / prob);
                 o = offset_origin(q, n);
             }
         } else if (area2 > 0.0f) {
@@ -168,30 +219,26 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
         v3_basis(ax, &t_, &b_);
         float3 cs = (float3)(P.scene_center[0], P.scene_center[1], P.scene_center[2]);
         float3 pos = (float3)(l->pos[0], l->pos[1], l->pos[2]);
-        float omega, span;
+        float omega, cones;
         if (l->type == SPT_PUNCTUAL_DIRECTIONAL) {
-            /* Parallel rays from a disc perpendicular to the light: of the
-             * caustic sphere's radius Rc around its centre cc, outside the
-             * scene's bounding sphere (as an environment map's, below), or
-             * without a caustic sphere of the scene's radius, tangent to its
-             * bounding sphere on the side the light comes from: E pi R^2 / prob. */
-            float R = P.scene_radius;
-            float3 c = cs;
-            float back = R;
-            if (P.caustic_radius > 0.0f) {
-                c = (float3)(P.caustic_center[0], P.caustic_center[1], P.caustic_center[2]);
-                back = P.scene_radius + length(c - cs);
-                R = P.caustic_radius;
+            /* Parallel rays through discs perpendicular to the light that
+             * cover the caustic spheres (lt_aim_parallel), or without them
+             * through a disc of the scene's radius, tangent to its bounding
+             * sphere on the side the light comes from: E area / prob. */
+            if (P.caustic_count > 0u) {
+                power = spd * (lt_aim_parallel(&P, ax, u1, u3, u4, &o) / prob);
+            } else {
+                float R = P.scene_radius;
+                vec3 disk = spt_sample_concentric_disk(u3, u4);
+                o = cs + R * (disk.x * t_ + disk.y * b_) - ax * R;
+                power = spd * (SPT_PI * R * R / prob);
             }
-            vec3 disk = spt_sample_concentric_disk(u3, u4);
-            o = c + R * (disk.x * t_ + disk.y * b_) - ax * back;
             d = ax;
-            power = spd * (SPT_PI * R * R / prob);
-        } else if (lt_aims_punctual(&P, l, &omega, &span)) {
-            /* Aimed at the caustic sphere: I falloff omega / prob. */
+        } else if (lt_aims_punctual(&P, l, &omega)) {
+            /* Aimed at the caustic spheres: I falloff omega / (cones prob). */
             o = pos;
-            d = lt_aim_dir(&P, pos, span, u3, u4);
-            power = spd * (light_spot_falloff(l, dot(d, ax)) * omega / prob);
+            d = lt_aim_dir(&P, pos, omega, u3, u4, &cones);
+            power = spd * (light_spot_falloff(l, dot(d, ax)) * (omega / cones) / prob);
         } else {
             o = pos;
             /* Point: uniform over the sphere; spot: uniform within the outer cone,
@@ -210,28 +257,20 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
         /* An environment map (a uniform sky's share ends the path: camera paths
          * find it through glass well, and keep it): a direction w toward the
          * sky by env_sample's density (the texels' luminance), then parallel
-         * rays along -w through a disc of radius Rc perpendicular to w that
-         * covers the sphere (centre cc) of the surfaces that may be delta: a
+         * rays along -w through discs perpendicular to w that cover the
+         * spheres of the surfaces that may be delta (lt_aim_parallel): a
          * light path goes on only from such a surface, and every ray that
-         * meets one crosses that disc. The disc lies at
-         * Rs + |cc - cs| along w from cc, so it and the ray's line behind it
-         * are outside the scene's bounding sphere (centre cs, radius Rs):
-         * L(w) pi Rc^2 / (prob pdf(w)). */
+         * meets one crosses one of those discs. The rays start outside the
+         * scene's bounding sphere: L(w) area / (crossed prob pdf(w)). */
         float epdf;
         float3 w = normalize(env_sample(&P.env, env_data, u1, u2, &epdf));
-        float Rc = P.caustic_radius;
-        if (epdf > 0.0f && Rc > 0.0f) {
+        if (epdf > 0.0f && P.caustic_count > 0u) {
             float la[4], lv[4];
             lambda_array(lam, la);
             env_eval(&P.env, env_data, w, la, lv);
-            vec3 t_, b_;
-            v3_basis(w, &t_, &b_);
-            vec3 disk = spt_sample_concentric_disk(u3, u4);
-            float3 cc = (float3)(P.caustic_center[0], P.caustic_center[1], P.caustic_center[2]);
-            float3 cs = (float3)(P.scene_center[0], P.scene_center[1], P.scene_center[2]);
-            o = cc + Rc * (disk.x * t_ + disk.y * b_) + w * (P.scene_radius + length(cc - cs));
+            float area = lt_aim_parallel(&P, -w, u5, u3, u4, &o);
             d = -w;
-            power = (float4)(lv[0], lv[1], lv[2], lv[3]) * (SPT_PI * Rc * Rc / (prob * epdf));
+            power = (float4)(lv[0], lv[1], lv[2], lv[3]) * (area / (prob * epdf));
         }
     }
     ps_lambda[i] = lam;

@@ -102,35 +102,57 @@ SPT_FN float light_spot_falloff(const SPT_GLOBAL GpuLight *l, float cos_angle)
     return t * t;
 }
 
-/* ---- Light paths aimed at the caustic sphere (kernels/device/light_trace.h) ---- */
+/* ---- Light paths aimed at the caustic spheres (kernels/device/light_trace.h) ---- */
 
-/* Whether a light path from q is aimed at the caustic sphere (the sphere of
- * the surfaces that may be delta, p->caustic_center and radius): when there is
- * one and q lies outside it by a margin (sin^2 of the cone's half angle below
- * 0.9; nearer, most directions meet it anyway). Then 1, with the cone's solid
- * angle in *omega and 1 - cos of its half angle in *span (without
- * cancellation for small cones); else 0. The host's sizing of the pass
- * (src/render/scheduler.c, caustic_share) calls it too. */
-SPT_FN int lt_aim_cone(const RenderParams *p, vec3 q, float *omega, float *span)
+/* Whether the ray from o along unit d meets caustic sphere k of p, or starts
+ * in it. */
+SPT_FN int lt_meets_caustic(const RenderParams *p, spt_u32 k, vec3 o, vec3 d)
 {
-    float rc = p->caustic_radius;
-    if (!(rc > 0.0f))
+    vec3 v = v3_sub(v3(p->caustic[k][0], p->caustic[k][1], p->caustic[k][2]), o);
+    float r = p->caustic[k][3];
+    float v2 = v3_dot(v, v), t = v3_dot(v, d);
+    return v2 <= r * r || (t > 0.0f && v2 - t * t <= r * r);
+}
+
+/* 1 - cos of the half angle of the cone that caustic sphere k subtends from q,
+ * without cancellation for small cones; 0 when q is near the sphere or in it
+ * (sin^2 of the half angle 0.9 or more: most directions meet it anyway). */
+SPT_FN float lt_caustic_span(const RenderParams *p, spt_u32 k, vec3 q)
+{
+    vec3 v = v3_sub(v3(p->caustic[k][0], p->caustic[k][1], p->caustic[k][2]), q);
+    float r = p->caustic[k][3];
+    float s2 = r * r / v3_dot(v, v);
+    return s2 < 0.9f ? s2 / (1.0f + sqrtf(1.0f - s2)) : 0.0f;
+}
+
+/* Whether a light path from q is aimed at the caustic spheres (the spheres of
+ * the surfaces that may be delta, p->caustic): when there are some and q lies
+ * outside each of them by a margin (lt_caustic_span). Then 1, with the sum of
+ * their cones' solid angles in *omega (lt_aim_dir samples a cone in
+ * proportion to its solid angle, then uniformly within it); else 0. The
+ * host's sizing of the pass (src/render/scheduler.c, caustic_share) calls it
+ * too. */
+SPT_FN int lt_aim_cones(const RenderParams *p, vec3 q, float *omega)
+{
+    if (p->caustic_count == 0u)
         return 0;
-    vec3 v = v3_sub(v3(p->caustic_center[0], p->caustic_center[1], p->caustic_center[2]), q);
-    float s2 = rc * rc / v3_dot(v, v);
-    if (!(s2 < 0.9f))
-        return 0;
-    *span = s2 / (1.0f + sqrtf(1.0f - s2));
-    *omega = 2.0f * SPT_PI * *span;
+    float total = 0.0f;
+    for (spt_u32 k = 0; k < p->caustic_count; k++) {
+        float span = lt_caustic_span(p, k, q);
+        if (!(span > 0.0f))
+            return 0;
+        total += 2.0f * SPT_PI * span;
+    }
+    *omega = total;
     return 1;
 }
 
 /* Whether punctual light l's (a point or spot light's) light paths are aimed:
- * lt_aim_cone at its position, and for a spot only when that cone is the
- * narrower of the two. */
-SPT_FN int lt_aims_punctual(const RenderParams *p, const SPT_GLOBAL GpuLight *l, float *omega, float *span)
+ * lt_aim_cones at its position, and for a spot only when those cones' solid
+ * angle is below the spot's. */
+SPT_FN int lt_aims_punctual(const RenderParams *p, const SPT_GLOBAL GpuLight *l, float *omega)
 {
-    if (l->type == SPT_PUNCTUAL_DIRECTIONAL || !lt_aim_cone(p, v3(l->pos[0], l->pos[1], l->pos[2]), omega, span))
+    if (l->type == SPT_PUNCTUAL_DIRECTIONAL || !lt_aim_cones(p, v3(l->pos[0], l->pos[1], l->pos[2]), omega))
         return 0;
     return l->type != SPT_PUNCTUAL_SPOT || *omega < 2.0f * SPT_PI * (1.0f - fmaxf(l->cos_outer, -1.0f));
 }

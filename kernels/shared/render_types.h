@@ -175,6 +175,9 @@ typedef struct GpuEnvMap {
 #define SPT_SAMPLER_INDEPENDENT 1u /* a hash of (seed, pixel, sample, dim) */
 #define SPT_SAMPLER_ZSOBOL 2u      /* Sobol over the pixels in Morton order (blue-noise error) */
 
+/* Most caustic spheres (RenderParams.caustic). */
+#define SPT_CAUSTIC_MAX 4
+
 /* Everything a pass needs besides buffers; passed by value. */
 typedef struct RenderParams {
     /* camera: position, right/up scaled by tan(fov/2) (and aspect), forward; the
@@ -213,11 +216,13 @@ typedef struct RenderParams {
      * that covers it). */
     float scene_center[3];
     float scene_radius;
-    /* The bounding sphere of the triangles whose material may take a delta
-     * lobe (radius 0: none): the environment's light paths start on a disc
-     * that covers it, since only those that meet such a triangle first go on. */
-    float caustic_center[3];
-    float caustic_radius;
+    /* The caustic spheres (kernels/shared/lights.h, lt_aim_cones): per
+     * material that may take a delta lobe (all such materials in one when
+     * there are more than SPT_CAUSTIC_MAX), the bounding sphere of its
+     * triangles, centre and radius; caustic_count 0: none. Only a light path
+     * that meets one of them first goes on. */
+    float caustic[SPT_CAUSTIC_MAX][4];
+    spt_u32 caustic_count;
     spt_u32 sampler;        /* SPT_SAMPLER_* (kernels/device/rng.h) */
     /* SPT_SAMPLER_ZSOBOL: log2 of the samples per pixel rounded up to a power
      * of two, and the base-4 digits of a Morton index (spt_zsobol_digits). */

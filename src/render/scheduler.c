@@ -315,60 +315,84 @@ static int material_may_be_delta(const GpuMaterial *m)
                                    m->slot[SPT_TS_CLEARCOAT_ROUGHNESS].tex >= 0);
 }
 
-/* The bounding sphere of the triangles whose material may take a delta lobe
- * (p->caustic_center, p->caustic_radius; radius 0 when there are none): about
- * the centre of the box around their vertices, through the farthest of them,
- * widened by float rounding. A
- * light path from the environment whose first vertex takes a delta lobe
- * crosses that sphere, so its rays need to cover no more than it. */
+/* The caustic spheres (p->caustic, p->caustic_count; none when no triangle's
+ * material may take a delta lobe): one per such material, or one for all of
+ * them when there are more than SPT_CAUSTIC_MAX; each about the centre of the
+ * box around its triangles' vertices, through the farthest of them, widened
+ * by float rounding. A light path goes on only from such a surface, so its
+ * first ray is aimed at these spheres (kernels/shared/lights.h): one sphere
+ * per material wastes fewer rays than one around all (on the Cornell box it
+ * held the glass and the gold spheres and the space between them). */
 static void caustic_bounds(RenderParams *p, const GpuScene *g)
 {
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    int any = 0;
+    int32_t *group = spt_calloc(g->material_count ? g->material_count : 1, sizeof(int32_t));
+    uint32_t n = 0;
+    for (uint32_t m = 0; m < g->material_count; m++)
+        group[m] = -1;
+    for (uint32_t i = 0; i < g->bvh.prim_count; i++) {
+        uint32_t m = g->tri_shade[i].material;
+        if (m < g->material_count && group[m] < 0 && material_may_be_delta(&g->materials[m]))
+            group[m] = (int32_t)n++;
+    }
+    if (n > SPT_CAUSTIC_MAX) {
+        for (uint32_t m = 0; m < g->material_count; m++)
+            if (group[m] >= 0)
+                group[m] = 0;
+        n = 1;
+    }
+    float lo[SPT_CAUSTIC_MAX][3], hi[SPT_CAUSTIC_MAX][3];
+    double m_abs[SPT_CAUSTIC_MAX] = {0}, r2[SPT_CAUSTIC_MAX] = {0};
+    for (uint32_t k = 0; k < n; k++)
+        for (int c = 0; c < 3; c++) {
+            lo[k][c] = INFINITY;
+            hi[k][c] = -INFINITY;
+        }
     for (uint32_t i = 0; i < g->bvh.prim_count; i++) {
         const TriShade *ts = &g->tri_shade[i];
-        if (!material_may_be_delta(&g->materials[ts->material]))
+        if (ts->material >= g->material_count || group[ts->material] < 0)
             continue;
-        any = 1;
+        int k = group[ts->material];
         for (int v = 0; v < 3; v++)
-            for (int k = 0; k < 3; k++) {
-                float x = g->vtx_pos[3 * (size_t)ts->v[v] + k];
-                lo[k] = fminf(lo[k], x);
-                hi[k] = fmaxf(hi[k], x);
+            for (int c = 0; c < 3; c++) {
+                float x = g->vtx_pos[3 * (size_t)ts->v[v] + c];
+                lo[k][c] = fminf(lo[k][c], x);
+                hi[k][c] = fmaxf(hi[k][c], x);
             }
     }
-    if (!any)
-        return;
-    double m = 0;
-    for (int k = 0; k < 3; k++) {
-        p->caustic_center[k] = 0.5f * (lo[k] + hi[k]);
-        m = fmax(m, fmax(fabs((double)lo[k]), fabs((double)hi[k])));
-    }
+    for (uint32_t k = 0; k < n; k++)
+        for (int c = 0; c < 3; c++) {
+            p->caustic[k][c] = 0.5f * (lo[k][c] + hi[k][c]);
+            m_abs[k] = fmax(m_abs[k], fmax(fabs((double)lo[k][c]), fabs((double)hi[k][c])));
+        }
     /* The farthest vertex from the box's centre (a sphere's mesh gets its own
      * radius, not the box's half diagonal, sqrt(3) times as long). */
-    double r2 = 0;
     for (uint32_t i = 0; i < g->bvh.prim_count; i++) {
         const TriShade *ts = &g->tri_shade[i];
-        if (!material_may_be_delta(&g->materials[ts->material]))
+        if (ts->material >= g->material_count || group[ts->material] < 0)
             continue;
+        int k = group[ts->material];
         for (int v = 0; v < 3; v++) {
             double d2 = 0;
-            for (int k = 0; k < 3; k++) {
-                double x = (double)g->vtx_pos[3 * (size_t)ts->v[v] + k] - p->caustic_center[k];
+            for (int c = 0; c < 3; c++) {
+                double x = (double)g->vtx_pos[3 * (size_t)ts->v[v] + c] - p->caustic[k][c];
                 d2 += x * x;
             }
-            r2 = fmax(r2, d2);
+            r2[k] = fmax(r2[k], d2);
         }
     }
-    p->caustic_radius = (float)(sqrt(r2) * (1.0 + 1e-5) + 1e-5 * m + 1e-6);
+    for (uint32_t k = 0; k < n; k++)
+        p->caustic[k][3] = (float)(sqrt(r2[k]) * (1.0 + 1e-5) + 1e-5 * m_abs[k] + 1e-6);
+    p->caustic_count = n;
+    free(group);
 }
 
-/* Whether the ray from o along unit d meets the sphere (c, r), or starts in it. */
-static int ray_meets_sphere(vec3 o, vec3 d, vec3 c, float r)
+/* Whether the ray from o along unit d meets a caustic sphere of p. */
+static int ray_meets_caustic(const RenderParams *p, vec3 o, vec3 d)
 {
-    vec3 v = v3_sub(c, o);
-    float v2 = v3_dot(v, v), t = v3_dot(v, d);
-    return v2 <= r * r || (t > 0.0f && v2 - t * t <= r * r);
+    for (uint32_t k = 0; k < p->caustic_count; k++)
+        if (lt_meets_caustic(p, k, o, d))
+            return 1;
+    return 0;
 }
 
 static float share_u(uint64_t *state)
@@ -380,30 +404,29 @@ static float share_u(uint64_t *state)
 }
 
 /* The light-tracing pass sizing: the light paths' first rays are aimed at the
- * caustic sphere (lt_aim_cone), where sampling the lights' emission as such would
- * send most of them elsewhere, to end at their first vertex. --light-paths R
- * asks for as many paths that head for the sphere as R light paths per camera
- * path sampled without aiming would give: the pass traces R s per camera path,
- * s = (the share of unaimed paths whose first ray meets the sphere) / (the
- * share of the pass's paths that do: all that are aimed, the rest as
- * unaimed). Estimated from SHARE_N light samples drawn as lt_start draws them
- * (stratified over the light selection, fixed numbers: the same on every
- * rank and device); 1 without a caustic sphere or a light that reaches it. */
+ * caustic spheres (lt_aim_cones), where sampling the lights' emission as such
+ * would send most of them elsewhere, to end at their first vertex.
+ * --light-paths R asks for as many paths that head for a sphere as R light
+ * paths per camera path sampled without aiming would give: the pass traces
+ * R s per camera path, s = (the share of unaimed paths whose first ray meets
+ * a sphere) / (the share of the pass's paths that do: all that are aimed, the
+ * rest as unaimed). Estimated from SHARE_N light samples drawn as lt_start
+ * draws them (stratified over the light selection, fixed numbers: the same on
+ * every rank and device); 1 without caustic spheres or a light that reaches
+ * them. */
 #define SHARE_N 16384
 static double caustic_share(const RenderParams *p, const RenderLights *L, const GpuScene *g)
 {
-    if (!(p->caustic_radius > 0.0f) || L->select.n == 0)
+    if (p->caustic_count == 0 || L->select.n == 0)
         return 1.0;
-    vec3 cc = v3(p->caustic_center[0], p->caustic_center[1], p->caustic_center[2]);
     vec3 cs = v3(p->scene_center[0], p->scene_center[1], p->scene_center[2]);
-    float rc = p->caustic_radius;
     uint64_t st = 0x5eed5eedull;
     double old_hits = 0, new_hits = 0;
     for (int k = 0; k < SHARE_N; k++) {
         float prob;
         int e = spt_discrete_sample(L->select.cdf, L->select.n, ((float)k + share_u(&st)) / SHARE_N, &prob, NULL);
         float u1 = share_u(&st), u2 = share_u(&st), u3 = share_u(&st), u4 = share_u(&st), u5 = share_u(&st);
-        float omega, span;
+        float omega;
         if (e < 0 || !(prob > 0.0f))
             continue;
         if ((uint32_t)e < g->emitter_count) {
@@ -423,9 +446,9 @@ static double caustic_share(const RenderParams *p, const RenderLights *L, const 
             v3_basis(n, &t_, &b_);
             vec3 l = spt_sample_cosine_hemisphere(u3, u4);
             vec3 d = v3_add(v3_add(v3_scale(t_, l.x), v3_scale(b_, l.y)), v3_scale(n, l.z));
-            int hit = ray_meets_sphere(q, v3_normalize(d), cc, rc);
+            int hit = ray_meets_caustic(p, q, v3_normalize(d));
             old_hits += hit;
-            new_hits += lt_aim_cone(p, q, &omega, &span) ? 1 : hit;
+            new_hits += lt_aim_cones(p, q, &omega) ? 1 : hit;
         } else if ((uint32_t)e < g->emitter_count + g->light_count) {
             const GpuLight *l = &g->lights[(uint32_t)e - g->emitter_count];
             vec3 ax = v3(l->dir[0], l->dir[1], l->dir[2]), t_, b_;
@@ -435,7 +458,7 @@ static double caustic_share(const RenderParams *p, const RenderLights *L, const 
                 float R = p->scene_radius;
                 vec3 o = v3_add(v3_add(cs, v3_scale(v3_add(v3_scale(t_, disk.x), v3_scale(b_, disk.y)), R)),
                                 v3_scale(ax, -R));
-                old_hits += ray_meets_sphere(o, ax, cc, rc);
+                old_hits += ray_meets_caustic(p, o, ax);
                 new_hits += 1;
                 continue;
             }
@@ -444,9 +467,9 @@ static double caustic_share(const RenderParams *p, const RenderLights *L, const 
             float ct = 1.0f - u3 * (1.0f - cmin), sn = sqrtf(fmaxf(0.0f, 1.0f - ct * ct));
             float phi = 2.0f * SPT_PI * u4;
             vec3 d = v3_add(v3_add(v3_scale(t_, sn * cosf(phi)), v3_scale(b_, sn * sinf(phi))), v3_scale(ax, ct));
-            int hit = ray_meets_sphere(pos, v3_normalize(d), cc, rc);
+            int hit = ray_meets_caustic(p, pos, v3_normalize(d));
             old_hits += hit;
-            new_hits += lt_aims_punctual(p, l, &omega, &span) ? 1 : hit;
+            new_hits += lt_aims_punctual(p, l, &omega) ? 1 : hit;
         } else if (L->env.env.kind == SPT_ENV_MAP) {
             /* Already aimed (its disc covers the sphere). */
             old_hits += 1;
