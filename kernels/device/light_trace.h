@@ -80,7 +80,7 @@ SPT_FN_INLINE float3 lt_aim_dir(const RenderParams *p, float3 q, float omega, fl
         share = 2.0f * SPT_PI * span / omega;
     }
     u1 = fmin(fmax((u1 - acc) / share, 0.0f), 0x1.fffffep-1f);
-    float3 ax = normalize((float3)(p->caustic[k][0], p->caustic[k][1], p->caustic[k][2]) - q);
+    float3 ax = normalize((float3)(p->caustic[4 * k + 0], p->caustic[4 * k + 1], p->caustic[4 * k + 2]) - q);
     float x = u1 * span; /* 1 - cos(theta) */
     float ct = 1.0f - x;
     float st = sqrt(fmax(0.0f, x * (2.0f - x)));
@@ -108,19 +108,19 @@ SPT_FN_INLINE float lt_aim_parallel(const RenderParams *p, float3 ax, float u0, 
     uint n = p->caustic_count, k = 0u;
     float total = 0.0f;
     for (uint j = 0u; j < n; j++)
-        total += p->caustic[j][3] * p->caustic[j][3];
-    float share = p->caustic[0][3] * p->caustic[0][3] / total, acc = 0.0f;
+        total += p->caustic[4 * j + 3] * p->caustic[4 * j + 3];
+    float share = p->caustic[4 * 0 + 3] * p->caustic[4 * 0 + 3] / total, acc = 0.0f;
     while (k + 1u < n && u0 >= acc + share) {
         acc += share;
         k++;
-        share = p->caustic[k][3] * p->caustic[k][3] / total;
+        share = p->caustic[4 * k + 3] * p->caustic[4 * k + 3] / total;
     }
     vec3 t_, b_;
     v3_basis(ax, &t_, &b_);
     vec3 disk = spt_sample_concentric_disk(u1, u2);
-    float3 c = (float3)(p->caustic[k][0], p->caustic[k][1], p->caustic[k][2]);
+    float3 c = (float3)(p->caustic[4 * k + 0], p->caustic[4 * k + 1], p->caustic[4 * k + 2]);
     float3 cs = (float3)(p->scene_center[0], p->scene_center[1], p->scene_center[2]);
-    *o = c + p->caustic[k][3] * (disk.x * t_ + disk.y * b_) - ax * (p->scene_radius + length(c - cs));
+    *o = c + p->caustic[4 * k + 3] * (disk.x * t_ + disk.y * b_) - ax * (p->scene_radius + length(c - cs));
     float crossed = 1.0f;
     for (uint j = 0u; j < n; j++)
         if (j != k && lt_meets_caustic(p, j, *o, ax))

@@ -108,8 +108,8 @@ SPT_FN float light_spot_falloff(const SPT_GLOBAL GpuLight *l, float cos_angle)
  * in it. */
 SPT_FN int lt_meets_caustic(const RenderParams *p, spt_u32 k, vec3 o, vec3 d)
 {
-    vec3 v = v3_sub(v3(p->caustic[k][0], p->caustic[k][1], p->caustic[k][2]), o);
-    float r = p->caustic[k][3];
+    vec3 v = v3_sub(v3(p->caustic[4 * k + 0], p->caustic[4 * k + 1], p->caustic[4 * k + 2]), o);
+    float r = p->caustic[4 * k + 3];
     float v2 = v3_dot(v, v), t = v3_dot(v, d);
     return v2 <= r * r || (t > 0.0f && v2 - t * t <= r * r);
 }
@@ -119,8 +119,8 @@ SPT_FN int lt_meets_caustic(const RenderParams *p, spt_u32 k, vec3 o, vec3 d)
  * (sin^2 of the half angle 0.9 or more: most directions meet it anyway). */
 SPT_FN float lt_caustic_span(const RenderParams *p, spt_u32 k, vec3 q)
 {
-    vec3 v = v3_sub(v3(p->caustic[k][0], p->caustic[k][1], p->caustic[k][2]), q);
-    float r = p->caustic[k][3];
+    vec3 v = v3_sub(v3(p->caustic[4 * k + 0], p->caustic[4 * k + 1], p->caustic[4 * k + 2]), q);
+    float r = p->caustic[4 * k + 3];
     float s2 = r * r / v3_dot(v, v);
     return s2 < 0.9f ? s2 / (1.0f + sqrtf(1.0f - s2)) : 0.0f;
 }

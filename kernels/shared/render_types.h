@@ -221,7 +221,9 @@ typedef struct RenderParams {
      * there are more than SPT_CAUSTIC_MAX), the bounding sphere of its
      * triangles, centre and radius; caustic_count 0: none. Only a light path
      * that meets one of them first goes on. */
-    float caustic[SPT_CAUSTIC_MAX][4];
+    float caustic[4 * SPT_CAUSTIC_MAX]; /* sphere k: 4 k .. 4 k + 3 (Mesa 22.3's
+                                           rusticl misjudges the size of a kernel
+                                           argument with a 2D array member) */
     spt_u32 caustic_count;
     spt_u32 sampler;        /* SPT_SAMPLER_* (kernels/device/rng.h) */
     /* SPT_SAMPLER_ZSOBOL: log2 of the samples per pixel rounded up to a power

@@ -361,7 +361,7 @@ static void caustic_bounds(RenderParams *p, const GpuScene *g)
     }
     for (uint32_t k = 0; k < n; k++)
         for (int c = 0; c < 3; c++) {
-            p->caustic[k][c] = 0.5f * (lo[k][c] + hi[k][c]);
+            p->caustic[4 * k + c] = 0.5f * (lo[k][c] + hi[k][c]);
             m_abs[k] = fmax(m_abs[k], fmax(fabs((double)lo[k][c]), fabs((double)hi[k][c])));
         }
     /* The farthest vertex from the box's centre (a sphere's mesh gets its own
@@ -374,14 +374,14 @@ static void caustic_bounds(RenderParams *p, const GpuScene *g)
         for (int v = 0; v < 3; v++) {
             double d2 = 0;
             for (int c = 0; c < 3; c++) {
-                double x = (double)g->vtx_pos[3 * (size_t)ts->v[v] + c] - p->caustic[k][c];
+                double x = (double)g->vtx_pos[3 * (size_t)ts->v[v] + c] - p->caustic[4 * k + c];
                 d2 += x * x;
             }
             r2[k] = fmax(r2[k], d2);
         }
     }
     for (uint32_t k = 0; k < n; k++)
-        p->caustic[k][3] = (float)(sqrt(r2[k]) * (1.0 + 1e-5) + 1e-5 * m_abs[k] + 1e-6);
+        p->caustic[4 * k + 3] = (float)(sqrt(r2[k]) * (1.0 + 1e-5) + 1e-5 * m_abs[k] + 1e-6);
     p->caustic_count = n;
     free(group);
 }
