@@ -398,6 +398,54 @@ static void test_short_stack_matches_full(void **state)
     }
 }
 
+/* The CPU kernels' paired traversal (two rays a step each in turn) gives each
+ * ray the single-ray answer: bvh_intersect2's hits equal bvh_intersect's bit
+ * for bit; a dense soup and a sphere of small leaves, rays from inside and
+ * outside. */
+static void test_pairs_match_single(void **state)
+{
+    (void)state;
+    rng_state = 23;
+    for (int scene = 0; scene < 2; scene++) {
+        uint32_t n = 4000;
+        const float c[3] = {0.1f, -0.1f, 0.2f};
+        float *t = scene == 0 ? make_soup(n, 0.3) : bvh_gen_sphere(40, 80, 1.0f, c, 0.3f, &n);
+        BvhOptions opt = bvh_default_options();
+        opt.max_leaf = scene == 0 ? opt.max_leaf : 2;
+        Bvh bvh;
+        assert_int_equal(bvh_build_ex(&bvh, t, n, &opt, NULL), 0);
+        int hits = 0;
+        const int pairs = 10000;
+        for (int r = 0; r < pairs; r++) {
+            vec3 org[2], dir[2];
+            for (int k = 0; k < 2; k++) {
+                double o[3], d[3];
+                for (int a = 0; a < 3; a++)
+                    o[a] = rnd_range(-1.6, 1.6);
+                rnd_dir(d);
+                org[k] = v3((float)o[0], (float)o[1], (float)o[2]);
+                dir[k] = v3((float)d[0], (float)d[1], (float)d[2]);
+            }
+            int found[2];
+            BvhHit hit[2];
+            bvh_intersect2(bvh.nodes, bvh.tri_data, org[0], dir[0], org[1], dir[1], 1e30f, found, hit);
+            for (int k = 0; k < 2; k++) {
+                BvhHit want = {0, 0, 0, 0};
+                int want_found = bvh_intersect(bvh.nodes, bvh.tri_data, org[k], dir[k], 1e30f, &want);
+                assert_int_equal(found[k], want_found);
+                if (want_found && memcmp(&hit[k], &want, sizeof want))
+                    fail_msg("scene %d, pair %d, ray %d: hit t=%.9g prim %u, alone t=%.9g prim %u", scene, r,
+                             k, hit[k].t, hit[k].prim, want.t, want.prim);
+                hits += found[k];
+            }
+        }
+        /* Both answers occur. */
+        assert_true(hits > pairs / 10 && hits < 2 * pairs);
+        bvh_free(&bvh);
+        free(t);
+    }
+}
+
 /* The full-sweep reference builder makes a valid tree too, with SAH cost no
  * higher than the binned one's by more than rounding (it searches a superset). */
 static void test_full_sweep_builder(void **state)
@@ -729,6 +777,7 @@ int main(void)
         cmocka_unit_test(test_soup_matches_brute_force),
         cmocka_unit_test(test_sphere_matches_brute_force),
         cmocka_unit_test(test_short_stack_matches_full),
+        cmocka_unit_test(test_pairs_match_single),
         cmocka_unit_test(test_full_sweep_builder),
         cmocka_unit_test(test_million_triangles),
         cmocka_unit_test(test_watertight),
