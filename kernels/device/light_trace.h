@@ -423,6 +423,7 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFER
      * the start on the light). */
     f.bounce = h.depth;
     int past_delta = (ps_lt[i] & SPT_LT_SPEC) != 0u, shadow = 0;
+    float ulobe = spt_sampler_1d(f.smp, spt_dim_bounce(f.bounce, SPT_DIM_BSDF_LOBE));
     if (past_delta) {
         /* Every vertex after the first delta one connects: the path camera -
          * here - ... - light has x1 non-delta and its last vertex delta. */
@@ -435,15 +436,14 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFER
         /* The first vertex: a non-delta lobe makes every path through here
          * the camera paths' (its last vertex is non-delta). */
         float pdelta;
-        float u0 = spt_sampler_1d(f.smp, spt_dim_bounce(f.bounce, SPT_DIM_BSDF_LOBE));
-        if (!lt_delta_lobe(&bp, f.wo_l, u0, &pdelta))
+        if (!lt_delta_lobe(&bp, f.wo_l, ulobe, &pdelta))
             return 0;
     }
     BsdfSample bs;
     float3 wn;
     float wn_side;
     int reflect;
-    int alive = shade_bsdf_bounce(&h, &bp, &f, &bs, &wn, &wn_side, &reflect, ALL_ARGS) &&
+    int alive = shade_bsdf_bounce(&h, &bp, &f, ulobe, &bs, &wn, &wn_side, &reflect, ALL_ARGS) &&
                 (past_delta || bs.is_delta);
     if (alive) {
         /* The adjoint: refraction (delta or not) scales importance by eta'^2

@@ -237,13 +237,14 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
     f->key = smp.rand_key;
 }
 
-/* Next-event estimation: one light chosen in proportion to power among the
+/* Next-event estimation: one light chosen (by usel, the bounce's
+ * SPT_DIM_LIGHT_SELECT) in proportion to power among the
  * emissive triangles, the punctual lights and the environment. Returns 1 and
  * fills the shadow ray (origin, direction with tmax in w, contribution) when the
  * light's contribution is not zero. */
 SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const BsdfParams *bp,
-                                     const ShadeFrame *f, float4 *sh_o, float4 *sh_d, float4 *sh_c,
-                                     ALL_BUFFERS)
+                                     const ShadeFrame *f, float usel, float4 *sh_o, float4 *sh_d,
+                                     float4 *sh_c, ALL_BUFFERS)
 {
     uint depth = h->depth, bounce = f->bounce;
     float4 lam = h->lam;
@@ -251,8 +252,7 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
     if (!(P.select_count > 0u && (P.max_depth <= 0 || depth + 1u <= (uint)P.max_depth) &&
           !bsdf_is_delta(bp)))
         return 0;
-    float prob, usel, ul, vl;
-    usel = spt_sampler_1d(f->smp, spt_dim_bounce(bounce, SPT_DIM_LIGHT_SELECT));
+    float prob, ul, vl;
     spt_sampler_pair(f->smp, spt_dim_bounce(bounce, SPT_DIM_LIGHT_U), &ul, &vl);
     int e = spt_discrete_sample(light_cdf, P.select_count, usel, &prob, 0);
     float3 wi = (float3)(0.0f, 0.0f, 1.0f);
@@ -324,15 +324,16 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
     return 0;
 }
 
-/* BSDF sampling: the next direction wn (world), its side of the face, whether it
- * reflects; h->beta takes the sample's weight. Returns whether the path goes on. */
-SPT_FN_INLINE int shade_bsdf_bounce(ShadeHit *h, const BsdfParams *bp, const ShadeFrame *f, BsdfSample *bs,
-                                    float3 *wn, float *wn_side, int *reflect, ALL_BUFFERS)
+/* BSDF sampling, the lobe chosen by ulobe (the bounce's SPT_DIM_BSDF_LOBE): the
+ * next direction wn (world), its side of the face, whether it reflects;
+ * h->beta takes the sample's weight. Returns whether the path goes on. */
+SPT_FN_INLINE int shade_bsdf_bounce(ShadeHit *h, const BsdfParams *bp, const ShadeFrame *f, float ulobe,
+                                    BsdfSample *bs, float3 *wn, float *wn_side, int *reflect, ALL_BUFFERS)
 {
     uint i = h->i, bounce = f->bounce;
     float ub, vb;
     spt_sampler_pair(f->smp, spt_dim_bounce(bounce, SPT_DIM_BSDF_U), &ub, &vb);
-    *bs = bsdf_sample(bp, f->wo_l, spt_sampler_1d(f->smp, spt_dim_bounce(bounce, SPT_DIM_BSDF_LOBE)), ub, vb);
+    *bs = bsdf_sample(bp, f->wo_l, ulobe, ub, vb);
     *wn = bs->wi.x * f->tg + bs->wi.y * f->bt + bs->wi.z * f->ns;
     *wn_side = dot(*wn, f->ngf);
     /* Reflection stays on wo's side of the face, refraction crosses it. */
@@ -454,12 +455,16 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
 #ifdef SPT_AOV
     shade_aov(&h, &tc, &bp, &f, 0, ALL_ARGS);
 #endif
-    int shadow = shade_direct_light(&h, &tc, &bp, &f, sh_o, sh_d, sh_c, ALL_ARGS);
+    /* The light selection and the BSDF lobe are one Sobol pair (rng.h): drawn
+     * together, its seed and index shuffle are computed once. */
+    float usel, ulobe;
+    spt_sampler_pair(f.smp, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_SELECT), &usel, &ulobe);
+    int shadow = shade_direct_light(&h, &tc, &bp, &f, usel, sh_o, sh_d, sh_c, ALL_ARGS);
     BsdfSample bs;
     float3 wn;
     float wn_side;
     int reflect;
-    int alive = shade_bsdf_bounce(&h, &bp, &f, &bs, &wn, &wn_side, &reflect, ALL_ARGS);
+    int alive = shade_bsdf_bounce(&h, &bp, &f, ulobe, &bs, &wn, &wn_side, &reflect, ALL_ARGS);
     alive = shade_roulette(&h, &f, alive, ALL_ARGS);
     ps_radiance[i] = h.L;
     if (!alive) {
