@@ -27,10 +27,12 @@ taken against a reference of N samples per pixel rendered by Mitsuba
 (multijitter sampler, in two independent halves; kept in
 SPECTRACE_CACHE_DIR/bench_mitsuba by a hash of the scene and settings), and the
 tool prints the ratio best-Mitsuba relMSE / spectrace relMSE (above 1:
-spectrace cleaner in the same seconds). The reference's own noise adds to
-every relMSE alike and so pulls the ratio toward 1: the halves' difference
-measures it, and a second ratio takes it from both relMSE. spectrace's own
-seconds (its chunks are sized to end by T) are printed beside the figures.
+spectrace cleaner in the same seconds). Each renderer ends a little before
+or past T (spectrace's chunks are sized to end by T; Mitsuba's measured rate
+is off by some percent): a second ratio scales each relMSE to T seconds
+(relMSE ~ 1 / time). The reference's own noise adds to every relMSE alike and
+so pulls the ratios toward 1: the halves' difference measures it, and a third
+ratio, scaled too, takes it from both relMSE.
 
 Defaults: --time 20 (SPECTRACE_BENCH_TIME), --ref-spp 4096
 (SPECTRACE_BENCH_REF_SPP), --runs 3 (SPECTRACE_BENCH_RUNS). Without Mitsuba (pip
@@ -304,7 +306,11 @@ def race(a, mi, scenes, tmp):
             nb = max(1, min(24, int(budget // 4)))
             ms = MitsubaScene(mi, path, size, tmp, nb)
             print("%-8s Mitsuba's dispersive glass in %d bands (24 in the reference)" % (name, len(ms.bands)))
-        best = None
+        # Each renderer may end a little before or past T: a second ratio
+        # scales every relMSE to T seconds (relMSE ~ 1 / time, the
+        # reference's noise excepted), and a third also takes that noise
+        # from both.
+        best = best_t = best_tn = None
         for k, smp in enumerate(SAMPLERS):
             spp_band = ms.count(smp, int(budget // len(ms.bands)))
             if spp_band < 1:
@@ -314,19 +320,20 @@ def race(a, mi, scenes, tmp):
             ms.render(smp, spp_band, seed=40 + k)   # compiled outside the timing, at the count timed
             img, msecs, _, done_band = ms.render(smp, spp_band, seed=20 + k)
             e, med = relmse(np, img, ref)
+            f = msecs / a.time
             best = e if best is None else min(best, e)
+            best_t = e * f if best_t is None else min(best_t, e * f)
+            best_tn = (e - noise) * f if best_tn is None else min(best_tn, (e - noise) * f)
             print("%-8s Mitsuba %-11s %5d spp in %6.2f s: relMSE %.4g (median %.3g)"
                   % (name, smp, done_band * len(ms.bands), msecs, e, med), flush=True)
         if best is not None:
-            # spectrace may end a little before or past T: its relMSE scaled
-            # to T seconds (relMSE ~ 1 / time) gives the second ratio.
-            print("%-8s ratio best-Mitsuba / spectrace relMSE: %.2f (%.2f with spectrace's relMSE scaled to %g s; "
-                  "Mitsuba's rate %.3f Mpaths/s, %.0f spp in %g s)"
-                  % (name, best / ours, best / (ours * secs / a.time), a.time, rate * 1e-6, budget, a.time),
-                  flush=True)
-            if ours > noise:
-                print("%-8s ratio with the reference's noise taken from both relMSE: %.2f"
-                      % (name, (best - noise) / (ours - noise)), flush=True)
+            f = secs / a.time
+            print("%-8s ratio best-Mitsuba / spectrace relMSE: %.2f; %.2f with each relMSE scaled to %g s; "
+                  "%.2f scaled and the reference's noise taken from both (Mitsuba's rate %.3f Mpaths/s, "
+                  "%.0f spp in %g s)"
+                  % (name, best / ours, best_t / (ours * f), a.time,
+                     best_tn / ((ours - noise) * f) if ours > noise else float("nan"), rate * 1e-6, budget,
+                     a.time), flush=True)
 
 
 def main():
