@@ -333,6 +333,32 @@ static void test_sphere_matches_brute_force(void **state)
     free(t);
 }
 
+/* Scene 0 of the traversal tests, a dense soup (boxes entered several at a
+ * time), or 1, a sphere of small leaves (a deeper tree): builds bvh over it and
+ * returns its triangles (free them). */
+static float *traversal_scene(int scene, Bvh *bvh)
+{
+    uint32_t n = 4000;
+    const float c[3] = {0.1f, -0.1f, 0.2f};
+    float *t = scene == 0 ? make_soup(n, 0.3) : bvh_gen_sphere(40, 80, 1.0f, c, 0.3f, &n);
+    BvhOptions opt = bvh_default_options();
+    opt.max_leaf = scene == 0 ? opt.max_leaf : 2;
+    assert_int_equal(bvh_build_ex(bvh, t, n, &opt, NULL), 0);
+    return t;
+}
+
+/* A random ray of the traversal tests: origin in [-1.6, 1.6]^3, inside or
+ * outside their scenes, and a uniform direction. */
+static void traversal_ray(vec3 *org, vec3 *dir)
+{
+    double o[3], d[3];
+    for (int a = 0; a < 3; a++)
+        o[a] = rnd_range(-1.6, 1.6);
+    rnd_dir(d);
+    *org = v3((float)o[0], (float)o[1], (float)o[2]);
+    *dir = v3((float)d[0], (float)d[1], (float)d[2]);
+}
+
 /* The GPU path's short-stack traversal with restarts (bvh_traverse_short)
  * visits the full stack's items in the full stack's order, so closest hits
  * (t, barycentrics, triangle) and any-hit answers are the same bit for bit,
@@ -346,22 +372,13 @@ static void test_short_stack_matches_full(void **state)
     rng_state = 19;
     const int caps[4] = {1, 2, 3, BVH_SHORT_STACK_SIZE};
     for (int scene = 0; scene < 2; scene++) {
-        uint32_t n = 4000;
-        const float c[3] = {0.1f, -0.1f, 0.2f};
-        float *t = scene == 0 ? make_soup(n, 0.3) : bvh_gen_sphere(40, 80, 1.0f, c, 0.3f, &n);
-        BvhOptions opt = bvh_default_options();
-        opt.max_leaf = scene == 0 ? opt.max_leaf : 2;
         Bvh bvh;
-        assert_int_equal(bvh_build_ex(&bvh, t, n, &opt, NULL), 0);
+        float *t = traversal_scene(scene, &bvh);
         int restarted[4] = {0, 0, 0, 0}, hits = 0;
         const int rays = 20000;
         for (int r = 0; r < rays; r++) {
-            double o[3], d[3];
-            for (int a = 0; a < 3; a++)
-                o[a] = rnd_range(-1.6, 1.6);
-            rnd_dir(d);
-            vec3 org = v3((float)o[0], (float)o[1], (float)o[2]);
-            vec3 dir = v3((float)d[0], (float)d[1], (float)d[2]);
+            vec3 org, dir;
+            traversal_ray(&org, &dir);
             float tmax = r % 3 ? 1e30f : (float)rnd_range(0.05, 3.0);
             BvhHit want = {0, 0, 0, 0};
             int want_found = bvh_intersect(bvh.nodes, bvh.tri_data, org, dir, tmax, &want);
@@ -407,25 +424,14 @@ static void test_pairs_match_single(void **state)
     (void)state;
     rng_state = 23;
     for (int scene = 0; scene < 2; scene++) {
-        uint32_t n = 4000;
-        const float c[3] = {0.1f, -0.1f, 0.2f};
-        float *t = scene == 0 ? make_soup(n, 0.3) : bvh_gen_sphere(40, 80, 1.0f, c, 0.3f, &n);
-        BvhOptions opt = bvh_default_options();
-        opt.max_leaf = scene == 0 ? opt.max_leaf : 2;
         Bvh bvh;
-        assert_int_equal(bvh_build_ex(&bvh, t, n, &opt, NULL), 0);
+        float *t = traversal_scene(scene, &bvh);
         int hits = 0;
         const int pairs = 10000;
         for (int r = 0; r < pairs; r++) {
             vec3 org[2], dir[2];
-            for (int k = 0; k < 2; k++) {
-                double o[3], d[3];
-                for (int a = 0; a < 3; a++)
-                    o[a] = rnd_range(-1.6, 1.6);
-                rnd_dir(d);
-                org[k] = v3((float)o[0], (float)o[1], (float)o[2]);
-                dir[k] = v3((float)d[0], (float)d[1], (float)d[2]);
-            }
+            traversal_ray(&org[0], &dir[0]);
+            traversal_ray(&org[1], &dir[1]);
             int found[2];
             BvhHit hit[2];
             bvh_intersect2(bvh.nodes, bvh.tri_data, org[0], dir[0], org[1], dir[1], 1e30f, found, hit);
