@@ -239,25 +239,15 @@ SPT_CONSTANT spt_u32 SPT_SOBOL_DIRECTIONS[SPT_SOBOL_DIMS * 32] = {
     0x6ca48768u, 0xd75b49e4u, 0xcc95a082u, 0x87639641u,
 };
 
-/* Bit reversal of a 32-bit word. OpenCL 1.2 has no built-in for it; clang's
- * (PoCL, rusticl, Intel's runtime) becomes a byte swap and three swap steps on
- * x86, the same bits as the five steps below. */
-#if defined(__has_builtin)
-#if __has_builtin(__builtin_bitreverse32)
-#define SPT_BITREVERSE32(x) __builtin_bitreverse32(x)
-#endif
-#endif
+/* Bit reversal of a 32-bit word (OpenCL 1.2 has no built-in for it; clang's
+ * __builtin_bitreverse32 becomes llvm.bitreverse, which Oclgrind cannot run). */
 SPT_FN spt_u32 spt_reverse_bits(spt_u32 x)
 {
-#if defined(SPT_BITREVERSE32)
-    return SPT_BITREVERSE32(x);
-#else
     x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
     x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
     x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
     x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
     return (x >> 16) | (x << 16);
-#endif
 }
 
 /* Point index of the unscrambled Sobol sequence, dim < SPT_SOBOL_DIMS, as a
