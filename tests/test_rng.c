@@ -207,21 +207,24 @@ static void test_sobol_directions_match_joe_kuo(void **state)
         assert_true(spt_u32_to_unit(spt_sobol_u32(i, 1)) == first[i]);
 }
 
-/* Sobol dim 1 by its closed form (Pascal's triangle mod 2) equals the XOR of the
- * direction numbers of the index's bits, for indices with bits everywhere. */
-static void test_sobol_dim1_closed_form(void **state)
+/* Every Sobol dim as spt_sobol_u32 computes it (dim 1 by its closed form,
+ * Pascal's triangle mod 2; dims 2 and up from the table of 4-bit digits)
+ * equals the XOR of the direction numbers of the index's bits, for indices
+ * with bits everywhere (and so every entry of SPT_SOBOL_NIBBLE_REV is right). */
+static void test_sobol_dims_match_directions(void **state)
 {
     (void)state;
-    for (spt_u32 i = 0; i < 100000u; i++) {
-        spt_u32 index = i < 50000u ? i : spt_hash_u32(i);
-        spt_u32 want = 0u;
-        for (int k = 0; k < 32; k++)
-            if ((index >> k) & 1u)
-                want ^= SPT_SOBOL_DIRECTIONS[32 + k];
-        spt_u32 got = spt_sobol_u32(index, 1u);
-        if (got != want)
-            fail_msg("Sobol dim 1 of index 0x%08x: 0x%08x, expected 0x%08x", index, got, want);
-    }
+    for (spt_u32 dim = 0; dim < SPT_SOBOL_DIMS; dim++)
+        for (spt_u32 i = 0; i < 100000u; i++) {
+            spt_u32 index = i < 50000u ? i : spt_hash_u32(i ^ dim);
+            spt_u32 want = 0u;
+            for (int k = 0; k < 32; k++)
+                if ((index >> k) & 1u)
+                    want ^= SPT_SOBOL_DIRECTIONS[32u * dim + (spt_u32)k];
+            spt_u32 got = spt_sobol_u32(index, dim);
+            if (got != want)
+                fail_msg("Sobol dim %u of index 0x%08x: 0x%08x, expected 0x%08x", dim, index, got, want);
+        }
 }
 
 /* The kernels' shortcuts spt_sample_pair, spt_sample_wavelength_u and the
@@ -283,10 +286,82 @@ static int is_02_net(const float *x, const float *y, int k, char *why, size_t wh
     return 1;
 }
 
+/* Whether the points p[i] (s coordinates each, i < 2^k) form a (t,k,s)-net in
+ * base 2: for every d_1 + ... + d_s = k - t, each box of sides 2^-d_j holds
+ * 2^t points. d is the composition being filled from coordinate j on. */
+static int is_net_rec(const float (*p)[6], int s, int k, int t, int *d, int j, int left, int *count,
+                      char *why, size_t why_len)
+{
+    if (j == s - 1) {
+        d[j] = left;
+        int boxes = 1 << (k - t);
+        memset(count, 0, sizeof(int) * (size_t)boxes);
+        for (int i = 0; i < (1 << k); i++) {
+            int b = 0;
+            for (int c = 0; c < s; c++)
+                b = (b << d[c]) | (int)(p[i][c] * (float)(1 << d[c]));
+            count[b]++;
+        }
+        for (int b = 0; b < boxes; b++)
+            if (count[b] != 1 << t) {
+                snprintf(why, why_len, "k = %d, t = %d, sides 2^-(%d %d %d %d %d %d): box %d holds %d points",
+                         k, t, d[0], s > 1 ? d[1] : 0, s > 2 ? d[2] : 0, s > 3 ? d[3] : 0, s > 4 ? d[4] : 0,
+                         s > 5 ? d[5] : 0, b, count[b]);
+                return 0;
+            }
+        return 1;
+    }
+    for (int a = 0; a <= left; a++) {
+        d[j] = a;
+        if (!is_net_rec(p, s, k, t, d, j + 1, left - a, count, why, why_len))
+            return 0;
+    }
+    return 1;
+}
+
+static int is_net(const float (*p)[6], int s, int k, int t, char *why, size_t why_len)
+{
+    if (t >= k)
+        return 1; /* every box is the whole cube */
+    int d[6];
+    int *count = calloc((size_t)1 << (k - t), sizeof(int));
+    int ok = is_net_rec(p, s, k, t, d, 0, k - t, count, why, why_len);
+    free(count);
+    return ok;
+}
+
+/* is_net of the 2D points (x[i], y[i]). */
+static int is_pair_t_net(const float *x, const float *y, int k, int t, char *why, size_t why_len)
+{
+    static float p[1 << 12][6];
+    for (int i = 0; i < (1 << k); i++) {
+        p[i][0] = x[i];
+        p[i][1] = y[i];
+    }
+    return is_net((const float (*)[6])p, 2, k, t, why, why_len);
+}
+
+/* The t of the Sobol dims a joined pair group takes (rng.h): the bound of
+ * Sobol's construction, t <= sum (e_j - 1) over the dims' primitive
+ * polynomials' degrees e_j (Joe and Kuo's dims 3-6: x^2+x+1, x^3+x+1,
+ * x^3+x^2+1, x^4+x+1), so 1 + 2 for Sobol dims 2-3 and 2 + 3 for dims 4-5;
+ * Owen scrambling and the aligned-block shuffle keep a net a net. 0 for a
+ * padded group (Sobol dims 0-1, a (0,2)-sequence). */
+static int joined_pair_t(spt_u32 dim)
+{
+    if (dim >> 1 == SPT_GROUP_JOINT_LIGHT)
+        return 3;
+    if (dim >> 1 == SPT_GROUP_JOINT_BSDF)
+        return 5;
+    return 0;
+}
+
 /* Every power-of-two prefix (and later aligned blocks) of a pixel's 2D samples
  * is a (0,k,2)-net: the pixel and lens pairs, and at bounces 0, 1 and 7 the
  * pairs (light choice, BSDF lobe), the point on the light, the BSDF direction
- * and (roulette, spare), for several pixels and seeds. */
+ * and (roulette, spare), for several pixels and seeds; the two pairs at bounce
+ * 1 joined to the BSDF direction at bounce 0 are (t,k,2)-nets with the t of
+ * their Sobol dims. */
 static void test_sobol_prefixes_are_nets(void **state)
 {
     (void)state;
@@ -315,11 +390,51 @@ static void test_sobol_prefixes_are_nets(void **state)
                         x[i] = spt_sample_1d(42u + (spt_u32)pi, pixels[pi], start + (spt_u32)i, d);
                         y[i] = spt_sample_1d(42u + (spt_u32)pi, pixels[pi], start + (spt_u32)i, d + 1u);
                     }
-                    if (!is_02_net(x, y, k, why, sizeof why))
+                    int t = joined_pair_t(d);
+                    if (t == 0 ? !is_02_net(x, y, k, why, sizeof why) : !is_pair_t_net(x, y, k, t, why, sizeof why))
                         fail_msg("pixel %u, dims %u-%u, samples %u..%u: %s", pixels[pi], d, d + 1u, start,
                                  start + (1u << k) - 1u, why);
                 }
         }
+}
+
+/* The BSDF direction at bounce 0 and the point on the light and the BSDF
+ * direction at bounce 1 are one Sobol point set: every power-of-two prefix
+ * of a pixel's samples in those 6 dims is a (t,k,6)-net with Sobol's bound
+ * t <= 0 + 0 + 1 + 2 + 2 + 3 = 8 (joined_pair_t), and in the first 4 a
+ * (3,k,4)-net; padded pairs are not stratified together (the point on the
+ * light and the BSDF direction at bounce 0, as 4 dims, are no (3,10,4)-net). */
+static void test_sobol_joined_dims(void **state)
+{
+    (void)state;
+    enum { K = 10 };
+    static float p[1 << K][6];
+    char why[200];
+    static const spt_u32 pixels[3] = {0u, 1u, 987654u};
+    const spt_u32 dims[6] = {spt_dim_bounce(0, SPT_DIM_BSDF_U), spt_dim_bounce(0, SPT_DIM_BSDF_V),
+                             spt_dim_bounce(1, SPT_DIM_LIGHT_U), spt_dim_bounce(1, SPT_DIM_LIGHT_V),
+                             spt_dim_bounce(1, SPT_DIM_BSDF_U), spt_dim_bounce(1, SPT_DIM_BSDF_V)};
+    assert_int_equal(dims[0] >> 1, SPT_GROUP_JOINT_BASE);
+    for (int pi = 0; pi < 3; pi++)
+        for (int k = 0; k <= K; k++)
+            for (spt_u32 block = 0; block < 2; block++) {
+                spt_u32 start = block << k;
+                for (int i = 0; i < (1 << k); i++)
+                    for (int c = 0; c < 6; c++)
+                        p[i][c] = spt_sample_1d(7u + (spt_u32)pi, pixels[pi], start + (spt_u32)i, dims[c]);
+                if (!is_net((const float (*)[6])p, 6, k, 8, why, sizeof why))
+                    fail_msg("pixel %u, samples %u..%u, 6 joined dims: %s", pixels[pi], start,
+                             start + (1u << k) - 1u, why);
+                if (!is_net((const float (*)[6])p, 4, k, 3, why, sizeof why))
+                    fail_msg("pixel %u, samples %u..%u, first 4 joined dims: %s", pixels[pi], start,
+                             start + (1u << k) - 1u, why);
+            }
+    const spt_u32 padded[4] = {spt_dim_bounce(0, SPT_DIM_LIGHT_U), spt_dim_bounce(0, SPT_DIM_LIGHT_V),
+                               spt_dim_bounce(0, SPT_DIM_BSDF_U), spt_dim_bounce(0, SPT_DIM_BSDF_V)};
+    for (int i = 0; i < (1 << K); i++)
+        for (int c = 0; c < 4; c++)
+            p[i][c] = spt_sample_1d(7u, 0u, (spt_u32)i, padded[c]);
+    assert_false(is_net((const float (*)[6])p, 4, K, 3, why, sizeof why));
 }
 
 /* The integral of a smooth function over a pixel's BSDF direction pair
@@ -397,8 +512,9 @@ static int first_point_sample(void *ctx, uint32_t i, double p[3])
 }
 
 /* Dims of different groups over the samples of one pixel: the point on the
- * light against the BSDF direction at bounce 0, and the BSDF direction at bounce
- * 0 against bounce 1. */
+ * light against the BSDF direction at bounce 0 (padded groups, decorrelated by
+ * their shuffles), and the BSDF direction at bounce 0 against bounce 1 (joined
+ * groups: Sobol dims 0 and 4 of one sequence, stratified together). */
 static int light_bsdf_sample(void *ctx, uint32_t i, double p[3])
 {
     (void)ctx;
@@ -596,7 +712,7 @@ static const char device_src[] =
     "    uint i = get_global_id(0);\n"
     "    bits[5 * i + 0] = spt_rand_bits(spt_rng_key(7u, i * 3u, i / 5u), i % 41u);\n"
     "    bits[5 * i + 1] = spt_sobol_owen_u32(i, i % SPT_SOBOL_DIMS, 0x9e3779b9u * i);\n"
-    "    bits[5 * i + 2] = as_uint(spt_sample_1d(3u, i / 64u, i % 64u, i % 13u));\n"
+    "    bits[5 * i + 2] = as_uint(spt_sample_1d(3u, i / 64u, i % 64u, i % 23u));\n"
     "    float prob, ur;\n"
     "    bits[5 * i + 3] = (uint)spt_discrete_sample(cdf, ncdf, spt_rand(1u, i, 0u, 0u), &prob, &ur);\n"
     "    bits[5 * i + 4] = as_uint(spt_zsobol_1d(3u, i % 37u, i / 37u, 37u, 111u, i % 7u,\n"
@@ -614,7 +730,7 @@ static const char device_src[] =
 /* The same computations as k_rng_check, on the host, for item i. */
 static void host_check(spt_u32 i, const float *cdf, spt_u32 ncdf, spt_u32 bits[5], float f[12])
 {
-    float u = spt_sample_1d(3u, i / 64u, i % 64u, i % 13u);
+    float u = spt_sample_1d(3u, i / 64u, i % 64u, i % 23u); /* dims of groups 0-11 */
     float z = spt_zsobol_1d(3u, i % 37u, i / 37u, 37u, 111u, i % 7u, (i * 13u) & ((1u << (i % 7u)) - 1u),
                             i % 13u);
     memcpy(&bits[4], &z, sizeof z);
@@ -744,9 +860,10 @@ int main(void)
         cmocka_unit_test(test_rand_uniform_1d),
         cmocka_unit_test(test_rand_independent_pairs),
         cmocka_unit_test(test_sobol_directions_match_joe_kuo),
-        cmocka_unit_test(test_sobol_dim1_closed_form),
+        cmocka_unit_test(test_sobol_dims_match_directions),
         cmocka_unit_test(test_sample_pair_matches_1d),
         cmocka_unit_test(test_sobol_prefixes_are_nets),
+        cmocka_unit_test(test_sobol_joined_dims),
         cmocka_unit_test(test_sobol_1d_stratified),
         cmocka_unit_test(test_zsobol_pixel_nets),
         cmocka_unit_test(test_zsobol_pixel_blocks_are_nets),

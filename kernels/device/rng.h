@@ -48,6 +48,19 @@
  * sample index therefore gives well spread light, BSDF and roulette samples at
  * every bounce, not only well spread pixel positions.
  *
+ * Two groups are the exception, joined to the BSDF direction at bounce 0 (group
+ * 5): at bounce 1, the point on the light (group 8) and the BSDF direction
+ * (group 9) are Sobol dims 2-3 and 4-5 of group 5's sequence (its index
+ * shuffle; their own value scrambles), so those six dims are one
+ * Owen-scrambled Sobol point set, stratified jointly (as pbrt-v4's unpadded
+ * SobolSampler is) and not only pair by pair. The light reaching the first
+ * hit from other surfaces, most of the noise of a diffuse interior, is an
+ * integral over these dims together; padded pairs stratify the first
+ * direction and the next vertex's samples each alone. Each joined pair is
+ * then a (t,2)-sequence with t up to the Sobol bound (dims 2-3: t <= 3,
+ * dims 4-5: t <= 5) rather than a (0,2)-sequence: coarser per pair, finer
+ * together. The ZSobol and independent samplers keep every group separate.
+ *
  * The ZSobol sampler (SPT_SAMPLER_ZSOBOL, `--sampler zsobol`; pbrt-v4's
  * ZSobolSampler, after Ahmed and Wonka 2020, "Screen-Space Blue-Noise
  * Diffusion of Monte Carlo Sampling Error via Hierarchical Ordering of
@@ -250,6 +263,115 @@ SPT_FN spt_u32 spt_reverse_bits(spt_u32 x)
     return (x >> 16) | (x << 16);
 }
 
+/* The direction numbers of dims 2 .. SPT_SOBOL_DIMS - 1 by 4-bit digits of the
+ * index: entry (dim - 2) 128 + 16 p + n is the XOR of v_{4p+b} over the set bits
+ * b of n, its bits reversed (derived from SPT_SOBOL_DIRECTIONS; tests/test_rng.c
+ * checks every entry against them). */
+SPT_CONSTANT spt_u32 SPT_SOBOL_NIBBLE_REV[(SPT_SOBOL_DIMS - 2u) * 128u] = {
+    /* dim 2 */
+    0x00000000u, 0x00000001u, 0x00000003u, 0x00000002u, 0x00000006u, 0x00000007u, 0x00000005u, 0x00000004u,
+    0x00000009u, 0x00000008u, 0x0000000au, 0x0000000bu, 0x0000000fu, 0x0000000eu, 0x0000000cu, 0x0000000du,
+    0x00000000u, 0x00000017u, 0x0000003au, 0x0000002du, 0x00000071u, 0x00000066u, 0x0000004bu, 0x0000005cu,
+    0x000000a3u, 0x000000b4u, 0x00000099u, 0x0000008eu, 0x000000d2u, 0x000000c5u, 0x000000e8u, 0x000000ffu,
+    0x00000000u, 0x00000116u, 0x00000339u, 0x0000022fu, 0x00000677u, 0x00000761u, 0x0000054eu, 0x00000458u,
+    0x000009aau, 0x000008bcu, 0x00000a93u, 0x00000b85u, 0x00000fddu, 0x00000ecbu, 0x00000ce4u, 0x00000df2u,
+    0x00000000u, 0x00001601u, 0x00003903u, 0x00002f02u, 0x00007706u, 0x00006107u, 0x00004e05u, 0x00005804u,
+    0x0000aa09u, 0x0000bc08u, 0x0000930au, 0x0000850bu, 0x0000dd0fu, 0x0000cb0eu, 0x0000e40cu, 0x0000f20du,
+    0x00000000u, 0x00010117u, 0x0003033au, 0x0002022du, 0x00060671u, 0x00070766u, 0x0005054bu, 0x0004045cu,
+    0x000909a3u, 0x000808b4u, 0x000a0a99u, 0x000b0b8eu, 0x000f0fd2u, 0x000e0ec5u, 0x000c0ce8u, 0x000d0dffu,
+    0x00000000u, 0x00171616u, 0x003a3939u, 0x002d2f2fu, 0x00717777u, 0x00666161u, 0x004b4e4eu, 0x005c5858u,
+    0x00a3aaaau, 0x00b4bcbcu, 0x00999393u, 0x008e8585u, 0x00d2ddddu, 0x00c5cbcbu, 0x00e8e4e4u, 0x00fff2f2u,
+    0x00000000u, 0x01170001u, 0x033a0003u, 0x022d0002u, 0x06710006u, 0x07660007u, 0x054b0005u, 0x045c0004u,
+    0x09a30009u, 0x08b40008u, 0x0a99000au, 0x0b8e000bu, 0x0fd2000fu, 0x0ec5000eu, 0x0ce8000cu, 0x0dff000du,
+    0x00000000u, 0x16160017u, 0x3939003au, 0x2f2f002du, 0x77770071u, 0x61610066u, 0x4e4e004bu, 0x5858005cu,
+    0xaaaa00a3u, 0xbcbc00b4u, 0x93930099u, 0x8585008eu, 0xdddd00d2u, 0xcbcb00c5u, 0xe4e400e8u, 0xf2f200ffu,
+    /* dim 3 */
+    0x00000000u, 0x00000001u, 0x00000003u, 0x00000002u, 0x00000004u, 0x00000005u, 0x00000007u, 0x00000006u,
+    0x0000000au, 0x0000000bu, 0x00000009u, 0x00000008u, 0x0000000eu, 0x0000000fu, 0x0000000du, 0x0000000cu,
+    0x00000000u, 0x0000001fu, 0x0000002eu, 0x00000031u, 0x00000045u, 0x0000005au, 0x0000006bu, 0x00000074u,
+    0x000000c9u, 0x000000d6u, 0x000000e7u, 0x000000f8u, 0x0000008cu, 0x00000093u, 0x000000a2u, 0x000000bdu,
+    0x00000000u, 0x0000011bu, 0x000002a4u, 0x000003bfu, 0x0000079au, 0x00000681u, 0x0000053eu, 0x00000425u,
+    0x00000b67u, 0x00000a7cu, 0x000009c3u, 0x000008d8u, 0x00000cfdu, 0x00000de6u, 0x00000e59u, 0x00000f42u,
+    0x00000000u, 0x0000101eu, 0x0000302du, 0x00002033u, 0x00004041u, 0x0000505fu, 0x0000706cu, 0x00006072u,
+    0x0000a0c3u, 0x0000b0ddu, 0x000090eeu, 0x000080f0u, 0x0000e082u, 0x0000f09cu, 0x0000d0afu, 0x0000c0b1u,
+    0x00000000u, 0x0001f104u, 0x0002e28au, 0x0003138eu, 0x000457dfu, 0x0005a6dbu, 0x0006b555u, 0x00074451u,
+    0x000c9baeu, 0x000d6aaau, 0x000e7924u, 0x000f8820u, 0x0008cc71u, 0x00093d75u, 0x000a2efbu, 0x000bdfffu,
+    0x00000000u, 0x0011a105u, 0x002a7289u, 0x003bd38cu, 0x0079e7dbu, 0x006846deu, 0x00539552u, 0x00423457u,
+    0x00b6dba4u, 0x00a77aa1u, 0x009ca92du, 0x008d0828u, 0x00cf3c7fu, 0x00de9d7au, 0x00e54ef6u, 0x00f4eff3u,
+    0x00000000u, 0x0100011au, 0x030002a7u, 0x020003bdu, 0x0400079eu, 0x05000684u, 0x07000539u, 0x06000423u,
+    0x0a000b6du, 0x0b000a77u, 0x090009cau, 0x080008d0u, 0x0e000cf3u, 0x0f000de9u, 0x0d000e54u, 0x0c000f4eu,
+    0x00000000u, 0x1f001001u, 0x2e003003u, 0x31002002u, 0x45004004u, 0x5a005005u, 0x6b007007u, 0x74006006u,
+    0xc900a00au, 0xd600b00bu, 0xe7009009u, 0xf8008008u, 0x8c00e00eu, 0x9300f00fu, 0xa200d00du, 0xbd00c00cu,
+    /* dim 4 */
+    0x00000000u, 0x00000001u, 0x00000002u, 0x00000003u, 0x00000004u, 0x00000005u, 0x00000006u, 0x00000007u,
+    0x0000000du, 0x0000000cu, 0x0000000fu, 0x0000000eu, 0x00000009u, 0x00000008u, 0x0000000bu, 0x0000000au,
+    0x00000000u, 0x0000001fu, 0x0000003bu, 0x00000024u, 0x0000005eu, 0x00000041u, 0x00000065u, 0x0000007au,
+    0x000000b9u, 0x000000a6u, 0x00000082u, 0x0000009du, 0x000000e7u, 0x000000f8u, 0x000000dcu, 0x000000c3u,
+    0x00000000u, 0x0000015au, 0x000003f4u, 0x000002aeu, 0x00000685u, 0x000007dfu, 0x00000571u, 0x0000042bu,
+    0x00000d0fu, 0x00000c55u, 0x00000efbu, 0x00000fa1u, 0x00000b8au, 0x00000ad0u, 0x0000087eu, 0x00000924u,
+    0x00000000u, 0x0000115bu, 0x000023f6u, 0x000032adu, 0x00004681u, 0x000057dau, 0x00006577u, 0x0000742cu,
+    0x0000dd02u, 0x0000cc59u, 0x0000fef4u, 0x0000efafu, 0x00009b83u, 0x00008ad8u, 0x0000b875u, 0x0000a92eu,
+    0x00000000u, 0x0001e144u, 0x000393cdu, 0x00027289u, 0x0005a6dfu, 0x0004479bu, 0x00063512u, 0x0007d456u,
+    0x000b4dbbu, 0x000aacffu, 0x0008de76u, 0x00093f32u, 0x000eeb64u, 0x000f0a20u, 0x000d78a9u, 0x000c99edu,
+    0x00000000u, 0x0014401eu, 0x003cd039u, 0x00289027u, 0x006df05au, 0x0079b044u, 0x00512063u, 0x0045607du,
+    0x00dbb0b4u, 0x00cff0aau, 0x00e7608du, 0x00f32093u, 0x00b640eeu, 0x00a200f0u, 0x008a90d7u, 0x009ed0c9u,
+    0x00000000u, 0x0101e145u, 0x020393cfu, 0x0302728au, 0x0405a6dbu, 0x0504479eu, 0x06063514u, 0x0707d451u,
+    0x0d0b4db6u, 0x0c0aacf3u, 0x0f08de79u, 0x0e093f3cu, 0x090eeb6du, 0x080f0a28u, 0x0b0d78a2u, 0x0a0c99e7u,
+    0x00000000u, 0x1f144001u, 0x3b3cd002u, 0x24289003u, 0x5e6df004u, 0x4179b005u, 0x65512006u, 0x7a456007u,
+    0xb9dbb00du, 0xa6cff00cu, 0x82e7600fu, 0x9df3200eu, 0xe7b64009u, 0xf8a20008u, 0xdc8a900bu, 0xc39ed00au,
+    /* dim 5 */
+    0x00000000u, 0x00000001u, 0x00000002u, 0x00000003u, 0x00000006u, 0x00000007u, 0x00000004u, 0x00000005u,
+    0x0000000cu, 0x0000000du, 0x0000000eu, 0x0000000fu, 0x0000000au, 0x0000000bu, 0x00000008u, 0x00000009u,
+    0x00000000u, 0x00000013u, 0x00000024u, 0x00000037u, 0x0000006au, 0x00000079u, 0x0000004eu, 0x0000005du,
+    0x000000dfu, 0x000000ccu, 0x000000fbu, 0x000000e8u, 0x000000b5u, 0x000000a6u, 0x00000091u, 0x00000082u,
+    0x00000000u, 0x00000107u, 0x0000020eu, 0x00000309u, 0x00000615u, 0x00000712u, 0x0000041bu, 0x0000051cu,
+    0x00000c28u, 0x00000d2fu, 0x00000e26u, 0x00000f21u, 0x00000a3du, 0x00000b3au, 0x00000833u, 0x00000934u,
+    0x00000000u, 0x00001379u, 0x000024fbu, 0x00003782u, 0x00006b6du, 0x00007814u, 0x00004f96u, 0x00005cefu,
+    0x0000ddd1u, 0x0000cea8u, 0x0000f92au, 0x0000ea53u, 0x0000b6bcu, 0x0000a5c5u, 0x00009247u, 0x0000813eu,
+    0x00000000u, 0x00010012u, 0x00020026u, 0x00030034u, 0x0006006cu, 0x0007007eu, 0x0004004au, 0x00050058u,
+    0x000c00d3u, 0x000d00c1u, 0x000e00f5u, 0x000f00e7u, 0x000a00bfu, 0x000b00adu, 0x00080099u, 0x0009008bu,
+    0x00000000u, 0x00130114u, 0x0024022au, 0x0037033eu, 0x006a067fu, 0x0079076bu, 0x004e0455u, 0x005d0541u,
+    0x00df0cf7u, 0x00cc0de3u, 0x00fb0eddu, 0x00e80fc9u, 0x00b50a88u, 0x00a60b9cu, 0x009108a2u, 0x008209b6u,
+    0x00000000u, 0x0107127eu, 0x020e26f5u, 0x0309348bu, 0x06156d78u, 0x07127f06u, 0x041b4b8du, 0x051c59f3u,
+    0x0c28d1f9u, 0x0d2fc387u, 0x0e26f70cu, 0x0f21e572u, 0x0a3dbc81u, 0x0b3aaeffu, 0x08339a74u, 0x0934880au,
+    0x00000000u, 0x1378136bu, 0x24f924ddu, 0x378137b6u, 0x6b6b6b01u, 0x7813786au, 0x4f924fdcu, 0x5cea5cb7u,
+    0xdddddd02u, 0xcea5ce69u, 0xf924f9dfu, 0xea5ceab4u, 0xb6b6b603u, 0xa5cea568u, 0x924f92deu, 0x813781b5u,
+    /* dim 6 */
+    0x00000000u, 0x00000001u, 0x00000003u, 0x00000002u, 0x00000005u, 0x00000004u, 0x00000006u, 0x00000007u,
+    0x0000000bu, 0x0000000au, 0x00000008u, 0x00000009u, 0x0000000eu, 0x0000000fu, 0x0000000du, 0x0000000cu,
+    0x00000000u, 0x0000001au, 0x00000029u, 0x00000033u, 0x0000007cu, 0x00000066u, 0x00000055u, 0x0000004fu,
+    0x000000c7u, 0x000000ddu, 0x000000eeu, 0x000000f4u, 0x000000bbu, 0x000000a1u, 0x00000092u, 0x00000088u,
+    0x00000000u, 0x0000017du, 0x000003c4u, 0x000002b9u, 0x00000478u, 0x00000505u, 0x000007bcu, 0x000006c1u,
+    0x000008cfu, 0x000009b2u, 0x00000b0bu, 0x00000a76u, 0x00000cb7u, 0x00000dcau, 0x00000f73u, 0x00000e0eu,
+    0x00000000u, 0x00001e62u, 0x000021e6u, 0x00003f84u, 0x0000621eu, 0x00007c7cu, 0x000043f8u, 0x00005d9au,
+    0x0000e621u, 0x0000f843u, 0x0000c7c7u, 0x0000d9a5u, 0x0000843fu, 0x00009a5du, 0x0000a5d9u, 0x0000bbbbu,
+    0x00000000u, 0x00011e63u, 0x000321e5u, 0x00023f86u, 0x0005621bu, 0x00047c78u, 0x000643feu, 0x00075d9du,
+    0x000be62au, 0x000af849u, 0x0008c7cfu, 0x0009d9acu, 0x000e8431u, 0x000f9a52u, 0x000da5d4u, 0x000cbbb7u,
+    0x00000000u, 0x001b1e79u, 0x002a21ccu, 0x00313fb5u, 0x00796267u, 0x00627c1eu, 0x005343abu, 0x00485dd2u,
+    0x00cce6edu, 0x00d7f894u, 0x00e6c721u, 0x00fdd958u, 0x00b5848au, 0x00ae9af3u, 0x009fa546u, 0x0084bb3fu,
+    0x00000000u, 0x01661f04u, 0x03ee2208u, 0x02883d0cu, 0x0401661fu, 0x0567791bu, 0x07ef4417u, 0x06895b13u,
+    0x0803ee22u, 0x0965f126u, 0x0bedcc2au, 0x0a8bd32eu, 0x0c02883du, 0x0d649739u, 0x0fecaa35u, 0x0e8ab531u,
+    0x00000000u, 0x1f040166u, 0x220803eeu, 0x3d0c0288u, 0x661f0401u, 0x791b0567u, 0x441707efu, 0x5b130689u,
+    0xee220803u, 0xf1260965u, 0xcc2a0bedu, 0xd32e0a8bu, 0x883d0c02u, 0x97390d64u, 0xaa350fecu, 0xb5310e8au,
+    /* dim 7 */
+    0x00000000u, 0x00000001u, 0x00000002u, 0x00000003u, 0x00000005u, 0x00000004u, 0x00000007u, 0x00000006u,
+    0x0000000au, 0x0000000bu, 0x00000008u, 0x00000009u, 0x0000000fu, 0x0000000eu, 0x0000000du, 0x0000000cu,
+    0x00000000u, 0x00000011u, 0x00000024u, 0x00000035u, 0x00000048u, 0x00000059u, 0x0000006cu, 0x0000007du,
+    0x000000b4u, 0x000000a5u, 0x00000090u, 0x00000081u, 0x000000fcu, 0x000000edu, 0x000000d8u, 0x000000c9u,
+    0x00000000u, 0x0000016eu, 0x00000279u, 0x00000317u, 0x00000410u, 0x0000057eu, 0x00000669u, 0x00000707u,
+    0x00000826u, 0x00000948u, 0x00000a5fu, 0x00000b31u, 0x00000c36u, 0x00000d58u, 0x00000e4fu, 0x00000f21u,
+    0x00000000u, 0x0000144du, 0x000028beu, 0x00003cf3u, 0x0000457fu, 0x00005132u, 0x00006dc1u, 0x0000798cu,
+    0x0000925du, 0x00008610u, 0x0000bae3u, 0x0000aeaeu, 0x0000d722u, 0x0000c36fu, 0x0000ff9cu, 0x0000ebd1u,
+    0x00000000u, 0x00012458u, 0x0002d892u, 0x0003fccau, 0x0005ad23u, 0x0004897bu, 0x000775b1u, 0x000651e9u,
+    0x0009cec7u, 0x0008ea9fu, 0x000b1655u, 0x000a320du, 0x000c63e4u, 0x000d47bcu, 0x000ebb76u, 0x000f9f2eu,
+    0x00000000u, 0x0010016fu, 0x0020027bu, 0x00300314u, 0x00500415u, 0x0040057au, 0x0070066eu, 0x00600701u,
+    0x00a0082cu, 0x00b00943u, 0x00800a57u, 0x00900b38u, 0x00f00c39u, 0x00e00d56u, 0x00d00e42u, 0x00c00f2du,
+    0x00000000u, 0x0110145cu, 0x0240289au, 0x03503cc6u, 0x04804537u, 0x0590516bu, 0x06c06dadu, 0x07d079f1u,
+    0x0b4092e9u, 0x0a5086b5u, 0x0900ba73u, 0x0810ae2fu, 0x0fc0d7deu, 0x0ed0c382u, 0x0d80ff44u, 0x0c90eb18u,
+    0x00000000u, 0x16e12536u, 0x2792daebu, 0x3173ffddu, 0x4105a933u, 0x57e48c05u, 0x669773d8u, 0x707656eeu,
+    0x8269c6e1u, 0x9488e3d7u, 0xa5fb1c0au, 0xb31a393cu, 0xc36c6fd2u, 0xd58d4ae4u, 0xe4feb539u, 0xf21f900fu,
+};
+
 /* Point index of the unscrambled Sobol sequence, dim < SPT_SOBOL_DIMS, as a
  * 32-bit fixed-point fraction with its bits reversed: bit i is the coefficient
  * of 2^-(i+1) (natural order, not Gray code). The Owen scramble works on
@@ -273,13 +395,14 @@ SPT_FN spt_u32 spt_sobol_rev_u32(spt_u32 index, spt_u32 dim)
         x ^= (x >> 16) & 0x0000ffffu;
         return x;
     }
+    /* The others: the XOR of a table entry per 4-bit digit of the index (a
+     * shuffled index has all 32 bits random, and a step per bit took a
+     * 32-step loop). */
+    spt_u32 base = (dim - 2u) * 128u;
     spt_u32 x = 0u;
-    spt_u32 base = dim * 32u;
-    /* Branch-free: shuffled indices have random bits, which defeat a CPU's
-     * branch predictor and diverge on a GPU. */
-    for (spt_u32 k = 0u; index != 0u; index >>= 1, ++k)
-        x ^= SPT_SOBOL_DIRECTIONS[base + k] & (0u - (index & 1u));
-    return spt_reverse_bits(x);
+    for (spt_u32 p = 0u; p < 8u; p++)
+        x ^= SPT_SOBOL_NIBBLE_REV[base + 16u * p + ((index >> (4u * p)) & 15u)];
+    return x;
 }
 
 /* Point index of the unscrambled Sobol sequence, dim < SPT_SOBOL_DIMS, as a
@@ -342,13 +465,55 @@ SPT_FN spt_u32 spt_sobol_seed(spt_u32 seed, spt_u32 pixel, spt_u32 group)
 
 /* ---- The renderer's sampler -------------------------------------------------- */
 
+/* The pair groups joined to the BSDF direction at bounce 0 (the header
+ * comment): the group whose index shuffle they take, and theirs. */
+#define SPT_GROUP_JOINT_BASE ((SPT_DIM_BOUNCE_BASE + SPT_DIM_BSDF_U) / 2u)
+#define SPT_GROUP_JOINT_LIGHT ((SPT_DIM_BOUNCE_BASE + SPT_DIM_BOUNCE_BLOCK + SPT_DIM_LIGHT_U) / 2u)
+#define SPT_GROUP_JOINT_BSDF ((SPT_DIM_BOUNCE_BASE + SPT_DIM_BOUNCE_BLOCK + SPT_DIM_BSDF_U) / 2u)
+
+/* The first Sobol dim of pair group group, and in *index_group the group whose
+ * index shuffle it takes: 0 and itself, but for the joined groups. */
+SPT_FN spt_u32 spt_group_sobol_dim(spt_u32 group, spt_u32 *index_group)
+{
+    *index_group = group;
+    if (group == SPT_GROUP_JOINT_LIGHT) {
+        *index_group = SPT_GROUP_JOINT_BASE;
+        return 2u;
+    }
+    if (group == SPT_GROUP_JOINT_BSDF) {
+        *index_group = SPT_GROUP_JOINT_BASE;
+        return 4u;
+    }
+    return 0u;
+}
+
 /* Sample value of dim for (seed, pixel, sample), following the dimension plan
- * above: Sobol dim (dim & 1) of group dim >> 1. In [0, 1). This is the
+ * above: Sobol dim (dim & 1) of group dim >> 1 (dims 2-5 of group 5 for the
+ * joined groups), the index shuffled by the seed of the group whose sequence
+ * it is and the value scrambled by its own group's. In [0, 1). This is the
  * definition; the kernels use the faster spt_sample_pair and friends, which the
  * tests check against it. */
 SPT_FN float spt_sample_1d(spt_u32 seed, spt_u32 pixel, spt_u32 sample, spt_u32 dim)
 {
-    return spt_sobol_owen(sample, dim & 1u, spt_sobol_seed(seed, pixel, dim >> 1));
+    spt_u32 index_group;
+    spt_u32 d = spt_group_sobol_dim(dim >> 1, &index_group) + (dim & 1u);
+    spt_u32 shuffled = spt_owen_scramble(sample, spt_sobol_seed(seed, pixel, index_group));
+    spt_u32 vseed = spt_sobol_seed(seed, pixel, dim >> 1);
+    spt_u32 v = spt_sobol_rev_u32(shuffled, d);
+    return spt_u32_to_unit(
+        spt_reverse_bits(spt_lk_hash(v, spt_hash_u32(vseed ^ ((dim & 1u) * 0x9e3779b9u + 0x3c6ef372u)))));
+}
+
+/* spt_sample_1d of dim, given the pixel's spt_sobol_pixel_key. */
+SPT_FN float spt_sample_1d_key(spt_u32 pixel_key, spt_u32 sample, spt_u32 dim)
+{
+    spt_u32 index_group;
+    spt_u32 d = spt_group_sobol_dim(dim >> 1, &index_group) + (dim & 1u);
+    spt_u32 shuffled = spt_owen_scramble(sample, spt_hash_u32(pixel_key ^ index_group));
+    spt_u32 v = spt_sobol_rev_u32(shuffled, d);
+    spt_u32 vseed = spt_hash_u32(pixel_key ^ (dim >> 1));
+    return spt_u32_to_unit(
+        spt_reverse_bits(spt_lk_hash(v, spt_hash_u32(vseed ^ ((dim & 1u) * 0x9e3779b9u + 0x3c6ef372u)))));
 }
 
 /* Both dims of Sobol pair group (dims 2 group and 2 group + 1) of a sample, given
@@ -356,12 +521,14 @@ SPT_FN float spt_sample_1d(spt_u32 seed, spt_u32 pixel, spt_u32 sample, spt_u32 
  * group's seed and the index shuffle computed once. */
 SPT_FN SPT_ALWAYS_INLINE void spt_sample_pair(spt_u32 pixel_key, spt_u32 sample, spt_u32 group, float *u0, float *u1)
 {
+    spt_u32 index_group;
+    spt_u32 d = spt_group_sobol_dim(group, &index_group);
     spt_u32 seed = spt_hash_u32(pixel_key ^ group);
-    spt_u32 shuffled = spt_owen_scramble(sample, seed);
+    spt_u32 shuffled = spt_owen_scramble(sample, spt_hash_u32(pixel_key ^ index_group));
     spt_u32 h0 = spt_hash_u32(seed ^ 0x3c6ef372u);
     spt_u32 h1 = spt_hash_u32(seed ^ (0x9e3779b9u + 0x3c6ef372u));
-    *u0 = spt_u32_to_unit(spt_reverse_bits(spt_lk_hash(spt_sobol_rev_u32(shuffled, 0u), h0)));
-    *u1 = spt_u32_to_unit(spt_reverse_bits(spt_lk_hash(spt_sobol_rev_u32(shuffled, 1u), h1)));
+    *u0 = spt_u32_to_unit(spt_reverse_bits(spt_lk_hash(spt_sobol_rev_u32(shuffled, d), h0)));
+    *u1 = spt_u32_to_unit(spt_reverse_bits(spt_lk_hash(spt_sobol_rev_u32(shuffled, d + 1u), h1)));
 }
 
 /* The single Sobol dim of group 2 (the hero wavelength) of a sample, given its
@@ -564,7 +731,7 @@ SPT_FN SPT_ALWAYS_INLINE float spt_sampler_1d(SptSampler s, spt_u32 dim)
         return spt_zsobol_value(spt_zsobol_index(s.zindex, s.zdigits, s.zlog2spp, tag), dim & 1u, tag,
                                 spt_zsobol_tile(s.zindex, s.zlog2spp));
     }
-    return spt_sobol_owen(s.sample, dim & 1u, spt_hash_u32(s.pixel_key ^ (dim >> 1)));
+    return spt_sample_1d_key(s.pixel_key, s.sample, dim);
 }
 
 #endif
