@@ -398,12 +398,14 @@ static void test_sobol_prefixes_are_nets(void **state)
         }
 }
 
-/* The BSDF direction at bounce 0 and the point on the light and the BSDF
- * direction at bounce 1 are one Sobol point set: every power-of-two prefix
- * of a pixel's samples in those 6 dims is a (t,k,6)-net with Sobol's bound
- * t <= 0 + 0 + 1 + 2 + 2 + 3 = 8 (joined_pair_t), and in the first 4 a
- * (3,k,4)-net; padded pairs are not stratified together (the point on the
- * light and the BSDF direction at bounce 0, as 4 dims, are no (3,10,4)-net). */
+/* The BSDF direction at bounce 0, the point on the light and the BSDF
+ * direction at bounce 1 and the hero wavelength are one Sobol point set
+ * (Sobol dims 0-6): every power-of-two prefix of a pixel's samples in the
+ * first 6 is a (t,k,6)-net with Sobol's bound t <= 0 + 0 + 1 + 2 + 2 + 3 = 8
+ * (joined_pair_t), in the first 4 a (3,k,4)-net, and the first direction
+ * with the wavelength (Sobol dims 0, 1, 6; x^4+x^3+1) a (3,k,3)-net; padded
+ * pairs are not stratified together (the point on the light and the BSDF
+ * direction at bounce 0, as 4 dims, are no (3,10,4)-net). */
 static void test_sobol_joined_dims(void **state)
 {
     (void)state;
@@ -427,6 +429,11 @@ static void test_sobol_joined_dims(void **state)
                              start + (1u << k) - 1u, why);
                 if (!is_net((const float (*)[6])p, 4, k, 3, why, sizeof why))
                     fail_msg("pixel %u, samples %u..%u, first 4 joined dims: %s", pixels[pi], start,
+                             start + (1u << k) - 1u, why);
+                for (int i = 0; i < (1 << k); i++)
+                    p[i][2] = spt_sample_1d(7u + (spt_u32)pi, pixels[pi], start + (spt_u32)i, SPT_DIM_WAVELENGTH);
+                if (!is_net((const float (*)[6])p, 3, k, 3, why, sizeof why))
+                    fail_msg("pixel %u, samples %u..%u, first direction and wavelength: %s", pixels[pi], start,
                              start + (1u << k) - 1u, why);
             }
     const spt_u32 padded[4] = {spt_dim_bounce(0, SPT_DIM_LIGHT_U), spt_dim_bounce(0, SPT_DIM_LIGHT_V),

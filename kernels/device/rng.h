@@ -33,7 +33,7 @@
  *
  *   dims 0-1   pixel position x, y      group 0
  *   dims 2-3   lens u, v                group 1
- *   dim 4      hero wavelength          group 2 (dim 5 is spare)
+ *   dim 4      hero wavelength          group 2 (dim 5 is spare; joined, below)
  *   dims 6 + 8 b + k, bounce b (0 = the camera ray's hit), k:
  *     0-1      light selection, BSDF lobe choice
  *     2-3      point on the light
@@ -48,18 +48,21 @@
  * sample index therefore gives well spread light, BSDF and roulette samples at
  * every bounce, not only well spread pixel positions.
  *
- * Two groups are the exception, joined to the BSDF direction at bounce 0 (group
- * 5): at bounce 1, the point on the light (group 8) and the BSDF direction
- * (group 9) are Sobol dims 2-3 and 4-5 of group 5's sequence (its index
- * shuffle; their own value scrambles), so those six dims are one
- * Owen-scrambled Sobol point set, stratified jointly (as pbrt-v4's unpadded
- * SobolSampler is) and not only pair by pair. The light reaching the first
- * hit from other surfaces, most of the noise of a diffuse interior, is an
- * integral over these dims together; padded pairs stratify the first
- * direction and the next vertex's samples each alone. Each joined pair is
- * then a (t,2)-sequence with t up to the Sobol bound (dims 2-3: t <= 3,
- * dims 4-5: t <= 5) rather than a (0,2)-sequence: coarser per pair, finer
- * together. The ZSobol and independent samplers keep every group separate.
+ * Three groups are the exception, joined to the BSDF direction at bounce 0
+ * (group 5): at bounce 1, the point on the light (group 8) and the BSDF
+ * direction (group 9) are Sobol dims 2-3 and 4-5 of group 5's sequence (its
+ * index shuffle; their own value scrambles), and the hero wavelength (group
+ * 2) is its Sobol dim 6, so those seven dims are one Owen-scrambled Sobol
+ * point set, stratified jointly (as pbrt-v4's unpadded SobolSampler is) and
+ * not only pair by pair. The light reaching the first hit from other
+ * surfaces, most of the noise of a diffuse interior, is an integral over
+ * these dims together; padded pairs stratify the first direction and the
+ * next vertex's samples each alone. Each joined pair is then a
+ * (t,2)-sequence with t up to the Sobol bound (dims 2-3: t <= 3, dims 4-5:
+ * t <= 5) rather than a (0,2)-sequence: coarser per pair, finer together
+ * (docs/performance.md, "Joined dims at the first bounce", has the
+ * measurements). The ZSobol and independent samplers keep every group
+ * separate.
  *
  * The ZSobol sampler (SPT_SAMPLER_ZSOBOL, `--sampler zsobol`; pbrt-v4's
  * ZSobolSampler, after Ahmed and Wonka 2020, "Screen-Space Blue-Noise
@@ -465,11 +468,12 @@ SPT_FN spt_u32 spt_sobol_seed(spt_u32 seed, spt_u32 pixel, spt_u32 group)
 
 /* ---- The renderer's sampler -------------------------------------------------- */
 
-/* The pair groups joined to the BSDF direction at bounce 0 (the header
- * comment): the group whose index shuffle they take, and theirs. */
+/* The groups joined to the BSDF direction at bounce 0 (the header comment):
+ * the group whose index shuffle they take, and theirs. */
 #define SPT_GROUP_JOINT_BASE ((SPT_DIM_BOUNCE_BASE + SPT_DIM_BSDF_U) / 2u)
 #define SPT_GROUP_JOINT_LIGHT ((SPT_DIM_BOUNCE_BASE + SPT_DIM_BOUNCE_BLOCK + SPT_DIM_LIGHT_U) / 2u)
 #define SPT_GROUP_JOINT_BSDF ((SPT_DIM_BOUNCE_BASE + SPT_DIM_BOUNCE_BLOCK + SPT_DIM_BSDF_U) / 2u)
+#define SPT_GROUP_JOINT_WAVELENGTH (SPT_DIM_WAVELENGTH / 2u)
 
 /* The first Sobol dim of pair group group, and in *index_group the group whose
  * index shuffle it takes: 0 and itself, but for the joined groups. */
@@ -484,11 +488,15 @@ SPT_FN spt_u32 spt_group_sobol_dim(spt_u32 group, spt_u32 *index_group)
         *index_group = SPT_GROUP_JOINT_BASE;
         return 4u;
     }
+    if (group == SPT_GROUP_JOINT_WAVELENGTH) {
+        *index_group = SPT_GROUP_JOINT_BASE;
+        return 6u;
+    }
     return 0u;
 }
 
 /* Sample value of dim for (seed, pixel, sample), following the dimension plan
- * above: Sobol dim (dim & 1) of group dim >> 1 (dims 2-5 of group 5 for the
+ * above: Sobol dim (dim & 1) of group dim >> 1 (dims 2-6 of group 5 for the
  * joined groups), the index shuffled by the seed of the group whose sequence
  * it is and the value scrambled by its own group's. In [0, 1). This is the
  * definition; the kernels use the faster spt_sample_pair and friends, which the
@@ -531,11 +539,12 @@ SPT_FN SPT_ALWAYS_INLINE void spt_sample_pair(spt_u32 pixel_key, spt_u32 sample,
     *u1 = spt_u32_to_unit(spt_reverse_bits(spt_lk_hash(spt_sobol_rev_u32(shuffled, d + 1u), h1)));
 }
 
-/* The single Sobol dim of group 2 (the hero wavelength) of a sample, given its
- * pixel's spt_sobol_pixel_key: exactly spt_sample_1d of SPT_DIM_WAVELENGTH. */
+/* The hero wavelength's dim of a sample (joined: Sobol dim 6 of group 5),
+ * given its pixel's spt_sobol_pixel_key: exactly spt_sample_1d of
+ * SPT_DIM_WAVELENGTH. */
 SPT_FN float spt_sample_wavelength_u(spt_u32 pixel_key, spt_u32 sample)
 {
-    return spt_sobol_owen(sample, 0u, spt_hash_u32(pixel_key ^ 2u));
+    return spt_sample_1d_key(pixel_key, sample, SPT_DIM_WAVELENGTH);
 }
 
 /* ---- ZSobol ------------------------------------------------------------------ */
