@@ -61,6 +61,46 @@ SPT_FN_INLINE void lt_item(uint w, uint *lp, uint *sample, const RenderParams *p
     *sample = p->sample_begin + lw / p->light_paths;
 }
 
+/* 1 + the caustic spheres other than k that the line from o along d meets:
+ * the cones (lt_aim_dir) or discs (lt_aim_parallel) that a ray aimed at
+ * sphere k lies in. */
+SPT_FN_INLINE float lt_spheres_met(const RenderParams *p, uint k, float3 o, float3 d)
+{
+    float c = 1.0f;
+    for (uint j = 0u; j < p->caustic_count; j++)
+        if (j != k && lt_meets_caustic(p, j, o, d))
+            c += 1.0f;
+    return c;
+}
+
+/* Caustic sphere k's share of the aim: its cone's solid angle from q over
+ * total, the cones' sum (lt_aim_dir; the cone's span, 1 - cos of its
+ * half-angle, in *span), or with disc set its disc's area over total, the
+ * discs' sum of squared radii (lt_aim_parallel). */
+SPT_FN_INLINE float lt_sphere_share(const RenderParams *p, uint k, float3 q, int disc, float total, float *span)
+{
+    if (disc)
+        return p->caustic[4 * k + 3] * p->caustic[4 * k + 3] / total;
+    *span = lt_caustic_span(p, k, q);
+    return 2.0f * SPT_PI * *span / total;
+}
+
+/* The caustic sphere that u picks in proportion to the shares of
+ * lt_sphere_share, and in *u_in where u lies within its share, in [0, 1). */
+SPT_FN_INLINE uint lt_pick_sphere(const RenderParams *p, float3 q, int disc, float total, float u, float *u_in,
+                                  float *span)
+{
+    uint n = p->caustic_count, k = 0u;
+    float share = lt_sphere_share(p, 0u, q, disc, total, span), acc = 0.0f;
+    while (k + 1u < n && u >= acc + share) {
+        acc += share;
+        k++;
+        share = lt_sphere_share(p, k, q, disc, total, span);
+    }
+    *u_in = fmin(fmax((u - acc) / share, 0.0f), 0x1.fffffep-1f);
+    return k;
+}
+
 /* A light path's first direction from q aimed at the caustic spheres, whose
  * cones from q have omega solid angle in all (lt_aim_cones): only a path whose
  * first vertex is a surface that may be delta goes on, and every ray that
@@ -71,15 +111,8 @@ SPT_FN_INLINE void lt_item(uint w, uint *lp, uint *sample, const RenderParams *p
 SPT_FN_INLINE float3 lt_aim_dir(const RenderParams *p, float3 q, float omega, float u1, float u2,
                                 float *count)
 {
-    uint n = p->caustic_count, k = 0u;
-    float span = lt_caustic_span(p, 0u, q), share = 2.0f * SPT_PI * span / omega, acc = 0.0f;
-    while (k + 1u < n && u1 >= acc + share) {
-        acc += share;
-        k++;
-        span = lt_caustic_span(p, k, q);
-        share = 2.0f * SPT_PI * span / omega;
-    }
-    u1 = fmin(fmax((u1 - acc) / share, 0.0f), 0x1.fffffep-1f);
+    float span = 0.0f;
+    uint k = lt_pick_sphere(p, q, 0, omega, u1, &u1, &span);
     float3 ax = normalize((float3)(p->caustic[4 * k + 0], p->caustic[4 * k + 1], p->caustic[4 * k + 2]) - q);
     float x = u1 * span; /* 1 - cos(theta) */
     float ct = 1.0f - x;
@@ -88,12 +121,7 @@ SPT_FN_INLINE float3 lt_aim_dir(const RenderParams *p, float3 q, float omega, fl
     vec3 t_, b_;
     v3_basis(ax, &t_, &b_);
     float3 d = st * cos(phi) * t_ + st * sin(phi) * b_ + ct * ax;
-    float c = 1.0f;
-    float3 dn = normalize(d);
-    for (uint j = 0u; j < n; j++)
-        if (j != k && lt_meets_caustic(p, j, q, dn))
-            c += 1.0f;
-    *count = c;
+    *count = lt_spheres_met(p, k, q, normalize(d));
     return d;
 }
 
@@ -105,27 +133,17 @@ SPT_FN_INLINE float3 lt_aim_dir(const RenderParams *p, float3 q, float omega, fl
  * over the discs, counted where they overlap). */
 SPT_FN_INLINE float lt_aim_parallel(const RenderParams *p, float3 ax, float u0, float u1, float u2, float3 *o)
 {
-    uint n = p->caustic_count, k = 0u;
-    float total = 0.0f;
-    for (uint j = 0u; j < n; j++)
+    float total = 0.0f, span = 0.0f, u_in;
+    for (uint j = 0u; j < p->caustic_count; j++)
         total += p->caustic[4 * j + 3] * p->caustic[4 * j + 3];
-    float share = p->caustic[4 * 0 + 3] * p->caustic[4 * 0 + 3] / total, acc = 0.0f;
-    while (k + 1u < n && u0 >= acc + share) {
-        acc += share;
-        k++;
-        share = p->caustic[4 * k + 3] * p->caustic[4 * k + 3] / total;
-    }
+    uint k = lt_pick_sphere(p, ax, 1, total, u0, &u_in, &span);
     vec3 t_, b_;
     v3_basis(ax, &t_, &b_);
     vec3 disk = spt_sample_concentric_disk(u1, u2);
     float3 c = (float3)(p->caustic[4 * k + 0], p->caustic[4 * k + 1], p->caustic[4 * k + 2]);
     float3 cs = (float3)(p->scene_center[0], p->scene_center[1], p->scene_center[2]);
     *o = c + p->caustic[4 * k + 3] * (disk.x * t_ + disk.y * b_) - ax * (p->scene_radius + length(c - cs));
-    float crossed = 1.0f;
-    for (uint j = 0u; j < n; j++)
-        if (j != k && lt_meets_caustic(p, j, *o, ax))
-            crossed += 1.0f;
-    return SPT_PI * total / crossed;
+    return SPT_PI * total / lt_spheres_met(p, k, *o, ax);
 }
 
 /* Starts light path i as work item w (w >= P.light_begin): its wavelengths,
