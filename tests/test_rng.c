@@ -227,8 +227,7 @@ static void test_sobol_dims_match_directions(void **state)
         }
 }
 
-/* The kernels' shortcuts spt_sample_pair, spt_sample_wavelength_u and the
- * SptSampler functions give exactly spt_sample_1d of the dims they stand for
+/* The kernels' shortcuts spt_sample_pair and the SptSampler functions give exactly spt_sample_1d of the dims they stand for
  * (spt_rand for the independent sampler), at the camera dims and at the dims of
  * several bounces. */
 static void test_sample_pair_matches_1d(void **state)
@@ -256,8 +255,6 @@ static void test_sample_pair_matches_1d(void **state)
                 spt_sampler_1d(ind, d + 1u) != i1)
                 fail_msg("the independent sampler's dims %u, %u are not spt_rand's", d, d + 1u);
         }
-        assert_true(spt_sample_wavelength_u(key, sample) ==
-                    spt_sample_1d(seed, pixel, sample, SPT_DIM_WAVELENGTH));
     }
 }
 

@@ -453,17 +453,11 @@ SPT_FN float spt_sobol_owen(spt_u32 index, spt_u32 dim, spt_u32 seed)
     return spt_u32_to_unit(spt_sobol_owen_u32(index, dim, seed));
 }
 
-/* The part of spt_sobol_seed shared by all Sobol groups of one pixel. */
+/* The part of the Sobol groups' scramble seeds shared by all groups of one
+ * pixel: group g's seed is spt_hash_u32(key ^ g), independent of the sample. */
 SPT_FN spt_u32 spt_sobol_pixel_key(spt_u32 seed, spt_u32 pixel)
 {
     return spt_hash_u32(spt_hash_u32(seed ^ 0x510e527fu) ^ pixel);
-}
-
-/* The scramble seed of Sobol group (0: pixel, 1: lens, 2: wavelength) of one
- * pixel: a hash of (seed, pixel, group), independent of the sample. */
-SPT_FN spt_u32 spt_sobol_seed(spt_u32 seed, spt_u32 pixel, spt_u32 group)
-{
-    return spt_hash_u32(spt_sobol_pixel_key(seed, pixel) ^ group);
 }
 
 /* ---- The renderer's sampler -------------------------------------------------- */
@@ -495,24 +489,11 @@ SPT_FN spt_u32 spt_group_sobol_dim(spt_u32 group, spt_u32 *index_group)
     return 0u;
 }
 
-/* Sample value of dim for (seed, pixel, sample), following the dimension plan
- * above: Sobol dim (dim & 1) of group dim >> 1 (dims 2-6 of group 5 for the
- * joined groups), the index shuffled by the seed of the group whose sequence
- * it is and the value scrambled by its own group's. In [0, 1). This is the
- * definition; the kernels use the faster spt_sample_pair and friends, which the
- * tests check against it. */
-SPT_FN float spt_sample_1d(spt_u32 seed, spt_u32 pixel, spt_u32 sample, spt_u32 dim)
-{
-    spt_u32 index_group;
-    spt_u32 d = spt_group_sobol_dim(dim >> 1, &index_group) + (dim & 1u);
-    spt_u32 shuffled = spt_owen_scramble(sample, spt_sobol_seed(seed, pixel, index_group));
-    spt_u32 vseed = spt_sobol_seed(seed, pixel, dim >> 1);
-    spt_u32 v = spt_sobol_rev_u32(shuffled, d);
-    return spt_u32_to_unit(
-        spt_reverse_bits(spt_lk_hash(v, spt_hash_u32(vseed ^ ((dim & 1u) * 0x9e3779b9u + 0x3c6ef372u)))));
-}
-
-/* spt_sample_1d of dim, given the pixel's spt_sobol_pixel_key. */
+/* Sample value of dim for the pixel whose spt_sobol_pixel_key is pixel_key,
+ * following the dimension plan above: Sobol dim (dim & 1) of group dim >> 1
+ * (dims 2-6 of group 5 for the joined groups), the index shuffled by the seed
+ * of the group whose sequence it is and the value scrambled by its own
+ * group's. In [0, 1). */
 SPT_FN float spt_sample_1d_key(spt_u32 pixel_key, spt_u32 sample, spt_u32 dim)
 {
     spt_u32 index_group;
@@ -522,6 +503,14 @@ SPT_FN float spt_sample_1d_key(spt_u32 pixel_key, spt_u32 sample, spt_u32 dim)
     spt_u32 vseed = spt_hash_u32(pixel_key ^ (dim >> 1));
     return spt_u32_to_unit(
         spt_reverse_bits(spt_lk_hash(v, spt_hash_u32(vseed ^ ((dim & 1u) * 0x9e3779b9u + 0x3c6ef372u)))));
+}
+
+/* Sample value of dim for (seed, pixel, sample): spt_sample_1d_key. This is
+ * the definition; the kernels draw pairs with the faster spt_sample_pair,
+ * which the tests check against it. */
+SPT_FN float spt_sample_1d(spt_u32 seed, spt_u32 pixel, spt_u32 sample, spt_u32 dim)
+{
+    return spt_sample_1d_key(spt_sobol_pixel_key(seed, pixel), sample, dim);
 }
 
 /* Both dims of Sobol pair group (dims 2 group and 2 group + 1) of a sample, given
@@ -537,14 +526,6 @@ SPT_FN SPT_ALWAYS_INLINE void spt_sample_pair(spt_u32 pixel_key, spt_u32 sample,
     spt_u32 h1 = spt_hash_u32(seed ^ (0x9e3779b9u + 0x3c6ef372u));
     *u0 = spt_u32_to_unit(spt_reverse_bits(spt_lk_hash(spt_sobol_rev_u32(shuffled, d), h0)));
     *u1 = spt_u32_to_unit(spt_reverse_bits(spt_lk_hash(spt_sobol_rev_u32(shuffled, d + 1u), h1)));
-}
-
-/* The hero wavelength's dim of a sample (joined: Sobol dim 6 of group 5),
- * given its pixel's spt_sobol_pixel_key: exactly spt_sample_1d of
- * SPT_DIM_WAVELENGTH. */
-SPT_FN float spt_sample_wavelength_u(spt_u32 pixel_key, spt_u32 sample)
-{
-    return spt_sample_1d_key(pixel_key, sample, SPT_DIM_WAVELENGTH);
 }
 
 /* ---- ZSobol ------------------------------------------------------------------ */
