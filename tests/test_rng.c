@@ -258,31 +258,6 @@ static void test_sample_pair_matches_1d(void **state)
     }
 }
 
-/* Whether points (x[i], y[i]), i < 2^k, form a (0,k,2)-net in base 2: for every
- * a + b = k, each box [i/2^a, (i+1)/2^a) x [j/2^b, (j+1)/2^b) holds one point. */
-static int is_02_net(const float *x, const float *y, int k, char *why, size_t why_len)
-{
-    int n = 1 << k;
-    int *count = calloc((size_t)n, sizeof(int));
-    for (int a = 0; a <= k; a++) {
-        int b = k - a;
-        memset(count, 0, sizeof(int) * (size_t)n);
-        for (int i = 0; i < n; i++) {
-            int cx = (int)(x[i] * (float)(1 << a)), cy = (int)(y[i] * (float)(1 << b));
-            count[(cx << b) + cy]++;
-        }
-        for (int c = 0; c < n; c++)
-            if (count[c] != 1) {
-                snprintf(why, why_len, "k = %d, boxes 2^-%d x 2^-%d: box %d holds %d points", k,
-                         a, b, c, count[c]);
-                free(count);
-                return 0;
-            }
-    }
-    free(count);
-    return 1;
-}
-
 /* Whether the points p[i] (s coordinates each, i < 2^k) form a (t,k,s)-net in
  * base 2: for every d_1 + ... + d_s = k - t, each box of sides 2^-d_j holds
  * 2^t points. d is the composition being filled from coordinate j on. */
@@ -338,6 +313,13 @@ static int is_pair_t_net(const float *x, const float *y, int k, int t, char *why
     return is_net((const float (*)[6])p, 2, k, t, why, why_len);
 }
 
+/* Whether points (x[i], y[i]), i < 2^k, form a (0,k,2)-net in base 2: for every
+ * a + b = k, each box [i/2^a, (i+1)/2^a) x [j/2^b, (j+1)/2^b) holds one point. */
+static int is_02_net(const float *x, const float *y, int k, char *why, size_t why_len)
+{
+    return is_pair_t_net(x, y, k, 0, why, why_len);
+}
+
 /* The t of the Sobol dims a joined pair group takes (rng.h): the bound of
  * Sobol's construction, t <= sum (e_j - 1) over the dims' primitive
  * polynomials' degrees e_j (Joe and Kuo's dims 3-6: x^2+x+1, x^3+x+1,
@@ -387,8 +369,7 @@ static void test_sobol_prefixes_are_nets(void **state)
                         x[i] = spt_sample_1d(42u + (spt_u32)pi, pixels[pi], start + (spt_u32)i, d);
                         y[i] = spt_sample_1d(42u + (spt_u32)pi, pixels[pi], start + (spt_u32)i, d + 1u);
                     }
-                    int t = joined_pair_t(d);
-                    if (t == 0 ? !is_02_net(x, y, k, why, sizeof why) : !is_pair_t_net(x, y, k, t, why, sizeof why))
+                    if (!is_pair_t_net(x, y, k, joined_pair_t(d), why, sizeof why))
                         fail_msg("pixel %u, dims %u-%u, samples %u..%u: %s", pixels[pi], d, d + 1u, start,
                                  start + (1u << k) - 1u, why);
                 }
