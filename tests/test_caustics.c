@@ -232,18 +232,18 @@ static void test_punctual_through_glass(void **state)
 {
     (void)state;
     Film f;
-    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_ON, 64, 4, 0, 0, &f);
+    render_slab(LIGHT_SPOT, 1, SPT_SWITCH_ON, 64, 4, 0, 0, &f);
     check_floor(&f, LIGHT_SPOT, 0.5, 0.01, "spot through glass");
     film_free(&f);
     skip_if_quick();
-    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_OFF, 4, 4, 0, 0, &f);
+    render_slab(LIGHT_SPOT, 1, SPT_SWITCH_OFF, 4, 4, 0, 0, &f);
     double dark = 0;
     for (int i = 0; i < f.width * f.height; i++)
         dark = fmax(dark, f.xyz[3 * i + 1] / f.count[i]);
     printf("spot, --caustics off: brightest pixel Y %.3g (the floor under glass is black)\n", dark);
     assert_true(dark == 0.0);
     film_free(&f);
-    render_slab(LIGHT_DIRECTIONAL, 1, SPT_CAUSTICS_ON, 128, 4, 0, 0, &f);
+    render_slab(LIGHT_DIRECTIONAL, 1, SPT_SWITCH_ON, 128, 4, 0, 0, &f);
     check_floor(&f, LIGHT_DIRECTIONAL, 0.6, 0.02, "directional through glass");
     film_free(&f);
 }
@@ -258,7 +258,7 @@ static void test_thin_lens(void **state)
     Film f;
     slab_aperture = 0.03f;
     slab_focus = (float)sqrt(0.9 * 0.9 + 2.5 * 2.5);
-    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_ON, 64, 4, 0, 0, &f);
+    render_slab(LIGHT_SPOT, 1, SPT_SWITCH_ON, 64, 4, 0, 0, &f);
     slab_aperture = slab_focus = 0.0f;
     check_floor(&f, LIGHT_SPOT, 0.5, 0.015, "spot through glass, thin lens");
     film_free(&f);
@@ -273,11 +273,11 @@ static void test_area_light_caustic(void **state)
     Film f;
     /* 256 spp: the mean's noise is about 0.65% there (1.2% at 64 spp, where a
      * 1% tolerance was a coin toss between seeds and samplers). */
-    render_slab(LIGHT_AREA, 1, SPT_CAUSTICS_ON, 256, 4, 0, 0, &f);
+    render_slab(LIGHT_AREA, 1, SPT_SWITCH_ON, 256, 4, 0, 0, &f);
     check_floor(&f, LIGHT_AREA, 0.5, 0.02, "area light, --caustics on");
     film_free(&f);
     skip_if_quick();
-    render_slab(LIGHT_AREA, 1, SPT_CAUSTICS_OFF, 1024, 4, 0, 0, &f);
+    render_slab(LIGHT_AREA, 1, SPT_SWITCH_OFF, 1024, 4, 0, 0, &f);
     check_floor(&f, LIGHT_AREA, 0.5, 0.03, "area light, --caustics off");
     film_free(&f);
 }
@@ -289,8 +289,8 @@ static void test_no_delta_unchanged(void **state)
     (void)state;
     skip_if_quick();
     Film a, b;
-    render_slab(LIGHT_SPOT, 0, SPT_CAUSTICS_OFF, 8, -1, 0, 0, &a);
-    render_slab(LIGHT_SPOT, 0, SPT_CAUSTICS_ON, 8, -1, 0, 0, &b);
+    render_slab(LIGHT_SPOT, 0, SPT_SWITCH_OFF, 8, -1, 0, 0, &a);
+    render_slab(LIGHT_SPOT, 0, SPT_SWITCH_ON, 8, -1, 0, 0, &b);
     size_t n = (size_t)a.width * a.height;
     assert_memory_equal(a.xyz, b.xyz, 3 * n * sizeof(double));
     assert_memory_equal(a.count, b.count, n * sizeof(double));
@@ -334,7 +334,7 @@ static double render_two_cubes(int light, int shared, int spp, uint32_t seed)
     Scene s;
     two_cubes_scene(&s, light, shared);
     RenderSettings rs = square_settings(48, spp, 4, seed);
-    rs.caustics = SPT_CAUSTICS_ON;
+    rs.caustics = SPT_SWITCH_ON;
     Film f;
     render_caustic_scene(&s, &rs, &f);
     double sum = 0;
@@ -416,8 +416,8 @@ static void test_unused_glass_no_pass(void **state)
             m->transmission = 1.0f;
         }
         Film a, b;
-        uint64_t rays_auto = render_counting(&s, SPT_CAUSTICS_AUTO, &a);
-        uint64_t rays_off = render_counting(&s, SPT_CAUSTICS_OFF, &b);
+        uint64_t rays_auto = render_counting(&s, SPT_SWITCH_AUTO, &a);
+        uint64_t rays_off = render_counting(&s, SPT_SWITCH_OFF, &b);
         if (used) {
             assert_true(rays_auto > rays_off);
         } else {
@@ -439,12 +439,12 @@ static void test_split_invariance(void **state)
     (void)state;
     skip_if_quick();
     Film a, b, c, d;
-    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_ON, 8, -1, 0, 0, &a);
-    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_ON, 8, -1, 1000, 0, &b);
+    render_slab(LIGHT_SPOT, 1, SPT_SWITCH_ON, 8, -1, 0, 0, &a);
+    render_slab(LIGHT_SPOT, 1, SPT_SWITCH_ON, 8, -1, 1000, 0, &b);
     size_t n = (size_t)a.width * a.height;
     assert_memory_equal(a.xyz, b.xyz, 3 * n * sizeof(double));
-    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_ON, 4, -1, 0, 0, &c);
-    render_slab(LIGHT_SPOT, 1, SPT_CAUSTICS_ON, 4, -1, 0, 4, &d);
+    render_slab(LIGHT_SPOT, 1, SPT_SWITCH_ON, 4, -1, 0, 0, &c);
+    render_slab(LIGHT_SPOT, 1, SPT_SWITCH_ON, 4, -1, 0, 4, &d);
     film_add(&c, &d);
     double worst = 0, sum = 0;
     for (size_t i = 0; i < 3 * n; i++) {
@@ -537,7 +537,7 @@ static void test_closed_box_furnace(void **state)
     skip_if_quick();
     Film f;
     enum { W = 32 };
-    render_closed_box(0, SPT_CAUSTICS_ON, W, 64, &f);
+    render_closed_box(0, SPT_SWITCH_ON, W, 64, &f);
     double want = BOX_LE / (1.0 - BOX_ALBEDO), q[4] = {0}, all = 0;
     for (int py = 0; py < W; py++)
         for (int px = 0; px < W; px++) {
@@ -569,8 +569,8 @@ static void test_closed_box_one_light(void **state)
     skip_if_quick();
     enum { W = 32, B = 4 };
     Film on, off;
-    render_closed_box(1, SPT_CAUSTICS_ON, W, 64, &on);
-    render_closed_box(1, SPT_CAUSTICS_OFF, W, 512, &off);
+    render_closed_box(1, SPT_SWITCH_ON, W, 64, &on);
+    render_closed_box(1, SPT_SWITCH_OFF, W, 512, &off);
     double sum_on = 0, sum_off = 0, worst = 0;
     for (int by = 0; by < B; by++)
         for (int bx = 0; bx < B; bx++) {

@@ -130,7 +130,7 @@ static void test_sphere_caustic_mitsuba(void **state)
     skip_if_quick();
     double rel, img_t;
     double t = welch_vs_mitsuba("tests/data/scenes/caustic_sphere.gltf",
-                                "tests/data/mitsuba/caustic_sphere_means.json", 8, 64, SPT_CAUSTICS_ON, &rel, &img_t,
+                                "tests/data/mitsuba/caustic_sphere_means.json", 8, 64, SPT_SWITCH_ON, &rel, &img_t,
                                 "spot light through the sphere vs Mitsuba ptracer");
     assert_true(t < CS_WELCH_BOUND);
     assert_true(rel < 0.01);
@@ -150,7 +150,7 @@ static void test_sphere_area_light_mitsuba(void **state)
     skip_if_quick();
     double rel, img_t;
     double t = welch_vs_mitsuba("tests/data/scenes/caustic_sphere_area.gltf",
-                                "tests/data/mitsuba/caustic_sphere_area_means.json", 8, 32, SPT_CAUSTICS_ON, &rel,
+                                "tests/data/mitsuba/caustic_sphere_area_means.json", 8, 32, SPT_SWITCH_ON, &rel,
                                 &img_t, "area light through the sphere vs Mitsuba path");
     assert_true(t < CS_WELCH_BOUND);
     assert_true(img_t < 4.0);
@@ -174,7 +174,7 @@ static void test_light_paths_split(void **state)
     Film f[4];
     for (int k = 0; k < 4; k++) {
         RenderSettings rs = square_settings(W, (int)count[k], -1, 5);
-        rs.caustics = SPT_CAUSTICS_ON;
+        rs.caustics = SPT_SWITCH_ON;
         rs.light_paths = 0.37f;
         rs.sample_begin = begin[k];
         rs.pool_size = pool[k];

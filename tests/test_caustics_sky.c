@@ -170,12 +170,12 @@ static void test_sky_furnace(void **state)
 {
     (void)state;
     Sky map = flat_map_sky();
-    check_furnace(VIEW_UNDER, &map, SPT_CAUSTICS_ON, 512, "furnace under the slab, flat map, on");
+    check_furnace(VIEW_UNDER, &map, SPT_SWITCH_ON, 512, "furnace under the slab, flat map, on");
     skip_if_quick();
     Sky sky = white_sky();
-    check_furnace(VIEW_UNDER, &sky, SPT_CAUSTICS_ON, 128, "furnace under the slab, uniform sky, on");
-    check_furnace(VIEW_THROUGH, &map, SPT_CAUSTICS_ON, 512, "furnace through the slab, flat map, on");
-    check_furnace(VIEW_UNDER, &map, SPT_CAUSTICS_OFF, 128, "furnace under the slab, flat map, off");
+    check_furnace(VIEW_UNDER, &sky, SPT_SWITCH_ON, 128, "furnace under the slab, uniform sky, on");
+    check_furnace(VIEW_THROUGH, &map, SPT_SWITCH_ON, 512, "furnace through the slab, flat map, on");
+    check_furnace(VIEW_UNDER, &map, SPT_SWITCH_OFF, 128, "furnace under the slab, flat map, off");
 }
 
 /* --caustics auto runs the pass when the only light is a map: the image is
@@ -192,8 +192,8 @@ static void test_sky_auto_and_pool(void **state)
     furnace_scene(&s, VIEW_UNDER);
     Sky map = flat_map_sky();
     float *img[N];
-    const int mode[N] = {SPT_CAUSTICS_AUTO, SPT_CAUSTICS_ON, SPT_CAUSTICS_OFF, SPT_CAUSTICS_ON,
-                         SPT_CAUSTICS_AUTO, SPT_CAUSTICS_OFF};
+    const int mode[N] = {SPT_SWITCH_AUTO, SPT_SWITCH_ON, SPT_SWITCH_OFF, SPT_SWITCH_ON,
+                         SPT_SWITCH_AUTO, SPT_SWITCH_OFF};
     for (int k = 0; k < N; k++) {
         RenderSettings rs = square_settings(W, 8, -1, 5);
         rs.caustics = mode[k];
@@ -268,7 +268,7 @@ static void test_sun_sphere_on_off(void **state)
     for (int side = 0; side < 2; side++)
         for (int run = 0; run < SS_RUNS; run++) {
             RenderSettings rs = square_settings(SS_W, SS_SPP, -1, (uint32_t)(1 + 100 * side + run));
-            rs.caustics = side == 0 ? SPT_CAUSTICS_ON : SPT_CAUSTICS_OFF;
+            rs.caustics = side == 0 ? SPT_SWITCH_ON : SPT_SWITCH_OFF;
             rs.sky = &sky;
             render_rgb(&s, &rs, rgb);
             double b[48];

@@ -38,6 +38,7 @@ static const struct {
     {"resume", "ck.exr"},       {"caustics", "on"},
     {"aov", "albedo,N"},        {"spectral", "47"},
     {"light-paths", "0.5"},
+    {"adaptive", "on"},
 };
 
 /* What the list says of each option. */

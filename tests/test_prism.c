@@ -122,7 +122,7 @@ static void test_prism_dispersion(void **state)
     SptError e = {0};
     assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
     RenderSettings rs = square_settings(64, 64, 4, 7);
-    rs.caustics = SPT_CAUSTICS_ON;
+    rs.caustics = SPT_SWITCH_ON;
     Film f;
     RenderStats st;
     film_init(&f, 64, 64);
@@ -229,7 +229,7 @@ static void test_prism_mercury_lines(void **state)
     scene_update_bounds(&s);
     RenderSettings rs = square_settings(HG_W, HG_SPP, 4, 11);
     rs.height = HG_H;
-    rs.caustics = SPT_CAUSTICS_ON;
+    rs.caustics = SPT_SWITCH_ON;
     Film f;
     render_caustic_scene(&s, &rs, &f);
     /* Columns: per-column XYZ summed over the rows, and the profile X + Y + Z. */

@@ -431,7 +431,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFF
     uint npix = (uint)(P.width * P.height);
     uint w_item = ps_work[i];
     uint pixel = w_item % npix;
-    uint sample = P.sample_begin + w_item / npix;
+    uint sample = P.sample_begin + w_item / npix - pixel_lag[pixel];
     SptSampler smp = spt_sampler_for(&P, pixel, sample);
     if (shade_alpha_with(&h, &tc, 1, smp, P.seed, pixel, sample, ALL_ARGS))
         return 0;

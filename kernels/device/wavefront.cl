@@ -129,7 +129,9 @@ static void path_finish(uint i, ALL_BUFFERS)
         rad.x = NAN;
 #endif
     float4 xyz = path_radiance_to_xyz(rad, ps_lambda[i], ps_lambda_pdf[i]);
-    if (isfinite(xyz.x) && isfinite(xyz.y) && isfinite(xyz.z)) {
+    if (ps_lt[i] & SPT_LT_SKIP) {
+        xyz = (float4)(0.0f); /* left out by adaptive sampling: w = 0, not counted */
+    } else if (isfinite(xyz.x) && isfinite(xyz.y) && isfinite(xyz.z)) {
         xyz.w = 1.0f;
     } else {
         atomic_inc(&counters[SPT_CNT_NAN]);
@@ -160,7 +162,21 @@ static uint path_start(uint i, uint w, ALL_BUFFERS)
         return lt_start(i, w, ALL_ARGS);
     uint npix = (uint)(P.width * P.height);
     uint pixel = w % npix;
-    uint sample = P.sample_begin + w / npix;
+    uint lag = pixel_lag[pixel];
+    uint sample = P.sample_begin + w / npix - lag;
+    ps_work[i] = w;
+    if (lag == SPT_PIXEL_SKIP) {
+        ps_radiance[i] = (float4)(0.0f);
+        ps_lambda[i] = (float4)(550.0f);
+        ps_lambda_pdf[i] = (float4)(1.0f);
+        ps_lt[i] = SPT_LT_SKIP;
+#ifdef SPT_AOV
+        aov_sample[3u * w + 0u] = (float4)(0.0f);
+        aov_sample[3u * w + 1u] = (float4)(0.0f);
+        aov_sample[3u * w + 2u] = (float4)(0.0f);
+#endif
+        return SPT_PATH_FINISHED;
+    }
     SptSampler smp = spt_sampler_for(&P, pixel, sample);
     float jx, jy;
     spt_sampler_pair(smp, SPT_DIM_PIXEL_X, &jx, &jy);
@@ -192,7 +208,6 @@ static uint path_start(uint i, uint w, ALL_BUFFERS)
     ps_lambda_pdf[i] = pdf;
     ps_throughput[i] = (float4)(1.0f);
     ps_radiance[i] = (float4)(0.0f);
-    ps_work[i] = w;
     ps_depth[i] = 0;
     ps_passes[i] = 0;
     ps_medium[i] = 0;
@@ -507,10 +522,17 @@ __kernel void k_accumulate(KERNEL_ARGS)
     if (pixel >= npix)
         return;
     uint n = (P.light_begin - P.work_begin) / npix;
-    float4 s = (float4)(0.0f);
-    for (uint k = 0; k < n; k++)
-        s += contrib[pixel + k * npix];
-    if (P.light_paths > 0u) {
+    float4 s = (float4)(0.0f), ssq = (float4)(0.0f);
+    for (uint k = 0; k < n; k++) {
+        float4 c = contrib[pixel + k * npix];
+        float3 rgb = path_xyz_to_linear_srgb(c.xyz);
+        s += c;
+        ssq += c.w * (float4)(rgb * rgb, 0.0f);
+    }
+    chunk_sq[pixel] = ssq;
+    /* A pixel left out of the chunk's camera samples leaves out its light
+     * paths' splats too: its sum stays that of the samples it counts. */
+    if (P.light_paths > 0u && pixel_lag[pixel] != SPT_PIXEL_SKIP) {
         const __global uint *a = light_film + SPT_SPLAT_WORDS * pixel;
         const float unit = 1.0f / (float)(1 << SPT_SPLAT_BITS);
         s.x += (float)(((ulong)a[1] << 32) | a[0]) * unit;

@@ -250,6 +250,11 @@ typedef struct RenderParams {
 #define SPT_LT_CHAIN 1u
 #define SPT_LT_SPEC 2u
 #define SPT_LT_LIGHT 4u
+/* A camera sample of a pixel that adaptive sampling leaves out of this chunk
+ * (pixel_lag SPT_PIXEL_SKIP): it ends at once and path_finish writes it as
+ * dropped. */
+#define SPT_LT_SKIP 8u
+#define SPT_PIXEL_SKIP 0xffffffffu
 
 /* The light film (light_film): per pixel, X, Y and Z of the light paths'
  * splats as 64-bit fixed-point sums (two words each, low first) in units of
@@ -315,12 +320,21 @@ typedef struct RenderParams {
  * without, one unused float4 each. With spectral bands (kernels built with
  * SPT_BANDS = their number): spec_sample holds 2 float4 per sample, the weights
  * of its four wavelengths and their bands (as floats), and spec_sum SPT_BANDS
- * floats per pixel (src/render/film.h); without, one unused element each. */
+ * floats per pixel (src/render/film.h); without, one unused element each.
+ * pixel_lag: per pixel, how many sample indices its own samples lag behind
+ * the chunk's (adaptive sampling, src/render/adaptive.h: sample index s of the
+ * chunk is the pixel's sample s - lag, so a pixel's samples are always the
+ * first of its sequence), or SPT_PIXEL_SKIP: the pixel takes none of the
+ * chunk's samples; 0 without adaptive sampling. chunk_sq: per pixel,
+ * the sums of the squares of its kept samples' linear sRGB (the variance that
+ * adaptive sampling weighs). */
 #define SPT_WORK_BUFFERS(X)           \
     X(uint, counters)                 \
     X(uint, queue_extend)             \
     X(float4, contrib)                \
     X(float4, chunk_sum)              \
+    X(const uint, pixel_lag)          \
+    X(float4, chunk_sq)               \
     X(uint, light_film)               \
     X(float4, aov_sample)             \
     X(float4, aov_sum)                \

@@ -142,6 +142,19 @@ static int check_outputs(RenderJob *j, SptError *e)
     /* --denoise without the library fails here, before any rendering. */
     if (a->rs.denoise && (rc = denoiser_open(&j->den, e)))
         return rc;
+    /* A checkpoint keeps the film's sums and the samples done, not the sums of
+     * squares that adaptive sampling chooses its pixels by. */
+    if (a->rs.adaptive == SPT_SWITCH_ON && spt_dist_render)
+        return spt_fail(e, SPT_EXIT_USAGE,
+                        "render: --adaptive on is not supported across MPI ranks");
+    if (a->rs.adaptive == SPT_SWITCH_ON && (a->checkpoint || a->resume))
+        return spt_fail(e, SPT_EXIT_USAGE, "render: --adaptive on cannot be combined with --%s",
+                        a->checkpoint ? "checkpoint" : "resume");
+    /* auto: on for a render given seconds, where the image is what counts. */
+    if (a->rs.adaptive == SPT_SWITCH_AUTO)
+        a->rs.adaptive = a->rs.time_limit > 0 && !spt_dist_render && !a->checkpoint && !a->resume
+                             ? SPT_SWITCH_ON
+                             : SPT_SWITCH_OFF;
     if (a->checkpoint || a->resume)
         return checkpoint_path_check(a->checkpoint ? a->checkpoint : a->resume, e);
     return SPT_EXIT_OK;

@@ -13,7 +13,7 @@
 #include "render/film.h"
 
 enum { KIND_LIST, KIND_INT, KIND_U32, KIND_DBL, KIND_FLT, KIND_STR, KIND_FLAG, KIND_TONEMAP,
-       KIND_CAUSTICS, KIND_SAMPLER, KIND_AOV, KIND_HELP };
+       KIND_SWITCH, KIND_SAMPLER, KIND_AOV, KIND_HELP };
 
 /* One row of the list, with where its value goes in RenderArgs. */
 typedef struct OptRow {
@@ -151,11 +151,11 @@ static int store(RenderArgs *a, const OptRow *r, const char *arg)
     case KIND_TONEMAP:
         ok = !image_tonemap_parse(arg, (int *)field);
         break;
-    case KIND_CAUSTICS:
+    case KIND_SWITCH:
         ok = !strcmp(arg, "off") || !strcmp(arg, "on") || !strcmp(arg, "auto");
         if (ok)
-            *(int *)field = !strcmp(arg, "off") ? SPT_CAUSTICS_OFF
-                            : !strcmp(arg, "on") ? SPT_CAUSTICS_ON : SPT_CAUSTICS_AUTO;
+            *(int *)field = !strcmp(arg, "off") ? SPT_SWITCH_OFF
+                            : !strcmp(arg, "on") ? SPT_SWITCH_ON : SPT_SWITCH_AUTO;
         break;
     case KIND_SAMPLER:
         ok = !render_sampler_parse(arg, (uint32_t *)field);
@@ -183,7 +183,7 @@ static void set_defaults(RenderArgs *a)
 #define DEF_FLT(f, def) f = (def);
 #define DEF_FLAG(f, def) f = (def);
 #define DEF_TONEMAP(f, def) f = (def);
-#define DEF_CAUSTICS(f, def) f = (def);
+#define DEF_SWITCH(f, def) f = (def);
 #define DEF_SAMPLER(f, def) f = (def);
 #define DEF_AOV(f, def) f = (def);
 #define DEF_HELP(f, def) f = (def);

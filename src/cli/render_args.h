@@ -19,7 +19,7 @@
 #define SPT_ARGS_FIELD_STR(type, name) type name;
 #define SPT_ARGS_FIELD_FLAG(type, name) type name;
 #define SPT_ARGS_FIELD_TONEMAP(type, name) type name;
-#define SPT_ARGS_FIELD_CAUSTICS(type, name) type name;
+#define SPT_ARGS_FIELD_SWITCH(type, name) type name;
 #define SPT_ARGS_FIELD_AOV(type, name) type name;
 #define SPT_ARGS_FIELD_HELP(type, name) type name;
 #define SPT_ARGS_CLI_FIELD(where, kind, type, name, ...) \

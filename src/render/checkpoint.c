@@ -113,7 +113,7 @@ int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSetting
 #define KEY_RS_FLT(name) key_add(k, #name, "%.9g", rs->name);
 #define KEY_RS_DBL(name) key_add(k, #name, "%.17g", rs->name);
 #define KEY_RS_FLAG(name) key_add(k, #name, "%d", rs->name);
-#define KEY_RS_CAUSTICS(name) key_add(k, #name, "%d", rs->name);
+#define KEY_RS_SWITCH(name) key_add(k, #name, "%d", rs->name);
 #define KEY_RS_SAMPLER(name) key_add(k, #name, "%u", rs->name);
 #define KEY_RS_AOV(name) key_add(k, #name, "%u", rs->name);
 #define KEY_SKY_STR(name)                                                                  \

@@ -19,7 +19,7 @@
  *            the command line only (RenderArgs holds the SKY and CLI rows)
  *   kind     INT, U32 (whole numbers in [lo, hi]), DBL, FLT (numbers in [lo, hi],
  *            parsed as double), STR, FLAG, LIST (repeatable string), TONEMAP,
- *            CAUSTICS (auto, off, on: SPT_CAUSTICS_*), SAMPLER (sobol or
+ *            SWITCH (auto, off, on: SPT_SWITCH_*), SAMPLER (sobol or
  *            independent: SPT_SAMPLER_*), AOV (a list of AOV layers into a
  *            mask: src/render/film.h), HELP
  *   type     the field's C type
@@ -38,9 +38,9 @@
 #define SPT_OPT_POSITIVE 8u /* DBL/FLT: must be > 0 */
 #define SPT_OPT_FINITE 16u  /* DBL/FLT: must be finite */
 
-/* --caustics (kind CAUSTICS): the light-tracing pass (kernels/device/light_trace.h).
- * Auto is 0, so a RenderSettings of zeros has the default. */
-enum { SPT_CAUSTICS_AUTO = 0, SPT_CAUSTICS_OFF = 1, SPT_CAUSTICS_ON = 2 };
+/* Options of kind SWITCH (--caustics, --adaptive): auto, off or on. Auto is
+ * 0, so a RenderSettings of zeros has the default. */
+enum { SPT_SWITCH_AUTO = 0, SPT_SWITCH_OFF = 1, SPT_SWITCH_ON = 2 };
 
 /* --light-paths: light paths per camera path of the light-tracing pass (the
  * measurement that chose the default is in docs/architecture.md, "Caustics").
@@ -81,6 +81,13 @@ enum { SPT_CAUSTICS_AUTO = 0, SPT_CAUSTICS_OFF = 1, SPT_CAUSTICS_ON = 2 };
       "pixels in Morton order, so neighbours' errors cancel (blue\n"                          \
       "noise; its sequence follows --spp rounded up to a power\n"                             \
       "of two); independent: uniform random numbers")                                         \
+    X(RS, SWITCH, int, adaptive, "adaptive", 0, "MODE", SPT_SWITCH_AUTO, 0, 0,                 \
+      SPT_OPT_IMAGE | SPT_OPT_MPI, "expected auto, off or on",                                  \
+      "adaptive sampling: after 16 samples per pixel, each\n"                                  \
+      "doubling of the samples goes to the pixels whose error it\n"                          \
+      "lowers most; auto (default): on with --time (the cleaner\n"                            \
+      "image in the time), else off; not with --checkpoint,\n"                                \
+      "--resume or MPI ranks")                                                                  \
     X(CLI, STR, const char *, device, "device", 0, "SEL", NULL, 0, 0, 0, "",                    \
       "OpenCL device(s): index, name substring, cpu or gpu, a comma\n"                         \
       "list, or all (default: SPECTRACE_DEVICE, else the first GPU,\n"                         \
@@ -120,7 +127,7 @@ enum { SPT_CAUSTICS_AUTO = 0, SPT_CAUSTICS_OFF = 1, SPT_CAUSTICS_ON = 2 };
       SPT_OPT_IMAGE | SPT_OPT_MPI | SPT_OPT_FINITE, "expected a non-negative number",           \
       "focus distance in metres (default: the distance at the\n"                               \
       "image centre)")                                                                          \
-    X(RS, CAUSTICS, int, caustics, "caustics", 0, "MODE", SPT_CAUSTICS_AUTO, 0, 0,               \
+    X(RS, SWITCH, int, caustics, "caustics", 0, "MODE", SPT_SWITCH_AUTO, 0, 0,                 \
       SPT_OPT_IMAGE | SPT_OPT_MPI, "expected auto, off or on",                                  \
       "light tracing for caustics (light through glass or off\n"                               \
       "smooth metal onto diffuse surfaces, punctual lights\n"                                  \

@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "device/bsdf.h"
+#include "render/adaptive.h"
 #include "render/render_lights.h"
 #include "render/wavefront.h"
 #include "device/rng.h"
@@ -84,6 +85,19 @@ typedef struct Scheduler {
     int turn;                 /* with rs->test.take_turns: the worker whose turn it is */
     unsigned char *gone;      /* per worker: has stopped taking chunks */
     int deadline;             /* a worker stopped because no sample fits the time left */
+    /* Adaptive sampling (rs->adaptive; src/render/adaptive.h): chunks stay
+     * within the segment [seg_end / 2, seg_end) of the sample indices (the
+     * first is [0, SPT_ADAPTIVE_FIRST)), the next segment starts when all of
+     * this one is done, with lag (per pixel: the lag of its own samples
+     * behind the segment's, or SPT_PIXEL_SKIP) whose generation mask_gen the
+     * workers compare with what they uploaded; taken: per pixel, its samples
+     * up to the end of the segment. */
+    int adaptive;
+    uint32_t seg_end;
+    uint32_t *lag;
+    uint32_t *taken;
+    int mask_gen;
+    double *sq;               /* per pixel, the sums of the squares of linear sRGB */
 } Scheduler;
 
 /* Passes the turn to the next worker still taking chunks. */
@@ -117,6 +131,8 @@ static int sched_take(Scheduler *s, int who, uint32_t want, uint32_t *begin, uin
     /* Nothing to hand out while another device still renders: wait, since a
      * failure there gives its chunk back. */
     while (((s->ret_count == 0 && s->next >= s->total && !rs->take_chunk && s->active > 0) ||
+            (s->adaptive && s->ret_count == 0 && s->next >= s->seg_end && s->next < s->total &&
+             s->active > 0) ||
             sched_not_my_turn(s, who)) &&
            !(rs->stop && *rs->stop)) {
         pthread_mutex_unlock(&s->lock);
@@ -134,12 +150,33 @@ static int sched_take(Scheduler *s, int who, uint32_t want, uint32_t *begin, uin
         } else if (rs->take_chunk) {
             ok = rs->take_chunk(rs->chunk_ctx, want, begin, n);
         } else {
-            /* The next run of samples not done yet, at most want long. */
+            /* The next run of samples not done yet, at most want long (and
+             * within the adaptive segment, which ends when all of it is done:
+             * the next one's mask follows from the film then). */
             while (s->next < s->total && s->done[s->next])
                 s->next++;
-            if (s->next < s->total) {
+            if (s->adaptive && s->next >= s->seg_end && s->next < s->total) {
+                /* The pixels the mask keeps take the segment's c samples as
+                 * their next c (the first of their own sequence still unused). */
+                const Film *f = s->film;
+                uint32_t npix = (uint32_t)(f->width * f->height), c = s->seg_end;
+                adaptive_mask((uint32_t)f->width, (uint32_t)f->height, f->xyz, f->count, s->sq, c,
+                              s->lag);
+                for (uint32_t i = 0; i < npix; i++) {
+                    if (s->lag[i]) {
+                        s->lag[i] = c - s->taken[i];
+                        s->taken[i] += c;
+                    } else {
+                        s->lag[i] = SPT_PIXEL_SKIP;
+                    }
+                }
+                s->seg_end *= 2u;
+                s->mask_gen++;
+            }
+            uint32_t end = s->adaptive && s->seg_end < s->total ? s->seg_end : s->total;
+            if (s->next < end) {
                 uint32_t k = 0;
-                while (k < want && s->next + k < s->total && !s->done[s->next + k])
+                while (k < want && s->next + k < end && !s->done[s->next + k])
                     k++;
                 *begin = s->next;
                 *n = k;
@@ -199,10 +236,16 @@ static void sched_give_back(Scheduler *s, uint32_t begin, uint32_t n)
 }
 
 static void sched_done(Scheduler *s, uint32_t begin, uint32_t n, uint64_t paths, const float *sums,
-                       const float *aov_sums, const float *spec_sums)
+                       const float *aov_sums, const float *spec_sums, const float *sq_sums)
 {
     pthread_mutex_lock(&s->lock);
     film_add_chunk(s->film, sums, aov_sums, spec_sums);
+    if (s->sq && sq_sums) {
+        size_t npix = (size_t)s->film->width * s->film->height;
+        for (size_t i = 0; i < npix; i++)
+            for (int k = 0; k < 3; k++)
+                s->sq[3 * i + k] += sq_sums[4 * i + k];
+    }
     for (uint32_t i = 0; i < n; i++)
         s->done[begin + i] = 1;
     s->done_count += n;
@@ -254,6 +297,9 @@ static void *worker_main(void *arg)
     float *spec_sums = w.bands ? spt_malloc((size_t)rs->width * rs->height * (size_t)w.bands *
                                             sizeof(float))
                                : NULL;
+    float *sq_sums =
+        wk->s->adaptive ? spt_malloc((size_t)rs->width * rs->height * 4 * sizeof(float)) : NULL;
+    int mask_gen = 0; /* the adaptive mask on the device: all pixels at first */
     /* The test hooks that concern this device. */
     int fail_after = rs->test.fail_device == wk->index + 1 ? rs->test.fail_after : -1;
     int slow_ms = rs->test.slow_device == wk->index + 1 ? rs->test.slow_ms : 0;
@@ -279,13 +325,20 @@ static void *worker_main(void *arg)
             if (slow_ms > 0)
                 usleep((useconds_t)slow_ms * 1000u);
             uint64_t before = wk->st.paths;
-            wk->rc = render_chunk(&w, &p, rs->sample_begin + begin, n, rs->profile, sums,
-                                  aov_sums, spec_sums, &wk->st, &wk->e);
+            /* The segment's mask does not change while this chunk is taken. */
+            if (wk->s->adaptive && mask_gen != wk->s->mask_gen) {
+                mask_gen = wk->s->mask_gen;
+                wk->rc = wavefront_set_lags(&w, wk->s->lag, (size_t)rs->width * rs->height, &wk->e);
+            }
+            if (!wk->rc)
+                wk->rc = render_chunk(&w, &p, rs->sample_begin + begin, n, rs->profile, sums,
+                                      aov_sums, spec_sums, sq_sums, &wk->st, &wk->e);
             if (!wk->rc) {
                 per_sample = (spt_now() - t) / n;
                 wk->busy_seconds += spt_now() - t;
                 wk->samples += n;
-                sched_done(wk->s, begin, n, wk->st.paths - before, sums, aov_sums, spec_sums);
+                sched_done(wk->s, begin, n, wk->st.paths - before, sums, aov_sums, spec_sums,
+                           sq_sums);
             }
         }
         if (wk->rc) {
@@ -299,6 +352,7 @@ static void *worker_main(void *arg)
     free(sums);
     free(aov_sums);
     free(spec_sums);
+    free(sq_sums);
     wavefront_free(&w);
     sched_leave(wk->s, wk->index);
     return NULL;
@@ -514,24 +568,24 @@ static int scene_turns_light(const GpuScene *g)
 static int caustics_enabled(const RenderSettings *rs, const RenderLights *L, const GpuScene *g,
                             const SceneCamera *cam)
 {
-    if (rs->caustics == SPT_CAUSTICS_OFF)
+    if (rs->caustics == SPT_SWITCH_OFF)
         return 0;
     /* Light paths splat XYZ into the image only: the spectral bands and the
      * variance layer are made of camera samples, which then carry every
      * path (caustics included) themselves. */
     if (rs->spectral > 0 || (rs->aov & SPT_AOV_VARIANCE)) {
-        if (rs->caustics == SPT_CAUSTICS_ON)
+        if (rs->caustics == SPT_SWITCH_ON)
             spt_warn("--caustics on: the light-tracing pass adds to the image only, not to %s; "
                      "rendering without it", rs->spectral > 0 ? "--spectral's bands" : "the variance layer");
         return 0;
     }
     if (cam->orthographic) {
-        if (rs->caustics == SPT_CAUSTICS_ON)
+        if (rs->caustics == SPT_SWITCH_ON)
             spt_warn("--caustics on: the light-tracing pass needs a perspective camera (this one is "
                      "orthographic); rendering without it");
         return 0;
     }
-    if (rs->caustics == SPT_CAUSTICS_ON)
+    if (rs->caustics == SPT_SWITCH_ON)
         return 1;
     if (g->emitter_count == 0 && g->light_count == 0 &&
         !(L->env.env.kind == SPT_ENV_MAP && L->env_prob > 0.0f))
@@ -629,6 +683,16 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
     s.decile = -1;
     s.t0 = spt_now();
     s.film = film;
+    if (rs->adaptive == SPT_SWITCH_ON && !rs->take_chunk) {
+        size_t npix = (size_t)film->width * film->height;
+        s.adaptive = 1;
+        s.seg_end = SPT_ADAPTIVE_FIRST;
+        s.lag = spt_calloc(npix, sizeof(uint32_t));
+        s.taken = spt_malloc(npix * sizeof(uint32_t));
+        for (size_t i = 0; i < npix; i++)
+            s.taken[i] = SPT_ADAPTIVE_FIRST;
+        s.sq = spt_calloc(3 * npix, sizeof(double));
+    }
     s.workers = count;
     s.gone = spt_calloc((size_t)(count > 0 ? count : 1), 1);
     if (rs->done_in)
@@ -646,6 +710,9 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
         render_lights_free(&lights);
         free(s.done);
         free(s.gone);
+        free(s.lag);
+        free(s.taken);
+        free(s.sq);
         pthread_mutex_destroy(&s.lock);
         return rc0;
     }
@@ -718,6 +785,9 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
     free(s.ret_begin);
     free(s.ret_n);
     free(s.gone);
+    free(s.lag);
+    free(s.taken);
+    free(s.sq);
     render_lights_free(&lights);
     pthread_mutex_destroy(&s.lock);
     return rc;

@@ -318,6 +318,10 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
                                (size_t)(npix * w->chunk_spp * 16ull), NULL, &w->b.contrib, e)) ||
         (rc = cl_buffer_create(&w->dev, "chunk sums", CL_MEM_READ_WRITE, (size_t)npix * 16,
                                NULL, &w->b.chunk_sum, e)) ||
+        (rc = cl_buffer_create(&w->dev, "pixel lags", CL_MEM_READ_ONLY, (size_t)npix * 4, NULL,
+                               &w->b.pixel_lag, e)) ||
+        (rc = cl_buffer_create(&w->dev, "chunk squares", CL_MEM_READ_WRITE, (size_t)npix * 16,
+                               NULL, &w->b.chunk_sq, e)) ||
         (rc = cl_buffer_create(&w->dev, "light film", CL_MEM_READ_WRITE,
                                (size_t)(npix * SPT_SPLAT_WORDS * 4ull), NULL, &w->b.light_film, e)) ||
         (rc = cl_buffer_create(&w->dev, "AOV samples", CL_MEM_READ_WRITE,
@@ -349,10 +353,22 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
         if (rc)
             return rc;
     }
+    /* Every pixel takes every sample until adaptive sampling says otherwise. */
+    if ((rc = fill_words(&w->dev, w->b.pixel_lag, 0u, e)))
+        return rc;
     /* Every slot starts free (SPT_PATH_DEAD = 0). */
     cl_uint zero = 0;
     SPT_CL_CHECK(e, clEnqueueFillBuffer(w->dev.queue, w->b.ps_flags, &zero, sizeof zero, 0,
                                         pool * sizeof(cl_uint), 0, NULL, NULL));
+    return 0;
+}
+
+int wavefront_set_lags(Wavefront *w, const uint32_t *lag, size_t npix, SptError *e)
+{
+    if (!lag)
+        return fill_words(&w->dev, w->b.pixel_lag, 0u, e);
+    SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.pixel_lag, CL_TRUE, 0, npix * 4, lag, 0,
+                                         NULL, NULL));
     return 0;
 }
 
@@ -384,7 +400,8 @@ static int run_kernel(Wavefront *w, int k, size_t n, double *acc, SptError *e)
 /* The end of a chunk whose paths are all done: k_accumulate's per-pixel sums
  * read into sums (and the AOV and band sums). */
 static int chunk_sums(Wavefront *w, const RenderParams *p, double *acc, float *sums,
-                      float *aov_sums, float *spec_sums, RenderStats *st, SptError *e)
+                      float *aov_sums, float *spec_sums, float *sq_sums, RenderStats *st,
+                      SptError *e)
 {
     int rc;
     uint32_t npix = (uint32_t)(p->width * p->height);
@@ -392,6 +409,9 @@ static int chunk_sums(Wavefront *w, const RenderParams *p, double *acc, float *s
         return rc;
     SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.chunk_sum, CL_TRUE, 0,
                                         (size_t)npix * 16, sums, 0, NULL, NULL));
+    if (sq_sums)
+        SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.chunk_sq, CL_TRUE, 0,
+                                            (size_t)npix * 16, sq_sums, 0, NULL, NULL));
     if (w->aov && aov_sums)
         SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.aov_sum, CL_TRUE, 0,
                                             (size_t)npix * 64, aov_sums, 0, NULL, NULL));
@@ -412,8 +432,8 @@ static int chunk_sums(Wavefront *w, const RenderParams *p, double *acc, float *s
  * zero. Work-items: four work-groups per compute unit, two slots of the pool
  * each (each CPU thread keeps one work-item's paths in flight at a time). */
 static int render_chunk_mega(Wavefront *w, RenderParams *p, int long_chunk, double *acc,
-                             float *sums, float *aov_sums, float *spec_sums, RenderStats *st,
-                             SptError *e)
+                             float *sums, float *aov_sums, float *spec_sums, float *sq_sums,
+                             RenderStats *st, SptError *e)
 {
     size_t local = w->local[K_PATHS];
     size_t items = (size_t)4 * (w->dev.info.compute_units ? w->dev.info.compute_units : 1) * local;
@@ -448,14 +468,14 @@ static int render_chunk_mega(Wavefront *w, RenderParams *p, int long_chunk, doub
     st->rays_extend += counters[SPT_CNT_EXTEND];
     st->rays_shadow += counters[SPT_CNT_SHADOW];
     st->nan_dropped += counters[SPT_CNT_NAN];
-    return chunk_sums(w, p, acc, sums, aov_sums, spec_sums, st, e);
+    return chunk_sums(w, p, acc, sums, aov_sums, spec_sums, sq_sums, st, e);
 }
 
 /* Renders samples [sample_begin, sample_begin + n) of every pixel on w and adds
  * their per-pixel sums to film. */
 int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, uint32_t n,
-                        int profile, float *sums, float *aov_sums, float *spec_sums, RenderStats *st,
-                        SptError *e)
+                        int profile, float *sums, float *aov_sums, float *spec_sums, float *sq_sums,
+                        RenderStats *st, SptError *e)
 {
     RenderParams p = *base;
     uint32_t npix = (uint32_t)(p.width * p.height);
@@ -484,7 +504,7 @@ int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, 
      * minute. The film only ever receives whole chunks. */
     int long_chunk = (uint64_t)n * npix > SPT_LONG_CHUNK_POOLS * (uint64_t)w->pool;
     if (w->mega)
-        return render_chunk_mega(w, &p, long_chunk, acc, sums, aov_sums, spec_sums, st, e);
+        return render_chunk_mega(w, &p, long_chunk, acc, sums, aov_sums, spec_sums, sq_sums, st, e);
     for (;;) {
         static const cl_uint two_zeros[2] = {0, 0};
         SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_FALSE, 0,
@@ -505,5 +525,5 @@ int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, 
             return spt_fail(e, SPT_EXIT_INTERRUPTED, "interrupted");
     }
     st->nan_dropped += counters[SPT_CNT_NAN];
-    return chunk_sums(w, &p, acc, sums, aov_sums, spec_sums, st, e);
+    return chunk_sums(w, &p, acc, sums, aov_sums, spec_sums, sq_sums, st, e);
 }

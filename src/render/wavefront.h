@@ -59,12 +59,18 @@ void wavefront_free(Wavefront *w);
 /* Renders samples [sample_begin, sample_begin + n) of every pixel on w: sums
  * receives 4 floats per pixel (XYZ sums and the sample count), and with AOVs
  * aov_sums SPT_AOV_CHUNK_FLOATS per pixel (src/render/film.h), with spectral
- * bands spec_sums w->bands per pixel; st gains the chunk's paths, rays and
- * (with profile) stage times. When *w->stop reaches 2 (or 1, for a long
+ * bands spec_sums w->bands per pixel, and unless NULL sq_sums 4 floats per
+ * pixel (the sums of the squares of its kept samples' linear sRGB, and 0); st
+ * gains the chunk's paths, rays and (with profile) stage times. When *w->stop reaches 2 (or 1, for a long
  * chunk) between two waves of paths, returns SPT_EXIT_INTERRUPTED (the chunk is
  * dropped, nothing of it is in sums). */
 int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, uint32_t n,
-                 int profile, float *sums, float *aov_sums, float *spec_sums, RenderStats *st,
-                 SptError *e);
+                 int profile, float *sums, float *aov_sums, float *spec_sums, float *sq_sums,
+                 RenderStats *st, SptError *e);
+
+/* Which of the next chunks' samples each pixel takes (adaptive sampling,
+ * src/render/adaptive.h): lag[p] (kernels/shared/render_types.h, pixel_lag),
+ * NULL: every pixel every sample (the start). */
+int wavefront_set_lags(Wavefront *w, const uint32_t *lag, size_t npix, SptError *e);
 
 #endif
