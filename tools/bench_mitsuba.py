@@ -18,7 +18,8 @@ depth 8: the Cornell box at 64 spp and the mesh at 16 spp; R alternated runs
 each, medians, and the ratio spectrace / Mitsuba (above 1: spectrace faster).
 
 equal time (--only race): at 256x256, max depth 8, spectrace renders for T
-seconds (`--time T`, its default sampler); Mitsuba's rate is measured (its
+seconds (`--time T`: its default sampler, and adaptive sampling, on by
+default with --time); Mitsuba's rate is measured (its
 independent sampler, compiled first) and each of its samplers (independent,
 multijitter, ldsampler) renders the samples that rate fits in T seconds
 (rounded down to what the sampler takes: ldsampler a power of two). Each image's
