@@ -150,11 +150,15 @@ static int check_outputs(RenderJob *j, SptError *e)
     if (a->rs.adaptive == SPT_SWITCH_ON && (a->checkpoint || a->resume))
         return spt_fail(e, SPT_EXIT_USAGE, "render: --adaptive on cannot be combined with --%s",
                         a->checkpoint ? "checkpoint" : "resume");
-    /* auto: on for a render given seconds, where the image is what counts. */
+    /* auto: on for a render given seconds, where the image is what counts.
+     * Off is kept as 0, a RenderSettings' default, so a render without
+     * adaptive sampling has one checkpoint key however it was asked for. */
     if (a->rs.adaptive == SPT_SWITCH_AUTO)
         a->rs.adaptive = a->rs.time_limit > 0 && !spt_dist_render && !a->checkpoint && !a->resume
                              ? SPT_SWITCH_ON
                              : SPT_SWITCH_OFF;
+    if (a->rs.adaptive == SPT_SWITCH_OFF)
+        a->rs.adaptive = SPT_SWITCH_AUTO;
     if (a->checkpoint || a->resume)
         return checkpoint_path_check(a->checkpoint ? a->checkpoint : a->resume, e);
     return SPT_EXIT_OK;
