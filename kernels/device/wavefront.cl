@@ -165,16 +165,18 @@ static uint path_start(uint i, uint w, ALL_BUFFERS)
     uint lag = pixel_lag[pixel];
     uint sample = P.sample_begin + w / npix - lag;
     ps_work[i] = w;
+#ifdef SPT_AOV
+    /* A sample that sees nothing (or is skipped) has zero AOVs; k_shade fills
+     * what it hits. */
+    aov_sample[3u * w + 0u] = (float4)(0.0f);
+    aov_sample[3u * w + 1u] = (float4)(0.0f);
+    aov_sample[3u * w + 2u] = (float4)(0.0f);
+#endif
     if (lag == SPT_PIXEL_SKIP) {
         ps_radiance[i] = (float4)(0.0f);
         ps_lambda[i] = (float4)(550.0f);
         ps_lambda_pdf[i] = (float4)(1.0f);
         ps_lt[i] = SPT_LT_SKIP;
-#ifdef SPT_AOV
-        aov_sample[3u * w + 0u] = (float4)(0.0f);
-        aov_sample[3u * w + 1u] = (float4)(0.0f);
-        aov_sample[3u * w + 2u] = (float4)(0.0f);
-#endif
         return SPT_PATH_FINISHED;
     }
     SptSampler smp = spt_sampler_for(&P, pixel, sample);
@@ -213,12 +215,6 @@ static uint path_start(uint i, uint w, ALL_BUFFERS)
     ps_medium[i] = 0;
     ps_bsdf_pdf[i] = 0.0f; /* camera ray: emission seen directly has MIS weight 1 */
     ps_lt[i] = 0u;
-#ifdef SPT_AOV
-    /* A sample that sees nothing has zero AOVs; k_shade fills what it hits. */
-    aov_sample[3u * w + 0u] = (float4)(0.0f);
-    aov_sample[3u * w + 1u] = (float4)(0.0f);
-    aov_sample[3u * w + 2u] = (float4)(0.0f);
-#endif
     return SPT_PATH_ALIVE;
 }
 

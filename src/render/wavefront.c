@@ -365,8 +365,6 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
 
 int wavefront_set_lags(Wavefront *w, const uint32_t *lag, size_t npix, SptError *e)
 {
-    if (!lag)
-        return fill_words(&w->dev, w->b.pixel_lag, 0u, e);
     SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.pixel_lag, CL_TRUE, 0, npix * 4, lag, 0,
                                          NULL, NULL));
     return 0;

@@ -69,8 +69,8 @@ int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, 
                  RenderStats *st, SptError *e);
 
 /* Which of the next chunks' samples each pixel takes (adaptive sampling,
- * src/render/adaptive.h): lag[p] (kernels/shared/render_types.h, pixel_lag),
- * NULL: every pixel every sample (the start). */
+ * src/render/adaptive.h): lag[p] (kernels/shared/render_types.h, pixel_lag;
+ * wavefront_create starts every pixel at 0, every sample). */
 int wavefront_set_lags(Wavefront *w, const uint32_t *lag, size_t npix, SptError *e);
 
 #endif
