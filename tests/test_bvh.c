@@ -310,7 +310,7 @@ static void test_soup_matches_brute_force(void **state)
     assert_int_equal(bvh.stats.dropped, 0);
     check_structure(&bvh, t, n, NULL);
     /* Soup triangles share no vertices, so no leaf holds more than five (16
-     * vertices): the SAH's leaves of up to 16 were split into runs. */
+     * vertices): the SAH's larger leaves were split into runs. */
     assert_true(bvh.stats.max_leaf_size >= 1 && bvh.stats.max_leaf_size <= 5);
     check_rays(&bvh, t, n, NULL, 40000, -1.5, 1.5);
     bvh_free(&bvh);
@@ -625,8 +625,8 @@ static void test_empty_scene(void **state)
 
 /* The kernels run this traversal: compiled by the OpenCL device from kernels/
  * (without fast-math options), with the lane-by-lane leaf test that GPUs run, with
- * the 16-lane ones of x86 CPUs (SPT_BVH_SIMD; AVX2 forced with
- * SPT_BVH_NO_AVX512, AVX-512 where the CPU has it), with two rays traced
+ * the vector ones of x86 CPUs (SPT_BVH_SIMD: rows of 8 triangles with AVX2,
+ * forced with SPT_BVH_NO_AVX512, and of 16 with AVX-512 where the CPU has it), with two rays traced
  * together (SPT_BVH_PAIRS) and with the GPU path's short stack
  * (SPT_BVH_SHORT_STACK; also with 2 entries, which restarts often), it reports the host's node size and returns
  * bit-identical hits to the host build for the same rays. Skipped without
@@ -736,11 +736,12 @@ static void test_device_matches_host(void **state)
     uint32_t n;
     const float c[3] = {0.1f, 0.2f, -0.3f};
     float *t = bvh_gen_sphere(60, 120, 1.0f, c, 0.3f, &n);
-    /* The default tree (leaves of up to 16 triangles: the float8 test runs in
-     * one and in two groups) and one of leaves of at most 3. */
+    /* A tree of leaves of up to 16 triangles (AVX-512's default: the AVX2
+     * form tests them in one and in two rows of 8) and one of leaves of at
+     * most 3. */
     BvhOptions opt = bvh_default_options();
-    const int max_leaf[2] = {opt.max_leaf, 3};
-    const float cost_node[2] = {opt.cost_node, 2.0f};
+    const int max_leaf[2] = {16, 3};
+    const float cost_node[2] = {16.0f, 2.0f};
     int nr = 20000;
     float *rays = malloc((size_t)nr * 6 * sizeof *rays);
     for (int i = 0; i < nr; i++) {

@@ -29,8 +29,8 @@
  * neighbouring triangles makes a leaf about 2.4 times smaller than 9 floats per
  * triangle, and the random reads of incoherent rays miss the cache less. The
  * builder bounds the distinct vertices, so an x86 CPU (SPT_BVH_SIMD; AVX-512 or AVX2)
- * tests all of a leaf's triangles with one 16-lane test, its corners gathered
- * from the 16-lane vertex rows by a permute, while a GPU, or the host, loops
+ * tests a leaf's triangles 16 (AVX-512) or 8 (AVX2) at a time, their corners
+ * gathered from the 16-lane vertex rows by a permute, while a GPU, or the host, loops
  * over them with the same arithmetic lane by lane. A leaf's block may be
  * followed by BVH_TRI_PAD words of padding at the buffer's end, as the vector
  * loads of the last leaf read past it.
@@ -338,12 +338,15 @@ SPT_FN int bvh_tri_intersect(const SPT_GLOBAL float *rx, const SPT_GLOBAL float 
     return 1;
 }
 
-/* The 16-lane leaf test needs a variable permute, which OpenCL C lacks
+/* The vector leaf test needs a variable permute, which OpenCL C lacks
  * (shuffle() compiles to scalar code in PoCL): x86 CPUs get it from clang's
- * vpermps built-ins, 512-bit with AVX-512, two 256-bit ones and a blend with
- * AVX2 (SPT_BVH_NO_AVX512 forces the latter, for the tests). */
+ * vpermps built-ins, 512-bit with AVX-512 (all 16 triangles in one row), and
+ * with AVX2 two 256-bit ones and a blend per row of 8 triangles (a leaf of
+ * more than 8 takes two rows; SPT_BVH_NO_AVX512 forces this form, for the
+ * tests). */
 #if SPT_DEVICE && defined(SPT_BVH_SIMD) && defined(__AVX512F__) && !defined(SPT_BVH_NO_AVX512)
 #define BVH_LEAF_VECTOR 1
+#define BVH_X86_AVX512 1
 /* Lane i of the result is lane idx[i] (0..15) of v: one vpermps. */
 SPT_FN float16 bvh_gather16(float16 v, int16 idx)
 {
@@ -358,62 +361,100 @@ SPT_FN float8 bvh_gather8_of16(float16 v, int8 idx)
     return select(__builtin_ia32_permvarsf256(v.lo, idx), __builtin_ia32_permvarsf256(v.hi, idx),
                   idx > (int8)(7));
 }
-
-SPT_FN float16 bvh_gather16(float16 v, int16 idx)
-{
-    return (float16)(bvh_gather8_of16(v, idx.lo), bvh_gather8_of16(v, idx.hi));
-}
 #endif
 
 #if defined(BVH_LEAF_VECTOR)
-#define BVH_LANE_IDS16 ((int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
+/* The watertight test of bvh_tri_intersect lane by lane, on W-lane vectors of
+ * the sheared corners (a, b, c): each lane's hit distance when it hits with t
+ * in (0, tbest) and live is set, BVH_FAR otherwise, and its barycentrics in
+ * *u, *v. Defined for 16 lanes (AVX-512's one row) and 8 (AVX2's, so a leaf
+ * of at most 8 triangles costs one 256-bit row instead of two). */
+#define BVH_DEFINE_TRI_LANES(W)                                                             \
+    SPT_FN float##W bvh_tri##W##_lanes(float##W ax, float##W ay, float##W az, float##W bx,   \
+                                       float##W by, float##W bz, float##W cx, float##W cy,   \
+                                       float##W cz, float sz, float tbest, int##W live,      \
+                                       float##W *u, float##W *v)                             \
+    {                                                                                       \
+        _Pragma("OPENCL FP_CONTRACT OFF")                                                   \
+        float##W eu = cx * by - cy * bx;                                                    \
+        float##W ev = ax * cy - ay * cx;                                                    \
+        float##W ew = bx * ay - by * ax;                                                    \
+        float##W zero = (float##W)(0.0f);                                                   \
+        int##W outside = ((eu < zero) | (ev < zero) | (ew < zero)) &                        \
+                         ((eu > zero) | (ev > zero) | (ew > zero));                         \
+        float##W det = eu + ev + ew;                                                        \
+        float##W rcp = (float##W)(1.0f) / det;                                              \
+        float##W w0 = eu * rcp, w1 = ev * rcp, w2 = ew * rcp;                               \
+        float##W t = (w0 * az + w1 * bz + w2 * cz) * (float##W)(sz);                        \
+        int##W ok = ~outside & (det != zero) & (t > zero) & (t < (float##W)(tbest)) & live; \
+        *u = w1;                                                                            \
+        *v = w2;                                                                            \
+        return select((float##W)(BVH_FAR), t, ok);                                          \
+    }
 
 /* The smallest lane of x: compare and select, as the node test's min (fmin's
  * NaN handling costs an unordered compare and a blend per step, and no lane
  * is NaN). */
-SPT_FN float bvh_min16(float16 x)
+SPT_FN float bvh_min8(float8 x)
 {
-    float8 m8 = select(x.hi, x.lo, x.lo < x.hi);
-    float4 m4 = select(m8.hi, m8.lo, m8.lo < m8.hi);
+    float4 m4 = select(x.hi, x.lo, x.lo < x.hi);
     float2 m2 = select(m4.hi, m4.lo, m4.lo < m4.hi);
     return m2.x < m2.y ? m2.x : m2.y;
 }
 
-/* All of a leaf's (n <= 16) triangles in one 16-lane test, the arithmetic of
- * bvh_tri_intersect lane for lane (each vertex is sheared once, then the
- * corners are gathered): the hit distance of each lane that hits with t in
- * (0, tbest), BVH_FAR for the others and for lanes >= n, and each lane's
- * barycentrics in *u, *v. */
+/* A leaf's vertex rows (nv <= 16 vertices; the kx, ky, kz coordinates at rx,
+ * ry, rz) sheared into the ray's space, as bvh_tri_intersect does vertex by
+ * vertex: once per vertex, before the corners are gathered. */
+SPT_FN void bvh_shear16(const __global float *rx, const __global float *ry, const __global float *rz,
+                        const BvhRay *r, float16 *xs, float16 *ys, float16 *zs)
+{
+#pragma OPENCL FP_CONTRACT OFF
+    *zs = vload16(0, rz) - (float16)(r->okz);
+    *xs = (vload16(0, rx) - (float16)(r->okx)) - (float16)(r->sx) * *zs;
+    *ys = (vload16(0, ry) - (float16)(r->oky)) - (float16)(r->sy) * *zs;
+}
+
+#if defined(BVH_X86_AVX512)
+BVH_DEFINE_TRI_LANES(16)
+#define BVH_LANE_IDS16 ((int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
+
+SPT_FN float bvh_min16(float16 x) { return bvh_min8(select(x.hi, x.lo, x.lo < x.hi)); }
+
+/* All of a leaf's (n <= 16) triangles in one 16-lane test: the hit distance of
+ * each lane that hits with t in (0, tbest), BVH_FAR for the others and for
+ * lanes >= n, and each lane's barycentrics in *u, *v. */
 SPT_FN float16 bvh_tri16_distances(const __global float *rx, const __global float *ry,
                                    const __global float *rz, const __global uchar *idx, uint n,
                                    const BvhRay *r, float tbest, float16 *u, float16 *v)
 {
-#pragma OPENCL FP_CONTRACT OFF
-    float16 zs = vload16(0, rz) - (float16)(r->okz);
-    float16 xs = (vload16(0, rx) - (float16)(r->okx)) - (float16)(r->sx) * zs;
-    float16 ys = (vload16(0, ry) - (float16)(r->oky)) - (float16)(r->sy) * zs;
+    float16 xs, ys, zs;
+    bvh_shear16(rx, ry, rz, r, &xs, &ys, &zs);
     int16 ia = convert_int16(vload16(0, idx));
     int16 ib = convert_int16(vload16(0, idx + n));
     int16 ic = convert_int16(vload16(0, idx + 2 * n));
-    float16 az = bvh_gather16(zs, ia), bz = bvh_gather16(zs, ib), cz = bvh_gather16(zs, ic);
-    float16 ax = bvh_gather16(xs, ia), ay = bvh_gather16(ys, ia);
-    float16 bx = bvh_gather16(xs, ib), by = bvh_gather16(ys, ib);
-    float16 cx = bvh_gather16(xs, ic), cy = bvh_gather16(ys, ic);
-    float16 eu = cx * by - cy * bx;
-    float16 ev = ax * cy - ay * cx;
-    float16 ew = bx * ay - by * ax;
-    float16 zero = (float16)(0.0f);
-    int16 outside = ((eu < zero) | (ev < zero) | (ew < zero)) & ((eu > zero) | (ev > zero) | (ew > zero));
-    float16 det = eu + ev + ew;
-    float16 rcp = (float16)(1.0f) / det;
-    float16 w0 = eu * rcp, w1 = ev * rcp, w2 = ew * rcp;
-    float16 t = (w0 * az + w1 * bz + w2 * cz) * (float16)(r->sz);
-    int16 ok = ~outside & (det != zero) & (t > zero) & (t < (float16)(tbest)) &
-               (BVH_LANE_IDS16 < (int16)((int)n));
-    *u = w1;
-    *v = w2;
-    return select((float16)(BVH_FAR), t, ok);
+    return bvh_tri16_lanes(bvh_gather16(xs, ia), bvh_gather16(ys, ia), bvh_gather16(zs, ia),
+                           bvh_gather16(xs, ib), bvh_gather16(ys, ib), bvh_gather16(zs, ib),
+                           bvh_gather16(xs, ic), bvh_gather16(ys, ic), bvh_gather16(zs, ic), r->sz, tbest,
+                           BVH_LANE_IDS16 < (int16)((int)n), u, v);
 }
+#else
+BVH_DEFINE_TRI_LANES(8)
+#define BVH_LANE_IDS8 ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
+
+/* Triangles [l0, l0 + 8) of a leaf of n (l0 < n <= 16) in one 8-lane test, as
+ * bvh_tri16_distances for 16; xs, ys, zs: the leaf's sheared vertex rows. */
+SPT_FN float8 bvh_tri8_distances(float16 xs, float16 ys, float16 zs, const __global uchar *idx, uint n,
+                                 uint l0, const BvhRay *r, float tbest, float8 *u, float8 *v)
+{
+    int8 ia = convert_int8(vload8(0, idx + l0));
+    int8 ib = convert_int8(vload8(0, idx + n + l0));
+    int8 ic = convert_int8(vload8(0, idx + 2 * n + l0));
+    return bvh_tri8_lanes(bvh_gather8_of16(xs, ia), bvh_gather8_of16(ys, ia), bvh_gather8_of16(zs, ia),
+                          bvh_gather8_of16(xs, ib), bvh_gather8_of16(ys, ib), bvh_gather8_of16(zs, ib),
+                          bvh_gather8_of16(xs, ic), bvh_gather8_of16(ys, ic), bvh_gather8_of16(zs, ic), r->sz,
+                          tbest, BVH_LANE_IDS8 + (int8)((int)l0) < (int8)((int)n), u, v);
+}
+#endif
 
 #endif
 
@@ -430,7 +471,7 @@ SPT_FN int bvh_leaf_intersect(const SPT_GLOBAL float *tris, spt_u32 off, spt_u32
     const SPT_GLOBAL float *ry = p + 2 + (spt_u32)r->ky * nv;
     const SPT_GLOBAL float *rz = p + 2 + (spt_u32)r->kz * nv;
     const SPT_GLOBAL spt_u8 *idx = (const SPT_GLOBAL spt_u8 *)(p + 2 + 3u * nv);
-#if defined(BVH_LEAF_VECTOR)
+#if defined(BVH_X86_AVX512)
     float16 u, v;
     float16 t = bvh_tri16_distances(rx, ry, rz, idx, count, r, *best, &u, &v);
     float m = bvh_min16(t);
@@ -445,6 +486,38 @@ SPT_FN int bvh_leaf_intersect(const SPT_GLOBAL float *tris, spt_u32 off, spt_u32
     hit->u = as_float16(bvh_gather16(u, (int16)((int)l))).s0;
     hit->v = as_float16(bvh_gather16(v, (int16)((int)l))).s0;
     hit->prim = bvh_word(p, 0) + l;
+    *best = m;
+    return 1;
+#elif defined(BVH_LEAF_VECTOR)
+    /* AVX2: eight triangles per row, the second row only for a leaf of more
+     * than eight; the nearer row wins, the first on a tie (as the lane loop). */
+    float16 xs, ys, zs;
+    bvh_shear16(rx, ry, rz, r, &xs, &ys, &zs);
+    float8 u, v;
+    float8 t = bvh_tri8_distances(xs, ys, zs, idx, count, 0u, r, *best, &u, &v);
+    float m = bvh_min8(t);
+    uint l0 = 0u;
+    if (count > 8u) {
+        float8 u1, v1;
+        float8 t1 = bvh_tri8_distances(xs, ys, zs, idx, count, 8u, r, *best, &u1, &v1);
+        float m1 = bvh_min8(t1);
+        if (m1 < m) {
+            m = m1;
+            t = t1;
+            u = u1;
+            v = v1;
+            l0 = 8u;
+        }
+    }
+    if (!(m < *best))
+        return 0;
+    if (any_hit)
+        return 1;
+    uint l = bvh_lowest_bit(bvh_mask8(t == (float8)(m)));
+    hit->t = m;
+    hit->u = bvh_lane8(u, l);
+    hit->v = bvh_lane8(v, l);
+    hit->prim = bvh_word(p, 0) + l0 + l;
     *best = m;
     return 1;
 #else

@@ -13,20 +13,36 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* Whether the CPU this runs on has AVX-512F: the CPU devices (PoCL, Intel's
+ * runtime) run on it too. */
+static int host_has_avx512(void)
+{
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+    return __builtin_cpu_supports("avx512f");
+#else
+    return 0;
+#endif
+}
+
 BvhOptions bvh_default_options(void)
 {
     BvhOptions o;
     o.bins = 16;
-    /* A CPU device with AVX-512 tests all of a leaf's triangles (up to 16)
-     * with one 16-lane test (kernels/shared/bvh.h), and a node visit costs about
-     * one such test: leaves of up to 16 at a node cost of 16 make the fastest
-     * trees on PoCL (against leaves of at most 8 at a node cost of 2: leaves of
-     * 11.4 triangles instead of 3 on the bench's 1M-triangle mesh, fewer bytes
-     * per triangle, faster builds, about 12% less extend time). A GPU loops over
-     * a leaf and pays for the larger leaves (docs/performance.md). */
-    o.max_leaf = 16;
+    /* A CPU device tests a leaf's triangles a row at a time
+     * (kernels/shared/bvh.h): 16 with AVX-512, 8 with AVX2, and a node visit
+     * costs about one such row, so the node cost is a row's triangles and
+     * leaves hold at most a row. With AVX-512, leaves of up to 16 at a node
+     * cost of 16 made the fastest trees on PoCL (against leaves of at most 8
+     * at a node cost of 2: leaves of 11.4 triangles instead of 3 on the
+     * bench's 1M-triangle mesh, fewer bytes per triangle, faster builds, about
+     * 12% less extend time); with AVX2, leaves of up to 8 at a node cost of 8
+     * render the Cornell box and that mesh 6-8% faster than those of 16
+     * (docs/performance.md, "What sets the speed"). A GPU loops over a leaf
+     * and pays for the larger leaves. */
+    int row = host_has_avx512() ? 16 : 8;
+    o.max_leaf = row;
     o.full_sweep = 0;
-    o.cost_node = 16.0f;
+    o.cost_node = (float)row;
     o.cost_tri = 1.0f;
     return o;
 }

@@ -118,7 +118,7 @@ static uint32_t pool_size_for(const ClDeviceInfo *info, uint32_t asked, uint64_t
 }
 
 /* The kernels' two code paths (kernels/shared/bvh.h): 1 for the CPU path, which
- * tests a BVH leaf's triangles with one 16-lane test (x86 with AVX-512 or AVX2)
+ * tests a BVH leaf's triangles in vector rows (16 with AVX-512, 8 with AVX2)
  * and traces two rays per extend work-item, interleaved, each with a full
  * traversal stack; 0 for the GPU path, one ray per work-item with a short
  * stack, looping over a leaf's triangles, for devices whose work-items are SIMD
