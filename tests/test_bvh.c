@@ -597,6 +597,19 @@ static void test_identical_triangles(void **state)
     free(t);
 }
 
+/* The default leaves: a row of the CPU devices' leaf test (8 or 16) at a
+ * node cost of as many triangles, and 16 for a tree far beyond any cache
+ * (2^32 triangles). */
+static void test_default_leaves(void **state)
+{
+    (void)state;
+    BvhOptions small = bvh_default_options(), huge = bvh_default_options_for(0xffffffffu);
+    assert_true(small.max_leaf == 8 || small.max_leaf == 16);
+    assert_true(small.cost_node == (float)small.max_leaf);
+    assert_int_equal(huge.max_leaf, 16);
+    assert_true(huge.cost_node == 16.0f);
+}
+
 /* No triangles, or only bad ones: a tree every ray misses. */
 static void test_empty_scene(void **state)
 {
@@ -790,6 +803,7 @@ int main(void)
         cmocka_unit_test(test_watertight),
         cmocka_unit_test(test_garbage_dropped),
         cmocka_unit_test(test_identical_triangles),
+        cmocka_unit_test(test_default_leaves),
         cmocka_unit_test(test_empty_scene),
         cmocka_unit_test(test_device_matches_host),
     };

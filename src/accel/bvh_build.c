@@ -10,6 +10,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -24,7 +25,42 @@ static int host_has_avx512(void)
 #endif
 }
 
-BvhOptions bvh_default_options(void)
+/* The host CPU's last-level cache in bytes, as Linux describes the first
+ * CPU's caches (sysconf's figure can be the whole package's), else 8 MiB. */
+static double host_cache_bytes(void)
+{
+    double best = 0.0;
+    int best_level = 0;
+    for (int i = 0; i < 8; i++) {
+        char path[96], buf[32];
+        int level = 0;
+        snprintf(path, sizeof path, "/sys/devices/system/cpu/cpu0/cache/index%d/level", i);
+        FILE *f = fopen(path, "r");
+        if (!f)
+            continue;
+        if (fscanf(f, "%d", &level) != 1)
+            level = 0;
+        fclose(f);
+        snprintf(path, sizeof path, "/sys/devices/system/cpu/cpu0/cache/index%d/size", i);
+        f = fopen(path, "r");
+        if (!f)
+            continue;
+        char *end = NULL;
+        double size = fgets(buf, sizeof buf, f) ? strtod(buf, &end) : 0.0;
+        fclose(f);
+        if (end && *end == 'K')
+            size *= 1024.0;
+        else if (end && *end == 'M')
+            size *= 1024.0 * 1024.0;
+        if (level > best_level && size > 0.0) {
+            best_level = level;
+            best = size;
+        }
+    }
+    return best > 0.0 ? best : 8.0 * 1024 * 1024;
+}
+
+BvhOptions bvh_default_options_for(uint32_t tri_count)
 {
     BvhOptions o;
     o.bins = 16;
@@ -35,17 +71,22 @@ BvhOptions bvh_default_options(void)
      * cost of 16 made the fastest trees on PoCL (against leaves of at most 8
      * at a node cost of 2: leaves of 11.4 triangles instead of 3 on the
      * bench's 1M-triangle mesh, fewer bytes per triangle, faster builds, about
-     * 12% less extend time); with AVX2, leaves of up to 8 at a node cost of 8
-     * render the Cornell box and that mesh 6-8% faster than those of 16
-     * (docs/performance.md, "What sets the speed"). A GPU loops over a leaf
-     * and pays for the larger leaves. */
-    int row = host_has_avx512() ? 16 : 8;
+     * 12% less extend time). With AVX2, leaves of up to 8 at a node cost of 8
+     * render the Cornell box 7-8% faster than those of 16, but make a tree of
+     * about 36 bytes per triangle instead of 24; one larger than a quarter of
+     * the cache (as the kernels' SPT_BVH_STEP_PREFETCH) is read mostly from
+     * memory, and there the smaller tree of 16 wins (the 1M-triangle mesh, 4%;
+     * docs/performance.md, "What sets the speed"). A GPU loops over a leaf and
+     * pays for the larger leaves. */
+    int row = host_has_avx512() || 36.0 * (double)tri_count > 0.25 * host_cache_bytes() ? 16 : 8;
     o.max_leaf = row;
     o.full_sweep = 0;
     o.cost_node = (float)row;
     o.cost_tri = 1.0f;
     return o;
 }
+
+BvhOptions bvh_default_options(void) { return bvh_default_options_for(0); }
 
 /* The distinct vertices (by their exact coordinates) of the triangles of
  * refs[begin, end) into verts (3 floats each), and into corner[3 l + c] the
@@ -336,7 +377,7 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
     memset(bvh, 0, sizeof *bvh);
     Builder bd;
     memset(&bd, 0, sizeof bd);
-    bd.opt = opt ? *opt : bvh_default_options();
+    bd.opt = opt ? *opt : bvh_default_options_for(tri_count);
     if (bd.opt.bins < 2 || bd.opt.bins > BVH_MAX_BINS || bd.opt.max_leaf < 1 ||
         bd.opt.max_leaf > BVH_MAX_LEAF || !(bd.opt.cost_node > 0.0f) || !(bd.opt.cost_tri > 0.0f))
         return spt_fail(e, SPT_EXIT_USAGE, "bvh: invalid options (bins %d, max_leaf %d)",

@@ -42,7 +42,7 @@ typedef struct Bvh {
     BvhStats stats;
 } Bvh;
 
-/* Build settings; bvh_build uses bvh_default_options(). */
+/* Build settings; bvh_build uses bvh_default_options_for(tri_count). */
 typedef struct BvhOptions {
     int bins;           /* SAH bins per axis, 2..BVH_MAX_BINS */
     int max_leaf;       /* most triangles per leaf, 1..BVH_MAX_LEAF */
@@ -55,7 +55,12 @@ typedef struct BvhOptions {
 #define BVH_MAX_BINS 64
 #define BVH_MAX_LEAF BVH_LEAF_MAX
 
-/* The settings bvh_build uses. */
+/* The settings bvh_build uses for tri_count triangles: leaves of at most a
+ * row of the CPU devices' leaf test (16 with AVX-512, 8 with AVX2), or of 16
+ * where a tree of rows of 8 would not fit a quarter of the host's cache. */
+BvhOptions bvh_default_options_for(uint32_t tri_count);
+
+/* bvh_default_options_for a scene small enough for the cache. */
 BvhOptions bvh_default_options(void);
 
 /* Builds bvh (overwritten) over tri_count triangles, 9 floats each (v0, v1, v2).
