@@ -93,7 +93,7 @@ static void test_spot_falloff(void **state)
         double t = (cos(a) - cos(0.6)) / (cos(0.3) - cos(0.6));
         t = t < 0 ? 0 : (t > 1 ? 1 : t);
         double want = t * t;
-        assert_close(light_spot_falloff(&gl, (float)cos(a)), want, 2e-5);
+        assert_close(light_spot_falloff(&gl, (float)(1.0 - cos(a))), want, 2e-5);
         /* The same through the sampling function: a point at distance 2 at angle a
          * from the downward axis, rotated about it. */
         double px = 2.0 * sin(a) * cos(1.0), pz = 2.0 * sin(a) * sin(1.0), py = 3.0 - 2.0 * cos(a);
@@ -103,8 +103,8 @@ static void test_spot_falloff(void **state)
                      2e-5 * table_at(table, k_lambda[1]));
     }
     /* At the inner cone exactly 1, at the outer exactly 0 (to float rounding). */
-    assert_close(light_spot_falloff(&gl, cosf(0.3f)), 1.0, 1e-4);
-    assert_close(light_spot_falloff(&gl, cosf(0.6f)), 0.0, 1e-4);
+    assert_close(light_spot_falloff(&gl, (float)(1.0 - cos(0.3))), 1.0, 1e-4);
+    assert_close(light_spot_falloff(&gl, (float)(1.0 - cos(0.6))), 0.0, 1e-4);
 }
 
 /* A directional light gives its irradiance E(l) at any point, from the direction
@@ -814,7 +814,10 @@ static void test_selection(void **state)
     assert_int_equal(dist.n, 6);
     /* The film's unit is the nit: a light of 1 cd has Y-weighted intensity 1. */
     double y1 = 1.0;
-    double w[6] = {0.01, 0.02, 4.0 * M_PI * 2.0 * y1, 2.0 * M_PI * (1.0 - cos(0.4)) * 8.0 * y1,
+    /* The spot's flux: full intensity to the inner cone, a third of it over
+     * the falloff, in 1 - cos. */
+    double xi = 1.0 - cos(0.2), xo = 1.0 - cos(0.6);
+    double w[6] = {0.01, 0.02, 4.0 * M_PI * 2.0 * y1, 2.0 * M_PI * (xi + (xo - xi) / 3.0) * 8.0 * y1,
                    5.0 * y1 * M_PI * 9.0, M_PI * 0.5 * M_PI * 9.0};
     double total = 0.0;
     for (int i = 0; i < 6; i++)

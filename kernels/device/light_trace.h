@@ -255,20 +255,22 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
         } else if (lt_aims_punctual(&P, l, &omega)) {
             /* Aimed at the caustic spheres: I falloff omega / (cones prob). */
             o = pos;
-            d = lt_aim_dir(&P, pos, omega, u3, u4, &cones);
-            power = spd * (light_spot_falloff(l, dot(d, ax)) * (omega / cones) / prob);
+            d = normalize(lt_aim_dir(&P, pos, omega, u3, u4, &cones));
+            power = spd * (light_spot_falloff(l, light_one_minus_cos(d, ax)) * (omega / cones) / prob);
         } else {
             o = pos;
             /* Point: uniform over the sphere; spot: uniform within the outer cone,
-             * times its falloff. I / (prob pdf). */
-            float cmin = l->type == SPT_PUNCTUAL_SPOT ? fmax(l->cos_outer, -1.0f) : -1.0f;
-            float span = 1.0f - cmin;
+             * times its falloff. I / (prob pdf). In x = 1 - cos (GpuLight's
+             * spot_span), whose sine sqrt(x (2 - x)) float keeps for the
+             * narrowest cones. */
+            float span = l->spot_span;
             if (span > 0.0f) {
-                float ct = 1.0f - u3 * span;
-                float st = sqrt(fmax(0.0f, 1.0f - ct * ct));
+                float x = u3 * span;
+                float ct = 1.0f - x;
+                float st = sqrt(fmax(0.0f, x * (2.0f - x)));
                 float phi = 2.0f * SPT_PI * u4;
                 d = st * cos(phi) * t_ + st * sin(phi) * b_ + ct * ax;
-                power = spd * (light_spot_falloff(l, ct) * 2.0f * SPT_PI * span / prob);
+                power = spd * (light_spot_falloff(l, x) * 2.0f * SPT_PI * span / prob);
             }
         }
     } else if (e >= 0 && prob > 0.0f && P.env.kind == SPT_ENV_MAP) {

@@ -91,14 +91,25 @@ SPT_FN float light_spec_value(SpecRef s, const SPT_GLOBAL float *spectra, float 
     return 0.0f;
 }
 
-/* The spot factor of light l for a direction making cos_angle with l->dir: the
- * KHR_lights_punctual recommended smooth falloff (see GpuLight), in [0, 1]; 1 for
- * point and directional lights. */
-SPT_FN float light_spot_falloff(const SPT_GLOBAL GpuLight *l, float cos_angle)
+/* 1 - cos of the angle between unit vectors a and b, without cancellation
+ * near 0: sin^2 / (1 + cos) from the cross product while cos > 0. */
+SPT_FN float light_one_minus_cos(vec3 a, vec3 b)
+{
+    float c = v3_dot(a, b);
+    if (!(c > 0.0f))
+        return 1.0f - c;
+    vec3 k = v3_cross(a, b);
+    return v3_dot(k, k) / (1.0f + c);
+}
+
+/* The spot factor of light l for a direction whose angle with l->dir has
+ * 1 - cos = x (light_one_minus_cos): the KHR_lights_punctual smooth falloff
+ * (see GpuLight), in [0, 1]; 1 for point and directional lights. */
+SPT_FN float light_spot_falloff(const SPT_GLOBAL GpuLight *l, float x)
 {
     if (l->type != SPT_PUNCTUAL_SPOT)
         return 1.0f;
-    float t = fminf(fmaxf(cos_angle * l->spot_scale + l->spot_offset, 0.0f), 1.0f);
+    float t = fminf(fmaxf((l->spot_span - x) * l->spot_scale, 0.0f), 1.0f);
     return t * t;
 }
 
@@ -154,7 +165,7 @@ SPT_FN int lt_aims_punctual(const RenderParams *p, const SPT_GLOBAL GpuLight *l,
 {
     if (l->type == SPT_PUNCTUAL_DIRECTIONAL || !lt_aim_cones(p, v3(l->pos[0], l->pos[1], l->pos[2]), omega))
         return 0;
-    return l->type != SPT_PUNCTUAL_SPOT || *omega < 2.0f * SPT_PI * (1.0f - fmaxf(l->cos_outer, -1.0f));
+    return l->type != SPT_PUNCTUAL_SPOT || *omega < 2.0f * SPT_PI * l->spot_span;
 }
 
 /* Samples punctual light l from shading point p: fills s with the direction to
@@ -185,8 +196,8 @@ SPT_FN void light_punctual_sample(const SPT_GLOBAL GpuLight *l, const SPT_GLOBAL
         s->wi = v3_scale(d, 1.0f / r);
         s->dist = r;
         /* The spot axis against the direction from the light to p (-wi). */
-        float cos_angle = -(s->wi.x * l->dir[0] + s->wi.y * l->dir[1] + s->wi.z * l->dir[2]);
-        factor = light_spot_falloff(l, cos_angle) / r2;
+        float x = light_one_minus_cos(v3_scale(s->wi, -1.0f), v3(l->dir[0], l->dir[1], l->dir[2]));
+        factor = light_spot_falloff(l, x) / r2;
     }
     for (int i = 0; i < SPT_NUM_LAMBDA; i++)
         s->value[i] = factor * light_spec_value(l->spectrum, spectra, lambda[i]);

@@ -127,10 +127,17 @@ typedef struct TriShade {
 
 /* A punctual light. spectrum: I(l) W/(sr nm) for point/spot, E(l) W/(m^2 nm) for
  * directional (usually SPT_SPEC_TABLE into the spectra buffer). Spot falloff per
- * the KHR_lights_punctual specification's recommended implementation:
- * t = clamp(cos_angle * spot_scale + spot_offset, 0, 1), falloff = t^2, with
- * spot_scale = 1 / max(0.001, cos(inner) - cos(outer)),
- * spot_offset = -cos(outer) * spot_scale. */
+ * the KHR_lights_punctual specification's smooth falloff, t^2 with t =
+ * (cos(angle) - cos(outer)) / (cos(inner) - cos(outer)) clamped to [0, 1],
+ * written in x = 1 - cos, which float carries for narrow cones where cos
+ * rounds to 1 (kernels/shared/lights.h, light_spot_falloff):
+ * t = clamp((spot_span - x) * spot_scale, 0, 1), with spot_span = 1 - cos(outer)
+ * and spot_scale = 1 / (cos(inner) - cos(outer)), both computed in double;
+ * a hard edge (inner = outer) has spot_scale 1e30. The specification's sample
+ * code bounds cos(inner) - cos(outer) below by 0.001, which dims every cone
+ * narrower than about 2.6 degrees (to 0.17 of its flux at 1.5/2 degrees): the
+ * falloff here has no such bound. Point lights: spot_span 2 (the whole
+ * sphere), spot_scale 0. */
 typedef struct GpuLight {
     float pos[3];      /* world position (point, spot) */
     spt_u32 type;      /* SPT_PUNCTUAL_* (same values as scene.h SPT_LIGHT_*) */
@@ -138,7 +145,7 @@ typedef struct GpuLight {
     float cos_outer;   /* spot: cos(outerConeAngle), 0 outside the cone */
     float cos_inner;   /* spot: cos(innerConeAngle), full intensity inside */
     float spot_scale;
-    float spot_offset;
+    float spot_span;
     float pad;
     SpecRef spectrum;
 } GpuLight; /* 80 bytes */

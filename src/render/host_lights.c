@@ -116,19 +116,23 @@ int light_from_scene(const SceneLight *sl, float *table, uint32_t table_offset, 
         out->dir[a] = dl > 0.0 ? (float)(sl->direction[a] / dl) : (a == 2 ? -1.0f : 0.0f);
     }
     if (sl->type == SPT_LIGHT_SPOT) {
-        /* KHR_lights_punctual: 0 <= inner < outer <= pi/2; the recommended
-         * implementation's scale and offset. */
-        float outer = fminf(fmaxf(sl->outer_cone, 0.0f), 0.5f * SPT_PI);
-        float inner = fminf(fmaxf(sl->inner_cone, 0.0f), outer);
-        out->cos_outer = cosf(outer);
-        out->cos_inner = cosf(inner);
-        out->spot_scale = 1.0f / fmaxf(0.001f, out->cos_inner - out->cos_outer);
-        out->spot_offset = -out->cos_outer * out->spot_scale;
+        /* KHR_lights_punctual: 0 <= inner < outer <= pi/2. The falloff in
+         * x = 1 - cos (GpuLight): 1 - cos(a) = 2 sin^2(a/2) and
+         * cos(inner) - cos(outer) = 2 sin((outer + inner)/2) sin((outer - inner)/2)
+         * keep their digits for cones of a fraction of a degree, where cos
+         * rounds to 1 in float. inner = outer is a hard edge. */
+        double outer = fmin(fmax((double)sl->outer_cone, 0.0), 0.5 * M_PI);
+        double inner = fmin(fmax((double)sl->inner_cone, 0.0), outer);
+        double width = 2.0 * sin(0.5 * (outer + inner)) * sin(0.5 * (outer - inner));
+        out->cos_outer = (float)cos(outer);
+        out->cos_inner = (float)cos(inner);
+        out->spot_span = (float)(2.0 * sin(0.5 * outer) * sin(0.5 * outer));
+        out->spot_scale = width > 1e-30 ? (float)(1.0 / width) : 1e30f;
     } else {
         out->cos_outer = -1.0f;
         out->cos_inner = -1.0f;
         out->spot_scale = 0.0f;
-        out->spot_offset = 1.0f;
+        out->spot_span = 2.0f;
     }
     /* W/(sr nm) or W/(m^2 nm), into the film's units (kernels/shared/lights.h). */
     if (sl->spd.count > 0 || sl->spd.line_count > 0) {
@@ -157,9 +161,11 @@ double light_power(const GpuLight *l, const float *spectra, float scene_radius)
     if (l->type == SPT_PUNCTUAL_POINT)
         return 4.0 * M_PI * y;
     if (l->type == SPT_PUNCTUAL_SPOT) {
-        double mean = 0.5 * (acos(fmin(fmax(l->cos_inner, -1.0), 1.0)) +
-                             acos(fmin(fmax(l->cos_outer, -1.0), 1.0)));
-        return 2.0 * M_PI * (1.0 - cos(mean)) * y;
+        /* The flux: 2 pi times the falloff's integral over x = 1 - cos, full
+         * up to the inner cone's x, then t^2 falling linearly in x to 0 at
+         * the outer cone's (a third of the transition). */
+        double span = l->spot_span, width = fmin(1.0 / (double)l->spot_scale, span);
+        return 2.0 * M_PI * (span - width + width / 3.0) * y;
     }
     return y * M_PI * (double)scene_radius * scene_radius;
 }

@@ -51,8 +51,9 @@ int light_from_scene(const SceneLight *sl, float *table, uint32_t table_offset, 
 
 /* The Y-weighted power of a light (W, weighted like the film's Y):
  * Py = integral(P(l) ybar(l)) dl / integral(ybar), with
- *   point: 4 pi I; spot: 2 pi (1 - cos((inner + outer) / 2)) I (the cone of the
- *   mean angle, an estimate); directional: E pi r^2 (r = scene_radius, the
+ *   point: 4 pi I; spot: its flux, 2 pi I (x_inner + (x_outer - x_inner) / 3)
+ *   with x = 1 - cos of each cone (the falloff's integral, GpuLight);
+ *   directional: E pi r^2 (r = scene_radius, the
  *   bounding sphere the light crosses). spectra: the spectra buffer. */
 double light_power(const GpuLight *l, const float *spectra, float scene_radius);
 

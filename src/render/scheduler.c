@@ -517,8 +517,7 @@ static double caustic_share(const RenderParams *p, const RenderLights *L, const 
                 continue;
             }
             vec3 pos = v3(l->pos[0], l->pos[1], l->pos[2]);
-            float cmin = l->type == SPT_PUNCTUAL_SPOT ? fmaxf(l->cos_outer, -1.0f) : -1.0f;
-            float ct = 1.0f - u3 * (1.0f - cmin), sn = sqrtf(fmaxf(0.0f, 1.0f - ct * ct));
+            float x = u3 * l->spot_span, ct = 1.0f - x, sn = sqrtf(fmaxf(0.0f, x * (2.0f - x)));
             float phi = 2.0f * SPT_PI * u4;
             vec3 d = v3_add(v3_add(v3_scale(t_, sn * cosf(phi)), v3_scale(b_, sn * sinf(phi))), v3_scale(ax, ct));
             int hit = ray_meets_caustic(p, pos, v3_normalize(d));
