@@ -16,11 +16,21 @@
  * (cos inner - cos outer) clamped to [0, 1] (a step at the outer cone when the
  * two are equal), and T = (1 - R(theta))^2 for the two interfaces (unpolarised
  * Fresnel R; the second interface sees the refracted angle, whose R is the
- * same). Phi is integrated here in double, independently of the renderer. */
+ * same). Phi is integrated here in double, independently of the renderer.
+ *
+ * The same for a small slab the light paths aim at (its bounding sphere
+ * subtends less than the spot's cone: lt_aims_punctual), for the floor lit
+ * directly (camera paths' next-event estimation), for a prism (issue 35's
+ * scene: each ray traced through its two faces in double, with and without
+ * KHR_materials_dispersion), and for a point light; and the falloff itself
+ * against the formula for narrow cones. */
 #include "test_util.h"
 #include "test_render_util.h"
 
+#include "render/film.h"
 #include "render/host_lights.h"
+#include "scene/scene.h"
+#include "shared/cie_data.h"
 #include "shared/lights.h"
 
 #define SPOT_Y 0.8
@@ -31,6 +41,14 @@
 #define FLOOR_ALBEDO 0.5
 #define CAM_Y 0.5
 #define DEG (M_PI / 180.0)
+
+/* p (of n floats) grown to m floats, the new ones zero. */
+static float *calloc_grow(float *p, size_t n, size_t m)
+{
+    p = realloc(p, sizeof(float) * m);
+    memset(p + n, 0, sizeof(float) * (m - n));
+    return p;
+}
 
 /* The spot's falloff at angle th from its axis, in double; outer < 0 for a
  * point light (1 everywhere). */
@@ -109,16 +127,21 @@ static void add_light(Scene *s, double y, double inner, double outer)
         l->color[k] = 1.0f;
 }
 
-/* Clear smooth glass over [lo, hi] appended to s. */
-static void add_glass(Scene *s, const float lo[3], const float hi[3])
+/* Makes g clear smooth glass of index SLAB_IOR. */
+static void set_glass(SceneMaterial *g)
 {
-    SceneMaterial *g = append_box(s, lo, hi);
     g->metallic = 0.0f;
     g->roughness = 0.0f;
     g->transmission = 1.0f;
     g->ior = (float)SLAB_IOR;
     for (int k = 0; k < 3; k++)
         g->base_color[k] = 1.0f;
+}
+
+/* Clear smooth glass over [lo, hi] appended to s. */
+static void add_glass(Scene *s, const float lo[3], const float hi[3])
+{
+    set_glass(append_box(s, lo, hi));
 }
 
 /* The floor of albedo FLOOR_ALBEDO at y = 0 and the camera at CAM_Y looking
@@ -313,6 +336,196 @@ static void test_spot_falloff_narrow(void **state)
     }
 }
 
+/* The prism: a right triangle in x-y, top face A B horizontal at SLAB_TOP
+ * (A = (-PRISM_W, top), B = (PRISM_W, top)), a vertical face B C and the
+ * face C A tilted PRISM_ALPHA from the horizontal, extruded over |z| <=
+ * PRISM_W. The spot at SPOT_Y shines down into the top face; the beam leaves
+ * by C A, bent toward -x, for the floor. */
+#define PRISM_W 0.1
+#define PRISM_ALPHA (20.0 * DEG)
+
+/* Appends the prism's 8 triangles (each wound counter-clockwise seen from
+ * outside) with a new glass material to s. */
+static SceneMaterial *append_prism(Scene *s, float dispersion)
+{
+    const double w = PRISM_W, yt = SLAB_TOP, yc = SLAB_TOP - 2.0 * PRISM_W * tan(PRISM_ALPHA);
+    const double xy[3][2] = {{-w, yt}, {w, yt}, {w, yc}};
+    double v[6][3];
+    for (int k = 0; k < 6; k++) {
+        v[k][0] = xy[k % 3][0];
+        v[k][1] = xy[k % 3][1];
+        v[k][2] = k < 3 ? -w : w;
+    }
+    static const int tris[8][3] = {{0, 1, 2}, {3, 4, 5}, {0, 1, 4}, {0, 4, 3},
+                                   {1, 2, 5}, {1, 5, 4}, {2, 0, 3}, {2, 3, 5}};
+    const double mid[3] = {(xy[0][0] + xy[1][0] + xy[2][0]) / 3.0, (xy[0][1] + xy[1][1] + xy[2][1]) / 3.0, 0.0};
+    uint32_t t0 = s->tri_count, v0 = s->vertex_count;
+    s->tri_count += 8;
+    s->vertex_count += 24;
+    s->tri_pos = realloc(s->tri_pos, sizeof(float) * 9 * s->tri_count);
+    s->tri_vidx = realloc(s->tri_vidx, sizeof(uint32_t) * 3 * s->tri_count);
+    s->tri_mat = realloc(s->tri_mat, sizeof(uint32_t) * s->tri_count);
+    s->vtx_normal = calloc_grow(s->vtx_normal, 3 * (size_t)v0, 3 * (size_t)s->vertex_count);
+    s->vtx_uv = calloc_grow(s->vtx_uv, 2 * (size_t)v0, 2 * (size_t)s->vertex_count);
+    for (int t = 0; t < 8; t++) {
+        const double *a = v[tris[t][0]], *b = v[tris[t][1]], *c = v[tris[t][2]];
+        double e1[3], e2[3], n[3], out = 0.0;
+        for (int k = 0; k < 3; k++) {
+            e1[k] = b[k] - a[k];
+            e2[k] = c[k] - a[k];
+        }
+        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        for (int k = 0; k < 3; k++)
+            out += n[k] * ((a[k] + b[k] + c[k]) / 3.0 - mid[k]);
+        const double *order[3] = {a, out > 0.0 ? b : c, out > 0.0 ? c : b};
+        for (int j = 0; j < 3; j++) {
+            for (int k = 0; k < 3; k++)
+                s->tri_pos[9 * (t0 + t) + 3 * j + k] = (float)order[j][k];
+            s->tri_vidx[3 * (t0 + t) + j] = v0 + 3 * t + j;
+        }
+        s->tri_mat[t0 + t] = s->material_count;
+    }
+    s->materials = realloc(s->materials, sizeof(SceneMaterial) * (s->material_count + 1));
+    SceneMaterial *g = &s->materials[s->material_count++];
+    scene_material_default(g);
+    set_glass(g);
+    g->dispersion = dispersion;
+    return g;
+}
+
+/* Refracts unit d entering a surface of unit normal n (against d) from
+ * index 1 into index eta (Snell's law in vector form); returns cos of the
+ * refracted ray's angle with -n, 0 at total internal reflection. */
+static double refract3(const double d[3], const double n[3], double eta, double out[3])
+{
+    double ci = -(d[0] * n[0] + d[1] * n[1] + d[2] * n[2]);
+    double st2 = (1.0 - ci * ci) / (eta * eta);
+    if (st2 >= 1.0)
+        return 0.0;
+    double ct = sqrt(1.0 - st2);
+    for (int k = 0; k < 3; k++)
+        out[k] = d[k] / eta + (ci / eta - ct) * n[k];
+    return ct;
+}
+
+/* The ray leaving the spot at angle th (azimuth ph) through the prism of
+ * index n: its transmittance through both faces (unpolarised Fresnel, the
+ * second by reciprocity as the air side's), and where it lands on the floor
+ * (x, z). */
+static double prism_ray(double th, double ph, double n, double *x, double *z)
+{
+    double d[3] = {sin(th) * cos(ph), -cos(th), sin(th) * sin(ph)}, up[3] = {0.0, 1.0, 0.0};
+    double p[3] = {0.0, SPOT_Y, 0.0}, t = (SPOT_Y - SLAB_TOP) / cos(th);
+    for (int k = 0; k < 3; k++)
+        p[k] += t * d[k];
+    double di[3], de[3];
+    refract3(d, up, n, di);
+    double T = 1.0 - fresnel(cos(th), n);
+    /* To the face C A, whose outward normal is m: from inside, incidence
+     * cos = di . m, and leaving it is entering the air from index n. */
+    double m[3] = {-sin(PRISM_ALPHA), -cos(PRISM_ALPHA), 0.0}, a[3] = {-PRISM_W, SLAB_TOP, 0.0};
+    double dm = di[0] * m[0] + di[1] * m[1], am = (a[0] - p[0]) * m[0] + (a[1] - p[1]) * m[1];
+    for (int k = 0; k < 3; k++)
+        p[k] += am / dm * di[k];
+    double mi[3] = {-m[0], -m[1], -m[2]};
+    double ct = refract3(di, mi, 1.0 / n, de);
+    if (!(ct > 0.0))
+        return 0.0;
+    T *= 1.0 - fresnel(ct, n);
+    double u = -p[1] / de[1];
+    *x = p[0] + u * de[0];
+    *z = p[2] + u * de[2];
+    return T;
+}
+
+/* The index of glass SLAB_IOR of KHR_materials_dispersion `dispersion` at
+ * lambda nm (the extension's formula, Abbe number V_d = 20 / dispersion). */
+static double prism_index(double lambda, double dispersion)
+{
+    return SLAB_IOR + (SLAB_IOR - 1.0) * dispersion / 20.0 * (523655.0 / (lambda * lambda) - 1.5168);
+}
+
+/* The spot's flux through the prism at index n: midpoint rule in th on
+ * [0, inner] and [inner, outer], nt steps each, and 32 in ph. */
+static double prism_flux_at(double inner, double outer, double n, int nt)
+{
+    enum { NP = 32 };
+    double phi = 0.0, a[3] = {0.0, inner, outer}, x, z;
+    for (int part = 0; part < 2; part++) {
+        double step = (a[part + 1] - a[part]) / nt;
+        for (int k = 0; k < nt && step > 0.0; k++)
+            for (int j = 0; j < NP; j++) {
+                double th = a[part] + (k + 0.5) * step, ph = 2.0 * M_PI * (j + 0.5) / NP;
+                phi += SPOT_I * spot_falloff(th, inner, outer) * prism_ray(th, ph, n, &x, &z) * sin(th) * step *
+                       (2.0 * M_PI / NP);
+            }
+    }
+    return phi;
+}
+
+/* The white spot's flux as the film's Y sees it: the flux at each
+ * wavelength's index weighted by the light's spectrum (D65 for white) times
+ * ybar, every 5 nm. */
+static double prism_flux_white(double inner, double outer, double dispersion)
+{
+    if (dispersion == 0.0)
+        return prism_flux_at(inner, outer, SLAB_IOR, 200);
+    double sum = 0.0, wsum = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i += 5) {
+        double w = (double)SPT_D65_NORM[i] * SPT_CIE_Y[i];
+        sum += w * prism_flux_at(inner, outer, prism_index(SPT_CIE_LAMBDA_MIN + i, dispersion), 50);
+        wsum += w;
+    }
+    return sum / wsum;
+}
+
+/* The floor's total under a spot of cones inner and outer (degrees) through
+ * the prism of KHR_materials_dispersion `dispersion` (0: none), against
+ * rho / pi times prism_flux_white; the camera looks down at where the axis
+ * lands at n_d, its view 1.3 times the farthest the outer cone lands from
+ * there at 380 nm, n_d or 780 nm. */
+static double prism_ratio(double inner_deg, double outer_deg, float dispersion, int spp)
+{
+    Scene s;
+    memset(&s, 0, sizeof s);
+    append_prism(&s, dispersion);
+    add_light(&s, SPOT_Y, inner_deg * DEG, outer_deg * DEG);
+    double inner = (float)(inner_deg * DEG), outer = (float)(outer_deg * DEG), x0, z, reach = 0.0;
+    prism_ray(0.0, 0.0, SLAB_IOR, &x0, &z);
+    const double ns[3] = {prism_index(380.0, dispersion), SLAB_IOR, prism_index(780.0, dispersion)};
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 64; j++) {
+            double x;
+            prism_ray(outer, 2.0 * M_PI * (j + 0.5) / 64, ns[i], &x, &z);
+            reach = fmax(reach, fmax(fabs(x - x0), fabs(z)));
+        }
+    double want = FLOOR_ALBEDO / M_PI * prism_flux_white(inner, outer, dispersion);
+    double half = floor_and_camera(&s, 1.3 * reach);
+    s.camera.position[0] = (float)x0;
+    scene_update_bounds(&s);
+    double got = floor_total(&s, half, spp);
+    printf("spot %g/%g deg through the prism (dispersion %g): floor total %.6g, analytic %.6g (ratio %.4f)\n",
+           inner_deg, outer_deg, dispersion, got, want, got / want);
+    return got / want;
+}
+
+/* Energy through the prism, issue 35's scene (1.5/2 deg, with and without
+ * dispersion: 1, an Abbe number of 20) and a wider cone: within 2% of the
+ * analytic flux. */
+static void test_spot_energy_prism(void **state)
+{
+    (void)state;
+    const double cones[][3] = {{1.5, 2.0, 0.0}, {1.5, 2.0, 1.0}, {10.3, 11.5, 0.0}};
+    int bad = 0;
+    for (size_t k = 0; k < sizeof cones / sizeof cones[0]; k++) {
+        double r = prism_ratio(cones[k][0], cones[k][1], (float)cones[k][2], 64);
+        bad += !(fabs(r - 1.0) < 0.02);
+    }
+    assert_int_equal(bad, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -320,6 +533,7 @@ int main(void)
         cmocka_unit_test(test_spot_energy_through_glass),
         cmocka_unit_test(test_spot_energy_aimed),
         cmocka_unit_test(test_spot_energy_direct),
+        cmocka_unit_test(test_spot_energy_prism),
     };
     return cmocka_run_group_tests(tests, setup_cpu_device, teardown_cpu_device);
 }
