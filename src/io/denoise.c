@@ -2,10 +2,12 @@
 #include "io/denoise.h"
 
 #include <dlfcn.h>
+#include <errno.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #define OIDN_SONAME "libOpenImageDenoise.so.2"
@@ -40,6 +42,18 @@ int denoiser_open(Denoiser *d, SptError *e)
     memset(d, 0, sizeof *d);
     const char *env = getenv("SPECTRACE_OIDN");
     if (env && *env) {
+        /* dlopen of a FIFO waits for a writer, and of a device file reads it:
+         * only a regular file (or a link to one) can be the library. */
+        struct stat st;
+        if (stat(env, &st))
+            return spt_fail(e, SPT_EXIT_USAGE, "render: --denoise: SPECTRACE_OIDN names %s: %s", env,
+                            strerror(errno));
+        if (!S_ISREG(st.st_mode))
+            return spt_fail(e, SPT_EXIT_USAGE,
+                            "render: --denoise: SPECTRACE_OIDN names %s, which is not a regular file (%s), "
+                            "so not an Open Image Denoise 2 library",
+                            env, S_ISDIR(st.st_mode) ? "a folder" : S_ISFIFO(st.st_mode) ? "a FIFO"
+                                 : S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "a device file" : "a socket");
         if (!try_load(d, env))
             return 0;
         return spt_fail(e, SPT_EXIT_USAGE,
