@@ -1,7 +1,9 @@
 /* Hostile input to --denoise, run as a user would ($SPECTRACE_EXE, set by
  * tests/run_tests.sh; every command under `timeout`, so a hang fails the test):
- * SPECTRACE_OIDN naming something that is not a regular file is refused at
- * once with one error line. */
+ * the variance layer of a render far from the usual range (the Cornell box lit
+ * at emissive strengths up to 1e20 times its own) keeps its scale or is
+ * refused, and SPECTRACE_OIDN naming something that is not a regular file is
+ * refused at once with one error line. */
 #include "test_util.h"
 
 #include <sys/stat.h>
@@ -9,8 +11,11 @@
 #include <unistd.h>
 
 #include "core/util.h"
+#include "io/exr.h"
 
 #define BOX "tests/data/scenes/cornell_box_rgb.gltf"
+#define BOX_STRENGTH "\"emissiveStrength\": 20.717675477527486"
+#define W 64
 
 static char dir[64];
 
@@ -58,6 +63,106 @@ static void one_error(const char *err, const char *want)
         fail_msg("expected '%s' in: %s", want, err);
 }
 
+/* The Cornell box with its light's emissive strength set to s, in dir. */
+static const char *box_at(double s)
+{
+    static char path[256];
+    size_t n;
+    FILE *f = fopen(BOX, "rb");
+    assert_non_null(f);
+    char *text = malloc(1 << 16);
+    n = fread(text, 1, (1 << 16) - 1, f);
+    fclose(f);
+    text[n] = 0;
+    char *at = strstr(text, BOX_STRENGTH);
+    assert_non_null(at);
+    snprintf(path, sizeof path, "%s/box_%g.gltf", dir, s);
+    FILE *o = fopen(path, "w");
+    assert_non_null(o);
+    fprintf(o, "%.*s\"emissiveStrength\": %.17g%s", (int)(at - text), text, s, at + strlen(BOX_STRENGTH));
+    fclose(o);
+    free(text);
+    return path;
+}
+
+/* Sum of channel name over the image. */
+static double channel_sum(const ExrLayers *l, const char *name)
+{
+    const ExrChannel *c = exr_layers_channel(l, name);
+    if (!c)
+        fail_msg("no channel %s", name);
+    const float *v = c->data;
+    double s = 0;
+    for (int i = 0; i < l->width * l->height; i++)
+        s += v[i];
+    return s;
+}
+
+/* Sum over pixels of |a / ka - b / kb| for one channel of two images. */
+static double channel_diff(const ExrLayers *a, double ka, const ExrLayers *b, double kb, const char *name)
+{
+    const float *x = exr_layers_channel(a, name)->data, *y = exr_layers_channel(b, name)->data;
+    double s = 0;
+    for (int i = 0; i < a->width * a->height; i++)
+        s += fabs(x[i] / ka - y[i] / kb);
+    return s;
+}
+
+/* The variance layer (which needs no denoiser) over the strength squared is
+ * the same at strengths 1e-9 to 1e9 (within 1% of its sum), where its values
+ * are normal floats; where the sums of squares pass float's range (strength
+ * x 1e20) the run is refused with one error line naming the scene, exit 3
+ * (docs/limits.md), not written nor called an internal error. */
+static void test_variance_layer(void **state)
+{
+    (void)state;
+    static const double k[] = {1, 1e-9, 1e-3, 1e3, 1e9};
+    enum { NK = sizeof k / sizeof k[0] };
+    static const char *const want[] = {"variance.R", "variance.G", "variance.B"};
+    char args[1024], err[8192], out[256];
+    snprintf(out, sizeof out, "%s/var.exr", dir);
+    ExrLayers ref;
+    for (int i = 0; i < NK; i++) {
+        snprintf(args, sizeof args, "render %s --width %d --spp 4 -q --device 0 --aov variance -o %s",
+                 box_at(k[i] * 20.717675477527486), W, out);
+        int rc = run_env("", 120, args, err, sizeof err);
+        if (rc)
+            fail_msg("strength x %g: exit %d: %s", k[i], rc, err);
+        ExrLayers l;
+        SptError e = {0};
+        if (exr_read_layers(out, want, 3, &l, &e))
+            fail_msg("%s", e.msg);
+        if (i == 0) {
+            ref = l;
+            continue;
+        }
+        double moved = 0, ref_sum = 0;
+        for (int c = 0; c < 3; c++) {
+            moved += channel_diff(&l, k[i] * k[i], &ref, 1, want[c]);
+            ref_sum += channel_sum(&ref, want[c]);
+        }
+        printf("strength x %-6g: variance over the strength squared off the strength-1 one by %.4f%%\n", k[i],
+               100 * moved / ref_sum);
+        assert_true(ref_sum > 0);
+        assert_true(moved <= 0.01 * ref_sum);
+        exr_layers_free(&l);
+    }
+    exr_layers_free(&ref);
+    const char *scene = box_at(1e20 * 20.717675477527486);
+    snprintf(args, sizeof args, "render %s --width %d --spp 4 -q --device 0 --aov variance -o %s", scene, W,
+             out);
+    unlink(out);
+    int rc = run_env("", 120, args, err, sizeof err);
+    printf("strength x 1e20 with the variance layer: exit %d: %s", rc, err);
+    if (rc != SPT_EXIT_INPUT)
+        fail_msg("exit %d, expected %d", rc, SPT_EXIT_INPUT);
+    one_error(err, scene);
+    if (!strstr(err, "variance") || strstr(err, "internal"))
+        fail_msg("expected the variance layer named, and no internal error, in: %s", err);
+    struct stat st;
+    assert_int_not_equal(stat(out, &st), 0);
+}
+
 /* SPECTRACE_OIDN naming a FIFO (which dlopen would wait on for a writer), a
  * folder or a device file: one error line naming it, exit 2 (as for a file
  * that is not the library), at once and before rendering. */
@@ -90,6 +195,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_oidn_not_regular_file),
+        cmocka_unit_test(test_variance_layer),
     };
     return cmocka_run_group_tests_name("hostile_denoise", tests, setup, teardown);
 }

@@ -357,13 +357,23 @@ static int check_film(RenderJob *j)
     long npix = (long)j->a.rs.width * j->a.rs.height;
     for (long i = 0; i < j->a.rs.test.film_nan && i < npix; i++)
         j->film.xyz[3 * i] = NAN;
-    size_t bad = film_nonfinite_pixels(&j->film);
-    if (!bad)
-        return SPT_EXIT_OK;
-    spt_error("render: %zu of %ld pixels came out NaN or infinite (an internal error); "
-              "no output written",
-              bad, npix);
-    return SPT_EXIT_FAILURE;
+    /* The sums of squares count only for the variance layer (a checkpoint
+     * checks its own film, src/render/checkpoint.c). */
+    size_t bad = film_nonfinite_except_squares(&j->film);
+    if (bad) {
+        spt_error("render: %zu of %ld pixels came out NaN or infinite (an internal error); "
+                  "no output written",
+                  bad, npix);
+        return SPT_EXIT_FAILURE;
+    }
+    if ((j->a.rs.aov & SPT_AOV_VARIANCE) && (bad = film_nonfinite_pixels(&j->film))) {
+        spt_error("%s: --aov variance: %zu of %ld pixels are too bright for the variance layer (the "
+                  "sums of their radiance squared pass float's range, 3.4e38: "
+                  "docs/limits.md); no output written",
+                  j->a.scene, bad, npix);
+        return SPT_EXIT_INPUT;
+    }
+    return SPT_EXIT_OK;
 }
 
 /* Speed and (with --profile) where the time went, unless quiet. */

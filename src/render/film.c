@@ -213,7 +213,8 @@ void film_to_linear_srgb(const Film *f, float *rgb)
     }
 }
 
-size_t film_nonfinite_pixels(const Film *f)
+/* film_nonfinite_pixels, with or without the sums of squares. */
+static size_t nonfinite(const Film *f, int squares)
 {
     size_t n = (size_t)f->width * (size_t)f->height, bad = 0;
     for (size_t i = 0; i < n; i++) {
@@ -230,12 +231,23 @@ size_t film_nonfinite_pixels(const Film *f)
         }
         if (f->aov)
             for (int k = 0; k < SPT_AOV_SUMS; k++)
-                ok &= isfinite((float)f->aov[SPT_AOV_SUMS * i + k]);
+                ok &= isfinite((float)f->aov[SPT_AOV_SUMS * i + k]) ||
+                      (!squares && k >= SPT_AOV_S_SQ && k < SPT_AOV_S_SQ + 3);
         for (int k = 0; k < f->bands; k++)
             ok &= isfinite((float)f->spec[(size_t)f->bands * i + (size_t)k]);
         bad += !ok;
     }
     return bad;
+}
+
+size_t film_nonfinite_pixels(const Film *f)
+{
+    return nonfinite(f, 1);
+}
+
+size_t film_nonfinite_except_squares(const Film *f)
+{
+    return nonfinite(f, 0);
 }
 
 double film_min_count(const Film *f)

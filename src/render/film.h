@@ -96,6 +96,12 @@ int film_aov_parse(const char *list, unsigned *mask);
  * non-finite samples, so one is an internal error. */
 size_t film_nonfinite_pixels(const Film *f);
 
+/* The same, leaving out the sums of squares of the variance layer: they
+ * overflow float where a pixel's radiance passes about 1e19 (docs/limits.md)
+ * while the image and the other AOV sums are still finite, and only the
+ * variance layer and a checkpoint use them. */
+size_t film_nonfinite_except_squares(const Film *f);
+
 /* Smallest per-pixel sample count. */
 double film_min_count(const Film *f);
 
