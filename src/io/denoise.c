@@ -4,6 +4,7 @@
 #include <dlfcn.h>
 #include <errno.h>
 #include <limits.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -153,12 +154,39 @@ static int prefilter(Denoiser *d, OIDNDevice dev, const char *name, float *img, 
     return rc;
 }
 
+/* The power of two nearest the mean absolute value of the n floats of v (1 for
+ * a black image): the level the image is brought to 1 by, exactly (a power of
+ * two changes no bit of a float's significand). */
+static double image_level(const float *v, size_t n)
+{
+    double sum = 0;
+    for (size_t i = 0; i < n; i++)
+        sum += fabs((double)v[i]);
+    double mean = n ? sum / (double)n : 0;
+    if (!(mean > 0) || !isfinite(mean))
+        return 1;
+    return ldexp(1.0, (int)lround(log2(mean)));
+}
+
 int denoiser_run(Denoiser *d, const float *color, float *albedo, float *normal, int width, int height,
                  int clean_aux, float *out, SptError *e)
 {
+    /* Open Image Denoise's HDR filter works on values in a normal range: its
+     * automatic exposure leaves an image whose values all lie below about 1e-8
+     * as it is, which then comes out unrelated to its input. The image is
+     * brought to a mean of about 1 and the result back by the same power of
+     * two (docs/outputs.md, "Denoising"); the guides (albedo, normal) do not
+     * depend on the light. */
+    size_t n = 3 * (size_t)width * (size_t)height;
+    double level = image_level(color, n);
+    float *scaled = spt_malloc(n * sizeof(float));
+    for (size_t i = 0; i < n; i++)
+        scaled[i] = (float)(color[i] / level);
     OIDNDevice dev = d->oidnNewDevice(OIDN_DEVICE_TYPE_DEFAULT);
-    if (!dev)
+    if (!dev) {
+        free(scaled);
         return spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: Open Image Denoise found no device");
+    }
     d->oidnCommitDevice(dev);
     int rc = device_error(d, dev, "device", e);
     if (!rc && !clean_aux)
@@ -166,7 +194,10 @@ int denoiser_run(Denoiser *d, const float *color, float *albedo, float *normal, 
     if (!rc && !clean_aux)
         rc = prefilter(d, dev, "normal", normal, width, height, e);
     if (!rc)
-        rc = run_filter(d, dev, (float *)color, albedo, normal, width, height, 1, 1, out, "image", e);
+        rc = run_filter(d, dev, scaled, albedo, normal, width, height, 1, 1, out, "image", e);
     d->oidnReleaseDevice(dev);
+    free(scaled);
+    for (size_t i = 0; i < n && !rc; i++)
+        out[i] = (float)(out[i] * level);
     return rc;
 }

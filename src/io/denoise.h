@@ -29,7 +29,9 @@ void denoiser_close(Denoiser *d);
 /* Denoises color (linear RGB, 3 floats per pixel, HDR) into out with the RT
  * filter, guided by albedo and normal (3 floats per pixel each). clean_aux: the
  * guides are free of noise (OIDN's cleanAux); otherwise they are first
- * denoised themselves, in place, as Open Image Denoise recommends. Returns 0 or
+ * denoised themselves, in place, as Open Image Denoise recommends. The colour
+ * is denoised divided by its level (a power of two), and out multiplied back,
+ * so the result does not depend on the image's scale. Returns 0 or
  * SPT_EXIT_FAILURE with the library's message. */
 int denoiser_run(Denoiser *d, const float *color, float *albedo, float *normal, int width, int height,
                  int clean_aux, float *out, SptError *e);
