@@ -2,10 +2,11 @@
  * tests/run_tests.sh; every command under `timeout`, so a hang fails the test):
  * images far from Open Image Denoise's normal range (the Cornell box lit at
  * emissive strengths from 1e-20 to 1e20 times its own) keep their level
- * through the denoiser, the variance layer keeps its scale or is refused, and
- * SPECTRACE_OIDN naming something that is not a regular file is refused at
- * once with one error line. The tests that need the library skip, saying so,
- * where `make denoise` could not install it (tests/test_denoise.c). */
+ * through the denoiser, the variance layer keeps its scale or is refused, a
+ * failing denoiser is one error line, and SPECTRACE_OIDN naming something that
+ * is not a regular file is refused at once with one error line. The tests that
+ * need the library skip, saying so, where `make denoise` could not install it
+ * (tests/test_denoise.c). */
 #include "test_util.h"
 
 #include <sys/stat.h>
@@ -259,6 +260,64 @@ static void test_variance_layer(void **state)
     assert_int_not_equal(stat(out, &st), 0);
 }
 
+/* A stand-in for Open Image Denoise 2 (its functions as src/io/oidn_api.h
+ * declares them) whose filter, by STUB_OIDN: reports an error; returns NaN;
+ * returns a black image without an error. */
+static const char stub_src[] =
+    "#include <math.h>\n#include <stdbool.h>\n#include <stddef.h>\n#include <stdlib.h>\n#include <string.h>\n"
+    "static float *o; static size_t n; static int failed; static int dev = 1;\n"
+    "static const char *mode(void) { const char *m = getenv(\"STUB_OIDN\"); return m ? m : \"\"; }\n"
+    "void *oidnNewDevice(int t) { (void)t; return &dev; }\n"
+    "void oidnCommitDevice(void *d) { (void)d; }\n"
+    "void oidnReleaseDevice(void *d) { (void)d; }\n"
+    "int oidnGetDeviceError(void *d, const char **m) { (void)d; *m = \"stub: out of memory\"; return failed; }\n"
+    "void *oidnNewFilter(void *d, const char *t) { (void)t; return d; }\n"
+    "void oidnSetSharedFilterImage(void *f, const char *name, void *p, int fmt, size_t w, size_t h, size_t a,\n"
+    "  size_t b, size_t c) { (void)f; (void)fmt; (void)a; (void)b; (void)c;\n"
+    "  if (!strcmp(name, \"output\")) { o = p; n = 3 * w * h; } }\n"
+    "void oidnSetFilterBool(void *f, const char *name, bool v) { (void)f; (void)name; (void)v; }\n"
+    "void oidnCommitFilter(void *f) { (void)f; }\n"
+    "void oidnExecuteFilter(void *f) { (void)f; if (!strcmp(mode(), \"error\")) failed = 1;\n"
+    "  for (size_t i = 0; i < n; i++) o[i] = !strcmp(mode(), \"nan\") ? NAN : 0.0f; }\n"
+    "void oidnReleaseFilter(void *f) { (void)f; }\n";
+
+/* Open Image Denoise failing (the stand-in above, loaded through
+ * SPECTRACE_OIDN): each way ends in one error line naming the denoiser and
+ * not an internal error, exit 1 (README.md, "Exit codes"), nothing written;
+ * a black image returned without an error counts as failing. */
+static void test_denoiser_failure(void **state)
+{
+    (void)state;
+    char src[256], lib[256], cmd[1024], out[256], env[512], args[1024], err[4096];
+    snprintf(src, sizeof src, "%s/stub.c", dir);
+    snprintf(lib, sizeof lib, "%s/libstub.so", dir);
+    snprintf(out, sizeof out, "%s/stub.exr", dir);
+    FILE *f = fopen(src, "w");
+    assert_non_null(f);
+    fputs(stub_src, f);
+    fclose(f);
+    snprintf(cmd, sizeof cmd, "cc -shared -fPIC -o '%s' '%s' 2>&1", lib, src);
+    if (system(cmd)) {
+        print_message("  no C compiler to build the stand-in library: skipped\n");
+        skip();
+    }
+    static const char *const modes[] = {"error", "nan", "black"};
+    static const char *const says[] = {"stub: out of memory", "NaN", "mean"};
+    for (int i = 0; i < 3; i++) {
+        snprintf(env, sizeof env, "STUB_OIDN=%s SPECTRACE_OIDN='%s'", modes[i], lib);
+        snprintf(args, sizeof args, "render " BOX " --width 16 --spp 1 -q --device 0 --denoise -o %s", out);
+        int rc = run_env(env, 120, args, err, sizeof err);
+        printf("denoiser %s: exit %d: %s", modes[i], rc, err);
+        if (rc != SPT_EXIT_FAILURE)
+            fail_msg("denoiser %s: exit %d, expected %d", modes[i], rc, SPT_EXIT_FAILURE);
+        one_error(err, says[i]);
+        if (!strstr(err, "Open Image Denoise") || strstr(err, "internal"))
+            fail_msg("expected the denoiser named, and no internal error, in: %s", err);
+        struct stat st;
+        assert_int_not_equal(stat(out, &st), 0);
+    }
+}
+
 /* SPECTRACE_OIDN naming a FIFO (which dlopen would wait on for a writer), a
  * folder or a device file: one error line naming it, exit 2 (as for a file
  * that is not the library), at once and before rendering. */
@@ -293,6 +352,7 @@ int main(void)
         cmocka_unit_test(test_oidn_not_regular_file),
         cmocka_unit_test(test_exposure_sweep),
         cmocka_unit_test(test_variance_layer),
+        cmocka_unit_test(test_denoiser_failure),
     };
     return cmocka_run_group_tests_name("hostile_denoise", tests, setup, teardown);
 }

@@ -475,11 +475,22 @@ static int denoise(RenderJob *j, SptError *e)
     if (rc)
         return rc;
     size_t bad = 0;
-    for (size_t i = 0; i < 3 * np; i++)
+    double sum_noisy = 0, sum_den = 0;
+    for (size_t i = 0; i < 3 * np; i++) {
         bad += !isfinite(j->rgb[i]);
+        sum_noisy += j->noisy[i];
+        sum_den += j->rgb[i];
+    }
     if (bad)
-        return spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: %zu values of the denoised image are NaN "
-                        "or infinite; no output written", bad);
+        return spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: Open Image Denoise (%s) returned %zu NaN "
+                        "or infinite values; no output written", j->den.path, bad);
+    /* A denoiser moves light between neighbouring pixels, and removing
+     * fireflies lowers the mean by a few percent (docs/outputs.md,
+     * "Denoising"); half or twice the light is a denoiser gone wrong. */
+    if (sum_noisy > 0 && !(sum_den >= 0.5 * sum_noisy && sum_den <= 2 * sum_noisy))
+        return spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: Open Image Denoise (%s) returned an image "
+                        "whose mean is %.3g times the rendered image's (%.3g); no output written",
+                        j->den.path, sum_den / sum_noisy, sum_noisy / (3.0 * (double)np));
     if (!j->a.quiet)
         fprintf(stderr, "denoised in %.2f s (Open Image Denoise, %s)\n", j->denoise_seconds, j->den.path);
     return SPT_EXIT_OK;

@@ -100,8 +100,8 @@ static int device_error(Denoiser *d, OIDNDevice dev, const char *stage, SptError
     const char *msg = NULL;
     if (d->oidnGetDeviceError(dev, &msg) == OIDN_ERROR_NONE)
         return 0;
-    return spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: Open Image Denoise failed (%s): %s", stage,
-                    msg ? msg : "no message");
+    return spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: Open Image Denoise (%s) failed on the %s: %s; no "
+                    "output written", d->path, stage, msg ? msg : "no message");
 }
 
 /* One RT filter: color (and the guides when given) into out. */
