@@ -97,6 +97,7 @@ static const char *box_at(double s)
     assert_non_null(f);
     char *text = malloc(1 << 16);
     n = fread(text, 1, (1 << 16) - 1, f);
+    assert_true(n < (1 << 16) - 1); /* the whole file */
     fclose(f);
     text[n] = 0;
     char *at = strstr(text, BOX_STRENGTH);
