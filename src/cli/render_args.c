@@ -2,12 +2,14 @@
  * the option list of src/render/render_options.h. */
 #include "cli/render_args.h"
 
+#include <float.h>
 #include <getopt.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "io/image_out.h"
 #include "render/film.h"
@@ -135,10 +137,19 @@ static int store(RenderArgs *a, const OptRow *r, const char *arg)
         double v;
         ok = !parse_double(arg, &v) && !((r->flags & SPT_OPT_FINITE) && !isfinite(v)) &&
              !((r->flags & SPT_OPT_POSITIVE) && !(v > 0)) && !(v < r->lo || v > r->hi);
-        if (ok && r->kind == KIND_DBL)
+        if (ok && r->kind == KIND_DBL) {
             *(double *)field = v;
-        else if (ok)
+        } else if (ok && isfinite(v) && (fabs(v) > FLT_MAX || (v != 0 && fabs(v) < FLT_MIN))) {
+            /* The value goes to the kernels as a 32-bit float: 1e-46 would become
+             * 0 (for --light-paths, the default) and 1e39 infinity. Values below
+             * FLT_MIN are refused too, since GPUs may flush such denormals to 0. */
+            spt_error("render: --%s '%s': %s a 32-bit float can hold (%g to %g)", r->option,
+                      arg, fabs(v) > FLT_MAX ? "larger than" : "closer to 0 than",
+                      (double)FLT_MIN, (double)FLT_MAX);
+            return SPT_EXIT_USAGE;
+        } else if (ok) {
             *(float *)field = (float)v;
+        }
         break;
     }
     case KIND_STR:
@@ -152,10 +163,11 @@ static int store(RenderArgs *a, const OptRow *r, const char *arg)
         ok = !image_tonemap_parse(arg, (int *)field);
         break;
     case KIND_SWITCH:
-        ok = !strcmp(arg, "off") || !strcmp(arg, "on") || !strcmp(arg, "auto");
+        /* Option values are case-insensitive throughout (README.md, "Rendering"). */
+        ok = !strcasecmp(arg, "off") || !strcasecmp(arg, "on") || !strcasecmp(arg, "auto");
         if (ok)
-            *(int *)field = !strcmp(arg, "off") ? SPT_SWITCH_OFF
-                            : !strcmp(arg, "on") ? SPT_SWITCH_ON : SPT_SWITCH_AUTO;
+            *(int *)field = !strcasecmp(arg, "off") ? SPT_SWITCH_OFF
+                            : !strcasecmp(arg, "on") ? SPT_SWITCH_ON : SPT_SWITCH_AUTO;
         break;
     case KIND_SAMPLER:
         ok = !render_sampler_parse(arg, (uint32_t *)field);
