@@ -324,18 +324,21 @@ static int default_device(const ClDeviceList *all)
     return 0;
 }
 
+/* The implementations users name, each with a part of its platform name, vendor
+ * or ICD suffix. */
+static const struct {
+    const char *name, *part;
+} known[] = {
+    {"pocl", "Portable Computing Language"}, {"pocl", "POCL"},
+    {"rusticl", "rusticl"},                  {"clover", "Clover"},
+    {"oclgrind", "Oclgrind"},                {"nvidia", "NVIDIA"},
+    {"amd", "AMD Accelerated Parallel Processing"}, {"amd", "Advanced Micro Devices"},
+    {"intel", "Intel"},
+};
+
 void cl_impl_name(const char *platform_name, const char *platform_vendor, const char *icd_suffix,
                   char *out, size_t n)
 {
-    static const struct {
-        const char *name, *part; /* part of the platform name, vendor or ICD suffix */
-    } known[] = {
-        {"pocl", "Portable Computing Language"}, {"pocl", "POCL"},
-        {"rusticl", "rusticl"},                  {"clover", "Clover"},
-        {"oclgrind", "Oclgrind"},                {"nvidia", "NVIDIA"},
-        {"amd", "AMD Accelerated Parallel Processing"}, {"amd", "Advanced Micro Devices"},
-        {"intel", "Intel"},
-    };
     for (size_t k = 0; k < sizeof known / sizeof known[0]; k++)
         if (contains_nocase(platform_name, known[k].part) ||
             contains_nocase(platform_vendor, known[k].part) ||
@@ -349,9 +352,15 @@ void cl_impl_name(const char *platform_name, const char *platform_vendor, const 
     out[i] = 0;
 }
 
-/* Does the selection token name an implementation of one of the devices? */
+/* Does the selection token name an implementation: a known one (installed or
+ * not) or that of one of the devices? Such a token selects only that
+ * implementation's devices (README.md, "Devices"): "intel" must not
+ * fall back to PoCL's device on an Intel CPU, whose vendor name contains it. */
 static int token_is_impl(const ClDeviceList *all, const char *tok)
 {
+    for (size_t k = 0; k < sizeof known / sizeof known[0]; k++)
+        if (!strcasecmp(known[k].name, tok))
+            return 1;
     for (int i = 0; i < all->count; i++)
         if (!strcasecmp(all->devices[i].impl, tok))
             return 1;
@@ -433,6 +442,14 @@ int cl_device_select(const ClDeviceList *all, const char *selection, int *out, i
                     dup |= out[k] == i;
                 if (!dup)
                     chosen[0] = i;
+            }
+            if (!any && by_impl) {
+                rc = spt_fail(e, SPT_EXIT_DEVICE,
+                              "%s '%s': no device of the OpenCL implementation '%s' (it is not "
+                              "installed, or the ICD loader does not see it: OCL_ICD_VENDORS)",
+                              origin, selection, tok);
+                append_device_list(e ? e->msg : NULL, e ? sizeof e->msg : 0, all);
+                break;
             }
             if (!any) {
                 rc = spt_fail(e, SPT_EXIT_DEVICE, "%s '%s': no device matches '%s'", origin,
