@@ -106,9 +106,17 @@ static void scene_stem(const char *path, char *out, size_t n)
 }
 
 /* Whether the sky is black: --background black, none or R,G,B all 0, or --env
- * with intensity 0 (the renderer leaves these unlit). */
+ * with intensity 0 or a map whose every texel is 0 (the renderer leaves these
+ * unlit). */
 static int sky_is_black(const Sky *sky, double env_intensity)
 {
+    if (sky->kind == SPT_SKY_MAP && env_intensity > 0) {
+        size_t n = (size_t)sky->map_width * (size_t)sky->map_height * 3;
+        for (size_t i = 0; i < n; i++)
+            if (sky->map[i] != 0.0f)
+                return 0;
+        return 1;
+    }
     return sky->kind == SPT_SKY_BLACK ||
            (sky->kind == SPT_SKY_RGB && sky->rgb[0] == 0.0f && sky->rgb[1] == 0.0f &&
             sky->rgb[2] == 0.0f) ||

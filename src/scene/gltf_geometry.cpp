@@ -99,6 +99,14 @@ int Loader::read_primitive(int mi, int pi)
             if (acc[2] >= 0) {
                 std::vector<float> c;
                 read_floats(acc[2], ncol, c);
+                // A NaN or infinite colour would be clamped into 0 or 1 unnoticed.
+                for (size_t i = 0; i < c.size(); i++)
+                    if (!std::isfinite(c[i]))
+                        return bad("%s.attributes.COLOR_0 (accessors[%d]): vertex %zu component %zu "
+                                   "is %g: colours must be finite",
+                                   o, acc[2], i / (size_t)ncol, i % (size_t)ncol, (double)c[i]);
+                    else if (c[i] < 0.0f || c[i] > 1.0f)
+                        colors_clamped++;
                 pd.col.resize(nv * 4, 1.0f);
                 for (size_t v = 0; v < nv; v++)
                     for (int k = 0; k < ncol; k++) pd.col[v * 4 + k] = c[v * ncol + k];
@@ -345,7 +353,8 @@ int Loader::emit_instance(int mi, const Mat4 &world)
                 const std::vector<float> &u1 = vd.uv1.empty() ? vd.uv : vd.uv1;
                 vtx_uv1.push_back(u1.empty() ? 0.0f : u1[v * 2]);
                 vtx_uv1.push_back(u1.empty() ? 0.0f : u1[v * 2 + 1]);
-                // COLOR_0 clamped to [0, 1] (a colour multiplying the base colour).
+                // COLOR_0 clamped to [0, 1] (a colour multiplying the base colour;
+                // a warning counts the clamped components).
                 for (int k = 0; k < 4; k++)
                     vtx_color.push_back(vd.col.empty() ? 1.0f : fminf(fmaxf(vd.col[v * 4 + k], 0.0f), 1.0f));
             }

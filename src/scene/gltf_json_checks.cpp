@@ -96,6 +96,34 @@ struct NumberCheck {
                 texture_refs(v[i], path + "[" + std::to_string(i) + "]");
         }
     }
+    // Inside a material (not its extras), each factor and each of alphaCutoff,
+    // scale, strength, ior, dispersion, attenuationDistance, emissiveStrength,
+    // rotation is a number or an array of numbers: the glTF library put its
+    // default in place of any other value.
+    void numbers(const nlohmann::json &v, const std::string &path)
+    {
+        if (!msg.empty() || !v.is_object()) return;
+        static const char *const k_keys[] = {"alphaCutoff", "scale", "strength", "ior",
+                                             "dispersion", "attenuationDistance",
+                                             "emissiveStrength", "rotation"};
+        for (auto it = v.begin(); it != v.end() && msg.empty(); ++it) {
+            const std::string &k = it.key();
+            if (k == "extras") continue;
+            bool numeric = k.size() > 6 && k.compare(k.size() - 6, 6, "Factor") == 0;
+            for (const char *n : k_keys) numeric |= k == n;
+            const auto &x = it.value();
+            bool ok = x.is_number();
+            if (x.is_array()) {
+                ok = true;
+                for (const auto &e : x) ok &= e.is_number();
+            }
+            if (numeric && !ok)
+                msg = path + "." + k + ": " + x.dump().substr(0, 40) + " is not a number" +
+                      (x.is_array() ? " array" : "");
+            else if (x.is_object())
+                numbers(x, path + "." + k);
+        }
+    }
     // Calls f(element, "name[i]") for every object in j[name].
     template <class F> void each(const nlohmann::json &j, const char *name, F f)
     {
@@ -164,6 +192,14 @@ int Loader::check_json_numbers(const unsigned char *json, size_t size)
         c.index(t, "source", p), c.index(t, "sampler", p);
     });
     c.each(j, "images", [&](const nlohmann::json &im, const std::string &p) { c.index(im, "bufferView", p); });
+    // Sampler filters and wraps are integer enums; the glTF library ignored any
+    // other value ("NEAREST" as a string meant the default, linear). Which
+    // integers are allowed is checked where they are used (texture_ref).
+    c.each(j, "samplers", [&](const nlohmann::json &sp, const std::string &p) {
+        for (const char *k : {"magFilter", "minFilter", "wrapS", "wrapT"})
+            c.whole(sp, k, p, 0, INT_MAX, "a glTF enum number (such as 9728 for NEAREST)");
+    });
+    c.each(j, "materials", [&](const nlohmann::json &m, const std::string &p) { c.numbers(m, p); });
     c.each(j, "materials", [&](const nlohmann::json &m, const std::string &p) { c.texture_refs(m, p); });
     if (!c.msg.empty()) return bad("%s", c.msg.c_str());
     return 0;

@@ -38,6 +38,10 @@ int Loader::finish(Scene *s)
         spt_warn("%s: %u primitive(s) without TEXCOORD_1 have a material that reads it; their "
                  "TEXCOORD_0 is used instead",
                  file, uv1_missing);
+    if (colors_clamped)
+        spt_warn("%s: %u COLOR_0 component(s) outside [0, 1] clamped to it (a vertex colour "
+                 "multiplies the base colour)",
+                 file, colors_clamped);
     if (specgloss_textures)
         spt_warn("%s: %u KHR_materials_pbrSpecularGlossiness specularGlossinessTexture(s) "
                  "ignored (only the factors are converted)",

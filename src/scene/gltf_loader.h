@@ -210,6 +210,7 @@ struct Loader {
     int check_sparse(int index, const char *obj);
     int check_view_has_data(int view, const char *obj, int index);
     std::vector<int> dead_views; // views of .gltf buffers without uri (no data)
+    uint32_t colors_clamped = 0; // COLOR_0 components outside [0, 1], clamped
     const unsigned char *sparse_data(int view, int offset) const;
     int read_floats(int index, int ncomp, std::vector<float> &out);
     int read_indices(int index, std::vector<uint32_t> &out);

@@ -19,6 +19,36 @@ static int ext_number(Loader *L, const Value &o, const char *key, double *out, c
     return 0;
 }
 
+// A value the glTF specification (or the extension's schema) bounds to [lo, hi]:
+// one outside is refused, naming it, rather than clamped (a clearcoatFactor of
+// -1 clamped to 0 gave a black image without a word). key may carry an index.
+static int in_range(Loader *L, const std::string &obj, const std::string &key, double v, double lo,
+                    double hi)
+{
+    if (v >= lo && v <= hi) return 0;
+    return L->bad("%s.%s: %g is outside [%g, %g], the range the glTF specification allows",
+                  obj.c_str(), key.c_str(), v, lo, hi);
+}
+
+// An array of n numbers, each in [lo, hi], into out (absent: out unchanged).
+static int ranged_array(Loader *L, const Value &x, const char *key, int n, double lo, double hi,
+                        const std::string &obj, double *out)
+{
+    if (!x.IsObject() || !x.Has(key)) return 0;
+    const Value &c = x.Get(key);
+    if (!c.IsArray() || (int)c.ArrayLen() != n)
+        return L->bad("%s.%s: expected %d numbers", obj.c_str(), key, n);
+    for (int k = 0; k < n; k++) {
+        if (!c.Get(k).IsNumber() || !std::isfinite(c.Get(k).GetNumberAsDouble()))
+            return L->bad("%s.%s: not a number", obj.c_str(), key);
+        double v = c.Get(k).GetNumberAsDouble();
+        if (int rc = in_range(L, obj, std::string(key) + "[" + std::to_string(k) + "]", v, lo, hi))
+            return rc;
+        out[k] = v;
+    }
+    return 0;
+}
+
 int Loader::decode_image(int image)
 {
     if (decoded_state[image]) return decoded_state[image] > 0;
@@ -352,20 +382,12 @@ int Loader::spec_gloss(const Value &x, SceneMaterial *sm, const std::string &obj
         double *v;
         int n;
     } arrays[2] = {{"diffuseFactor", diffuse, 4}, {"specularFactor", specular, 3}};
-    for (const auto &a : arrays) {
-        if (!x.Has(a.key)) continue;
-        const Value &v = x.Get(a.key);
-        if (!v.IsArray() || (int)v.ArrayLen() != a.n)
-            return bad("%s.%s: expected %d numbers", obj.c_str(), a.key, a.n);
-        for (int k = 0; k < a.n; k++) {
-            if (!v.Get(k).IsNumber() || !std::isfinite(v.Get(k).GetNumberAsDouble()))
-                return bad("%s.%s: not a number", obj.c_str(), a.key);
-            a.v[k] = fmin(fmax(v.Get(k).GetNumberAsDouble(), 0), 1);
-        }
-    }
     int rc;
-    if ((rc = ext_number(this, x, "glossinessFactor", &gloss, obj))) return rc;
-    gloss = fmin(fmax(gloss, 0), 1);
+    for (const auto &a : arrays)
+        if ((rc = ranged_array(this, x, a.key, a.n, 0, 1, obj, a.v))) return rc;
+    if ((rc = ext_number(this, x, "glossinessFactor", &gloss, obj)) ||
+        (rc = in_range(this, obj, "glossinessFactor", gloss, 0, 1)))
+        return rc;
     const double f0 = 0.04, eps = 1e-6;
     double spec_strength = fmax(specular[0], fmax(specular[1], specular[2]));
     double one_minus = 1 - spec_strength;
@@ -407,10 +429,20 @@ int Loader::material_core(const tinygltf::Material &mat, SceneMaterial *sm, cons
     const auto &pbr = mat.pbrMetallicRoughness;
     if (pbr.baseColorFactor.size() != 4)
         return bad("%s.pbrMetallicRoughness.baseColorFactor: expected 4 numbers", o);
-    for (int k = 0; k < 4; k++) sm->base_color[k] = (float)fmin(fmax(pbr.baseColorFactor[k], 0), 1);
-    sm->metallic = (float)fmin(fmax(pbr.metallicFactor, 0), 1);
-    sm->roughness = (float)fmin(fmax(pbr.roughnessFactor, 0), 1);
     int rc;
+    const std::string po = obj + ".pbrMetallicRoughness";
+    for (int k = 0; k < 4; k++) {
+        if ((rc = in_range(this, po, "baseColorFactor[" + std::to_string(k) + "]",
+                           pbr.baseColorFactor[k], 0, 1)))
+            return rc;
+        sm->base_color[k] = (float)pbr.baseColorFactor[k];
+    }
+    if ((rc = in_range(this, po, "metallicFactor", pbr.metallicFactor, 0, 1)) ||
+        (rc = in_range(this, po, "roughnessFactor", pbr.roughnessFactor, 0, 1)) ||
+        (rc = in_range(this, obj, "occlusionTexture.strength", mat.occlusionTexture.strength, 0, 1)))
+        return rc;
+    sm->metallic = (float)pbr.metallicFactor;
+    sm->roughness = (float)pbr.roughnessFactor;
     if ((rc = texture_ref(pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord, true,
                           obj + ".pbrMetallicRoughness.baseColorTexture", &sm->tex[SPT_SLOT_BASE],
                           &pbr.baseColorTexture.extensions)) ||
@@ -430,7 +462,12 @@ int Loader::material_core(const tinygltf::Material &mat, SceneMaterial *sm, cons
     sm->normal_scale = (float)mat.normalTexture.scale;
     if (!mat.emissiveFactor.empty()) {
         if (mat.emissiveFactor.size() != 3) return bad("%s.emissiveFactor: expected 3 numbers", o);
-        for (int k = 0; k < 3; k++) sm->emissive[k] = (float)fmin(fmax(mat.emissiveFactor[k], 0), 1);
+        for (int k = 0; k < 3; k++) {
+            if ((rc = in_range(this, obj, "emissiveFactor[" + std::to_string(k) + "]",
+                               mat.emissiveFactor[k], 0, 1)))
+                return rc;
+            sm->emissive[k] = (float)mat.emissiveFactor[k];
+        }
     }
     if (mat.alphaMode == "OPAQUE")
         sm->alpha_mode = SPT_ALPHA_OPAQUE;
@@ -476,7 +513,9 @@ int Loader::material_ext_scalars(const tinygltf::Material &mat, SceneMaterial *s
         d = 0;
         if ((rc = ext_number(this, *x, "transmissionFactor", &d, eo + "KHR_materials_transmission")))
             return rc;
-        sm->transmission = (float)fmin(fmax(d, 0), 1);
+        if ((rc = in_range(this, eo + "KHR_materials_transmission", "transmissionFactor", d, 0, 1)))
+            return rc;
+        sm->transmission = (float)d;
         if ((rc = ext_texture(*x, "transmissionTexture", false, eo + "KHR_materials_transmission",
                               &sm->tex[SPT_SLOT_TRANSMISSION])))
             return rc;
@@ -504,15 +543,10 @@ int Loader::material_ext_volume(const Value *x, SceneMaterial *sm, const std::st
     if (x->Has("attenuationDistance") && !(d > 0))
         return bad("%s.attenuationDistance: must be > 0", vo.c_str());
     sm->attenuation_distance = (float)d;
-    if (x->Has("attenuationColor")) {
-        const Value &c = x->Get("attenuationColor");
-        if (!c.IsArray() || c.ArrayLen() != 3)
-            return bad("%s.attenuationColor: expected 3 numbers", vo.c_str());
-        for (int k = 0; k < 3; k++) {
-            if (!c.Get(k).IsNumber()) return bad("%s.attenuationColor: not a number", vo.c_str());
-            sm->attenuation_color[k] = (float)fmin(fmax(c.Get(k).GetNumberAsDouble(), 0), 1);
-        }
-    }
+    double ac[3] = {1, 1, 1};
+    if ((rc = ranged_array(this, *x, "attenuationColor", 3, 0, 1, vo, ac))) return rc;
+    if (x->Has("attenuationColor"))
+        for (int k = 0; k < 3; k++) sm->attenuation_color[k] = (float)ac[k];
     return 0;
 }
 
@@ -522,8 +556,8 @@ int Loader::material_ext_specular(const Value *x, SceneMaterial *sm, const std::
     double d = 1;
     int rc;
     if ((rc = ext_number(this, *x, "specularFactor", &d, so))) return rc;
-    if (!(d >= 0)) return bad("%s.specularFactor: negative", so.c_str());
-    sm->specular = (float)fmin(d, 1);
+    if ((rc = in_range(this, so, "specularFactor", d, 0, 1))) return rc;
+    sm->specular = (float)d;
     if (x->Has("specularColorFactor")) {
         const Value &c = x->Get("specularColorFactor");
         if (!c.IsArray() || c.ArrayLen() != 3)
@@ -551,8 +585,11 @@ int Loader::material_ext_clearcoat(const Value *x, SceneMaterial *sm, const std:
     if ((rc = ext_number(this, *x, "clearcoatFactor", &cc, co)) ||
         (rc = ext_number(this, *x, "clearcoatRoughnessFactor", &cr, co)))
         return rc;
-    sm->clearcoat = (float)fmin(fmax(cc, 0), 1);
-    sm->clearcoat_roughness = (float)fmin(fmax(cr, 0), 1);
+    if ((rc = in_range(this, co, "clearcoatFactor", cc, 0, 1)) ||
+        (rc = in_range(this, co, "clearcoatRoughnessFactor", cr, 0, 1)))
+        return rc;
+    sm->clearcoat = (float)cc;
+    sm->clearcoat_roughness = (float)cr;
     if ((rc = ext_texture(*x, "clearcoatTexture", false, co, &sm->tex[SPT_SLOT_CLEARCOAT])) ||
         (rc = ext_texture(*x, "clearcoatRoughnessTexture", false, co,
                           &sm->tex[SPT_SLOT_CLEARCOAT_ROUGHNESS])) ||
@@ -566,19 +603,15 @@ int Loader::material_ext_clearcoat(const Value *x, SceneMaterial *sm, const std:
 int Loader::material_ext_sheen(const Value *x, SceneMaterial *sm, const std::string &sho)
 {
     int rc;
-    if (x->Has("sheenColorFactor")) {
-        const Value &c = x->Get("sheenColorFactor");
-        if (!c.IsArray() || c.ArrayLen() != 3)
-            return bad("%s.sheenColorFactor: expected 3 numbers", sho.c_str());
-        for (int k = 0; k < 3; k++) {
-            if (!c.Get(k).IsNumber() || !std::isfinite(c.Get(k).GetNumberAsDouble()))
-                return bad("%s.sheenColorFactor: not a number", sho.c_str());
-            sm->sheen_color[k] = (float)fmin(fmax(c.Get(k).GetNumberAsDouble(), 0), 1);
-        }
-    }
+    double sc[3];
+    if ((rc = ranged_array(this, *x, "sheenColorFactor", 3, 0, 1, sho, sc))) return rc;
+    if (x->Has("sheenColorFactor"))
+        for (int k = 0; k < 3; k++) sm->sheen_color[k] = (float)sc[k];
     double sr = 0;
-    if ((rc = ext_number(this, *x, "sheenRoughnessFactor", &sr, sho))) return rc;
-    sm->sheen_roughness = (float)fmin(fmax(sr, 0), 1);
+    if ((rc = ext_number(this, *x, "sheenRoughnessFactor", &sr, sho)) ||
+        (rc = in_range(this, sho, "sheenRoughnessFactor", sr, 0, 1)))
+        return rc;
+    sm->sheen_roughness = (float)sr;
     if ((rc = ext_texture(*x, "sheenColorTexture", true, sho, &sm->tex[SPT_SLOT_SHEEN_COLOR])) ||
         (rc = ext_texture(*x, "sheenRoughnessTexture", false, sho, &sm->tex[SPT_SLOT_SHEEN_ROUGHNESS])))
         return rc;
