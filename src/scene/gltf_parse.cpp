@@ -312,6 +312,22 @@ int Loader::diagnose_parse_failure(const unsigned char *json, size_t size, const
             }
         }
     }
+    // The library's "primitive indices accessor out of bounds" names no object.
+    size_t n_acc = j.contains("accessors") && j["accessors"].is_array() ? j["accessors"].size() : 0;
+    if (j.contains("meshes") && j["meshes"].is_array())
+        for (size_t mi = 0; mi < j["meshes"].size(); mi++) {
+            const auto &mesh = j["meshes"][mi];
+            if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array())
+                continue;
+            for (size_t pi = 0; pi < mesh["primitives"].size(); pi++) {
+                const auto &p = mesh["primitives"][pi];
+                if (p.is_object() && p.contains("indices") && p["indices"].is_number_unsigned() &&
+                    p["indices"].get<size_t>() >= n_acc)
+                    return bad("meshes[%zu].primitives[%zu].indices: accessors[%zu] does not exist "
+                               "(the file has %zu accessors)",
+                               mi, pi, p["indices"].get<size_t>(), n_acc);
+            }
+        }
     if (j.contains("images") && j["images"].is_array())
         for (size_t i = 0; i < j["images"].size(); i++) {
             const auto &im = j["images"][i];
