@@ -112,19 +112,22 @@ int Loader::read_primitive(int mi, int pi)
                     for (int k = 0; k < ncol; k++) pd.col[v * 4 + k] = c[v * ncol + k];
             }
         }
-        if (p.indices >= 0) {
-            if ((rc = check_accessor(p.indices, obj + ".indices", 1,
+        int indices = p.indices;
+        auto zit = zero_view_indices.find({mi, pi});
+        if (zit != zero_view_indices.end()) indices = zit->second;
+        if (indices >= 0) {
+            if ((rc = check_accessor(indices, obj + ".indices", 1,
                                      {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
                                       TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
                                       TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT},
                                      false, &zeros)))
                 return rc;
-            read_indices(p.indices, idx);
+            read_indices(indices, idx);
             for (size_t i = 0; i < idx.size(); i++)
                 if (idx[i] >= nv)
                     return bad("%s.indices (accessors[%d]): element %zu is %u, but POSITION has only "
                                "%zu vertices",
-                               o, p.indices, i, idx[i], nv);
+                               o, indices, i, idx[i], nv);
         } else if (p.indices < -1) {
             return bad("%s.indices: accessors[%d] does not exist", o, p.indices);
         } else {

@@ -55,9 +55,14 @@ struct NumberCheck {
     {
         if (!msg.empty() || !o.is_object() || !o.contains(key)) return msg.empty();
         const nlohmann::json &v = o[key];
-        bool ok = v.is_number_integer() &&
-                  (v.is_number_unsigned() ? v.get<unsigned long long>() <= (unsigned long long)hi
-                                          : v.get<long long>() >= lo && v.get<long long>() <= hi);
+        // 1.0 or 1e0 is the number 1 (JSON does not tell them apart; the parse
+        // rewrites such numbers as integers for the glTF library).
+        double d = v.is_number() ? v.get<double>() : NAN;
+        bool ok = v.is_number_integer()
+                      ? (v.is_number_unsigned()
+                             ? v.get<unsigned long long>() <= (unsigned long long)hi
+                             : v.get<long long>() >= lo && v.get<long long>() <= hi)
+                      : v.is_number_float() && d == floor(d) && d >= (double)lo && d <= (double)hi;
         if (!ok)
             msg = path + "." + key + ": " + v.dump().substr(0, 40) + " is not " + what;
         return ok;

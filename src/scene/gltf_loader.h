@@ -18,6 +18,7 @@
 #include <memory>
 #include <string>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include <sys/stat.h>
@@ -210,6 +211,9 @@ struct Loader {
     int check_sparse(int index, const char *obj);
     int check_view_has_data(int view, const char *obj, int index);
     std::vector<int> dead_views; // views of .gltf buffers without uri (no data)
+    // (mesh, primitive) -> its indices accessor, which has no bufferView
+    // (taken out of the primitive for the glTF library: rewrite_fallback_buffers)
+    std::map<std::pair<int, int>, int> zero_view_indices;
     uint32_t colors_clamped = 0; // COLOR_0 components outside [0, 1], clamped
     const unsigned char *sparse_data(int view, int offset) const;
     int read_floats(int index, int ncomp, std::vector<float> &out);

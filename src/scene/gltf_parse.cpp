@@ -112,9 +112,52 @@ const char *type_name(int n)
 // In a .glb, buffers[0] without uri is the BIN chunk (glTF 2.0 4.4.3.3): with
 // no BIN chunk (bin_len 0), or one shorter than its byteLength, *why says so
 // and the file is refused.
+// Also rewritten, so that the glTF library reads what the glTF validator
+// accepts as valid: numbers written with a fraction or exponent that are whole
+// (1.0, 1e0: JSON does not tell them from 1, and the library reads only integers
+// as indices and counts) become integers; a data URI buffer that is not base64
+// (RFC 2397 allows percent-encoded bytes; the library reads only base64) becomes
+// a base64 one; and a primitive's indices accessor without bufferView (zeros,
+// perhaps with sparse values: glTF 2.0 3.6.2.3), which the library refuses, is
+// taken out of the primitive and listed in *zero_view_indices as
+// (mesh, primitive) -> accessor, read by the loader itself.
+static void whole_floats_to_integers(nlohmann::json &v, bool *changed)
+{
+    if (v.is_object() || v.is_array()) {
+        for (auto &x : v) whole_floats_to_integers(x, changed);
+    } else if (v.is_number_float()) {
+        double d = v.get<double>();
+        if (std::isfinite(d) && d == floor(d) && fabs(d) <= 9007199254740992.0) {
+            v = (long long)d;
+            *changed = true;
+        }
+    }
+}
+
+static const char k_b64[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+
+static std::string base64(const std::string &bytes)
+{
+    std::string out;
+    size_t i = 0, n = bytes.size();
+    for (; i + 2 < n; i += 3) {
+        uint32_t w = (uint8_t)bytes[i] << 16 | (uint8_t)bytes[i + 1] << 8 | (uint8_t)bytes[i + 2];
+        for (int k = 3; k >= 0; k--) out += k_b64[(w >> (6 * k)) & 63];
+    }
+    if (i < n) {
+        uint32_t w = (uint8_t)bytes[i] << 16 | (i + 1 < n ? (uint8_t)bytes[i + 1] << 8 : 0);
+        out += k_b64[(w >> 18) & 63];
+        out += k_b64[(w >> 12) & 63];
+        out += i + 1 < n ? k_b64[(w >> 6) & 63] : '=';
+        out += '=';
+    }
+    return out;
+}
+
 static bool rewrite_fallback_buffers(const unsigned char *json, size_t size, bool glb,
                                      uint64_t bin_len, std::string *out,
-                                     std::vector<int> *dead_views, std::string *why)
+                                     std::vector<int> *dead_views, std::string *why,
+                                     std::map<std::pair<int, int>, int> *zero_view_indices)
 {
     static const char key[] = "EXT_meshopt_compression", draco[] = "KHR_draco_mesh_compression";
     nlohmann::json j;
@@ -125,14 +168,28 @@ static bool rewrite_fallback_buffers(const unsigned char *json, size_t size, boo
     }
     if (!j.is_object()) return false;
     bool changed = false;
+    whole_floats_to_integers(j, &changed);
+    const bool have_accessors = j.contains("accessors") && j["accessors"].is_array();
     if (j.contains("meshes") && j["meshes"].is_array())
-        for (auto &mesh : j["meshes"]) {
+        for (size_t mi = 0; mi < j["meshes"].size(); mi++) {
+            auto &mesh = j["meshes"][mi];
             if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array())
                 continue;
-            for (auto &p : mesh["primitives"]) {
-                if (!p.is_object() || !p.contains("extensions") || !p["extensions"].is_object() ||
-                    !p["extensions"].contains(draco) || !p.contains("indices"))
+            for (size_t pi = 0; pi < mesh["primitives"].size(); pi++) {
+                auto &p = mesh["primitives"][pi];
+                if (!p.is_object() || !p.contains("indices")) continue;
+                if (p.contains("extensions") && p["extensions"].is_object() &&
+                    p["extensions"].contains(draco)) {
+                    p.erase("indices");
+                    changed = true;
                     continue;
+                }
+                if (!p["indices"].is_number_unsigned() || !have_accessors) continue;
+                size_t ai = p["indices"].get<size_t>();
+                if (ai >= j["accessors"].size() || !j["accessors"][ai].is_object() ||
+                    j["accessors"][ai].contains("bufferView"))
+                    continue;
+                (*zero_view_indices)[{(int)mi, (int)pi}] = (int)ai;
                 p.erase("indices");
                 changed = true;
             }
@@ -144,6 +201,17 @@ static bool rewrite_fallback_buffers(const unsigned char *json, size_t size, boo
     std::vector<size_t> no_data; // .gltf buffers without uri (and not meshopt fallbacks)
     for (size_t bi = 0; bi < j["buffers"].size(); bi++) {
         auto &b = j["buffers"][bi];
+        if (b.is_object() && b.contains("uri") && b["uri"].is_string()) {
+            // A data URI without ";base64": its bytes percent-encoded (RFC 2397).
+            std::string uri = b["uri"];
+            size_t comma = uri.find(',');
+            if (uri.compare(0, 5, "data:") != 0 || comma == std::string::npos ||
+                uri.rfind(";base64", comma) != std::string::npos)
+                continue;
+            b["uri"] = "data:application/octet-stream;base64," + base64(uri_decode(uri.substr(comma + 1)));
+            changed = true;
+            continue;
+        }
         if (!b.is_object() || b.contains("uri")) continue;
         const nlohmann::json *x = b.contains("extensions") ? &b["extensions"] : nullptr;
         bool fallback = x && x->is_object() && x->contains(key) && (*x)[key].is_object() &&
@@ -226,7 +294,8 @@ int Loader::parse(const unsigned char *data, size_t size)
         uint32_t bin_len = 0; // the BIN chunk's length, checked above; 0: no BIN chunk
         if (json_end < length) memcpy(&bin_len, data + json_end, 4);
         bool rewritten =
-            rewrite_fallback_buffers(json, json_size, true, bin_len, &fixed, &dead_views, &why);
+            rewrite_fallback_buffers(json, json_size, true, bin_len, &fixed, &dead_views, &why,
+                                     &zero_view_indices);
         if (!why.empty()) return bad("%s", why.c_str());
         if (rewritten) {
             // The same container around the rewritten JSON chunk.
@@ -247,7 +316,8 @@ int Loader::parse(const unsigned char *data, size_t size)
         if (size > UINT_MAX) return bad("a .gltf file of 4 GiB or more is not supported");
         if (int r = check_json_depth(data, size)) return r;
         std::string fixed, why;
-        if (rewrite_fallback_buffers(data, size, false, 0, &fixed, &dead_views, &why))
+        if (rewrite_fallback_buffers(data, size, false, 0, &fixed, &dead_views, &why,
+                                     &zero_view_indices))
             ok = gltf.LoadASCIIFromString(&m, &err, &warn, fixed.data(), (unsigned)fixed.size(),
                                           dir, tinygltf::REQUIRE_VERSION);
         else
