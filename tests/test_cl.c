@@ -244,6 +244,8 @@ static void test_select_rules_on_made_up_devices(void **state)
         snprintf(d[i].name, sizeof d[i].name, "%s", names[i]);
         snprintf(d[i].vendor, sizeof d[i].vendor, "%s", i == 0 ? "Intel" : "AMD");
         snprintf(d[i].platform_name, sizeof d[i].platform_name, "Platform %d", i);
+        /* The CPU on PoCL, the GPUs on AMD's runtime, the FPGA on none known. */
+        snprintf(d[i].impl, sizeof d[i].impl, "%s", i == 0 ? "pocl" : i < 3 ? "amd" : "fpga");
         d[i].type = types[i];
     }
     ClDeviceList list = {d, 4};
@@ -254,7 +256,9 @@ static void test_select_rules_on_made_up_devices(void **state)
     expect_selection(&list, "gpu,gpu", "1,2");
     expect_selection(&list, "gpu,gpu,gpu", "1,2"); /* no third GPU: nothing more */
     expect_selection(&list, "radeon gpu b", "2");
-    expect_selection(&list, "amd,amd", "1,2");  /* vendor */
+    expect_selection(&list, "amd,amd", "1,2");  /* implementation */
+    expect_selection(&list, "intel", "error");   /* an implementation, not the vendor */
+    expect_selection(&list, "xeon", "0");        /* device name */
     expect_selection(&list, "platform 3", "3");  /* platform name */
     expect_selection(&list, "CPU", "0");         /* type, not the name "Xeon CPU" */
     expect_selection(&list, "accelerator,cpu", "3,0");
