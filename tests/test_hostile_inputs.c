@@ -273,6 +273,18 @@ static void test_gltf_out_of_range_values(void **state)
                      bad[i].want);
         if (!strstr(e.msg, bad[i].want)) fail_msg("expected '%s' in: %s", bad[i].want, e.msg);
     }
+    /* A light's colour, which KHR_lights_punctual bounds to [0, 1] too. */
+    snprintf(json, sizeof json, "%s",
+             TRIANGLE_GLTF("{}", ",\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{"
+                                 "\"type\":\"point\",\"color\":[1,2,1]}]}}"));
+    char *node = strstr(json, "{\"mesh\":0}");
+    assert_non_null(node);
+    const char *lit = "{\"mesh\":0,\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}";
+    memmove(node + strlen(lit), node + 10, strlen(node + 10) + 1);
+    memcpy(node, lit, strlen(lit));
+    assert_int_equal(load_text(&s, json, &e), SPT_EXIT_INPUT);
+    if (!strstr(e.msg, "KHR_lights_punctual.lights[0].color[1]: 2 is outside [0, 1]"))
+        fail_msg("%s", e.msg);
     static const char *const ends[] = {
         "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0,1,0,1],\"metallicFactor\":1,"
         "\"roughnessFactor\":0},\"emissiveFactor\":[1,0,1],\"extensions\":{"

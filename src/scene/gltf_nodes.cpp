@@ -209,8 +209,13 @@ int Loader::light_from(int li, const Mat4 &world, int node)
     if (!l.color.empty()) {
         if (l.color.size() != 3) return bad("%s.color: expected 3 numbers", obj.c_str());
         for (int k = 0; k < 3; k++) {
-            if (!(l.color[k] >= 0) || !std::isfinite(l.color[k]))
-                return bad("%s.color: components must be finite and >= 0", obj.c_str());
+            // KHR_lights_punctual's schema bounds color to [0, 1]: a brighter
+            // light is its intensity's job, and an out-of-range value is named
+            // as the material factors are (gltf_materials.cpp, in_range).
+            if (!(l.color[k] >= 0 && l.color[k] <= 1))
+                return bad("%s.color[%d]: %g is outside [0, 1], the range the glTF specification "
+                           "allows",
+                           obj.c_str(), k, l.color[k]);
             sl.color[k] = (float)l.color[k];
         }
     }
