@@ -18,7 +18,9 @@
 #include "io/image_out.h"
 #include "io/input_file.h"
 
-#define CKPT_VERSION 1
+/* Version 2 added spectrace:checksum; version 1 files are refused (docs/outputs.md,
+ * "Checkpoints"). */
+#define CKPT_VERSION 2
 
 /* The channels of the film's AOV sums (src/render/film.h, in its order), after
  * "aov_sum." (the sums rounded to float) and "aov_sum_lo." (what that lost). */
@@ -216,6 +218,64 @@ static int ranges_parse(const char *s, unsigned char *done, uint32_t limit, uint
     return 0;
 }
 
+static int channel_name_cmp(const void *a, const void *b)
+{
+    return strcmp((*(const ExrChannel *const *)a)->name, (*(const ExrChannel *const *)b)->name);
+}
+
+/* Adds a string and its terminating 0 to h. */
+static unsigned long long hash_str(unsigned long long h, const char *s)
+{
+    return cl_fnv1a(h, s, strlen(s) + 1);
+}
+
+/* The checksum of a checkpoint (spectrace:checksum, 16 hex digits):
+ * FNV-1a 64 over the size, the attributes a resume uses (scene_hash, settings,
+ * samples_done, spp_done) and every channel, in name order, as its name, type
+ * and the exact bits of its values as little-endian 32-bit words. The same at
+ * writing (ch with strides) and reading (ch as the file has them). */
+static void checkpoint_checksum(int width, int height, const ExrChannel *ch, int nch,
+                                const char *scene_hash, const char *settings,
+                                const char *ranges, int32_t spp_done, char hex[17])
+{
+    unsigned char head[16];
+    uint32_t words[4] = {(uint32_t)width, (uint32_t)height, (uint32_t)spp_done, (uint32_t)nch};
+    for (int i = 0; i < 16; i++)
+        head[i] = (unsigned char)(words[i / 4] >> (8 * (i % 4)));
+    unsigned long long h = cl_fnv1a(SPT_FNV1A_INIT, head, sizeof head);
+    h = hash_str(h, scene_hash);
+    h = hash_str(h, settings);
+    h = hash_str(h, ranges);
+    const ExrChannel **order = spt_malloc((size_t)(nch > 0 ? nch : 1) * sizeof *order);
+    for (int c = 0; c < nch; c++)
+        order[c] = &ch[c];
+    qsort(order, (size_t)nch, sizeof *order, channel_name_cmp);
+    size_t n = (size_t)width * (size_t)height;
+    unsigned char buf[4096];
+    for (int c = 0; c < nch; c++) {
+        const ExrChannel *x = order[c];
+        h = hash_str(h, x->name);
+        unsigned char type = (unsigned char)x->type;
+        h = cl_fnv1a(h, &type, 1);
+        size_t stride = x->stride > 0 ? (size_t)x->stride : 1, len = 0;
+        /* Float and uint channels both hold 4-byte values. */
+        const unsigned char *data = x->data;
+        for (size_t i = 0; i < n; i++) {
+            uint32_t v;
+            memcpy(&v, data + 4 * i * stride, 4);
+            for (int b = 0; b < 4; b++)
+                buf[len++] = (unsigned char)(v >> (8 * b));
+            if (len == sizeof buf) {
+                h = cl_fnv1a(h, buf, len);
+                len = 0;
+            }
+        }
+        h = cl_fnv1a(h, buf, len);
+    }
+    free(order);
+    snprintf(hex, 17, "%016llx", h);
+}
+
 int checkpoint_write(const char *path, const CheckpointKey *k, const Film *film,
                      const unsigned char *done, uint32_t total, SptError *e)
 {
@@ -283,10 +343,13 @@ int checkpoint_write(const char *path, const CheckpointKey *k, const Film *film,
     }
     uint32_t ndone;
     char *ranges = ranges_format(done, total, &ndone);
-    char seed[16];
+    char seed[16], sum[17];
     snprintf(seed, sizeof seed, "%u", k->seed);
+    checkpoint_checksum(film->width, film->height, ch, nch, k->scene_hash, k->settings, ranges,
+                        (int32_t)ndone, sum);
     ExrAttr at[] = {
         {"spectrace:checkpoint", SPT_EXR_ATTR_INT, NULL, CKPT_VERSION, 0},
+        {"spectrace:checksum", SPT_EXR_ATTR_STRING, sum, 0, 0},
         {"spectrace:scene_hash", SPT_EXR_ATTR_STRING, k->scene_hash, 0, 0},
         {"spectrace:settings", SPT_EXR_ATTR_STRING, k->settings, 0, 0},
         {"spectrace:samples_done", SPT_EXR_ATTR_STRING, ranges, 0, 0},
@@ -351,6 +414,45 @@ static void settings_diff(const char *mine, const char *theirs, char *out, size_
     }
 }
 
+/* The whole-number value of setting `name` in a "k=v;k=v" list; 0 when absent. */
+static long settings_long(const char *list, const char *name)
+{
+    size_t len = strlen(name);
+    for (const char *p = list; p && *p;) {
+        if (!strncmp(p, name, len) && p[len] == '=')
+            return strtol(p + len + 1, NULL, 10);
+        p = strchr(p, ';');
+        if (p)
+            p++;
+    }
+    return 0;
+}
+
+/* The most negative linear sRGB component of the albedo AOV of any reflectance
+ * in [0, 1] under D65 (kernels/device/material_eval.h, material_albedo): -0.484
+ * for R, from the CIE 1931 functions at its 10 nm steps. A pixel's albedo sum
+ * below -0.5 per sample is no render's. */
+#define CKPT_ALBEDO_MIN (-0.5)
+
+/* hi + lo of a channel pair at pixel i into *v, or the reason the pair is not
+ * what checkpoint_write makes: a value not finite, a negative sum where
+ * nonneg, or a lo beyond half a unit in the last place of hi (what rounding the
+ * double sum to hi can leave). */
+static const char *pair_value(const ExrChannel *hi, const ExrChannel *lo, size_t i, int nonneg,
+                              double *v)
+{
+    float h = ((const float *)hi->data)[i], l = ((const float *)lo->data)[i];
+    *v = (double)h + (double)l;
+    if (!isfinite(h) || !isfinite(l))
+        return "is not finite";
+    if (nonneg && (h < 0 || *v < 0))
+        return "is negative";
+    double ulp = (double)nextafterf(fabsf(h), INFINITY) - (double)fabsf(h);
+    if (fabs((double)l) > 0.5 * ulp)
+        return "has a low part larger than the rounding of its high part leaves";
+    return NULL;
+}
+
 int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film *film,
                     unsigned char **done, SptError *e)
 {
@@ -365,19 +467,25 @@ int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film
         return spt_fail(e, SPT_EXIT_INPUT, "%s (a damaged, truncated or unreadable checkpoint: "
                         "cannot resume from it)", e2.msg);
     int rc = 0;
+    unsigned char *flags = NULL;
+    char (*want)[32] = NULL;
     const ExrAttr *ver = exr_layers_attr(&L, "spectrace:checkpoint", SPT_EXR_ATTR_INT);
+    const ExrAttr *cs = exr_layers_attr(&L, "spectrace:checksum", SPT_EXR_ATTR_STRING);
     const ExrAttr *sh = exr_layers_attr(&L, "spectrace:scene_hash", SPT_EXR_ATTR_STRING);
     const ExrAttr *set = exr_layers_attr(&L, "spectrace:settings", SPT_EXR_ATTR_STRING);
     const ExrAttr *rg = exr_layers_attr(&L, "spectrace:samples_done", SPT_EXR_ATTR_STRING);
     const ExrAttr *nd = exr_layers_attr(&L, "spectrace:spp_done", SPT_EXR_ATTR_INT);
-    static const char *names[7] = {"sum.X", "sum.Y", "sum.Z", "sum_lo.X", "sum_lo.Y", "sum_lo.Z", "count"};
-    const ExrChannel *c[7];
-    for (int i = 0; i < 7; i++)
-        c[i] = exr_layers_channel(&L, names[i]);
     if (!ver) {
         rc = spt_fail(e, SPT_EXIT_INPUT,
                       "%s: not a spectrace checkpoint (an EXR without the spectrace:checkpoint "
                       "attribute; an image output cannot be resumed)", path);
+        goto out;
+    }
+    if (ver->i == 1) {
+        rc = spt_fail(e, SPT_EXIT_INPUT,
+                      "%s: a checkpoint of an earlier spectrace (format 1, without a checksum of "
+                      "its data, so edits cannot be told from a render): render it again",
+                      path);
         goto out;
     }
     if (ver->i != CKPT_VERSION) {
@@ -385,15 +493,10 @@ int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film
                       path, ver->i, CKPT_VERSION);
         goto out;
     }
-    for (int i = 0; i < 7; i++)
-        if (!c[i] || c[i]->type != (i == 6 ? SPT_EXR_UINT : SPT_EXR_FLOAT)) {
-            rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: channel %s missing or of the wrong type",
-                          path, names[i]);
-            goto out;
-        }
-    if (!sh || !set || !rg || !nd) {
+    if (!cs || !sh || !set || !rg || !nd) {
         rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: spectrace:%s attribute missing", path,
-                      !sh ? "scene_hash" : !set ? "settings" : !rg ? "samples_done" : "spp_done");
+                      !cs ? "checksum" : !sh ? "scene_hash" : !set ? "settings" : !rg ? "samples_done"
+                                                                                 : "spp_done");
         goto out;
     }
     if (strcmp(sh->s, k->scene_hash)) {
@@ -413,93 +516,145 @@ int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film
                       path, L.width, L.height, k->width, k->height);
         goto out;
     }
-    unsigned char *flags = spt_calloc(spp ? spp : 1, 1);
+    flags = spt_calloc(spp ? spp : 1, 1);
     uint32_t ndone, end;
     if (ranges_parse(rg->s, flags, spp, &ndone, &end) || (int32_t)ndone != nd->i || ndone == 0) {
-        free(flags);
         rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: spectrace:samples_done '%.60s' is "
                       "malformed or disagrees with spectrace:spp_done %d", path, rg->s, nd->i);
         goto out;
     }
     if (end > spp) {
-        free(flags);
         rc = spt_fail(e, SPT_EXIT_USAGE,
                       "%s: the checkpoint holds samples up to index %u; --spp %u must be at least %u",
                       path, end - 1, spp, end);
         goto out;
     }
-    size_t n = (size_t)L.width * L.height;
-    /* AOV sums: in the file of a render with --aov (whose value is in the key). */
-    const ExrChannel *ahi[SPT_AOV_SUMS], *alo[SPT_AOV_SUMS];
-    int aov = 0;
-    for (int k = 0; k < SPT_AOV_SUMS; k++) {
-        char name[32];
-        snprintf(name, sizeof name, "aov_sum.%s", aov_sum_names[k]);
-        ahi[k] = exr_layers_channel(&L, name);
-        snprintf(name, sizeof name, "aov_sum_lo.%s", aov_sum_names[k]);
-        alo[k] = exr_layers_channel(&L, name);
-        aov += ahi[k] && alo[k] && ahi[k]->type == SPT_EXR_FLOAT && alo[k]->type == SPT_EXR_FLOAT;
+    /* Exactly the channels checkpoint_write makes for these settings (their
+     * values are in the key, compared above): the film's, the AOV sums with
+     * --aov or --denoise, two per band with --spectral. */
+    int aov = settings_long(k->settings, "aov") != 0 || settings_long(k->settings, "denoise") != 0;
+    long bands = settings_long(k->settings, "spectral");
+    if (bands < 0 || bands > 470)
+        bands = 0;
+    static const char *const base[10] = {"sum.X",    "sum.Y",    "sum.Z", "sum_lo.X", "sum_lo.Y",
+                                         "sum_lo.Z", "count",    "R",     "G",        "B"};
+    int nwant = 10 + (aov ? 2 * SPT_AOV_SUMS : 0) + 2 * (int)bands;
+    want = spt_malloc((size_t)nwant * sizeof *want);
+    const ExrChannel **ch = spt_malloc((size_t)nwant * sizeof *ch);
+    for (int i = 0; i < 10; i++)
+        snprintf(want[i], sizeof want[i], "%s", base[i]);
+    for (int j = 0; aov && j < SPT_AOV_SUMS; j++) {
+        snprintf(want[10 + 2 * j], sizeof want[0], "aov_sum.%s", aov_sum_names[j]);
+        snprintf(want[11 + 2 * j], sizeof want[0], "aov_sum_lo.%s", aov_sum_names[j]);
     }
-    if (aov != 0 && aov != SPT_AOV_SUMS) {
-        free(flags);
-        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: some aov_sum channels missing", path);
+    int b0 = 10 + (aov ? 2 * SPT_AOV_SUMS : 0);
+    for (int b = 0; b < (int)bands; b++) {
+        snprintf(want[b0 + 2 * b], sizeof want[0], "band_sum.%03d", b);
+        snprintf(want[b0 + 2 * b + 1], sizeof want[0], "band_sum_lo.%03d", b);
+    }
+    for (int i = 0; i < nwant; i++) {
+        ch[i] = exr_layers_channel(&L, want[i]);
+        if (!ch[i] || ch[i]->type != (i == 6 ? SPT_EXR_UINT : SPT_EXR_FLOAT)) {
+            const char *why = i >= b0  ? "the settings' --spectral bands need it"
+                              : i >= 10 ? "the settings' --aov or --denoise need the AOV sums"
+                                        : "every checkpoint has it";
+            rc = spt_fail(e, SPT_EXIT_INPUT,
+                          "%s: damaged checkpoint: channel %s %s (%s)", path, want[i],
+                          ch[i] ? "of the wrong type" : "missing", why);
+            free(ch);
+            goto out;
+        }
+    }
+    if (L.channel_count != nwant) {
+        const char *extra = "?";
+        for (int c = 0; c < L.channel_count && !strcmp(extra, "?"); c++) {
+            int known = 0;
+            for (int i = 0; i < nwant && !known; i++)
+                known = !strcmp(L.channels[c].name, want[i]);
+            if (!known)
+                extra = L.channels[c].name;
+        }
+        rc = spt_fail(e, SPT_EXIT_INPUT,
+                      "%s: damaged checkpoint: channel %s, which a checkpoint of its settings "
+                      "does not have", path, extra);
+        free(ch);
         goto out;
     }
-    /* Spectral band sums: in the file of a render with --spectral. */
-    int bands = 0;
-    while (bands < 470) {
-        char name[32];
-        snprintf(name, sizeof name, "band_sum.%03d", bands);
-        if (!exr_layers_channel(&L, name))
-            break;
-        bands++;
-    }
-    film_init_full(film, L.width, L.height, aov != 0, bands);
-    for (int b = 0; b < bands && !rc; b++) {
-        char name[32];
-        snprintf(name, sizeof name, "band_sum.%03d", b);
-        const ExrChannel *hi = exr_layers_channel(&L, name);
-        snprintf(name, sizeof name, "band_sum_lo.%03d", b);
-        const ExrChannel *lo = exr_layers_channel(&L, name);
-        if (!hi || !lo || hi->type != SPT_EXR_FLOAT || lo->type != SPT_EXR_FLOAT) {
-            rc = 1;
-            break;
-        }
-        for (size_t i = 0; i < n; i++) {
-            double v = (double)((const float *)hi->data)[i] + (double)((const float *)lo->data)[i];
-            if (!isfinite(v))
-                rc = 1;
-            film->spec[i * (size_t)bands + (size_t)b] = v;
-        }
-    }
-    for (size_t i = 0; i < n && aov; i++)
-        for (int k = 0; k < SPT_AOV_SUMS; k++) {
-            double v = (double)((const float *)ahi[k]->data)[i] + (double)((const float *)alo[k]->data)[i];
-            if (!isfinite(v))
-                rc = 1;
-            film->aov[SPT_AOV_SUMS * i + k] = v;
-        }
-    const uint32_t *cnt = c[6]->data;
-    for (size_t i = 0; i < n && !rc; i++) {
-        for (int j = 0; j < 3; j++) {
-            double v = (double)((const float *)c[j]->data)[i] + (double)((const float *)c[3 + j]->data)[i];
-            if (!isfinite(v) || v < 0)
-                rc = 1;
+    /* The values, pixel by pixel: each pair what checkpoint_write makes, no
+     * negative sum of radiance (the colour matching functions and the bands'
+     * weights are never negative), of squares, or albedo below any
+     * reflectance's, no more samples than were done, and a pixel without
+     * samples has no AOV sums (those count kept samples only; the XYZ sums also
+     * take the light paths' splats, docs/outputs.md, "Checkpoints"). */
+    size_t n = (size_t)L.width * L.height;
+    film_init_full(film, L.width, L.height, aov, (int)bands);
+    const uint32_t *cnt = ch[6]->data;
+    const char *bad = NULL, *bad_ch = NULL;
+    double bad_v = 0;
+    size_t bad_i = 0;
+    for (size_t i = 0; i < n && !bad; i++) {
+        int nonzero = 0; /* an AOV sum is not 0 */
+        double v = 0;
+        for (int j = 0; j < 3 && !bad; j++) {
+            bad_ch = want[j];
+            bad = pair_value(ch[j], ch[3 + j], i, 1, &v);
             film->xyz[3 * i + j] = v;
         }
-        if (cnt[i] > ndone)
-            rc = 1;
+        for (int j = 0; aov && j < SPT_AOV_SUMS && !bad; j++) {
+            bad_ch = want[10 + 2 * j];
+            bad = pair_value(ch[10 + 2 * j], ch[11 + 2 * j], i, j >= SPT_AOV_S_SQ, &v);
+            if (!bad && j < SPT_AOV_S_ALBEDO + 3 && v < CKPT_ALBEDO_MIN * (double)cnt[i])
+                bad = "is below what any reflectance gives";
+            film->aov[SPT_AOV_SUMS * i + (size_t)j] = v;
+            nonzero |= v != 0;
+        }
+        for (int b = 0; b < (int)bands && !bad; b++) {
+            bad_ch = want[b0 + 2 * b];
+            bad = pair_value(ch[b0 + 2 * b], ch[b0 + 2 * b + 1], i, 1, &v);
+            film->spec[i * (size_t)bands + (size_t)b] = v;
+        }
+        bad_v = v;
+        bad_i = i;
+        if (!bad && cnt[i] > ndone) {
+            bad_ch = "count";
+            bad = "is more than the samples done";
+            bad_v = cnt[i];
+        } else if (!bad && cnt[i] == 0 && nonzero) {
+            bad_ch = "count";
+            bad = "is 0 while the pixel's AOV sums are not";
+        }
         film->count[i] = cnt[i];
     }
-    if (rc) {
-        free(flags);
-        film_free(film);
-        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: a pixel has a negative or non-finite "
-                      "sum, or more samples than the %u done", path, ndone);
+    if (bad) {
+        char value[64] = "";
+        if (strcmp(bad_ch, "count") || cnt[bad_i])
+            snprintf(value, sizeof value, " (%.9g)", bad_v);
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: damaged checkpoint: pixel (%zu, %zu): %s %s%s, with "
+                      "%u samples per pixel done", path, bad_i % (size_t)L.width,
+                      bad_i / (size_t)L.width, bad_ch, bad, value, ndone);
+        free(ch);
+        goto out;
+    }
+    free(ch);
+    /* Last, the checksum: what the checks above cannot see, such as a count or
+     * a sum changed to another plausible value. */
+    char sum[17];
+    checkpoint_checksum(L.width, L.height, L.channels, L.channel_count, sh->s, set->s, rg->s,
+                        nd->i, sum);
+    if (strcmp(sum, cs->s)) {
+        rc = spt_fail(e, SPT_EXIT_INPUT,
+                      "%s: damaged checkpoint: its data does not match its checksum "
+                      "(spectrace:checksum %.16s, the data gives %s): changed after it was written",
+                      path, cs->s, sum);
         goto out;
     }
     *done = flags;
+    flags = NULL;
 out:
+    if (rc)
+        film_free(film);
+    free(flags);
+    free(want);
     exr_layers_free(&L);
     return rc;
 }

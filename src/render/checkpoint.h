@@ -11,7 +11,9 @@
  *   band_sum.NNN, band_sum_lo.NNN  float: with --spectral, band NNN's sums
  *   R, G, B                  float: a linear sRGB preview of the samples done
  * and the attributes
- *   spectrace:checkpoint     int 1 (the format version; absent: not a checkpoint)
+ *   spectrace:checkpoint     int 2 (the format version; absent: not a checkpoint)
+ *   spectrace:checksum       FNV-1a 64 of the size, scene_hash, settings,
+ *                            samples_done, spp_done and every channel's bits, hex
  *   spectrace:scene_hash     FNV-1a 64 of the scene file's bytes, hex
  *   spectrace:settings       every setting that changes the image, "k=v;k=v;..."
  *                            (size, max depth, seed, sky, lens, kernel sources)
@@ -52,8 +54,11 @@ int checkpoint_write(const char *path, const CheckpointKey *k, const Film *film,
  * film (initialised here, k's size) receives its sums and counts, *done (malloc'd,
  * spp flags) the samples it holds. Refuses, with path named and the reason, and
  * SPT_EXIT_INPUT: an unreadable, damaged or truncated file, a file that is not a
- * checkpoint, another scene, other settings (each differing setting named with
- * both values); SPT_EXIT_USAGE: spp smaller than the samples it already holds.
+ * checkpoint or of format 1 (no checksum), another scene, other settings (each
+ * differing setting named with both values), channels other than its settings
+ * make, implausible values, data that does not match its checksum (the checks in
+ * docs/outputs.md, "Checkpoints"); SPT_EXIT_USAGE: spp smaller than the samples
+ * it already holds.
  * On failure film and *done are left empty. */
 int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film *film,
                     unsigned char **done, SptError *e);
