@@ -233,9 +233,9 @@ static void test_resume_refusals(void **state)
              img, ck);
     run_ok(cmd, out, sizeof out);
     refused(OTHER_SCENE " " COMMON, ck, SPT_EXIT_INPUT, "another scene");
-    refused(SCENE " --width 32 --height 32 --seed 4 -q", ck, SPT_EXIT_INPUT, "seed 4 here, 3 in the checkpoint");
-    refused(SCENE " --width 40 --height 32 --seed 3 -q", ck, SPT_EXIT_INPUT, "width 40 here, 32 in the checkpoint");
-    refused(SCENE " " COMMON " --max-depth 3", ck, SPT_EXIT_INPUT, "max_depth 3 here, -1 in the checkpoint");
+    refused(SCENE " --width 32 --height 32 --seed 4 -q", ck, SPT_EXIT_INPUT, "--seed 4 here, 3 in the checkpoint");
+    refused(SCENE " --width 40 --height 32 --seed 3 -q", ck, SPT_EXIT_INPUT, "--width 40 here, 32 in the checkpoint");
+    refused(SCENE " " COMMON " --max-depth 3", ck, SPT_EXIT_INPUT, "--max-depth 3 here, -1 in the checkpoint");
     /* Truncated: the first half of the file. */
     size_t n;
     char *bytes = slurp(ck, &n);

@@ -4,7 +4,7 @@
  * and writer (src/io/exr.h) the way a hand edit would, and resumes from it: the
  * run must exit 3 with one error line naming the file. The cross-checks behind
  * the checksum are tried through checkpoint_write, which gives an implausible
- * film a valid checksum.
+ * film a valid checksum. A resume mismatch names the option as typed (case 15).
  * Runs $SPECTRACE_EXE (set by tests/run_tests.sh) on PoCL's CPU device. */
 #include "test_util.h"
 
@@ -312,6 +312,32 @@ static void test_cross_checks(void **state)
     }
 }
 
+/* Case 15: a resume with other settings names each option and both values as
+ * the user types them, never the numbers the key stores. */
+static void test_mismatch_names_values(void **state)
+{
+    (void)state;
+    static const char *const extra[4] = {"--caustics on", "--sampler independent",
+                                         "--aov albedo,N", "--denoise"};
+    static const char *const says[4] = {
+        "--caustics on here, auto in the checkpoint",
+        "--sampler independent here, sobol in the checkpoint",
+        "--aov albedo,N here, albedo in the checkpoint",
+        "--denoise given here, not given in the checkpoint"};
+    for (int i = 0; i < 4; i++) {
+        char args[1024], err[8192];
+        snprintf(args, sizeof args, ARGS " %s --spp 8 -o %s --resume %s", extra[i],
+                 path_in("refused.exr"), base);
+        int rc = run_exe("", "", args, err, sizeof err);
+        printf("%s", err);
+        const char *nl = strchr(err, '\n');
+        if (rc != SPT_EXIT_INPUT || strncmp(err, "error: ", 7) || !nl || nl[1] ||
+            !strstr(err, says[i]))
+            fail_msg("`%s`: exit %d, expected 3 and one error line saying '%s'; got:\n%s",
+                     extra[i], rc, says[i], err);
+    }
+}
+
 int main(void)
 {
     (void)load_checkpoint; /* ckpt_test.h's helpers that this file does not use */
@@ -328,6 +354,7 @@ int main(void)
         cmocka_unit_test(test_one_flipped_bit),
         cmocka_unit_test(test_old_format),
         cmocka_unit_test(test_cross_checks),
+        cmocka_unit_test(test_mismatch_names_values),
     };
     return cmocka_run_group_tests_name("hostile_checkpoint", tests, setup, teardown);
 }

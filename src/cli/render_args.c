@@ -162,13 +162,17 @@ static int store(RenderArgs *a, const OptRow *r, const char *arg)
     case KIND_TONEMAP:
         ok = !image_tonemap_parse(arg, (int *)field);
         break;
-    case KIND_SWITCH:
+    case KIND_SWITCH: {
         /* Option values are case-insensitive throughout (README.md, "Rendering"). */
-        ok = !strcasecmp(arg, "off") || !strcasecmp(arg, "on") || !strcasecmp(arg, "auto");
-        if (ok)
-            *(int *)field = !strcasecmp(arg, "off") ? SPT_SWITCH_OFF
-                            : !strcasecmp(arg, "on") ? SPT_SWITCH_ON : SPT_SWITCH_AUTO;
+        static const char *const names[] = SPT_SWITCH_NAMES; /* by value */
+        ok = 0;
+        for (int v = 0; v < (int)(sizeof names / sizeof names[0]) && !ok; v++)
+            if (!strcasecmp(arg, names[v])) {
+                *(int *)field = v;
+                ok = 1;
+            }
         break;
+    }
     case KIND_SAMPLER:
         ok = !render_sampler_parse(arg, (uint32_t *)field);
         break;

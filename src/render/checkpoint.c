@@ -17,6 +17,7 @@
 #include "io/exr.h"
 #include "io/image_out.h"
 #include "io/input_file.h"
+#include "render/render_options.h"
 
 /* Version 2 added spectrace:checksum; version 1 files are refused (docs/outputs.md,
  * "Checkpoints"). */
@@ -388,7 +389,70 @@ static int settings_split(const char *list, char *buf, size_t cap, char **keys, 
     return n;
 }
 
-/* "name A here, B in the checkpoint" for every setting that differs. */
+/* The key entries of the options (src/render/render_options.h): the field's
+ * name, the option as typed and its kind. */
+enum { OPT_PLAIN, OPT_FLAG, OPT_SWITCH, OPT_SAMPLER, OPT_AOV, OPT_FILE };
+#define OPT_KIND_INT OPT_PLAIN
+#define OPT_KIND_U32 OPT_PLAIN
+#define OPT_KIND_DBL OPT_PLAIN
+#define OPT_KIND_FLT OPT_PLAIN
+#define OPT_KIND_STR OPT_FILE
+#define OPT_KIND_LIST OPT_PLAIN
+#define OPT_KIND_TONEMAP OPT_PLAIN
+#define OPT_KIND_HELP OPT_PLAIN
+#define OPT_KIND_FLAG OPT_FLAG
+#define OPT_KIND_SWITCH OPT_SWITCH
+#define OPT_KIND_SAMPLER OPT_SAMPLER
+#define OPT_KIND_AOV OPT_AOV
+static const struct {
+    const char *name, *option;
+    int kind;
+} key_options[] = {
+#define OPT_ROW(where, kind, type, name, option, ...) {#name, option, OPT_KIND_##kind},
+    SPT_RENDER_OPTIONS(OPT_ROW)
+#undef OPT_ROW
+};
+
+/* A key entry's value as the user types the option (the names of
+ * src/render/render_options.h): "on" rather than "2", "albedo,N" rather than
+ * "3"; "not given" for a flag, list or file option not given. */
+static const char *key_value_text(int kind, const char *v, char *buf, size_t cap)
+{
+    static const char *const switches[] = SPT_SWITCH_NAMES, *const samplers[] = SPT_SAMPLER_NAMES,
+                             *const aovs[] = SPT_AOV_NAMES;
+    char *end;
+    unsigned long x = strtoul(v, &end, 10);
+    int num = *v && !*end;
+    if (kind == OPT_FLAG && num)
+        return x ? "given" : "not given";
+    if (kind == OPT_SWITCH && num && x < sizeof switches / sizeof switches[0])
+        return switches[x];
+    if (kind == OPT_SAMPLER && num && x < sizeof samplers / sizeof samplers[0])
+        return samplers[x];
+    if (kind == OPT_FILE && !strcmp(v, "default"))
+        return "not given";
+    if (kind == OPT_FILE && !strncmp(v, "file-fnv:", 9)) {
+        snprintf(buf, cap, "a file of content hash %s", v + 9);
+        return buf;
+    }
+    if (kind == OPT_AOV && num) {
+        size_t len = 0;
+        buf[0] = 0;
+        if (x == 0)
+            return "not given";
+        if (x == SPT_AOV_ALL)
+            return "all";
+        for (unsigned k = 0; k < sizeof aovs / sizeof aovs[0] && len < cap; k++)
+            if (x & (1ul << k))
+                len += (size_t)snprintf(buf + len, cap - len, "%s%s", len ? "," : "", aovs[k]);
+        return buf;
+    }
+    return v;
+}
+
+/* "name A here, B in the checkpoint" for every setting that differs; an
+ * option's entry as "--option VALUE here, VALUE in the checkpoint" with the
+ * values as typed. */
 static void settings_diff(const char *mine, const char *theirs, char *out, size_t cap)
 {
     char ba[2048], bb[2048], *ka[32], *va[32], *kb[32], *vb[32];
@@ -408,8 +472,20 @@ static void settings_diff(const char *mine, const char *theirs, char *out, size_
                 continue;
             const char *here = pass ? "(none)" : v1[i];
             const char *there = pass ? v1[i] : other ? other : "(none)";
+            char name[64], bh[128], bt[128];
+            /* The entries that are no option (checkpoint_key). */
+            snprintf(name, sizeof name, "%s",
+                     !strcmp(k1[i], "kernels")      ? "the renderer's kernel sources"
+                     : !strcmp(k1[i], "zsobol_spp") ? "--spp rounded up to a power of two"
+                                                    : k1[i]);
+            for (size_t o = 0; o < sizeof key_options / sizeof key_options[0]; o++)
+                if (!strcmp(k1[i], key_options[o].name)) {
+                    snprintf(name, sizeof name, "--%s", key_options[o].option);
+                    here = key_value_text(key_options[o].kind, here, bh, sizeof bh);
+                    there = key_value_text(key_options[o].kind, there, bt, sizeof bt);
+                }
             len += (size_t)snprintf(out + len, cap - len, "%s%s %s here, %s in the checkpoint",
-                                    len ? "; " : "", k1[i], here, there);
+                                    len ? "; " : "", name, here, there);
         }
     }
 }

@@ -7,6 +7,7 @@
 
 #include "color/spd.h"
 #include "core/util.h"
+#include "render/render_options.h"
 
 void film_init(Film *f, int width, int height)
 {
@@ -168,19 +169,22 @@ int film_aov_layer(const Film *f, unsigned which, float *out)
 
 int film_aov_parse(const char *list, unsigned *mask)
 {
+    /* The layers' names (bit k of the mask) and the other words for them. */
+    static const char *const layers[] = SPT_AOV_NAMES;
     static const struct {
         const char *name;
         unsigned bit;
-    } names[] = {{"albedo", SPT_AOV_ALBEDO},    {"N", SPT_AOV_NORMAL},    {"normal", SPT_AOV_NORMAL},
-                 {"Z", SPT_AOV_DEPTH},          {"depth", SPT_AOV_DEPTH}, {"P", SPT_AOV_POSITION},
-                 {"position", SPT_AOV_POSITION}, {"variance", SPT_AOV_VARIANCE},
-                 {"spp", SPT_AOV_SPP},          {"all", SPT_AOV_ALL}};
+    } names[] = {{"normal", SPT_AOV_NORMAL}, {"depth", SPT_AOV_DEPTH},
+                 {"position", SPT_AOV_POSITION}, {"all", SPT_AOV_ALL}};
     unsigned m = 0;
     const char *p = list;
     for (;;) {
         const char *end = strchr(p, ',');
         size_t len = end ? (size_t)(end - p) : strlen(p);
         unsigned bit = 0;
+        for (unsigned k = 0; k < sizeof layers / sizeof layers[0] && !bit; k++)
+            if (strlen(layers[k]) == len && !strncasecmp(p, layers[k], len))
+                bit = 1u << k;
         for (size_t k = 0; k < sizeof names / sizeof names[0] && !bit; k++)
             if (strlen(names[k].name) == len && !strncasecmp(p, names[k].name, len))
                 bit = names[k].bit;

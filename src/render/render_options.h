@@ -42,6 +42,15 @@
  * 0, so a RenderSettings of zeros has the default. */
 enum { SPT_SWITCH_AUTO = 0, SPT_SWITCH_OFF = 1, SPT_SWITCH_ON = 2 };
 
+/* The values of the options of each kind as the user types them, indexed by
+ * their value: SWITCH (SPT_SWITCH_*), SAMPLER (SPT_SAMPLER_*,
+ * kernels/shared/render_types.h) and the AOV layers (bit k of the mask,
+ * src/render/film.h). The parsers and the checkpoint's mismatch messages
+ * (src/render/checkpoint.c) take the names from here. */
+#define SPT_SWITCH_NAMES {"auto", "off", "on"}
+#define SPT_SAMPLER_NAMES {"sobol", "independent", "zsobol"}
+#define SPT_AOV_NAMES {"albedo", "N", "Z", "P", "variance", "spp"}
+
 /* --light-paths: light paths per camera path of the light-tracing pass (the
  * measurement that chose the default is in docs/architecture.md, "Caustics").
  * A RenderSettings with 0 gets the default. At most SPT_LIGHT_PATHS_MAX, so a

@@ -594,18 +594,12 @@ static int caustics_enabled(const RenderSettings *rs, const RenderLights *L, con
 
 int render_sampler_parse(const char *name, uint32_t *sampler)
 {
-    if (name && !strcasecmp(name, "sobol")) {
-        *sampler = SPT_SAMPLER_SOBOL;
-        return 0;
-    }
-    if (name && !strcasecmp(name, "independent")) {
-        *sampler = SPT_SAMPLER_INDEPENDENT;
-        return 0;
-    }
-    if (name && !strcasecmp(name, "zsobol")) {
-        *sampler = SPT_SAMPLER_ZSOBOL;
-        return 0;
-    }
+    static const char *const names[] = SPT_SAMPLER_NAMES; /* by value */
+    for (uint32_t v = 0; v < sizeof names / sizeof names[0]; v++)
+        if (name && !strcasecmp(name, names[v])) {
+            *sampler = v;
+            return 0;
+        }
     return -1;
 }
 
