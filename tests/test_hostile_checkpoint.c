@@ -226,8 +226,8 @@ static void test_negative_sums(void **state)
     refused(edit_end(&L, "negalbedo_ck.exr", NULL), "albedo.G is below what any reflectance gives");
 }
 
-/* One value changed in its last bit, everything else plausible: only the
- * checksum sees it. */
+/* One value changed in one bit, everything else plausible: only the checksum
+ * sees it. */
 static void test_one_flipped_bit(void **state)
 {
     (void)state;
@@ -239,6 +239,12 @@ static void test_one_flipped_bit(void **state)
     bits ^= 1u;
     memcpy(&y[27], &bits, 4);
     refused(edit_end(&L, "flip_ck.exr", NULL), "checksum");
+    /* The sign bit (the top bit of its word) of a normal's sum, which may be
+     * negative. */
+    edit_begin(&L);
+    float *nx = chan_f(&L, "aov_sum.N.X");
+    nx[12] = -nx[12];
+    refused(edit_end(&L, "flip_sign_ck.exr", NULL), "checksum");
 }
 
 /* A checkpoint of the format before the checksum (version 1): refused, saying

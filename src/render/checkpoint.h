@@ -12,8 +12,10 @@
  *   R, G, B                  float: a linear sRGB preview of the samples done
  * and the attributes
  *   spectrace:checkpoint     int 2 (the format version; absent: not a checkpoint)
- *   spectrace:checksum       FNV-1a 64 of the size, scene_hash, settings,
- *                            samples_done, spp_done and every channel's bits, hex
+ *   spectrace:checksum       a 64-bit hash (FNV-1a, over 64-bit words for the
+ *                            values; checkpoint.c) of the size, scene_hash,
+ *                            settings, samples_done, spp_done and every
+ *                            channel's bits, hex
  *   spectrace:scene_hash     FNV-1a 64 of the scene file's bytes, hex
  *   spectrace:settings       every setting that changes the image, "k=v;k=v;..."
  *                            (size, max depth, seed, sky, lens, kernel sources)
