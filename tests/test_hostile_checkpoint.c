@@ -158,6 +158,29 @@ static void test_rewritten_unchanged_resumes(void **state)
     assert_same_exr(path_in("straight.exr"), path_in("resumed.exr"));
 }
 
+/* A render whose pixel (0, 0) drops every sample (the test hook
+ * SPECTRACE_TEST_INJECT_NAN makes its radiance NaN) writes a checkpoint with a
+ * count of 0 there, which the cross-checks must accept: it resumes. */
+static void test_dropped_samples_resume(void **state)
+{
+    (void)state;
+    char args[1024], err[8192];
+    const char *ck = path_in("nan_ck.exr");
+    snprintf(args, sizeof args, ARGS " --spp 4 -o %s --checkpoint %s", path_in("nan.exr"), ck);
+    if (run_exe("SPECTRACE_TEST_INJECT_NAN=1", "", args, err, sizeof err))
+        fail_msg("render failed:\n%s", err);
+    ExrLayers L;
+    SptError e = {0};
+    if (exr_read_layers(ck, NULL, 0, &L, &e))
+        fail_msg("%s", e.msg);
+    assert_int_equal(((const uint32_t *)exr_layers_channel(&L, "count")->data)[0], 0);
+    assert_int_equal(((const uint32_t *)exr_layers_channel(&L, "count")->data)[1], 4);
+    exr_layers_free(&L);
+    snprintf(args, sizeof args, ARGS " --spp 8 -o %s --resume %s", path_in("nan8.exr"), ck);
+    if (run_exe("SPECTRACE_TEST_INJECT_NAN=1", "", args, err, sizeof err))
+        fail_msg("resume of a checkpoint with a pixel of no samples failed:\n%s", err);
+}
+
 /* Every pixel's sample count set to 0, the sums kept: resumed, it would add the
  * old sums to the new samples' count (an image 2x too bright), or to the same
  * spp give a black image. Single process and over MPI (the ranks' rank 0 reads
@@ -279,29 +302,37 @@ static void test_cross_checks(void **state)
     CheckpointKey k;
     SptError e = {0};
     assert_int_equal(checkpoint_key(&k, SCENE, &rs, &e), 0);
+    /* The same without AOVs: a count of 0 shows in the band sums. */
+    CheckpointKey k_bands;
+    rs.aov = 0;
+    assert_int_equal(checkpoint_key(&k_bands, SCENE, &rs, &e), 0);
     unsigned char done[4] = {1, 1, 1, 1};
     const char *p = path_in("api_ck.exr");
-    static const char *const says[4] = {NULL, "band_sum.001 is negative", "count is 0",
-                                        "band_sum.001 missing"};
-    for (int attack = 0; attack < 4; attack++) {
+    static const char *const says[5] = {NULL, "band_sum.001 is negative", "count is 0",
+                                        "band_sum.001 missing", "count is 0"};
+    for (int attack = 0; attack < 5; attack++) {
+        const CheckpointKey *key = attack == 4 ? &k_bands : &k;
         Film f;
-        film_init_full(&f, 2, 2, 1, attack == 3 ? 1 : 2);
+        film_init_full(&f, 2, 2, attack != 4, attack == 3 ? 1 : 2);
         for (int i = 0; i < 4; i++) {
             f.count[i] = 4;
-            for (int c = 0; c < 3; c++)
-                f.xyz[3 * i + c] = f.aov[SPT_AOV_SUMS * i + c] = 1.0 + i;
+            for (int c = 0; c < 3; c++) {
+                f.xyz[3 * i + c] = 1.0 + i;
+                if (f.aov)
+                    f.aov[SPT_AOV_SUMS * i + c] = 1.0 + i;
+            }
             for (int b = 0; b < f.bands; b++)
                 f.spec[f.bands * i + b] = 0.5;
         }
         if (attack == 1)
             f.spec[2 * 3 + 1] = -0.25;
-        if (attack == 2)
+        if (attack == 2 || attack == 4)
             f.count[2] = 0;
-        assert_int_equal(checkpoint_write(p, &k, &f, done, 4, &e), 0);
+        assert_int_equal(checkpoint_write(p, key, &f, done, 4, &e), 0);
         film_free(&f);
         Film g;
         unsigned char *d = NULL;
-        int rc = checkpoint_read(p, &k, 4, &g, &d, &e);
+        int rc = checkpoint_read(p, key, 4, &g, &d, &e);
         if (!says[attack]) {
             if (rc)
                 fail_msg("the plausible film is refused: %s", e.msg);
@@ -353,6 +384,7 @@ int main(void)
     setenv("SPECTRACE_POOL", "512", 1);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rewritten_unchanged_resumes),
+        cmocka_unit_test(test_dropped_samples_resume),
         cmocka_unit_test(test_count_zero),
         cmocka_unit_test(test_band_removed),
         cmocka_unit_test(test_huge_sums),

@@ -686,10 +686,10 @@ int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film
     /* The values: each pair what checkpoint_write makes, no negative sum of
      * radiance (the colour matching functions and the bands' weights are never
      * negative) or of squares, no albedo below any reflectance's, no more
-     * samples than were done, and no AOV sums in a pixel without samples (those
-     * count kept samples only; the XYZ sums also take the light paths' splats,
-     * docs/outputs.md, "Checkpoints"). In blocks of pixels, channel by channel,
-     * as checkpoint_checksum reads them. */
+     * samples than were done, and no AOV or band sums in a pixel without
+     * samples (those count kept samples only; the XYZ sums also take the light
+     * paths' splats, docs/outputs.md, "Checkpoints"). In blocks of pixels,
+     * channel by channel, as checkpoint_checksum reads them. */
     size_t n = (size_t)L.width * L.height;
     film_init_full(film, L.width, L.height, aov, (int)bands);
     const uint32_t *cnt = ch[6]->data;
@@ -718,16 +718,18 @@ int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film
         bad_v = v;
         bad_i = i - 1; /* the loops stop one past the bad pixel */
         for (i = i0; i < i1 && !bad; i++) {
-            int nonzero = 0; /* an AOV sum is not 0 */
+            int nonzero = 0; /* an AOV or band sum is not 0 */
             for (int j = 0; aov && j < SPT_AOV_SUMS; j++)
                 nonzero |= film->aov[SPT_AOV_SUMS * i + (size_t)j] != 0;
+            for (int b = 0; b < (int)bands; b++)
+                nonzero |= film->spec[i * (size_t)bands + (size_t)b] != 0;
             bad_ch = "count";
             bad_i = i;
             bad_v = cnt[i];
             if (cnt[i] > ndone)
                 bad = "is more than the samples done";
             else if (cnt[i] == 0 && nonzero)
-                bad = "is 0 while the pixel's AOV sums are not";
+                bad = "is 0 while the pixel's AOV or band sums are not";
             film->count[i] = cnt[i];
         }
     }
