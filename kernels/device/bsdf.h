@@ -435,10 +435,23 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
         float wt = (1.0f - m) * tr;
         vec3 wo_up = wo.z > 0.0f ? wo : v3_scale(wo, -1.0f);
         vec3 h = smooth ? v3(0.0f, 0.0f, 1.0f) : bsdf_ggx_sample_vndf(wo_up, alpha, u1, u2);
-        float F = bsdf_fresnel_dielectric(wo.z > 0.0f ? v3_dot(wo, h) : -v3_dot(wo_up, h), eta);
+        float cos_h = wo.z > 0.0f ? v3_dot(wo, h) : -v3_dot(wo_up, h);
+        float F = bsdf_fresnel_dielectric(cos_h, eta);
+        /* The smooth interface reflects with the mean of the wavelengths' Fresnel
+         * reflectances q, not the hero's alone: with a dispersive index the hero's
+         * may be near 0 (n near 1) where another wavelength's is not, and
+         * reflection's weight F_i / F_hero would be huge or, at F_hero = 0, its
+         * light lost (docs/gltf.md, KHR_materials_dispersion). */
+        vec4 fr = v4_splat(F);
+        float q = F;
+        if (smooth && dispersive_ior) {
+            fr = v4(F, bsdf_fresnel_dielectric(cos_h, p->ior.y), bsdf_fresnel_dielectric(cos_h, p->ior.z),
+                    bsdf_fresnel_dielectric(cos_h, p->ior.w));
+            q = 0.25f * (fr.x + fr.y + fr.z + fr.w);
+        }
         /* Reuse u0 for reflect/refract: u0/pt is uniform in [0, 1). */
         float ur = u0 / pt;
-        int reflect = ur < F;
+        int reflect = ur < q;
         if (reflect) {
             s.wi = bsdf_reflect(wo, wo.z > 0.0f ? h : v3_scale(h, -1.0f));
         } else {
@@ -455,11 +468,9 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
         if (smooth) {
             s.is_delta = 1;
             s.valid = 1;
-            s.pdf = pt * (reflect ? F : 1.0f - F);
+            s.pdf = pt * (reflect ? q : 1.0f - q);
             if (reflect) {
-                /* F of each wavelength over the hero's F. */
-                vec4 fr = v4(bsdf_fresnel_dielectric(wo.z, p->ior.x), bsdf_fresnel_dielectric(wo.z, p->ior.y),
-                             bsdf_fresnel_dielectric(wo.z, p->ior.z), bsdf_fresnel_dielectric(wo.z, p->ior.w));
+                /* Each wavelength's F over the chance q of reflecting. */
                 s.weight = v4_scale(fr, wt / s.pdf);
             } else {
                 float etap = wo.z > 0.0f ? eta : 1.0f / eta;

@@ -87,19 +87,32 @@ SPT_FN vec4 bsdf_schlick(vec4 f0, float c)
     return v4_add(f0, v4_scale(v4_sub(v4_splat(1.0f), f0), m5));
 }
 
+/* The range every index of refraction is clamped to (docs/gltf.md,
+ * KHR_materials_dispersion). Below 1 the dispersion law has left its domain (the
+ * Cauchy fit is for glass; at dispersion 300, ior 1.5 it gives n = -4 at 830 nm,
+ * where the Fresnel equations and the 1/eta^2 radiance scaling have no meaning);
+ * 1 is the vacuum's index, an interface that does not bend or reflect. Above 1e4
+ * an interface already reflects all but 4e-4 of normal light, and both eta^2 and
+ * 1/eta^2 stay far inside float's range. */
+#define BSDF_IOR_MIN 1.0f
+#define BSDF_IOR_MAX 1e4f
+
 /* Index of refraction at wavelength lambda_nm from KHR_materials_dispersion: the
  * extension stores dispersion = 20 / V_d (Abbe number V_d = (n_d - 1)/(n_F - n_C)
  * at the Fraunhofer d 587.56, F 486.13, C 656.27 nm lines) and defines
  *   n(lambda) = n_d + (n_d - 1) / V_d * (523655 / lambda^2 - 1.5168),
  * a two-term Cauchy law n = A + B / lambda^2 fitted through n_d with
  * B = (n_d - 1)/V_d / (1/lambda_F^2 - 1/lambda_C^2) (= 523655 nm^2 scaled). With
- * dispersion 0 the ior is constant. */
+ * dispersion 0 the ior is constant. The result is clamped to [BSDF_IOR_MIN,
+ * BSDF_IOR_MAX] (NaN, from an infinite dispersion times 0, gives 1). */
 SPT_FN float bsdf_dispersion_ior(float ior, float dispersion, float lambda_nm)
 {
-    if (dispersion <= 0.0f)
-        return ior;
-    float inv_v = dispersion / 20.0f;
-    return ior + (ior - 1.0f) * inv_v * (523655.0f / (lambda_nm * lambda_nm) - 1.5168f);
+    float n = ior;
+    if (dispersion > 0.0f) {
+        float inv_v = dispersion / 20.0f;
+        n = ior + (ior - 1.0f) * inv_v * (523655.0f / (lambda_nm * lambda_nm) - 1.5168f);
+    }
+    return fminf(fmaxf(n, BSDF_IOR_MIN), BSDF_IOR_MAX);
 }
 
 /* Makes p's metal a measured conductor (SPT_CONDUCTOR_AU, _AG, _CU, _AL of

@@ -1,0 +1,203 @@
+/* Hostile spectral input, run as a user would ($SPECTRACE_EXE, set by
+ * tests/run_tests.sh; every command under `timeout`): extreme
+ * KHR_materials_dispersion, dim blackbody skies, SPD files of one sample or no
+ * luminance, and `color --pixel` on spectral outputs. Each input either renders
+ * the image its physics predicts (a white furnace, a sky of luminance 1) or is
+ * refused with one `error:` line and the exit code of README.md, "Exit codes".
+ * The renders run kernels: tiny images, few samples. */
+#include "test_util.h"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "color/spd.h"
+#include "io/exr.h"
+#include "shared/cie_data.h"
+#include "shared/spectrum.h"
+
+#define TINY "-q --device 0"
+
+static char dir[64];
+
+static const char *in_dir(const char *name)
+{
+    static char buf[8][512];
+    static int k;
+    k = (k + 1) % 8;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name);
+    return buf[k];
+}
+
+/* Runs `$SPECTRACE_EXE args` under a time limit; its stderr into err, its stdout
+ * into out (either may be NULL); returns the exit status (-1: killed). */
+static int run(const char *args, char *out, size_t out_cap, char *err, size_t err_cap)
+{
+    const char *exe = getenv("SPECTRACE_EXE");
+    if (!exe)
+        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
+    char cmd[8192];
+    snprintf(cmd, sizeof cmd, "timeout -s KILL 120 '%s' %s 2>'%s' >'%s'", exe, args, in_dir("stderr"),
+             in_dir("stdout"));
+    int st = system(cmd);
+    const char *names[2] = {in_dir("stdout"), in_dir("stderr")};
+    char *bufs[2] = {out, err};
+    size_t caps[2] = {out_cap, err_cap};
+    for (int i = 0; i < 2; i++) {
+        if (!bufs[i])
+            continue;
+        FILE *f = fopen(names[i], "r");
+        size_t n = f ? fread(bufs[i], 1, caps[i] - 1, f) : 0;
+        bufs[i][n] = 0;
+        if (f)
+            fclose(f);
+    }
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+/* The run exits with code and prints one line, "error: ..." containing each of
+ * the strings in want (NULL-terminated). */
+static void refused(const char *args, int code, const char *const *want)
+{
+    char err[8192];
+    int rc = run(args, NULL, 0, err, sizeof err);
+    if (rc != code)
+        fail_msg("`%s`: exit %d, expected %d; stderr:\n%s", args, rc, code, err);
+    const char *nl = strchr(err, '\n');
+    if (strncmp(err, "error: ", 7) != 0 || !nl || nl[1] != 0)
+        fail_msg("`%s`: expected one error line, got:\n%s", args, err);
+    for (; want && *want; want++)
+        if (!strstr(err, *want))
+            fail_msg("`%s`: expected '%s' in: %s", args, *want, err);
+}
+
+static void write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+/* Renders args to an EXR in the test folder (exit 0 required, stderr into err)
+ * and returns the mean luminance of its linear sRGB pixels (Y of
+ * docs/architecture.md's matrix) and, in *nonfinite, how many pixels are not
+ * finite. */
+static double render_mean_y(const char *args, int *nonfinite, char *err, size_t err_cap)
+{
+    char cmd[4096];
+    snprintf(cmd, sizeof cmd, "render %s " TINY " -o %s", args, in_dir("out.exr"));
+    int rc = run(cmd, NULL, 0, err, err_cap);
+    if (rc)
+        fail_msg("`%s`: exit %d: %s", cmd, rc, err);
+    ExrLayers l;
+    SptError e = {0};
+    const char *rgb[3] = {"R", "G", "B"};
+    if (exr_read_layers(in_dir("out.exr"), rgb, 3, &l, &e))
+        fail_msg("%s", e.msg);
+    const float *c[3];
+    for (int k = 0; k < 3; k++)
+        c[k] = exr_layers_channel(&l, rgb[k])->data;
+    double sum = 0.0;
+    int bad = 0, n = l.width * l.height;
+    for (int i = 0; i < n; i++) {
+        double y = 0.2126 * c[0][i] + 0.7152 * c[1][i] + 0.0722 * c[2][i];
+        if (isfinite(y))
+            sum += y;
+        else
+            bad++;
+    }
+    exr_layers_free(&l);
+    *nonfinite = bad;
+    return sum / n;
+}
+
+/* ---- Case 2: KHR_materials_dispersion of any value ------------------------------ */
+
+/* tests/data/scenes/mat_furnace_roughglass.gltf (a glass sphere of ior 1.5
+ * filling most of the view, no lights: the default white sky of radiance 1)
+ * with the given roughness and dispersion, written to path. */
+static void furnace_glass(const char *path, const char *roughness, double dispersion)
+{
+    FILE *f = fopen("tests/data/scenes/mat_furnace_roughglass.gltf", "r");
+    assert_non_null(f);
+    static char text[1 << 18], out[1 << 18];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    text[n] = 0;
+    fclose(f);
+    char disp[128], rough[64];
+    snprintf(disp, sizeof disp, "\"KHR_materials_dispersion\": {\"dispersion\": %.17g}, ", dispersion);
+    snprintf(rough, sizeof rough, "\"roughnessFactor\": %s", roughness);
+    /* Each edit: a marker in the file and what replaces or precedes it. */
+    const char *mark[3] = {"\"roughnessFactor\": 0.5", "\"KHR_materials_ior\": {", "\"KHR_materials_ior\",\n"};
+    const char *ins[3] = {rough, disp, "\"KHR_materials_dispersion\", "};
+    const int replace[3] = {1, 0, 0};
+    char *src = text;
+    for (int k = 0; k < 3; k++) {
+        char *p = strstr(src, mark[k]);
+        if (!p)
+            fail_msg("mat_furnace_roughglass.gltf lacks %s", mark[k]);
+        size_t off = (size_t)(p - src);
+        snprintf(out, sizeof out, "%.*s%s%s", (int)off, src, ins[k], replace[k] ? p + strlen(mark[k]) : p);
+        memcpy(text, out, strlen(out) + 1);
+        src = text;
+    }
+    write_text(path, text);
+}
+
+/* A non-absorbing dielectric (base colour white, transmission 1) in a white
+ * furnace creates no light: every pixel's expected value is at most the sky's,
+ * Y = 1, whatever its index at each wavelength, and exactly 1 for smooth glass.
+ * The dispersion law of KHR_materials_dispersion gives indices below 1 and
+ * negative ones from about dispersion 200 on (ior 1.5, at 830 nm); docs/gltf.md,
+ * KHR_materials_dispersion, says what the renderer does there. Smooth glass must
+ * give 1 within 6% (the image mean's noise at 16 x 16 pixels, 128 samples, is
+ * about 1%; the sphere's interpolated normals kill a few grazing paths, 1-3%
+ * with strong dispersion); rough glass between 0.6 and 1 (single-scattering GGX
+ * loses energy: 0.88 at ior 1.5 without dispersion, as
+ * tests/data/mitsuba/mat_furnace_roughglass_means.json has it). */
+static void test_dispersion_furnace(void **state)
+{
+    (void)state;
+    const double disp[] = {0, 1, 20, 150, 200, 300, 1000, 1e5, 1e6};
+    const char *rough[] = {"0.0", "0.5"};
+    char err[8192], args[1024];
+    int failed = 0;
+    for (int r = 0; r < 2; r++)
+        for (size_t i = 0; i < sizeof disp / sizeof disp[0]; i++) {
+            furnace_glass(in_dir("glass.gltf"), rough[r], disp[i]);
+            snprintf(args, sizeof args, "%s --width 16 --spp 128", in_dir("glass.gltf"));
+            int bad;
+            double y = render_mean_y(args, &bad, err, sizeof err);
+            print_message("  roughness %s dispersion %g: mean Y %.4f, %d non-finite\n", rough[r], disp[i], y, bad);
+            int ok = r == 0 ? fabs(y - 1.0) < 0.06 : y > 0.6 && y < 1.02;
+            if (bad || !ok || strstr(err, "warning")) {
+                print_error("roughness %s, dispersion %g: mean Y %g (furnace: 1, or below it for rough glass), %d non-finite pixels; stderr: %s\n",
+                            rough[r], disp[i], y, bad, err);
+                failed++;
+            }
+        }
+    assert_int_equal(failed, 0);
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(dir, sizeof dir, "/tmp/spt_hostile_spectra_XXXXXX");
+    return mkdtemp(dir) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_dispersion_furnace),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
