@@ -179,6 +179,35 @@ static void test_dispersion_furnace(void **state)
     assert_int_equal(failed, 0);
 }
 
+/* ---- Case 4: dim blackbody skies ------------------------------------------------ */
+
+/* `--background blackbody:T` is the SPD normalised to luminance 1: smooth glass
+ * of dispersion 0 in that sky (a furnace) has mean Y 1 at every temperature the
+ * option accepts, from the dimmest (about 24 K, where Planck's law underflows
+ * in double) to 1e5 K. Below that it is refused as having no luminance. */
+static void test_dim_blackbody_sky(void **state)
+{
+    (void)state;
+    const char *temps[] = {"100", "160", "200", "1000", "6500", "1e5"};
+    char err[8192], args[1024];
+    int failed = 0;
+    furnace_glass(in_dir("sky.gltf"), "0.0", 0);
+    for (size_t i = 0; i < sizeof temps / sizeof temps[0]; i++) {
+        snprintf(args, sizeof args, "%s --width 8 --spp 1024 --background blackbody:%s", in_dir("sky.gltf"), temps[i]);
+        int bad;
+        double y = render_mean_y(args, &bad, err, sizeof err);
+        print_message("  blackbody:%s K: mean Y %.4f, %d non-finite\n", temps[i], y, bad);
+        if (bad || !(fabs(y - 1.0) < 0.05) || strstr(err, "warning")) {
+            print_error("blackbody:%s: mean Y %g (want 1), %d non-finite; stderr: %s\n", temps[i], y, bad, err);
+            failed++;
+        }
+    }
+    assert_int_equal(failed, 0);
+    snprintf(args, sizeof args, "render %s --width 8 --spp 1 " TINY " -o %s --background blackbody:10",
+             in_dir("sky.gltf"), in_dir("no.exr"));
+    refused(args, 2, (const char *const[]){"blackbody:10", "no luminance", NULL});
+}
+
 static int setup(void **state)
 {
     (void)state;
@@ -198,6 +227,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_dispersion_furnace),
+        cmocka_unit_test(test_dim_blackbody_sky),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -70,25 +70,58 @@ static int sky_parse_background(Sky *sky, const char *bg, SptError *e)
     /* An SPD, normalised to luminance Y = 1 when rendered. */
     Spd spd;
     SptError e2 = {0};
+    /* A file that is there is bad input (its messages name it); anything else
+     * is a bad option value. */
+    struct stat st;
+    int is_file = stat(bg, &st) == 0;
     if (spd_parse(&spd, bg, &e2)) {
-        /* A file that is there but unusable is bad input (its message names it);
-         * anything else is a bad option value. */
-        struct stat st;
-        if (stat(bg, &st) == 0)
+        if (is_file)
             return spt_fail(e, e2.code, "--background: %s", e2.msg);
         return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': %s", bg, e2.msg);
     }
     double xyz[3];
     spd_to_xyz(&spd, xyz);
-    if (!(xyz[1] > 0)) {
-        spd_free(&spd);
-        return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': the SPD has no luminance", bg);
+    /* Normalised here, in double: a dim SPD's own values (a blackbody of 100 K
+     * peaks at 1e-35 in the visible) underflow float, where the renderer's
+     * table is. First by the 1 nm sums, then by what the renderer integrates:
+     * the product of the table and ybar, both linear between the 1 nm samples
+     * (the two differ for a steep SPD: a blackbody of 30 K has all its
+     * luminance in the last nm, which the sums count twice). The luminance of
+     * the float table must then be 1 to float's precision, or the SPD cannot be
+     * carried. */
+    double k = SPT_CIE_Y_INTEGRAL / xyz[1], y_grid = 0.0;
+    if (xyz[1] > 0 && isfinite(k)) {
+        for (int i = 0; i < spd.count; i++)
+            spd.value[i] *= k;
+        for (int i = 0; i < spd.line_count; i++)
+            spd.line_power[i] *= k;
+        sky->spd = spt_calloc(SPT_CIE_SAMPLES, sizeof(float));
+        spd_to_grid(&spd, sky->spd);
+        for (int pass = 0; pass < 2; pass++) {
+            y_grid = 0.0;
+            for (int i = 0; i + 1 < SPT_CIE_SAMPLES; i++) {
+                double ya = SPT_CIE_Y[i], yb = SPT_CIE_Y[i + 1], ga = sky->spd[i], gb = sky->spd[i + 1];
+                y_grid += (2.0 * ya * ga + ya * gb + yb * ga + 2.0 * yb * gb) / 6.0;
+            }
+            if (pass == 0 && y_grid > 0)
+                for (int i = 0; i < SPT_CIE_SAMPLES; i++)
+                    sky->spd[i] = (float)(sky->spd[i] * (SPT_CIE_Y_INTEGRAL / y_grid));
+        }
+    }
+    spd_free(&spd);
+    if (!(fabs(y_grid / SPT_CIE_Y_INTEGRAL - 1.0) < 1e-3)) {
+        free(sky->spd);
+        sky->spd = NULL;
+        const char *why = xyz[1] > 0 ? "its luminance is lost in the renderer's float arithmetic"
+                                     : "the SPD has no luminance (Y = 0 in 360-830 nm, or too dim to compute)";
+        if (is_file)
+            return spt_fail(e, SPT_EXIT_INPUT, "--background: %s: %s, so it cannot be normalised to Y = 1", bg, why);
+        return spt_fail(e, SPT_EXIT_USAGE, "--background '%s': %s, so it cannot be normalised to Y = 1", bg, why);
     }
     sky->kind = SPT_SKY_SPD;
-    sky->spd = spt_calloc(SPT_CIE_SAMPLES, sizeof(float));
-    spd_to_grid(&spd, sky->spd);
-    sky->spd_y = xyz[1];
-    spd_free(&spd);
+    /* The table's luminance is 1 already: render_lights.c scales by
+     * SPT_CIE_Y_INTEGRAL / spd_y. */
+    sky->spd_y = SPT_CIE_Y_INTEGRAL;
     return SPT_EXIT_OK;
 }
 

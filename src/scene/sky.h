@@ -20,7 +20,8 @@ typedef struct Sky {
     int kind;                 /* SPT_SKY_* */
     float rgb[3];             /* SPT_SKY_RGB */
     float *spd;               /* SPT_SKY_SPD: SPT_CIE_SAMPLES floats, the SPD on the 1 nm grid */
-    double spd_y;             /* SPT_SKY_SPD: its luminance Y (> 0) */
+    double spd_y;             /* SPT_SKY_SPD: the table's luminance Y (> 0; the sums
+                                 of ybar times it, SPT_CIE_Y_INTEGRAL for luminance 1) */
     float *map;               /* SPT_SKY_MAP: 3 floats per texel, rows top to bottom */
     int map_width, map_height;
     /* Where it came from, as given on the command line (NULL: not given): for
