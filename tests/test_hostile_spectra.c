@@ -208,6 +208,39 @@ static void test_dim_blackbody_sky(void **state)
     refused(args, 2, (const char *const[]){"blackbody:10", "no luminance", NULL});
 }
 
+/* ---- Case 13 and 15: SPD files of one sample, no luminance, bad lines ------------- */
+
+static void test_spd_csv_refused(void **state)
+{
+    (void)state;
+    char args[1024];
+    furnace_glass(in_dir("csv.gltf"), "0.0", 0);
+    /* One sample: the README's SPD has at least 2 rows (linear between them). */
+    write_text(in_dir("one.csv"), "wavelength,value\n400,1\n");
+    snprintf(args, sizeof args, "color %s", in_dir("one.csv"));
+    refused(args, 3, (const char *const[]){in_dir("one.csv"), "at least 2", NULL});
+    snprintf(args, sizeof args, "render %s --width 8 --spp 1 " TINY " -o %s --background %s", in_dir("csv.gltf"),
+             in_dir("no.exr"), in_dir("one.csv"));
+    refused(args, 3, (const char *const[]){in_dir("one.csv"), "at least 2", NULL});
+    /* No luminance (infrared only): a bad input file, 3, in both commands. */
+    write_text(in_dir("ir.csv"), "900,1\n950,1\n");
+    snprintf(args, sizeof args, "color %s", in_dir("ir.csv"));
+    refused(args, 3, (const char *const[]){in_dir("ir.csv"), "no luminance", NULL});
+    snprintf(args, sizeof args, "render %s --width 8 --spp 1 " TINY " -o %s --background %s", in_dir("csv.gltf"),
+             in_dir("no.exr"), in_dir("ir.csv"));
+    refused(args, 3, (const char *const[]){in_dir("ir.csv"), "no luminance", NULL});
+    /* A line of numbers that are not a sample: the reason, not the format. */
+    const char *bad[][3] = {{"400,1\n0,1\n", "line 2", "not positive"},
+                            {"400,1\n500,-2\n", "line 2", "negative"},
+                            {"400,1\n500,inf\n", "line 2", "not finite"},
+                            {"400,1\n500\n", "line 2", "wavelength_nm,value"}};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        write_text(in_dir("bad.csv"), bad[i][0]);
+        snprintf(args, sizeof args, "color %s", in_dir("bad.csv"));
+        refused(args, 3, (const char *const[]){in_dir("bad.csv"), bad[i][1], bad[i][2], NULL});
+    }
+}
+
 static int setup(void **state)
 {
     (void)state;
@@ -228,6 +261,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_dispersion_furnace),
         cmocka_unit_test(test_dim_blackbody_sky),
+        cmocka_unit_test(test_spd_csv_refused),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -384,7 +384,19 @@ int spd_parse_csv(Spd *out, const char *path, const char *text_in, size_t text_s
             ok = end != q;
             while (isspace((unsigned char)*end))
                 end++;
-            ok = ok && (*end == 0 || *end == '#') && isfinite(a) && isfinite(b) && a > 0;
+            ok = ok && (*end == 0 || *end == '#');
+        }
+        /* Two numbers that are no sample: the reason, not the format. */
+        const char *why = !ok ? NULL
+                          : !isfinite(a) ? "the wavelength is not finite"
+                          : !(a > 0) ? "the wavelength is not positive"
+                          : !isfinite(b) ? "the value is not finite"
+                          : b < 0 ? "the value is negative (a spectrum is never negative)"
+                          : b > SPT_MAX_INPUT_VALUE ? "the value is above 1e30 (the renderer computes in float)"
+                                                    : NULL;
+        if (why) {
+            rc = spt_fail(e, SPT_EXIT_INPUT, "%s: line %d: %g nm, %g: %s", path, lineno, a, b, why);
+            goto done;
         }
         if (!ok) {
             /* One header line is allowed before the first sample. */
@@ -416,6 +428,12 @@ int spd_parse_csv(Spd *out, const char *path, const char *text_in, size_t text_s
     }
     if (n == 0) {
         rc = spt_fail(e, SPT_EXIT_INPUT, "%s: no samples (expected lines of 'wavelength_nm,value')", path);
+        goto done;
+    }
+    /* One sample is no spectrum (zero outside the samples, linear between). */
+    if (n == 1) {
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: one sample (%g nm); an SPD needs at least 2 rows, "
+                      "linear between them and zero outside", path, nm[0]);
         goto done;
     }
     {
