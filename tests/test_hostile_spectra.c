@@ -241,6 +241,86 @@ static void test_spd_csv_refused(void **state)
     }
 }
 
+/* ---- Case 12 and 15: color --pixel integrates bands ------------------------------- */
+
+/* A spectral EXR as `render --spectral n` lays it out (docs/outputs.md: n equal
+ * bands over 360-830 nm, each its mean spectral radiance, named by its centre),
+ * 2 x 1 pixels: pixel 0 flat (1 in every band), pixel 1 a step (band b holds
+ * b + 1); value bad (if not 0) replaces pixel 0's last band. */
+static void write_bands(const char *path, int n, float bad)
+{
+    static char names[64][32];
+    static float data[64][2];
+    ExrChannel ch[64];
+    for (int b = 0; b < n; b++) {
+        snprintf(names[b], sizeof names[b], "S0.%.6fnm", 360.0 + (b + 0.5) * 470.0 / n);
+        *strchr(names[b] + 3, '.') = ',';
+        data[b][0] = 1.0f;
+        data[b][1] = (float)(b + 1);
+        ch[b] = (ExrChannel){names[b], SPT_EXR_FLOAT, data[b], 0};
+    }
+    if (bad != 0.0f)
+        data[n - 1][0] = bad;
+    SptError e = {0};
+    if (exr_write_layers(path, 2, 1, ch, n, NULL, 0, &e))
+        fail_msg("%s", e.msg);
+}
+
+/* XYZ of a spectrum constant over each of n equal bands over 360-830 nm (band b
+ * of value f(b)): the CIE 1931 1 nm sums of cmf times the band's value (a 1 nm
+ * sample on the border of two bands takes their mean), over the sum of ybar,
+ * as the renderer's film normalises. */
+static void band_xyz(int n, int step, double xyz[3])
+{
+    double w = 470.0 / n;
+    xyz[0] = xyz[1] = xyz[2] = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        double x = i / w; /* the band coordinate of 360 + i nm */
+        int b = (int)floor(x);
+        double v = step ? b + 1.0 : 1.0;
+        if (fabs(x - floor(x + 0.5)) < 1e-9 && i > 0 && i < SPT_CIE_SAMPLES - 1)
+            v = step ? floor(x + 0.5) + 0.5 : 1.0;
+        if (b >= n)
+            v = step ? n : 1.0;
+        xyz[0] += SPT_CIE_X[i] * v;
+        xyz[1] += SPT_CIE_Y[i] * v;
+        xyz[2] += SPT_CIE_Z[i] * v;
+    }
+    for (int k = 0; k < 3; k++)
+        xyz[k] /= SPT_CIE_Y_INTEGRAL;
+}
+
+static void test_color_pixel_bands(void **state)
+{
+    (void)state;
+    const int counts[] = {1, 2, 3, 47};
+    char args[1024], out[4096], err[4096];
+    for (size_t c = 0; c < sizeof counts / sizeof counts[0]; c++)
+        for (int step = 0; step < 2; step++) {
+            write_bands(in_dir("bands.exr"), counts[c], 0.0f);
+            snprintf(args, sizeof args, "color --pixel %d,0 %s", step, in_dir("bands.exr"));
+            int rc = run(args, out, sizeof out, err, sizeof err);
+            if (rc)
+                fail_msg("`%s`: exit %d: %s", args, rc, err);
+            double got[3], want[3];
+            if (sscanf(out, "XYZ %lf %lf %lf", &got[0], &got[1], &got[2]) != 3)
+                fail_msg("`%s` printed: %s", args, out);
+            band_xyz(counts[c], step, want);
+            print_message("  %d bands, %s: XYZ %.6f %.6f %.6f, expected %.6f %.6f %.6f\n", counts[c],
+                          step ? "step" : "flat", got[0], got[1], got[2], want[0], want[1], want[2]);
+            for (int k = 0; k < 3; k++)
+                assert_close(got[k], want[k], 2e-6 + 1e-5 * want[k]);
+        }
+    /* A band value that is no radiance: the file, the pixel, the channel and why. */
+    const float bad[] = {-1.0f, NAN};
+    const char *why[] = {"negative", "not finite"};
+    for (int i = 0; i < 2; i++) {
+        write_bands(in_dir("bad.exr"), 2, bad[i]);
+        snprintf(args, sizeof args, "color --pixel 0,0 %s", in_dir("bad.exr"));
+        refused(args, 3, (const char *const[]){in_dir("bad.exr"), "pixel 0,0", "S0.712,500000nm", why[i], NULL});
+    }
+}
+
 static int setup(void **state)
 {
     (void)state;
@@ -262,6 +342,7 @@ int main(void)
         cmocka_unit_test(test_dispersion_furnace),
         cmocka_unit_test(test_dim_blackbody_sky),
         cmocka_unit_test(test_spd_csv_refused),
+        cmocka_unit_test(test_color_pixel_bands),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -30,13 +30,15 @@ static const char color_usage[] =
     "                  reflector has Y = 1 (no renormalisation to Y = 1)\n"
     "  --pixel X,Y     the spectrum of pixel (X, Y) (0-based, from the top left) of a\n"
     "                  spectral EXR (spectrace render --spectral: channels S0.<nm>nm\n"
-    "                  of Fichet et al. 2021), linear between the channels'\n"
-    "                  wavelengths, in the film's units as the renderer integrates\n"
-    "                  them: XYZ = sum of L(l) cmf(l) over the sum of ybar (1 nm),\n"
-    "                  not renormalised\n"
+    "                  of Fichet et al. 2021), each channel a band's mean radiance,\n"
+    "                  constant over the band (its borders half way between the\n"
+    "                  channels' wavelengths; one channel covers 360-830 nm), in\n"
+    "                  the film's units as the renderer integrates them: XYZ = sum\n"
+    "                  of L(l) cmf(l) over the sum of ybar (1 nm), not renormalised\n"
     "\n"
     "Exit codes: 0 ok, 2 usage, 3 unknown SPD name, unreadable or invalid CSV, an\n"
-    "SPD without luminance, or an EXR without spectral channels.\n";
+    "SPD without luminance, or an EXR without spectral channels or with a band\n"
+    "value that is negative or not finite.\n";
 
 /* Prints v with six decimals, never as -0.000000. */
 static void print_value(double v)
@@ -69,35 +71,90 @@ static double channel_nm(const char *name)
     return *end || !(v > 0) ? 0 : v;
 }
 
-/* The spectrum of pixel (x, y) of the spectral EXR at path into spd. */
-static int pixel_spd(const char *path, long x, long y, Spd *spd, SptError *e)
+typedef struct Band {
+    double nm, value;
+} Band;
+
+/* qsort order of bands by wavelength. */
+static int cmp_band(const void *a, const void *b)
+{
+    double x = ((const Band *)a)->nm, y = ((const Band *)b)->nm;
+    return x < y ? -1 : x > y;
+}
+
+/* The XYZ of pixel (x, y) of the spectral EXR at path, as the film's units
+ * (docs/outputs.md, "Spectral images"): each channel is its band's mean
+ * spectral radiance, so the spectrum is constant over each band, and XYZ is the
+ * 1 nm sums of cmf times it over the sum of ybar. Band borders lie half way
+ * between neighbouring channels' wavelengths, the outer ones as far out as the
+ * nearest inner one (so equal bands, as the renderer writes, come out exactly);
+ * a single channel covers the renderer's 360-830 nm. A 1 nm sample on a border
+ * takes the mean of both bands. */
+static int pixel_xyz(const char *path, long x, long y, double xyz[3], SptError *e)
 {
     ExrLayers L;
     int rc = exr_read_layers(path, NULL, 0, &L, e);
     if (rc)
         return rc;
-    double *nm = spt_malloc(sizeof(double) * (size_t)(L.channel_count + 1));
-    double *val = spt_malloc(sizeof(double) * (size_t)(L.channel_count + 1));
+    Band *band = spt_malloc(sizeof(Band) * (size_t)(L.channel_count + 1));
     int n = 0;
     if (x < 0 || y < 0 || x >= L.width || y >= L.height) {
         rc = spt_fail(e, SPT_EXIT_USAGE, "color: --pixel %ld,%ld is outside %s (%dx%d)", x, y, path,
                       L.width, L.height);
-    } else {
-        for (int c = 0; c < L.channel_count; c++) {
-            double w = channel_nm(L.channels[c].name);
-            if (w > 0 && L.channels[c].type == SPT_EXR_FLOAT) {
-                nm[n] = w;
-                val[n++] = ((const float *)L.channels[c].data)[(size_t)y * L.width + (size_t)x];
+        goto done;
+    }
+    for (int c = 0; c < L.channel_count; c++) {
+        double w = channel_nm(L.channels[c].name);
+        if (!(w > 0) || L.channels[c].type != SPT_EXR_FLOAT)
+            continue;
+        double v = ((const float *)L.channels[c].data)[(size_t)y * L.width + (size_t)x];
+        if (!(v >= 0.0) || !isfinite(v)) {
+            rc = spt_fail(e, SPT_EXIT_INPUT, "%s: pixel %ld,%ld, channel %s: %g is %s (a band's radiance is "
+                          "finite and >= 0)", path, x, y, L.channels[c].name, v,
+                          isfinite(v) ? "negative" : "not finite");
+            goto done;
+        }
+        band[n].nm = w;
+        band[n++].value = v;
+    }
+    if (n == 0) {
+        rc = spt_fail(e, SPT_EXIT_INPUT, "%s: no spectral channels (S0.<wavelength>nm): not a spectral "
+                      "EXR (spectrace render --spectral N writes one)", path);
+        goto done;
+    }
+    qsort(band, (size_t)n, sizeof *band, cmp_band);
+    for (int b = 1; b < n; b++)
+        if (band[b].nm == band[b - 1].nm) {
+            rc = spt_fail(e, SPT_EXIT_INPUT, "%s: two spectral channels at %g nm", path, band[b].nm);
+            goto done;
+        }
+    xyz[0] = xyz[1] = xyz[2] = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        double l = SPT_CIE_LAMBDA_MIN + i, v = 0.0;
+        int hits = 0;
+        for (int b = 0; b < n; b++) {
+            double lo = n == 1 ? SPT_CIE_LAMBDA_MIN
+                        : b > 0 ? 0.5 * (band[b - 1].nm + band[b].nm)
+                                : band[0].nm - 0.5 * (band[1].nm - band[0].nm);
+            double hi = n == 1 ? SPT_CIE_LAMBDA_MAX
+                        : b < n - 1 ? 0.5 * (band[b].nm + band[b + 1].nm)
+                                    : band[b].nm + 0.5 * (band[b].nm - band[b - 1].nm);
+            /* Borders compared to 1e-9 nm: the channel names carry 6 decimals. */
+            if (l >= lo - 1e-9 && l <= hi + 1e-9) {
+                v += band[b].value;
+                hits++;
             }
         }
-        if (n == 0)
-            rc = spt_fail(e, SPT_EXIT_INPUT, "%s: no spectral channels (S0.<wavelength>nm): not a spectral "
-                          "EXR (spectrace render --spectral N writes one)", path);
-        else
-            rc = spd_from_samples(spd, nm, val, n, e);
+        if (hits)
+            v /= hits;
+        xyz[0] += SPT_CIE_X[i] * v;
+        xyz[1] += SPT_CIE_Y[i] * v;
+        xyz[2] += SPT_CIE_Z[i] * v;
     }
-    free(nm);
-    free(val);
+    for (int k = 0; k < 3; k++)
+        xyz[k] /= SPT_CIE_Y_INTEGRAL;
+done:
+    free(band);
     exr_layers_free(&L);
     return rc;
 }
@@ -144,16 +201,13 @@ int cmd_color(int argc, char **argv)
         spt_error("color: --pixel and --reflectance do not go together (a pixel holds radiance)");
         return SPT_EXIT_USAGE;
     }
-    Spd spd;
+    Spd spd = {0};
     SptError e = {0};
-    if (pixel ? pixel_spd(spd_text, px, py, &spd, &e) : spd_parse(&spd, spd_text, &e))
-        return spt_report(&e);
     double xyz[3];
+    if (pixel ? pixel_xyz(spd_text, px, py, xyz, &e) : spd_parse(&spd, spd_text, &e))
+        return spt_report(&e);
     if (pixel) {
-        /* As the renderer's film: the 1 nm sums over the sum of ybar. */
-        spd_to_xyz(&spd, xyz);
-        for (int k = 0; k < 3; k++)
-            xyz[k] /= SPT_CIE_Y_INTEGRAL;
+        /* pixel_xyz's sums, as the renderer's film. */
     } else if (reflectance) {
         spd_reflectance_to_xyz(&spd, xyz);
     } else {
