@@ -236,11 +236,26 @@ SPT_FN vec3 bsdf_half_refract(vec3 wo, vec3 wi, float eta)
     return h.z < 0.0f ? v3_scale(h, -1.0f) : h;
 }
 
+/* The chance that the interface reflects at cosine cos_h (signed as
+ * bsdf_fresnel_dielectric takes it): the mean of the path's wavelengths'
+ * Fresnel reflectances, the hero's alone without dispersion. With a dispersive
+ * index the hero's may be near 0 (n near 1) where another's is not, and
+ * reflection's weight F_i / F_hero would be huge or, at F_hero = 0, that light
+ * lost (docs/gltf.md, KHR_materials_dispersion). */
+SPT_FN float bsdf_interface_q(const BsdfParams *p, float cos_h)
+{
+    float f = bsdf_fresnel_dielectric(cos_h, p->ior.x);
+    if (p->ior.x == p->ior.y && p->ior.x == p->ior.z && p->ior.x == p->ior.w)
+        return f;
+    return 0.25f * (f + bsdf_fresnel_dielectric(cos_h, p->ior.y) + bsdf_fresnel_dielectric(cos_h, p->ior.z) +
+                    bsdf_fresnel_dielectric(cos_h, p->ior.w));
+}
+
 /* The rough dielectric interface's f |cos i| contribution and its pdf for the
  * given wo, wi (Walter et al. 2007 eqs. 20-21 with VNDF sampling; pdf per
  * steradian of wi), for index eta (hero wavelength's value) and alpha. Fresnel is
  * the exact dielectric one; transmission is divided by eta'^2 (radiance). */
-SPT_FN float bsdf_interface_eval(vec3 wo, vec3 wi, float eta, float alpha, float *pdf)
+SPT_FN float bsdf_interface_eval_q(vec3 wo, vec3 wi, float eta, float alpha, const BsdfParams *pq, float *pdf)
 {
     *pdf = 0.0f;
     if (wo.z == 0.0f || wi.z == 0.0f)
@@ -257,8 +272,9 @@ SPT_FN float bsdf_interface_eval(vec3 wo, vec3 wi, float eta, float alpha, float
         h = bsdf_half_refract(wo, wi, eta);
     }
     float dwo = v3_dot(wo, h), dwi = v3_dot(wi, h);
-    /* Backfacing microfacets are discarded. */
-    if (dwo * wo.z <= 0.0f || dwi * wi.z <= 0.0f)
+    /* Backfacing microfacets are discarded, and so is an undefined h (a
+     * refraction at eta 1 straight through: wo + wi = 0). */
+    if (!(dwo * wo.z > 0.0f) || !(dwi * wi.z > 0.0f))
         return 0.0f;
     float F = bsdf_fresnel_dielectric(dwo, eta);
     float D = bsdf_ggx_d(h, alpha);
@@ -267,15 +283,22 @@ SPT_FN float bsdf_interface_eval(vec3 wo, vec3 wi, float eta, float alpha, float
     vec3 wi_up = wo.z > 0.0f ? wi : v3_scale(wi, -1.0f);
     float G = 1.0f / (1.0f + bsdf_ggx_lambda(wo_up, alpha) + bsdf_ggx_lambda(v3(wi_up.x, wi_up.y, fabsf(wi_up.z)), alpha));
     float vis = bsdf_ggx_vndf_pdf(wo_up, h, alpha);
+    float q = pq ? bsdf_interface_q(pq, dwo) : F;
     if (reflect) {
-        *pdf = vis / (4.0f * fabsf(dwo)) * F;
+        *pdf = vis / (4.0f * fabsf(dwo)) * q;
         return D * G * F / (4.0f * fabsf(wo.z));
     }
     float denom = dwi + dwo / etap;
     float jac = fabsf(dwi) / (denom * denom);
-    *pdf = vis * jac * (1.0f - F);
+    *pdf = vis * jac * (1.0f - q);
     float ft = D * G * (1.0f - F) * fabsf(dwi * dwo) / (fabsf(wo.z) * denom * denom);
     return ft / (etap * etap);
+}
+
+/* bsdf_interface_eval_q with the pdf of reflecting with eta's own Fresnel. */
+SPT_FN float bsdf_interface_eval(vec3 wo, vec3 wi, float eta, float alpha, float *pdf)
+{
+    return bsdf_interface_eval_q(wo, wi, eta, alpha, 0, pdf);
 }
 
 /* The base's (metallic-roughness, transmission) non-delta f |cos theta_i|, without
@@ -346,7 +369,7 @@ SPT_FN float bsdf_pdf(const BsdfParams *p, vec3 wo, vec3 wi)
     }
     if (pt > 0.0f && !smooth) {
         float pi_;
-        bsdf_interface_eval(wo, wi, p->ior.x, alpha, &pi_);
+        bsdf_interface_eval_q(wo, wi, p->ior.x, alpha, p, &pi_);
         pdf += pt * pi_;
     }
     if (pc > 0.0f && !bsdf_coat_smooth(p)) {
@@ -437,21 +460,28 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
         vec3 h = smooth ? v3(0.0f, 0.0f, 1.0f) : bsdf_ggx_sample_vndf(wo_up, alpha, u1, u2);
         float cos_h = wo.z > 0.0f ? v3_dot(wo, h) : -v3_dot(wo_up, h);
         float F = bsdf_fresnel_dielectric(cos_h, eta);
-        /* The smooth interface reflects with the mean of the wavelengths' Fresnel
-         * reflectances q, not the hero's alone: with a dispersive index the hero's
-         * may be near 0 (n near 1) where another wavelength's is not, and
-         * reflection's weight F_i / F_hero would be huge or, at F_hero = 0, its
-         * light lost (docs/gltf.md, KHR_materials_dispersion). */
-        vec4 fr = v4_splat(F);
-        float q = F;
-        if (smooth && dispersive_ior) {
-            fr = v4(F, bsdf_fresnel_dielectric(cos_h, p->ior.y), bsdf_fresnel_dielectric(cos_h, p->ior.z),
-                    bsdf_fresnel_dielectric(cos_h, p->ior.w));
-            q = 0.25f * (fr.x + fr.y + fr.z + fr.w);
-        }
+        /* Reflection with the chance q of bsdf_interface_q (bsdf_pdf's too). */
+        float q = bsdf_interface_q(p, cos_h);
         /* Reuse u0 for reflect/refract: u0/pt is uniform in [0, 1). */
         float ur = u0 / pt;
         int reflect = ur < q;
+        /* A hero of index 1 (docs/gltf.md: the clamp of a dispersive index)
+         * meets no interface: it passes straight through, smooth or rough (the
+         * rough refraction's half vector wo + wi would be 0). */
+        int matched = eta == 1.0f && !reflect;
+        if (matched) {
+            s.wi = v3_scale(wo, -1.0f);
+            s.dispersive = dispersive_ior;
+            s.is_delta = 1;
+            s.valid = 1;
+            s.pdf = pt * (1.0f - q);
+            s.weight = v4_scale(p->base, wt / s.pdf);
+            if (layered)
+                s.weight = v4_mul(s.weight, bsdf_layer_scale(p, wo, s.wi, &eo, &ei));
+            if (s.dispersive)
+                s.weight = v4_splat(s.weight.x);
+            return s;
+        }
         if (reflect) {
             s.wi = bsdf_reflect(wo, wo.z > 0.0f ? h : v3_scale(h, -1.0f));
         } else {
@@ -471,6 +501,10 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
             s.pdf = pt * (reflect ? q : 1.0f - q);
             if (reflect) {
                 /* Each wavelength's F over the chance q of reflecting. */
+                vec4 fr = v4_splat(F);
+                if (dispersive_ior)
+                    fr = v4(F, bsdf_fresnel_dielectric(cos_h, p->ior.y), bsdf_fresnel_dielectric(cos_h, p->ior.z),
+                            bsdf_fresnel_dielectric(cos_h, p->ior.w));
                 s.weight = v4_scale(fr, wt / s.pdf);
             } else {
                 float etap = wo.z > 0.0f ? eta : 1.0f / eta;
