@@ -387,15 +387,17 @@ int spd_parse_csv(Spd *out, const char *path, const char *text_in, size_t text_s
             ok = ok && (*end == 0 || *end == '#');
         }
         /* Two numbers that are no sample: the reason, not the format. */
-        const char *why = !ok ? NULL
-                          : !isfinite(a) ? "the wavelength is not finite"
-                          : !(a > 0) ? "the wavelength is not positive"
-                          : !isfinite(b) ? "the value is not finite"
-                          : b < 0 ? "the value is negative (a spectrum is never negative)"
-                          : b > SPT_MAX_INPUT_VALUE ? "the value is above 1e30 (the renderer computes in float)"
-                                                    : NULL;
-        if (why) {
-            rc = spt_fail(e, SPT_EXIT_INPUT, "%s: line %d: %g nm, %g: %s", path, lineno, a, b, why);
+        char why[160] = "";
+        if (ok && (!isfinite(a) || !(a > 0)))
+            snprintf(why, sizeof why, "wavelength %g nm is %s", a, isfinite(a) ? "not positive" : "not finite");
+        else if (ok && !isfinite(b))
+            snprintf(why, sizeof why, "%g nm: value %g is not finite", a, b);
+        else if (ok && b < 0)
+            snprintf(why, sizeof why, "%g nm: value %g is negative (a spectrum is never negative)", a, b);
+        else if (ok && b > SPT_MAX_INPUT_VALUE)
+            snprintf(why, sizeof why, "%g nm: value %g is above 1e30 (the renderer computes in float)", a, b);
+        if (why[0]) {
+            rc = spt_fail(e, SPT_EXIT_INPUT, "%s: line %d: %s", path, lineno, why);
             goto done;
         }
         if (!ok) {
