@@ -408,6 +408,43 @@ static void test_color_pixel_bands(void **state)
             for (int k = 0; k < 3; k++)
                 assert_close(got[k], want[k], 2e-6 + 1e-5 * want[k]);
         }
+    /* A rendered pixel: a sky of a flat spectrum seen directly (--max-depth 1:
+     * the glass sphere's pixels are black), whose bands are exact for any N.
+     * The bands' XYZ must be the XYZ of the same pixel's RGB (docs/architecture.md's
+     * matrix), which the film integrates from the same samples sample by sample.
+     * N = 1 and 47 only: each N is a kernel build of its own (8 s cold on PoCL),
+     * 47 shared with tests/test_spectral.c; the files above cover 2 and 3. */
+    const int rendered[] = {1, 47};
+    char flat[512];
+    snprintf(flat, sizeof flat, "%s", in_dir("flat.csv"));
+    write_text(flat, "360,1\n830,1\n");
+    furnace_glass(in_dir("flat.gltf"), "0.0", 0);
+    for (size_t c = 0; c < sizeof rendered / sizeof rendered[0]; c++) {
+        snprintf(args, sizeof args, "render %s --width 8 --spp 256 --max-depth 1 --background %s --spectral %d " TINY
+                 " -o %s", in_dir("flat.gltf"), flat, rendered[c], in_dir("flat.exr"));
+        int rc = run(args, NULL, 0, err, sizeof err);
+        if (rc)
+            fail_msg("`%s`: exit %d: %s", args, rc, err);
+        ExrLayers l;
+        SptError e = {0};
+        const char *rgb_names[3] = {"R", "G", "B"};
+        if (exr_read_layers(in_dir("flat.exr"), rgb_names, 3, &l, &e))
+            fail_msg("%s", e.msg);
+        double rgb[3], want[3], got[3];
+        for (int k = 0; k < 3; k++)
+            rgb[k] = ((const float *)exr_layers_channel(&l, rgb_names[k])->data)[0];
+        exr_layers_free(&l);
+        linear_srgb_to_xyz(rgb, want);
+        snprintf(args, sizeof args, "color --pixel 0,0 %s", in_dir("flat.exr"));
+        rc = run(args, out, sizeof out, err, sizeof err);
+        if (rc || sscanf(out, "XYZ %lf %lf %lf", &got[0], &got[1], &got[2]) != 3)
+            fail_msg("`%s`: exit %d: %s%s", args, rc, out, err);
+        print_message("  render --spectral %d, pixel 0,0: bands XYZ %.4f %.4f %.4f, its RGB's XYZ %.4f %.4f %.4f\n",
+                      rendered[c], got[0], got[1], got[2], want[0], want[1], want[2]);
+        assert_true(want[1] > 0.5);
+        for (int k = 0; k < 3; k++)
+            assert_close(got[k], want[k], 0.03 * want[k]);
+    }
     /* A band value that is no radiance: the file, the pixel, the channel and why. */
     const float bad[] = {-1.0f, NAN};
     const char *why[] = {"negative", "not finite"};
