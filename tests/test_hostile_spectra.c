@@ -14,7 +14,6 @@
 #include "device/bsdf.h"
 #include "io/exr.h"
 #include "shared/cie_data.h"
-#include "shared/spectrum.h"
 
 #define TINY "-q --device 0"
 

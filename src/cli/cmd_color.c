@@ -206,11 +206,10 @@ int cmd_color(int argc, char **argv)
     double xyz[3];
     if (pixel ? pixel_xyz(spd_text, px, py, xyz, &e) : spd_parse(&spd, spd_text, &e))
         return spt_report(&e);
-    if (pixel) {
-        /* pixel_xyz's sums, as the renderer's film. */
-    } else if (reflectance) {
+    /* With --pixel, xyz holds pixel_xyz's sums already. */
+    if (!pixel && reflectance) {
         spd_reflectance_to_xyz(&spd, xyz);
-    } else {
+    } else if (!pixel) {
         spd_to_xyz(&spd, xyz);
         if (!(xyz[1] > 0.0)) {
             spd_free(&spd);
