@@ -151,7 +151,8 @@ typedef struct Global {
     uint32_t total, next, done_count;
     uint32_t *ret_begin, *ret_n; /* chunks given back by failed devices */
     int ret_count, abort;      /* abort: a rank failed, hand out nothing more */
-    double t0;
+    double t0;                 /* the first chunk handed out (0 before): --time
+                                  counts from there, not from the kernel builds */
     uint64_t paths;
     int decile;
     Inflight local;            /* chunks on rank 0's own devices */
@@ -185,6 +186,8 @@ static void g_started(Global *G, int r)
 static int g_take(Global *G, uint32_t want, uint32_t *begin, uint32_t *n)
 {
     const RenderSettings *rs = G->rs;
+    if (G->t0 == 0.0)
+        G->t0 = spt_now();
     if (G->abort || g_stop || (rs->stop && *rs->stop) ||
         (rs->time_limit > 0 && spt_now() - G->t0 >= rs->time_limit))
         return 0;
@@ -424,7 +427,6 @@ static int mpi_render(const ClDeviceInfo *const *infos, int count, const GpuScen
                 G.done_count++;
             }
     G.decile = -1;
-    G.t0 = spt_now();
     G.finish = spt_calloc((size_t)g_size, sizeof(FinishMsg));
     G.started = spt_calloc((size_t)g_size, 1);
     film_init_full(&G.local_film, film->width, film->height, film->aov != NULL, film->bands);
@@ -452,7 +454,7 @@ static int mpi_render(const ClDeviceInfo *const *infos, int count, const GpuScen
         fputc('\n', stderr);
 
     *stats = lst;
-    stats->seconds = spt_now() - G.t0;
+    stats->seconds = G.t0 > 0.0 ? spt_now() - G.t0 : 0.0;
     stats->spp_done = G.done_count;
     int rc = 0;
     if (rc0)
@@ -466,7 +468,7 @@ static int mpi_render(const ClDeviceInfo *const *infos, int count, const GpuScen
             rc = spt_fail(e, G.finish[r].rc, "rank %d: %s", r, G.finish[r].msg);
     }
     int stopped = g_stop || (rs->stop && *rs->stop) ||
-                  (rs->time_limit > 0 && spt_now() - G.t0 >= rs->time_limit);
+                  (rs->time_limit > 0 && G.t0 > 0.0 && spt_now() - G.t0 >= rs->time_limit);
     if (!rc && g_stop)
         spt_note("render: stopped by a signal (SIGUSR2) after %u of %u samples per pixel; writing them",
                  G.done_count, G.total);

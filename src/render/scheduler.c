@@ -78,7 +78,7 @@ typedef struct Scheduler {
     unsigned char *done;      /* per relative sample index: rendered into a film */
     uint32_t done_count;
     uint64_t paths;
-    double t0;
+    double t0;                /* the render's start (sched_start); 0 before it */
     int decile;
     Film *film;               /* every completed chunk is added here */
     int workers;              /* devices rendering */
@@ -207,6 +207,18 @@ uint32_t render_deadline_chunk(uint32_t want, double left, double per_sample)
     return n < (double)want ? (uint32_t)n : want;
 }
 
+/* A device is ready to render (its program built, its buffers made): the
+ * render's time, which --time limits, starts with the first such device, so
+ * that a kernel build (seconds, or minutes on some implementations when not
+ * cached) is not counted against it (README.md, "--time"). */
+static void sched_start(Scheduler *s)
+{
+    pthread_mutex_lock(&s->lock);
+    if (s->t0 == 0.0)
+        s->t0 = spt_now();
+    pthread_mutex_unlock(&s->lock);
+}
+
 /* Worker who takes no more chunks. */
 static void sched_leave(Scheduler *s, int who)
 {
@@ -287,6 +299,7 @@ static void *worker_main(void *arg)
         sched_leave(wk->s, wk->index);
         return NULL;
     }
+    sched_start(wk->s);
     RenderParams p = *wk->base;
     p.pool_size = w.pool;
     w.stop = rs->stop;
@@ -674,7 +687,6 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
     s.total = rs->spp > 0 ? (uint32_t)rs->spp : 0;
     s.done = spt_calloc(s.total ? s.total : 1, 1);
     s.decile = -1;
-    s.t0 = spt_now();
     s.film = film;
     if (rs->adaptive == SPT_SWITCH_ON && !rs->take_chunk) {
         size_t npix = (size_t)film->width * film->height;
@@ -728,7 +740,7 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
         for (int i = 0; i < count; i++)
             pthread_join(th[i], NULL);
     }
-    stats->seconds = spt_now() - s.t0;
+    stats->seconds = s.t0 > 0.0 ? spt_now() - s.t0 : 0.0;
     if (rs->progress && isatty(2) && s.done_count > 0)
         fputc('\n', stderr);
     int failed = 0, rc = 0;
@@ -761,7 +773,7 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
         }
     }
     int stopped = (rs->stop && *rs->stop) || s.deadline ||
-                  (rs->time_limit > 0 && spt_now() - s.t0 >= rs->time_limit);
+                  (rs->time_limit > 0 && s.t0 > 0.0 && spt_now() - s.t0 >= rs->time_limit);
     if (failed == count && count > 1)
         rc = spt_fail(e, SPT_EXIT_DEVICE, "every device failed; the last error: %s", e->msg);
     else if (failed < count && s.done_count < s.total && !stopped && !rs->take_chunk)

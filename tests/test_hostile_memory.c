@@ -1,0 +1,208 @@
+/* Hostile runs for memory and time, run as a user would ($SPECTRACE_EXE, set by
+ * tests/run_tests.sh): renders too big for the memory they may have (the
+ * host-memory estimate against the memory a render really takes, and a limit
+ * on the address space), `--time` against a cold kernel build, and a second
+ * signal during that build. A cold build is made by an empty program cache
+ * (SPECTRACE_CACHE_DIR) and, on PoCL, its own cache off (POCL_KERNEL_CACHE=0)
+ * in a folder of the test's (POCL_CACHE_DIR: processes sharing PoCL's default
+ * folder remove each other's temporary files). */
+#include "test_util.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "core/util.h"
+#include "io/exr.h"
+
+#define SCENE "tests/data/scenes/furnace.gltf"
+
+static char dir[64];
+
+static const char *in_dir(const char *name)
+{
+    static char buf[8][512];
+    static int k;
+    k = (k + 1) % 8;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name);
+    return buf[k];
+}
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* The environment of a cold kernel build: an empty cache folder of our own
+ * and PoCL's (a new one per call). */
+static void cold_cache(void)
+{
+    static int n;
+    char c[512];
+    snprintf(c, sizeof c, "%s/cache%d", dir, n);
+    setenv("SPECTRACE_CACHE_DIR", c, 1);
+    snprintf(c, sizeof c, "%s/pocl%d", dir, n++);
+    setenv("POCL_CACHE_DIR", c, 1);
+    setenv("POCL_KERNEL_CACHE", "0", 1);
+}
+
+static void warm_cache(const char *saved)
+{
+    setenv("SPECTRACE_CACHE_DIR", saved, 1);
+    unsetenv("POCL_CACHE_DIR");
+    unsetenv("POCL_KERNEL_CACHE");
+}
+
+/* Runs $SPECTRACE_EXE with args (split at spaces; stdout to /dev/null, stderr
+ * read into err) in a child whose address space is limited to as_bytes (0: no
+ * limit). Once its stderr has a line starting with wait_for (NULL: never), it
+ * gets SIGINT, and a second SIGINT once the first one's note shows; *t_second
+ * (may be NULL) gets the seconds from the second signal to the exit. Returns
+ * the exit status, or 128 + the signal that killed it. */
+static int run_child(const char *args, unsigned long long as_bytes, const char *wait_for,
+                     char *err, size_t cap, double *t_second)
+{
+    char buf[2048];
+    snprintf(buf, sizeof buf, "%s", args);
+    char *argv[64];
+    int argc = 0;
+    argv[argc++] = getenv("SPECTRACE_EXE");
+    if (!argv[0])
+        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
+    for (char *save = NULL, *t = strtok_r(buf, " ", &save); t && argc < 63;
+         t = strtok_r(NULL, " ", &save))
+        argv[argc++] = t;
+    argv[argc] = NULL;
+    int fds[2];
+    assert_int_equal(pipe(fds), 0);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        dup2(fds[1], 2);
+        close(fds[0]);
+        close(fds[1]);
+        int null = open("/dev/null", O_WRONLY);
+        dup2(null, 1);
+        if (as_bytes) {
+            struct rlimit rl = {as_bytes, as_bytes};
+            setrlimit(RLIMIT_AS, &rl);
+        }
+        alarm(300); /* a hang ends as SIGALRM, which fails the test */
+        execv(argv[0], argv);
+        _exit(127);
+    }
+    close(fds[1]);
+    FILE *f = fdopen(fds[0], "r");
+    size_t n = 0;
+    int sent = 0;
+    double t2 = 0.0;
+    char line[4096];
+    err[0] = 0;
+    while (fgets(line, sizeof line, f)) {
+        size_t len = strlen(line);
+        if (n + len < cap) {
+            memcpy(err + n, line, len + 1);
+            n += len;
+        }
+        if (wait_for && sent == 0 && !strncmp(line, wait_for, strlen(wait_for))) {
+            kill(pid, SIGINT);
+            sent = 1;
+        } else if (sent == 1 && !strncmp(line, "note: stopping", 14)) {
+            t2 = now();
+            kill(pid, SIGINT);
+            sent = 2;
+        }
+    }
+    fclose(f);
+    int st;
+    waitpid(pid, &st, 0);
+    if (t_second)
+        *t_second = sent == 2 ? now() - t2 : -1.0;
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+static int exists(const char *path)
+{
+    struct stat st;
+    return lstat(path, &st) == 0;
+}
+
+/* The lines of err that start with "error:"; fails unless there is exactly one
+ * and it contains want. */
+static void one_error_line(const char *err, const char *want)
+{
+    int count = 0;
+    const char *line = NULL;
+    for (const char *p = err; p && *p; p = strchr(p, '\n') ? strchr(p, '\n') + 1 : NULL)
+        if (!strncmp(p, "error:", 6)) {
+            count++;
+            line = p;
+        }
+    if (count != 1)
+        fail_msg("expected one error line, got %d:\n%s", count, err);
+    const char *end = strchr(line, '\n');
+    if (want && !(strstr(line, want) && (!end || strstr(line, want) < end)))
+        fail_msg("expected '%s' in the error line:\n%s", want, err);
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(dir, sizeof dir, "/tmp/spt_hmem_XXXXXX");
+    return mkdtemp(dir) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+/* --time counts the render from its first sample, not from the start of the
+ * kernel build: with a cold build (seconds on PoCL) and --time 1, the run ends
+ * with exit 0 and an image of at least one sample in every pixel (its spp
+ * layer), never with exit 130, which only a signal may cause. */
+static void test_time_excludes_cold_build(void **state)
+{
+    (void)state;
+    char saved[512], args[1024], err[16384];
+    snprintf(saved, sizeof saved, "%s", getenv("SPECTRACE_CACHE_DIR") ? getenv("SPECTRACE_CACHE_DIR") : "");
+    const char *out = in_dir("time.exr");
+    snprintf(args, sizeof args, "render " SCENE " --width 8 --spp 1000000 --time 1 --aov spp "
+             "--device 0 -o %s", out);
+    cold_cache();
+    int rc = run_child(args, 0, NULL, err, sizeof err, NULL);
+    warm_cache(saved);
+    if (rc != 0)
+        fail_msg("exit %d, expected 0:\n%s", rc, err);
+    if (!strstr(err, "building the kernels"))
+        fail_msg("the build was not cold:\n%s", err);
+    ExrLayers L;
+    SptError e = {0};
+    static const char *want[] = {"R", "G", "B", "spp"};
+    if (exr_read_layers(out, want, 4, &L, &e))
+        fail_msg("%s", e.msg);
+    const float *spp = exr_layers_channel(&L, "spp")->data;
+    size_t npix = (size_t)L.width * L.height, low = 0;
+    for (size_t i = 0; i < npix; i++)
+        low += !(spp[i] >= 1.0f);
+    exr_layers_free(&L);
+    if (low)
+        fail_msg("%zu of %zu pixels without a sample:\n%s", low, npix, err);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_time_excludes_cold_build),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
