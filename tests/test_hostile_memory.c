@@ -199,10 +199,47 @@ static void test_time_excludes_cold_build(void **state)
         fail_msg("%zu of %zu pixels without a sample:\n%s", low, npix, err);
 }
 
+/* A second SIGINT during a cold kernel build stops the run at once: exit 130
+ * with one error line, nothing written, no temporary output and nothing in the
+ * program cache (the build given up is not stored). The build takes seconds on PoCL (more on the other
+ * implementations); the run must end within 2 s of the second signal, which
+ * it is sent once the first one's note shows. */
+static void test_second_sigint_during_build(void **state)
+{
+    (void)state;
+    char saved[512], args[1024], err[16384];
+    snprintf(saved, sizeof saved, "%s", getenv("SPECTRACE_CACHE_DIR") ? getenv("SPECTRACE_CACHE_DIR") : "");
+    const char *out = in_dir("int.exr");
+    snprintf(args, sizeof args, "render " SCENE " --width 8 --spp 4 --device 0 -o %s", out);
+    cold_cache();
+    const char *cache = getenv("SPECTRACE_CACHE_DIR");
+    char cache_dir[512];
+    snprintf(cache_dir, sizeof cache_dir, "%s", cache);
+    double t = 0.0;
+    double t0 = now();
+    int rc = run_child(args, 0, "device 0: building the kernels", err, sizeof err, &t);
+    double total = now() - t0;
+    warm_cache(saved);
+    if (rc != 130)
+        fail_msg("exit %d, expected 130 (%.2f s after the second signal):\n%s", rc, t, err);
+    if (!(t >= 0.0))
+        fail_msg("the run ended before the second signal:\n%s", err);
+    one_error_line(err, "stopped by a second signal during the kernel build");
+    if (t > 2.0)
+        fail_msg("the run ended %.2f s after the second signal (%.2f s in all):\n%s", t, total, err);
+    assert_false(exists(out));
+    char cmd[1200];
+    snprintf(cmd, sizeof cmd, "find '%s' -maxdepth 1 -name '*.spt-tmp-*' | grep -q . || "
+             "find '%s' -type f 2>/dev/null | grep -q .", dir, cache_dir);
+    if (system(cmd) == 0)
+        fail_msg("a temporary output in %s, or a file in the program cache %s", dir, cache_dir);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_time_excludes_cold_build),
+        cmocka_unit_test(test_second_sigint_during_build),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

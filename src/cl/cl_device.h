@@ -6,6 +6,7 @@
 #ifndef SPT_CL_DEVICE_H
 #define SPT_CL_DEVICE_H
 
+#include <signal.h>
 #include <stddef.h>
 
 #include <CL/cl.h>
@@ -56,6 +57,11 @@ typedef struct ClDevice {
     double last_build_seconds; /* wall time of the last build, cache lookup included */
     char last_cache_path[4096];/* cache entry of the last build ("" without cache) */
     char *build_log;           /* full log of the last failed build, or NULL */
+    /* Set by the caller before a build: a compile from source says so on
+     * stderr when announce ("device N: building the kernels"), and gives up
+     * when *stop (may be NULL) reaches 2 (a second signal, README.md). */
+    volatile sig_atomic_t *stop;
+    int announce;
 } ClDevice;
 
 /* A named buffer size, for cl_device_check_memory. */
@@ -169,6 +175,14 @@ int cl_source_resolve_text(const char *name, const char *text, char **out, SptEr
  * both). Updates d's cache counters and timing. */
 int cl_program_build(ClDevice *d, const char *path, const char *options, cl_program *out,
                      SptError *e);
+
+/* A build from source runs in a thread of its own (clBuildProgram cannot be
+ * interrupted): when *d->stop reaches 2 the build function returns
+ * SPT_EXIT_INTERRUPTED at once and leaves the compile to end in that thread,
+ * which then drops it (nothing goes to the cache). cl_builds_abandoned says
+ * how many were left so: a process with one must end with _exit, as exit's
+ * clean-up of the OpenCL implementation could meet the compile still running. */
+int cl_builds_abandoned(void);
 
 /* The same for source text given by the caller (its includes resolved as in
  * cl_source_resolve_text). */

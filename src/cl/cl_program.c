@@ -3,12 +3,14 @@
 #include "cl/cl_internal.h"
 
 #include <errno.h>
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 /* Stores the build log of prog on d (replacing an older one). */
@@ -63,6 +65,102 @@ static cl_program program_from_binary(ClDevice *d, const unsigned char *bin, siz
         return NULL;
     }
     return prog;
+}
+
+/* A compile from source in a thread of its own (cl_program_build_text). Every
+ * field after the first four is guarded by lock; the waiter or, when the
+ * waiter gave up (abandoned), the thread frees the job. */
+typedef struct BuildJob {
+    cl_program prog;
+    cl_device_id dev;
+    char *opts;
+    cl_int err;
+    pthread_mutex_t lock;
+    pthread_cond_t cond;
+    int done, abandoned;
+} BuildJob;
+
+static pthread_mutex_t abandoned_lock = PTHREAD_MUTEX_INITIALIZER;
+static int abandoned_count;
+
+int cl_builds_abandoned(void)
+{
+    pthread_mutex_lock(&abandoned_lock);
+    int n = abandoned_count;
+    pthread_mutex_unlock(&abandoned_lock);
+    return n;
+}
+
+static void build_job_free(BuildJob *b)
+{
+    free(b->opts);
+    pthread_mutex_destroy(&b->lock);
+    pthread_cond_destroy(&b->cond);
+    free(b);
+}
+
+static void *build_thread(void *arg)
+{
+    BuildJob *b = arg;
+    cl_int err = clBuildProgram(b->prog, 1, &b->dev, b->opts, NULL, NULL);
+    pthread_mutex_lock(&b->lock);
+    b->err = err;
+    b->done = 1;
+    int gone = b->abandoned;
+    pthread_cond_signal(&b->cond);
+    pthread_mutex_unlock(&b->lock);
+    if (gone) {
+        clReleaseProgram(b->prog);
+        build_job_free(b);
+    }
+    return NULL;
+}
+
+/* clBuildProgram(prog) for d, given up when *d->stop reaches 2: the build's
+ * status, or 1 (not an OpenCL status) when given up, prog then no longer the
+ * caller's. Without a stop flag, or when no thread can be made, it builds in
+ * this thread. */
+static cl_int build_stoppable(ClDevice *d, cl_program prog, const char *opts)
+{
+    if (!d->stop)
+        return clBuildProgram(prog, 1, &d->info.id, opts, NULL, NULL);
+    BuildJob *b = spt_calloc(1, sizeof *b);
+    b->prog = prog;
+    b->dev = d->info.id;
+    b->opts = spt_strdup(opts);
+    pthread_mutex_init(&b->lock, NULL);
+    pthread_cond_init(&b->cond, NULL);
+    pthread_t th;
+    if (pthread_create(&th, NULL, build_thread, b)) {
+        build_job_free(b);
+        return clBuildProgram(prog, 1, &d->info.id, opts, NULL, NULL);
+    }
+    pthread_mutex_lock(&b->lock);
+    /* The signal handler only sets the flag: look at it every 20 ms. */
+    while (!b->done && *d->stop < 2) {
+        struct timespec ts;
+        clock_gettime(CLOCK_REALTIME, &ts);
+        ts.tv_nsec += 20000000L;
+        if (ts.tv_nsec >= 1000000000L) {
+            ts.tv_sec++;
+            ts.tv_nsec -= 1000000000L;
+        }
+        pthread_cond_timedwait(&b->cond, &b->lock, &ts);
+    }
+    if (!b->done) {
+        b->abandoned = 1;
+        pthread_mutex_unlock(&b->lock);
+        pthread_detach(th);
+        pthread_mutex_lock(&abandoned_lock);
+        abandoned_count++;
+        pthread_mutex_unlock(&abandoned_lock);
+        return 1;
+    }
+    cl_int err = b->err;
+    pthread_mutex_unlock(&b->lock);
+    pthread_join(th, NULL);
+    build_job_free(b);
+    return err;
 }
 
 int cl_program_build_text(ClDevice *d, const char *name, const char *text,
@@ -130,7 +228,17 @@ int cl_program_build_text(ClDevice *d, const char *name, const char *text,
     cl_program prog = NULL;
     SPT_CL_CHECK_GOTO(e, (prog = clCreateProgramWithSource(d->context, 1, &srcp, NULL, &err), err),
                       rc, done);
-    err = clBuildProgram(prog, 1, &d->info.id, opts.s, NULL, NULL);
+    if (d->announce) {
+        fprintf(stderr, "device %d: building the kernels (not in the cache; seconds to minutes)\n",
+                d->info.index);
+        fflush(stderr);
+    }
+    err = build_stoppable(d, prog, opts.s);
+    if (err == 1) {
+        rc = spt_fail(e, SPT_EXIT_INTERRUPTED, "render: stopped by a second signal during the "
+                      "kernel build of device [%d] %s; nothing written", d->info.index, d->info.name);
+        goto done;
+    }
     if (err != CL_SUCCESS) {
         keep_build_log(d, prog);
         clReleaseProgram(prog);

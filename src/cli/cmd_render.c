@@ -647,6 +647,13 @@ int cmd_render(int argc, char **argv)
         }
     }
     signals_restore();
+    /* A kernel build given up at a second signal still runs in its thread:
+     * exit's clean-up of the OpenCL implementation could meet it, so the
+     * process ends here (nothing of ours is left to write or remove). */
+    if (cl_builds_abandoned()) {
+        fflush(NULL);
+        _exit(rc);
+    }
     job_free(j);
     free(j);
     input_seen_reset();

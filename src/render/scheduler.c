@@ -761,7 +761,7 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
         }
         if (wk[i].rc) {
             failed++;
-            if (count > 1)
+            if (count > 1 && wk[i].rc != SPT_EXIT_INTERRUPTED)
                 spt_warn("device %d (%s) dropped: %s%s", i, infos[i]->name, wk[i].e.msg,
                          wk[i].build_log ? " (build log follows)" : "");
             if (wk[i].build_log)
@@ -774,7 +774,7 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
     }
     int stopped = (rs->stop && *rs->stop) || s.deadline ||
                   (rs->time_limit > 0 && s.t0 > 0.0 && spt_now() - s.t0 >= rs->time_limit);
-    if (failed == count && count > 1)
+    if (failed == count && count > 1 && rc != SPT_EXIT_INTERRUPTED)
         rc = spt_fail(e, SPT_EXIT_DEVICE, "every device failed; the last error: %s", e->msg);
     else if (failed < count && s.done_count < s.total && !stopped && !rs->take_chunk)
         rc = spt_fail(e, SPT_EXIT_FAILURE, "render incomplete: %u of %u samples per pixel done",

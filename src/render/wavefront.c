@@ -281,6 +281,8 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
              step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "",
              w->aov ? "-DSPT_AOV=1 " : "", bands_def,
              rs->test.inject_nan ? "-DSPT_TEST_INJECT_NAN=1" : "");
+    w->dev.stop = rs->stop;
+    w->dev.announce = rs->progress;
     if ((rc = cl_program_build(&w->dev, "kernels/device/wavefront.cl", options, &w->program, e)))
         return rc;
     for (int i = 0; i < K_COUNT; i++) {
