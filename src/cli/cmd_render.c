@@ -65,9 +65,13 @@ static void on_signal(int sig)
     (void)sig;
     static const char first[] = "note: stopping after the current chunk, or at once if it "
                                 "is long (a second signal stops at once)\n";
-    if (stop_requested == 0 && !signal_quiet && write(2, first, sizeof first - 1) < 0)
-        stop_requested = 0; /* nothing to do when stderr is gone */
-    stop_requested = stop_requested ? 2 : 1;
+    /* The flag before the note: whoever reads the note and sends a second
+     * signal finds the first one counted (that handler may run in another
+     * thread while this one is still writing). */
+    int first_signal = stop_requested == 0;
+    stop_requested = first_signal ? 1 : 2;
+    if (first_signal && !signal_quiet && write(2, first, sizeof first - 1) < 0)
+        return; /* nothing to do when stderr is gone */
 }
 
 static struct sigaction old_int, old_term, old_hup;
