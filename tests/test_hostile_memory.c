@@ -59,6 +59,9 @@ static void warm_cache(const char *saved)
     unsetenv("POCL_KERNEL_CACHE");
 }
 
+/* The peak resident memory (ru_maxrss, KiB) of the last run_child. */
+static long child_maxrss_kb;
+
 /* Runs $SPECTRACE_EXE with args (split at spaces; stdout to /dev/null, stderr
  * read into err) in a child whose address space is limited to as_bytes (0: no
  * limit). Once its stderr has a line starting with wait_for (NULL: never), it
@@ -121,7 +124,9 @@ static int run_child(const char *args, unsigned long long as_bytes, const char *
     }
     fclose(f);
     int st;
-    waitpid(pid, &st, 0);
+    struct rusage ru;
+    wait4(pid, &st, 0, &ru);
+    child_maxrss_kb = ru.ru_maxrss;
     if (t_second)
         *t_second = sent == 2 ? now() - t2 : -1.0;
     return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
@@ -235,9 +240,131 @@ static void test_second_sigint_during_build(void **state)
         fail_msg("a temporary output in %s, or a file in the program cache %s", dir, cache_dir);
 }
 
+/* The estimate of --profile's memory line ("memory: about N MiB|GiB ..."),
+ * in MiB; fails when there is none. */
+static double estimate_mib(const char *err)
+{
+    const char *m = strstr(err, "memory: about ");
+    if (!m)
+        fail_msg("no memory line:\n%s", err);
+    double v = 0.0;
+    char unit[8] = "";
+    if (sscanf(m + 14, "%lf %7s", &v, unit) != 2)
+        fail_msg("cannot read the memory line:\n%s", err);
+    return !strcmp(unit, "GiB") ? v * 1024.0 : v;
+}
+
+/* A 2048x1024 (or w x h) map of constant grey 0.5 as EXR. */
+static void write_map(const char *path, int w, int h)
+{
+    size_t n = (size_t)w * h * 3;
+    float *rgb = malloc(n * sizeof(float));
+    for (size_t i = 0; i < n; i++)
+        rgb[i] = 0.5f;
+    SptError e = {0};
+    if (exr_write_rgb(path, rgb, w, h, NULL, 0, &e))
+        fail_msg("%s", e.msg);
+    free(rgb);
+}
+
+/* The host-memory estimate (printed by --profile) against the peak resident
+ * memory the render really takes (ru_maxrss of the child): the difference
+ * between a large and a tiny render of the same kind, which leaves out what
+ * does not grow with the image (the program, PoCL, the compiler), must agree
+ * within 25%, for a plain render, 47 spectral bands, every AOV, and an
+ * environment map. The sizes keep each difference near 100-250 MiB, well
+ * above the noise of the allocator: 1024x1024 plain, 512x512 with bands or
+ * AOVs, and a 2048x1024 map against a 16x8 one (an 8x8 image), which is the
+ * 16384x8192 map's texels, tables and device copy per texel at 1/64 of the
+ * memory. The tiny render runs twice: the first builds the kernels when the
+ * program cache lacks them. */
+static void test_estimate_matches_rss(void **state)
+{
+    (void)state;
+    write_map(in_dir("map_big.exr"), 2048, 1024);
+    write_map(in_dir("map_small.exr"), 16, 8);
+    char env_small[600], env_big[600];
+    snprintf(env_small, sizeof env_small, "--width 8 --height 8 --env %s", in_dir("map_small.exr"));
+    snprintf(env_big, sizeof env_big, "--width 8 --height 8 --env %s", in_dir("map_big.exr"));
+    const struct {
+        const char *what, *tiny, *large;
+    } kind[] = {
+        {"plain", "--width 8 --height 8", "--width 1024 --height 1024"},
+        {"--spectral 47", "--width 8 --height 8 --spectral 47", "--width 512 --height 512 --spectral 47"},
+        {"--aov all", "--width 8 --height 8 --aov all", "--width 512 --height 512 --aov all"},
+        {"--env 2048x1024", env_small, env_big},
+    };
+    int bad = 0;
+    for (size_t k = 0; k < sizeof kind / sizeof kind[0]; k++) {
+        double est[2], rss[2];
+        for (int r = 0; r < 3; r++) {
+            char args[2048], err[16384];
+            snprintf(args, sizeof args, "render " SCENE " %s --max-depth 1 --spp 1 --profile "
+                     "--device 0 -o %s", r < 2 ? kind[k].tiny : kind[k].large, in_dir("rss.exr"));
+            int rc = run_child(args, 0, NULL, err, sizeof err, NULL);
+            if (rc != 0)
+                fail_msg("%s: exit %d:\n%s", kind[k].what, rc, err);
+            if (r == 0)
+                continue;
+            est[r - 1] = estimate_mib(err);
+            rss[r - 1] = child_maxrss_kb / 1024.0;
+        }
+        double de = est[1] - est[0], dr = rss[1] - rss[0];
+        print_message("  %-16s estimate %7.1f MiB, peak RSS %7.1f MiB more than the tiny render "
+                      "(%+.1f%%)\n", kind[k].what, de, dr, 100.0 * (de - dr) / dr);
+        if (!(fabs(de - dr) <= 0.25 * dr))
+            bad++;
+    }
+    if (bad)
+        fail_msg("%d estimates off by more than 25%% of the memory measured", bad);
+}
+
+/* Under a limit on the address space (ulimit -v), a render that would pass it
+ * is refused before any device work, with exit 4 and one error line giving the
+ * amount and the limit, instead of an abort inside the OpenCL implementation
+ * (SIGABRT, exit 134) or a failed allocation: --spectral 470 at 512x512 needs
+ * about 1.9 GiB (a film of 470 bands in double, their device and host sums),
+ * under a 2 GiB limit. */
+static void test_address_space_limit(void **state)
+{
+    (void)state;
+    char args[1024], err[16384];
+    snprintf(args, sizeof args, "render " SCENE " --width 512 --height 512 --spectral 470 --spp 1 -q "
+             "--device 0 -o %s", in_dir("as.exr"));
+    int rc = run_child(args, 2ull << 30, NULL, err, sizeof err, NULL);
+    if (rc != 4)
+        fail_msg("exit %d, expected 4:\n%s", rc, err);
+    one_error_line(err, "render: a 512x512 render needs about ");
+    if (!strstr(err, "that the address-space limit (ulimit -v) leaves") || err[strlen(err) - 1] != '\n' ||
+        strchr(err, '\n') != err + strlen(err) - 1)
+        fail_msg("expected one line naming the address-space limit:\n%s", err);
+    assert_false(exists(in_dir("as.exr")));
+}
+
+/* Small amounts read in MiB, never "0.0 GiB": a 256x256 render (about 19 MiB)
+ * under a limit of 1 MiB. */
+static void test_small_amounts_in_mib(void **state)
+{
+    (void)state;
+    char args[1024], err[16384];
+    snprintf(args, sizeof args, "render " SCENE " --width 256 --height 256 --spp 1 -q --device 0 -o %s",
+             in_dir("small.exr"));
+    setenv("SPECTRACE_MAX_MEMORY_MB", "1", 1);
+    int rc = run_child(args, 0, NULL, err, sizeof err, NULL);
+    unsetenv("SPECTRACE_MAX_MEMORY_MB");
+    if (rc != 4)
+        fail_msg("exit %d, expected 4:\n%s", rc, err);
+    one_error_line(err, "MiB of host memory");
+    if (!strstr(err, "more than the 1.0 MiB available") || strstr(err, "0.0 GiB"))
+        fail_msg("expected the amounts in MiB:\n%s", err);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_estimate_matches_rss),
+        cmocka_unit_test(test_address_space_limit),
+        cmocka_unit_test(test_small_amounts_in_mib),
         cmocka_unit_test(test_time_excludes_cold_build),
         cmocka_unit_test(test_second_sigint_during_build),
     };

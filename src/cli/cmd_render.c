@@ -289,24 +289,88 @@ static int open_devices(RenderJob *j, SptError *e)
     return gpu_scene_build(&j->gpu, &j->scene, e);
 }
 
-/* Before any device memory is taken: the host memory the image needs (the film's
- * double sums and counts, each device's chunk sums, and on a CPU device its
- * chunk buffer, which lives in host memory too; the output image and its
- * encoding) against spt_memory_limit. Too much is refused with the amounts
- * (SPT_EXIT_DEVICE, as a device's own limits are): the allocation would fail
- * later or the OpenCL implementation would abort. */
-static int check_host_memory(const RenderJob *j, SptError *e)
+/* The AOV layers an output may hold (make_layers): each keeps 3 floats per
+ * pixel in j->aov, whichever of them --aov asks for. */
+static const struct {
+    unsigned bit;
+    const char *names[3];
+} aov_layer[] = {
+    {SPT_AOV_ALBEDO, {"albedo.R", "albedo.G", "albedo.B"}},
+    {SPT_AOV_NORMAL, {"N.X", "N.Y", "N.Z"}},
+    {SPT_AOV_DEPTH, {"Z", NULL, NULL}},
+    {SPT_AOV_POSITION, {"P.X", "P.Y", "P.Z"}},
+    {SPT_AOV_VARIANCE, {"variance.R", "variance.G", "variance.B"}},
+    {SPT_AOV_SPP, {"spp", NULL, NULL}},
+};
+#define AOV_LAYERS ((int)(sizeof aov_layer / sizeof aov_layer[0]))
+
+/* The host memory write_outputs takes (after the render's own is freed): the
+ * linear sRGB image, the AOV layers (make_layers), the bands (spectral_layers),
+ * with --denoise the noisy image and the two guides (denoise), and for each
+ * output not written as EXR (which is encoded a few rows at a time) its
+ * encoding in memory, counted as 16 bytes per pixel (8-bit or float pixels
+ * and the encoded file; src/io/image_out.c). */
+static size_t output_bytes(const RenderArgs *a)
 {
-    double npix = (double)j->a.rs.width * j->a.rs.height;
-    double per_pixel = 32.0 + 12.0 + 16.0; /* film, linear RGB, encoder copy */
-    for (int i = 0; i < j->nsel; i++)
-        per_pixel += 16.0 + ((j->devs[i]->type & CL_DEVICE_TYPE_CPU) ? 16.0 : 0.0);
-    double need = npix * per_pixel, limit = spt_memory_limit();
+    const RenderSettings *rs = &a->rs;
+    size_t np = (size_t)rs->width * (size_t)rs->height, floats = 3;
+    if (rs->aov)
+        floats += (size_t)AOV_LAYERS * 3;
+    if (rs->spectral > 0)
+        floats += (size_t)rs->spectral;
+    if (rs->denoise)
+        floats += 3 * 3;
+    size_t bytes = np * floats * sizeof(float);
+    for (int i = 0; i < a->outputs_count; i++) {
+        const char *dot = strrchr(a->outputs[i], '.');
+        if (!dot || strcasecmp(dot, ".exr"))
+            bytes += np * 16;
+    }
+    return bytes;
+}
+
+/* Before any device memory is taken: the host memory the render will take on
+ * top of what is loaded (docs/limits.md, "The memory estimate"): the film, then
+ * the larger of the render's own memory (render_memory: adaptive sampling, the
+ * environment map's data, each device's host arrays and, on a CPU device, its
+ * buffers) and the outputs' (output_bytes), which are made after it is freed;
+ * against spt_memory_limit (the memory available, or the address space a
+ * limit leaves). Too much is refused with the amounts (SPT_EXIT_DEVICE, as a
+ * device's own limits are): the allocation would fail later, or the OpenCL
+ * implementation would abort. --profile prints the estimate. */
+static int check_host_memory(RenderJob *j, SptError *e)
+{
+    RenderSettings *rs = &j->a.rs;
+    rs->sky = &j->sky; /* render_memory reads the map's size */
+    RenderMemory m;
+    render_memory((const ClDeviceInfo *const *)j->devs, j->nsel, &j->gpu, &j->scene.camera, rs, &m);
+    double film = (double)film_bytes(rs->width, rs->height, render_keeps_aov(rs), rs->spectral);
+    double out = (double)output_bytes(&j->a);
+    double need = film + fmax((double)m.total, out), limit = spt_memory_limit();
+    char a[32], b[32], c[32], d[32], f[32], g[32];
+    if (rs->profile && !j->a.quiet) {
+        /* What is loaded already: the scene's arrays as the devices get them,
+         * and the environment map as read. */
+        double loaded = 0.0;
+#define LOADED(type, name) loaded += (double)gpu_scene_buffer_bytes(&j->gpu, NULL, #name);
+        SPT_SCENE_BUFFERS(LOADED)
+#undef LOADED
+        if (j->sky.kind == SPT_SKY_MAP)
+            loaded += 3.0 * sizeof(float) * (double)j->sky.map_width * (double)j->sky.map_height;
+        fprintf(stderr, "memory: about %s of host memory: %s loaded, %s for the render (film %s, "
+                "then the larger of the render's %s and the outputs' %s)\n",
+                spt_format_bytes(a, sizeof a, loaded + need), spt_format_bytes(b, sizeof b, loaded),
+                spt_format_bytes(c, sizeof c, need), spt_format_bytes(d, sizeof d, film),
+                spt_format_bytes(f, sizeof f, (double)m.total), spt_format_bytes(g, sizeof g, out));
+    }
     if (limit > 0 && need > limit)
-        return spt_fail(e, SPT_EXIT_DEVICE, "render: a %dx%d image needs about %.1f GiB of host "
-                        "memory (film, per-device sums, output), more than the %.1f GiB "
-                        "available (SPECTRACE_MAX_MEMORY_MB sets the limit)", j->a.rs.width,
-                        j->a.rs.height, need / 1073741824.0, limit / 1073741824.0);
+        return spt_fail(e, SPT_EXIT_DEVICE, "render: a %dx%d render needs about %s of host memory "
+                        "(film %s, then the larger of the render's %s and the outputs' %s), more "
+                        "than the %s %s",
+                        rs->width, rs->height, spt_format_bytes(a, sizeof a, need),
+                        spt_format_bytes(b, sizeof b, film), spt_format_bytes(c, sizeof c, (double)m.total),
+                        spt_format_bytes(d, sizeof d, out), spt_format_bytes(f, sizeof f, limit),
+                        spt_memory_limit_why());
     return SPT_EXIT_OK;
 }
 
@@ -440,28 +504,16 @@ static void describe_devices(const RenderJob *j, char *out, size_t cap)
  * layer.channel names, as Cycles and Mitsuba write them). */
 static void make_layers(RenderJob *j)
 {
-    static const struct {
-        unsigned bit;
-        const char *names[3];
-    } layer[] = {
-        {SPT_AOV_ALBEDO, {"albedo.R", "albedo.G", "albedo.B"}},
-        {SPT_AOV_NORMAL, {"N.X", "N.Y", "N.Z"}},
-        {SPT_AOV_DEPTH, {"Z", NULL, NULL}},
-        {SPT_AOV_POSITION, {"P.X", "P.Y", "P.Z"}},
-        {SPT_AOV_VARIANCE, {"variance.R", "variance.G", "variance.B"}},
-        {SPT_AOV_SPP, {"spp", NULL, NULL}},
-    };
     unsigned mask = j->a.rs.aov;
     size_t npix = (size_t)j->film.width * j->film.height;
-    int nl = (int)(sizeof layer / sizeof layer[0]);
-    j->aov = spt_malloc((size_t)nl * 3 * npix * sizeof(float));
-    for (int l = 0; l < nl; l++) {
-        if (!(mask & layer[l].bit) || (!j->film.aov && layer[l].bit != SPT_AOV_SPP))
+    j->aov = spt_malloc((size_t)AOV_LAYERS * 3 * npix * sizeof(float));
+    for (int l = 0; l < AOV_LAYERS; l++) {
+        if (!(mask & aov_layer[l].bit) || (!j->film.aov && aov_layer[l].bit != SPT_AOV_SPP))
             continue;
         float *px = j->aov + (size_t)l * 3 * npix;
-        int channels = film_aov_layer(&j->film, layer[l].bit, px);
+        int channels = film_aov_layer(&j->film, aov_layer[l].bit, px);
         for (int c = 0; c < channels; c++)
-            j->layers[j->layer_count++] = (ExrChannel){layer[l].names[c], SPT_EXR_FLOAT, px + c, channels};
+            j->layers[j->layer_count++] = (ExrChannel){aov_layer[l].names[c], SPT_EXR_FLOAT, px + c, channels};
     }
 }
 

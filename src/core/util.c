@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <sys/resource.h>
 
 int spt_fail(SptError *e, int code, const char *fmt, ...)
 {
@@ -76,7 +77,34 @@ void *spt_calloc(size_t count, size_t size) { return check(calloc(count ? count 
 void *spt_realloc(void *p, size_t n) { return check(realloc(p, n ? n : 1), n); }
 char *spt_strdup(const char *s) { return check(strdup(s), strlen(s) + 1); }
 
-double spt_memory_limit(void)
+/* What a kernel build from source maps beyond the memory we count (LLVM, PoCL's
+ * threads): a cold build on PoCL crashed (SIGSEGV in LLVM) with about 190 MiB
+ * of address space left after loading and worked with 580 MiB. */
+#define SPT_AS_RESERVE (512.0 * 1048576.0)
+
+/* The address space a limit (RLIMIT_AS: ulimit -v) leaves the process: the
+ * limit less what is mapped now (VmSize of /proc/self/status) and less
+ * SPT_AS_RESERVE for the OpenCL implementation (docs/limits.md); -1 without a
+ * limit. */
+static double address_space_left(void)
+{
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_AS, &rl) != 0 || rl.rlim_cur == RLIM_INFINITY)
+        return -1.0;
+    FILE *f = fopen("/proc/self/status", "r");
+    double kb = 0;
+    char line[256];
+    while (f && fgets(line, sizeof line, f))
+        if (sscanf(line, "VmSize: %lf kB", &kb) == 1)
+            break;
+    if (f)
+        fclose(f);
+    double left = (double)rl.rlim_cur - kb * 1024.0 - SPT_AS_RESERVE;
+    return left > 0.0 ? left : 0.0;
+}
+
+/* SPECTRACE_MAX_MEMORY_MB, else MemAvailable; 0 when neither is known. */
+static double memory_available(void)
 {
     const char *s = getenv("SPECTRACE_MAX_MEMORY_MB");
     if (s && *s) {
@@ -95,4 +123,33 @@ double spt_memory_limit(void)
     if (f)
         fclose(f);
     return kb * 1024.0;
+}
+
+static int limit_is_address_space;
+
+double spt_memory_limit(void)
+{
+    double as = address_space_left(), limit = memory_available();
+    limit_is_address_space = as >= 0.0 && (limit <= 0.0 || as < limit);
+    if (limit_is_address_space)
+        limit = as > 0.0 ? as : 1.0; /* 0 would mean no limit */
+    return limit;
+}
+
+const char *spt_memory_limit_why(void)
+{
+    return limit_is_address_space ? "that the address-space limit (ulimit -v) leaves"
+                                  : "available (SPECTRACE_MAX_MEMORY_MB sets the limit)";
+}
+
+const char *spt_format_bytes(char *buf, size_t n, double bytes)
+{
+    double gib = bytes / 1073741824.0;
+    if (gib >= 10.0)
+        snprintf(buf, n, "%.1f GiB", gib);
+    else if (gib >= 1.0)
+        snprintf(buf, n, "%.2f GiB", gib);
+    else
+        snprintf(buf, n, "%.1f MiB", bytes / 1048576.0);
+    return buf;
 }

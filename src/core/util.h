@@ -44,8 +44,18 @@ void spt_note(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 int spt_report(const SptError *e);
 
 /* The memory a render may use, in bytes: SPECTRACE_MAX_MEMORY_MB when set, else
- * MemAvailable of /proc/meminfo; 0 when neither is known (no limit). */
+ * MemAvailable of /proc/meminfo; 0 when neither is known (no limit). Under a
+ * limit on the address space (RLIMIT_AS, ulimit -v), at most what it leaves:
+ * allocations past it fail whatever memory is free. */
 double spt_memory_limit(void);
+/* The last spt_memory_limit's source, to follow "more than the N GiB":
+ * "available (SPECTRACE_MAX_MEMORY_MB sets the limit)" or "that the
+ * address-space limit (ulimit -v) leaves". */
+const char *spt_memory_limit_why(void);
+
+/* bytes for a message, into buf (n bytes): "12.5 GiB", "1.50 GiB", "612.3 MiB",
+ * "0.2 MiB" (GiB from 1 GiB on, so that an amount never reads 0.0 GiB). */
+const char *spt_format_bytes(char *buf, size_t n, double bytes);
 
 /* Monotonic wall clock in seconds. */
 double spt_now(void);

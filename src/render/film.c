@@ -19,16 +19,34 @@ void film_init_aov(Film *f, int width, int height, int aov)
     film_init_full(f, width, height, aov, 0);
 }
 
+/* The doubles per pixel of each of a film's arrays: XYZ, count, AOV sums,
+ * bands (film_init_full allocates, film_bytes counts). */
+static void film_per_pixel(int aov, int bands, size_t k[4])
+{
+    k[0] = 3;
+    k[1] = 1;
+    k[2] = aov ? SPT_AOV_SUMS : 0;
+    k[3] = bands > 0 ? (size_t)bands : 0;
+}
+
+size_t film_bytes(int width, int height, int aov, int bands)
+{
+    size_t k[4];
+    film_per_pixel(aov, bands, k);
+    return (size_t)width * (size_t)height * (k[0] + k[1] + k[2] + k[3]) * sizeof(double);
+}
+
 void film_init_full(Film *f, int width, int height, int aov, int bands)
 {
-    size_t n = (size_t)width * (size_t)height;
+    size_t n = (size_t)width * (size_t)height, k[4];
+    film_per_pixel(aov, bands, k);
     f->width = width;
     f->height = height;
-    f->xyz = spt_calloc(3 * n, sizeof(double));
-    f->count = spt_calloc(n, sizeof(double));
-    f->aov = aov ? spt_calloc(SPT_AOV_SUMS * n, sizeof(double)) : NULL;
-    f->bands = bands > 0 ? bands : 0;
-    f->spec = f->bands ? spt_calloc((size_t)f->bands * n, sizeof(double)) : NULL;
+    f->xyz = spt_calloc(k[0] * n, sizeof(double));
+    f->count = spt_calloc(k[1] * n, sizeof(double));
+    f->aov = k[2] ? spt_calloc(k[2] * n, sizeof(double)) : NULL;
+    f->bands = (int)k[3];
+    f->spec = k[3] ? spt_calloc(k[3] * n, sizeof(double)) : NULL;
 }
 
 void film_free(Film *f)

@@ -49,6 +49,8 @@ void film_init(Film *f, int width, int height);
 void film_init_aov(Film *f, int width, int height, int aov);
 /* Also keeps bands spectral band sums per pixel (0: none). */
 void film_init_full(Film *f, int width, int height, int aov, int bands);
+/* The bytes film_init_full allocates for those arguments. */
+size_t film_bytes(int width, int height, int aov, int bands);
 void film_free(Film *f);
 
 /* Zeroes every sum and count. */

@@ -203,7 +203,7 @@ int env_build_map(EnvLight *env, const float *rgb, int width, int height, float 
     g->texel_offset = 0;
     g->marginal_offset = (uint32_t)(4 * n);
     g->conditional_offset = g->marginal_offset + (uint32_t)height + 1u;
-    env->data_count = g->conditional_offset + (uint32_t)height * (uint32_t)(width + 1);
+    env->data_count = (uint32_t)sky_map_data_floats(width, height);
     env->data = spt_calloc(env->data_count, sizeof(float));
     float *row_w = spt_malloc(sizeof(float) * (size_t)(width > height ? width : height));
     float *row_sum = spt_malloc(sizeof(float) * (size_t)height);

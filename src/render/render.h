@@ -135,6 +135,22 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
  * number of samples. */
 uint32_t render_deadline_chunk(uint32_t want, double left, double per_sample);
 
+/* The host memory render_devices takes on top of the film and the loaded
+ * scene (docs/limits.md, "The memory estimate"), each part from the function
+ * that sizes its allocation: adaptive sampling's per-pixel arrays, the
+ * environment map's data and sampling tables (sky_map_data_floats of the
+ * map of rs->sky), and per device its host arrays (wavefront_plan) and, on a CPU
+ * device, whose buffers are host memory, every buffer. */
+typedef struct RenderMemory {
+    size_t scheduler;   /* adaptive sampling */
+    size_t lights;      /* the environment map's data */
+    size_t devices;     /* every device's host arrays and CPU buffers */
+    size_t total;       /* the sum */
+} RenderMemory;
+
+void render_memory(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
+                   const SceneCamera *cam, const RenderSettings *rs, RenderMemory *m);
+
 /* Renders samples [rs->sample_begin, rs->sample_begin + rs->spp) of every pixel
  * of g with camera cam on device info, adding them to film (which must be
  * rs->width x rs->height). Stops early, at a chunk boundary, when rs->stop is set

@@ -290,7 +290,7 @@ static void *worker_main(void *arg)
     Worker *wk = arg;
     const RenderSettings *rs = wk->s->rs;
     Wavefront w;
-    wk->rc = wavefront_create(&w, wk->info, wk->g, rs, wk->lights, &wk->e);
+    wk->rc = wavefront_create(&w, wk->info, wk->g, rs, wk->lights, wk->base->light_paths > 0, &wk->e);
     wk->st.build_seconds = w.dev.last_build_seconds;
     if (wk->rc) {
         if (w.dev.build_log)
@@ -303,15 +303,11 @@ static void *worker_main(void *arg)
     RenderParams p = *wk->base;
     p.pool_size = w.pool;
     w.stop = rs->stop;
-    float *sums = spt_malloc((size_t)rs->width * rs->height * 4 * sizeof(float));
-    float *aov_sums = w.aov ? spt_malloc((size_t)rs->width * rs->height * SPT_AOV_CHUNK_FLOATS *
-                                         sizeof(float))
-                            : NULL;
-    float *spec_sums = w.bands ? spt_malloc((size_t)rs->width * rs->height * (size_t)w.bands *
-                                            sizeof(float))
-                               : NULL;
-    float *sq_sums =
-        wk->s->adaptive ? spt_malloc((size_t)rs->width * rs->height * 4 * sizeof(float)) : NULL;
+    /* The host arrays as planned (wavefront_plan), which render_memory counts. */
+    float *sums = spt_malloc(w.plan.host_sums);
+    float *aov_sums = w.plan.host_aov ? spt_malloc(w.plan.host_aov) : NULL;
+    float *spec_sums = w.plan.host_spec ? spt_malloc(w.plan.host_spec) : NULL;
+    float *sq_sums = wk->s->adaptive ? spt_malloc(w.plan.host_sq) : NULL;
     int mask_gen = 0; /* the adaptive mask on the device: all pixels at first */
     /* The test hooks that concern this device. */
     int fail_after = rs->test.fail_device == wk->index + 1 ? rs->test.fail_after : -1;
@@ -577,8 +573,8 @@ static int scene_turns_light(const GpuScene *g)
  * triangle whose surface has a delta lobe that passes or turns light
  * (material_turns_light). It needs a perspective camera (pinhole or thin
  * lens). */
-static int caustics_enabled(const RenderSettings *rs, const RenderLights *L, const GpuScene *g,
-                            const SceneCamera *cam)
+static int caustics_may_run(const RenderSettings *rs, const RenderLights *L, const GpuScene *g,
+                            const SceneCamera *cam, int warn)
 {
     if (rs->caustics == SPT_SWITCH_OFF)
         return 0;
@@ -586,23 +582,29 @@ static int caustics_enabled(const RenderSettings *rs, const RenderLights *L, con
      * variance layer are made of camera samples, which then carry every
      * path (caustics included) themselves. */
     if (rs->spectral > 0 || (rs->aov & SPT_AOV_VARIANCE)) {
-        if (rs->caustics == SPT_SWITCH_ON)
+        if (rs->caustics == SPT_SWITCH_ON && warn)
             spt_warn("--caustics on: the light-tracing pass adds to the image only, not to %s; "
                      "rendering without it", rs->spectral > 0 ? "--spectral's bands" : "the variance layer");
         return 0;
     }
     if (cam->orthographic) {
-        if (rs->caustics == SPT_SWITCH_ON)
+        if (rs->caustics == SPT_SWITCH_ON && warn)
             spt_warn("--caustics on: the light-tracing pass needs a perspective camera (this one is "
                      "orthographic); rendering without it");
         return 0;
     }
     if (rs->caustics == SPT_SWITCH_ON)
         return 1;
-    if (g->emitter_count == 0 && g->light_count == 0 &&
+    if (g->emitter_count == 0 && g->light_count == 0 && L &&
         !(L->env.env.kind == SPT_ENV_MAP && L->env_prob > 0.0f))
         return 0;
     return scene_turns_light(g);
+}
+
+static int caustics_enabled(const RenderSettings *rs, const RenderLights *L, const GpuScene *g,
+                            const SceneCamera *cam)
+{
+    return caustics_may_run(rs, L, g, cam, 1);
 }
 
 int render_sampler_parse(const char *name, uint32_t *sampler)
@@ -675,6 +677,37 @@ static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *
     }
 }
 
+/* Adaptive sampling's per-pixel arrays of the scheduler (lag, taken, sq), and
+ * whether a render has them. */
+#define SCHED_LAG_BYTES sizeof(uint32_t)
+#define SCHED_TAKEN_BYTES sizeof(uint32_t)
+#define SCHED_SQ_BYTES (3 * sizeof(double))
+static int sched_adaptive(const RenderSettings *rs)
+{
+    return rs->adaptive == SPT_SWITCH_ON && !rs->take_chunk;
+}
+
+void render_memory(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
+                   const SceneCamera *cam, const RenderSettings *rs, RenderMemory *m)
+{
+    int light_film = caustics_may_run(rs, NULL, g, cam, 0);
+    memset(m, 0, sizeof *m);
+    size_t npix = (size_t)rs->width * (size_t)rs->height;
+    if (sched_adaptive(rs))
+        m->scheduler = npix * (SCHED_LAG_BYTES + SCHED_TAKEN_BYTES + SCHED_SQ_BYTES);
+    const Sky *sky = rs->sky;
+    size_t env_floats = sky && sky->kind == SPT_SKY_MAP ? sky_map_data_floats(sky->map_width, sky->map_height) : 0;
+    m->lights = env_floats * sizeof(float);
+    for (int i = 0; i < count; i++) {
+        WavefrontPlan p;
+        wavefront_plan(&p, infos[i], g, rs, NULL, env_floats, light_film);
+        m->devices += p.host_sums + p.host_aov + p.host_spec + p.host_sq;
+        if (infos[i]->type & CL_DEVICE_TYPE_CPU)
+            m->devices += p.device;
+    }
+    m->total = m->scheduler + m->lights + m->devices;
+}
+
 int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
                    const SceneCamera *cam, const RenderSettings *rs, Film *film,
                    RenderStats *stats, RenderDeviceStats *per_device, SptError *e)
@@ -688,15 +721,15 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
     s.done = spt_calloc(s.total ? s.total : 1, 1);
     s.decile = -1;
     s.film = film;
-    if (rs->adaptive == SPT_SWITCH_ON && !rs->take_chunk) {
+    if (sched_adaptive(rs)) {
         size_t npix = (size_t)film->width * film->height;
         s.adaptive = 1;
         s.seg_end = SPT_ADAPTIVE_FIRST;
-        s.lag = spt_calloc(npix, sizeof(uint32_t));
-        s.taken = spt_malloc(npix * sizeof(uint32_t));
+        s.lag = spt_calloc(npix, SCHED_LAG_BYTES);
+        s.taken = spt_malloc(npix * SCHED_TAKEN_BYTES);
         for (size_t i = 0; i < npix; i++)
             s.taken[i] = SPT_ADAPTIVE_FIRST;
-        s.sq = spt_calloc(3 * npix, sizeof(double));
+        s.sq = spt_calloc(npix, SCHED_SQ_BYTES);
     }
     s.workers = count;
     s.gone = spt_calloc((size_t)(count > 0 ? count : 1), 1);

@@ -182,11 +182,11 @@ static int group_size_for(cl_kernel k, cl_device_id dev, size_t *out, SptError *
     return 0;
 }
 
-int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
-                            const RenderSettings *rs, const RenderLights *L, SptError *e)
+void wavefront_plan(WavefrontPlan *p, const ClDeviceInfo *info, const GpuScene *g,
+                    const RenderSettings *rs, const RenderLights *L, size_t env_floats,
+                    int light_film)
 {
-    int rc;
-    memset(w, 0, sizeof *w);
+    memset(p, 0, sizeof *p);
     uint64_t npix = (uint64_t)rs->width * (uint64_t)rs->height;
     /* Samples per chunk: the pool 16 times over, with the per-sample
      * contribution buffer under 64 MiB. A chunk ends with its last paths
@@ -196,14 +196,14 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
      * a render keeps at least 16 chunks (when it has the samples), so that
      * several devices or MPI processes sharing it end close together (with 4
      * chunks, two processes reach 1.8 times one instead of 1.95). */
-    w->pool = pool_size_for(info, rs->pool_size, npix * (uint64_t)(rs->spp > 0 ? rs->spp : 1));
-    uint64_t spp = (16ull * w->pool + npix - 1) / npix;
+    p->pool = pool_size_for(info, rs->pool_size, npix * (uint64_t)(rs->spp > 0 ? rs->spp : 1));
+    uint64_t spp = (16ull * p->pool + npix - 1) / npix;
     if (rs->spp > 0 && spp > ((uint64_t)rs->spp + 15) / 16)
         spp = ((uint64_t)rs->spp + 15) / 16;
     /* With AOVs a sample also keeps 3 float4 (aov_sample). */
-    w->aov = render_keeps_aov(rs);
-    w->bands = rs->spectral > 0 ? rs->spectral : 0;
-    uint64_t sample_bytes = (w->aov ? 64ull : 16ull) + (w->bands ? 32ull : 0ull);
+    p->aov = render_keeps_aov(rs);
+    p->bands = rs->spectral > 0 ? rs->spectral : 0;
+    uint64_t sample_bytes = (p->aov ? 64ull : 16ull) + (p->bands ? 32ull : 0ull);
     uint64_t cap = (64ull << 20) / (npix * sample_bytes);
     if (spp > cap)
         spp = cap;
@@ -211,33 +211,68 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
         spp = 1;
     if (rs->spp > 0 && spp > (uint64_t)rs->spp)
         spp = (uint64_t)rs->spp;
-    w->chunk_spp = (uint32_t)spp;
+    p->chunk_spp = (uint32_t)spp;
 
-    /* Check everything against the device before allocating. */
-    ClAlloc allocs[64];
+    /* The buffers (a buffer unused in this build holds one element). */
+    p->counters = SPT_CNT_COUNT * sizeof(cl_uint);
+    p->queue_extend = (size_t)p->pool * sizeof(cl_uint);
+    p->contrib = (size_t)(npix * spp * 16ull);
+    p->chunk_sum = (size_t)npix * 16;
+    p->pixel_lag = (size_t)npix * 4;
+    p->chunk_sq = (size_t)npix * 16;
+    p->light_film = light_film ? (size_t)(npix * SPT_SPLAT_WORDS * 4ull) : 16;
+    p->aov_sample = p->aov ? (size_t)(npix * spp * 48ull) : 16;
+    p->aov_sum = p->aov ? (size_t)npix * 64 : 16;
+    p->spec_sample = p->bands ? (size_t)(npix * spp * 32ull) : 16;
+    p->spec_sum = p->bands ? (size_t)npix * 4 * (size_t)p->bands : 16;
+#define PS_BYTES(type, name) p->path_state += (size_t)p->pool * sizeof(type);
+#define SH_BYTES(type, name) p->shadow_state += (size_t)p->pool * sizeof(type);
+    SPT_PATH_STATE(PS_BYTES)
+    SPT_SHADOW_STATE(SH_BYTES)
+#undef PS_BYTES
+#undef SH_BYTES
+    /* The worker's host arrays (src/render/scheduler.c). */
+    p->host_sums = (size_t)npix * 4 * sizeof(float);
+    p->host_aov = p->aov ? (size_t)npix * SPT_AOV_CHUNK_FLOATS * sizeof(float) : 0;
+    p->host_spec = p->bands ? (size_t)npix * (size_t)p->bands * sizeof(float) : 0;
+    p->host_sq = rs->adaptive == SPT_SWITCH_ON && !rs->take_chunk ? (size_t)npix * 4 * sizeof(float) : 0;
+
+    ClAlloc *al = p->allocs;
     int na = 0;
-#define PLAN(type, nm) allocs[na].name = #nm; allocs[na++].bytes = gpu_scene_buffer_bytes(g, L, #nm);
+#define PLAN(type, nm)                                                                   \
+    al[na].name = #nm;                                                                   \
+    al[na].bytes = !L && !strcmp(#nm, "env_data") && env_floats ? env_floats * sizeof(float) \
+                                                                : gpu_scene_buffer_bytes(g, L, #nm); \
+    p->scene += al[na++].bytes;
     SPT_SCENE_BUFFERS(PLAN)
 #undef PLAN
-    allocs[na].name = "film contributions";
-    allocs[na++].bytes = (size_t)(npix * w->chunk_spp * 16ull);
-    allocs[na].name = "light film";
-    allocs[na++].bytes = (size_t)(npix * SPT_SPLAT_WORDS * 4ull);
-    if (w->aov) {
-        allocs[na].name = "AOV samples";
-        allocs[na++].bytes = (size_t)(npix * w->chunk_spp * 48ull);
-        allocs[na].name = "AOV sums";
-        allocs[na++].bytes = (size_t)(npix * 64ull);
-    }
-    if (w->bands) {
-        allocs[na].name = "spectral samples";
-        allocs[na++].bytes = (size_t)(npix * w->chunk_spp * 32ull);
-        allocs[na].name = "spectral band sums";
-        allocs[na++].bytes = (size_t)(npix * 4ull * (uint64_t)w->bands);
-    }
-    allocs[na].name = "path state";
-    allocs[na++].bytes = (size_t)w->pool * 168;
-    if ((rc = cl_device_check_memory(info, allocs, na, e)))
+#define WORK(type, nm) al[na].name = #nm; al[na++].bytes = p->nm;
+    SPT_WORK_BUFFERS(WORK)
+#undef WORK
+    al[na].name = "path state";
+    al[na++].bytes = p->path_state;
+    al[na].name = "shadow rays";
+    al[na++].bytes = p->shadow_state;
+    p->count = na;
+    for (int i = 0; i < na; i++)
+        p->device += al[i].bytes;
+}
+
+int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
+                            const RenderSettings *rs, const RenderLights *L, int light_film,
+                            SptError *e)
+{
+    int rc;
+    memset(w, 0, sizeof *w);
+    WavefrontPlan *pl = &w->plan;
+    wavefront_plan(pl, info, g, rs, L, 0, light_film);
+    w->pool = pl->pool;
+    w->chunk_spp = pl->chunk_spp;
+    w->aov = pl->aov;
+    w->bands = pl->bands;
+
+    /* Check everything against the device before allocating. */
+    if ((rc = cl_device_check_memory(info, pl->allocs, pl->count, e)))
         return rc;
 
     if ((rc = cl_device_open(&w->dev, info, rs->profile, e)))
@@ -312,32 +347,13 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
     SPT_SHADOW_STATE(MAKE_SH)
 #undef MAKE_PS
 #undef MAKE_SH
-    if ((rc = cl_buffer_create(&w->dev, "counters", CL_MEM_READ_WRITE,
-                               SPT_CNT_COUNT * sizeof(cl_uint), NULL, &w->b.counters, e)) ||
-        (rc = cl_buffer_create(&w->dev, "queue_extend", CL_MEM_READ_WRITE,
-                               pool * sizeof(cl_uint), NULL, &w->b.queue_extend, e)) ||
-        (rc = cl_buffer_create(&w->dev, "film contributions", CL_MEM_READ_WRITE,
-                               (size_t)(npix * w->chunk_spp * 16ull), NULL, &w->b.contrib, e)) ||
-        (rc = cl_buffer_create(&w->dev, "chunk sums", CL_MEM_READ_WRITE, (size_t)npix * 16,
-                               NULL, &w->b.chunk_sum, e)) ||
-        (rc = cl_buffer_create(&w->dev, "pixel lags", CL_MEM_READ_ONLY, (size_t)npix * 4, NULL,
-                               &w->b.pixel_lag, e)) ||
-        (rc = cl_buffer_create(&w->dev, "chunk squares", CL_MEM_READ_WRITE, (size_t)npix * 16,
-                               NULL, &w->b.chunk_sq, e)) ||
-        (rc = cl_buffer_create(&w->dev, "light film", CL_MEM_READ_WRITE,
-                               (size_t)(npix * SPT_SPLAT_WORDS * 4ull), NULL, &w->b.light_film, e)) ||
-        (rc = cl_buffer_create(&w->dev, "AOV samples", CL_MEM_READ_WRITE,
-                               w->aov ? (size_t)(npix * w->chunk_spp * 48ull) : 16, NULL,
-                               &w->b.aov_sample, e)) ||
-        (rc = cl_buffer_create(&w->dev, "AOV sums", CL_MEM_READ_WRITE,
-                               w->aov ? (size_t)npix * 64 : 16, NULL, &w->b.aov_sum, e)) ||
-        (rc = cl_buffer_create(&w->dev, "spectral samples", CL_MEM_READ_WRITE,
-                               w->bands ? (size_t)(npix * w->chunk_spp * 32ull) : 16, NULL,
-                               &w->b.spec_sample, e)) ||
-        (rc = cl_buffer_create(&w->dev, "spectral band sums", CL_MEM_READ_WRITE,
-                               w->bands ? (size_t)npix * 4 * (size_t)w->bands : 16, NULL,
-                               &w->b.spec_sum, e)))
+#define MAKE_WORK(type, name)                                                            \
+    if ((rc = cl_buffer_create(&w->dev, #name,                                           \
+                               !strcmp(#name, "pixel_lag") ? CL_MEM_READ_ONLY : CL_MEM_READ_WRITE, \
+                               pl->name, NULL, &w->b.name, e)))                          \
         return rc;
+    SPT_WORK_BUFFERS(MAKE_WORK)
+#undef MAKE_WORK
     /* Test hook (RenderTestHooks poison): every path, shadow, queue, counter and
      * film buffer first holds the test's word, so that a value read before
      * anything wrote it shows rather than whatever the fresh allocation held. */

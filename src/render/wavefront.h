@@ -27,6 +27,34 @@ typedef struct Buffers {
 #undef SH_MEMBER
 } Buffers;
 
+/* Every allocation of a render on one device, sized once (wavefront_plan) for
+ * both wavefront_create, which allocates from it, and the host-memory estimate
+ * (render_memory), so the two cannot differ: the device's buffers, and the
+ * host arrays the worker reads a chunk's sums into. */
+typedef struct WavefrontPlan {
+    uint32_t pool;         /* paths in flight */
+    uint32_t chunk_spp;    /* samples per pixel of a chunk */
+    int aov, bands;        /* as in Wavefront */
+#define SPT_PLAN_MEMBER(type, name) size_t name;
+    SPT_WORK_BUFFERS(SPT_PLAN_MEMBER)
+#undef SPT_PLAN_MEMBER
+    size_t path_state;     /* every path-state field, pool entries each */
+    size_t shadow_state;   /* every shadow-ray field, pool entries each */
+    size_t scene;          /* the scene buffers (env_data included) */
+    size_t device;         /* all of the above: every buffer on the device */
+    size_t host_sums, host_aov, host_spec, host_sq; /* the worker's host arrays */
+    ClAlloc allocs[64];    /* every buffer, for cl_device_check_memory */
+    int count;
+} WavefrontPlan;
+
+/* The plan of rendering g at rs's size on info's device. L may be NULL before
+ * the lights are set up: env_floats then gives the environment map's data
+ * (sky_map_data_floats; 0 without a map). light_film: the render has light paths
+ * (--caustics), which splat into the light film; else it is a placeholder. */
+void wavefront_plan(WavefrontPlan *p, const ClDeviceInfo *info, const GpuScene *g,
+                    const RenderSettings *rs, const RenderLights *L, size_t env_floats,
+                    int light_film);
+
 typedef struct Wavefront {
     ClDevice dev;
     cl_program program;
@@ -39,6 +67,7 @@ typedef struct Wavefront {
     int mega;              /* 1: k_paths runs whole paths (CPU devices), not the stages */
     int aov;               /* 1: the kernels keep AOVs (built with SPT_AOV) */
     int bands;             /* spectral bands (built with SPT_BANDS), 0: none */
+    WavefrontPlan plan;    /* the sizes of every buffer */
     void *host_mem[16];    /* memory of the scene buffers used in place (CPU devices) */
     int host_mem_count;
     volatile sig_atomic_t *stop; /* RenderSettings.stop: at 2 (1 for a long chunk),
@@ -49,7 +78,7 @@ typedef struct Wavefront {
  * rendering g with the lights L at rs's size, after checking the device's
  * memory. Returns 0 or an exit code; wavefront_free cleans up either way. */
 int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
-                     const RenderSettings *rs, const RenderLights *L, SptError *e);
+                     const RenderSettings *rs, const RenderLights *L, int light_film, SptError *e);
 void wavefront_free(Wavefront *w);
 
 /* A chunk of more camera paths than this many pools is long: a first stop

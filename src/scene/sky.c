@@ -18,6 +18,14 @@
  * JPEG, ...) holds sRGB-encoded display values, decoded to linear (an LDR map
  * cannot hold the sun's range; HDR or EXR maps are meant). Float files are
  * linear as stored. */
+size_t sky_map_data_floats(int width, int height)
+{
+    if (width < 1 || height < 1)
+        return 0;
+    return 4 * (size_t)width * (size_t)height + (size_t)height + 1 +
+           (size_t)height * ((size_t)width + 1);
+}
+
 static int sky_load_map(Sky *sky, const char *path, SptError *e)
 {
     float *rgb = NULL;

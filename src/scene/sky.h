@@ -39,4 +39,10 @@ int sky_from_args(Sky *sky, const char *env_path, const char *background, SptErr
 
 void sky_free(Sky *sky);
 
+/* The floats of the environment data the renderer makes of a width x height
+ * map (src/render/host_lights.c, env_build_map): the texels' spectra (4 per
+ * texel) and the sampling tables (a marginal CDF of height + 1, a conditional
+ * CDF of width + 1 per row); 0 for an empty size. */
+size_t sky_map_data_floats(int width, int height);
+
 #endif
