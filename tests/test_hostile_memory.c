@@ -359,12 +359,36 @@ static void test_small_amounts_in_mib(void **state)
         fail_msg("expected the amounts in MiB:\n%s", err);
 }
 
+/* An environment map too big for the memory is an input too big: exit 3 with
+ * one error line naming the file and its size, before its texels are read. A
+ * 2048x1024 map takes about 104 MiB (texels, tables, a device's copy); the
+ * limit is 20 MiB. */
+static void test_env_map_too_big(void **state)
+{
+    (void)state;
+    const char *map = in_dir("map_limit.exr");
+    write_map(map, 2048, 1024);
+    char args[1024], err[16384];
+    snprintf(args, sizeof args, "render " SCENE " --env %s --width 8 --spp 1 -q --device 0 -o %s", map,
+             in_dir("env.exr"));
+    setenv("SPECTRACE_MAX_MEMORY_MB", "20", 1);
+    int rc = run_child(args, 0, NULL, err, sizeof err, NULL);
+    unsetenv("SPECTRACE_MAX_MEMORY_MB");
+    if (rc != 3)
+        fail_msg("exit %d, expected 3:\n%s", rc, err);
+    char want[700];
+    snprintf(want, sizeof want, "%s: a 2048x1024 environment map needs about ", map);
+    one_error_line(err, want);
+    assert_false(exists(in_dir("env.exr")));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_estimate_matches_rss),
         cmocka_unit_test(test_address_space_limit),
         cmocka_unit_test(test_small_amounts_in_mib),
+        cmocka_unit_test(test_env_map_too_big),
         cmocka_unit_test(test_time_excludes_cold_build),
         cmocka_unit_test(test_second_sigint_during_build),
     };

@@ -26,11 +26,38 @@ size_t sky_map_data_floats(int width, int height)
            (size_t)height * ((size_t)width + 1);
 }
 
+/* Whether the map of info fits the memory before it is read
+ * (docs/limits.md, "The memory estimate"): its texels as read (every channel
+ * as float) and as kept (RGB), then the renderer's data of it
+ * (sky_map_data_floats) and a CPU device's copy of that; too much is an input
+ * too big (SPT_EXIT_INPUT). */
+static int sky_map_fits(const char *path, const ImageIoInfo *info, SptError *e)
+{
+    double texels = (double)info->width * (double)info->height;
+    double kept = 3.0 * sizeof(float) * texels;
+    double read = (double)info->channels * sizeof(float) * texels;
+    double data = 2.0 * sizeof(float) * (double)sky_map_data_floats(info->width, info->height);
+    double need = kept + (read > data ? read : data), limit = spt_memory_limit();
+    char a[32], b[32];
+    if (limit > 0 && need > limit)
+        return spt_fail(e, SPT_EXIT_INPUT, "%s: a %dx%d environment map needs about %s of host "
+                        "memory (its texels, sampling tables and a device's copy), more than the "
+                        "%s %s", path, info->width,
+                        info->height, spt_format_bytes(a, sizeof a, need),
+                        spt_format_bytes(b, sizeof b, limit), spt_memory_limit_why());
+    return SPT_EXIT_OK;
+}
+
 static int sky_load_map(Sky *sky, const char *path, SptError *e)
 {
     float *rgb = NULL;
     int w = 0, h = 0;
     int rc = input_check(path, "environment map", e);
+    /* A header that cannot be read is left to image_read_rgb to report. */
+    ImageIoInfo head;
+    SptError e_head = {0};
+    if (rc == SPT_EXIT_OK && image_io_info(path, &head, &e_head) == SPT_EXIT_OK)
+        rc = sky_map_fits(path, &head, e);
     if (rc == SPT_EXIT_OK)
         rc = image_read_rgb(path, &rgb, &w, &h, e);
     if (rc != SPT_EXIT_OK)
