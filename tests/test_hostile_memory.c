@@ -276,8 +276,11 @@ static void write_map(const char *path, int w, int h)
  * above the noise of the allocator: 1024x1024 plain, 512x512 with bands or
  * AOVs, and a 2048x1024 map against a 16x8 one (an 8x8 image), which is the
  * 16384x8192 map's texels, tables and device copy per texel at 1/64 of the
- * memory. The tiny render runs twice: the first builds the kernels when the
- * program cache lacks them. */
+ * memory. Each render runs once before it is measured, so the compiler's
+ * memory is in neither peak: the first builds the program when the cache
+ * lacks it, and PoCL compiles a kernel again at its first launch on a large
+ * grid (kept in PoCL's own cache; on the GPU code path this added 61 MiB to
+ * the --aov all render). */
 static void test_estimate_matches_rss(void **state)
 {
     (void)state;
@@ -297,17 +300,18 @@ static void test_estimate_matches_rss(void **state)
     int bad = 0;
     for (size_t k = 0; k < sizeof kind / sizeof kind[0]; k++) {
         double est[2], rss[2];
-        for (int r = 0; r < 3; r++) {
+        /* Tiny and large to warm up, then tiny and large measured. */
+        for (int r = 0; r < 4; r++) {
             char args[2048], err[16384];
             snprintf(args, sizeof args, "render " SCENE " %s --max-depth 1 --spp 1 --profile "
-                     "--device 0 -o %s", r < 2 ? kind[k].tiny : kind[k].large, in_dir("rss.exr"));
+                     "--device 0 -o %s", r % 2 ? kind[k].large : kind[k].tiny, in_dir("rss.exr"));
             int rc = run_child(args, 0, NULL, err, sizeof err, NULL);
             if (rc != 0)
                 fail_msg("%s: exit %d:\n%s", kind[k].what, rc, err);
-            if (r == 0)
+            if (r < 2)
                 continue;
-            est[r - 1] = estimate_mib(err);
-            rss[r - 1] = child_maxrss_kb / 1024.0;
+            est[r - 2] = estimate_mib(err);
+            rss[r - 2] = child_maxrss_kb / 1024.0;
         }
         double de = est[1] - est[0], dr = rss[1] - rss[0];
         print_message("  %-16s estimate %7.1f MiB, peak RSS %7.1f MiB more than the tiny render "
