@@ -45,6 +45,11 @@ Caustic scene (compared with Mitsuba's particle tracer, ptracer):
                            through the glass, its corners also directly (they
                            lie in the penumbra); compared with Mitsuba's path
                            tracer
+  caustic_sphere_narrow.gltf  caustic_sphere.gltf with a narrow spot (cones
+                           1.5 and 2 degrees, so a fifth of its flux lies
+                           between the cones), all of whose beam goes through
+                           the sphere's middle and lands focused in the view's
+                           middle; compared with Mitsuba's particle tracer
 
 Plain Python (the glTF writer of tools/make_cornell_box.py).
 """
@@ -149,6 +154,7 @@ def point_light_scene(path):
 CS_LIGHT_Y = 3.0
 CS_INTENSITY = 1000.0          # candela
 CS_CONES = (0.5, 0.501)        # inner, outer half-angles (rad)
+CS_NARROW_CONES = (math.radians(1.5), math.radians(2.0))
 CS_SPHERE_CENTER = (0.0, 1.0, 0.0)
 CS_SPHERE_RADIUS = 0.5
 CS_FLOOR_ALBEDO = 0.8
@@ -159,7 +165,7 @@ CS_AREA_HALF = 0.5             # the area light's half-size (m), at CS_LIGHT_Y f
 CS_AREA_STRENGTH = 50.0        # emissive (1, 1, 1) x 50
 
 
-def caustic_sphere_scene(path, area=False):
+def caustic_sphere_scene(path, area=False, cones=CS_CONES):
     g = GltfBuilder(GEN)
     floor = g.material("floor", (CS_FLOOR_ALBEDO,) * 3, pure_diffuse=True)
     s = CS_FLOOR_HALF
@@ -175,7 +181,7 @@ def caustic_sphere_scene(path, area=False):
         h, y = CS_AREA_HALF, CS_LIGHT_Y
         g.quads_mesh("light", [orient_quad([(-h, y, -h), (h, y, -h), (h, y, h), (-h, y, h)], (0, -1, 0))], light)
     else:
-        g.spot_light("spot", CS_INTENSITY, (0.0, CS_LIGHT_Y, 0.0), CS_CONES[0], CS_CONES[1],
+        g.spot_light("spot", CS_INTENSITY, (0.0, CS_LIGHT_Y, 0.0), cones[0], cones[1],
                      rotation=(-r, 0.0, 0.0, r))
     g.camera("camera", math.radians(CS_YFOV_DEG), (0.0, CS_CAM_Y, 0.0), rotation=(-r, 0.0, 0.0, r))
     g.write(path, extras={"about": "caustic test scene (tests/data/scenes/README.md)", "units": "metres"})
@@ -199,6 +205,9 @@ def main(argv):
     print("wrote %s (%d bytes)" % (p, os.path.getsize(p)))
     p = os.path.join(out, "caustic_sphere_area.gltf")
     caustic_sphere_scene(p, area=True)
+    print("wrote %s (%d bytes)" % (p, os.path.getsize(p)))
+    p = os.path.join(out, "caustic_sphere_narrow.gltf")
+    caustic_sphere_scene(p, cones=CS_NARROW_CONES)
     print("wrote %s (%d bytes)" % (p, os.path.getsize(p)))
     return 0
 
