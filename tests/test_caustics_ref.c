@@ -5,7 +5,8 @@
  * tools/make_material_scenes.py), lit
  *
  * - by a spot light, against Mitsuba's particle tracer (ptracer): all in view
- *   lies in the sphere's shadow, lit through the glass only;
+ *   lies in the sphere's shadow, lit through the glass only; also by a narrow
+ *   spot whose beam the sphere focuses into the view's middle;
  * - by a square area light, against Mitsuba's path tracer (path) at a high
  *   sample count: the view's middle is lit through the glass only, its corners
  *   also directly (the penumbra), so the caustic comes from spectrace's light
@@ -136,6 +137,23 @@ static void test_sphere_caustic_mitsuba(void **state)
     assert_true(rel < 0.01);
 }
 
+/* The same sphere under a narrow spot (cones 1.5 and 2 degrees, a fifth of
+ * its flux between the cones; tests/data/mitsuba/caustic_sphere_narrow_means.json,
+ * whose converter sums nested Mitsuba spots to glTF's falloff), all of whose
+ * beam goes through the sphere and lands focused in the view's middle: the
+ * same passes, Welch bound and image mean bound as the wide spot. */
+static void test_sphere_narrow_spot_mitsuba(void **state)
+{
+    (void)state;
+    skip_if_quick();
+    double rel, img_t;
+    double t = welch_vs_mitsuba("tests/data/scenes/caustic_sphere_narrow.gltf",
+                                "tests/data/mitsuba/caustic_sphere_narrow_means.json", 8, 64, SPT_SWITCH_ON, &rel,
+                                &img_t, "narrow spot (1.5/2 degrees) through the sphere vs Mitsuba ptracer");
+    assert_true(t < CS_WELCH_BOUND);
+    assert_true(rel < 0.01);
+}
+
 /* The area light against Mitsuba's path tracer (tests/data/mitsuba/
  * caustic_sphere_area_means.json: 16 passes of 2048 spp, block standard
  * errors 0.06-0.6%): 8 passes of 32 spp with the pass on (the light paths
@@ -204,6 +222,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_light_paths_split),
         cmocka_unit_test(test_sphere_caustic_mitsuba),
+        cmocka_unit_test(test_sphere_narrow_spot_mitsuba),
         cmocka_unit_test(test_sphere_area_light_mitsuba),
     };
     return cmocka_run_group_tests(tests, setup_cpu_device, teardown_cpu_device);
