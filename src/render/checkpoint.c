@@ -309,7 +309,11 @@ static void checkpoint_checksum(int width, int height, const ExrChannel *ch, int
 int checkpoint_write(const char *path, const CheckpointKey *k, const Film *film,
                      const unsigned char *done, uint32_t total, SptError *e)
 {
-    size_t bad = film_nonfinite_pixels(film);
+    /* The sums of squares count only for the variance layer, which a render
+     * refuses when they pass float's range (docs/limits.md); they are kept
+     * here as +inf, so a render without that layer checkpoints and resumes at
+     * any brightness the scene limits allow. */
+    size_t bad = film_nonfinite_except_squares(film);
     if (bad)
         return spt_fail(e, SPT_EXIT_FAILURE,
                         "%s: checkpoint not written: %zu pixel%s of the film came out NaN or "
@@ -344,7 +348,7 @@ int checkpoint_write(const char *path, const CheckpointKey *k, const Film *film,
         alo = spt_malloc(SPT_AOV_SUMS * n * sizeof(float));
         for (size_t i = 0; i < SPT_AOV_SUMS * n; i++) {
             ahi[i] = (float)film->aov[i];
-            alo[i] = (float)(film->aov[i] - (double)ahi[i]);
+            alo[i] = isfinite(ahi[i]) ? (float)(film->aov[i] - (double)ahi[i]) : 0.0f;
         }
         for (int k = 0; k < SPT_AOV_SUMS; k++) {
             snprintf(names[2 * k], sizeof names[0], "aov_sum.%s", aov_sum_names[k]);
@@ -542,12 +546,16 @@ static long settings_long(const char *list, const char *name)
 /* hi + lo of a channel pair at pixel i into *v, or the reason the pair is not
  * what checkpoint_write makes: a value not finite, a negative sum where
  * nonneg, or a lo beyond half a unit in the last place of hi (what rounding the
- * double sum to hi can leave). */
+ * double sum to hi can leave). nonneg 2: a sum of squares, +inf allowed. */
 static const char *pair_value(const ExrChannel *hi, const ExrChannel *lo, size_t i, int nonneg,
                               double *v)
 {
     float h = ((const float *)hi->data)[i], l = ((const float *)lo->data)[i];
     *v = (double)h + (double)l;
+    /* A sum of squares past float's range is written as +inf, low part 0
+     * (checkpoint_write); other non-negative sums never are. */
+    if (nonneg == 2 && h == INFINITY && l == 0)
+        return NULL;
     if (!isfinite(h) || !isfinite(l))
         return "is not finite";
     if (nonneg && (h < 0 || *v < 0))
@@ -707,7 +715,7 @@ int checkpoint_read(const char *path, const CheckpointKey *k, uint32_t spp, Film
             }
         for (int j = 0; aov && j < SPT_AOV_SUMS && !bad; j++)
             for (i = i0, bad_ch = want[10 + 2 * j]; i < i1 && !bad; i++) {
-                bad = pair_value(ch[10 + 2 * j], ch[11 + 2 * j], i, j >= SPT_AOV_S_SQ, &v);
+                bad = pair_value(ch[10 + 2 * j], ch[11 + 2 * j], i, j >= SPT_AOV_S_SQ ? 2 : 0, &v);
                 if (!bad && j < SPT_AOV_S_ALBEDO + 3 && v < CKPT_ALBEDO_MIN * (double)cnt[i])
                     bad = "is below what any reflectance gives";
                 film->aov[SPT_AOV_SUMS * i + (size_t)j] = v;

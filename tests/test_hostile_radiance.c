@@ -1,0 +1,127 @@
+/* Radiance far from 1 (the Cornell box lit at its emissive strength times 1e20,
+ * within the glTF limit of 1e30, docs/limits.md), run as a user would
+ * ($SPECTRACE_EXE, set by tests/run_tests.sh; every command under `timeout`):
+ * the per-pixel sums of radiance squared, which only the variance layer needs,
+ * pass float's range there. A checkpoint without the variance layer is written
+ * and resumes to the film of an uninterrupted render; with the variance layer
+ * the render is refused with one error line naming the scene (exit 3, README.md
+ * "Exit codes"), as without a checkpoint. */
+#include "test_util.h"
+
+#include <sys/wait.h>
+
+#define BOX "tests/data/scenes/cornell_box_rgb.gltf"
+#define SCENE BOX
+#include "ckpt_test.h"
+
+#define BOX_STRENGTH "\"emissiveStrength\": 20.717675477527486"
+#define ARGS "--width 16 -q --device 0"
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(dir, sizeof dir, "/tmp/spt_hostile_radiance_XXXXXX");
+    return mkdtemp(dir) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+/* Runs `timeout -s KILL 120 $SPECTRACE_EXE args`, stderr into err (stdout
+ * discarded); returns the exit status (-1: killed). */
+static int run(const char *args, char *err, size_t cap)
+{
+    const char *exe = getenv("SPECTRACE_EXE");
+    if (!exe)
+        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
+    char cmd[4096];
+    snprintf(cmd, sizeof cmd, "timeout -s KILL 120 '%s' %s 2>&1 >/dev/null", exe, args);
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    size_t n = fread(err, 1, cap - 1, p);
+    err[n] = 0;
+    int st = pclose(p);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+/* The Cornell box with its light's emissive strength times k, in dir. */
+static const char *box_times(double k)
+{
+    static char path[256];
+    FILE *f = fopen(BOX, "rb");
+    assert_non_null(f);
+    char *text = malloc(1 << 16);
+    size_t n = fread(text, 1, (1 << 16) - 1, f);
+    assert_true(n < (1 << 16) - 1); /* the whole file */
+    fclose(f);
+    text[n] = 0;
+    char *at = strstr(text, BOX_STRENGTH);
+    assert_non_null(at);
+    snprintf(path, sizeof path, "%s/box_%g.gltf", dir, k);
+    FILE *o = fopen(path, "w");
+    assert_non_null(o);
+    fprintf(o, "%.*s\"emissiveStrength\": %.17g%s", (int)(at - text), text, k * 20.717675477527486,
+            at + strlen(BOX_STRENGTH));
+    fclose(o);
+    free(text);
+    return path;
+}
+
+/* (a) At 1e20 times the light, with --denoise's guides (the albedo layer) but
+ * not the variance layer: 2 spp checkpointed then resumed to 4 gives the image
+ * of a straight 4 spp render, and the checkpoint run exits 0. */
+static void test_bright_checkpoint_resumes(void **state)
+{
+    (void)state;
+    char args[2048], err[8192];
+    const char *box = box_times(1e20);
+    snprintf(args, sizeof args, "render %s " ARGS " --spp 4 --aov albedo,N -o %s", box, path_in("straight.exr"));
+    int rc = run(args, err, sizeof err);
+    if (rc)
+        fail_msg("straight render: exit %d: %s", rc, err);
+    snprintf(args, sizeof args, "render %s " ARGS " --spp 2 --aov albedo,N -o %s --checkpoint %s", box,
+             path_in("half.exr"), path_in("ck.exr"));
+    rc = run(args, err, sizeof err);
+    if (rc)
+        fail_msg("2 spp with --checkpoint: exit %d, expected 0: %s", rc, err);
+    snprintf(args, sizeof args, "render %s " ARGS " --spp 4 --aov albedo,N -o %s --resume %s", box,
+             path_in("resumed.exr"), path_in("ck.exr"));
+    rc = run(args, err, sizeof err);
+    if (rc)
+        fail_msg("resume to 4 spp: exit %d, expected 0: %s", rc, err);
+    assert_same_exr(path_in("straight.exr"), path_in("resumed.exr"));
+}
+
+/* (a) The same with the variance layer, which cannot hold these squares: one
+ * error line naming the scene and the layer, exit 3, as without --checkpoint. */
+static void test_bright_checkpoint_variance_refused(void **state)
+{
+    (void)state;
+    char args[2048], err[8192];
+    const char *box = box_times(1e20);
+    snprintf(args, sizeof args, "render %s " ARGS " --spp 2 --aov variance -o %s --checkpoint %s", box,
+             path_in("v.exr"), path_in("vck.exr"));
+    int rc = run(args, err, sizeof err);
+    const char *nl = strchr(err, '\n');
+    if (rc != 3 || strncmp(err, "error: ", 7) || !nl || nl[1] || !strstr(err, box) || !strstr(err, "variance"))
+        fail_msg("exit %d, expected 3 with one error line naming %s and the variance layer:\n%s", rc, box,
+                 err);
+}
+
+int main(void)
+{
+    /* ckpt_test.h's helpers that these tests do not use. */
+    (void)load_checkpoint;
+    (void)exists;
+    (void)assert_same_film;
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_bright_checkpoint_resumes),
+        cmocka_unit_test(test_bright_checkpoint_variance_refused),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
