@@ -113,6 +113,74 @@ static void test_bright_checkpoint_variance_refused(void **state)
                  err);
 }
 
+/* Renders the box at k times its light with --adaptive on, 64 spp, the image
+ * and the spp layer into out; exits on failure. */
+static void adaptive_at(double k, const char *out)
+{
+    char args[2048], err[8192];
+    snprintf(args, sizeof args, "render %s " ARGS " --spp 64 --adaptive on --aov spp -o %s", box_times(k), out);
+    int rc = run(args, err, sizeof err);
+    if (rc)
+        fail_msg("x %g, --adaptive on: exit %d: %s", k, rc, err);
+}
+
+/* (b), (c) Adaptive sampling weighs each pixel's error relative to the image's
+ * level, so the light's strength times 1e20 (squares past float's range) or
+ * 1e-20 (squares below float's normal range) spends the samples as at 1:
+ * the spp layers differ by at most a tenth of how far x 1's differs from
+ * plain sampling, and the images over the strength by at most 2% of the
+ * image's sum (float rounding at another scale can flip a pixel's close
+ * choice, so not exactly). */
+static void test_adaptive_scale_invariant(void **state)
+{
+    (void)state;
+    static const char *const want[] = {"R", "G", "B", "spp"};
+    static const double ks[] = {1e20, 1e-20};
+    ExrLayers ref;
+    SptError e = {0};
+    adaptive_at(1, path_in("a1.exr"));
+    if (exr_read_layers(path_in("a1.exr"), want, 4, &ref, &e))
+        fail_msg("%s", e.msg);
+    size_t n = (size_t)ref.width * ref.height;
+    const float *s0 = exr_layers_channel(&ref, "spp")->data;
+    /* How far x 1's choice is from plain sampling (every pixel 64 spp). */
+    double flat = 0, tot = 0;
+    for (size_t i = 0; i < n; i++) {
+        flat += fabs(64.0 - s0[i]);
+        tot += s0[i];
+    }
+    printf("x 1: spp off 64 by %.1f%% of the samples\n", 100 * flat / tot);
+    assert_true(flat >= 0.03 * tot); /* adaptive sampling did choose */
+    int failed = 0;
+    for (int t = 0; t < 2; t++) {
+        ExrLayers l;
+        adaptive_at(ks[t], path_in("ak.exr"));
+        if (exr_read_layers(path_in("ak.exr"), want, 4, &l, &e))
+            fail_msg("%s", e.msg);
+        const float *s1 = exr_layers_channel(&l, "spp")->data;
+        double dspp = 0, dimg = 0, img = 0, lo = 1e30, hi = 0;
+        for (size_t i = 0; i < n; i++) {
+            dspp += fabs((double)s1[i] - s0[i]);
+            lo = fmin(lo, s1[i]);
+            hi = fmax(hi, s1[i]);
+            for (int c = 0; c < 3; c++) {
+                double a = ((const float *)exr_layers_channel(&ref, want[c])->data)[i];
+                double b = ((const float *)exr_layers_channel(&l, want[c])->data)[i] / ks[t];
+                dimg += fabs(a - b);
+                img += fabs(a);
+            }
+        }
+        printf("x %g: spp %g to %g, off x 1 by %.2f%% of the samples; image off by %.2f%%\n", ks[t], lo, hi,
+               100 * dspp / tot, 100 * dimg / img);
+        if (!(dspp <= 0.1 * flat) || !(dimg <= 0.02 * img))
+            failed = 1;
+        exr_layers_free(&l);
+    }
+    exr_layers_free(&ref);
+    if (failed)
+        fail_msg("adaptive sampling depends on the light's scale");
+}
+
 int main(void)
 {
     /* ckpt_test.h's helpers that these tests do not use. */
@@ -122,6 +190,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_bright_checkpoint_resumes),
         cmocka_unit_test(test_bright_checkpoint_variance_refused),
+        cmocka_unit_test(test_adaptive_scale_invariant),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -518,13 +518,28 @@ __kernel void k_accumulate(KERNEL_ARGS)
     if (pixel >= npix)
         return;
     uint n = (P.light_begin - P.work_begin) / npix;
+    /* The squares are taken of the radiance over 2^e, e the exponent of the
+     * largest kept component, and e is kept in w: float squares of radiance
+     * itself pass float's range above 1.8e19 and fall below its normal range
+     * (which some devices flush to 0) under 1e-19 (docs/limits.md). */
+    float mx = 0.0f;
+    for (uint k = 0; k < n; k++) {
+        float4 c = contrib[pixel + k * npix];
+        float3 a = fabs(path_xyz_to_linear_srgb(c.xyz));
+        if (c.w > 0.0f)
+            mx = fmax(mx, fmax(a.x, fmax(a.y, a.z)));
+    }
+    int ex = 0;
+    if (mx > 0.0f && isfinite(mx))
+        (void)frexp(mx, &ex);
     float4 s = (float4)(0.0f), ssq = (float4)(0.0f);
     for (uint k = 0; k < n; k++) {
         float4 c = contrib[pixel + k * npix];
-        float3 rgb = path_xyz_to_linear_srgb(c.xyz);
+        float3 rgb = ldexp(path_xyz_to_linear_srgb(c.xyz), -ex);
         s += c;
         ssq += c.w * (float4)(rgb * rgb, 0.0f);
     }
+    ssq.w = (float)ex;
     chunk_sq[pixel] = ssq;
     /* A pixel left out of the chunk's camera samples leaves out its light
      * paths' splats too: its sum stays that of the samples it counts. */

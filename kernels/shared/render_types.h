@@ -333,8 +333,8 @@ typedef struct RenderParams {
  * chunk is the pixel's sample s - lag, so a pixel's samples are always the
  * first of its sequence), or SPT_PIXEL_SKIP: the pixel takes none of the
  * chunk's samples; 0 without adaptive sampling. chunk_sq: per pixel,
- * the sums of the squares of its kept samples' linear sRGB (the variance that
- * adaptive sampling weighs). */
+ * the sums of the squares of its kept samples' linear sRGB over 2^(2 w) in
+ * xyz, and w (the variance that adaptive sampling weighs). */
 #define SPT_WORK_BUFFERS(X)           \
     X(uint, counters)                 \
     X(uint, queue_extend)             \

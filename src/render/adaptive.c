@@ -2,6 +2,7 @@
  * (src/render/adaptive.h). */
 #include "render/adaptive.h"
 
+#include <math.h>
 #include <stdlib.h>
 
 #include "color/spd.h"
@@ -43,10 +44,29 @@ uint32_t adaptive_mask(uint32_t width, uint32_t height, const double *xyz, const
     double *err = spt_malloc(npix * sizeof(double));
     double *gain = spt_malloc(npix * sizeof(double));
     double *sorted = spt_malloc(npix * sizeof(double));
+    /* The error is weighed relative to the image's level, its mean linear
+     * sRGB over the pixels with samples, so that a scene lit 1e20 or 1e-20
+     * times as brightly spends its samples alike (docs/limits.md). */
+    double level = 0.0, lit = 0.0;
     for (size_t i = 0; i < npix; i++) {
         double rgb[3];
+        if (count[i] <= 0.0)
+            continue;
         xyz_to_linear_srgb(xyz + 3u * i, rgb);
-        err[i] = adaptive_pixel_error(rgb, sq + 3u * i, count[i]);
+        level += (fabs(rgb[0]) + fabs(rgb[1]) + fabs(rgb[2])) / (3.0 * count[i]);
+        lit += 1.0;
+    }
+    level = lit > 0.0 ? level / lit : 0.0;
+    if (!(level > 0.0) || !isfinite(level))
+        level = 1.0;
+    for (size_t i = 0; i < npix; i++) {
+        double rgb[3], q[3];
+        xyz_to_linear_srgb(xyz + 3u * i, rgb);
+        for (int k = 0; k < 3; k++) {
+            rgb[k] /= level;
+            q[k] = sq[3u * i + k] / level / level;
+        }
+        err[i] = adaptive_pixel_error(rgb, q, count[i]);
     }
     /* Each pixel's error per sample, estimated from a few samples, is noisy;
      * its mean over the pixels within SPT_ADAPTIVE_RADIUS is not (the error

@@ -22,7 +22,8 @@
 /* The mask of segment [c, 2c) of the sample indices into mask (npix words,
  * 1: the pixel renders those samples, 0: it does not), from each pixel's sums
  * so far: xyz (3 per pixel, XYZ), count (its samples kept) and sq (3 per
- * pixel, the sums of the squares of its samples' linear sRGB). Returns how
+ * pixel, the sums of the squares of its samples' linear sRGB), the error
+ * of each weighed with rgb and sq over the image's mean level. Returns how
  * many pixels it keeps. */
 uint32_t adaptive_mask(uint32_t width, uint32_t height, const double *xyz, const double *count,
                        const double *sq, uint32_t c, uint32_t *mask);

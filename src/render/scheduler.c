@@ -256,7 +256,7 @@ static void sched_done(Scheduler *s, uint32_t begin, uint32_t n, uint64_t paths,
         size_t npix = (size_t)s->film->width * s->film->height;
         for (size_t i = 0; i < npix; i++)
             for (int k = 0; k < 3; k++)
-                s->sq[3 * i + k] += sq_sums[4 * i + k];
+                s->sq[3 * i + k] += ldexp((double)sq_sums[4 * i + k], 2 * (int)sq_sums[4 * i + 3]);
     }
     for (uint32_t i = 0; i < n; i++)
         s->done[begin + i] = 1;
