@@ -449,6 +449,11 @@ static int check_film(RenderJob *j)
                   j->a.scene, bad, npix);
         return SPT_EXIT_INPUT;
     }
+    if ((j->a.rs.aov & SPT_AOV_VARIANCE) && (bad = film_subnormal_square_pixels(&j->film)))
+        spt_warn("%s: --aov variance: %zu of %ld pixels are too dim for the variance layer (their "
+                 "radiance squared is below float's normal range, 1.2e-38: docs/limits.md); their "
+                 "variance is inexact, or 0 on a device that flushes such values",
+                 j->a.scene, bad, npix);
     return SPT_EXIT_OK;
 }
 

@@ -1,5 +1,6 @@
 #include "render/film.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -280,4 +281,21 @@ double film_min_count(const Film *f)
         if (f->count[i] < m)
             m = f->count[i];
     return m;
+}
+
+size_t film_subnormal_square_pixels(const Film *f)
+{
+    size_t n = (size_t)f->width * (size_t)f->height, dim = 0;
+    for (size_t i = 0; i < n; i++) {
+        double c = f->count[i], xyz[3], rgb[3], m2 = 0;
+        if (!(c > 0))
+            continue;
+        for (int k = 0; k < 3; k++)
+            xyz[k] = f->xyz[3 * i + k] / c;
+        xyz_to_linear_srgb(xyz, rgb);
+        for (int k = 0; k < 3; k++)
+            m2 = fmax(m2, rgb[k] * rgb[k]);
+        dim += m2 > 0 && m2 < FLT_MIN;
+    }
+    return dim;
 }

@@ -104,6 +104,13 @@ size_t film_nonfinite_pixels(const Film *f);
  * variance layer and a checkpoint use them. */
 size_t film_nonfinite_except_squares(const Film *f);
 
+/* How many pixels with samples have a mean linear sRGB whose square is not 0
+ * yet below float's normal range (1.2e-38: a radiance under about 1.1e-19):
+ * the kernels sum such squares in float, as subnormals that keep few bits or
+ * that a device may flush to 0, so their variance layer is inexact
+ * (docs/limits.md). */
+size_t film_subnormal_square_pixels(const Film *f);
+
 /* Smallest per-pixel sample count. */
 double film_min_count(const Film *f);
 
