@@ -61,22 +61,6 @@ static void need_oidn(void)
     }
 }
 
-/* Runs `env timeout -s KILL secs $SPECTRACE_EXE args`, stderr into err (stdout
- * discarded); returns the exit status (-1: killed, as by the timeout). */
-static int run_env(const char *env, int secs, const char *args, char *err, size_t cap)
-{
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe)
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
-    char cmd[4096];
-    snprintf(cmd, sizeof cmd, "%s timeout -s KILL %d '%s' %s 2>&1 >/dev/null", env, secs, exe, args);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(err, 1, cap - 1, p);
-    err[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
 
 /* stderr is exactly one line, "error: ..." containing want. */
 static void one_error(const char *err, const char *want)
@@ -161,7 +145,7 @@ static void test_exposure_sweep(void **state)
         snprintf(out, sizeof out, "%s/den.exr", dir);
         snprintf(args, sizeof args, "render %s --width %d --spp 4 -q --device 0 --denoise --aov albedo,N -o %s",
                  box_at(k[i] * 20.717675477527486), W, out);
-        int rc = run_env("", 120, args, err, sizeof err);
+        int rc = test_run_exe("", 120, args, err, sizeof err);
         if (rc && i == 0)
             fail_msg("strength x 1: exit %d: %s", rc, err);
         if (rc) {
@@ -223,7 +207,7 @@ static void test_variance_layer(void **state)
     for (int i = 0; i < NK; i++) {
         snprintf(args, sizeof args, "render %s --width %d --spp 4 -q --device 0 --aov variance -o %s",
                  box_at(k[i] * 20.717675477527486), W, out);
-        int rc = run_env("", 120, args, err, sizeof err);
+        int rc = test_run_exe("", 120, args, err, sizeof err);
         if (rc)
             fail_msg("strength x %g: exit %d: %s", k[i], rc, err);
         ExrLayers l;
@@ -250,7 +234,7 @@ static void test_variance_layer(void **state)
     snprintf(args, sizeof args, "render %s --width %d --spp 4 -q --device 0 --aov variance -o %s", scene, W,
              out);
     unlink(out);
-    int rc = run_env("", 120, args, err, sizeof err);
+    int rc = test_run_exe("", 120, args, err, sizeof err);
     printf("strength x 1e20 with the variance layer: exit %d: %s", rc, err);
     if (rc != SPT_EXIT_INPUT)
         fail_msg("exit %d, expected %d", rc, SPT_EXIT_INPUT);
@@ -307,7 +291,7 @@ static void test_denoiser_failure(void **state)
     for (int i = 0; i < 3; i++) {
         snprintf(env, sizeof env, "STUB_OIDN=%s SPECTRACE_OIDN='%s'", modes[i], lib);
         snprintf(args, sizeof args, "render " BOX " --width 16 --spp 1 -q --device 0 --denoise -o %s", out);
-        int rc = run_env(env, 120, args, err, sizeof err);
+        int rc = test_run_exe(env, 120, args, err, sizeof err);
         printf("denoiser %s: exit %d: %s", modes[i], rc, err);
         if (rc != SPT_EXIT_FAILURE)
             fail_msg("denoiser %s: exit %d, expected %d", modes[i], rc, SPT_EXIT_FAILURE);
@@ -334,7 +318,7 @@ static void test_oidn_not_regular_file(void **state)
         snprintf(env, sizeof env, "SPECTRACE_OIDN='%s'", paths[i]);
         snprintf(args, sizeof args, "render " BOX " --width 8 --spp 1 -q --device 0 --denoise -o %s", out);
         double t0 = spt_now();
-        int rc = run_env(env, 10, args, err, sizeof err);
+        int rc = test_run_exe(env, 10, args, err, sizeof err);
         double secs = spt_now() - t0;
         printf("SPECTRACE_OIDN=%s: exit %d after %.2f s: %s", paths[i], rc, secs, err);
         if (rc != SPT_EXIT_USAGE)

@@ -38,17 +38,7 @@ static int sh(const char *cmd, char *out, size_t cap)
 /* `timeout 120 $SPECTRACE_EXE args`, stdout discarded, stderr into err. */
 static int run_exe(const char *args, char *err, size_t cap)
 {
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe)
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
-    char cmd[4096];
-    snprintf(cmd, sizeof cmd, "timeout -s KILL 120 '%s' %s 2>&1 >/dev/null", exe, args);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(err, 1, cap - 1, p);
-    err[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    return test_run_exe("", 120, args, err, cap);
 }
 
 /* text is exactly one line, "error: ..." containing want. */

@@ -32,21 +32,9 @@ static int teardown(void **state)
     return system(cmd) == 0 ? 0 : -1;
 }
 
-/* Runs `timeout -s KILL 120 $SPECTRACE_EXE args`, stderr into err (stdout
- * discarded); returns the exit status (-1: killed). */
 static int run(const char *args, char *err, size_t cap)
 {
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe)
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
-    char cmd[4096];
-    snprintf(cmd, sizeof cmd, "timeout -s KILL 120 '%s' %s 2>&1 >/dev/null", exe, args);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(err, 1, cap - 1, p);
-    err[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    return test_run_exe("", 120, args, err, cap);
 }
 
 /* The Cornell box with its light's emissive strength times k, in dir. */

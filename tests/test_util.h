@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
 
 /* Fails with both values printed when |got - want| > tol. */
 #define assert_close(got, want, tol)                                                    \
@@ -29,6 +30,24 @@
             fail_msg("%s = %.9g, expected %.9g within %.3g relative (off by %.3g)",     \
                      #got, g_, w_, r_, fabs(g_ - w_) / fabs(w_));                       \
     } while (0)
+
+/* Runs `env timeout -s KILL secs $SPECTRACE_EXE args` (env: "VAR=value "
+ * prefixes, or ""), stderr into err (stdout discarded); returns the exit
+ * status (-1: killed, as by the timeout). */
+static inline int test_run_exe(const char *env, int secs, const char *args, char *err, size_t cap)
+{
+    const char *exe = getenv("SPECTRACE_EXE");
+    if (!exe)
+        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
+    char cmd[4096];
+    snprintf(cmd, sizeof cmd, "%s timeout -s KILL %d '%s' %s 2>&1 >/dev/null", env, secs, exe, args);
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    size_t n = fread(err, 1, cap - 1, p);
+    err[n] = 0;
+    int st = pclose(p);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
 
 /* 1 when tests/run_tests.sh runs the device tests in quick form
  * (SPECTRACE_TEST_QUICK=1): on an OpenCL implementation that spends far longer per
