@@ -179,7 +179,7 @@ $(BUILD)/gen/kernel_sources.c: $(KERNEL_FILES) tools/embed/embed_files.c
 
 # Jakob-Hanika 2019 sigmoid-polynomial coefficient table, fitted by our own C tool.
 # Built without sanitizers and optimised: the fit is the slow part of a clean build.
-$(BUILD)/gen/rgb2spec_data.c: tools/rgb2spec/rgb2spec_opt.c kernels/shared/cie_data.h
+$(BUILD)/gen/rgb2spec_data.c: tools/rgb2spec/rgb2spec_opt.c kernels/spectrum/cie_data.h
 	@mkdir -p $(BUILD)/gen $(BUILD)/tools
 	@echo "GEN  $@ (fitting the RGB-to-spectrum table)"
 	$(Q)$(CC) -std=c11 -O2 -Ikernels -o $(BUILD)/tools/rgb2spec_opt tools/rgb2spec/rgb2spec_opt.c -lm -lpthread

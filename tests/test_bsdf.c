@@ -1,4 +1,4 @@
-/* kernels/device/bsdf.h against independent values: textbook Fresnel forms, the
+/* kernels/closure/bsdf.h against independent values: textbook Fresnel forms, the
  * normal-incidence conductor formula, the KHR_materials_dispersion definition at
  * the Fraunhofer lines, Snell's law through a prism, chi-square tests of the
  * samplers against their pdfs (tests/chi2.h), reciprocity and white-furnace
@@ -9,7 +9,7 @@
 #include <string.h>
 
 #include "chi2.h"
-#include "device/bsdf.h"
+#include "closure/bsdf.h"
 
 /* Chi-square tests expected to pass in this binary, for the Sidak correction. */
 #define BSDF_CHI2_TESTS 15
@@ -374,7 +374,7 @@ static void test_layers_consistency(void **state)
     assert_true(checked > 4000);
 }
 
-/* E(mu, r) of kernels/device/sheen_table.h between its nodes against the directional
+/* E(mu, r) of kernels/closure/sheen_table.h between its nodes against the directional
  * albedo of the specification's Charlie lobe integrated here over wi (midpoint
  * rule, 1000 x 400 nodes, double precision). */
 static double spec_sheen_lambda(double mu, double alpha)
@@ -664,7 +664,7 @@ static void test_smooth_dielectric(void **state)
 
 /* Each work-item samples and evaluates one material for one (wo, u) input. */
 static const char *k_device_src =
-    "#include \"device/bsdf.h\"\n"
+    "#include \"closure/bsdf.h\"\n"
     "__kernel void k_bsdf_test(__global const float *in, __global float *out, int n)\n"
     "{\n"
     "    int i = get_global_id(0);\n"
@@ -700,7 +700,7 @@ static void test_device_matches_host(void **state)
     cl_command_queue cq;
     test_cl_open_first(&dev, &ctx, &cq);
     cl_int err;
-    cl_program prog = test_cl_build(ctx, dev, k_device_src, NULL, "kernels/device/bsdf.h");
+    cl_program prog = test_cl_build(ctx, dev, k_device_src, NULL, "kernels/closure/bsdf.h");
     enum { N = 512 };
     static float in[10 * N], out[10 * N];
     for (int i = 0; i < N; i++) {

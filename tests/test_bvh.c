@@ -1,4 +1,4 @@
-/* src/accel/bvh_build.c and kernels/shared/bvh.h: tree structure, closest and any hit against an
+/* src/accel/bvh_build.c and kernels/bvh/bvh.h: tree structure, closest and any hit against an
  * independent double-precision brute force, watertightness, garbage input. */
 #include "test_cl_util.h"
 
@@ -645,7 +645,7 @@ static void test_empty_scene(void **state)
  * bit-identical hits to the host build for the same rays. Skipped without
  * an OpenCL device. */
 static const char *k_device_src =
-    "#include \"shared/bvh.h\"\n"
+    "#include \"bvh/bvh.h\"\n"
     "__kernel void k_bvh_test(__global const BvhNode *nodes, __global const float *tris,\n"
     "                         __global const float *rays, __global float *out, int n)\n"
     "{\n"
@@ -681,7 +681,7 @@ static int device_differences(cl_context ctx, cl_device_id dev, cl_command_queue
                               int *hits)
 {
     cl_int err;
-    cl_program prog = test_cl_build(ctx, dev, k_device_src, options, "kernels/shared/bvh.h");
+    cl_program prog = test_cl_build(ctx, dev, k_device_src, options, "kernels/bvh/bvh.h");
     float *out = malloc((size_t)nr * 4 * sizeof *out);
     cl_mem bn = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
                                bvh->node_count * sizeof(BvhNode), bvh->nodes, &err);

@@ -1,4 +1,4 @@
-/* The light-tracing pass for caustics (kernels/device/light_trace.h, --caustics):
+/* The light-tracing pass for caustics (kernels/integrator/light_trace.h, --caustics):
  * a diffuse floor under a smooth glass slab lit from above. Below the slab the
  * floor gets light only through the glass, and its irradiance follows from
  * Snell's law and the Fresnel equations: a point source at height a (the air

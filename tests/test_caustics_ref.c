@@ -1,4 +1,4 @@
-/* The light-tracing pass (kernels/device/light_trace.h) against Mitsuba 3: a
+/* The light-tracing pass (kernels/integrator/light_trace.h) against Mitsuba 3: a
  * faceted glass sphere (ior 1.5, radius 0.5 m, centre 1 m up) over a
  * Lambertian floor (albedo 0.8), seen from under the sphere by a camera looking
  * straight down (tests/data/scenes/caustic_sphere*.gltf,

@@ -1,5 +1,5 @@
 /* The light-tracing pass with an environment map as a light
- * (kernels/device/light_trace.h, --caustics; docs/architecture.md,
+ * (kernels/integrator/light_trace.h, --caustics; docs/architecture.md,
  * "Caustics"): light paths that start on a disc outside the scene that covers
  * its glass, parallel to a direction of the map, and the camera paths that
  * drop the map they see through a delta vertex after a non-delta first

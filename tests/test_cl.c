@@ -13,7 +13,7 @@
 #include <unistd.h>
 
 #include "cl/cl_device.h"
-#include "shared/layout_list.h"
+#include "util/layout_list.h"
 
 static ClDeviceList g_list;
 static ClDevice g_dev;         /* device 0, profiling queue */
@@ -425,11 +425,11 @@ static void test_embedded_sources_resolve(void **state)
     (void)state;
     char *out = NULL;
     SptError e = {0};
-    assert_int_equal(cl_source_resolve("kernels/device/layout_check.cl", &out, &e), SPT_EXIT_OK);
-    const char *head = "#line 1 \"kernels/device/layout_check.cl\"\n";
+    assert_int_equal(cl_source_resolve("kernels/util/layout_check.cl", &out, &e), SPT_EXIT_OK);
+    const char *head = "#line 1 \"kernels/util/layout_check.cl\"\n";
     assert_int_equal(strncmp(out, head, strlen(head)), 0);
-    assert_non_null(strstr(out, "#line 1 \"kernels/shared/portable.h\"\n"));
-    assert_non_null(strstr(out, "#line 1 \"kernels/shared/layout_list.h\"\n"));
+    assert_non_null(strstr(out, "#line 1 \"kernels/util/portable.h\"\n"));
+    assert_non_null(strstr(out, "#line 1 \"kernels/util/layout_list.h\"\n"));
     /* portable.h is included by both; it is spliced once. */
     char *first = strstr(out, "#define SPT_PORTABLE_H");
     assert_non_null(first);
@@ -476,7 +476,7 @@ static void test_build_error_reports_device_and_log(void **state)
 /* ---- cache and a trivial kernel --------------------------------------------- */
 
 static const char square_src[] =
-    "#include \"shared/portable.h\"\n"
+    "#include \"util/portable.h\"\n"
     "__kernel void k_square(__global uint *o)\n"
     "{\n"
     "    uint i = get_global_id(0);\n"

@@ -11,9 +11,9 @@
 #include <unistd.h>
 
 #include "color/spd.h"
-#include "device/bsdf.h"
+#include "closure/bsdf.h"
 #include "io/exr.h"
-#include "shared/cie_data.h"
+#include "spectrum/cie_data.h"
 
 #define TINY "-q --device 0"
 

@@ -1,6 +1,6 @@
 /* Hostile inputs for spot lights (issue 35): narrow and hard-edged cones whose
  * light reaches the scene only through glass, so that the light-tracing pass
- * (kernels/device/light_trace.h) alone carries it.
+ * (kernels/integrator/light_trace.h) alone carries it.
  *
  * The scene: a spot at height SPOT_Y pointing straight down, a clear smooth
  * glass slab below it that covers the whole beam, and a Lambertian floor of
@@ -30,8 +30,8 @@
 #include "render/film.h"
 #include "render/host_lights.h"
 #include "scene/scene.h"
-#include "shared/cie_data.h"
-#include "shared/lights.h"
+#include "spectrum/cie_data.h"
+#include "light/lights.h"
 
 #define SPOT_Y 0.8
 #define SPOT_I 200.0

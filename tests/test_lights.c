@@ -1,4 +1,4 @@
-/* kernels/shared/lights.h and src/render/host_lights.c: punctual lights against the inverse-square
+/* kernels/light/lights.h and src/render/host_lights.c: punctual lights against the inverse-square
  * law and the KHR_lights_punctual spot formula, the photometric conversion
  * against the CIE tables, the environment map's sampling against its pdf
  * (chi-square), its normalisation and colour, the uniform background's
@@ -832,7 +832,7 @@ static void test_selection(void **state)
 
 /* The header builds as OpenCL C 1.2 and the device's results equal the host's. */
 static const char *k_device_src =
-    "#include \"shared/lights.h\"\n"
+    "#include \"light/lights.h\"\n"
     "__kernel void k_lights_test(__global const GpuLight *lights, __global const float *spectra,\n"
     "                            __global const GpuEnvMap *envs, __global const float *env_data,\n"
     "                            __global const float *in, __global float *out, int n)\n"
@@ -863,7 +863,7 @@ static void test_device_matches_host(void **state)
     cl_command_queue cq;
     test_cl_open_first(&dev, &ctx, &cq);
     cl_int err;
-    cl_program prog = test_cl_build(ctx, dev, k_device_src, NULL, "kernels/shared/lights.h");
+    cl_program prog = test_cl_build(ctx, dev, k_device_src, NULL, "kernels/light/lights.h");
     float spectra[2 * SPT_CIE_SAMPLES];
     GpuLight gl[2];
     SptError e;

@@ -15,7 +15,7 @@
 #include "render/film.h"
 #include "render/render.h"
 #include "scene/scene.h"
-#include "shared/cie_data.h"
+#include "spectrum/cie_data.h"
 
 /* Renders scene s (already loaded or built) at w x h into film (initialised
  * here). background: as --background, NULL = the default. Returns the exit code. */
@@ -366,7 +366,7 @@ static void test_furnace_glass(void **state)
  * of albedo rho, no other light (--background black). At a plane point at
  * distance d from the light, E = I cos / d^2 = I h / d^3 lux, the plane's
  * luminance Lv = rho E / pi cd/m^2, and film Y = Lv (the film's unit is the
- * nit: kernels/shared/lights.h). Numbers from tools/make_material_scenes.py. */
+ * nit: kernels/light/lights.h). Numbers from tools/make_material_scenes.py. */
 #define PL_ALBEDO 0.5
 #define PL_INTENSITY 1.0e5
 #define PL_HEIGHT 1.0
@@ -387,7 +387,7 @@ static double point_light_expected_y(int x, int y)
             double d2 = px * px + pz * pz + PL_HEIGHT * PL_HEIGHT, d = sqrt(d2);
             double E = PL_INTENSITY * (PL_HEIGHT / d) / d2;
             double Lv = PL_ALBEDO * E / M_PI;
-            e += Lv / 64.0; /* film Y = luminance in cd/m^2 (kernels/shared/lights.h) */
+            e += Lv / 64.0; /* film Y = luminance in cd/m^2 (kernels/light/lights.h) */
         }
     return e;
 }

@@ -1,5 +1,5 @@
 /* Prisms of dispersive glass (KHR_materials_dispersion) under a narrow spot
- * light, with the light-tracing pass (kernels/device/light_trace.h): where each
+ * light, with the light-tracing pass (kernels/integrator/light_trace.h): where each
  * wavelength lands on the floor against Snell's law with the extension's Abbe
  * law, in white light (the band's centroids) and in a mercury lamp's light
  * (the line spectrum). */

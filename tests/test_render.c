@@ -17,7 +17,7 @@
 #include "render/render.h"
 #include "scene/scene.h"
 #include "color/spd.h"
-#include "shared/cie_data.h"
+#include "spectrum/cie_data.h"
 
 /* Closed diffuse enclosure, albedo a = 0.8, emitted radiance 1: the radiance
  * is sum_{k<D} a^k (Le / (1 - a) = 5 unlimited). */

@@ -16,7 +16,7 @@
 #include "render/render.h"
 #include "scene/scene.h"
 #include "color/spd.h"
-#include "shared/cie_data.h"
+#include "spectrum/cie_data.h"
 
 /* With no light at all, the default sky (D65, radiance 1) lights the scene: a
  * Lambertian surface of albedo rho open to the whole sky shows rho, the sky
@@ -255,7 +255,7 @@ static void test_punctual_lights(void **state)
     (void)state;
     enum { W = 48 };
     float *rgb = malloc(W * W * 3 * sizeof(float));
-    const double to_film = 1.0; /* film Y = luminance in cd/m^2 (kernels/shared/lights.h) */
+    const double to_film = 1.0; /* film Y = luminance in cd/m^2 (kernels/light/lights.h) */
     const double ci = cos(0.3), co = cos(0.5), t = tan(0.5);
     for (int both = 0; both < 2; both++) {
         render_punctual(both, rgb, W);
@@ -358,7 +358,7 @@ static void test_named_light_spectra(void **state)
     }
 }
 
-/* Direction of environment map coordinates (u, v) (kernels/shared/render_types.h,
+/* Direction of environment map coordinates (u, v) (kernels/util/render_types.h,
  * GpuEnvMap): theta = pi v from +Y, phi = 2 pi u. */
 static void env_dir(double u, double v, double d[3])
 {

@@ -14,7 +14,7 @@
 #include "render/film.h"
 #include "render/render.h"
 #include "scene/scene.h"
-#include "shared/cie_data.h"
+#include "spectrum/cie_data.h"
 
 #define SPT_CIE_Y_INTEGRAL_HOST ((double)SPT_CIE_Y_INTEGRAL)
 

@@ -1,4 +1,4 @@
-/* kernels/device/rng.h: the counter-based generator and the Owen-scrambled Sobol sampler. */
+/* kernels/sample/rng.h: the counter-based generator and the Owen-scrambled Sobol sampler. */
 #include "test_util.h"
 
 #include <stdlib.h>
@@ -6,8 +6,8 @@
 
 #include "chi2.h"
 #include "cl/cl_device.h"
-#include "device/rng.h"
-#include "shared/sampling.h"
+#include "sample/rng.h"
+#include "sample/sampling.h"
 
 /* Chi-square tests in this binary, for the Sidak correction. */
 #define RNG_CHI2_TESTS 11
@@ -689,8 +689,8 @@ static void test_zsobol_sampler(void **state)
 /* ---- Host and device agree ------------------------------------------------------ */
 
 static const char device_src[] =
-    "#include \"device/rng.h\"\n"
-    "#include \"shared/sampling.h\"\n"
+    "#include \"sample/rng.h\"\n"
+    "#include \"sample/sampling.h\"\n"
     "__kernel void k_rng_check(__global uint *bits, __global float *f,\n"
     "                          __global const float *cdf, uint ncdf)\n"
     "{\n"

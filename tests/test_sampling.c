@@ -1,6 +1,6 @@
-/* kernels/shared/sampling.h warps and src/core/distribution.c distributions against their pdfs,
+/* kernels/sample/sampling.h warps and src/core/distribution.c distributions against their pdfs,
  * plus the chi-square helper (tests/chi2.h) itself. Uniform numbers come from a
- * generator local to this file, so these tests do not rest on kernels/device/rng.h. */
+ * generator local to this file, so these tests do not rest on kernels/sample/rng.h. */
 #include "test_util.h"
 
 #include <stdlib.h>
@@ -8,8 +8,8 @@
 
 #include "chi2.h"
 #include "core/distribution.h"
-#include "shared/sampling.h"
-#include "shared/spectrum.h"
+#include "sample/sampling.h"
+#include "spectrum/spectrum.h"
 
 /* Chi-square tests expected to pass in this binary, for the Sidak correction. */
 #define SAMPLING_CHI2_TESTS 8
@@ -595,7 +595,7 @@ static void test_distrib_large(void **state)
     free(w);
 }
 
-/* ---- Wavelengths (kernels/shared/spectrum.h) ------------------------------------------- */
+/* ---- Wavelengths (kernels/spectrum/spectrum.h) ------------------------------------------- */
 
 /* The density the wavelength table is made to follow (tools/gen_wavelength_pdf.py),
  * unnormalised, written out from its definition: the Euclidean norm of the

@@ -17,7 +17,7 @@
 #include "render/render.h"
 #include "scene/scene.h"
 #include "color/spd.h"
-#include "shared/cie_data.h"
+#include "spectrum/cie_data.h"
 
 /* KHR_materials_unlit: the surface shows its base colour (upsampled as an
  * illuminant, so it comes back as the same linear sRGB), lit or not. */

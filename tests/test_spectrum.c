@@ -1,4 +1,4 @@
-/* src/color/spd.c and kernels/shared/spectrum.h against published values and against the
+/* src/color/spd.c and kernels/spectrum/spectrum.h against published values and against the
  * colour-science reference data in tests/data/colour (tools/gen_colour_refs.py). */
 #include "test_util.h"
 
@@ -8,7 +8,7 @@
 #include <unistd.h>
 
 #include "color/spd.h"
-#include "shared/spectrum.h"
+#include "spectrum/spectrum.h"
 
 /* XYZ of a named illuminant normalised to Y = 1. */
 static void named_white(const char *name, double xyz[3])

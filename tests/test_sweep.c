@@ -60,8 +60,8 @@
 #include "render/render.h"
 #include "scene/scene.h"
 #include "color/spd.h"
-#include "shared/cie_data.h"
-#include "shared/spectrum.h"
+#include "spectrum/cie_data.h"
+#include "spectrum/spectrum.h"
 
 enum { SKY, BOX, SCENES };
 static const char *const scene_names[SCENES] = {"sky", "box"};

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes kernels/shared/cie_data.h: the CIE 1931 2-degree colour matching functions at
+"""Writes kernels/spectrum/cie_data.h: the CIE 1931 2-degree colour matching functions at
 1 nm from 360 to 830 nm, as a table valid in C99 and OpenCL C.
 
 Source: the colour-science Python package (colour.MSDS_CMFS["CIE 1931 2 Degree
@@ -10,7 +10,7 @@ published 5 nm table (colour.SDS_ILLUMINANTS["D65"], CIE S 014-2/E:2006) from 36
 780 nm, continued to 830 nm by the CIE daylight model (colour.sd_CIE_illuminant_D_series
 at the D65 chromaticity, scaled to meet the table at 780 nm), interpolated linearly
 to 1 nm and normalised so that Y = sum(ybar S) / sum(ybar) = 1.
-Run: python3 tools/gen_cie_data.py > kernels/shared/cie_data.h
+Run: python3 tools/gen_cie_data.py > kernels/spectrum/cie_data.h
 """
 import sys
 import warnings
@@ -38,7 +38,7 @@ def main():
               " * CIE 018:2019) and colour.SDS_ILLUMINANTS[\"D65\"] (CIE S 014-2/E:2006, 5 nm table,\n"
               " * continued past 780 nm by the CIE daylight model; see the generator).\n"
               " * Do not edit by hand. Valid C99 and OpenCL C. */\n" % colour.__version__)
-    out.write("#ifndef SPT_CIE_DATA_H\n#define SPT_CIE_DATA_H\n\n#include \"shared/portable.h\"\n\n")
+    out.write("#ifndef SPT_CIE_DATA_H\n#define SPT_CIE_DATA_H\n\n#include \"util/portable.h\"\n\n")
     out.write("#define SPT_CIE_LAMBDA_MIN %d\n#define SPT_CIE_LAMBDA_MAX %d\n" % (LO, HI))
     out.write("#define SPT_CIE_SAMPLES %d\n" % len(wl))
     ysum = sum(v[1] for v in xyz)

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Generates kernels/device/conductors.h: spectral complex refractive indices n + i k of
+"""Generates kernels/closure/conductors.h: spectral complex refractive indices n + i k of
 gold, silver, copper and aluminium resampled (linear interpolation) onto a regular
 5 nm grid over 360-830 nm.
 
@@ -8,7 +8,7 @@ Source: the measured tables pbrt-v4 ships in src/pbrt/util/spectrum.cpp
 as pbrt-v3 and Mitsuba 0.5 (data/ior/*.eta.spd, *.k.spd). Those files do not name
 the original measurement, so none is claimed here beyond "the measured tables of
 pbrt-v4"; the source wavelengths are equally spaced in photon energy, as
-spectroscopic ellipsometry tables are. Usage: tools/gen_conductors.py > kernels/device/conductors.h
+spectroscopic ellipsometry tables are. Usage: tools/gen_conductors.py > kernels/closure/conductors.h
 """
 import sys
 
@@ -101,7 +101,7 @@ def main():
               " * index n + i k of conductors (see the script for the source: pbrt-v4's measured\n"
               " * tables, src/pbrt/util/spectrum.cpp), linearly resampled onto a 5 nm\n"
               " * grid over 360-830 nm. Valid C99 and OpenCL C. */\n")
-    out.write("#ifndef SPT_CONDUCTORS_H\n#define SPT_CONDUCTORS_H\n\n#include \"shared/portable.h\"\n\n")
+    out.write("#ifndef SPT_CONDUCTORS_H\n#define SPT_CONDUCTORS_H\n\n#include \"util/portable.h\"\n\n")
     out.write("#define SPT_CONDUCTOR_LAMBDA0 %.1ff\n#define SPT_CONDUCTOR_STEP %.1ff\n" % (L0, STEP))
     out.write("#define SPT_CONDUCTOR_SAMPLES %d\n" % N)
     for i, m in enumerate(METALS):

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""Writes kernels/device/sheen_table.h: the directional albedo E(mu, r) of the
+"""Writes kernels/closure/sheen_table.h: the directional albedo E(mu, r) of the
 KHR_materials_sheen "Charlie" lobe (sheen colour 1), which the renderer needs for
 the extension's albedo scaling of the base layer and to keep the lobe from
-creating energy (kernels/device/bsdf.h).
+creating energy (kernels/closure/bsdf.h).
 
     python3 tools/gen_sheen_table.py [OUT.h]
 
@@ -109,7 +109,7 @@ def main():
         "#ifndef SPT_SHEEN_TABLE_H",
         "#define SPT_SHEEN_TABLE_H",
         "",
-        '#include "shared/portable.h"',
+        '#include "util/portable.h"',
         "",
         "#define SPT_SHEEN_N %d" % N,
         "#define SPT_SHEEN_R_MIN %.2ff" % R_MIN,

@@ -22,7 +22,7 @@ objects that show the materials: a smooth sphere of measured gold
 colours; --classic keeps the two published blocks instead.
 
 Also a small glTF writer used by tools/make_test_scenes.py. Needs only the
-Python standard library (kernels/shared/cie_data.h is read for the light's RGB).
+Python standard library (kernels/spectrum/cie_data.h is read for the light's RGB).
 """
 import argparse
 import base64
@@ -118,7 +118,7 @@ XYZ_TO_SRGB = ((3.2406, -1.5372, -0.4986), (-0.9689, 1.8758, 0.0415), (0.0557, -
 # Colour helpers
 # ---------------------------------------------------------------------------
 def load_cie_1931(path=os.path.join(ROOT, "kernels", "shared", "cie_data.h")):
-    """The CIE 1931 CMFs at 1 nm from 360 to 830 nm, parsed from kernels/shared/cie_data.h."""
+    """The CIE 1931 CMFs at 1 nm from 360 to 830 nm, parsed from kernels/spectrum/cie_data.h."""
     text = open(path).read()
     tables = {}
     for name in ("X", "Y", "Z"):

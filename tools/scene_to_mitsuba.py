@@ -48,7 +48,7 @@ scene with a uniform D65 sky of film Y = 1; so does this converter (a Mitsuba
 `constant` emitter), unless --background says otherwise (black, or R,G,B).
 A point light of intensity Iv candela and linear RGB colour c becomes a Mitsuba
 `point` emitter of RGB intensity c Iv (an RGB illuminant, D65 times the
-upsampled colour; the film's unit is the nit: kernels/shared/lights.h). A
+upsampled colour; the film's unit is the nit: kernels/light/lights.h). A
 spot light becomes 32 nested Mitsuba `spot`s of the same intensity whose sum
 is glTF's recommended falloff between the cones (t^2 with t linear in the
 cosine; Mitsuba's own is linear in the angle) interpolated linearly in the
@@ -277,7 +277,7 @@ def _spd(value, warnings):
 # Colour: the observer and the RGB upsampling
 # ---------------------------------------------------------------------------
 # --colour exact (default) gives Mitsuba spectrace's colour definitions, computed
-# here independently: the CIE 1931 2-degree observer of kernels/shared/cie_data.h (the
+# here independently: the CIE 1931 2-degree observer of kernels/spectrum/cie_data.h (the
 # CIE's 1 nm table, normalised by the sum of ybar) as the response of a Mitsuba
 # `specfilm` (XYZ, converted to linear sRGB with the matrix of docs/architecture.md),
 # and every RGB colour as a 1 nm table of the Jakob-Hanika sigmoid spectrum whose
@@ -295,7 +295,7 @@ _OBSERVER = None
 
 
 def observer():
-    """{'nm', 'x', 'y', 'z', 'd65'} 1 nm arrays over 360..830 from kernels/shared/cie_data.h,
+    """{'nm', 'x', 'y', 'z', 'd65'} 1 nm arrays over 360..830 from kernels/spectrum/cie_data.h,
     and 'y_integral' (the sum of ybar)."""
     global _OBSERVER
     if _OBSERVER is None:
@@ -304,7 +304,7 @@ def observer():
         paths = [os.path.join(root, "kernels", sub, "cie_data.h") for sub in ("shared", "")]
         path = next((q for q in paths if os.path.exists(q)), None)
         if path is None:
-            raise ValueError("kernels/shared/cie_data.h not found (the observer of --colour exact)")
+            raise ValueError("kernels/spectrum/cie_data.h not found (the observer of --colour exact)")
         with open(path) as f:
             text = f.read()
         obs = {}
@@ -403,7 +403,7 @@ def rgb_illuminant(rgb, colour="exact"):
 
 def xyz_film(width, height, window=None):
     """A Mitsuba specfilm whose three channels are the CIE 1931 xbar, ybar, zbar
-    of kernels/shared/cie_data.h (optionally zero outside the wavelength window (a, b)):
+    of kernels/spectrum/cie_data.h (optionally zero outside the wavelength window (a, b)):
     each pixel gets the integral of radiance times each function, in nm."""
     obs = observer()
     film = {"type": "specfilm", "width": int(width), "height": int(height), "component_format": "float32",
@@ -541,7 +541,7 @@ def _emitter(m, spec, warnings, colour="exact"):
     return emitter
 
 
-# Film Y of 1 cd/m^2 (kernels/shared/lights.h SPT_LIGHT_FILM_Y_PER_NIT): 1, the nit.
+# Film Y of 1 cd/m^2 (kernels/light/lights.h SPT_LIGHT_FILM_Y_PER_NIT): 1, the nit.
 FILM_Y_PER_NIT = 1.0
 
 

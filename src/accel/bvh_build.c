@@ -1,5 +1,5 @@
 /* Binned SAH BVH builder (Wald 2007, "On fast Construction of SAH-based Bounding
- * Volume Hierarchies") into the flat 8-wide layout of kernels/shared/bvh.h, with an
+ * Volume Hierarchies") into the flat 8-wide layout of kernels/bvh/bvh.h, with an
  * exact full-sweep SAH builder as a quality reference. The binary SAH tree is
  * decided top down and its nodes gathered into 8-wide nodes as it goes; it is
  * never stored. One thread, SSE where available: about 7 million triangles per
@@ -65,7 +65,7 @@ BvhOptions bvh_default_options_for(uint32_t tri_count)
     BvhOptions o;
     o.bins = 16;
     /* A CPU device tests a leaf's triangles a row at a time
-     * (kernels/shared/bvh.h): 16 with AVX-512, 8 with AVX2, and a node visit
+     * (kernels/bvh/bvh.h): 16 with AVX-512, 8 with AVX2, and a node visit
      * costs about one such row, so the node cost is a row's triangles and
      * leaves hold at most a row. With AVX-512, leaves of up to 16 at a node
      * cost of 16 made the fastest trees on PoCL (against leaves of at most 8
@@ -277,7 +277,7 @@ static int tri_zero_area(const float *p)
 }
 
 /* Writes the block of the leaf refs[first, first + n) with its nv distinct
- * vertices v (kernels/shared/bvh.h) at word *words of tris, and points slot c of
+ * vertices v (kernels/bvh/bvh.h) at word *words of tris, and points slot c of
  * node k at it. */
 static void write_block(Builder *bd, Bvh *bvh, uint32_t k, int c, uint32_t first, uint32_t n,
                         const float *v, uint32_t nv, const uint8_t *corner, float *tris,
@@ -467,7 +467,7 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         free(bd.right_area);
         free(bd.tmp);
         /* Each leaf as a block of its distinct vertices and their indices
-         * (kernels/shared/bvh.h), in node order. A block takes at most 12 n words. */
+         * (kernels/bvh/bvh.h), in node order. A block takes at most 12 n words. */
         size_t cap = (size_t)kept * 12 + BVH_TRI_PAD;
         float *tris = spt_malloc(cap * sizeof *tris);
         bvh->prim_index = spt_malloc(kept * sizeof *bvh->prim_index);

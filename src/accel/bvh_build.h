@@ -1,5 +1,5 @@
 /* Host BVH builder: binned SAH over triangles into the flat node array and packed
- * triangles that kernels/shared/bvh.h traverses (on the device and, in tests, on the host). */
+ * triangles that kernels/bvh/bvh.h traverses (on the device and, in tests, on the host). */
 #ifndef SPT_BVH_BUILD_H
 #define SPT_BVH_BUILD_H
 
@@ -8,7 +8,7 @@
 
 #include "core/util.h"
 /* The device layout (BvhNode, the packed triangles, bvh_intersect, bvh_occluded). */
-#include "shared/bvh.h"
+#include "bvh/bvh.h"
 
 /* What a build made, for `info`, the benchmark and the tests. */
 typedef struct BvhStats {
@@ -31,7 +31,7 @@ typedef struct BvhStats {
 typedef struct Bvh {
     BvhNode *nodes;          /* node_count nodes, root first (device-ready) */
     uint32_t node_count;
-    float *tri_data;         /* the leaf blocks (kernels/shared/bvh.h; device-ready),
+    float *tri_data;         /* the leaf blocks (kernels/bvh/bvh.h; device-ready),
                                 then BVH_TRI_PAD words; only zeroed words when
                                 prim_count is 0, so the buffer is never empty */
     size_t tri_data_bytes;

@@ -166,7 +166,7 @@ int cl_source_resolve(const char *path, char **out, SptError *e);
  * markers and messages (e.g. "kernels/test.cl"). */
 int cl_source_resolve_text(const char *name, const char *text, char **out, SptError *e);
 
-/* Builds the program whose entry file is `path` (e.g. "kernels/device/wavefront.cl")
+/* Builds the program whose entry file is `path` (e.g. "kernels/integrator/wavefront.cl")
  * for d, with `options` (may be NULL; e.g. "-DFOO=1") plus -cl-std=CL1.2. Uses
  * the program-binary cache (cl_cache_dir) when it can; a corrupt or unusable
  * entry is rebuilt silently, an unwritable cache folder warns once per
@@ -210,7 +210,7 @@ int cl_device_check_memory(const ClDeviceInfo *info, const ClAlloc *allocs, int 
 int cl_buffer_create(ClDevice *d, const char *name, cl_mem_flags flags, size_t bytes,
                      void *host, cl_mem *out, SptError *e);
 
-/* Builds kernels/device/layout_check.cl on d and writes the device's sizeof of each
+/* Builds kernels/util/layout_check.cl on d and writes the device's sizeof of each
  * struct of SPT_LAYOUT_STRUCTS, then the offset of each field of
  * SPT_LAYOUT_FIELDS, in list order, into values (room for n; n must be
  * cl_layout_count()). */

@@ -1,5 +1,5 @@
 /* The layout check: the device's sizeof and offsetof of every struct shared with
- * the host (kernels/shared/layout_list.h), compared with the host's. */
+ * the host (kernels/util/layout_list.h), compared with the host's. */
 #include "cl/cl_internal.h"
 
 #include <errno.h>
@@ -11,7 +11,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "shared/layout_list.h"
+#include "util/layout_list.h"
 
 typedef struct LayoutEntry {
     const char *name;
@@ -39,7 +39,7 @@ int cl_layout_query(ClDevice *d, unsigned *values, int n, SptError *e)
     cl_kernel k = NULL;
     cl_mem buf = NULL;
     cl_int err = CL_SUCCESS;
-    int rc = cl_program_build(d, "kernels/device/layout_check.cl", NULL, &prog, e);
+    int rc = cl_program_build(d, "kernels/util/layout_check.cl", NULL, &prog, e);
     if (rc)
         return rc;
     size_t bytes = (size_t)n * sizeof(cl_uint);
@@ -77,7 +77,7 @@ int cl_layout_check(ClDevice *d, SptError *e)
         if (dev[i] != layout_host[i].value)
             rc = spt_fail(e, SPT_EXIT_DEVICE,
                           "device [%d] %s: shared struct layout differs: %s %s %u on the "
-                          "device but %u on the host (kernels/shared/layout_list.h)",
+                          "device but %u on the host (kernels/util/layout_list.h)",
                           d->info.index, d->info.name, layout_host[i].name,
                           strchr(layout_host[i].name, '.') ? "is at offset" : "has size",
                           dev[i], layout_host[i].value);

@@ -3,7 +3,7 @@
 #define SPT_EMBEDDED_H
 
 typedef struct SptEmbeddedFile {
-    const char *path; /* as given to the build, e.g. "kernels/shared/bvh.h" */
+    const char *path; /* as given to the build, e.g. "kernels/bvh/bvh.h" */
     const char *text;
 } SptEmbeddedFile;
 

@@ -9,7 +9,7 @@
 #include "color/spd.h"
 #include "core/util.h"
 #include "io/exr.h"
-#include "shared/cie_data.h"
+#include "spectrum/cie_data.h"
 
 static const char color_usage[] =
     "usage: spectrace color [--reflectance] [--] SPD\n"

@@ -13,8 +13,8 @@
 
 #include "color/spd_data.h"
 #include "io/input_file.h"
-#include "shared/cie_data.h"
-#include "shared/spectrum.h"
+#include "spectrum/cie_data.h"
+#include "spectrum/spectrum.h"
 
 void spd_free(Spd *s)
 {

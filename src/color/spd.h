@@ -1,6 +1,6 @@
 /* Host colour science: SPDs, CIE XYZ, sRGB, named illuminants, RGB upsampling.
  * Device-side evaluation (CMF lookup, sigmoid polynomials, wavelength sampling)
- * lives in kernels/shared/spectrum.h and is shared with the host through kernels/. */
+ * lives in kernels/spectrum/spectrum.h and is shared with the host through kernels/. */
 #ifndef SPT_SPECTRUM_H
 #define SPT_SPECTRUM_H
 
@@ -70,7 +70,7 @@ double srgb_decode(double encoded); /* inverse */
 int srgb_to_8bit(double linear);    /* round(255 * clamp(encode(linear), 0, 1)) */
 
 /* RGB upsampling (Jakob and Hanika 2019). Coefficients c give the spectrum
- * s(l) = sigmoid(c0 l^2 + c1 l + c2), l in nm (see kernels/shared/spectrum.h). */
+ * s(l) = sigmoid(c0 l^2 + c1 l + c2), l in nm (see kernels/spectrum/spectrum.h). */
 /* A reflectance, rgb clamped to [0,1]: the spectrum whose colour under D65 (1 nm
  * CIE 1931 sums, docs/architecture.md's matrix) is rgb to 1e-9, found from the fitted
  * table's coefficients by Levenberg-Marquardt (about 0.1 ms). For constant

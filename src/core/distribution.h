@@ -1,6 +1,6 @@
 /* Host-side construction of discrete distributions for the kernels, e.g. light
  * selection in proportion to power: a CDF table to upload as is and sample with
- * spt_discrete_sample (kernels/shared/sampling.h). */
+ * spt_discrete_sample (kernels/sample/sampling.h). */
 #ifndef SPT_DISTRIBUTION_H
 #define SPT_DISTRIBUTION_H
 

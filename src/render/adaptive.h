@@ -3,7 +3,7 @@
  * doubling of the sample indices, [c, 2c), goes only to the pixels where c
  * more samples would lower the image's relative error the most
  * (docs/architecture.md, "Adaptive sampling"). A pixel's samples are always
- * the first of its own sequence (kernels/shared/render_types.h, pixel_lag),
+ * the first of its own sequence (kernels/util/render_types.h, pixel_lag),
  * and the choice is a function of the film's sums at c, so the image is a
  * function of the samples done. */
 #ifndef SPT_ADAPTIVE_H

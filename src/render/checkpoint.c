@@ -12,7 +12,7 @@
 #include <sys/stat.h>
 
 #include "cl/cl_device.h"
-#include "device/rng.h"
+#include "sample/rng.h"
 #include "cl/embedded.h"
 #include "io/exr.h"
 #include "io/image_out.h"
@@ -538,7 +538,7 @@ static long settings_long(const char *list, const char *name)
 }
 
 /* The most negative linear sRGB component of the albedo AOV of any reflectance
- * in [0, 1] under D65 (kernels/device/material_eval.h, material_albedo): -0.484
+ * in [0, 1] under D65 (kernels/material/material_eval.h, material_albedo): -0.484
  * for R, from the CIE 1931 functions at its 10 nm steps. A pixel's albedo sum
  * below -0.5 per sample is no render's. */
 #define CKPT_ALBEDO_MIN (-0.5)

@@ -20,7 +20,7 @@
  * its kept samples of the albedo (linear sRGB), the shading normal (world), the
  * depth (along the camera's view axis), the position (world) of the first hit,
  * and the squares of the sample's linear sRGB radiance (the variance layer). The
- * kernels' per-pixel sums (kernels/device/wavefront.cl, k_accumulate) come as
+ * kernels' per-pixel sums (kernels/integrator/wavefront.cl, k_accumulate) come as
  * SPT_AOV_CHUNK_FLOATS floats per pixel: (albedo RGB, Z), (N, 0), (P, 0),
  * (squares RGB, 0). */
 #define SPT_AOV_SUMS 13

@@ -8,8 +8,8 @@
 #include <string.h>
 
 #include "render/render_lights.h"
-#include "shared/cie_data.h"
-#include "shared/spectrum.h"
+#include "spectrum/cie_data.h"
+#include "spectrum/spectrum.h"
 
 /* A spectrum reference from an SPD: its 1 nm grid appended to spectra. */
 static SpecRef spec_from_spd(const Spd *spd, float scale, float **spectra, uint32_t *count)
@@ -47,10 +47,10 @@ static double emission_luminance(const GpuMaterial *m, const float *spectra)
 }
 
 /* Index (0..SPT_CONDUCTOR_COUNT-1) of a conductor name of the spectral extras,
- * -1 when unknown. The loader accepts only the names of kernels/device/conductors.h. */
+ * -1 when unknown. The loader accepts only the names of kernels/closure/conductors.h. */
 static int conductor_id(const char *name)
 {
-    /* The order of SPT_CONDUCTOR_AU, _AG, _CU, _AL in kernels/device/conductors.h. */
+    /* The order of SPT_CONDUCTOR_AU, _AG, _CU, _AL in kernels/closure/conductors.h. */
     static const char *const names[4] = {"Au", "Ag", "Cu", "Al"};
     for (int i = 0; i < 4; i++)
         if (!strcmp(name, names[i]))
@@ -72,7 +72,7 @@ static SpecRef spec_from_rgb_scaled(const float rgb[3])
     return r;
 }
 
-/* How each texture slot's texels are read (SPT_TEXKIND_*; kernels/device/wavefront.cl,
+/* How each texture slot's texels are read (SPT_TEXKIND_*; kernels/integrator/wavefront.cl,
  * material_bsdf, says which channels). */
 static const uint32_t k_slot_kind[SPT_TS_COUNT] = {
     [SPT_TS_BASE] = SPT_TEXKIND_COLOR,
@@ -234,7 +234,7 @@ static void material_upload(GpuMaterial *gm, const SceneMaterial *m, GpuScene *g
     if (!(gm->flags & SPT_MAT_EMISSIVE))
         gm->slot[SPT_TS_EMISSIVE].tex = -1;
 
-    /* The BSDF (kernels/device/bsdf.h). */
+    /* The BSDF (kernels/closure/bsdf.h). */
     gm->metallic = m->metallic;
     gm->roughness = m->roughness;
     gm->normal_scale = m->normal_scale;
@@ -460,7 +460,7 @@ int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
     }
 
     /* Emitters: every packed triangle whose material emits, weighted by its
-     * Y-weighted power pi * area * Y(Le) (kernels/shared/lights.h's selection units). */
+     * Y-weighted power pi * area * Y(Le) (kernels/light/lights.h's selection units). */
     double *mat_y = spt_calloc(g->material_count ? g->material_count : 1, sizeof(double));
     for (uint32_t i = 0; i < g->material_count; i++)
         if (g->materials[i].flags & SPT_MAT_EMISSIVE)

@@ -9,7 +9,7 @@
 #include "core/util.h"
 #include "render/host_lights.h"
 #include "scene/scene.h"
-#include "shared/render_types.h"
+#include "util/render_types.h"
 
 /* The scene as the kernels read it: packed triangles in BVH order and their
  * shading data, materials with spectra, coefficient textures, emitters. */
@@ -51,7 +51,7 @@ size_t gpu_scene_bytes(const GpuScene *g);
 struct RenderLights;
 
 /* Byte size and contents of the scene buffer called name (a name of
- * SPT_SCENE_BUFFERS, kernels/shared/render_types.h): sizes are never 0 (OpenCL
+ * SPT_SCENE_BUFFERS, kernels/util/render_types.h): sizes are never 0 (OpenCL
  * refuses empty buffers); contents may be NULL (a zeroed buffer). L may be NULL
  * (an estimate for `info`: no environment). */
 size_t gpu_scene_buffer_bytes(const GpuScene *g, const struct RenderLights *L, const char *name);

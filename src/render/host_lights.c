@@ -134,7 +134,7 @@ int light_from_scene(const SceneLight *sl, float *table, uint32_t table_offset, 
         out->spot_scale = 0.0f;
         out->spot_span = 2.0f;
     }
-    /* W/(sr nm) or W/(m^2 nm), into the film's units (kernels/shared/lights.h). */
+    /* W/(sr nm) or W/(m^2 nm), into the film's units (kernels/light/lights.h). */
     if (sl->spd.count > 0 || sl->spd.line_count > 0) {
         if (!(light_spd_table(&sl->spd, sl->intensity, table) > 0.0))
             return spt_fail(e, SPT_EXIT_INPUT, "%s: its spectrum has no luminance (nothing "

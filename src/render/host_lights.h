@@ -1,4 +1,4 @@
-/* Host construction of the light models of kernels/shared/lights.h: punctual lights from
+/* Host construction of the light models of kernels/light/lights.h: punctual lights from
  * glTF KHR_lights_punctual (photometric units converted to spectral radiometric
  * ones), environment maps with their sampling distribution, and the one CDF that
  * picks among all lights in proportion to power.
@@ -18,7 +18,7 @@
 #include <stdint.h>
 
 #include "core/distribution.h"
-#include "shared/lights.h"
+#include "light/lights.h"
 #include "scene/scene.h"
 #include "core/util.h"
 

@@ -110,7 +110,7 @@ typedef struct RenderDeviceStats {
 } RenderDeviceStats;
 
 /* The sampler named name ("sobol", "zsobol" or "independent", any case) as its
- * SPT_SAMPLER_* value (kernels/shared/render_types.h) in *sampler; -1 for other
+ * SPT_SAMPLER_* value (kernels/util/render_types.h) in *sampler; -1 for other
  * names. */
 int render_sampler_parse(const char *name, uint32_t *sampler);
 

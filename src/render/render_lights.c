@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "shared/cie_data.h"
+#include "spectrum/cie_data.h"
 
 void render_lights_free(RenderLights *L)
 {

@@ -44,7 +44,7 @@ enum { SPT_SWITCH_AUTO = 0, SPT_SWITCH_OFF = 1, SPT_SWITCH_ON = 2 };
 
 /* The values of the options of each kind as the user types them, indexed by
  * their value: SWITCH (SPT_SWITCH_*), SAMPLER (SPT_SAMPLER_*,
- * kernels/shared/render_types.h) and the AOV layers (bit k of the mask,
+ * kernels/util/render_types.h) and the AOV layers (bit k of the mask,
  * src/render/film.h). The parsers and the checkpoint's mismatch messages
  * (src/render/checkpoint.c) take the names from here. */
 #define SPT_SWITCH_NAMES {"auto", "off", "on"}

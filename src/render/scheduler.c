@@ -11,11 +11,11 @@
 #include <pthread.h>
 #include <unistd.h>
 
-#include "device/bsdf.h"
+#include "closure/bsdf.h"
 #include "render/adaptive.h"
 #include "render/render_lights.h"
 #include "render/wavefront.h"
-#include "device/rng.h"
+#include "sample/rng.h"
 
 /* The camera of the kernels: right and up scaled so that screen coordinates in
  * [-1, 1] span the field of view at the image's aspect ratio. */
@@ -35,7 +35,7 @@ static void camera_params(RenderParams *p, const SceneCamera *c, int width, int 
         p->cam_up[i] = c->up[i] * sy;
     }
     p->cam_right[3] = p->cam_up[3] = 0.0f;
-    /* The ray cone that texture filtering follows (kernels/device/path.h): a pixel's
+    /* The ray cone that texture filtering follows (kernels/integrator/path.h): a pixel's
      * size at the camera (orthographic), or a pixel's angle (perspective, at the
      * image's centre). */
     p->cam_pos[3] = c->orthographic ? 2.0f * sy / (float)height : 0.0f;
@@ -383,7 +383,7 @@ static int material_may_be_delta(const GpuMaterial *m)
  * them when there are more than SPT_CAUSTIC_MAX; each about the centre of the
  * box around its triangles' vertices, through the farthest of them, widened
  * by float rounding. A light path goes on only from such a surface, so its
- * first ray is aimed at these spheres (kernels/shared/lights.h): one sphere
+ * first ray is aimed at these spheres (kernels/light/lights.h): one sphere
  * per material wastes fewer rays than one around all (on the Cornell box it
  * held the glass and the gold spheres and the space between them). */
 static void caustic_bounds(RenderParams *p, const GpuScene *g)
@@ -630,7 +630,7 @@ static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *
     p->sampler = rs->sampler;
     if (rs->sampler == SPT_SAMPLER_ZSOBOL) {
         /* The samples per pixel (the cap under --time) rounded up to a power
-         * of two fix the sequence (kernels/device/rng.h, ZSobol). */
+         * of two fix the sequence (kernels/sample/rng.h, ZSobol). */
         p->zsobol_log2spp = spt_ceil_log2((uint32_t)(rs->spp > 0 ? rs->spp : 1));
         p->zsobol_digits = spt_zsobol_digits((uint32_t)rs->width, (uint32_t)rs->height, p->zsobol_log2spp);
     }

@@ -117,7 +117,7 @@ static uint32_t pool_size_for(const ClDeviceInfo *info, uint32_t asked, uint64_t
     return (uint32_t)(pool ? pool : 1);
 }
 
-/* The kernels' two code paths (kernels/shared/bvh.h): 1 for the CPU path, which
+/* The kernels' two code paths (kernels/bvh/bvh.h): 1 for the CPU path, which
  * tests a BVH leaf's triangles in vector rows (16 with AVX-512, 8 with AVX2)
  * and traces two rays per extend work-item, interleaved, each with a full
  * traversal stack; 0 for the GPU path, one ray per work-item with a short
@@ -291,7 +291,7 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
     else if (path == SPT_KERNEL_PATH_GPU)
         w->ray_pairs = 0;
     /* The megakernel: on the CPU path, k_paths runs each work-item's paths from
-     * start to end (kernels/device/wavefront.cl). A CPU runs a work-group's
+     * start to end (kernels/integrator/wavefront.cl). A CPU runs a work-group's
      * items one after another, so the stage kernels' queues, barriers and
      * passes over the path state only cost time there: the Cornell box takes
      * about 10% less CPU time, the 1M-triangle mesh the same
@@ -318,7 +318,7 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
              rs->test.inject_nan ? "-DSPT_TEST_INJECT_NAN=1" : "");
     w->dev.stop = rs->stop;
     w->dev.announce = rs->progress;
-    if ((rc = cl_program_build(&w->dev, "kernels/device/wavefront.cl", options, &w->program, e)))
+    if ((rc = cl_program_build(&w->dev, "kernels/integrator/wavefront.cl", options, &w->program, e)))
         return rc;
     for (int i = 0; i < K_COUNT; i++) {
         cl_int err;

@@ -1,5 +1,5 @@
 /* The wavefront loop on one device: its context, program, kernels and buffers
- * (named once through the lists of kernels/shared/render_types.h), and the
+ * (named once through the lists of kernels/util/render_types.h), and the
  * rendering of one chunk of samples. */
 #ifndef SPT_WAVEFRONT_H
 #define SPT_WAVEFRONT_H
@@ -98,7 +98,7 @@ int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, 
                  RenderStats *st, SptError *e);
 
 /* Which of the next chunks' samples each pixel takes (adaptive sampling,
- * src/render/adaptive.h): lag[p] (kernels/shared/render_types.h, pixel_lag;
+ * src/render/adaptive.h): lag[p] (kernels/util/render_types.h, pixel_lag;
  * wavefront_create starts every pixel at 0, every sample). */
 int wavefront_set_lags(Wavefront *w, const uint32_t *lag, size_t npix, SptError *e);
 

@@ -25,7 +25,7 @@
 
 extern "C" {
 #include "scene/scene.h"
-#include "shared/cie_data.h"
+#include "spectrum/cie_data.h"
 #include "scene/mesh_decode.h"
 #include "scene/texture_io.h"
 #include "io/input_file.h"

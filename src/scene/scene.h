@@ -26,7 +26,7 @@ typedef struct SceneTexture {
 
 enum { SPT_ALPHA_OPAQUE = 0, SPT_ALPHA_MASK = 1, SPT_ALPHA_BLEND = 2 };
 
-/* A material's texture slots, in the order of kernels/shared/render_types.h's SPT_TS_*
+/* A material's texture slots, in the order of kernels/util/render_types.h's SPT_TS_*
  * (which has no occlusion: a path tracer computes occlusion itself, so the
  * occlusion texture is only reported). */
 enum {

@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "shared/cie_data.h"
+#include "spectrum/cie_data.h"
 
 #define PACK_MAGIC 0x53505453u /* "SPTS" */
 #define SKY_MAGIC 0x4b545053u  /* "SPTK" */

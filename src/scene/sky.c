@@ -12,7 +12,7 @@
 #include "io/image_io.h"
 #include "io/image_out.h"
 #include "io/input_file.h"
-#include "shared/cie_data.h"
+#include "spectrum/cie_data.h"
 
 /* The map of an image file, values as stored: an 8- or 16-bit integer file (PNG,
  * JPEG, ...) holds sRGB-encoded display values, decoded to linear (an LDR map

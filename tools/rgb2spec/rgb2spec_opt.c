@@ -8,7 +8,7 @@
  * the other two channels (m+1)%3, (m+2)%3 equal to x_i * z_k and y_j * z_k with
  * x_i = i / (RES-1). The spectrum s(l) = sigmoid(a0 t^2 + a1 t + a2),
  * t = (l - 360) / 470, is fitted by Levenberg-Marquardt so that the linear sRGB of
- * D65(Y=1) * s, by 1 nm sums with the CIE 1931 tables of kernels/shared/cie_data.h and the
+ * D65(Y=1) * s, by 1 nm sums with the CIE 1931 tables of kernels/spectrum/cie_data.h and the
  * matrix of docs/architecture.md, equals the target. Each column (m, i, j) is solved from the
  * middle of z outwards, each solution starting from its neighbour's, as the paper
  * does. The table stores the coefficients converted to nm (s = sigmoid(c0 l^2 +
@@ -21,7 +21,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "shared/cie_data.h"
+#include "spectrum/cie_data.h"
 
 /* 64 cells per axis (3 * 64^3 fits in about 20 s of CPU, 9 MiB of floats): the
  * trilinear interpolation of the coefficients, which textures and vertex colours

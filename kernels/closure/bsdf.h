@@ -29,7 +29,7 @@
  *    BRDF": distribution sin(theta_h)^(1/alpha), the specification's fitted
  *    visibility, F = 1) in the sheen colour, and the base scaled by the albedo
  *    scaling 1 - max3(sheen colour) max(E(mu_o), E(mu_i)), E the lobe's
- *    directional albedo (kernels/device/sheen_table.h). Where E exceeds 1 (sheen
+ *    directional albedo (kernels/closure/sheen_table.h). Where E exceeds 1 (sheen
  *    roughness below about 0.26, grazing angles) the lobe would create energy;
  *    it is divided by max(1, E(mu_o), E(mu_i)) there and E is capped at 1 in the
  *    scaling, so albedo sheen + base never exceeds 1.
@@ -45,10 +45,10 @@
 #ifndef SPT_BSDF_H
 #define SPT_BSDF_H
 
-#include "shared/portable.h"
-#include "shared/vecmath.h"
-#include "device/conductors.h"
-#include "device/sheen_table.h"
+#include "util/portable.h"
+#include "util/vecmath.h"
+#include "closure/conductors.h"
+#include "closure/sheen_table.h"
 
 /* Alpha below which a lobe is treated as perfectly smooth (a delta lobe). */
 #define BSDF_DELTA_ALPHA 1e-3f
@@ -91,8 +91,8 @@ typedef struct BsdfSample {
 /* The building blocks, in this order: Fresnel, refraction, dispersion and the
  * GGX distribution; then the clearcoat and sheen layers. They use BsdfParams
  * and are included here only. */
-#include "device/bsdf_microfacet.h"
-#include "device/bsdf_layers.h"
+#include "closure/bsdf_microfacet.h"
+#include "closure/bsdf_layers.h"
 
 /* ---- The combined material: lobes and their selection ---------------------------- */
 

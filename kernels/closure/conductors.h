@@ -5,7 +5,7 @@
 #ifndef SPT_CONDUCTORS_H
 #define SPT_CONDUCTORS_H
 
-#include "shared/portable.h"
+#include "util/portable.h"
 
 #define SPT_CONDUCTOR_LAMBDA0 360.0f
 #define SPT_CONDUCTOR_STEP 5.0f

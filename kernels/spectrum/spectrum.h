@@ -5,9 +5,9 @@
 #ifndef SPT_KERNEL_SPECTRUM_H
 #define SPT_KERNEL_SPECTRUM_H
 
-#include "shared/portable.h"
-#include "shared/cie_data.h"
-#include "shared/wavelength_pdf.h"
+#include "util/portable.h"
+#include "spectrum/cie_data.h"
+#include "sample/wavelength_pdf.h"
 
 /* Linear interpolation of a 1 nm table over 360..830 at lambda; 0 outside. */
 #define SPT_TABLE_LERP(table, lambda)                                               \
@@ -43,7 +43,7 @@ SPT_FN float spt_sigmoid_poly(float c0, float c1, float c2, float lambda)
 SPT_FN float spt_d65_norm(float lambda) { SPT_TABLE_LERP(SPT_D65_NORM, lambda); }
 #endif
 
-/* Wavelength importance sampling: the density of kernels/shared/wavelength_pdf.h
+/* Wavelength importance sampling: the density of kernels/sample/wavelength_pdf.h
  * (proportional to the norm of the linear sRGB colour matching functions; see
  * tools/gen_wavelength_pdf.py), sampled by linear interpolation of its inverse
  * CDF table. The density sampled is thus piecewise constant: bin k, [l_k,

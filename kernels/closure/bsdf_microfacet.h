@@ -1,4 +1,4 @@
-/* The building blocks of kernels/device/bsdf.h (which includes this after
+/* The building blocks of kernels/closure/bsdf.h (which includes this after
  * defining BsdfParams): small helpers (alpha, reflection, refraction, the
  * dielectric and conductor Fresnel equations, Schlick, the dispersion law,
  * measured conductors) and the isotropic GGX microfacet distribution with
@@ -6,7 +6,7 @@
 #ifndef SPT_BSDF_MICROFACET_H
 #define SPT_BSDF_MICROFACET_H
 
-#include "shared/portable.h"
+#include "util/portable.h"
 
 /* ---- Small helpers --------------------------------------------------------------- */
 
@@ -116,7 +116,7 @@ SPT_FN float bsdf_dispersion_ior(float ior, float dispersion, float lambda_nm)
 }
 
 /* Makes p's metal a measured conductor (SPT_CONDUCTOR_AU, _AG, _CU, _AL of
- * kernels/device/conductors.h) at the path's wavelengths lambda_nm[0..3]: sets conductor,
+ * kernels/closure/conductors.h) at the path's wavelengths lambda_nm[0..3]: sets conductor,
  * eta and k. */
 SPT_FN void bsdf_set_conductor(BsdfParams *p, int metal, float l0, float l1, float l2, float l3)
 {

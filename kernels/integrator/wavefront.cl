@@ -4,7 +4,7 @@
  * paths, start new ones from the chunk's work counter, queue every live path),
  * k_extend (closest hit), k_shade (emission with MIS, next-event estimation into
  * the shadow queue, BSDF sampling, Russian roulette), k_connect (shadow rays).
- * With the light-tracing pass (kernels/device/light_trace.h), a chunk's work
+ * With the light-tracing pass (kernels/integrator/light_trace.h), a chunk's work
  * items past its camera paths (P.light_begin on) are light paths in the same
  * pool and queues.
  * When a chunk's work is all done, k_accumulate sums its per-sample contributions
@@ -14,16 +14,16 @@
  * Work item w of a chunk is pixel = w mod (W*H), sample = sample_begin + w / (W*H);
  * every random number is a function of (seed, pixel, sample, dimension) only.
  * Depth counts path segments from the camera (Mitsuba's max_depth convention). */
-#include "shared/portable.h"
-#include "shared/vecmath.h"
-#include "device/rng.h"
-#include "shared/sampling.h"
-#include "shared/spectrum.h"
-#include "shared/bvh.h"
-#include "shared/render_types.h"
-#include "device/path.h"
-#include "device/bsdf.h"
-#include "shared/lights.h"
+#include "util/portable.h"
+#include "util/vecmath.h"
+#include "sample/rng.h"
+#include "sample/sampling.h"
+#include "spectrum/spectrum.h"
+#include "bvh/bvh.h"
+#include "util/render_types.h"
+#include "integrator/path.h"
+#include "closure/bsdf.h"
+#include "light/lights.h"
 
 #define PARAM(type, name) __global type *name,
 #define PS_PARAM(type, name) __global type *ps_##name,
@@ -115,8 +115,8 @@ static SPT_ALWAYS_INLINE uint group_queue_slot(int want, __global uint *counter,
 
 /* Surface shading: the materials' textures and BSDFs at a hit, and shade_path
  * in its steps; the light-tracing pass. */
-#include "device/shade_surface.h"
-#include "device/light_trace.h"
+#include "integrator/shade_surface.h"
+#include "integrator/light_trace.h"
 
 /* A finished camera path: its XYZ into its own contribution slot (and its
  * spectral bands); a NaN or infinite one is dropped and counted. */

@@ -1,11 +1,11 @@
-/* A surface hit's material, for kernels/device/shade_surface.h (included
+/* A surface hit's material, for kernels/integrator/shade_surface.h (included
  * there, in wavefront.cl's scope): the triangle's geometry and texture
  * footprint, and the material's opacity, emission, albedo, normals and BSDF
  * parameters at the hit. */
 #ifndef SPT_MATERIAL_EVAL_H
 #define SPT_MATERIAL_EVAL_H
 
-#include "shared/portable.h"
+#include "util/portable.h"
 
 /* The vertices of packed triangle prim, from the vertex positions (the same
  * floats as the BVH's copy, whose leaf blocks spread a triangle over up to 9
@@ -144,7 +144,7 @@ static float4 material_emission(const __global GpuMaterial *m, const TexCtx *c, 
     return le;
 }
 
-/* The four wavelengths of a float4 as an array (for kernels/shared/lights.h). */
+/* The four wavelengths of a float4 as an array (for kernels/light/lights.h). */
 static void lambda_array(float4 lam, float *out)
 {
     out[0] = lam.x;

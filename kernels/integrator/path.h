@@ -4,10 +4,10 @@
 #ifndef SPT_PATH_H
 #define SPT_PATH_H
 
-#include "shared/portable.h"
-#include "shared/vecmath.h"
-#include "shared/spectrum.h"
-#include "shared/render_types.h"
+#include "util/portable.h"
+#include "util/vecmath.h"
+#include "spectrum/spectrum.h"
+#include "util/render_types.h"
 
 /* sigmoid-polynomial spectrum at four wavelengths. */
 static float4 spec_sigmoid4(float c0, float c1, float c2, float4 lam)
@@ -310,7 +310,7 @@ static float3 path_xyz_to_linear_srgb(float3 c)
                     0.0557f * c.x - 0.2040f * c.y + 1.0570f * c.z);
 }
 
-/* spt_sample_wavelengths (kernels/shared/spectrum.h) on the four lanes at once:
+/* spt_sample_wavelengths (kernels/spectrum/spectrum.h) on the four lanes at once:
  * the same arithmetic per lane. */
 static void path_sample_wavelengths(float u, float4 *lambda, float4 *pdf)
 {

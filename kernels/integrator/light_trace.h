@@ -1,5 +1,5 @@
-/* The light-tracing pass of the wavefront kernels (kernels/device/wavefront.cl
- * includes this after kernels/device/shade_surface.h): paths that start on the
+/* The light-tracing pass of the wavefront kernels (kernels/integrator/wavefront.cl
+ * includes this after kernels/integrator/shade_surface.h): paths that start on the
  * lights and reach the camera through a shadow ray, for the caustics that
  * camera paths find badly (an area light or a map's sun seen through glass)
  * or never (a punctual light behind glass). docs/architecture.md, "Caustics",
@@ -15,7 +15,7 @@
  *   path drops exactly the emission it reaches that way, an emitter's or the
  *   map's seen by a ray that left the scene (lt_camera_drops and
  *   lt_camera_drops_env in
- *   kernels/device/shade_surface.h); punctual lights it never reaches. The
+ *   kernels/integrator/shade_surface.h); punctual lights it never reaches. The
  *   camera paths keep the rest: x1 S (a light path cannot connect through a
  *   delta vertex), xk D (next-event estimation and MIS find those well), and
  *   emitters outside the light selection.

@@ -56,8 +56,8 @@
 #ifndef SPT_KERNELS_BVH_H
 #define SPT_KERNELS_BVH_H
 
-#include "shared/portable.h"
-#include "shared/vecmath.h"
+#include "util/portable.h"
+#include "util/vecmath.h"
 #if !SPT_DEVICE && defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -695,7 +695,7 @@ SPT_FN_INLINE int bvh_trav_step(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBA
     return 0;
 }
 
-#include "shared/bvh_short_stack.h"
+#include "bvh/bvh_short_stack.h"
 
 /* The traversal of one ray: returns 1 and fills hit when it found a hit. With
  * SPT_BVH_SHORT_STACK (the kernels' GPU path) the short stack, else the full

@@ -1,9 +1,9 @@
 /* The layout check of the structs shared by host and kernels (see
- * kernels/shared/layout_list.h): one work-item writes sizeof of each struct of
+ * kernels/util/layout_list.h): one work-item writes sizeof of each struct of
  * SPT_LAYOUT_STRUCTS, then the byte offset of each field of SPT_LAYOUT_FIELDS,
  * in list order. The host compares them with its own (cl_layout_check). */
-#include "shared/portable.h"
-#include "shared/layout_list.h"
+#include "util/portable.h"
+#include "util/layout_list.h"
 
 /* Byte offset of field f in T, without relying on offsetof in OpenCL C. */
 #define SPT_LAYOUT_OFFSET(T, f) \

@@ -17,7 +17,7 @@
  * KHR_materials_emissive_strength gives glTF's emissive colour (emissive (1,1,1)
  * is D65 of Y = 1) and that makes KHR_lights_punctual's candela and lux agree
  * with it (the convention of the Khronos glTF Sample Viewer). The film stores
- * Y = integral(L ybar) / integral(ybar) (kernels/device/path.h path_radiance_to_xyz), so
+ * Y = integral(L ybar) / integral(ybar) (kernels/integrator/path.h path_radiance_to_xyz), so
  * a light's spectra are kept in "film" units: a physical spectral radiance in
  * W/(m^2 sr nm) is multiplied by 683 lm/W * integral(ybar) = 72982.3
  * (SPT_LIGHT_FILM_PER_WATT). Example: a white Lambertian (albedo 1) facing a
@@ -37,11 +37,11 @@
 #ifndef SPT_LIGHTS_H
 #define SPT_LIGHTS_H
 
-#include "shared/portable.h"
-#include "shared/vecmath.h"
-#include "shared/sampling.h"
-#include "shared/spectrum.h"
-#include "shared/render_types.h"
+#include "util/portable.h"
+#include "util/vecmath.h"
+#include "sample/sampling.h"
+#include "spectrum/spectrum.h"
+#include "util/render_types.h"
 
 /* Film Y of one cd/m^2 (the film's unit is the nit). */
 #define SPT_LIGHT_FILM_Y_PER_NIT 1.0f
@@ -113,7 +113,7 @@ SPT_FN float light_spot_falloff(const SPT_GLOBAL GpuLight *l, float x)
     return t * t;
 }
 
-/* ---- Light paths aimed at the caustic spheres (kernels/device/light_trace.h) ---- */
+/* ---- Light paths aimed at the caustic spheres (kernels/integrator/light_trace.h) ---- */
 
 /* Whether the ray from o along unit d meets caustic sphere k of p, or starts
  * in it. */

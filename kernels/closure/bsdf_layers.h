@@ -1,12 +1,12 @@
 /* The KHR_materials_clearcoat and KHR_materials_sheen layers of
- * kernels/device/bsdf.h (which includes this after BsdfParams and the GGX
- * distribution of kernels/device/bsdf_microfacet.h): the coat's lobe about its
+ * kernels/closure/bsdf.h (which includes this after BsdfParams and the GGX
+ * distribution of kernels/closure/bsdf_microfacet.h): the coat's lobe about its
  * own normal and its Fresnel weight, the sheen's "Charlie" lobe with its
  * tabulated albedo, and how the layers scale what is under them. */
 #ifndef SPT_BSDF_LAYERS_H
 #define SPT_BSDF_LAYERS_H
 
-#include "shared/portable.h"
+#include "util/portable.h"
 
 /* ---- KHR_materials_clearcoat and KHR_materials_sheen layers --------------------- */
 
@@ -78,7 +78,7 @@ SPT_FN float bsdf_sheen_r(const BsdfParams *p)
     return fminf(fmaxf(p->sheen_roughness, SPT_SHEEN_R_MIN), 1.0f);
 }
 
-/* E(mu, r) of kernels/device/sheen_table.h: bilinear in (sqrt(mu), r). */
+/* E(mu, r) of kernels/closure/sheen_table.h: bilinear in (sqrt(mu), r). */
 SPT_FN float bsdf_sheen_albedo(float mu, float r)
 {
     const float last = (float)(SPT_SHEEN_N - 1);

@@ -6,7 +6,7 @@
 #ifndef SPT_CIE_DATA_H
 #define SPT_CIE_DATA_H
 
-#include "shared/portable.h"
+#include "util/portable.h"
 
 #define SPT_CIE_LAMBDA_MIN 360
 #define SPT_CIE_LAMBDA_MAX 830

@@ -4,7 +4,7 @@
 #ifndef SPT_RENDER_TYPES_H
 #define SPT_RENDER_TYPES_H
 
-#include "shared/portable.h"
+#include "util/portable.h"
 
 /* A spectrum as a material or light stores it:
  *   kind SPT_SPEC_SIGMOID: scale * sigmoid(c0 l^2 + c1 l + c2) (Jakob-Hanika),
@@ -40,7 +40,7 @@ typedef struct SpecRef {
 #define SPT_MAT_UV1 128u         /* some slot reads TEXCOORD_1 (vtx_uv1) */
 
 /* The texture slots of a material (the same numbers as scene.h's SPT_SLOT_*):
- * which channels each reads is in kernels/device/wavefront.cl (material_bsdf). */
+ * which channels each reads is in kernels/integrator/wavefront.cl (material_bsdf). */
 #define SPT_TS_BASE 0
 #define SPT_TS_METALLIC_ROUGHNESS 1
 #define SPT_TS_NORMAL 2
@@ -64,7 +64,7 @@ typedef struct GpuTexSlot {
     float m[6];
 } GpuTexSlot; /* 32 bytes */
 
-/* A material: glTF metallic-roughness with its extensions (kernels/device/bsdf.h). Each
+/* A material: glTF metallic-roughness with its extensions (kernels/closure/bsdf.h). Each
  * factor is multiplied by its slot's texture where it has one. */
 typedef struct GpuMaterial {
     SpecRef reflectance;   /* base colour: diffuse albedo, metal F0, transmission tint */
@@ -130,7 +130,7 @@ typedef struct TriShade {
  * the KHR_lights_punctual specification's smooth falloff, t^2 with t =
  * (cos(angle) - cos(outer)) / (cos(inner) - cos(outer)) clamped to [0, 1],
  * written in x = 1 - cos, which float carries for narrow cones where cos
- * rounds to 1 (kernels/shared/lights.h, light_spot_falloff):
+ * rounds to 1 (kernels/light/lights.h, light_spot_falloff):
  * t = clamp((spot_span - x) * spot_scale, 0, 1), with spot_span = 1 - cos(outer)
  * and spot_scale = 1 / (cos(inner) - cos(outer)), both computed in double;
  * a hard edge (inner = outer) has spot_scale 1e30. The specification's sample
@@ -177,7 +177,7 @@ typedef struct GpuEnvMap {
     SpecRef uniform;
 } GpuEnvMap; /* 64 bytes */
 
-/* The samplers of RenderParams.sampler (kernels/device/rng.h). */
+/* The samplers of RenderParams.sampler (kernels/sample/rng.h). */
 #define SPT_SAMPLER_SOBOL 0u       /* padded Owen-scrambled Sobol in every dim */
 #define SPT_SAMPLER_INDEPENDENT 1u /* a hash of (seed, pixel, sample, dim) */
 #define SPT_SAMPLER_ZSOBOL 2u      /* Sobol over the pixels in Morton order (blue-noise error) */
@@ -188,7 +188,7 @@ typedef struct GpuEnvMap {
 /* Everything a pass needs besides buffers; passed by value. */
 typedef struct RenderParams {
     /* camera: position, right/up scaled by tan(fov/2) (and aspect), forward; the
-     * ray cone that texture filtering follows (kernels/device/path.h): its width at the
+     * ray cone that texture filtering follows (kernels/integrator/path.h): its width at the
      * camera in cam_pos[3] (orthographic: a pixel's size; else 0) and its spread
      * in cam_fwd[3] (a pixel's angle; 0 orthographic) */
     float cam_pos[4];
@@ -214,7 +214,7 @@ typedef struct RenderParams {
     float lens_radius;
     float focus_distance;
     float env_prob;         /* probability that light selection picks the environment */
-    /* The light-tracing pass (kernels/device/light_trace.h): light paths per
+    /* The light-tracing pass (kernels/integrator/light_trace.h): light paths per
      * sample index (0: no pass), and the chunk's work index of its first light
      * path (the camera paths come first: work_begin .. light_begin). */
     spt_u32 light_paths;
@@ -223,7 +223,7 @@ typedef struct RenderParams {
      * that covers it). */
     float scene_center[3];
     float scene_radius;
-    /* The caustic spheres (kernels/shared/lights.h, lt_aim_cones): per
+    /* The caustic spheres (kernels/light/lights.h, lt_aim_cones): per
      * material that may take a delta lobe (all such materials in one when
      * there are more than SPT_CAUSTIC_MAX), the bounding sphere of its
      * triangles, centre and radius; caustic_count 0: none. Only a light path
@@ -232,12 +232,12 @@ typedef struct RenderParams {
                                            rusticl misjudges the size of a kernel
                                            argument with a 2D array member) */
     spt_u32 caustic_count;
-    spt_u32 sampler;        /* SPT_SAMPLER_* (kernels/device/rng.h) */
+    spt_u32 sampler;        /* SPT_SAMPLER_* (kernels/sample/rng.h) */
     /* SPT_SAMPLER_ZSOBOL: log2 of the samples per pixel rounded up to a power
      * of two, and the base-4 digits of a Morton index (spt_zsobol_digits). */
     spt_u32 zsobol_log2spp;
     spt_u32 zsobol_digits;
-    /* What rays that leave the scene see (kernels/shared/lights.h): a map, a uniform sky
+    /* What rays that leave the scene see (kernels/light/lights.h): a map, a uniform sky
      * or nothing; its data (texels, CDFs or a table) in the env_data buffer. */
     GpuEnvMap env;
 } RenderParams;
@@ -250,7 +250,7 @@ typedef struct RenderParams {
 #define SPT_CNT_NAN 4      /* paths whose radiance was NaN/Inf and was dropped */
 #define SPT_CNT_COUNT 8
 
-/* Light-tracing state of a path (ps_lt), kernels/device/light_trace.h. A camera
+/* Light-tracing state of a path (ps_lt), kernels/integrator/light_trace.h. A camera
  * path: SPT_LT_CHAIN once its first vertex sampled a non-delta lobe,
  * SPT_LT_SPEC while its last vertex sampled a delta one. A light path:
  * SPT_LT_LIGHT, and SPT_LT_SPEC once its first vertex sampled a delta lobe. */

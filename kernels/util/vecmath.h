@@ -3,7 +3,7 @@
 #ifndef SPT_VECMATH_H
 #define SPT_VECMATH_H
 
-#include "shared/portable.h"
+#include "util/portable.h"
 
 #if SPT_DEVICE
 typedef float3 vec3;
@@ -50,7 +50,7 @@ SPT_FN void v3_basis(vec3 n, vec3 *t, vec3 *b)
 
 /* 4-wide spectral values (the path's SPT_NUM_LAMBDA wavelengths): float4 on the
  * device, a plain struct on the host, with the same function names. Added for the
- * BSDF library (kernels/device/bsdf.h). */
+ * BSDF library (kernels/closure/bsdf.h). */
 #if SPT_DEVICE
 typedef float4 vec4;
 SPT_FN vec4 v4(float x, float y, float z, float w) { return (float4)(x, y, z, w); }

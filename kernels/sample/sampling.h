@@ -7,8 +7,8 @@
 #ifndef SPT_SAMPLING_H
 #define SPT_SAMPLING_H
 
-#include "shared/portable.h"
-#include "shared/vecmath.h"
+#include "util/portable.h"
+#include "util/vecmath.h"
 
 /* The bits of a float. */
 SPT_FN spt_u32 spt_f32_bits(float f)

@@ -87,9 +87,9 @@
 #ifndef SPT_RNG_H
 #define SPT_RNG_H
 
-#include "shared/portable.h"
-#include "shared/vecmath.h"
-#include "shared/render_types.h" /* SPT_SAMPLER_* */
+#include "util/portable.h"
+#include "util/vecmath.h"
+#include "util/render_types.h" /* SPT_SAMPLER_* */
 
 /* ---- Dimension plan ---------------------------------------------------------- */
 

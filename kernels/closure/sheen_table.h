@@ -6,7 +6,7 @@
 #ifndef SPT_SHEEN_TABLE_H
 #define SPT_SHEEN_TABLE_H
 
-#include "shared/portable.h"
+#include "util/portable.h"
 
 #define SPT_SHEEN_N 32
 #define SPT_SHEEN_R_MIN 0.07f

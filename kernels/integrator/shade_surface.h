@@ -1,14 +1,14 @@
-/* Surface shading of the wavefront kernels (kernels/device/wavefront.cl, which
+/* Surface shading of the wavefront kernels (kernels/integrator/wavefront.cl, which
  * includes this where k_shade's helpers belong, after defining ALL_BUFFERS,
  * ALL_ARGS and NO_HIT): shade_path cut into the steps of a surface hit (miss,
  * alpha, emission, direct light, BSDF bounce, Russian roulette), over the
- * material evaluation of kernels/device/material_eval.h. */
+ * material evaluation of kernels/material/material_eval.h. */
 #ifndef SPT_SHADE_SURFACE_H
 #define SPT_SHADE_SURFACE_H
 
-#include "shared/portable.h"
+#include "util/portable.h"
 
-#include "device/material_eval.h"
+#include "material/material_eval.h"
 
 /* shade_path's steps, in the order it runs them (as Cycles' shade_surface):
  * the miss, the hit's geometry, alpha, emission, the shading frame, direct light,
@@ -42,14 +42,14 @@ typedef struct ShadeFrame {
     float3 ns, tg, bt;  /* the shading normal and its tangent basis */
     float3 wo_l;        /* the direction to the previous vertex, local */
     float wo_side;      /* its side of the face */
-    SptSampler smp;     /* the path's sample: its dims (kernels/device/rng.h) */
+    SptSampler smp;     /* the path's sample: its dims (kernels/sample/rng.h) */
     uint key;           /* smp.rand_key: spt_rand_key(key, d) = spt_rand(seed, pixel, sample, d),
                            for dims the sampler does not serve */
     uint bounce;
 } ShadeFrame;
 
 /* The camera paths' share of the path space beside the light-tracing pass
- * (kernels/device/light_trace.h), which owns the paths camera - x1 - ... - xk -
+ * (kernels/integrator/light_trace.h), which owns the paths camera - x1 - ... - xk -
  * light whose first vertex x1 took a non-delta lobe and whose last vertex xk
  * took a delta lobe, the light an emissive triangle of the light selection,
  * an environment map when the selection holds it, or a punctual light (which
@@ -179,7 +179,7 @@ SPT_FN_INLINE void shade_emission(ShadeHit *h, const TexCtx *tc, ALL_BUFFERS)
         return;
     /* Light reached through a delta vertex on a path whose first vertex was
      * non-delta: the light-tracing pass counts those paths
-     * (kernels/device/light_trace.h). */
+     * (kernels/integrator/light_trace.h). */
     if (lt_camera_drops(ps_lt[i], h->prim, ALL_ARGS))
         return;
     float4 le = material_emission(m, tc, h->lam, fabs(dot(h->ng, h->rd)), h->prim, h->bu, h->bv,
@@ -377,7 +377,7 @@ SPT_FN_INLINE int shade_roulette(ShadeHit *h, const ShadeFrame *f, int alive, AL
 
 #ifdef SPT_AOV
 /* The AOVs of the sample of path i (aov_sample, 3 float4 per sample: see
- * kernels/shared/render_types.h). The first hit gives the shading normal (on
+ * kernels/util/render_types.h). The first hit gives the shading normal (on
  * the side the camera sees), the depth along the camera's view axis and the
  * position; the albedo is the first surface's that does not reflect or
  * transmit specularly only (through a mirror or clear glass, the albedo seen

@@ -1,5 +1,5 @@
 /* The structs shared by host and kernels whose layout must agree on both sides.
- * kernels/device/layout_check.cl reports the device's sizeof of every struct of
+ * kernels/util/layout_check.cl reports the device's sizeof of every struct of
  * SPT_LAYOUT_STRUCTS and the offset of every field of SPT_LAYOUT_FIELDS;
  * tests/test_cl.c (and `spectrace devices --check`) compares them with the host
  * compiler's. When you add a shared struct, include its header here and add it
@@ -8,12 +8,12 @@
 #ifndef SPT_LAYOUT_LIST_H
 #define SPT_LAYOUT_LIST_H
 
-#include "shared/portable.h"
-#include "shared/bvh.h"
-#include "shared/render_types.h"
-#include "shared/lights.h"
+#include "util/portable.h"
+#include "bvh/bvh.h"
+#include "util/render_types.h"
+#include "light/lights.h"
 
-/* A probe of the rules in kernels/shared/portable.h (mixed 32-bit scalars, a fixed
+/* A probe of the rules in kernels/util/portable.h (mixed 32-bit scalars, a fixed
  * array, hand padding), so the check has something to compare even before any
  * other shared struct exists. */
 typedef struct LayoutProbe {
