@@ -48,10 +48,9 @@
 #include "util/portable.h"
 #include "util/vecmath.h"
 #include "closure/conductors.h"
+#include "closure/delta.h"
 #include "closure/sheen_table.h"
 
-/* Alpha below which a lobe is treated as perfectly smooth (a delta lobe). */
-#define BSDF_DELTA_ALPHA 1e-3f
 /* Smallest alpha used by a rough lobe. */
 #define BSDF_MIN_ALPHA 1e-3f
 
@@ -171,11 +170,10 @@ SPT_FN void bsdf_lobe_probs(const BsdfParams *p, vec3 wo, float *p_spec, float *
  * no rough coat): light sampling is then useless and MIS must not be applied. */
 SPT_FN int bsdf_is_delta(const BsdfParams *p)
 {
-    float a = p->roughness * p->roughness;
     float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
     float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
     int no_diffuse = m >= 1.0f || t >= 1.0f;
-    return a < BSDF_DELTA_ALPHA && no_diffuse && !bsdf_has_sheen(p) &&
+    return bsdf_roughness_is_delta(p->roughness) && no_diffuse && !bsdf_has_sheen(p) &&
            (!bsdf_has_coat(p) || bsdf_coat_smooth(p));
 }
 
@@ -183,7 +181,7 @@ SPT_FN int bsdf_is_delta(const BsdfParams *p)
  * also rough ones. */
 SPT_FN int bsdf_has_delta(const BsdfParams *p)
 {
-    return p->roughness * p->roughness < BSDF_DELTA_ALPHA || (bsdf_has_coat(p) && bsdf_coat_smooth(p));
+    return bsdf_roughness_is_delta(p->roughness) || (bsdf_has_coat(p) && bsdf_coat_smooth(p));
 }
 
 /* Whether the material is Lambert's alone: no metal, no transmission and no
@@ -309,7 +307,7 @@ SPT_FN vec4 bsdf_base_eval(const BsdfParams *p, vec3 wo, vec3 wi)
     if (bsdf_is_lambert(p))
         return wo.z > 0.0f && wi.z > 0.0f ? v4_scale(p->base, SPT_INV_PI * wi.z) : r;
     float alpha = bsdf_alpha(p->roughness);
-    int smooth = p->roughness * p->roughness < BSDF_DELTA_ALPHA;
+    int smooth = bsdf_roughness_is_delta(p->roughness);
     float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
     float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
     if (wo.z > 0.0f && wi.z > 0.0f) {
@@ -353,7 +351,7 @@ SPT_FN float bsdf_pdf(const BsdfParams *p, vec3 wo, vec3 wi)
 {
     if (bsdf_is_lambert(p))
         return (wo.z > 0.0f && wi.z > 0.0f) ? wi.z * SPT_INV_PI : 0.0f;
-    int smooth = p->roughness * p->roughness < BSDF_DELTA_ALPHA;
+    int smooth = bsdf_roughness_is_delta(p->roughness);
     float alpha = bsdf_alpha(p->roughness);
     float ps, pd, pt, pc, psh;
     bsdf_lobe_probs(p, wo, &ps, &pd, &pt, &pc, &psh);
@@ -444,7 +442,7 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
     }
     float ps, pd, pt, pc, psh;
     bsdf_lobe_probs(p, wo, &ps, &pd, &pt, &pc, &psh);
-    int smooth = p->roughness * p->roughness < BSDF_DELTA_ALPHA;
+    int smooth = bsdf_roughness_is_delta(p->roughness);
     int layered = bsdf_has_coat(p) || bsdf_has_sheen(p);
     float eo, ei;
     float alpha = bsdf_alpha(p->roughness);

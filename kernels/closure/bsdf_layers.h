@@ -7,6 +7,7 @@
 #define SPT_BSDF_LAYERS_H
 
 #include "util/portable.h"
+#include "closure/delta.h"
 
 /* ---- KHR_materials_clearcoat and KHR_materials_sheen layers --------------------- */
 
@@ -16,7 +17,7 @@ SPT_FN int bsdf_has_sheen(const BsdfParams *p) { return p->sheen_max > 0.0f; }
 /* Whether the coat is a mirror (a delta lobe). */
 SPT_FN int bsdf_coat_smooth(const BsdfParams *p)
 {
-    return p->cc_roughness * p->cc_roughness < BSDF_DELTA_ALPHA;
+    return bsdf_roughness_is_delta(p->cc_roughness);
 }
 
 /* The coat's Fresnel at cosine c between the view and the coat normal: Schlick at

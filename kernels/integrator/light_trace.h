@@ -322,7 +322,7 @@ SPT_FN_INLINE int lt_delta_lobe(const BsdfParams *bp, float3 wo, float u0, float
         return 0;
     float ps, pd, pt, pc, psh;
     bsdf_lobe_probs(bp, wo, &ps, &pd, &pt, &pc, &psh);
-    int smooth = bp->roughness * bp->roughness < BSDF_DELTA_ALPHA;
+    int smooth = bsdf_roughness_is_delta(bp->roughness);
     int coat = bsdf_has_coat(bp) && bsdf_coat_smooth(bp);
     float base = smooth ? pt + ps : 0.0f;
     *pdelta = base + (coat ? pc : 0.0f);
