@@ -1,46 +1,24 @@
-/* Rendering on several devices at once: one worker thread per device, each with
- * its own wavefront, taking chunks of samples from one scheduler; the chunks of a
- * device that fails go back to the others. */
+/* The scheduler of a render: one worker thread per device (one or several),
+ * each with its own wavefront (src/render/wavefront.h), taking chunks of
+ * samples from one counter, so a faster device takes more; the chunks of a
+ * device that fails go back to the others; under --adaptive the chunks go
+ * segment by segment to the pixels adaptive.c chooses (docs/architecture.md,
+ * "Scale: the sample is the unit of work", "Adaptive sampling"). What every
+ * chunk shares is set up by render_params.c and light_plan.c. */
 #include "render/render.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 #include <pthread.h>
 #include <unistd.h>
 
-#include "closure/bsdf.h"
 #include "render/adaptive.h"
+#include "render/light_plan.h"
 #include "render/render_lights.h"
+#include "render/render_params.h"
 #include "render/wavefront.h"
-#include "sample/rng.h"
-
-/* The camera of the kernels: right and up scaled so that screen coordinates in
- * [-1, 1] span the field of view at the image's aspect ratio. */
-static void camera_params(RenderParams *p, const SceneCamera *c, int width, int height)
-{
-    float t = tanf(0.5f * c->yfov);
-    float aspect = (float)width / (float)height;
-    /* Orthographic (glTF xmag/ymag: half the view's width and height): right and up
-     * span the image plane itself; the image's aspect follows ymag. */
-    float sx = c->orthographic ? c->ymag * aspect : t * aspect;
-    float sy = c->orthographic ? c->ymag : t;
-    p->orthographic = c->orthographic ? 1u : 0u;
-    for (int i = 0; i < 3; i++) {
-        p->cam_pos[i] = c->position[i];
-        p->cam_fwd[i] = c->forward[i];
-        p->cam_right[i] = c->right[i] * sx;
-        p->cam_up[i] = c->up[i] * sy;
-    }
-    p->cam_right[3] = p->cam_up[3] = 0.0f;
-    /* The ray cone that texture filtering follows (kernels/integrator/path.h): a pixel's
-     * size at the camera (orthographic), or a pixel's angle (perspective, at the
-     * image's centre). */
-    p->cam_pos[3] = c->orthographic ? 2.0f * sy / (float)height : 0.0f;
-    p->cam_fwd[3] = c->orthographic ? 0.0f : 2.0f * t / (float)height;
-}
 
 /* The progress display: one line rewritten in place on a terminal, else a plain
  * line at every tenth of the work. */
@@ -367,316 +345,6 @@ static void *worker_main(void *arg)
     return NULL;
 }
 
-/* Whether material m may take a delta lobe somewhere: a smooth base (its
- * roughness factor, or a roughness texture that may lower it) or a clear coat
- * that may be smooth. A light path goes on only through such a surface. */
-static int material_may_be_delta(const GpuMaterial *m)
-{
-    if (m->roughness * m->roughness < BSDF_DELTA_ALPHA || m->slot[SPT_TS_METALLIC_ROUGHNESS].tex >= 0)
-        return 1;
-    return m->clearcoat > 0.0f && (m->cc_roughness * m->cc_roughness < BSDF_DELTA_ALPHA ||
-                                   m->slot[SPT_TS_CLEARCOAT_ROUGHNESS].tex >= 0);
-}
-
-/* The caustic spheres (p->caustic, p->caustic_count; none when no triangle's
- * material may take a delta lobe): one per such material, or one for all of
- * them when there are more than SPT_CAUSTIC_MAX; each about the centre of the
- * box around its triangles' vertices, through the farthest of them, widened
- * by float rounding. A light path goes on only from such a surface, so its
- * first ray is aimed at these spheres (kernels/light/lights.h): one sphere
- * per material wastes fewer rays than one around all (on the Cornell box it
- * held the glass and the gold spheres and the space between them). */
-static void caustic_bounds(RenderParams *p, const GpuScene *g)
-{
-    int32_t *group = spt_calloc(g->material_count ? g->material_count : 1, sizeof(int32_t));
-    uint32_t n = 0;
-    for (uint32_t m = 0; m < g->material_count; m++)
-        group[m] = -1;
-    for (uint32_t i = 0; i < g->bvh.prim_count; i++) {
-        uint32_t m = g->tri_shade[i].material;
-        if (m < g->material_count && group[m] < 0 && material_may_be_delta(&g->materials[m]))
-            group[m] = (int32_t)n++;
-    }
-    if (n > SPT_CAUSTIC_MAX) {
-        for (uint32_t m = 0; m < g->material_count; m++)
-            if (group[m] >= 0)
-                group[m] = 0;
-        n = 1;
-    }
-    float lo[SPT_CAUSTIC_MAX][3], hi[SPT_CAUSTIC_MAX][3];
-    double m_abs[SPT_CAUSTIC_MAX] = {0}, r2[SPT_CAUSTIC_MAX] = {0};
-    for (uint32_t k = 0; k < n; k++)
-        for (int c = 0; c < 3; c++) {
-            lo[k][c] = INFINITY;
-            hi[k][c] = -INFINITY;
-        }
-    for (uint32_t i = 0; i < g->bvh.prim_count; i++) {
-        const TriShade *ts = &g->tri_shade[i];
-        if (ts->material >= g->material_count || group[ts->material] < 0)
-            continue;
-        int k = group[ts->material];
-        for (int v = 0; v < 3; v++)
-            for (int c = 0; c < 3; c++) {
-                float x = g->vtx_pos[3 * (size_t)ts->v[v] + c];
-                lo[k][c] = fminf(lo[k][c], x);
-                hi[k][c] = fmaxf(hi[k][c], x);
-            }
-    }
-    for (uint32_t k = 0; k < n; k++)
-        for (int c = 0; c < 3; c++) {
-            p->caustic[4 * k + c] = 0.5f * (lo[k][c] + hi[k][c]);
-            m_abs[k] = fmax(m_abs[k], fmax(fabs((double)lo[k][c]), fabs((double)hi[k][c])));
-        }
-    /* The farthest vertex from the box's centre (a sphere's mesh gets its own
-     * radius, not the box's half diagonal, sqrt(3) times as long). */
-    for (uint32_t i = 0; i < g->bvh.prim_count; i++) {
-        const TriShade *ts = &g->tri_shade[i];
-        if (ts->material >= g->material_count || group[ts->material] < 0)
-            continue;
-        int k = group[ts->material];
-        for (int v = 0; v < 3; v++) {
-            double d2 = 0;
-            for (int c = 0; c < 3; c++) {
-                double x = (double)g->vtx_pos[3 * (size_t)ts->v[v] + c] - p->caustic[4 * k + c];
-                d2 += x * x;
-            }
-            r2[k] = fmax(r2[k], d2);
-        }
-    }
-    for (uint32_t k = 0; k < n; k++)
-        p->caustic[4 * k + 3] = (float)(sqrt(r2[k]) * (1.0 + 1e-5) + 1e-5 * m_abs[k] + 1e-6);
-    p->caustic_count = n;
-    free(group);
-}
-
-/* Whether the ray from o along unit d meets a caustic sphere of p. */
-static int ray_meets_caustic(const RenderParams *p, vec3 o, vec3 d)
-{
-    for (uint32_t k = 0; k < p->caustic_count; k++)
-        if (lt_meets_caustic(p, k, o, d))
-            return 1;
-    return 0;
-}
-
-static float share_u(uint64_t *state)
-{
-    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return (float)((z ^ (z >> 31)) >> 40) * 0x1p-24f;
-}
-
-/* The light-tracing pass sizing: the light paths' first rays are aimed at the
- * caustic spheres (lt_aim_cones), where sampling the lights' emission as such
- * would send most of them elsewhere, to end at their first vertex.
- * --light-paths R asks for as many paths that head for a sphere as R light
- * paths per camera path sampled without aiming would give: the pass traces
- * R s per camera path, s = (the share of unaimed paths whose first ray meets
- * a sphere) / (the share of the pass's paths that do: all that are aimed, the
- * rest as unaimed). Estimated from SHARE_N light samples drawn as lt_start
- * draws them (stratified over the light selection, fixed numbers: the same on
- * every rank and device); 1 without caustic spheres or a light that reaches
- * them. */
-#define SHARE_N 16384
-static double caustic_share(const RenderParams *p, const RenderLights *L, const GpuScene *g)
-{
-    if (p->caustic_count == 0 || L->select.n == 0)
-        return 1.0;
-    vec3 cs = v3(p->scene_center[0], p->scene_center[1], p->scene_center[2]);
-    uint64_t st = 0x5eed5eedull;
-    double old_hits = 0, new_hits = 0;
-    for (int k = 0; k < SHARE_N; k++) {
-        float prob;
-        int e = spt_discrete_sample(L->select.cdf, L->select.n, ((float)k + share_u(&st)) / SHARE_N, &prob, NULL);
-        float u1 = share_u(&st), u2 = share_u(&st), u3 = share_u(&st), u4 = share_u(&st), u5 = share_u(&st);
-        float omega;
-        if (e < 0 || !(prob > 0.0f))
-            continue;
-        if ((uint32_t)e < g->emitter_count) {
-            const TriShade *ts = &g->tri_shade[g->emitters[e]];
-            vec3 a = v3_load(g->vtx_pos + 3 * (size_t)ts->v[0]);
-            vec3 b = v3_load(g->vtx_pos + 3 * (size_t)ts->v[1]);
-            vec3 c = v3_load(g->vtx_pos + 3 * (size_t)ts->v[2]);
-            vec3 cr = v3_cross(v3_sub(b, a), v3_sub(c, a));
-            float area2 = v3_length(cr);
-            if (!(area2 > 0.0f))
-                continue;
-            vec3 q = spt_sample_triangle(a, b, c, u1, u2);
-            vec3 n = v3_scale(cr, 1.0f / area2);
-            if ((g->materials[ts->material].flags & SPT_MAT_DOUBLE_SIDED_EMISSION) && u5 < 0.5f)
-                n = v3_scale(n, -1.0f);
-            vec3 t_, b_;
-            v3_basis(n, &t_, &b_);
-            vec3 l = spt_sample_cosine_hemisphere(u3, u4);
-            vec3 d = v3_add(v3_add(v3_scale(t_, l.x), v3_scale(b_, l.y)), v3_scale(n, l.z));
-            int hit = ray_meets_caustic(p, q, v3_normalize(d));
-            old_hits += hit;
-            new_hits += lt_aim_cones(p, q, &omega) ? 1 : hit;
-        } else if ((uint32_t)e < g->emitter_count + g->light_count) {
-            const GpuLight *l = &g->lights[(uint32_t)e - g->emitter_count];
-            vec3 ax = v3(l->dir[0], l->dir[1], l->dir[2]), t_, b_;
-            v3_basis(ax, &t_, &b_);
-            if (l->type == SPT_PUNCTUAL_DIRECTIONAL) {
-                vec3 disk = spt_sample_concentric_disk(u3, u4);
-                float R = p->scene_radius;
-                vec3 o = v3_add(v3_add(cs, v3_scale(v3_add(v3_scale(t_, disk.x), v3_scale(b_, disk.y)), R)),
-                                v3_scale(ax, -R));
-                old_hits += ray_meets_caustic(p, o, ax);
-                new_hits += 1;
-                continue;
-            }
-            vec3 pos = v3(l->pos[0], l->pos[1], l->pos[2]);
-            float x = u3 * l->spot_span, ct = 1.0f - x, sn = sqrtf(fmaxf(0.0f, x * (2.0f - x)));
-            float phi = 2.0f * SPT_PI * u4;
-            vec3 d = v3_add(v3_add(v3_scale(t_, sn * cosf(phi)), v3_scale(b_, sn * sinf(phi))), v3_scale(ax, ct));
-            int hit = ray_meets_caustic(p, pos, v3_normalize(d));
-            old_hits += hit;
-            new_hits += lt_aims_punctual(p, l, &omega) ? 1 : hit;
-        } else if (L->env.env.kind == SPT_ENV_MAP) {
-            /* Already aimed (its disc covers the sphere). */
-            old_hits += 1;
-            new_hits += 1;
-        }
-    }
-    return new_hits > 0 ? old_hits / new_hits : 1.0;
-}
-
-/* Whether material m has a delta lobe that passes or turns light: smooth
- * transmission, smooth metal, a smooth clear coat. */
-static int material_turns_light(const GpuMaterial *m)
-{
-    int smooth = m->roughness * m->roughness < BSDF_DELTA_ALPHA;
-    int cc_smooth = m->cc_roughness * m->cc_roughness < BSDF_DELTA_ALPHA;
-    return (smooth && (m->transmission > 0.0f || m->metallic > 0.0f)) || (m->clearcoat > 0.0f && cc_smooth);
-}
-
-/* Whether a triangle of the scene has a material that material_turns_light:
- * a material that only the file defines, on no rendered triangle, makes no
- * caustics. */
-static int scene_turns_light(const GpuScene *g)
-{
-    unsigned char *used = spt_calloc(g->material_count ? g->material_count : 1, 1);
-    int any = 0;
-    for (uint32_t i = 0; i < g->bvh.prim_count; i++)
-        if (g->tri_shade[i].material < g->material_count)
-            used[g->tri_shade[i].material] = 1;
-    for (uint32_t i = 0; i < g->material_count && !any; i++)
-        any = used[i] && material_turns_light(&g->materials[i]);
-    free(used);
-    return any;
-}
-
-/* Whether the light-tracing pass runs (--caustics): on, or auto and the scene
- * has a light (an emitter, a punctual light, or an --env map that the light
- * selection holds; not a uniform sky, whose light through glass the camera
- * paths keep) and a
- * triangle whose surface has a delta lobe that passes or turns light
- * (material_turns_light). It needs a perspective camera (pinhole or thin
- * lens). */
-static int caustics_may_run(const RenderSettings *rs, const RenderLights *L, const GpuScene *g,
-                            const SceneCamera *cam, int warn)
-{
-    if (rs->caustics == SPT_SWITCH_OFF)
-        return 0;
-    /* Light paths splat XYZ into the image only: the spectral bands and the
-     * variance layer are made of camera samples, which then carry every
-     * path (caustics included) themselves. */
-    if (rs->spectral > 0 || (rs->aov & SPT_AOV_VARIANCE)) {
-        if (rs->caustics == SPT_SWITCH_ON && warn)
-            spt_warn("--caustics on: the light-tracing pass adds to the image only, not to %s; "
-                     "rendering without it", rs->spectral > 0 ? "--spectral's bands" : "the variance layer");
-        return 0;
-    }
-    if (cam->orthographic) {
-        if (rs->caustics == SPT_SWITCH_ON && warn)
-            spt_warn("--caustics on: the light-tracing pass needs a perspective camera (this one is "
-                     "orthographic); rendering without it");
-        return 0;
-    }
-    if (rs->caustics == SPT_SWITCH_ON)
-        return 1;
-    if (g->emitter_count == 0 && g->light_count == 0 && L &&
-        !(L->env.env.kind == SPT_ENV_MAP && L->env_prob > 0.0f))
-        return 0;
-    return scene_turns_light(g);
-}
-
-static int caustics_enabled(const RenderSettings *rs, const RenderLights *L, const GpuScene *g,
-                            const SceneCamera *cam)
-{
-    return caustics_may_run(rs, L, g, cam, 1);
-}
-
-int render_sampler_parse(const char *name, uint32_t *sampler)
-{
-    static const char *const names[] = SPT_SAMPLER_NAMES; /* by value */
-    for (uint32_t v = 0; v < sizeof names / sizeof names[0]; v++)
-        if (name && !strcasecmp(name, names[v])) {
-            *sampler = v;
-            return 0;
-        }
-    return -1;
-}
-
-/* The parameters every chunk of a render shares. */
-static void base_params(RenderParams *p, const RenderLights *L, const GpuScene *g,
-                        const SceneCamera *cam, const RenderSettings *rs)
-{
-    memset(p, 0, sizeof *p);
-    camera_params(p, cam, rs->width, rs->height);
-    p->width = rs->width;
-    p->height = rs->height;
-    p->seed = rs->seed;
-    p->sampler = rs->sampler;
-    if (rs->sampler == SPT_SAMPLER_ZSOBOL) {
-        /* The samples per pixel (the cap under --time) rounded up to a power
-         * of two fix the sequence (kernels/sample/rng.h, ZSobol). */
-        p->zsobol_log2spp = spt_ceil_log2((uint32_t)(rs->spp > 0 ? rs->spp : 1));
-        p->zsobol_digits = spt_zsobol_digits((uint32_t)rs->width, (uint32_t)rs->height, p->zsobol_log2spp);
-    }
-    p->max_depth = rs->max_depth;
-    p->emitter_count = g->emitter_count;
-    p->light_count = g->light_count;
-    p->select_count = L->select.n;
-    p->emitter_total = (float)L->select.total;
-    p->env = L->env.env;
-    p->env_prob = L->env_prob;
-    p->node_count = g->bvh.node_count;
-    /* Russian roulette from the fifth segment on (Mitsuba 3's default): on
-     * the 1M-triangle mesh scene of tools/bench_mitsuba.py (256x256, 64 spp)
-     * it lowers relMSE x spp from 0.21 to 0.149 for 18% more time, 1.18
-     * times the clean image per second of starting at the third segment
-     * (docs/performance.md, "Russian roulette"). */
-    p->rr_depth = 5;
-    for (uint32_t i = 0; i < g->material_count; i++)
-        if (g->materials[i].flags & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND))
-            p->has_alpha = 1;
-    p->scene_radius = g->scene_radius;
-    for (int k = 0; k < 3; k++)
-        p->scene_center[k] = g->scene_center[k];
-    caustic_bounds(p, g);
-    /* rs->light_paths (0: the default) light paths per camera path, times
-     * caustic_share: that many times the pixels per sample index, rounded, at
-     * least one. */
-    if (caustics_enabled(rs, L, g, cam)) {
-        double r = rs->light_paths > 0.0f ? (double)rs->light_paths : SPT_LIGHT_PATHS_DEFAULT;
-        double n = floor(fmin(r, SPT_LIGHT_PATHS_MAX) * caustic_share(p, L, g) * (double)rs->width *
-                             (double)rs->height +
-                         0.5);
-        p->light_paths = n < 1.0 ? 1u : (uint32_t)n;
-    }
-    p->lens_radius = rs->aperture;
-    p->focus_distance = rs->focus_distance;
-    if (rs->aperture > 0 && !(rs->focus_distance > 0)) {
-        /* Focus at the distance seen at the image centre (1 km when nothing is there). */
-        BvhHit hit;
-        vec3 o = v3(cam->position[0], cam->position[1], cam->position[2]);
-        vec3 d = v3(cam->forward[0], cam->forward[1], cam->forward[2]);
-        p->focus_distance = g->bvh.prim_count && bvh_intersect(g->bvh.nodes, g->bvh.tri_data, o, d, 1e30f, &hit)
-                                ? hit.t : 1000.0f;
-    }
-}
-
 /* Adaptive sampling's per-pixel arrays of the scheduler (lag, taken, sq), and
  * whether a render has them. */
 #define SCHED_LAG_BYTES sizeof(uint32_t)
@@ -690,7 +358,7 @@ static int sched_adaptive(const RenderSettings *rs)
 void render_memory(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
                    const SceneCamera *cam, const RenderSettings *rs, RenderMemory *m)
 {
-    int light_film = caustics_may_run(rs, NULL, g, cam, 0);
+    int light_film = light_plan_runs(rs, NULL, g, cam, 0);
     memset(m, 0, sizeof *m);
     size_t npix = (size_t)rs->width * (size_t)rs->height;
     if (sched_adaptive(rs))
@@ -743,7 +411,7 @@ int render_devices(const ClDeviceInfo *const *infos, int count, const GpuScene *
     RenderLights lights;
     int rc0 = render_lights_setup(&lights, g, rs, e);
     if (!rc0)
-        base_params(&base, &lights, g, cam, rs);
+        render_params(&base, &lights, g, cam, rs);
     if (rc0) {
         render_lights_free(&lights);
         free(s.done);

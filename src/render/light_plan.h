@@ -1,0 +1,28 @@
+/* The light-tracing plan of a render (docs/architecture.md, "Caustics"): whether
+ * the light-tracing pass runs, the caustic spheres that its light paths' first
+ * rays aim at (one per material that may take a delta lobe, by the kernels' own
+ * test, kernels/closure/delta.h), and how many light paths it traces per sample
+ * index. The kernels' side is kernels/integrator/light_trace.h. */
+#ifndef SPT_LIGHT_PLAN_H
+#define SPT_LIGHT_PLAN_H
+
+#include "render/gpu_scene.h"
+#include "render/render.h"
+#include "render/render_lights.h"
+#include "scene/scene.h"
+#include "util/render_types.h"
+
+/* Whether the light-tracing pass runs (--caustics): on, or auto and the scene
+ * has a light (an emitter, a punctual light, or an --env map that L's light
+ * selection holds; L NULL: any map) and a triangle whose material has a delta
+ * lobe that passes or turns light; never with --spectral, the variance layer
+ * or an orthographic camera (with a warning under `on` when warn is set). */
+int light_plan_runs(const RenderSettings *rs, const RenderLights *L, const GpuScene *g,
+                    const SceneCamera *cam, int warn);
+
+/* Fills p's caustic spheres (p->caustic, p->caustic_count) and, when the pass
+ * runs, p->light_paths; needs p's scene centre and radius set. */
+void light_plan(RenderParams *p, const RenderLights *L, const GpuScene *g, const SceneCamera *cam,
+                const RenderSettings *rs);
+
+#endif
