@@ -24,6 +24,7 @@
 #include "render/checkpoint.h"
 #include "render/film.h"
 #include "render/render.h"
+#include "render/test_hooks.h"
 #include "scene/scene.h"
 #include "scene/sky.h"
 
@@ -383,7 +384,7 @@ static void complete_settings(RenderJob *j)
     rs->sky = &j->sky;
     rs->progress = !j->a.quiet;
     rs->stop = &stop_requested;
-    render_args_test_hooks(rs);
+    render_test_hooks_env(rs);
     /* Without emitters or lights the default sky lights the scene
      * (src/render/render_lights.c); only a black sky leaves it dark. */
     if (j->gpu.emitter_count == 0 && j->scene.light_count == 0 &&

@@ -50,16 +50,4 @@ int render_args_parse(RenderArgs *a, int argc, char **argv);
 /* The usage text of `spectrace render`. */
 void render_args_usage(FILE *f);
 
-/* The test hooks of the environment into rs.test (RenderTestHooks):
- * SPECTRACE_TEST_FAIL_DEVICE = "I:N" (the I-th device fails as it starts its
- * (N+1)-th chunk), SPECTRACE_TEST_SLOW_DEVICE = "I:MS" (the I-th device waits
- * MS ms before each chunk), SPECTRACE_TEST_INJECT_NAN = 1 (pixel 0's radiance is
- * NaN), SPECTRACE_TEST_POISON = WORD (buffers start filled with WORD),
- * SPECTRACE_TEST_FILM_NAN = N (the first N film pixels become NaN),
- * SPECTRACE_KERNEL_PATH = cpu, gpu (that code path on any device) or
- * cpu-stages (the CPU path in the stage kernels instead of k_paths); and the
- * path pool size SPECTRACE_POOL into rs.pool_size. Only tests, tools and
- * benchmarks set them. */
-void render_args_test_hooks(RenderSettings *rs);
-
 #endif

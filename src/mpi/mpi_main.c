@@ -30,10 +30,10 @@
 #include <unistd.h>
 
 #include "cl/cl_device.h"
-#include "cli/render_args.h"
 #include "mpi/mpi_hook.h"
 #include "render/film.h"
 #include "render/render.h"
+#include "render/test_hooks.h"
 #include "scene/scene.h"
 #include "scene/scene_pack.h"
 #include "core/util.h"
@@ -602,7 +602,7 @@ static int worker_run(const unsigned char *job, size_t len, const char *device_s
 #undef JOB_FROM
     rs.sample_begin = js.sample_begin;
     rs.sky = &sky;
-    render_args_test_hooks(&rs);
+    render_test_hooks_env(&rs);
     rs.stop = &g_stop;
     rs.take_chunk = remote_take;
     rs.give_back = remote_back;
