@@ -37,7 +37,7 @@ endif
 SRC_C := $(filter-out src/cli/main.c src/mpi/mpi_main.c,$(wildcard src/*/*.c))
 # The OpenImageIO code is the shared library libspectrace-oiio.so, loaded when
 # first needed (src/io/oiio_lib.h).
-OIIO_SRCS := src/io/image_io.cpp src/scene/texture_io.cpp
+OIIO_SRCS := src/io/image_io.cpp src/io/texture_io.cpp
 SRC_CXX := $(filter-out $(OIIO_SRCS),$(wildcard src/*/*.cpp))
 OIIO_LIB := $(BUILD)/libspectrace-oiio.so
 KERNEL_FILES := $(sort $(wildcard kernels/*/*.h kernels/*/*.cl))

@@ -1,4 +1,4 @@
-/* src/scene/gltf_load.cpp, src/scene/texture_io.cpp, src/scene/scene.c: loading small glTF files
+/* src/scene/gltf_load.cpp, src/io/texture_io.cpp, src/scene/scene.c: loading small glTF files
  * (tests/data/gltf/, written by tools/gen_gltf_tests.py) against hand-computed
  * values, and refusing broken ones with one message naming the object. */
 #include "test_util.h"

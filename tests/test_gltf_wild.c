@@ -1,4 +1,4 @@
-/* src/scene/gltf_load.cpp, src/scene/mesh_decode.cpp, src/scene/texture_io.cpp: glTF files "from
+/* src/scene/gltf_load.cpp, src/scene/mesh_decode.cpp, src/io/texture_io.cpp: glTF files "from
  * the wild" (tests/data/gltf/wild_*, written by tools/gen_wild_tests.py):
  * texture transforms against hand-computed matrices, the specular-glossiness
  * conversion against hand-solved values, warnings and refusals of extensions,

@@ -19,7 +19,7 @@
 #include "io/atomic_file.h"
 #include "io/denoise.h"
 #include "io/image_out.h"
-#include "io/input_file.h"
+#include "core/input_file.h"
 #include "mpi/mpi_hook.h"
 #include "render/checkpoint.h"
 #include "render/film.h"

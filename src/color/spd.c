@@ -12,7 +12,7 @@
 #include <sys/stat.h>
 
 #include "color/spd_data.h"
-#include "io/input_file.h"
+#include "core/input_file.h"
 #include "spectrum/cie_data.h"
 #include "spectrum/spectrum.h"
 

@@ -1,4 +1,4 @@
-/* The OpenImageIO part of spectrace (src/io/image_io.cpp, src/scene/texture_io.cpp)
+/* The OpenImageIO part of spectrace (src/io/image_io.cpp, src/io/texture_io.cpp)
  * is its own shared library, libspectrace-oiio.so beside the program, which
  * src/io/oiio_lib.c loads when an image is first read or written (a PNG, JPEG,
  * TIFF or HDR output, a texture, an environment map). A run that reads and
@@ -12,7 +12,7 @@
 #define SPT_OIIO_LIB_H
 
 #include "io/image_io.h"
-#include "scene/texture_io.h"
+#include "io/texture_io.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -16,7 +16,7 @@
 #include "cl/embedded.h"
 #include "io/exr.h"
 #include "io/image_out.h"
-#include "io/input_file.h"
+#include "core/input_file.h"
 #include "render/render_options.h"
 
 /* Version 2 added spectrace:checksum; version 1 files are refused (docs/outputs.md,

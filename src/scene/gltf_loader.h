@@ -27,8 +27,8 @@ extern "C" {
 #include "scene/scene.h"
 #include "spectrum/cie_data.h"
 #include "scene/mesh_decode.h"
-#include "scene/texture_io.h"
-#include "io/input_file.h"
+#include "io/texture_io.h"
+#include "core/input_file.h"
 }
 
 namespace spt_gltf {

@@ -11,7 +11,7 @@
 #include "color/spd.h"
 #include "io/image_io.h"
 #include "io/image_out.h"
-#include "io/input_file.h"
+#include "core/input_file.h"
 #include "spectrum/cie_data.h"
 
 /* The map of an image file, values as stored: an 8- or 16-bit integer file (PNG,

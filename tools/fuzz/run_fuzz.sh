@@ -25,7 +25,7 @@ flags="-Isrc -Ikernels -I$lib/gen -D_GNU_SOURCE -DCL_TARGET_OPENCL_VERSION=120 $
 # the rest uninstrumented (whole object files are replaced, so no symbol is
 # defined twice).
 case $target in
-  gltf) srcs="$(ls src/scene/gltf_*.cpp) src/scene/texture_io.cpp src/scene/mesh_decode.cpp src/scene/scene.c"
+  gltf) srcs="$(ls src/scene/gltf_*.cpp) src/io/texture_io.cpp src/scene/mesh_decode.cpp src/scene/scene.c"
         dict=-dict=tools/fuzz/gltf.dict; max_len=65536
         cp -n tests/data/gltf/*.gltf tests/data/gltf/*.glb tests/data/gltf/regress/* "$out/corpus/" 2>/dev/null || true ;;
   spd)  srcs="src/color/spd.c"; dict=; max_len=4096

@@ -1,6 +1,8 @@
 /* Texture image decoding for the scene loader: image files or encoded bytes in
- * memory (PNG, JPEG, WebP and whatever else OpenImageIO reads) into float texels. The
- * only OpenImageIO code of the loader lives in src/scene/texture_io.cpp. */
+ * memory (PNG, JPEG, WebP and whatever else OpenImageIO reads) into float texels.
+ * Its OpenImageIO code, src/io/texture_io.cpp, is part of the OpenImageIO
+ * library libspectrace-oiio.so (src/io/oiio_lib.h), so it sits here beside the
+ * rest of that library; src/io/oiio_lib.c implements these functions through it. */
 #ifndef SPT_TEXTURE_IO_H
 #define SPT_TEXTURE_IO_H
 

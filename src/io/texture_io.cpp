@@ -1,5 +1,5 @@
-// Texture decoding through OpenImageIO (see src/scene/texture_io.h for the contract).
-#include "scene/texture_io.h"
+// Texture decoding through OpenImageIO (see src/io/texture_io.h for the contract).
+#include "io/texture_io.h"
 #include "io/oiio_lib.h"
 
 #include <OpenImageIO/filesystem.h>
@@ -13,7 +13,7 @@
 #include <string>
 
 extern "C" {
-#include "io/input_file.h"
+#include "core/input_file.h"
 }
 
 using namespace OIIO;

@@ -1,5 +1,5 @@
-/* Safe reading of input files (src/io/input_file.h). */
-#include "io/input_file.h"
+/* Safe reading of input files (src/core/input_file.h). */
+#include "core/input_file.h"
 
 #include <errno.h>
 #include <fcntl.h>
