@@ -15,6 +15,7 @@
 #include "io/exr.h"
 #include "io/image_io.h"
 #include "io/image_out.h"
+#include "io/image_in.h"
 
 /* A fresh folder per test, removed (with its files) afterwards. */
 static char g_dir[256];

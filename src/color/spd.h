@@ -5,6 +5,7 @@
 #define SPT_SPECTRUM_H
 
 #include "core/util.h"
+#include "io/srgb.h"
 
 /* A spectral power distribution: a piecewise-linear function of wavelength (nm),
  * zero outside [nm[0], nm[count-1]], plus optional spectral lines (delta
@@ -62,12 +63,10 @@ void spd_to_grid(const Spd *s, float *grid);
 /* Planck's law: spectral radiance in W/(m^2 sr m) at wavelength nm, temperature K. */
 double blackbody_radiance(double nm, double kelvin);
 
-/* The matrices and curve of docs/architecture.md. */
+/* The matrices of docs/architecture.md (its transfer curve: src/io/srgb.h,
+ * included above). */
 void xyz_to_linear_srgb(const double xyz[3], double rgb[3]);
 void linear_srgb_to_xyz(const double rgb[3], double xyz[3]);
-double srgb_encode(double linear);  /* transfer curve, linear -> encoded */
-double srgb_decode(double encoded); /* inverse */
-int srgb_to_8bit(double linear);    /* round(255 * clamp(encode(linear), 0, 1)) */
 
 /* RGB upsampling (Jakob and Hanika 2019). Coefficients c give the spectrum
  * s(l) = sigmoid(c0 l^2 + c1 l + c2), l in nm (see kernels/spectrum/spectrum.h). */

@@ -18,7 +18,7 @@
 #include "io/atomic_file.h"
 #include "io/exr.h"
 #include "io/image_io.h"
-#include "color/spd.h"
+#include "io/srgb.h"
 
 enum { FMT_NONE, FMT_EXR, FMT_HDR, FMT_TIFF, FMT_PNG, FMT_JPEG };
 
@@ -337,24 +337,4 @@ int image_write(const char *path, const float *rgb, int width, int height,
     if (fmt == FMT_EXR)
         return write_exr(path, rgb, width, height, meta, e);
     return write_oiio(path, fmt, rgb, width, height, meta, disp, e);
-}
-
-int image_read_rgb(const char *path, float **rgb, int *width, int *height, SptError *e)
-{
-    float *all = NULL;
-    int w = 0, h = 0, ch = 0;
-    *rgb = NULL;
-    int rc = image_io_read(path, &all, &w, &h, &ch, e);
-    if (rc)
-        return rc;
-    size_t count = (size_t)w * (size_t)h;
-    float *out = spt_malloc(count * 3 * sizeof(float));
-    for (size_t i = 0; i < count; ++i)
-        for (int c = 0; c < 3; ++c)
-            out[3 * i + c] = all[i * (size_t)ch + (size_t)(ch >= 3 ? c : 0)];
-    free(all);
-    *rgb = out;
-    *width = w;
-    *height = h;
-    return SPT_EXIT_OK;
 }

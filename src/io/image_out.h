@@ -78,12 +78,6 @@ int image_output_check_size(const char *path, int width, int height, SptError *e
 int image_write(const char *path, const float *rgb, int width, int height,
                 const ImageMeta *meta, const DisplayOptions *disp, SptError *e);
 
-/* Reads any image OpenImageIO can read as linear-as-stored RGB floats (the first
- * three channels; a grey image is replicated): *rgb is malloc'd, width*height*3
- * floats, rows top to bottom; 8-bit files give value/255 (no sRGB decoding).
- * Returns SPT_EXIT_OK or SPT_EXIT_INPUT. */
-int image_read_rgb(const char *path, float **rgb, int *width, int *height, SptError *e);
-
 /* The Khronos PBR Neutral tone mapper on one linear Rec. 709 colour. Negative and
  * NaN components count as 0 (the specification is for non-negative input); an
  * infinite component gives white (the limit). Output in [0, 1]. */

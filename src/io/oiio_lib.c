@@ -11,6 +11,9 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "core/input_file.h"
+#include "io/srgb.h"
+
 #define OIIO_LIB_NAME "libspectrace-oiio.so"
 
 /* The library's entry points, by name. */
@@ -27,6 +30,12 @@ static struct {
     OIIO_ENTRIES(FIELD)
 #undef FIELD
 } lib;
+/* What the library calls back in the program (src/io/oiio_exports.list).
+ * Named here, they are linked into every program that can load the library,
+ * whatever else it uses of libspectrace.a (a static library brings only the
+ * objects that something references). */
+__attribute__((used)) static const void *const lib_callbacks[] = {
+    (const void *)spt_fail, (const void *)input_check, (const void *)texture_io_free};
 static pthread_once_t lib_once = PTHREAD_ONCE_INIT;
 static char lib_error[600]; /* why the library could not be loaded; empty when loaded */
 
@@ -168,10 +177,7 @@ void texture_io_srgb_to_linear(float *texels, size_t texel_count, int channels)
     for (size_t i = 0; i < texel_count; i++) {
         for (int c = 0; c < colour; c++) {
             float *v = &texels[i * (size_t)channels + (size_t)c];
-            double x = *v;
-            /* Inverse sRGB transfer (IEC 61966-2-1), as in docs/architecture.md. */
-            x = x <= 0.04045 ? x / 12.92 : pow((x + 0.055) / 1.055, 2.4);
-            *v = (float)x;
+            *v = (float)srgb_decode(*v);
         }
     }
 }

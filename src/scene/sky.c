@@ -10,7 +10,7 @@
 
 #include "color/spd.h"
 #include "io/image_io.h"
-#include "io/image_out.h"
+#include "io/image_in.h"
 #include "core/input_file.h"
 #include "spectrum/cie_data.h"
 
