@@ -102,7 +102,7 @@ test: deps
 # the unit tests of the host code, the options, the loader and the kernels'
 # headers on the device, without the long renders.
 CHECK_TESTS := test_util test_options test_spectrum test_sampling test_rng test_gltf \
-               test_gltf_wild test_image_out test_cl test_bsdf test_lights test_multidevice
+               test_gltf_wild test_image_out test_cl test_bsdf test_lights test_multidevice test_layering
 check: $(PROG) $(CHECK_TESTS:%=$(BUILD)/tests/%)
 	@SPECTRACE_TEST_IMPLS=pocl tests/run_tests.sh $(BUILD) $(CHECK_TESTS)
 
