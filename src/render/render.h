@@ -42,15 +42,12 @@ typedef struct RenderTestHooks {
                          k_paths (comparisons; the extend stage's own time) */
 } RenderTestHooks;
 
-/* What a render does. The options of the command line (the RS rows of
- * src/render/render_options.h) are spp (samples per pixel to reach, counting
- * from sample_begin), time_limit (seconds, 0 = none; chunks sized by
- * render_deadline_chunk to end by it; stops at a chunk
- * boundary), width, height, max_depth (path segments from the camera; <= 0
- * unlimited), seed, env_rotation (degrees about +Y), env_intensity (a map's
- * scale), aperture (lens radius in metres, 0 = pinhole), focus_distance (metres,
- * 0 = the distance at the image centre) and profile (time the stages with
- * OpenCL profiling events). */
+/* What a render does. Its first fields are every option of the command line
+ * marked RS in src/render/render_options.h, where each one's type, default,
+ * range and meaning are declared once (not repeated here, so the two cannot
+ * disagree); spp counts from sample_begin, and a time_limit ends the render
+ * at a chunk boundary (chunks sized by render_deadline_chunk). The fields
+ * below are what the programs set beside them. */
 typedef struct RenderSettings {
     SPT_RENDER_OPTIONS(SPT_OPT_RS_FIELD)
     const Sky *sky;          /* --env, --background (src/scene/sky.h); NULL = default */

@@ -19,7 +19,7 @@
  *            the command line only (RenderArgs holds the SKY and CLI rows)
  *   kind     INT, U32 (whole numbers in [lo, hi]), DBL, FLT (numbers in [lo, hi],
  *            parsed as double), STR, FLAG, LIST (repeatable string), TONEMAP,
- *            SWITCH (auto, off, on: SPT_SWITCH_*), SAMPLER (sobol or
+ *            SWITCH (auto, off, on: SPT_SWITCH_*), SAMPLER (sobol, zsobol or
  *            independent: SPT_SAMPLER_*), AOV (a list of AOV layers into a
  *            mask: src/render/film.h), HELP
  *   type     the field's C type
