@@ -121,7 +121,15 @@ static float share_u(uint64_t *state)
  * rest as unaimed). Estimated from SHARE_N light samples drawn as lt_start
  * draws them (stratified over the light selection, fixed numbers: the same on
  * every rank and device); 1 without caustic spheres or a light that reaches
- * them. */
+ * them. The aiming tests are the kernels' own (lt_aim_cones, lt_aims_punctual,
+ * lt_meets_caustic: kernels/light/lights.h); the unaimed point and direction
+ * are drawn here again rather than by a function shared with lt_start
+ * (kernels/integrator/light_trace.h), whose draws are OpenCL vector
+ * expressions (a triangle's point from its barycentrics, kept for the
+ * emission's textures; d = l.x t + l.y b + l.z n) that the device compiler
+ * may contract into fused multiply-adds as written: recast as calls that the
+ * host compiles, they could round differently and change the images, while
+ * this estimate of a share of hits does not depend on such rounding. */
 #define SHARE_N 16384
 static double caustic_share(const RenderParams *p, const RenderLights *L, const GpuScene *g)
 {
