@@ -14,9 +14,11 @@
 
 /* Whether the light-tracing pass runs (--caustics): on, or auto and the scene
  * has a light (an emitter, a punctual light, or an --env map that L's light
- * selection holds; L NULL: any map) and a triangle whose material has a delta
- * lobe that passes or turns light; never with --spectral, the variance layer
- * or an orthographic camera (with a warning under `on` when warn is set). */
+ * selection holds; with L NULL, as if the scene had one: the memory
+ * estimate's upper bound, before the lights are built) and a triangle whose
+ * material has a delta lobe that passes or turns light; never with
+ * --spectral, the variance layer or an orthographic camera (with a warning
+ * under `on` when warn is set). */
 int light_plan_runs(const RenderSettings *rs, const RenderLights *L, const GpuScene *g,
                     const SceneCamera *cam, int warn);
 
