@@ -324,4 +324,37 @@ static inline void require_pass(const Chi2Result *r)
     print_message("  %s\n", r->message);
 }
 
+/* A test of sample against pdf (both given ctx) over res_x x res_y cells of
+ * the plane [x0, x1] x [y0, y1], one of num_tests in the binary (the Sidak
+ * correction); CHI2_DEFAULT_SAMPLES samples unless set after. */
+static inline Chi2Grid chi2_plane(const char *name, double x0, double x1, double y0, double y1, int res_x,
+                                  int res_y, int num_tests, int (*sample)(void *, uint32_t, double[3]),
+                                  double (*pdf)(void *, const double[3]), void *ctx)
+{
+    Chi2Grid g = {.name = name, .domain = CHI2_PLANE, .x0 = x0, .x1 = x1, .y0 = y0, .y1 = y1,
+                  .res_x = res_x, .res_y = res_y, .num_tests = num_tests, .sample = sample, .pdf = pdf,
+                  .ctx = ctx};
+    return g;
+}
+
+/* The same over the sphere's (phi, cos theta). */
+static inline Chi2Grid chi2_sphere(const char *name, int res_x, int res_y, int num_tests,
+                                   int (*sample)(void *, uint32_t, double[3]),
+                                   double (*pdf)(void *, const double[3]), void *ctx)
+{
+    Chi2Grid g = chi2_plane(name, 0, 0, 0, 0, res_x, res_y, num_tests, sample, pdf, ctx);
+    g.domain = CHI2_SPHERE;
+    return g;
+}
+
+/* Runs g and fails with its report unless it passes (require_pass); returns
+ * the result. */
+static inline Chi2Result chi2_require(const Chi2Grid *g)
+{
+    Chi2Result r;
+    chi2_grid_run(g, &r);
+    require_pass(&r);
+    return r;
+}
+
 #endif

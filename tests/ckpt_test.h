@@ -15,22 +15,6 @@
 #include "render/film.h"
 #include "film_test.h"
 
-static char dir[64];
-
-static const char *path_in(const char *name)
-{
-    static char buf[8][256];
-    static int k;
-    k = (k + 1) % 8;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name); /* dir: the test file's folder */
-    return buf[k];
-}
-
-static int exists(const char *path)
-{
-    struct stat st;
-    return stat(path, &st) == 0;
-}
 
 /* The key of path's render: ours, with the file's kernel-source hash, so a test
  * binary and a program built from different kernel sources (another build) still
@@ -127,6 +111,21 @@ static void assert_same_exr(const char *pa, const char *pb)
     assert_int_equal(a.channel_count, b.channel_count);
     exr_layers_free(&a);
     exr_layers_free(&b);
+}
+
+/* The checkpoints ck_a and ck_b of seed, with all spp samples done, hold the
+ * same film, and the images exr_a and exr_b agree (assert_same_film,
+ * assert_same_exr). */
+static inline void assert_same_render(const char *ck_a, const char *ck_b, uint32_t seed, uint32_t spp,
+                                      const char *exr_a, const char *exr_b)
+{
+    Film a, b;
+    assert_int_equal(load_checkpoint(ck_a, seed, spp, &a), spp);
+    assert_int_equal(load_checkpoint(ck_b, seed, spp, &b), spp);
+    assert_same_film(&a, &b);
+    assert_same_exr(exr_a, exr_b);
+    film_free(&a);
+    film_free(&b);
 }
 
 #endif

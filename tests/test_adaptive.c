@@ -163,16 +163,9 @@ static void test_render_prefixes(void **state)
  * first 511 bytes it printed. */
 static int run_render(const char *args, const char *out, char *line, size_t size)
 {
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe)
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
-    char cmd[1024];
-    snprintf(cmd, sizeof cmd, "'%s' render " SCENE " --width 8 -q %s -o %s 2>&1", exe, args, out);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(line, 1, size - 1, p);
-    line[n] = 0;
-    return WEXITSTATUS(pclose(p));
+    char a[1024];
+    snprintf(a, sizeof a, "render " SCENE " --width 8 -q %s -o %s", args, out);
+    return test_spectrace("", 0, a, TEST_BOTH, line, size);
 }
 
 /* The command line: a bad value, and --adaptive on with a checkpoint (whose

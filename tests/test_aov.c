@@ -50,12 +50,7 @@ static void plane_scene(Scene *s, float d, float yfov)
 {
     memset(s, 0, sizeof *s);
     append_quad(s, 0.0f);
-    s->camera.position[1] = d;
-    s->camera.forward[1] = -1.0f;
-    s->camera.up[2] = -1.0f;
-    s->camera.right[0] = 1.0f;
-    s->camera.yfov = yfov;
-    s->camera.aspect = 1.0f;
+    camera_down(s, 0.0f, d, yfov, 1.0f);
     scene_update_bounds(s);
 }
 
@@ -342,15 +337,14 @@ static void test_variance_against_independent_renders(void **state)
 static void test_command_line(void **state)
 {
     (void)state;
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe)
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
-    char out_exr[64], out_png[64], cmd[1024];
+    char out_exr[64], out_png[64], cmd[1024], line[512] = "";
     snprintf(out_exr, sizeof out_exr, "/tmp/spt-aov-%d.exr", (int)getpid());
     snprintf(out_png, sizeof out_png, "/tmp/spt-aov-%d.png", (int)getpid());
-    snprintf(cmd, sizeof cmd, "'%s' render scenes/cornell_box.gltf --width 8 --height 8 --spp 2 -q "
-             "--aov albedo,Z,spp -o %s", exe, out_exr);
-    assert_int_equal(system(cmd), 0);
+    snprintf(cmd, sizeof cmd, "render scenes/cornell_box.gltf --width 8 --height 8 --spp 2 -q "
+             "--aov albedo,Z,spp -o %s", out_exr);
+    int rc = test_spectrace("", 0, cmd, TEST_BOTH, line, sizeof line);
+    if (rc)
+        fail_msg("exit %d:\n%s", rc, line);
     ExrLayers L;
     SptError e = {0};
     static const char *want[] = {"R", "G", "B", "albedo.R", "albedo.G", "albedo.B", "Z", "spp"};
@@ -362,17 +356,12 @@ static void test_command_line(void **state)
         assert_true(spp[i] == 2.0f);
     exr_layers_free(&L);
     unlink(out_exr);
-    char line[512] = "";
-    snprintf(cmd, sizeof cmd, "'%s' render scenes/cornell_box.gltf --width 8 --spp 2 --aov Z -o %s 2>&1",
-             exe, out_png);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(line, 1, sizeof line - 1, p);
-    line[n] = 0;
-    int st = pclose(p);
+    snprintf(cmd, sizeof cmd, "render scenes/cornell_box.gltf --width 8 --spp 2 --aov Z -o %s",
+             out_png);
+    rc = test_spectrace("", 0, cmd, TEST_BOTH, line, sizeof line);
     printf("%s", line);
-    assert_int_equal(WEXITSTATUS(st), SPT_EXIT_USAGE);
-    assert_true(!strncmp(line, "error: ", 7) && strchr(line, '\n') == line + n - 1);
+    assert_int_equal(rc, SPT_EXIT_USAGE);
+    assert_true(!strncmp(line, "error: ", 7) && strchr(line, '\n') == line + strlen(line) - 1);
     assert_non_null(strstr(line, "--aov"));
     assert_int_equal(access(out_png, F_OK), -1);
 }

@@ -226,25 +226,11 @@ static void test_vndf_chi2(void **state)
             VndfCtx c = {dir_deg(thetas[t]), alphas[a], stream++, alphas[a] > 0.3f};
             char name[96];
             snprintf(name, sizeof name, "GGX VNDF alpha %.2f theta_o %.0f", alphas[a], thetas[t]);
-            Chi2Grid g = {0};
-            g.name = name;
-            g.domain = CHI2_PLANE;
-            g.x0 = -3.0;
-            g.x1 = 3.0;
-            g.y0 = -3.0;
-            g.y1 = 3.0;
-            if (c.sphere)
-                g.domain = CHI2_SPHERE;
-            g.res_x = 40;
-            g.res_y = 40;
+            Chi2Grid g = c.sphere ? chi2_sphere(name, 40, 40, BSDF_CHI2_TESTS, vndf_sample, vndf_pdf, &c)
+                                  : chi2_plane(name, -3.0, 3.0, -3.0, 3.0, 40, 40, BSDF_CHI2_TESTS,
+                                               vndf_sample, vndf_pdf, &c);
             g.samples = BSDF_CHI2_SAMPLES;
-            g.num_tests = BSDF_CHI2_TESTS;
-            g.sample = vndf_sample;
-            g.pdf = vndf_pdf;
-            g.ctx = &c;
-            Chi2Result r;
-            chi2_grid_run(&g, &r);
-            require_pass(&r);
+            chi2_require(&g);
         }
 }
 
@@ -279,19 +265,9 @@ static void run_mat_chi2(const char *what, BsdfParams p, vec3 wo, uint32_t strea
     char name[128];
     snprintf(name, sizeof name, "%s rough %.2f theta_o %.0f", what, p.roughness,
              acos(fabs(wo.z)) * 180 / M_PI);
-    Chi2Grid g = {0};
-    g.name = name;
-    g.domain = CHI2_SPHERE;
-    g.res_x = 64;
-    g.res_y = 64;
+    Chi2Grid g = chi2_sphere(name, 64, 64, BSDF_CHI2_TESTS, mat_sample, mat_pdf, &c);
     g.samples = BSDF_CHI2_SAMPLES;
-    g.num_tests = BSDF_CHI2_TESTS;
-    g.sample = mat_sample;
-    g.pdf = mat_pdf;
-    g.ctx = &c;
-    Chi2Result r;
-    chi2_grid_run(&g, &r);
-    require_pass(&r);
+    chi2_require(&g);
 }
 
 /* The full metallic-roughness sampler (diffuse + GGX), a measured conductor and
@@ -695,12 +671,7 @@ static const char *k_device_src =
 static void test_device_matches_host(void **state)
 {
     (void)state;
-    cl_device_id dev;
-    cl_context ctx;
-    cl_command_queue cq;
-    test_cl_open_first(&dev, &ctx, &cq);
-    cl_int err;
-    cl_program prog = test_cl_build(ctx, dev, k_device_src, NULL, "kernels/closure/bsdf.h");
+    TestCl cl = test_cl_open();
     enum { N = 512 };
     static float in[10 * N], out[10 * N];
     for (int i = 0; i < N; i++) {
@@ -712,19 +683,9 @@ static void test_device_matches_host(void **state)
         q[2] = (i % 3 == 0) ? -(q[2] + 0.05f) : q[2] + 0.05f;
         q[8] = (i % 5 == 0) ? 0.0f : 0.1f + 0.9f * q[8];
     }
-    cl_mem bi = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof in, in, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_mem bo = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, sizeof out, NULL, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_kernel k = clCreateKernel(prog, "k_bsdf_test", &err);
-    assert_int_equal(err, CL_SUCCESS);
-    int n = N;
-    assert_int_equal(clSetKernelArg(k, 0, sizeof(cl_mem), &bi), CL_SUCCESS);
-    assert_int_equal(clSetKernelArg(k, 1, sizeof(cl_mem), &bo), CL_SUCCESS);
-    assert_int_equal(clSetKernelArg(k, 2, sizeof n, &n), CL_SUCCESS);
-    size_t global = N;
-    assert_int_equal(clEnqueueNDRangeKernel(cq, k, 1, NULL, &global, NULL, 0, NULL, NULL), CL_SUCCESS);
-    assert_int_equal(clEnqueueReadBuffer(cq, bo, CL_TRUE, 0, sizeof out, out, 0, NULL, NULL), CL_SUCCESS);
+    TestClArg arg = {in, sizeof in};
+    test_cl_run(&cl, k_device_src, NULL, "kernels/closure/bsdf.h", "k_bsdf_test", &arg, 1,
+                out, sizeof out, N, 0);
     int compared = 0;
     for (int i = 0; i < N; i++) {
         const float *q = in + 10 * i;
@@ -757,18 +718,11 @@ static void test_device_matches_host(void **state)
         /* Flags must agree; values to float rounding (the device may contract). */
         if (g[6] != want[6])
             fail_msg("input %d: flags device %g, host %g", i, g[6], want[6]);
-        for (int j = 0; j < 10; j++)
-            if (!(fabsf(g[j] - want[j]) <= 2e-3f * fmaxf(1.0f, fabsf(want[j]))))
-                fail_msg("input %d, output %d: device %.9g, host %.9g", i, j, g[j], want[j]);
+        test_cl_assert_agree(i, g, want, 10, 2e-3f);
         compared += s.valid;
     }
     print_message("  %d valid samples agree between device and host\n", compared);
-    clReleaseKernel(k);
-    clReleaseMemObject(bi);
-    clReleaseMemObject(bo);
-    clReleaseProgram(prog);
-    clReleaseCommandQueue(cq);
-    clReleaseContext(ctx);
+    test_cl_close(&cl);
 }
 
 int main(void)

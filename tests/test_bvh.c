@@ -676,39 +676,17 @@ static const char *k_device_src =
 
 /* Builds k_device_src with options, runs it on the rays and counts the rays whose
  * hit, prim or occlusion differs from the host traversal. */
-static int device_differences(cl_context ctx, cl_device_id dev, cl_command_queue q,
-                              const char *options, const Bvh *bvh, const float *rays, int nr,
-                              int *hits)
+static int device_differences(const TestCl *cl, const char *options, const Bvh *bvh, const float *rays,
+                              int nr, int *hits)
 {
-    cl_int err;
-    cl_program prog = test_cl_build(ctx, dev, k_device_src, options, "kernels/bvh/bvh.h");
     float *out = malloc((size_t)nr * 4 * sizeof *out);
-    cl_mem bn = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                               bvh->node_count * sizeof(BvhNode), bvh->nodes, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_mem bt = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bvh->tri_data_bytes,
-                               bvh->tri_data, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_mem br = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                               (size_t)nr * 6 * sizeof *rays, (void *)rays, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_mem bo = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, (size_t)nr * 4 * sizeof *out, NULL, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_kernel k = clCreateKernel(prog, "k_bvh_test", &err);
-    assert_int_equal(err, CL_SUCCESS);
-    assert_int_equal(clSetKernelArg(k, 0, sizeof bn, &bn), CL_SUCCESS);
-    assert_int_equal(clSetKernelArg(k, 1, sizeof bt, &bt), CL_SUCCESS);
-    assert_int_equal(clSetKernelArg(k, 2, sizeof br, &br), CL_SUCCESS);
-    assert_int_equal(clSetKernelArg(k, 3, sizeof bo, &bo), CL_SUCCESS);
-    assert_int_equal(clSetKernelArg(k, 4, sizeof nr, &nr), CL_SUCCESS);
+    const TestClArg args[3] = {{bvh->nodes, bvh->node_count * sizeof(BvhNode)},
+                               {bvh->tri_data, bvh->tri_data_bytes},
+                               {rays, (size_t)nr * 6 * sizeof *rays}};
     /* Work-groups of 64, as the renderer's: PoCL keeps every work-item's
      * private traversal stacks of a group at once, on a thread's stack. */
-    size_t local = 64, global = ((size_t)nr + local - 1) / local * local;
-    assert_int_equal(clEnqueueNDRangeKernel(q, k, 1, NULL, &global, &local, 0, NULL, NULL),
-                     CL_SUCCESS);
-    assert_int_equal(clEnqueueReadBuffer(q, bo, CL_TRUE, 0, (size_t)nr * 4 * sizeof *out, out, 0,
-                                         NULL, NULL),
-                     CL_SUCCESS);
+    test_cl_run(cl, k_device_src, options, "kernels/bvh/bvh.h", "k_bvh_test", args, 3, out,
+                (size_t)nr * 4 * sizeof *out, nr, 64);
     assert_close(out[3], sizeof(BvhNode), 0);
     int differ = 0;
     *hits = 0;
@@ -728,12 +706,6 @@ static int device_differences(cl_context ctx, cl_device_id dev, cl_command_queue
                               hit ? h.t : -1.0f, hit ? (int)h.prim : -1, occ);
         }
     }
-    clReleaseKernel(k);
-    clReleaseMemObject(bn);
-    clReleaseMemObject(bt);
-    clReleaseMemObject(br);
-    clReleaseMemObject(bo);
-    clReleaseProgram(prog);
     free(out);
     return differ;
 }
@@ -741,10 +713,7 @@ static int device_differences(cl_context ctx, cl_device_id dev, cl_command_queue
 static void test_device_matches_host(void **state)
 {
     (void)state;
-    cl_device_id dev;
-    cl_context ctx;
-    cl_command_queue q;
-    test_cl_open_first(&dev, &ctx, &q);
+    TestCl cl = test_cl_open();
     rng_state = 18;
     uint32_t n;
     const float c[3] = {0.1f, 0.2f, -0.3f};
@@ -780,13 +749,12 @@ static void test_device_matches_host(void **state)
             "-DSPT_BVH_SHORT_STACK=1 -DBVH_SHORT_STACK_SIZE=2"};
         for (int o = 0; o < 5; o++) {
             int hits;
-            assert_int_equal(device_differences(ctx, dev, q, options[o], &bvh, rays, nr, &hits), 0);
+            assert_int_equal(device_differences(&cl, options[o], &bvh, rays, nr, &hits), 0);
             assert_true(hits > nr / 4);
         }
         bvh_free(&bvh);
     }
-    clReleaseCommandQueue(q);
-    clReleaseContext(ctx);
+    test_cl_close(&cl);
     free(rays);
     free(t);
 }

@@ -55,11 +55,7 @@ static void slab_scene(Scene *s, int light, int glass)
     SceneMaterial *g = append_box(s, lo, hi);
     g->metallic = 0.0f;
     if (glass) {
-        g->roughness = 0.0f;
-        g->transmission = 1.0f;
-        g->ior = (float)SLAB_IOR;
-        for (int k = 0; k < 3; k++)
-            g->base_color[k] = 1.0f;
+        set_clear_glass(g, (float)SLAB_IOR);
     } else {
         g->specular = 0.0f;
         for (int k = 0; k < 3; k++)
@@ -225,6 +221,15 @@ static int check_floor(const Film *f, int light, double r_max, double rel, const
     return n;
 }
 
+/* render_slab through the glass (depth 4) checked by check_floor. */
+static void slab_floor(int light, int caustics, int spp, double r_max, double rel, const char *what)
+{
+    Film f;
+    render_slab(light, 1, caustics, spp, 4, 0, 0, &f);
+    check_floor(&f, light, r_max, rel, what);
+    film_free(&f);
+}
+
 /* A spot light and a directional light through the slab: without the pass the
  * floor under the slab is black (punctual lights never pass glass); with it,
  * its radiance is the analytic one. */
@@ -232,9 +237,7 @@ static void test_punctual_through_glass(void **state)
 {
     (void)state;
     Film f;
-    render_slab(LIGHT_SPOT, 1, SPT_SWITCH_ON, 64, 4, 0, 0, &f);
-    check_floor(&f, LIGHT_SPOT, 0.5, 0.01, "spot through glass");
-    film_free(&f);
+    slab_floor(LIGHT_SPOT, SPT_SWITCH_ON, 64, 0.5, 0.01, "spot through glass");
     skip_if_quick();
     render_slab(LIGHT_SPOT, 1, SPT_SWITCH_OFF, 4, 4, 0, 0, &f);
     double dark = 0;
@@ -243,9 +246,7 @@ static void test_punctual_through_glass(void **state)
     printf("spot, --caustics off: brightest pixel Y %.3g (the floor under glass is black)\n", dark);
     assert_true(dark == 0.0);
     film_free(&f);
-    render_slab(LIGHT_DIRECTIONAL, 1, SPT_SWITCH_ON, 128, 4, 0, 0, &f);
-    check_floor(&f, LIGHT_DIRECTIONAL, 0.6, 0.02, "directional through glass");
-    film_free(&f);
+    slab_floor(LIGHT_DIRECTIONAL, SPT_SWITCH_ON, 128, 0.6, 0.02, "directional through glass");
 }
 
 /* A thin lens: light paths connect to points of its aperture. Focused on the
@@ -255,13 +256,10 @@ static void test_thin_lens(void **state)
 {
     (void)state;
     skip_if_quick();
-    Film f;
     slab_aperture = 0.03f;
     slab_focus = (float)sqrt(0.9 * 0.9 + 2.5 * 2.5);
-    render_slab(LIGHT_SPOT, 1, SPT_SWITCH_ON, 64, 4, 0, 0, &f);
+    slab_floor(LIGHT_SPOT, SPT_SWITCH_ON, 64, 0.5, 0.015, "spot through glass, thin lens");
     slab_aperture = slab_focus = 0.0f;
-    check_floor(&f, LIGHT_SPOT, 0.5, 0.015, "spot through glass, thin lens");
-    film_free(&f);
 }
 
 /* An area light through the slab: the light paths (on) and the camera paths
@@ -270,16 +268,11 @@ static void test_thin_lens(void **state)
 static void test_area_light_caustic(void **state)
 {
     (void)state;
-    Film f;
     /* 256 spp: the mean's noise is about 0.65% there (1.2% at 64 spp, where a
      * 1% tolerance was a coin toss between seeds and samplers). */
-    render_slab(LIGHT_AREA, 1, SPT_SWITCH_ON, 256, 4, 0, 0, &f);
-    check_floor(&f, LIGHT_AREA, 0.5, 0.02, "area light, --caustics on");
-    film_free(&f);
+    slab_floor(LIGHT_AREA, SPT_SWITCH_ON, 256, 0.5, 0.02, "area light, --caustics on");
     skip_if_quick();
-    render_slab(LIGHT_AREA, 1, SPT_SWITCH_OFF, 1024, 4, 0, 0, &f);
-    check_floor(&f, LIGHT_AREA, 0.5, 0.03, "area light, --caustics off");
-    film_free(&f);
+    slab_floor(LIGHT_AREA, SPT_SWITCH_OFF, 1024, 0.5, 0.03, "area light, --caustics off");
 }
 
 /* Without delta surfaces the pass adds nothing: the image is the same bit for
@@ -495,13 +488,7 @@ static void closed_box_scene(Scene *s, int light_patch)
     }
     w->emissive_strength = (float)BOX_LE;
     const float glo[3] = {-0.5f, -0.7f, -0.5f}, ghi[3] = {0.5f, 0.2f, 0.5f};
-    SceneMaterial *g = append_box(s, glo, ghi);
-    g->metallic = 0.0f;
-    g->roughness = 0.0f;
-    g->transmission = 1.0f;
-    g->ior = 1.5f;
-    for (int k = 0; k < 3; k++)
-        g->base_color[k] = 1.0f;
+    set_clear_glass(append_box(s, glo, ghi), 1.5f);
     if (light_patch) {
         /* Counter-clockwise seen from below: the front faces down. */
         const float h = 0.25f, y = 0.99f;

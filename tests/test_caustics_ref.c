@@ -125,16 +125,29 @@ static double welch_vs_mitsuba(const char *scene, const char *ref, int runs, int
  * outcome is deterministic). */
 #define CS_WELCH_BOUND 6.0
 
+/* tests/data/scenes/NAME.gltf against tests/data/mitsuba/NAME_means.json: 8
+ * passes of spp with the pass on; every block's Welch statistic below
+ * CS_WELCH_BOUND, and the image mean within 1% (by_image_t 0) or its Welch
+ * statistic below 4 (1). */
+static void mitsuba_case(const char *name, int spp, int by_image_t, const char *what)
+{
+    char scene[256], ref[256];
+    snprintf(scene, sizeof scene, "tests/data/scenes/%s.gltf", name);
+    snprintf(ref, sizeof ref, "tests/data/mitsuba/%s_means.json", name);
+    double rel, img_t;
+    double t = welch_vs_mitsuba(scene, ref, 8, spp, SPT_SWITCH_ON, &rel, &img_t, what);
+    assert_true(t < CS_WELCH_BOUND);
+    if (by_image_t)
+        assert_true(img_t < 4.0);
+    else
+        assert_true(rel < 0.01);
+}
+
 static void test_sphere_caustic_mitsuba(void **state)
 {
     (void)state;
     skip_if_quick();
-    double rel, img_t;
-    double t = welch_vs_mitsuba("tests/data/scenes/caustic_sphere.gltf",
-                                "tests/data/mitsuba/caustic_sphere_means.json", 8, 64, SPT_SWITCH_ON, &rel, &img_t,
-                                "spot light through the sphere vs Mitsuba ptracer");
-    assert_true(t < CS_WELCH_BOUND);
-    assert_true(rel < 0.01);
+    mitsuba_case("caustic_sphere", 64, 0, "spot light through the sphere vs Mitsuba ptracer");
 }
 
 /* The same sphere under a narrow spot (cones 1.5 and 2 degrees, a fifth of
@@ -146,12 +159,8 @@ static void test_sphere_narrow_spot_mitsuba(void **state)
 {
     (void)state;
     skip_if_quick();
-    double rel, img_t;
-    double t = welch_vs_mitsuba("tests/data/scenes/caustic_sphere_narrow.gltf",
-                                "tests/data/mitsuba/caustic_sphere_narrow_means.json", 8, 64, SPT_SWITCH_ON, &rel,
-                                &img_t, "narrow spot (1.5/2 degrees) through the sphere vs Mitsuba ptracer");
-    assert_true(t < CS_WELCH_BOUND);
-    assert_true(rel < 0.01);
+    mitsuba_case("caustic_sphere_narrow", 64, 0,
+                 "narrow spot (1.5/2 degrees) through the sphere vs Mitsuba ptracer");
 }
 
 /* The area light against Mitsuba's path tracer (tests/data/mitsuba/
@@ -166,12 +175,7 @@ static void test_sphere_area_light_mitsuba(void **state)
 {
     (void)state;
     skip_if_quick();
-    double rel, img_t;
-    double t = welch_vs_mitsuba("tests/data/scenes/caustic_sphere_area.gltf",
-                                "tests/data/mitsuba/caustic_sphere_area_means.json", 8, 32, SPT_SWITCH_ON, &rel,
-                                &img_t, "area light through the sphere vs Mitsuba path");
-    assert_true(t < CS_WELCH_BOUND);
-    assert_true(img_t < 4.0);
+    mitsuba_case("caustic_sphere_area", 32, 1, "area light through the sphere vs Mitsuba path");
 }
 
 /* Light path k of sample index s is a function of (seed, k, s) whatever the

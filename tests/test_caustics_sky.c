@@ -51,13 +51,7 @@ static void furnace_scene(Scene *s, int view)
     for (int k = 0; k < 3; k++)
         fl->base_color[k] = 1.0f;
     const float lo[3] = {-1.5f, SLAB_BOTTOM, -1.5f}, hi[3] = {1.5f, SLAB_TOP, 1.5f};
-    SceneMaterial *g = append_box(s, lo, hi);
-    g->metallic = 0.0f;
-    g->roughness = 0.0f;
-    g->transmission = 1.0f;
-    g->ior = 1.5f;
-    for (int k = 0; k < 3; k++)
-        g->base_color[k] = 1.0f;
+    set_clear_glass(append_box(s, lo, hi), 1.5f);
     /* A white roof over half of it, facing down, outside the glass's
      * bounding sphere (radius 2.13 m about (0, 0.7, 0)) but inside the
      * scene's: the sky's light paths start outside the scene, so they meet it
@@ -97,17 +91,18 @@ static Sky white_sky(void)
 enum { FW = 16, FH = 8 };
 static float flat_map[FW * FH * 3];
 
+/* The sky of the w x h map of linear sRGB texels (borrowed, not freed). */
+static Sky map_sky(float *map, int w, int h)
+{
+    Sky sky = {.kind = SPT_SKY_MAP, .map = map, .map_width = w, .map_height = h};
+    return sky;
+}
+
 static Sky flat_map_sky(void)
 {
     for (int i = 0; i < FW * FH * 3; i++)
         flat_map[i] = 1.0f;
-    Sky sky;
-    memset(&sky, 0, sizeof sky);
-    sky.kind = SPT_SKY_MAP;
-    sky.map = flat_map;
-    sky.map_width = FW;
-    sky.map_height = FH;
-    return sky;
+    return map_sky(flat_map, FW, FH);
 }
 
 /* The furnace of view under sky with --caustics mode: the mean of each
@@ -243,13 +238,7 @@ static Sky sun_sky(void)
             t[1] = hot ? 32.0f : 0.3f;
             t[2] = hot ? 24.0f : 0.5f;
         }
-    Sky sky;
-    memset(&sky, 0, sizeof sky);
-    sky.kind = SPT_SKY_MAP;
-    sky.map = sun_map;
-    sky.map_width = SMW;
-    sky.map_height = SMH;
-    return sky;
+    return map_sky(sun_map, SMW, SMH);
 }
 
 static void test_sun_sphere_on_off(void **state)

@@ -21,21 +21,10 @@
 
 #include "ckpt_test.h"
 
-/* Runs `$SPECTRACE_EXE args` with stderr captured into out; returns the exit status. */
+/* Runs spectrace with args, stderr into out (may be NULL); returns the exit status. */
 static int run(const char *args, char *out, size_t cap)
 {
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe)
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
-    char cmd[2048];
-    snprintf(cmd, sizeof cmd, "'%s' %s 2>&1 >/dev/null", exe, args);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    char tmp[4096];
-    size_t n = fread(out ? out : tmp, 1, (out ? cap : sizeof tmp) - 1, p);
-    (out ? out : tmp)[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    return test_run_exe("", 0, args, out, cap);
 }
 
 /* run() that must succeed; prints the program's messages when it does not. */
@@ -46,28 +35,10 @@ static void run_ok(const char *args, char *out, size_t cap)
         fail_msg("exit code %d from spectrace %s:\n%s", rc, args, out);
 }
 
-/* The whole file, malloc'd. */
-static char *slurp(const char *path, size_t *n)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        fail_msg("%s: %s", path, strerror(errno));
-    fseek(f, 0, SEEK_END);
-    long len = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *b = malloc((size_t)len + 1);
-    assert_int_equal(fread(b, 1, (size_t)len, f), (size_t)len);
-    fclose(f);
-    b[len] = 0;
-    *n = (size_t)len;
-    return b;
-}
-
 static int setup(void **state)
 {
     (void)state;
-    snprintf(dir, sizeof dir, "/tmp/spt-ckpt-XXXXXX");
-    if (!mkdtemp(dir))
+    if (test_dir_make("spt-ckpt"))
         return -1;
     /* Fill the program cache first, its exit code ignored: in the sanitizer
      * build, a process that compiled the kernels with PoCL's LLVM sometimes ends
@@ -75,17 +46,9 @@ static int setup(void **state)
      * says nothing about the code under test. */
     char cmd[512], out[4096];
     snprintf(cmd, sizeof cmd, "render " SCENE " --width 8 --height 8 --spp 1 -q --device all -o %s/warm.exr",
-             dir);
+             test_dir());
     run(cmd, out, sizeof out);
     return 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd) == 0 ? 0 : -1;
 }
 
 /* The file keeps the double sums (hi + lo floats) and non-contiguous done sets. */
@@ -108,7 +71,7 @@ static void test_file_round_trip(void **state)
         f.count[i] = 6;
     }
     unsigned char done[12] = {1, 1, 1, 1, 0, 0, 0, 0, 1, 1, 0, 0};
-    const char *p = path_in("rt.exr");
+    const char *p = test_path("rt.exr");
     assert_int_equal(checkpoint_write(p, &k, &f, done, 12, &e), 0);
     Film g;
     unsigned char *d2;
@@ -133,31 +96,38 @@ static void test_file_round_trip(void **state)
     film_free(&f);
 }
 
+/* Renders with the options extra (and COMMON) 64 spp in one go on device 0
+ * (<tag>full.exr, its checkpoint <tag>full_ck.exr) and 32 spp on device 0
+ * (<tag>half_ck.exr, which holds 32), then resumes the latter to 64 on every
+ * device (<tag>resumed.exr). */
+static void render_split(const char *extra, const char *tag)
+{
+    char cmd[1024], out[4096], f[4][64];
+    static const char *names[4] = {"full.exr", "full_ck.exr", "half.exr", "half_ck.exr"};
+    for (int i = 0; i < 4; i++)
+        snprintf(f[i], sizeof f[i], "%s%s", tag, names[i]);
+    for (int h = 0; h < 2; h++) {
+        snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " %s --device 0 --spp %d -o %s --checkpoint %s",
+                 extra, h ? 32 : 64, test_path(f[2 * h]), test_path(f[2 * h + 1]));
+        run_ok(cmd, out, sizeof out);
+    }
+    Film b;
+    assert_int_equal(load_checkpoint(test_path(f[3]), 3, 64, &b), 32);
+    film_free(&b);
+    snprintf(f[0], sizeof f[0], "%sresumed.exr", tag);
+    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " %s --device all --spp 64 -o %s --resume %s", extra,
+             test_path(f[0]), test_path(f[3]));
+    run_ok(cmd, out, sizeof out);
+}
+
 /* 64 spp in one go, on one device, equals 32 spp on one device, stopped, then
  * resumed to 64 on two devices. */
 static void test_resume_split_invariance(void **state)
 {
     (void)state;
-    char cmd[1024], out[4096];
-    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device 0 --spp 64 -o %s --checkpoint %s",
-             path_in("full.exr"), path_in("full_ck.exr"));
-    run_ok(cmd, out, sizeof out);
-    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device 0 --spp 32 -o %s --checkpoint %s",
-             path_in("half.exr"), path_in("half_ck.exr"));
-    run_ok(cmd, out, sizeof out);
-    Film a, b;
-    assert_int_equal(load_checkpoint(path_in("half_ck.exr"), 3, 64, &b), 32);
-    film_free(&b);
-    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device all --spp 64 -o %s --resume %s",
-             path_in("resumed.exr"), path_in("half_ck.exr"));
-    if (run(cmd, out, sizeof out))
-        fail_msg("resume failed: %s", out);
-    assert_int_equal(load_checkpoint(path_in("full_ck.exr"), 3, 64, &a), 64);
-    assert_int_equal(load_checkpoint(path_in("half_ck.exr"), 3, 64, &b), 64);
-    assert_same_film(&a, &b);
-    assert_same_exr(path_in("full.exr"), path_in("resumed.exr"));
-    film_free(&a);
-    film_free(&b);
+    render_split("", "");
+    assert_same_render(test_path("full_ck.exr"), test_path("half_ck.exr"), 3, 64, test_path("full.exr"),
+                       test_path("resumed.exr"));
 }
 
 /* The same with every AOV layer (--aov all) and 47 spectral bands: the
@@ -167,34 +137,26 @@ static void test_resume_split_invariance_aov(void **state)
 {
     (void)state;
     char cmd[1024], out[4096];
-    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --aov all --spectral 47 --device 0 --spp 64 -o %s --checkpoint %s",
-             path_in("afull.exr"), path_in("afull_ck.exr"));
-    run_ok(cmd, out, sizeof out);
-    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --aov all --spectral 47 --device 0 --spp 32 -o %s --checkpoint %s",
-             path_in("ahalf.exr"), path_in("ahalf_ck.exr"));
-    run_ok(cmd, out, sizeof out);
-    snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --aov all --spectral 47 --device all --spp 64 -o %s --resume %s",
-             path_in("aresumed.exr"), path_in("ahalf_ck.exr"));
-    run_ok(cmd, out, sizeof out);
     Film a, b;
     ckpt_aov = SPT_AOV_ALL;
     ckpt_spectral = 47;
-    assert_int_equal(load_checkpoint(path_in("afull_ck.exr"), 3, 64, &a), 64);
-    assert_int_equal(load_checkpoint(path_in("ahalf_ck.exr"), 3, 64, &b), 64);
+    render_split("--aov all --spectral 47", "a");
+    assert_int_equal(load_checkpoint(test_path("afull_ck.exr"), 3, 64, &a), 64);
+    assert_int_equal(load_checkpoint(test_path("ahalf_ck.exr"), 3, 64, &b), 64);
     ckpt_aov = 0;
     ckpt_spectral = 0;
     assert_same_film(&a, &b);
     assert_same_aov_tol(&a, &b, 1e-4);
     assert_same_bands_tol(&a, &b, 1e-4);
-    assert_same_exr(path_in("afull.exr"), path_in("aresumed.exr"));
+    assert_same_exr(test_path("afull.exr"), test_path("aresumed.exr"));
     film_free(&a);
     film_free(&b);
     /* Resuming without the AOVs the checkpoint has: refused, naming the setting. */
     snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device 0 --spp 64 -o %s --resume %s",
-             path_in("arefused.exr"), path_in("afull_ck.exr"));
+             test_path("arefused.exr"), test_path("afull_ck.exr"));
     assert_int_equal(run(cmd, out, sizeof out), SPT_EXIT_INPUT);
     assert_non_null(strstr(out, "aov"));
-    assert_false(exists(path_in("arefused.exr")));
+    assert_false(test_exists(test_path("arefused.exr")));
 }
 
 /* Runs a refused resume: exit code 3 (or want), one error line containing
@@ -203,17 +165,17 @@ static void refused(const char *args, const char *ckpt, int want, const char *sa
 {
     char cmd[1024], out[4096];
     size_t n0, n1;
-    char *before = slurp(ckpt, &n0);
-    unlink(path_in("refused.exr"));
+    char *before = test_slurp(ckpt, &n0);
+    unlink(test_path("refused.exr"));
     snprintf(cmd, sizeof cmd, "render %s --device 0 --spp 64 -o %s --resume %s", args,
-             path_in("refused.exr"), ckpt);
+             test_path("refused.exr"), ckpt);
     int rc = run(cmd, out, sizeof out);
     printf("%s", out);
     assert_int_equal(rc, want);
     if (strncmp(out, "error: ", 7) || strchr(out, '\n') != out + strlen(out) - 1 || !strstr(out, says))
         fail_msg("expected one error line saying '%s', got:\n%s", says, out);
-    assert_false(exists(path_in("refused.exr")));
-    char *after = slurp(ckpt, &n1);
+    assert_false(test_exists(test_path("refused.exr")));
+    char *after = test_slurp(ckpt, &n1);
     assert_int_equal(n0, n1);
     assert_memory_equal(before, after, n0);
     free(before);
@@ -225,10 +187,10 @@ static void test_resume_refusals(void **state)
     (void)state;
     char cmd[1024], out[4096];
     char ck[256], tr[256], img[256], txt[256];
-    snprintf(ck, sizeof ck, "%s", path_in("ref_ck.exr"));
-    snprintf(tr, sizeof tr, "%s", path_in("truncated_ck.exr"));
-    snprintf(img, sizeof img, "%s", path_in("ref.exr"));
-    snprintf(txt, sizeof txt, "%s", path_in("notes.exr"));
+    snprintf(ck, sizeof ck, "%s", test_path("ref_ck.exr"));
+    snprintf(tr, sizeof tr, "%s", test_path("truncated_ck.exr"));
+    snprintf(img, sizeof img, "%s", test_path("ref.exr"));
+    snprintf(txt, sizeof txt, "%s", test_path("notes.exr"));
     snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device 0 --spp 8 -o %s --checkpoint %s",
              img, ck);
     run_ok(cmd, out, sizeof out);
@@ -238,7 +200,7 @@ static void test_resume_refusals(void **state)
     refused(SCENE " " COMMON " --max-depth 3", ck, SPT_EXIT_INPUT, "--max-depth 3 here, -1 in the checkpoint");
     /* Truncated: the first half of the file. */
     size_t n;
-    char *bytes = slurp(ck, &n);
+    char *bytes = test_slurp(ck, &n);
     FILE *f = fopen(tr, "wb");
     assert_non_null(f);
     assert_int_equal(fwrite(bytes, 1, n / 2, f), n / 2);
@@ -255,7 +217,7 @@ static void test_resume_refusals(void **state)
     /* Fewer samples than the checkpoint holds. */
     char args[256];
     snprintf(args, sizeof args, SCENE " " COMMON " --spp 4");
-    snprintf(cmd, sizeof cmd, "render %s --device 0 -o %s --resume %s", args, path_in("refused.exr"), ck);
+    snprintf(cmd, sizeof cmd, "render %s --device 0 -o %s --resume %s", args, test_path("refused.exr"), ck);
     assert_int_equal(run(cmd, out, sizeof out), SPT_EXIT_USAGE);
     assert_non_null(strstr(out, "must be at least 8"));
 }
@@ -266,11 +228,11 @@ static void test_resume_refusals(void **state)
 static void test_sigint_then_resume(void **state)
 {
     (void)state;
-    const char *exe = getenv("SPECTRACE_EXE");
+    const char *exe = test_exe();
     char ck[256], img[256], log[256];
-    snprintf(ck, sizeof ck, "%s", path_in("int_ck.exr"));
-    snprintf(img, sizeof img, "%s", path_in("int.exr"));
-    snprintf(log, sizeof log, "%s", path_in("int.log"));
+    snprintf(ck, sizeof ck, "%s", test_path("int_ck.exr"));
+    snprintf(img, sizeof img, "%s", test_path("int.exr"));
+    snprintf(log, sizeof log, "%s", test_path("int.log"));
     pid_t pid = fork();
     assert_true(pid >= 0);
     if (pid == 0) {
@@ -284,14 +246,14 @@ static void test_sigint_then_resume(void **state)
         _exit(127);
     }
     /* Wait for the first periodic checkpoint: the render has made progress. */
-    for (int i = 0; i < 3000 && !exists(ck); i++)
+    for (int i = 0; i < 3000 && !test_exists(ck); i++)
         usleep(10000);
-    assert_true(exists(ck));
+    assert_true(test_exists(ck));
     kill(pid, SIGINT);
     int st;
     assert_int_equal(waitpid(pid, &st, 0), pid);
     size_t n;
-    char *text = slurp(log, &n);
+    char *text = test_slurp(log, &n);
     printf("%s", text);
     assert_true(WIFEXITED(st));
     assert_int_equal(WEXITSTATUS(st), 0);
@@ -322,17 +284,17 @@ static void test_sigint_then_resume(void **state)
     /* Resume to 128 and compare with 128 in one go. */
     char cmd[1024], out[4096];
     snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device 0 --spp 128 -o %s --resume %s",
-             path_in("int_done.exr"), ck);
+             test_path("int_done.exr"), ck);
     if (run(cmd, out, sizeof out))
         fail_msg("resume failed: %s", out);
     snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device 0 --spp 128 -o %s --checkpoint %s",
-             path_in("straight.exr"), path_in("straight_ck.exr"));
+             test_path("straight.exr"), test_path("straight_ck.exr"));
     run_ok(cmd, out, sizeof out);
     Film a, b;
     assert_int_equal(load_checkpoint(ck, 3, 128, &a), 128);
-    assert_int_equal(load_checkpoint(path_in("straight_ck.exr"), 3, 128, &b), 128);
+    assert_int_equal(load_checkpoint(test_path("straight_ck.exr"), 3, 128, &b), 128);
     assert_same_film(&a, &b);
-    assert_same_exr(path_in("int_done.exr"), path_in("straight.exr"));
+    assert_same_exr(test_path("int_done.exr"), test_path("straight.exr"));
     film_free(&a);
     film_free(&b);
 }
@@ -349,5 +311,5 @@ int main(void)
         cmocka_unit_test(test_resume_refusals),
         cmocka_unit_test(test_sigint_then_resume),
     };
-    return cmocka_run_group_tests_name("checkpoint", tests, setup, teardown);
+    return cmocka_run_group_tests_name("checkpoint", tests, setup, test_dir_teardown);
 }

@@ -36,18 +36,6 @@ static long file_size(const char *path)
     return stat(path, &st) == 0 ? (long)st.st_size : -1;
 }
 
-/* Runs a shell command line, capturing stdout+stderr into out; returns the exit
- * status (or -1 when it did not exit normally). */
-static int run_capture(const char *cmdline, char *out, size_t cap)
-{
-    FILE *p = popen(cmdline, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
 /* Number of lines in s (a last line without newline counts). */
 static int count_lines(const char *s)
 {
@@ -313,9 +301,9 @@ static void test_two_pocl_devices_all_and_lists(void **state)
     char cmd[5000], out[4096];
     snprintf(cmd, sizeof cmd,
              "POCL_DEVICES='pthread pthread' POCL_MAX_PTHREAD_COUNT=1 '%s' --child-select "
-             "all 1,0 PTHREAD,pthread cpu,cpu 0,0 2 all,0 open:1,0 open:0,7 2>&1",
+             "all 1,0 PTHREAD,pthread cpu,cpu 0,0 2 all,0 open:1,0 open:0,7",
              g_self);
-    int rc = run_capture(cmd, out, sizeof out);
+    int rc = test_sh(cmd, TEST_BOTH, out, sizeof out);
     assert_int_equal(rc, 0);
     const char *want = "count 2\n"
                        "all -> 0,1\n"
@@ -337,14 +325,9 @@ static void test_no_platform_says_how_to_install(void **state)
     char empty[512];
     snprintf(empty, sizeof empty, "%s/no_vendors", g_tmp);
     assert_int_equal(mkdir(empty, 0755), 0);
-    const char *exe = getenv("SPECTRACE_EXE");
-    char cmd[5000], out[4096];
-    if (exe && access(exe, X_OK) == 0)
-        snprintf(cmd, sizeof cmd, "OCL_ICD_VENDORS='%s' '%s' devices 2>&1", empty, exe);
-    else /* run outside tests/run_tests.sh: the same code in this binary */
-        snprintf(cmd, sizeof cmd, "OCL_ICD_VENDORS='%s' '%s' --child-select 0 2>&1", empty,
-                 g_self);
-    int rc = run_capture(cmd, out, sizeof out);
+    char env[600], out[4096];
+    snprintf(env, sizeof env, "OCL_ICD_VENDORS='%s'", empty);
+    int rc = test_spectrace(env, 0, "devices", TEST_BOTH, out, sizeof out);
     assert_int_equal(rc, SPT_EXIT_DEVICE);
     assert_int_equal(strncmp(out, "error: ", 7), 0);
     assert_non_null(strstr(out, "no OpenCL platform"));
@@ -355,17 +338,13 @@ static void test_no_platform_says_how_to_install(void **state)
 static void test_devices_command_lists_and_marks(void **state)
 {
     (void)state;
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe || access(exe, X_OK) != 0)
-        skip(); /* only under tests/run_tests.sh, which builds the program */
-    char cmd[5000], out[8192], want[600];
-    snprintf(cmd, sizeof cmd, "'%s' devices --device 0 2>&1", exe);
-    assert_int_equal(run_capture(cmd, out, sizeof out), 0);
+    char args[64], out[8192], want[600];
+    assert_int_equal(test_spectrace("", 0, "devices --device 0", TEST_BOTH, out, sizeof out), 0);
     snprintf(want, sizeof want, " *[0] %s\n", g_list.devices[0].name);
     if (!strstr(out, want) || !strstr(out, "selected: 0\n") || !strstr(out, "fp64 "))
         fail_msg("spectrace devices printed:\n%s", out);
-    snprintf(cmd, sizeof cmd, "'%s' devices --device %d 2>&1", exe, g_list.count);
-    assert_int_equal(run_capture(cmd, out, sizeof out), SPT_EXIT_DEVICE);
+    snprintf(args, sizeof args, "devices --device %d", g_list.count);
+    assert_int_equal(test_spectrace("", 0, args, TEST_BOTH, out, sizeof out), SPT_EXIT_DEVICE);
     /* The listing, then exactly one error line at the end. */
     const char *err = strstr(out, "error: ");
     assert_non_null(err);

@@ -12,17 +12,7 @@
  * returns the exit status. */
 static int run(const char *args, int merge, char *out, size_t cap)
 {
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe)
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
-    char cmd[1024];
-    snprintf(cmd, sizeof cmd, "'%s' %s %s", exe, args, merge ? "2>&1" : "2>/dev/null");
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    return test_spectrace("", 0, args, merge ? TEST_BOTH : TEST_STDOUT, out, cap);
 }
 
 /* Parses the three lines exactly; fails when the format differs. */

@@ -6,6 +6,7 @@
  * not install it. */
 #include "test_util.h"
 #include "test_render_util.h"
+#include "denoise_test.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -19,16 +20,12 @@
 #include "scene/scene.h"
 
 static Denoiser den;
-static int have_oidn;
 
 static int setup(void **state)
 {
     if (setup_cpu_device(state))
         return -1;
-    SptError e = {0};
-    have_oidn = denoiser_open(&den, &e) == 0;
-    if (!have_oidn)
-        printf("Open Image Denoise not loadable (%s): the tests that need it skip\n", e.msg);
+    oidn_probe(&den);
     return 0;
 }
 
@@ -38,36 +35,20 @@ static int teardown(void **state)
     return teardown_cpu_device(state);
 }
 
-static void need_oidn(void)
-{
-#if defined(__SANITIZE_ADDRESS__)
-    /* Open Image Denoise's TBB loads libtbbbind with RTLD_DEEPBIND, which
-     * AddressSanitizer refuses (it ends the process). */
-    print_message("  skipped in the sanitizer build (TBB's RTLD_DEEPBIND); the plain build runs it\n");
-    skip();
-#endif
-    if (!have_oidn) {
-        print_message("  Open Image Denoise not installed (make denoise): skipped\n");
-        skip();
-    }
-}
-
 /* Renders the scene file at W x W with spp samples (seed) into rgb; with
  * albedo and normal non-NULL, the AOV layers too. */
-static void render_file(const char *path, int W, int spp, uint32_t seed, float *rgb, float *albedo,
-                        float *normal)
+static void render_rgb_aov(const char *path, int W, int spp, uint32_t seed, float *rgb, float *albedo,
+                           float *normal)
 {
     Scene s;
-    GpuScene g;
     SptError e = {0};
-    if (scene_load_gltf(&s, path, &e) || gpu_scene_build(&g, &s, &e))
+    if (scene_load_gltf(&s, path, &e))
         fail_msg("%s: %s", path, e.msg);
     RenderSettings rs = square_settings(W, spp, -1, seed);
     rs.aov = albedo ? SPT_AOV_ALBEDO | SPT_AOV_NORMAL : 0;
     Film f;
     RenderStats st;
-    film_init_aov(&f, W, W, rs.aov != 0);
-    if (render_device(device, &g, &s.camera, &rs, &f, &st, &e))
+    if (render_film(&s, &rs, &f, &st, &e))
         fail_msg("render %s: %s", path, e.msg);
     film_to_linear_srgb(&f, rgb);
     if (albedo) {
@@ -75,7 +56,6 @@ static void render_file(const char *path, int W, int spp, uint32_t seed, float *
         film_aov_layer(&f, SPT_AOV_NORMAL, normal);
     }
     film_free(&f);
-    gpu_scene_free(&g);
     scene_free(&s);
 }
 
@@ -103,9 +83,9 @@ static void test_cornell_box_denoised(void **state)
     float *ref = malloc(n * sizeof(float)), *raw64 = malloc(n * sizeof(float)),
           *raw16 = malloc(n * sizeof(float)), *alb = malloc(n * sizeof(float)),
           *nrm = malloc(n * sizeof(float)), *den16 = malloc(n * sizeof(float));
-    render_file("scenes/cornell_box.gltf", W, 1024, 77, ref, NULL, NULL);
-    render_file("scenes/cornell_box.gltf", W, 64, 5, raw64, NULL, NULL);
-    render_file("scenes/cornell_box.gltf", W, 16, 5, raw16, alb, nrm);
+    render_rgb_aov("scenes/cornell_box.gltf", W, 1024, 77, ref, NULL, NULL);
+    render_rgb_aov("scenes/cornell_box.gltf", W, 64, 5, raw64, NULL, NULL);
+    render_rgb_aov("scenes/cornell_box.gltf", W, 16, 5, raw16, alb, nrm);
     SptError e = {0};
     double t0 = spt_now();
     if (denoiser_run(&den, raw16, alb, nrm, W, W, 1, den16, &e))
@@ -132,7 +112,7 @@ static void test_texture_edges_kept(void **state)
     size_t n = 3 * (size_t)W * W;
     float *raw = malloc(n * sizeof(float)), *alb = malloc(n * sizeof(float)), *nrm = malloc(n * sizeof(float)),
           *out = malloc(n * sizeof(float));
-    render_file("tests/data/textures/base_nosampler.gltf", W, 16, 3, raw, alb, nrm);
+    render_rgb_aov("tests/data/textures/base_nosampler.gltf", W, 16, 3, raw, alb, nrm);
     SptError e = {0};
     if (denoiser_run(&den, raw, alb, nrm, W, W, 1, out, &e))
         fail_msg("%s", e.msg);
@@ -167,36 +147,20 @@ static void test_texture_edges_kept(void **state)
     free(raw), free(alb), free(nrm), free(out);
 }
 
-/* Runs `cmd 2>&1`, its output into out; returns the exit status. */
-static int run(const char *cmd, char *out, size_t cap)
-{
-    char full[2048];
-    snprintf(full, sizeof full, "%s 2>&1", cmd);
-    FILE *p = popen(full, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
 /* The command line: the EXR's R, G, B are denoised and noisy.R/G/B is the image
  * the same render gives without --denoise. */
 static void test_command_line_layers(void **state)
 {
     (void)state;
     need_oidn();
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe)
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
     char a[64], b[64], cmd[1024], out[4096];
     snprintf(a, sizeof a, "/tmp/spt-den-%d-a.exr", (int)getpid());
     snprintf(b, sizeof b, "/tmp/spt-den-%d-b.exr", (int)getpid());
-    snprintf(cmd, sizeof cmd, "'%s' render scenes/cornell_box.gltf --width 32 --spp 4 -q --denoise -o %s", exe, a);
-    if (run(cmd, out, sizeof out))
+    snprintf(cmd, sizeof cmd, "render scenes/cornell_box.gltf --width 32 --spp 4 -q --denoise -o %s", a);
+    if (test_spectrace("", 0, cmd, TEST_BOTH, out, sizeof out))
         fail_msg("%s:\n%s", cmd, out);
-    snprintf(cmd, sizeof cmd, "'%s' render scenes/cornell_box.gltf --width 32 --spp 4 -q -o %s", exe, b);
-    if (run(cmd, out, sizeof out))
+    snprintf(cmd, sizeof cmd, "render scenes/cornell_box.gltf --width 32 --spp 4 -q -o %s", b);
+    if (test_spectrace("", 0, cmd, TEST_BOTH, out, sizeof out))
         fail_msg("%s:\n%s", cmd, out);
     static const char *want[] = {"R", "G", "B", "noisy.R", "noisy.G", "noisy.B"};
     ExrLayers la, lb;
@@ -229,9 +193,7 @@ static void test_command_line_layers(void **state)
 static void test_missing_library(void **state)
 {
     (void)state;
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe)
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
+    const char *exe = test_exe();
     char dir[64] = "/tmp/spt-nooidn-XXXXXX", cmd[2048], out[4096];
     assert_non_null(mkdtemp(dir));
     snprintf(cmd, sizeof cmd, "mkdir -p %s/bin && cp '%s' %s/bin/spectrace && echo keep > %s/out.exr", dir, exe,
@@ -240,7 +202,7 @@ static void test_missing_library(void **state)
     snprintf(cmd, sizeof cmd,
              "env -u SPECTRACE_OIDN %s/bin/spectrace render scenes/cornell_box.gltf --width 16 --spp 1 --denoise "
              "-o %s/out.exr", dir, dir);
-    int rc = run(cmd, out, sizeof out);
+    int rc = test_sh(cmd, TEST_BOTH, out, sizeof out);
     printf("%s", out);
     if (rc == 0) {
         print_message("  Open Image Denoise is installed system-wide: skipped\n");

@@ -27,23 +27,15 @@
 
 static char base[256]; /* the untouched checkpoint (4 spp) */
 
-/* `$SPECTRACE_EXE args` (or `prefix $SPECTRACE_EXE args`), stderr into err;
- * the exit status (-1: killed by a signal). */
+/* `prefix timeout 120 spectrace<exe_suffix> args` (prefix: environment
+ * variables or mpirun), stderr into err; the exit status (-1: killed). */
 static int run_exe(const char *prefix, const char *exe_suffix, const char *args, char *err,
                    size_t cap)
 {
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe)
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
     char cmd[2048];
-    snprintf(cmd, sizeof cmd, "%s timeout -s KILL 120 '%s%s' %s 2>&1 >/dev/null", prefix, exe,
-             exe_suffix, args);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(err, 1, cap - 1, p);
-    err[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    snprintf(cmd, sizeof cmd, "%s timeout -s KILL 120 '%s%s' %s", prefix, test_exe(), exe_suffix,
+             args);
+    return test_sh(cmd, TEST_STDERR, err, cap);
 }
 
 /* Resumes ckpt to 8 spp (prefix and exe_suffix as run_exe): exit 3, one line
@@ -52,7 +44,7 @@ static void refused_via(const char *prefix, const char *exe_suffix, const char *
                         const char *says)
 {
     char args[1024], err[8192];
-    const char *img = path_in("refused.exr");
+    const char *img = test_path("refused.exr");
     unlink(img);
     snprintf(args, sizeof args, ARGS " --spp 8 -o %s --resume %s", img, ckpt);
     int rc = run_exe(prefix, exe_suffix, args, err, sizeof err);
@@ -66,7 +58,7 @@ static void refused_via(const char *prefix, const char *exe_suffix, const char *
         !strstr(first, says) || strstr(first, says) > nl)
         fail_msg("resume from %s: exit %d, expected 3 with one error line naming the file and "
                  "saying '%s'; got:\n%s", ckpt, rc, says, err);
-    assert_false(exists(img));
+    assert_false(test_exists(img));
 }
 
 static void refused(const char *ckpt, const char *says)
@@ -106,7 +98,7 @@ static const char *edit_end(ExrLayers *L, const char *name, const char *drop)
     for (int i = 0; i < L->attr_count; i++)
         if (!strncmp(L->attrs[i].name, "spectrace:", 10))
             at[na++] = L->attrs[i];
-    const char *p = path_in(name);
+    const char *p = test_path(name);
     SptError e = {0};
     if (exr_write_layers(p, L->width, L->height, ch, n, at, na, &e))
         fail_msg("%s", e.msg);
@@ -119,24 +111,15 @@ static const char *edit_end(ExrLayers *L, const char *name, const char *drop)
 static int setup(void **state)
 {
     (void)state;
-    snprintf(dir, sizeof dir, "/tmp/spt-hckpt-XXXXXX");
-    if (!mkdtemp(dir))
+    if (test_dir_make("spt-hckpt"))
         return -1;
-    snprintf(base, sizeof base, "%s/base_ck.exr", dir);
+    snprintf(base, sizeof base, "%s/base_ck.exr", test_dir());
     char args[1024], err[8192];
-    snprintf(args, sizeof args, ARGS " --spp 4 -o %s/base.exr --checkpoint %s", dir, base);
+    snprintf(args, sizeof args, ARGS " --spp 4 -o %s/base.exr --checkpoint %s", test_dir(), base);
     int rc = run_exe("", "", args, err, sizeof err);
     if (rc)
         fprintf(stderr, "setup: exit %d: %s\n", rc, err);
     return rc ? -1 : 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd) == 0 ? 0 : -1;
 }
 
 /* The control: the file read and written again unchanged resumes, to the image
@@ -149,13 +132,13 @@ static void test_rewritten_unchanged_resumes(void **state)
     edit_begin(&L);
     const char *p = edit_end(&L, "same_ck.exr", NULL);
     char args[1024], err[8192];
-    snprintf(args, sizeof args, ARGS " --spp 8 -o %s --resume %s", path_in("resumed.exr"), p);
+    snprintf(args, sizeof args, ARGS " --spp 8 -o %s --resume %s", test_path("resumed.exr"), p);
     if (run_exe("", "", args, err, sizeof err))
         fail_msg("resume from the rewritten checkpoint failed:\n%s", err);
-    snprintf(args, sizeof args, ARGS " --spp 8 -o %s", path_in("straight.exr"));
+    snprintf(args, sizeof args, ARGS " --spp 8 -o %s", test_path("straight.exr"));
     if (run_exe("", "", args, err, sizeof err))
         fail_msg("render failed:\n%s", err);
-    assert_same_exr(path_in("straight.exr"), path_in("resumed.exr"));
+    assert_same_exr(test_path("straight.exr"), test_path("resumed.exr"));
 }
 
 /* A render whose pixel (0, 0) drops every sample (the test hook
@@ -165,8 +148,8 @@ static void test_dropped_samples_resume(void **state)
 {
     (void)state;
     char args[1024], err[8192];
-    const char *ck = path_in("nan_ck.exr");
-    snprintf(args, sizeof args, ARGS " --spp 4 -o %s --checkpoint %s", path_in("nan.exr"), ck);
+    const char *ck = test_path("nan_ck.exr");
+    snprintf(args, sizeof args, ARGS " --spp 4 -o %s --checkpoint %s", test_path("nan.exr"), ck);
     if (run_exe("SPECTRACE_TEST_INJECT_NAN=1", "", args, err, sizeof err))
         fail_msg("render failed:\n%s", err);
     ExrLayers L;
@@ -176,7 +159,7 @@ static void test_dropped_samples_resume(void **state)
     assert_int_equal(((const uint32_t *)exr_layers_channel(&L, "count")->data)[0], 0);
     assert_int_equal(((const uint32_t *)exr_layers_channel(&L, "count")->data)[1], 4);
     exr_layers_free(&L);
-    snprintf(args, sizeof args, ARGS " --spp 8 -o %s --resume %s", path_in("nan8.exr"), ck);
+    snprintf(args, sizeof args, ARGS " --spp 8 -o %s --resume %s", test_path("nan8.exr"), ck);
     if (run_exe("SPECTRACE_TEST_INJECT_NAN=1", "", args, err, sizeof err))
         fail_msg("resume of a checkpoint with a pixel of no samples failed:\n%s", err);
 }
@@ -203,10 +186,10 @@ static void test_count_zero(void **state)
         ((uint32_t *)c->data)[i] = 3;
     refused(edit_end(&L, "count3_ck.exr", NULL), "checksum");
     char mpi[1024];
-    snprintf(mpi, sizeof mpi, "%s-mpi", getenv("SPECTRACE_EXE"));
-    if (!exists(mpi) || system("command -v mpirun >/dev/null 2>&1")) {
-        printf("the MPI case left out: %s or mpirun missing\n", mpi);
-        return;
+    snprintf(mpi, sizeof mpi, "%s-mpi", test_exe());
+    if (!test_exists(mpi) || system("command -v mpirun >/dev/null 2>&1")) {
+        print_message("  the MPI case left out: %s or mpirun missing (make mpi)\n", mpi);
+        skip();
     }
     refused_via("mpirun --allow-run-as-root --oversubscribe -n 2", "-mpi", p, "count is 0");
 }
@@ -307,7 +290,7 @@ static void test_cross_checks(void **state)
     rs.aov = 0;
     assert_int_equal(checkpoint_key(&k_bands, SCENE, &rs, &e), 0);
     unsigned char done[4] = {1, 1, 1, 1};
-    const char *p = path_in("api_ck.exr");
+    const char *p = test_path("api_ck.exr");
     static const char *const says[5] = {NULL, "band_sum.001 is negative", "count is 0",
                                         "band_sum.001 missing", "count is 0"};
     for (int attack = 0; attack < 5; attack++) {
@@ -364,7 +347,7 @@ static void test_mismatch_names_values(void **state)
     for (int i = 0; i < 4; i++) {
         char args[1024], err[8192];
         snprintf(args, sizeof args, ARGS " %s --spp 8 -o %s --resume %s", extra[i],
-                 path_in("refused.exr"), base);
+                 test_path("refused.exr"), base);
         int rc = run_exe("", "", args, err, sizeof err);
         printf("%s", err);
         const char *nl = strchr(err, '\n');
@@ -394,5 +377,5 @@ int main(void)
         cmocka_unit_test(test_cross_checks),
         cmocka_unit_test(test_mismatch_names_values),
     };
-    return cmocka_run_group_tests_name("hostile_checkpoint", tests, setup, teardown);
+    return cmocka_run_group_tests_name("hostile_checkpoint", tests, setup, test_dir_teardown);
 }

@@ -8,6 +8,7 @@
  * need the library skip, saying so, where `make denoise` could not install it
  * (tests/test_denoise.c). */
 #include "test_util.h"
+#include "denoise_test.h"
 
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -21,77 +22,24 @@
 #define BOX_STRENGTH "\"emissiveStrength\": 20.717675477527486"
 #define W 64
 
-static char dir[64];
-static int have_oidn;
-
 static int setup(void **state)
 {
-    (void)state;
-    snprintf(dir, sizeof dir, "/tmp/spt_hostile_denoise_XXXXXX");
-    if (!mkdtemp(dir))
+    if (test_dir_setup(state))
         return -1;
     Denoiser d;
-    SptError e = {0};
-    have_oidn = denoiser_open(&d, &e) == 0;
+    oidn_probe(&d);
     denoiser_close(&d);
-    if (!have_oidn)
-        printf("Open Image Denoise not loadable (%s): the tests that need it skip\n", e.msg);
     return 0;
 }
 
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd) == 0 ? 0 : -1;
-}
-
-static void need_oidn(void)
-{
-#if defined(__SANITIZE_ADDRESS__)
-    /* Open Image Denoise's TBB loads libtbbbind with RTLD_DEEPBIND, which
-     * AddressSanitizer refuses (it ends the process). */
-    print_message("  skipped in the sanitizer build (TBB's RTLD_DEEPBIND); the plain build runs it\n");
-    skip();
-#endif
-    if (!have_oidn) {
-        print_message("  Open Image Denoise not installed (make denoise): skipped\n");
-        skip();
-    }
-}
-
-
-/* stderr is exactly one line, "error: ..." containing want. */
-static void one_error(const char *err, const char *want)
-{
-    const char *nl = strchr(err, '\n');
-    if (strncmp(err, "error: ", 7) != 0 || !nl || nl[1] != 0)
-        fail_msg("expected one error line, got:\n%s", err);
-    if (want && !strstr(err, want))
-        fail_msg("expected '%s' in: %s", want, err);
-}
-
-/* The Cornell box with its light's emissive strength set to s, in dir. */
+/* The Cornell box with its light's emissive strength set to s, in test_dir(). */
 static const char *box_at(double s)
 {
     static char path[256];
-    size_t n;
-    FILE *f = fopen(BOX, "rb");
-    assert_non_null(f);
-    char *text = malloc(1 << 16);
-    n = fread(text, 1, (1 << 16) - 1, f);
-    assert_true(n < (1 << 16) - 1); /* the whole file */
-    fclose(f);
-    text[n] = 0;
-    char *at = strstr(text, BOX_STRENGTH);
-    assert_non_null(at);
-    snprintf(path, sizeof path, "%s/box_%g.gltf", dir, s);
-    FILE *o = fopen(path, "w");
-    assert_non_null(o);
-    fprintf(o, "%.*s\"emissiveStrength\": %.17g%s", (int)(at - text), text, s, at + strlen(BOX_STRENGTH));
-    fclose(o);
-    free(text);
+    char repl[64];
+    snprintf(path, sizeof path, "%s/box_%g.gltf", test_dir(), s);
+    snprintf(repl, sizeof repl, "\"emissiveStrength\": %.17g", s);
+    test_copy_replacing(BOX, BOX_STRENGTH, repl, path);
     return path;
 }
 
@@ -142,7 +90,7 @@ static void test_exposure_sweep(void **state)
     int failed = 0;
     for (int i = 0; i < NK; i++) {
         char args[1024], err[8192], out[256];
-        snprintf(out, sizeof out, "%s/den.exr", dir);
+        snprintf(out, sizeof out, "%s/den.exr", test_dir());
         snprintf(args, sizeof args, "render %s --width %d --spp 4 -q --device 0 --denoise --aov albedo,N -o %s",
                  box_at(k[i] * 20.717675477527486), W, out);
         int rc = test_run_exe("", 120, args, err, sizeof err);
@@ -202,7 +150,7 @@ static void test_variance_layer(void **state)
     enum { NK = sizeof k / sizeof k[0] };
     static const char *const want[] = {"variance.R", "variance.G", "variance.B"};
     char args[1024], err[8192], out[256];
-    snprintf(out, sizeof out, "%s/var.exr", dir);
+    snprintf(out, sizeof out, "%s/var.exr", test_dir());
     ExrLayers ref;
     for (int i = 0; i < NK; i++) {
         snprintf(args, sizeof args, "render %s --width %d --spp 4 -q --device 0 --aov variance -o %s",
@@ -238,7 +186,7 @@ static void test_variance_layer(void **state)
     printf("strength x 1e20 with the variance layer: exit %d: %s", rc, err);
     if (rc != SPT_EXIT_INPUT)
         fail_msg("exit %d, expected %d", rc, SPT_EXIT_INPUT);
-    one_error(err, scene);
+    test_one_error(err, scene);
     if (!strstr(err, "variance") || strstr(err, "internal"))
         fail_msg("expected the variance layer named, and no internal error, in: %s", err);
     struct stat st;
@@ -274,9 +222,9 @@ static void test_denoiser_failure(void **state)
 {
     (void)state;
     char src[256], lib[256], cmd[1024], out[256], env[512], args[1024], err[4096];
-    snprintf(src, sizeof src, "%s/stub.c", dir);
-    snprintf(lib, sizeof lib, "%s/libstub.so", dir);
-    snprintf(out, sizeof out, "%s/stub.exr", dir);
+    snprintf(src, sizeof src, "%s/stub.c", test_dir());
+    snprintf(lib, sizeof lib, "%s/libstub.so", test_dir());
+    snprintf(out, sizeof out, "%s/stub.exr", test_dir());
     FILE *f = fopen(src, "w");
     assert_non_null(f);
     fputs(stub_src, f);
@@ -295,7 +243,7 @@ static void test_denoiser_failure(void **state)
         printf("denoiser %s: exit %d: %s", modes[i], rc, err);
         if (rc != SPT_EXIT_FAILURE)
             fail_msg("denoiser %s: exit %d, expected %d", modes[i], rc, SPT_EXIT_FAILURE);
-        one_error(err, says[i]);
+        test_one_error(err, says[i]);
         if (!strstr(err, "Open Image Denoise") || strstr(err, "internal"))
             fail_msg("expected the denoiser named, and no internal error, in: %s", err);
         struct stat st;
@@ -310,10 +258,10 @@ static void test_oidn_not_regular_file(void **state)
 {
     (void)state;
     char fifo[256], out[256], env[512], args[512], err[4096];
-    snprintf(fifo, sizeof fifo, "%s/oidn.fifo", dir);
+    snprintf(fifo, sizeof fifo, "%s/oidn.fifo", test_dir());
     assert_int_equal(mkfifo(fifo, 0600), 0);
-    snprintf(out, sizeof out, "%s/x.exr", dir);
-    const char *paths[] = {fifo, dir, "/dev/null"};
+    snprintf(out, sizeof out, "%s/x.exr", test_dir());
+    const char *paths[] = {fifo, test_dir(), "/dev/null"};
     for (int i = 0; i < 3; i++) {
         snprintf(env, sizeof env, "SPECTRACE_OIDN='%s'", paths[i]);
         snprintf(args, sizeof args, "render " BOX " --width 8 --spp 1 -q --device 0 --denoise -o %s", out);
@@ -323,7 +271,7 @@ static void test_oidn_not_regular_file(void **state)
         printf("SPECTRACE_OIDN=%s: exit %d after %.2f s: %s", paths[i], rc, secs, err);
         if (rc != SPT_EXIT_USAGE)
             fail_msg("SPECTRACE_OIDN=%s: exit %d, expected %d", paths[i], rc, SPT_EXIT_USAGE);
-        one_error(err, paths[i]);
+        test_one_error(err, paths[i]);
         if (!strstr(err, "regular file"))
             fail_msg("expected 'regular file' in: %s", err);
         struct stat st;
@@ -339,5 +287,5 @@ int main(void)
         cmocka_unit_test(test_variance_layer),
         cmocka_unit_test(test_denoiser_failure),
     };
-    return cmocka_run_group_tests_name("hostile_denoise", tests, setup, teardown);
+    return cmocka_run_group_tests_name("hostile_denoise", tests, setup, test_dir_teardown);
 }

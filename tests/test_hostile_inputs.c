@@ -19,21 +19,6 @@
 
 #define TINY "--width 8 --spp 1 -q --device 0"
 
-static char dir[64];
-
-/* Runs `sh -c cmd` with stdout and stderr into out; returns the exit status (-1:
- * killed by a signal). */
-static int sh(const char *cmd, char *out, size_t cap)
-{
-    char full[8192];
-    snprintf(full, sizeof full, "(%s) 2>&1", cmd);
-    FILE *p = popen(full, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
 
 /* `timeout 120 $SPECTRACE_EXE args`, stdout discarded, stderr into err. */
 static int run_exe(const char *args, char *err, size_t cap)
@@ -49,14 +34,6 @@ static void one_error(const char *what, const char *text, const char *want)
         fail_msg("%s: expected one error line, got:\n%s", what, text);
     if (want && !strstr(text, want))
         fail_msg("%s: expected '%s' in: %s", what, want, text);
-}
-
-static void write_text(const char *path, const char *text)
-{
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
 }
 
 /* A triangle (0,0,0), (1,0,0), (0,1,0) of material 0, MATERIAL being the JSON of
@@ -91,21 +68,6 @@ static void assert_triangle(const Scene *s, unsigned tris)
     assert_close(s->bounds_max[2], 0, 0);
 }
 
-static int setup(void **state)
-{
-    (void)state;
-    snprintf(dir, sizeof dir, "/tmp/spt-hostile-XXXXXX");
-    return mkdtemp(dir) ? 0 : -1;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd);
-}
-
 /* Case 10: a float option's value that turns into 0 or infinity as a 32-bit float
  * (what the kernels get) is refused naming the option and the value: 1e-46 passed
  * "> 0" as a double and became 0, which for --light-paths means the default 2. */
@@ -123,7 +85,7 @@ static void test_float_options_hold_their_value(void **state)
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         char args[1024], err[8192];
         snprintf(args, sizeof args, "render tests/data/scenes/furnace.gltf " TINY " -o %s/x.png %s",
-                 dir, bad[i][0]);
+                 test_dir(), bad[i][0]);
         int rc = run_exe(args, err, sizeof err);
         if (rc != SPT_EXIT_USAGE)
             fail_msg("`%s`: exit %d, expected %d; stderr:\n%s", bad[i][0], rc, SPT_EXIT_USAGE, err);
@@ -181,27 +143,26 @@ static void test_device_implementation_name(void **state)
 
     /* The program, with only PoCL visible, then (where installed) with Intel's
      * runtime beside it: `devices --device intel` marks a device of impl intel. */
-    const char *exe = getenv("SPECTRACE_EXE");
-    assert_non_null(exe);
+    const char *exe = test_exe();
     char cmd[2048], outp[16384];
     snprintf(cmd, sizeof cmd,
              "eval \"$(tools/opencl_env.sh pocl %s/icd-pocl)\" && timeout -s KILL 60 '%s' devices "
              "--device intel 2>&1 >/dev/null",
-             dir, exe);
-    rc = sh(cmd, outp, sizeof outp);
+             test_dir(), exe);
+    rc = test_sh(cmd, TEST_BOTH, outp, sizeof outp);
     if (rc != SPT_EXIT_DEVICE) fail_msg("PoCL alone: exit %d, expected 4:\n%s", rc, outp);
     one_error("PoCL alone", outp, "implementation 'intel'");
     char probe[1024];
-    snprintf(cmd, sizeof cmd, "tools/opencl_env.sh pocl,intel %s/icd-both >/dev/null", dir);
-    if (sh(cmd, probe, sizeof probe) != 0) {
-        print_message("  Intel's runtime is not installed: %s", probe);
-        return;
+    snprintf(cmd, sizeof cmd, "tools/opencl_env.sh pocl,intel %s/icd-both >/dev/null", test_dir());
+    if (test_sh(cmd, TEST_BOTH, probe, sizeof probe) != 0) {
+        print_message("  the case with Intel's runtime left out, not installed: %s", probe);
+        skip();
     }
     snprintf(cmd, sizeof cmd,
              "eval \"$(tools/opencl_env.sh pocl,intel %s/icd-both)\" && timeout -s KILL 60 '%s' "
              "devices --device intel 2>/dev/null",
-             dir, exe);
-    rc = sh(cmd, outp, sizeof outp);
+             test_dir(), exe);
+    rc = test_sh(cmd, TEST_BOTH, outp, sizeof outp);
     if (rc) fail_msg("PoCL and Intel: exit %d:\n%s", rc, outp);
     /* The marked device's platform line is the last one before it. */
     const char *mark = strstr(outp, " *[");
@@ -336,16 +297,16 @@ static void test_env_all_zero_warns(void **state)
 {
     (void)state;
     char path[256], scene[256];
-    snprintf(path, sizeof path, "%s/zero.hdr", dir);
+    snprintf(path, sizeof path, "%s/zero.hdr", test_dir());
     FILE *f = fopen(path, "wb");
     assert_non_null(f);
     fputs("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 4\n", f);
     for (int i = 0; i < 8 * 4; i++) fputc(0, f);
     fclose(f);
-    snprintf(scene, sizeof scene, "%s/tri.gltf", dir);
-    write_text(scene, TRIANGLE_GLTF("{}", ""));
+    snprintf(scene, sizeof scene, "%s/tri.gltf", test_dir());
+    test_write_text(scene, TRIANGLE_GLTF("{}", ""));
     char args[1024], err[8192];
-    snprintf(args, sizeof args, "render %s --env %s " TINY " -o %s/x.exr", scene, path, dir);
+    snprintf(args, sizeof args, "render %s --env %s " TINY " -o %s/x.exr", scene, path, test_dir());
     int rc = run_exe(args, err, sizeof err);
     if (rc) fail_msg("exit %d:\n%s", rc, err);
     if (!strstr(err, "warning: ") || !strstr(err, "nothing lights the scene"))
@@ -486,5 +447,5 @@ int main(void)
         cmocka_unit_test(test_gltf_glb_data_uri_buffer),
         cmocka_unit_test(test_gltf_indices_without_buffer_view),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, test_dir_setup, test_dir_teardown);
 }

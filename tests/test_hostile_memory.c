@@ -21,23 +21,7 @@
 
 #define SCENE "tests/data/scenes/furnace.gltf"
 
-static char dir[64];
 
-static const char *in_dir(const char *name)
-{
-    static char buf[8][512];
-    static int k;
-    k = (k + 1) % 8;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name);
-    return buf[k];
-}
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 /* The environment of a cold kernel build: an empty cache folder of our own
  * and PoCL's (a new one per call). */
@@ -45,9 +29,9 @@ static void cold_cache(void)
 {
     static int n;
     char c[512];
-    snprintf(c, sizeof c, "%s/cache%d", dir, n);
+    snprintf(c, sizeof c, "%s/cache%d", test_dir(), n);
     setenv("SPECTRACE_CACHE_DIR", c, 1);
-    snprintf(c, sizeof c, "%s/pocl%d", dir, n++);
+    snprintf(c, sizeof c, "%s/pocl%d", test_dir(), n++);
     setenv("POCL_CACHE_DIR", c, 1);
     setenv("POCL_KERNEL_CACHE", "0", 1);
 }
@@ -62,80 +46,22 @@ static void warm_cache(const char *saved)
 /* The peak resident memory (ru_maxrss, KiB) of the last run_child. */
 static long child_maxrss_kb;
 
-/* Runs $SPECTRACE_EXE with args (split at spaces; stdout to /dev/null, stderr
- * read into err) in a child whose address space is limited to as_bytes (0: no
- * limit). Once its stderr has a line starting with wait_for (NULL: never), it
- * gets SIGINT, and a second SIGINT once the first one's note shows; *t_second
- * (may be NULL) gets the seconds from the second signal to the exit. Returns
- * the exit status, or 128 + the signal that killed it. */
+/* Runs spectrace with args (test_run_child) in a child whose address space is
+ * limited to as_bytes (0: no limit). Once its stderr has a line starting with
+ * wait_for (NULL: never), it gets SIGINT, and a second SIGINT once the first
+ * one's note shows; *t_second (may be NULL) gets the seconds from the second
+ * signal to the exit. Returns the exit status (-1: killed by a signal). */
 static int run_child(const char *args, unsigned long long as_bytes, const char *wait_for,
                      char *err, size_t cap, double *t_second)
 {
-    char buf[2048];
-    snprintf(buf, sizeof buf, "%s", args);
-    char *argv[64];
-    int argc = 0;
-    argv[argc++] = getenv("SPECTRACE_EXE");
-    if (!argv[0])
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
-    for (char *save = NULL, *t = strtok_r(buf, " ", &save); t && argc < 63;
-         t = strtok_r(NULL, " ", &save))
-        argv[argc++] = t;
-    argv[argc] = NULL;
-    int fds[2];
-    assert_int_equal(pipe(fds), 0);
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        dup2(fds[1], 2);
-        close(fds[0]);
-        close(fds[1]);
-        int null = open("/dev/null", O_WRONLY);
-        dup2(null, 1);
-        if (as_bytes) {
-            struct rlimit rl = {as_bytes, as_bytes};
-            setrlimit(RLIMIT_AS, &rl);
-        }
-        alarm(300); /* a hang ends as SIGALRM, which fails the test */
-        execv(argv[0], argv);
-        _exit(127);
-    }
-    close(fds[1]);
-    FILE *f = fdopen(fds[0], "r");
-    size_t n = 0;
-    int sent = 0;
-    double t2 = 0.0;
-    char line[4096];
-    err[0] = 0;
-    while (fgets(line, sizeof line, f)) {
-        size_t len = strlen(line);
-        if (n + len < cap) {
-            memcpy(err + n, line, len + 1);
-            n += len;
-        }
-        if (wait_for && sent == 0 && !strncmp(line, wait_for, strlen(wait_for))) {
-            kill(pid, SIGINT);
-            sent = 1;
-        } else if (sent == 1 && !strncmp(line, "note: stopping", 14)) {
-            t2 = now();
-            kill(pid, SIGINT);
-            sent = 2;
-        }
-    }
-    fclose(f);
-    int st;
-    struct rusage ru;
-    wait4(pid, &st, 0, &ru);
-    child_maxrss_kb = ru.ru_maxrss;
+    static const int sigs[2] = {SIGINT, SIGINT};
+    TestChild c = {.as_bytes = as_bytes, .wait_for = wait_for, .then_on = "note: stopping",
+                   .sigs = sigs, .nsig = 2};
+    int rc = test_run_child(args, &c, err, cap);
+    child_maxrss_kb = c.maxrss_kb;
     if (t_second)
-        *t_second = sent == 2 ? now() - t2 : -1.0;
-    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-}
-
-static int exists(const char *path)
-{
-    struct stat st;
-    return lstat(path, &st) == 0;
+        *t_second = c.t_second;
+    return rc;
 }
 
 /* The lines of err that start with "error:"; fails unless there is exactly one
@@ -154,21 +80,6 @@ static void one_error_line(const char *err, const char *want)
     const char *end = strchr(line, '\n');
     if (want && !(strstr(line, want) && (!end || strstr(line, want) < end)))
         fail_msg("expected '%s' in the error line:\n%s", want, err);
-}
-
-static int setup(void **state)
-{
-    (void)state;
-    snprintf(dir, sizeof dir, "/tmp/spt_hmem_XXXXXX");
-    return mkdtemp(dir) ? 0 : -1;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd) == 0 ? 0 : -1;
 }
 
 /* --time counts the render from its first sample, not from the start of the
@@ -196,7 +107,7 @@ static void test_time_excludes_cold_build(void **state)
     not_under_sanitizers();
     char saved[512], args[1024], err[16384];
     snprintf(saved, sizeof saved, "%s", getenv("SPECTRACE_CACHE_DIR") ? getenv("SPECTRACE_CACHE_DIR") : "");
-    const char *out = in_dir("time.exr");
+    const char *out = test_path("time.exr");
     snprintf(args, sizeof args, "render " SCENE " --width 8 --spp 1000000 --time 1 --aov spp "
              "--device 0 -o %s", out);
     cold_cache();
@@ -230,16 +141,16 @@ static void test_second_sigint_during_build(void **state)
     (void)state;
     char saved[512], args[1024], err[16384];
     snprintf(saved, sizeof saved, "%s", getenv("SPECTRACE_CACHE_DIR") ? getenv("SPECTRACE_CACHE_DIR") : "");
-    const char *out = in_dir("int.exr");
+    const char *out = test_path("int.exr");
     snprintf(args, sizeof args, "render " SCENE " --width 8 --spp 4 --device 0 -o %s", out);
     cold_cache();
     const char *cache = getenv("SPECTRACE_CACHE_DIR");
     char cache_dir[512];
     snprintf(cache_dir, sizeof cache_dir, "%s", cache);
     double t = 0.0;
-    double t0 = now();
+    double t0 = test_now();
     int rc = run_child(args, 0, "device 0: building the kernels", err, sizeof err, &t);
-    double total = now() - t0;
+    double total = test_now() - t0;
     warm_cache(saved);
     if (rc != 130)
         fail_msg("exit %d, expected 130 (%.2f s after the second signal):\n%s", rc, t, err);
@@ -248,12 +159,12 @@ static void test_second_sigint_during_build(void **state)
     one_error_line(err, "stopped by a second signal during the kernel build");
     if (t > 2.0)
         fail_msg("the run ended %.2f s after the second signal (%.2f s in all):\n%s", t, total, err);
-    assert_false(exists(out));
+    assert_false(test_exists(out));
     char cmd[1200];
     snprintf(cmd, sizeof cmd, "find '%s' -maxdepth 1 -name '*.spt-tmp-*' | grep -q . || "
-             "find '%s' -type f 2>/dev/null | grep -q .", dir, cache_dir);
+             "find '%s' -type f 2>/dev/null | grep -q .", test_dir(), cache_dir);
     if (system(cmd) == 0)
-        fail_msg("a temporary output in %s, or a file in the program cache %s", dir, cache_dir);
+        fail_msg("a temporary output in %s, or a file in the program cache %s", test_dir(), cache_dir);
 }
 
 /* The estimate of --profile's memory line ("memory: about N MiB|GiB ..."),
@@ -301,11 +212,11 @@ static void test_estimate_matches_rss(void **state)
 {
     (void)state;
     not_under_sanitizers();
-    write_map(in_dir("map_big.exr"), 2048, 1024);
-    write_map(in_dir("map_small.exr"), 16, 8);
+    write_map(test_path("map_big.exr"), 2048, 1024);
+    write_map(test_path("map_small.exr"), 16, 8);
     char env_small[600], env_big[600];
-    snprintf(env_small, sizeof env_small, "--width 8 --height 8 --env %s", in_dir("map_small.exr"));
-    snprintf(env_big, sizeof env_big, "--width 8 --height 8 --env %s", in_dir("map_big.exr"));
+    snprintf(env_small, sizeof env_small, "--width 8 --height 8 --env %s", test_path("map_small.exr"));
+    snprintf(env_big, sizeof env_big, "--width 8 --height 8 --env %s", test_path("map_big.exr"));
     const struct {
         const char *what, *tiny, *large;
     } kind[] = {
@@ -321,7 +232,7 @@ static void test_estimate_matches_rss(void **state)
         for (int r = 0; r < 4; r++) {
             char args[2048], err[16384];
             snprintf(args, sizeof args, "render " SCENE " %s --max-depth 1 --spp 1 --profile "
-                     "--device 0 -o %s", r % 2 ? kind[k].large : kind[k].tiny, in_dir("rss.exr"));
+                     "--device 0 -o %s", r % 2 ? kind[k].large : kind[k].tiny, test_path("rss.exr"));
             int rc = run_child(args, 0, NULL, err, sizeof err, NULL);
             if (rc != 0)
                 fail_msg("%s: exit %d:\n%s", kind[k].what, rc, err);
@@ -352,7 +263,7 @@ static void test_address_space_limit(void **state)
     not_under_sanitizers();
     char args[1024], err[16384];
     snprintf(args, sizeof args, "render " SCENE " --width 512 --height 512 --spectral 470 --spp 1 -q "
-             "--device 0 -o %s", in_dir("as.exr"));
+             "--device 0 -o %s", test_path("as.exr"));
     int rc = run_child(args, 2ull << 30, NULL, err, sizeof err, NULL);
     if (rc != 4)
         fail_msg("exit %d, expected 4:\n%s", rc, err);
@@ -360,7 +271,7 @@ static void test_address_space_limit(void **state)
     if (!strstr(err, "that the address-space limit (ulimit -v) leaves") || err[strlen(err) - 1] != '\n' ||
         strchr(err, '\n') != err + strlen(err) - 1)
         fail_msg("expected one line naming the address-space limit:\n%s", err);
-    assert_false(exists(in_dir("as.exr")));
+    assert_false(test_exists(test_path("as.exr")));
 }
 
 /* Small amounts read in MiB, never "0.0 GiB": a 256x256 render (about 19 MiB)
@@ -370,7 +281,7 @@ static void test_small_amounts_in_mib(void **state)
     (void)state;
     char args[1024], err[16384];
     snprintf(args, sizeof args, "render " SCENE " --width 256 --height 256 --spp 1 -q --device 0 -o %s",
-             in_dir("small.exr"));
+             test_path("small.exr"));
     setenv("SPECTRACE_MAX_MEMORY_MB", "1", 1);
     int rc = run_child(args, 0, NULL, err, sizeof err, NULL);
     unsetenv("SPECTRACE_MAX_MEMORY_MB");
@@ -388,11 +299,11 @@ static void test_small_amounts_in_mib(void **state)
 static void test_env_map_too_big(void **state)
 {
     (void)state;
-    const char *map = in_dir("map_limit.exr");
+    const char *map = test_path("map_limit.exr");
     write_map(map, 2048, 1024);
     char args[1024], err[16384];
     snprintf(args, sizeof args, "render " SCENE " --env %s --width 8 --spp 1 -q --device 0 -o %s", map,
-             in_dir("env.exr"));
+             test_path("env.exr"));
     setenv("SPECTRACE_MAX_MEMORY_MB", "20", 1);
     int rc = run_child(args, 0, NULL, err, sizeof err, NULL);
     unsetenv("SPECTRACE_MAX_MEMORY_MB");
@@ -401,7 +312,7 @@ static void test_env_map_too_big(void **state)
     char want[700];
     snprintf(want, sizeof want, "%s: a 2048x1024 environment map needs about ", map);
     one_error_line(err, want);
-    assert_false(exists(in_dir("env.exr")));
+    assert_false(test_exists(test_path("env.exr")));
 }
 
 int main(void)
@@ -414,5 +325,5 @@ int main(void)
         cmocka_unit_test(test_time_excludes_cold_build),
         cmocka_unit_test(test_second_sigint_during_build),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, test_dir_setup, test_dir_teardown);
 }

@@ -17,46 +17,19 @@
 #define BOX_STRENGTH "\"emissiveStrength\": 20.717675477527486"
 #define ARGS "--width 16 -q --device 0"
 
-static int setup(void **state)
-{
-    (void)state;
-    snprintf(dir, sizeof dir, "/tmp/spt_hostile_radiance_XXXXXX");
-    return mkdtemp(dir) ? 0 : -1;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd) == 0 ? 0 : -1;
-}
-
 static int run(const char *args, char *err, size_t cap)
 {
     return test_run_exe("", 120, args, err, cap);
 }
 
-/* The Cornell box with its light's emissive strength times k, in dir. */
+/* The Cornell box with its light's emissive strength times k, in test_dir(). */
 static const char *box_times(double k)
 {
     static char path[256];
-    FILE *f = fopen(BOX, "rb");
-    assert_non_null(f);
-    char *text = malloc(1 << 16);
-    size_t n = fread(text, 1, (1 << 16) - 1, f);
-    assert_true(n < (1 << 16) - 1); /* the whole file */
-    fclose(f);
-    text[n] = 0;
-    char *at = strstr(text, BOX_STRENGTH);
-    assert_non_null(at);
-    snprintf(path, sizeof path, "%s/box_%g.gltf", dir, k);
-    FILE *o = fopen(path, "w");
-    assert_non_null(o);
-    fprintf(o, "%.*s\"emissiveStrength\": %.17g%s", (int)(at - text), text, k * 20.717675477527486,
-            at + strlen(BOX_STRENGTH));
-    fclose(o);
-    free(text);
+    char repl[64];
+    snprintf(path, sizeof path, "%s/box_%g.gltf", test_dir(), k);
+    snprintf(repl, sizeof repl, "\"emissiveStrength\": %.17g", k * 20.717675477527486);
+    test_copy_replacing(BOX, BOX_STRENGTH, repl, path);
     return path;
 }
 
@@ -68,21 +41,22 @@ static void test_bright_checkpoint_resumes(void **state)
     (void)state;
     char args[2048], err[8192];
     const char *box = box_times(1e20);
-    snprintf(args, sizeof args, "render %s " ARGS " --spp 4 --aov albedo,N -o %s", box, path_in("straight.exr"));
+    snprintf(args, sizeof args, "render %s " ARGS " --spp 4 --aov albedo,N -o %s", box,
+             test_path("straight.exr"));
     int rc = run(args, err, sizeof err);
     if (rc)
         fail_msg("straight render: exit %d: %s", rc, err);
     snprintf(args, sizeof args, "render %s " ARGS " --spp 2 --aov albedo,N -o %s --checkpoint %s", box,
-             path_in("half.exr"), path_in("ck.exr"));
+             test_path("half.exr"), test_path("ck.exr"));
     rc = run(args, err, sizeof err);
     if (rc)
         fail_msg("2 spp with --checkpoint: exit %d, expected 0: %s", rc, err);
     snprintf(args, sizeof args, "render %s " ARGS " --spp 4 --aov albedo,N -o %s --resume %s", box,
-             path_in("resumed.exr"), path_in("ck.exr"));
+             test_path("resumed.exr"), test_path("ck.exr"));
     rc = run(args, err, sizeof err);
     if (rc)
         fail_msg("resume to 4 spp: exit %d, expected 0: %s", rc, err);
-    assert_same_exr(path_in("straight.exr"), path_in("resumed.exr"));
+    assert_same_exr(test_path("straight.exr"), test_path("resumed.exr"));
 }
 
 /* (a) The same with the variance layer, which cannot hold these squares: one
@@ -93,7 +67,7 @@ static void test_bright_checkpoint_variance_refused(void **state)
     char args[2048], err[8192];
     const char *box = box_times(1e20);
     snprintf(args, sizeof args, "render %s " ARGS " --spp 2 --aov variance -o %s --checkpoint %s", box,
-             path_in("v.exr"), path_in("vck.exr"));
+             test_path("v.exr"), test_path("vck.exr"));
     int rc = run(args, err, sizeof err);
     const char *nl = strchr(err, '\n');
     if (rc != 3 || strncmp(err, "error: ", 7) || !nl || nl[1] || !strstr(err, box) || !strstr(err, "variance"))
@@ -126,8 +100,8 @@ static void test_adaptive_scale_invariant(void **state)
     static const double ks[] = {1e20, 1e-20};
     ExrLayers ref;
     SptError e = {0};
-    adaptive_at(1, path_in("a1.exr"));
-    if (exr_read_layers(path_in("a1.exr"), want, 4, &ref, &e))
+    adaptive_at(1, test_path("a1.exr"));
+    if (exr_read_layers(test_path("a1.exr"), want, 4, &ref, &e))
         fail_msg("%s", e.msg);
     size_t n = (size_t)ref.width * ref.height;
     const float *s0 = exr_layers_channel(&ref, "spp")->data;
@@ -142,8 +116,8 @@ static void test_adaptive_scale_invariant(void **state)
     int failed = 0;
     for (int t = 0; t < 2; t++) {
         ExrLayers l;
-        adaptive_at(ks[t], path_in("ak.exr"));
-        if (exr_read_layers(path_in("ak.exr"), want, 4, &l, &e))
+        adaptive_at(ks[t], test_path("ak.exr"));
+        if (exr_read_layers(test_path("ak.exr"), want, 4, &l, &e))
             fail_msg("%s", e.msg);
         const float *s1 = exr_layers_channel(&l, "spp")->data;
         double dspp = 0, dimg = 0, img = 0, lo = 1e30, hi = 0;
@@ -183,16 +157,18 @@ static void test_dim_variance_not_silent(void **state)
     char args[2048], err[8192];
     ExrLayers a, b;
     SptError e = {0};
-    snprintf(args, sizeof args, "render %s " ARGS " --spp 4 --aov variance -o %s", box_times(1), path_in("v1.exr"));
+    snprintf(args, sizeof args, "render %s " ARGS " --spp 4 --aov variance -o %s", box_times(1),
+             test_path("v1.exr"));
     int rc = run(args, err, sizeof err);
     if (rc)
         fail_msg("x 1: exit %d: %s", rc, err);
     snprintf(args, sizeof args, "render %s " ARGS " --spp 4 --aov variance -o %s", box_times(k),
-             path_in("vk.exr"));
+             test_path("vk.exr"));
     rc = run(args, err, sizeof err);
     if (rc)
         fail_msg("x %g: exit %d: %s", k, rc, err);
-    if (exr_read_layers(path_in("v1.exr"), want, 3, &a, &e) || exr_read_layers(path_in("vk.exr"), want, 3, &b, &e))
+    if (exr_read_layers(test_path("v1.exr"), want, 3, &a, &e) ||
+        exr_read_layers(test_path("vk.exr"), want, 3, &b, &e))
         fail_msg("%s", e.msg);
     double d = 0, tot = 0;
     for (int c = 0; c < 3; c++) {
@@ -207,7 +183,7 @@ static void test_dim_variance_not_silent(void **state)
     int warned = !strncmp(err, "warning: ", 9) && strstr(err, "variance") && strchr(err, '\n')[1] == 0;
     printf("x %g: variance / k^2 off x 1 by %.3g%% of its sum; %s\n", k, 100 * d / tot,
            warned ? "warned" : "no warning");
-    if (!warned || !strstr(err, path_in("")))
+    if (!warned || !strstr(err, test_path("")))
         fail_msg("x %g: expected one warning naming the scene and the variance layer, got '%s'", k, err);
     if (!(d <= 0.02 * tot))
         print_message("  this device loses the subnormal squares (warned)\n");
@@ -217,7 +193,6 @@ int main(void)
 {
     /* ckpt_test.h's helpers that these tests do not use. */
     (void)load_checkpoint;
-    (void)exists;
     (void)assert_same_film;
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_bright_checkpoint_resumes),
@@ -225,5 +200,5 @@ int main(void)
         cmocka_unit_test(test_adaptive_scale_invariant),
         cmocka_unit_test(test_dim_variance_not_silent),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, test_dir_setup, test_dir_teardown);
 }

@@ -17,41 +17,22 @@
 
 #define TINY "-q --device 0"
 
-static char dir[64];
-
-static const char *in_dir(const char *name)
-{
-    static char buf[8][512];
-    static int k;
-    k = (k + 1) % 8;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name);
-    return buf[k];
-}
 
 /* Runs `$SPECTRACE_EXE args` under a time limit; its stderr into err, its stdout
  * into out (either may be NULL); returns the exit status (-1: killed). */
 static int run(const char *args, char *out, size_t out_cap, char *err, size_t err_cap)
 {
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe)
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
     char cmd[8192];
-    snprintf(cmd, sizeof cmd, "timeout -s KILL 120 '%s' %s 2>'%s' >'%s'", exe, args, in_dir("stderr"),
-             in_dir("stdout"));
-    int st = system(cmd);
-    const char *names[2] = {in_dir("stdout"), in_dir("stderr")};
-    char *bufs[2] = {out, err};
-    size_t caps[2] = {out_cap, err_cap};
-    for (int i = 0; i < 2; i++) {
-        if (!bufs[i])
-            continue;
-        FILE *f = fopen(names[i], "r");
-        size_t n = f ? fread(bufs[i], 1, caps[i] - 1, f) : 0;
-        bufs[i][n] = 0;
+    snprintf(cmd, sizeof cmd, "%s 2>'%s'", args, test_path("stderr"));
+    int rc = test_spectrace("", 120, cmd, TEST_STDOUT, out, out_cap);
+    if (err) {
+        FILE *f = fopen(test_path("stderr"), "r");
+        size_t n = f ? fread(err, 1, err_cap - 1, f) : 0;
+        err[n] = 0;
         if (f)
             fclose(f);
     }
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    return rc;
 }
 
 /* The run exits with code and prints one line, "error: ..." containing each of
@@ -80,14 +61,6 @@ static int warned(const char *err)
     return 0;
 }
 
-static void write_text(const char *path, const char *text)
-{
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
-}
-
 /* Renders args to an EXR in the test folder (exit 0 required, stderr into err)
  * and returns the mean luminance of its linear sRGB pixels (Y of
  * docs/architecture.md's matrix) and, in *nonfinite, how many pixels are not
@@ -95,14 +68,14 @@ static void write_text(const char *path, const char *text)
 static double render_mean_y(const char *args, int *nonfinite, char *err, size_t err_cap)
 {
     char cmd[4096];
-    snprintf(cmd, sizeof cmd, "render %s " TINY " -o %s", args, in_dir("out.exr"));
+    snprintf(cmd, sizeof cmd, "render %s " TINY " -o %s", args, test_path("out.exr"));
     int rc = run(cmd, NULL, 0, err, err_cap);
     if (rc)
         fail_msg("`%s`: exit %d: %s", cmd, rc, err);
     ExrLayers l;
     SptError e = {0};
     const char *rgb[3] = {"R", "G", "B"};
-    if (exr_read_layers(in_dir("out.exr"), rgb, 3, &l, &e))
+    if (exr_read_layers(test_path("out.exr"), rgb, 3, &l, &e))
         fail_msg("%s", e.msg);
     const float *c[3];
     for (int k = 0; k < 3; k++)
@@ -154,7 +127,7 @@ static void furnace_glass_ior(const char *path, const char *roughness, double di
         memcpy(text, out, strlen(out) + 1);
         src = text;
     }
-    write_text(path, text);
+    test_write_text(path, text);
 }
 
 static void furnace_glass(const char *path, const char *roughness, double dispersion)
@@ -182,8 +155,8 @@ static void test_dispersion_furnace(void **state)
     int failed = 0;
     for (int r = 0; r < 2; r++)
         for (size_t i = 0; i < sizeof disp / sizeof disp[0]; i++) {
-            furnace_glass(in_dir("glass.gltf"), rough[r], disp[i]);
-            snprintf(args, sizeof args, "%s --width 16 --spp 128", in_dir("glass.gltf"));
+            furnace_glass(test_path("glass.gltf"), rough[r], disp[i]);
+            snprintf(args, sizeof args, "%s --width 16 --spp 128", test_path("glass.gltf"));
             int bad;
             double y = render_mean_y(args, &bad, err, sizeof err);
             print_message("  roughness %s dispersion %g: mean Y %.4f, %d non-finite\n", rough[r], disp[i], y, bad);
@@ -198,8 +171,8 @@ static void test_dispersion_furnace(void **state)
      * some wavelengths) is no interface at all: the sky, Y = 1, smooth or
      * rough. */
     for (int r = 0; r < 2; r++) {
-        furnace_glass_ior(in_dir("glass.gltf"), rough[r], 0, "1.0");
-        snprintf(args, sizeof args, "%s --width 16 --spp 128", in_dir("glass.gltf"));
+        furnace_glass_ior(test_path("glass.gltf"), rough[r], 0, "1.0");
+        snprintf(args, sizeof args, "%s --width 16 --spp 128", test_path("glass.gltf"));
         int bad;
         double y = render_mean_y(args, &bad, err, sizeof err);
         print_message("  roughness %s ior 1: mean Y %.4f, %d non-finite\n", rough[r], y, bad);
@@ -287,9 +260,10 @@ static void test_dim_blackbody_sky(void **state)
     const char *temps[] = {"100", "160", "200", "1000", "6500", "1e5"};
     char err[8192], args[1024];
     int failed = 0;
-    furnace_glass(in_dir("sky.gltf"), "0.0", 0);
+    furnace_glass(test_path("sky.gltf"), "0.0", 0);
     for (size_t i = 0; i < sizeof temps / sizeof temps[0]; i++) {
-        snprintf(args, sizeof args, "%s --width 8 --spp 1024 --background blackbody:%s", in_dir("sky.gltf"), temps[i]);
+        snprintf(args, sizeof args, "%s --width 8 --spp 1024 --background blackbody:%s",
+                 test_path("sky.gltf"), temps[i]);
         int bad;
         double y = render_mean_y(args, &bad, err, sizeof err);
         print_message("  blackbody:%s K: mean Y %.4f, %d non-finite\n", temps[i], y, bad);
@@ -300,40 +274,45 @@ static void test_dim_blackbody_sky(void **state)
     }
     assert_int_equal(failed, 0);
     snprintf(args, sizeof args, "render %s --width 8 --spp 1 " TINY " -o %s --background blackbody:10",
-             in_dir("sky.gltf"), in_dir("no.exr"));
+             test_path("sky.gltf"), test_path("no.exr"));
     refused(args, 2, (const char *const[]){"blackbody:10", "no luminance", NULL});
 }
 
 /* ---- Case 13 and 15: SPD files of one sample, no luminance, bad lines ------------- */
 
+/* The SPD file name holding text is refused (exit 3, one error line naming it
+ * and saying why) by `color` and as the --background of a render of
+ * test_dir()/csv.gltf. */
+static void spd_file_refused(const char *name, const char *text, const char *why)
+{
+    char args[1024];
+    const char *csv = test_path(name);
+    test_write_text(csv, text);
+    snprintf(args, sizeof args, "color %s", csv);
+    refused(args, 3, (const char *const[]){csv, why, NULL});
+    snprintf(args, sizeof args, "render %s --width 8 --spp 1 " TINY " -o %s --background %s",
+             test_path("csv.gltf"), test_path("no.exr"), csv);
+    refused(args, 3, (const char *const[]){csv, why, NULL});
+}
+
 static void test_spd_csv_refused(void **state)
 {
     (void)state;
     char args[1024];
-    furnace_glass(in_dir("csv.gltf"), "0.0", 0);
+    furnace_glass(test_path("csv.gltf"), "0.0", 0);
     /* One sample: the README's SPD has at least 2 rows (linear between them). */
-    write_text(in_dir("one.csv"), "wavelength,value\n400,1\n");
-    snprintf(args, sizeof args, "color %s", in_dir("one.csv"));
-    refused(args, 3, (const char *const[]){in_dir("one.csv"), "at least 2", NULL});
-    snprintf(args, sizeof args, "render %s --width 8 --spp 1 " TINY " -o %s --background %s", in_dir("csv.gltf"),
-             in_dir("no.exr"), in_dir("one.csv"));
-    refused(args, 3, (const char *const[]){in_dir("one.csv"), "at least 2", NULL});
+    spd_file_refused("one.csv", "wavelength,value\n400,1\n", "at least 2");
     /* No luminance (infrared only): a bad input file, 3, in both commands. */
-    write_text(in_dir("ir.csv"), "900,1\n950,1\n");
-    snprintf(args, sizeof args, "color %s", in_dir("ir.csv"));
-    refused(args, 3, (const char *const[]){in_dir("ir.csv"), "no luminance", NULL});
-    snprintf(args, sizeof args, "render %s --width 8 --spp 1 " TINY " -o %s --background %s", in_dir("csv.gltf"),
-             in_dir("no.exr"), in_dir("ir.csv"));
-    refused(args, 3, (const char *const[]){in_dir("ir.csv"), "no luminance", NULL});
+    spd_file_refused("ir.csv", "900,1\n950,1\n", "no luminance");
     /* A line of numbers that are not a sample: the reason, not the format. */
     const char *bad[][3] = {{"400,1\n0,1\n", "line 2", "not positive"},
                             {"400,1\n500,-2\n", "line 2", "negative"},
                             {"400,1\n500,inf\n", "line 2", "not finite"},
                             {"400,1\n500\n", "line 2", "wavelength_nm,value"}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        write_text(in_dir("bad.csv"), bad[i][0]);
-        snprintf(args, sizeof args, "color %s", in_dir("bad.csv"));
-        refused(args, 3, (const char *const[]){in_dir("bad.csv"), bad[i][1], bad[i][2], NULL});
+        test_write_text(test_path("bad.csv"), bad[i][0]);
+        snprintf(args, sizeof args, "color %s", test_path("bad.csv"));
+        refused(args, 3, (const char *const[]){test_path("bad.csv"), bad[i][1], bad[i][2], NULL});
     }
 }
 
@@ -393,8 +372,8 @@ static void test_color_pixel_bands(void **state)
     char args[1024], out[4096], err[4096];
     for (size_t c = 0; c < sizeof counts / sizeof counts[0]; c++)
         for (int step = 0; step < 2; step++) {
-            write_bands(in_dir("bands.exr"), counts[c], 0.0f);
-            snprintf(args, sizeof args, "color --pixel %d,0 %s", step, in_dir("bands.exr"));
+            write_bands(test_path("bands.exr"), counts[c], 0.0f);
+            snprintf(args, sizeof args, "color --pixel %d,0 %s", step, test_path("bands.exr"));
             int rc = run(args, out, sizeof out, err, sizeof err);
             if (rc)
                 fail_msg("`%s`: exit %d: %s", args, rc, err);
@@ -415,26 +394,26 @@ static void test_color_pixel_bands(void **state)
      * 47 shared with tests/test_spectral.c; the files above cover 2 and 3. */
     const int rendered[] = {1, 47};
     char flat[512];
-    snprintf(flat, sizeof flat, "%s", in_dir("flat.csv"));
-    write_text(flat, "360,1\n830,1\n");
-    furnace_glass(in_dir("flat.gltf"), "0.0", 0);
+    snprintf(flat, sizeof flat, "%s", test_path("flat.csv"));
+    test_write_text(flat, "360,1\n830,1\n");
+    furnace_glass(test_path("flat.gltf"), "0.0", 0);
     for (size_t c = 0; c < sizeof rendered / sizeof rendered[0]; c++) {
         snprintf(args, sizeof args, "render %s --width 8 --spp 256 --max-depth 1 --background %s --spectral %d " TINY
-                 " -o %s", in_dir("flat.gltf"), flat, rendered[c], in_dir("flat.exr"));
+                 " -o %s", test_path("flat.gltf"), flat, rendered[c], test_path("flat.exr"));
         int rc = run(args, NULL, 0, err, sizeof err);
         if (rc)
             fail_msg("`%s`: exit %d: %s", args, rc, err);
         ExrLayers l;
         SptError e = {0};
         const char *rgb_names[3] = {"R", "G", "B"};
-        if (exr_read_layers(in_dir("flat.exr"), rgb_names, 3, &l, &e))
+        if (exr_read_layers(test_path("flat.exr"), rgb_names, 3, &l, &e))
             fail_msg("%s", e.msg);
         double rgb[3], want[3], got[3];
         for (int k = 0; k < 3; k++)
             rgb[k] = ((const float *)exr_layers_channel(&l, rgb_names[k])->data)[0];
         exr_layers_free(&l);
         linear_srgb_to_xyz(rgb, want);
-        snprintf(args, sizeof args, "color --pixel 0,0 %s", in_dir("flat.exr"));
+        snprintf(args, sizeof args, "color --pixel 0,0 %s", test_path("flat.exr"));
         rc = run(args, out, sizeof out, err, sizeof err);
         if (rc || sscanf(out, "XYZ %lf %lf %lf", &got[0], &got[1], &got[2]) != 3)
             fail_msg("`%s`: exit %d: %s%s", args, rc, out, err);
@@ -448,25 +427,11 @@ static void test_color_pixel_bands(void **state)
     const float bad[] = {-1.0f, NAN};
     const char *why[] = {"negative", "not finite"};
     for (int i = 0; i < 2; i++) {
-        write_bands(in_dir("bad.exr"), 2, bad[i]);
-        snprintf(args, sizeof args, "color --pixel 0,0 %s", in_dir("bad.exr"));
-        refused(args, 3, (const char *const[]){in_dir("bad.exr"), "pixel 0,0", "S0.712,500000nm", why[i], NULL});
+        write_bands(test_path("bad.exr"), 2, bad[i]);
+        snprintf(args, sizeof args, "color --pixel 0,0 %s", test_path("bad.exr"));
+        refused(args, 3,
+                (const char *const[]){test_path("bad.exr"), "pixel 0,0", "S0.712,500000nm", why[i], NULL});
     }
-}
-
-static int setup(void **state)
-{
-    (void)state;
-    snprintf(dir, sizeof dir, "/tmp/spt_hostile_spectra_XXXXXX");
-    return mkdtemp(dir) ? 0 : -1;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd) == 0 ? 0 : -1;
 }
 
 int main(void)
@@ -478,5 +443,5 @@ int main(void)
         cmocka_unit_test(test_spd_csv_refused),
         cmocka_unit_test(test_color_pixel_bands),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, test_dir_setup, test_dir_teardown);
 }

@@ -42,14 +42,6 @@
 #define CAM_Y 0.5
 #define DEG (M_PI / 180.0)
 
-/* p (of n floats) grown to m floats, the new ones zero. */
-static float *calloc_grow(float *p, size_t n, size_t m)
-{
-    p = realloc(p, sizeof(float) * m);
-    memset(p + n, 0, sizeof(float) * (m - n));
-    return p;
-}
-
 /* The spot's falloff at angle th from its axis, in double; outer < 0 for a
  * point light (1 everywhere). */
 static double spot_falloff(double th, double inner, double outer)
@@ -127,21 +119,10 @@ static void add_light(Scene *s, double y, double inner, double outer)
         l->color[k] = 1.0f;
 }
 
-/* Makes g clear smooth glass of index SLAB_IOR. */
-static void set_glass(SceneMaterial *g)
-{
-    g->metallic = 0.0f;
-    g->roughness = 0.0f;
-    g->transmission = 1.0f;
-    g->ior = (float)SLAB_IOR;
-    for (int k = 0; k < 3; k++)
-        g->base_color[k] = 1.0f;
-}
-
 /* Clear smooth glass over [lo, hi] appended to s. */
 static void add_glass(Scene *s, const float lo[3], const float hi[3])
 {
-    set_glass(append_box(s, lo, hi));
+    set_clear_glass(append_box(s, lo, hi), (float)SLAB_IOR);
 }
 
 /* The floor of albedo FLOOR_ALBEDO at y = 0 and the camera at CAM_Y looking
@@ -359,14 +340,7 @@ static SceneMaterial *append_prism(Scene *s, float dispersion)
     static const int tris[8][3] = {{0, 1, 2}, {3, 4, 5}, {0, 1, 4}, {0, 4, 3},
                                    {1, 2, 5}, {1, 5, 4}, {2, 0, 3}, {2, 3, 5}};
     const double mid[3] = {(xy[0][0] + xy[1][0] + xy[2][0]) / 3.0, (xy[0][1] + xy[1][1] + xy[2][1]) / 3.0, 0.0};
-    uint32_t t0 = s->tri_count, v0 = s->vertex_count;
-    s->tri_count += 8;
-    s->vertex_count += 24;
-    s->tri_pos = realloc(s->tri_pos, sizeof(float) * 9 * s->tri_count);
-    s->tri_vidx = realloc(s->tri_vidx, sizeof(uint32_t) * 3 * s->tri_count);
-    s->tri_mat = realloc(s->tri_mat, sizeof(uint32_t) * s->tri_count);
-    s->vtx_normal = calloc_grow(s->vtx_normal, 3 * (size_t)v0, 3 * (size_t)s->vertex_count);
-    s->vtx_uv = calloc_grow(s->vtx_uv, 2 * (size_t)v0, 2 * (size_t)s->vertex_count);
+    uint32_t t0 = grow_triangles(s, 8);
     for (int t = 0; t < 8; t++) {
         const double *a = v[tris[t][0]], *b = v[tris[t][1]], *c = v[tris[t][2]];
         double e1[3], e2[3], n[3], out = 0.0;
@@ -380,17 +354,12 @@ static SceneMaterial *append_prism(Scene *s, float dispersion)
         for (int k = 0; k < 3; k++)
             out += n[k] * ((a[k] + b[k] + c[k]) / 3.0 - mid[k]);
         const double *order[3] = {a, out > 0.0 ? b : c, out > 0.0 ? c : b};
-        for (int j = 0; j < 3; j++) {
+        for (int j = 0; j < 3; j++)
             for (int k = 0; k < 3; k++)
                 s->tri_pos[9 * (t0 + t) + 3 * j + k] = (float)order[j][k];
-            s->tri_vidx[3 * (t0 + t) + j] = v0 + 3 * t + j;
-        }
-        s->tri_mat[t0 + t] = s->material_count;
     }
-    s->materials = realloc(s->materials, sizeof(SceneMaterial) * (s->material_count + 1));
-    SceneMaterial *g = &s->materials[s->material_count++];
-    scene_material_default(g);
-    set_glass(g);
+    SceneMaterial *g = append_material(s, t0);
+    set_clear_glass(g, (float)SLAB_IOR);
     g->dispersion = dispersion;
     return g;
 }

@@ -17,40 +17,23 @@
 #include "io/image_out.h"
 #include "io/image_in.h"
 
-/* A fresh folder per test, removed (with its files) afterwards. */
-static char g_dir[256];
-
+/* A fresh folder per test (test_dir()), removed (with its files) afterwards. */
 static int setup(void **state)
 {
-    (void)state;
-    snprintf(g_dir, sizeof g_dir, "/tmp/spt-test-image-out-XXXXXX");
     atomic_test_fail_commits = 0;
-    return mkdtemp(g_dir) ? 0 : -1;
+    return test_dir_setup(state);
 }
 
 static int teardown(void **state)
 {
-    (void)state;
     atomic_test_fail_commits = 0;
-    char cmd[512];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", g_dir);
-    return system(cmd) == 0 ? 0 : -1;
+    return test_dir_teardown(state);
 }
 
-/* g_dir/name in a static rotating buffer. */
-static const char *in_dir(const char *name)
-{
-    static char buf[4][512];
-    static int k;
-    k = (k + 1) % 4;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", g_dir, name);
-    return buf[k];
-}
-
-/* Number of entries of g_dir whose name contains the temporary-file mark. */
+/* Number of entries of test_dir() whose name contains the temporary-file mark. */
 static int temp_files_left(void)
 {
-    DIR *d = opendir(g_dir);
+    DIR *d = opendir(test_dir());
     assert_non_null(d);
     int n = 0;
     struct dirent *de;
@@ -61,21 +44,6 @@ static int temp_files_left(void)
         }
     closedir(d);
     return n;
-}
-
-/* The whole file, malloc'd. */
-static unsigned char *slurp(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *buf = malloc((size_t)n + 1);
-    assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
-    fclose(f);
-    *size = (size_t)n;
-    return buf;
 }
 
 static void write_bytes(const char *path, const void *data, size_t n)
@@ -112,7 +80,7 @@ static void test_exr_roundtrip_read_by_oiio(void **state)
     ImageMeta meta = {.spp = 64, .render_seconds = 1.5, .device = "test device",
                       .seed = 4000000000u, .scene = "scenes/box.gltf"};
     assert_int_equal(image_meta_add(&meta, "integrator", "path"), 0);
-    const char *path = in_dir("out.exr");
+    const char *path = test_path("out.exr");
     SptError e = {0};
     int rc = image_write(path, rgb, W, H, &meta, NULL, &e);
     if (rc)
@@ -164,7 +132,7 @@ static void test_png_srgb_codes(void **state)
 {
     (void)state;
     enum { W = 2, H = 2 }; /* 4 pixels = the 12 values above */
-    const char *path = in_dir("codes.png");
+    const char *path = test_path("codes.png");
     SptError e = {0};
     ImageMeta meta = {.spp = 4, .seed = 7};
     int rc = image_write(path, k_lin, W, H, &meta, NULL, &e);
@@ -178,7 +146,7 @@ static void test_png_srgb_codes(void **state)
     /* Tagged sRGB: the PNG specification's sRGB chunk (length 1, type "sRGB") is
      * present in the bytes, before the image data. */
     size_t size;
-    unsigned char *png = slurp(path, &size);
+    unsigned char *png = (unsigned char *)test_slurp(path, &size);
     const unsigned char *srgb = memmem(png, size, "\0\0\0\1sRGB", 8);
     const unsigned char *idat = memmem(png, size, "IDAT", 4);
     assert_non_null(srgb);
@@ -214,7 +182,7 @@ static void test_exposure_doubles_linear(void **state)
     assert_int_equal(out[2], 0);
 
     /* Through a file: an image of 0.25 written at +1 EV reads back as 0.5's code. */
-    const char *path = in_dir("ev.png");
+    const char *path = test_path("ev.png");
     float img[4 * 3];
     for (int i = 0; i < 12; ++i)
         img[i] = 0.25f;
@@ -227,7 +195,7 @@ static void test_exposure_doubles_linear(void **state)
     free(back);
 
     /* Linear formats ignore exposure and tone map. */
-    const char *exr = in_dir("ev.exr");
+    const char *exr = test_path("ev.exr");
     DisplayOptions both = {3.0f, SPT_TONEMAP_NEUTRAL};
     assert_int_equal(image_write(exr, img, 2, 2, NULL, &both, &e), SPT_EXIT_OK);
     assert_int_equal(image_read_rgb(exr, &back, &w, &h, &e), SPT_EXIT_OK);
@@ -290,7 +258,7 @@ static void test_tiff_float_and_hdr(void **state)
     float rgb[2 * 2 * 3] = {0.1f, 0.2f, 0.3f, 1.5f, 2.5f, 3.5f, 100.0f, 0.01f, 0.5f,
                             0.0f, 0.75f, 7.0f};
     SptError e = {0};
-    const char *tif = in_dir("out.tif");
+    const char *tif = test_path("out.tif");
     assert_int_equal(image_write(tif, rgb, 2, 2, NULL, NULL, &e), SPT_EXIT_OK);
     ImageIoInfo info;
     assert_int_equal(image_io_info(tif, &info, &e), SPT_EXIT_OK);
@@ -302,7 +270,7 @@ static void test_tiff_float_and_hdr(void **state)
     assert_memory_equal(back, rgb, sizeof rgb);
     free(back);
 
-    const char *hdr = in_dir("out.HDR"); /* extensions are case-insensitive */
+    const char *hdr = test_path("out.HDR"); /* extensions are case-insensitive */
     assert_int_equal(image_write(hdr, rgb, 2, 2, NULL, NULL, &e), SPT_EXIT_OK);
     assert_int_equal(image_io_info(hdr, &info, &e), SPT_EXIT_OK);
     assert_string_equal(info.format_name, "hdr");
@@ -316,7 +284,7 @@ static void test_tiff_float_and_hdr(void **state)
     }
     free(back);
 
-    const char *jpg = in_dir("out.jpeg");
+    const char *jpg = test_path("out.jpeg");
     float grey[8 * 8 * 3];
     for (int i = 0; i < 8 * 8 * 3; ++i)
         grey[i] = 0.5f;
@@ -331,42 +299,42 @@ static void test_output_check_failures(void **state)
 {
     (void)state;
     SptError e = {0};
-    assert_int_equal(image_output_check(in_dir("ok.exr"), &e), SPT_EXIT_OK);
-    assert_int_equal(image_output_check(in_dir("ok.JPG"), &e), SPT_EXIT_OK);
+    assert_int_equal(image_output_check(test_path("ok.exr"), &e), SPT_EXIT_OK);
+    assert_int_equal(image_output_check(test_path("ok.JPG"), &e), SPT_EXIT_OK);
 
-    const char *unknown = in_dir("out.bmp");
+    const char *unknown = test_path("out.bmp");
     assert_int_equal(image_output_check(unknown, &e), SPT_EXIT_USAGE);
     assert_non_null(strstr(e.msg, unknown));
-    assert_int_equal(image_output_check(in_dir("noextension"), &e), SPT_EXIT_USAGE);
+    assert_int_equal(image_output_check(test_path("noextension"), &e), SPT_EXIT_USAGE);
     float px[3] = {0, 0, 0};
     assert_int_equal(image_write(unknown, px, 1, 1, NULL, NULL, &e), SPT_EXIT_USAGE);
 
-    const char *missing = in_dir("no/such/folder/out.png");
+    const char *missing = test_path("no/such/folder/out.png");
     assert_int_equal(image_output_check(missing, &e), SPT_EXIT_OUTPUT);
     assert_non_null(strstr(e.msg, missing));
     assert_non_null(strstr(e.msg, "does not exist"));
     assert_int_equal(image_write(missing, px, 1, 1, NULL, NULL, &e), SPT_EXIT_OUTPUT);
     assert_non_null(strstr(e.msg, missing));
-    assert_int_equal(image_write(in_dir("no/out.exr"), px, 1, 1, NULL, NULL, &e),
+    assert_int_equal(image_write(test_path("no/out.exr"), px, 1, 1, NULL, NULL, &e),
                      SPT_EXIT_OUTPUT);
 
-    write_bytes(in_dir("plainfile"), "x", 1);
-    const char *under_file = in_dir("plainfile/out.png");
+    write_bytes(test_path("plainfile"), "x", 1);
+    const char *under_file = test_path("plainfile/out.png");
     assert_int_equal(image_output_check(under_file, &e), SPT_EXIT_OUTPUT);
     assert_non_null(strstr(e.msg, under_file));
     assert_non_null(strstr(e.msg, "not a folder"));
 
     /* Sizes, once the resolution is known. */
-    assert_int_equal(image_output_check_size(in_dir("a.exr"), 100000, 2, &e), SPT_EXIT_OK);
-    assert_int_equal(image_output_check_size(in_dir("a.jpg"), 65500, 65500, &e), SPT_EXIT_OK);
-    assert_int_equal(image_output_check_size(in_dir("a.jpg"), 65501, 1, &e), SPT_EXIT_OUTPUT);
-    assert_int_equal(image_output_check_size(in_dir("a.png"), 0, 5, &e), SPT_EXIT_OUTPUT);
-    assert_int_equal(image_output_check_size(in_dir("a.gif"), 5, 5, &e), SPT_EXIT_USAGE);
+    assert_int_equal(image_output_check_size(test_path("a.exr"), 100000, 2, &e), SPT_EXIT_OK);
+    assert_int_equal(image_output_check_size(test_path("a.jpg"), 65500, 65500, &e), SPT_EXIT_OK);
+    assert_int_equal(image_output_check_size(test_path("a.jpg"), 65501, 1, &e), SPT_EXIT_OUTPUT);
+    assert_int_equal(image_output_check_size(test_path("a.png"), 0, 5, &e), SPT_EXIT_OUTPUT);
+    assert_int_equal(image_output_check_size(test_path("a.gif"), 5, 5, &e), SPT_EXIT_USAGE);
 
     /* Bad checkpoint definitions are refused before any file is made. */
     float one = 1.0f;
     ExrChannel twice[2] = {{"n", SPT_EXR_FLOAT, &one, 1}, {"n", SPT_EXR_FLOAT, &one, 1}};
-    assert_int_equal(exr_write_layers(in_dir("twice.exr"), 1, 1, twice, 2, NULL, 0, &e),
+    assert_int_equal(exr_write_layers(test_path("twice.exr"), 1, 1, twice, 2, NULL, 0, &e),
                      SPT_EXIT_OUTPUT);
     assert_non_null(strstr(e.msg, "given twice"));
 
@@ -375,10 +343,10 @@ static void test_output_check_failures(void **state)
         assert_int_equal(image_meta_add(&meta, "k", "v"), 0);
     assert_int_equal(image_meta_add(&meta, "k", "v"), -1);
 
-    assert_int_equal(mkdir(in_dir("folder.png"), 0755), 0);
-    assert_int_equal(image_output_check(in_dir("folder.png"), &e), SPT_EXIT_OUTPUT);
+    assert_int_equal(mkdir(test_path("folder.png"), 0755), 0);
+    assert_int_equal(image_output_check(test_path("folder.png"), &e), SPT_EXIT_OUTPUT);
     assert_non_null(strstr(e.msg, "is a folder"));
-    assert_int_equal(image_write(in_dir("folder.png"), px, 1, 1, NULL, NULL, &e),
+    assert_int_equal(image_write(test_path("folder.png"), px, 1, 1, NULL, NULL, &e),
                      SPT_EXIT_OUTPUT);
 
     assert_int_equal(temp_files_left(), 0);
@@ -387,14 +355,16 @@ static void test_output_check_failures(void **state)
 static void test_read_only_folder(void **state)
 {
     (void)state;
-    if (geteuid() == 0)
-        skip(); /* root writes anywhere */
-    assert_int_equal(mkdir(in_dir("ro"), 0555), 0);
+    if (geteuid() == 0) {
+        print_message("  run as root, which writes into a read-only folder anyway: skipped\n");
+        skip();
+    }
+    assert_int_equal(mkdir(test_path("ro"), 0555), 0);
     SptError e = {0};
-    const char *path = in_dir("ro/out.png");
+    const char *path = test_path("ro/out.png");
     assert_int_equal(image_output_check(path, &e), SPT_EXIT_OUTPUT);
     assert_non_null(strstr(e.msg, path));
-    chmod(in_dir("ro"), 0755);
+    chmod(test_path("ro"), 0755);
 }
 
 /* A failed write leaves an existing output byte for byte as it was and no
@@ -407,11 +377,11 @@ static void test_failed_write_keeps_existing_output(void **state)
     for (int i = 0; i < 12; ++i)
         a[i] = 0.2f, b[i] = 0.9f;
     for (size_t k = 0; k < sizeof names / sizeof names[0]; ++k) {
-        const char *path = in_dir(names[k]);
+        const char *path = test_path(names[k]);
         SptError e = {0};
         assert_int_equal(image_write(path, a, 2, 2, NULL, NULL, &e), SPT_EXIT_OK);
-        size_t n0, n1;
-        unsigned char *before = slurp(path, &n0);
+        size_t n0;
+        char *before = test_slurp(path, &n0);
 
         atomic_test_fail_commits = 1;
         int rc = image_write(path, b, 2, 2, NULL, NULL, &e);
@@ -420,29 +390,26 @@ static void test_failed_write_keeps_existing_output(void **state)
         assert_non_null(strstr(e.msg, path));
         assert_non_null(strstr(e.msg, "injected failure"));
 
-        unsigned char *after = slurp(path, &n1);
-        assert_int_equal(n0, n1);
-        assert_memory_equal(before, after, n0);
+        test_assert_file_is(path, before, n0);
+
+
         free(before);
-        free(after);
         assert_int_equal(temp_files_left(), 0);
     }
 
     /* A JPEG wider than libjpeg allows is refused before libjpeg sees it (libjpeg
      * would end the process). */
-    const char *jpg = in_dir("keep.jpg");
-    size_t n0, n1;
-    unsigned char *before = slurp(jpg, &n0);
+    const char *jpg = test_path("keep.jpg");
+    size_t n0;
+    char *before = test_slurp(jpg, &n0);
     float *wide = calloc((size_t)70000 * 3, sizeof(float));
     SptError e = {0};
     assert_int_equal(image_write(jpg, wide, 70000, 1, NULL, NULL, &e), SPT_EXIT_OUTPUT);
     assert_non_null(strstr(e.msg, jpg));
     free(wide);
-    unsigned char *after = slurp(jpg, &n1);
-    assert_int_equal(n0, n1);
-    assert_memory_equal(before, after, n0);
+    test_assert_file_is(jpg, before, n0);
+
     free(before);
-    free(after);
     assert_int_equal(temp_files_left(), 0);
 }
 
@@ -465,11 +432,11 @@ static void test_disk_full_keeps_existing_output(void **state)
     struct rlimit old_limit;
     assert_int_equal(getrlimit(RLIMIT_FSIZE, &old_limit), 0);
     for (size_t k = 0; k < sizeof names / sizeof names[0]; ++k) {
-        const char *path = in_dir(names[k]);
+        const char *path = test_path(names[k]);
         SptError e = {0};
         assert_int_equal(image_write(path, small, 1, 1, NULL, NULL, &e), SPT_EXIT_OK);
-        size_t n0, n1;
-        unsigned char *before = slurp(path, &n0);
+        size_t n0;
+        char *before = test_slurp(path, &n0);
 
         struct rlimit lim = old_limit;
         lim.rlim_cur = 2048;
@@ -481,11 +448,10 @@ static void test_disk_full_keeps_existing_output(void **state)
         assert_non_null(strstr(e.msg, path));
         print_message("%s: %s\n", names[k], e.msg);
 
-        unsigned char *after = slurp(path, &n1);
-        assert_int_equal(n0, n1);
-        assert_memory_equal(before, after, n0);
+        test_assert_file_is(path, before, n0);
+
+
         free(before);
-        free(after);
         assert_int_equal(temp_files_left(), 0);
     }
     signal(SIGXFSZ, old_handler);
@@ -523,7 +489,7 @@ static void test_exr_layers_roundtrip(void **state)
     enum { W = 5, H = 37 }; /* more rows than one ZIP chunk (16) */
     static float sums[W * H * 3];
     static uint32_t counts[W * H];
-    const char *path = in_dir("ckpt.exr");
+    const char *path = test_path("ckpt.exr");
     write_checkpoint(path, W, H, sums, counts);
 
     const char *req[] = {"sum.X", "sum.Y", "sum.Z", "count"};
@@ -575,18 +541,16 @@ static void test_exr_layers_roundtrip(void **state)
     assert_int_equal(l.channel_count, 0);
 
     /* Injected failure: the checkpoint already there stays as it was. */
-    size_t n0, n1;
-    unsigned char *before = slurp(path, &n0);
+    size_t n0;
+    char *before = test_slurp(path, &n0);
     atomic_test_fail_commits = 1;
     ExrChannel one = {"count", SPT_EXR_UINT, counts, 1};
     rc = exr_write_layers(path, W, H, &one, 1, NULL, 0, &e);
     atomic_test_fail_commits = 0;
     assert_int_equal(rc, SPT_EXIT_OUTPUT);
-    unsigned char *after = slurp(path, &n1);
-    assert_int_equal(n0, n1);
-    assert_memory_equal(before, after, n0);
+    test_assert_file_is(path, before, n0);
+
     free(before);
-    free(after);
     assert_int_equal(temp_files_left(), 0);
 }
 
@@ -604,7 +568,7 @@ static void test_exr_noise_roundtrip(void **state)
     enum { W = 64, H = 16, IMAGES = 80 };
     static float rgb[W * H * 3];
     static uint32_t counts[W * H];
-    const char *path = in_dir("noise.exr");
+    const char *path = test_path("noise.exr");
     uint32_t x = 12345u;
     for (int k = 0; k < IMAGES; k++) {
         float f = 0.09f + 0.0008f * (float)k;
@@ -663,16 +627,16 @@ static void test_exr_damaged_files_refused(void **state)
     enum { W = 16, H = 40 };
     static float sums[W * H * 3];
     static uint32_t counts[W * H];
-    const char *path = in_dir("full.exr");
+    const char *path = test_path("full.exr");
     write_checkpoint(path, W, H, sums, counts);
     size_t n;
-    unsigned char *bytes = slurp(path, &n);
+    unsigned char *bytes = (unsigned char *)test_slurp(path, &n);
 
     /* Cut at several places: inside the header, inside the offset table, and in
      * the pixel data (half, and all but the last byte). */
     size_t cuts[] = {3, 40, n / 2, n - 1};
     for (size_t k = 0; k < sizeof cuts / sizeof cuts[0]; ++k) {
-        const char *cut = in_dir("cut.exr");
+        const char *cut = test_path("cut.exr");
         write_bytes(cut, bytes, cuts[k]);
         ExrLayers l;
         SptError e = {0};
@@ -688,19 +652,19 @@ static void test_exr_damaged_files_refused(void **state)
     memcpy(bad, bytes, n);
     for (size_t i = n / 2; i < n / 2 + 64 && i < n; ++i)
         bad[i] ^= 0x5a;
-    write_bytes(in_dir("bad.exr"), bad, n);
+    write_bytes(test_path("bad.exr"), bad, n);
     ExrLayers l;
     SptError e = {0};
-    int rc = exr_read_layers(in_dir("bad.exr"), NULL, 0, &l, &e);
+    int rc = exr_read_layers(test_path("bad.exr"), NULL, 0, &l, &e);
     if (rc == SPT_EXIT_OK)
         exr_layers_free(&l);
     assert_int_equal(rc, SPT_EXIT_INPUT);
     free(bad);
     free(bytes);
 
-    write_bytes(in_dir("text.exr"), "not an exr file at all\n", 23);
-    assert_int_equal(exr_read_layers(in_dir("text.exr"), NULL, 0, &l, &e), SPT_EXIT_INPUT);
-    assert_int_equal(exr_read_layers(in_dir("absent.exr"), NULL, 0, &l, &e), SPT_EXIT_INPUT);
+    write_bytes(test_path("text.exr"), "not an exr file at all\n", 23);
+    assert_int_equal(exr_read_layers(test_path("text.exr"), NULL, 0, &l, &e), SPT_EXIT_INPUT);
+    assert_int_equal(exr_read_layers(test_path("absent.exr"), NULL, 0, &l, &e), SPT_EXIT_INPUT);
     assert_non_null(strstr(e.msg, "absent.exr"));
 }
 

@@ -385,24 +385,10 @@ static void test_env_sample_chi2(void **state)
     SptError e;
     assert_int_equal(env_build_map(&env, rgb, MAP_W, MAP_H, 0.7f, 2.0f, "map", &e), SPT_EXIT_OK);
     EnvCtx ctx = {&env, 0.7};
-    Chi2Grid g;
-    memset(&g, 0, sizeof g);
-    g.name = "env_sample (32x16 map, bright spot), in map coordinates";
-    g.domain = CHI2_PLANE;
-    g.x0 = 0.0;
-    g.x1 = 1.0;
-    g.y0 = 0.0;
-    g.y1 = 1.0;
-    g.res_x = 2 * MAP_W;
-    g.res_y = 2 * MAP_H;
+    Chi2Grid g = chi2_plane("env_sample (32x16 map, bright spot), in map coordinates", 0.0, 1.0, 0.0, 1.0,
+                            2 * MAP_W, 2 * MAP_H, LIGHTS_CHI2_TESTS, env_sample_uv_cb, env_pdf_uv_cb, &ctx);
     g.samples = 400000;
-    g.num_tests = LIGHTS_CHI2_TESTS;
-    g.sample = env_sample_uv_cb;
-    g.pdf = env_pdf_uv_cb;
-    g.ctx = &ctx;
-    Chi2Result r;
-    chi2_grid_run(&g, &r);
-    require_pass(&r);
+    chi2_require(&g);
     env_free(&env);
     free(rgb);
 }
@@ -415,20 +401,10 @@ static void test_uniform_sample_chi2(void **state)
     const float white[3] = {1, 1, 1};
     env_build_uniform(&env, white, 1.0f);
     EnvCtx ctx = {&env, 0.0};
-    Chi2Grid g;
-    memset(&g, 0, sizeof g);
-    g.name = "uniform background sample";
-    g.domain = CHI2_SPHERE;
-    g.res_x = 20;
-    g.res_y = 10;
+    Chi2Grid g =
+        chi2_sphere("uniform background sample", 20, 10, LIGHTS_CHI2_TESTS, env_sample_cb, env_pdf_cb, &ctx);
     g.samples = 200000;
-    g.num_tests = LIGHTS_CHI2_TESTS;
-    g.sample = env_sample_cb;
-    g.pdf = env_pdf_cb;
-    g.ctx = &ctx;
-    Chi2Result r;
-    chi2_grid_run(&g, &r);
-    require_pass(&r);
+    chi2_require(&g);
     env_free(&env);
 }
 
@@ -485,20 +461,11 @@ static void test_uniform_sample_at_chi2(void **state)
     env_build_uniform(&env, white, 1.0f);
     for (int two = 0; two < 2; two++) {
         EnvAtCtx ctx = env_at_ctx(&env, two);
-        Chi2Grid g;
-        memset(&g, 0, sizeof g);
-        g.name = two ? "uniform background at a point, two-sided" : "uniform background at a point, one side";
-        g.domain = CHI2_SPHERE;
-        g.res_x = 20;
-        g.res_y = 10;
+        Chi2Grid g = chi2_sphere(two ? "uniform background at a point, two-sided"
+                                     : "uniform background at a point, one side",
+                                 20, 10, LIGHTS_CHI2_TESTS, env_sample_at_cb, env_pdf_at_cb, &ctx);
         g.samples = 200000;
-        g.num_tests = LIGHTS_CHI2_TESTS;
-        g.sample = env_sample_at_cb;
-        g.pdf = env_pdf_at_cb;
-        g.ctx = &ctx;
-        Chi2Result r;
-        chi2_grid_run(&g, &r);
-        require_pass(&r);
+        Chi2Result r = chi2_require(&g);
         assert_close(r.integral, 1.0, 2e-3);
     }
     env_free(&env);
@@ -858,12 +825,7 @@ static const char *k_device_src =
 static void test_device_matches_host(void **state)
 {
     (void)state;
-    cl_device_id dev;
-    cl_context ctx;
-    cl_command_queue cq;
-    test_cl_open_first(&dev, &ctx, &cq);
-    cl_int err;
-    cl_program prog = test_cl_build(ctx, dev, k_device_src, NULL, "kernels/light/lights.h");
+    TestCl cl = test_cl_open();
     float spectra[2 * SPT_CIE_SAMPLES];
     GpuLight gl[2];
     SptError e;
@@ -886,24 +848,13 @@ static void test_device_matches_host(void **state)
             in[8 * i + 3 + k] = 380.0f + 400.0f * test_uniform(1003 + 8 * i + k);
         in[8 * i + 7] = test_uniform(1007 + 8 * i);
     }
-    cl_mem bl = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof gl, gl, &err);
-    cl_mem bs = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof spectra, spectra, &err);
-    cl_mem be = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof env.env, &env.env, &err);
-    cl_mem bd = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                               env.data_count * sizeof(float), env.data, &err);
-    cl_mem bi = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof in, in, &err);
-    cl_mem bo = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, sizeof out, NULL, &err);
-    assert_int_equal(err, CL_SUCCESS);
-    cl_kernel k = clCreateKernel(prog, "k_lights_test", &err);
-    assert_int_equal(err, CL_SUCCESS);
-    int n = N;
-    cl_mem args[6] = {bl, bs, be, bd, bi, bo};
-    for (int i = 0; i < 6; i++)
-        assert_int_equal(clSetKernelArg(k, (cl_uint)i, sizeof(cl_mem), &args[i]), CL_SUCCESS);
-    assert_int_equal(clSetKernelArg(k, 6, sizeof n, &n), CL_SUCCESS);
-    size_t global = N;
-    assert_int_equal(clEnqueueNDRangeKernel(cq, k, 1, NULL, &global, NULL, 0, NULL, NULL), CL_SUCCESS);
-    assert_int_equal(clEnqueueReadBuffer(cq, bo, CL_TRUE, 0, sizeof out, out, 0, NULL, NULL), CL_SUCCESS);
+    const TestClArg args[5] = {{gl, sizeof gl},
+                               {spectra, sizeof spectra},
+                               {&env.env, sizeof env.env},
+                               {env.data, env.data_count * sizeof(float)},
+                               {in, sizeof in}};
+    test_cl_run(&cl, k_device_src, NULL, "kernels/light/lights.h", "k_lights_test", args, 5,
+                out, sizeof out, N, 0);
     assert_close(out[11], sizeof(GpuLight) * 1000 + sizeof(GpuEnvMap), 0);
     for (int i = 0; i < N; i++) {
         const float *q = in + 8 * i;
@@ -914,18 +865,9 @@ static void test_device_matches_host(void **state)
         env_eval(&env.env, env.data, d, q + 3, v);
         const float want[11] = {s.value[0], s.value[3], s.dist, s.wi.x, d.x, d.y, d.z, pdf,
                                 v[0], v[2], env_pdf(&env.env, env.data, d)};
-        for (int j = 0; j < 11; j++) {
-            float g = out[12 * i + j];
-            if (!(fabsf(g - want[j]) <= 1e-4f * fmaxf(1.0f, fabsf(want[j]))))
-                fail_msg("input %d, output %d: device %.9g, host %.9g", i, j, g, want[j]);
-        }
+        test_cl_assert_agree(i, out + 12 * i, want, 11, 1e-4f);
     }
-    clReleaseKernel(k);
-    for (int i = 0; i < 6; i++)
-        clReleaseMemObject(args[i]);
-    clReleaseProgram(prog);
-    clReleaseCommandQueue(cq);
-    clReleaseContext(ctx);
+    test_cl_close(&cl);
     env_free(&env);
     free(rgb);
 }

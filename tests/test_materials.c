@@ -17,57 +17,6 @@
 #include "scene/scene.h"
 #include "spectrum/cie_data.h"
 
-/* Renders scene s (already loaded or built) at w x h into film (initialised
- * here). background: as --background, NULL = the default. Returns the exit code. */
-static int render_scene(const Scene *s, int w, int h, int spp, int depth, uint32_t seed,
-                        const char *background, Film *film, RenderStats *st)
-{
-    GpuScene g;
-    SptError e = {0};
-    int rc = gpu_scene_build(&g, s, &e);
-    if (rc) {
-        fprintf(stderr, "build: %s\n", e.msg);
-        return rc;
-    }
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = w;
-    rs.height = h;
-    rs.spp = spp;
-    rs.max_depth = depth;
-    rs.seed = seed;
-    Sky sky;
-    if ((rc = sky_from_args(&sky, NULL, background, &e))) {
-        fprintf(stderr, "sky: %s\n", e.msg);
-        gpu_scene_free(&g);
-        return rc;
-    }
-    rs.sky = &sky;
-    film_init(film, w, h);
-    rc = render_device(device, &g, &s->camera, &rs, film, st, &e);
-    if (rc)
-        fprintf(stderr, "render: %s\n", e.msg);
-    sky_free(&sky);
-    gpu_scene_free(&g);
-    return rc;
-}
-
-/* The same for a scene file. */
-static int render_file(const char *path, int w, int h, int spp, int depth, uint32_t seed,
-                       const char *background, Film *film, RenderStats *st)
-{
-    Scene s;
-    SptError e = {0};
-    int rc = scene_load_gltf(&s, path, &e);
-    if (rc) {
-        fprintf(stderr, "load %s: %s\n", path, e.msg);
-        return rc;
-    }
-    rc = render_scene(&s, w, h, spp, depth, seed, background, film, st);
-    scene_free(&s);
-    return rc;
-}
-
 /* Linear sRGB of a film, malloc'd (3 floats per pixel, rows top to bottom). */
 static float *film_rgb(const Film *f)
 {
@@ -137,6 +86,21 @@ static void test_roughdielectric_vs_mitsuba(void **state)
  * (1); a smooth dielectric loses nothing, so it shows exactly 1. */
 
 #define FURNACE_SIZE 48
+
+/* The sphere of material m (sphere_scene_material) in the furnace (the default
+ * sky), FURNACE_SIZE square at spp with seed: its linear sRGB, malloc'd. */
+static float *furnace_rgb(const SceneMaterial *m, int spp, uint32_t seed, RenderStats *st)
+{
+    Scene s;
+    sphere_scene_material(&s, m);
+    Film f;
+    assert_int_equal(render_scene(&s, FURNACE_SIZE, FURNACE_SIZE, spp, -1, seed, NULL, &f, st), 0);
+    float *rgb = film_rgb(&f);
+    film_free(&f);
+    scene_free(&s);
+    return rgb;
+}
+
 #define FURNACE_CAM_Z 4.0 /* sphere_scene_material's camera (tests/test_render_util.h) */
 
 /* Cosine between the surface normal of the unit sphere and the direction back
@@ -252,12 +216,8 @@ static void test_furnace_white_metal(void **state)
         scene_material_default(&m);
         m.metallic = 1.0f;
         m.roughness = rough[k];
-        Scene s;
-        sphere_scene_material(&s, &m);
-        Film f;
         RenderStats st;
-        assert_int_equal(render_scene(&s, FURNACE_SIZE, FURNACE_SIZE, 64, -1, 21, NULL, &f, &st), 0);
-        float *rgb = film_rgb(&f);
+        float *rgb = furnace_rgb(&m, 64, 21, &st);
         double alpha = (double)rough[k] * rough[k], want = 1.0, got[3], image[3] = {0, 0, 0};
         for (int c = 0; c < 3; c++) {
             got[c] = disc_mean(rgb, c, alpha > 0 ? ggx_albedo_lookup : NULL, alpha, &want);
@@ -274,8 +234,6 @@ static void test_furnace_white_metal(void **state)
         }
         assert_int_equal(st.nan_dropped, 0);
         free(rgb);
-        film_free(&f);
-        scene_free(&s);
     }
 }
 
@@ -298,12 +256,8 @@ static void test_furnace_layers(void **state)
         for (int c = 0; c < 3; c++)
             m.sheen_color[c] = 1.0f;
         m.sheen_roughness = k == 0 ? 0.5f : 0.2f;
-        Scene s;
-        sphere_scene_material(&s, &m);
-        Film f;
         RenderStats st;
-        assert_int_equal(render_scene(&s, FURNACE_SIZE, FURNACE_SIZE, 64, -1, 23, NULL, &f, &st), 0);
-        float *rgb = film_rgb(&f);
+        float *rgb = furnace_rgb(&m, 64, 23, &st);
         double got[3];
         for (int c = 0; c < 3; c++)
             got[c] = disc_mean(rgb, c, NULL, 0.0, NULL);
@@ -312,8 +266,6 @@ static void test_furnace_layers(void **state)
         for (int c = 0; c < 3; c++)
             assert_true(got[c] <= 1.005);
         free(rgb);
-        film_free(&f);
-        scene_free(&s);
     }
 }
 
@@ -335,12 +287,8 @@ static void test_furnace_glass(void **state)
         m.roughness = rough[k];
         m.transmission = 1.0f;
         m.ior = 1.5f;
-        Scene s;
-        sphere_scene_material(&s, &m);
-        Film f;
         RenderStats st;
-        assert_int_equal(render_scene(&s, FURNACE_SIZE, FURNACE_SIZE, 128, -1, 22, NULL, &f, &st), 0);
-        float *rgb = film_rgb(&f);
+        float *rgb = furnace_rgb(&m, 128, 22, &st);
         double got[3], image[3] = {0, 0, 0};
         for (int c = 0; c < 3; c++) {
             got[c] = disc_mean(rgb, c, NULL, 0, NULL);
@@ -356,8 +304,6 @@ static void test_furnace_glass(void **state)
         }
         assert_int_equal(st.nan_dropped, 0);
         free(rgb);
-        film_free(&f);
-        scene_free(&s);
     }
 }
 

@@ -30,14 +30,7 @@ static char exe[512], mpi_exe[512];
 /* Runs cmd (a shell command line) with stderr captured into out; returns the exit status. */
 static int run(const char *cmd, char *out, size_t cap)
 {
-    char full[4096];
-    snprintf(full, sizeof full, "%s 2>&1 >/dev/null", cmd);
-    FILE *p = popen(full, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    return test_sh(cmd, TEST_STDERR, out, cap);
 }
 
 /* The one-process reference: 64 spp with its checkpoint (rendered once). */
@@ -48,7 +41,7 @@ static void reference(void)
         return;
     char cmd[2048], out[8192];
     snprintf(cmd, sizeof cmd, "'%s' render " SCENE " " COMMON " -q --spp 64 -o %s --checkpoint %s", exe,
-             path_in("one.exr"), path_in("one_ck.exr"));
+             test_path("one.exr"), test_path("one_ck.exr"));
     int rc0 = run(cmd, out, sizeof out);
     if (rc0)
         fail_msg("exit code %d from %s:\n%s", rc0, cmd, out);
@@ -60,21 +53,10 @@ static int setup(void **state)
     (void)state;
     ckpt_aov = SPT_AOV_ALL;
     ckpt_spectral = 47;
-    const char *e = getenv("SPECTRACE_EXE");
-    if (!e)
-        return -1;
+    const char *e = test_exe();
     snprintf(exe, sizeof exe, "%s", e);
     snprintf(mpi_exe, sizeof mpi_exe, "%s-mpi", e);
-    snprintf(dir, sizeof dir, "/tmp/spt-mpi-XXXXXX");
-    return mkdtemp(dir) ? 0 : -1;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd) == 0 ? 0 : -1;
+    return test_dir_make("spt-mpi");
 }
 
 /* Skips (with the reason) where the MPI program cannot run. */
@@ -86,7 +68,7 @@ static int mpi_unavailable(void)
            "the MPI tests run in the plain build\n");
     return 1;
 #else
-    if (!exists(mpi_exe) || system("command -v mpirun >/dev/null 2>&1")) {
+    if (!test_exists(mpi_exe) || system("command -v mpirun >/dev/null 2>&1")) {
         printf("skipped: %s or mpirun missing (make mpi; tools/install_deps.sh mpi)\n", mpi_exe);
         return 1;
     }
@@ -105,11 +87,11 @@ static void test_two_ranks_same_image(void **state)
     reference();
     char cmd[4096], out[8192], args[512];
     snprintf(args, sizeof args, "render " SCENE " " COMMON " --spp 64 -o %s --checkpoint %s",
-             path_in("two.exr"), path_in("two_ck.exr"));
+             test_path("two.exr"), test_path("two_ck.exr"));
     /* RANKS_FIRST (rank 0's hook): each rank has a chunk before any has a
      * second, so both render, whatever the timing. */
     snprintf(cmd, sizeof cmd, MPIRUN " " RANKS_FIRST " -n 1 '%s' %s : -wdir %s -n 1 '%s' %s", mpi_exe,
-             args, dir, mpi_exe, args);
+             args, test_dir(), mpi_exe, args);
     int rc = run(cmd, out, sizeof out);
     printf("%s", out);
     assert_int_equal(rc, 0);
@@ -123,13 +105,8 @@ static void test_two_ranks_same_image(void **state)
     const char *d = strstr(out, "device 0:");
     assert_non_null(d);
     assert_null(strstr(d + 1, "device 0:"));
-    Film a, b;
-    assert_int_equal(load_checkpoint(path_in("one_ck.exr"), 5, 64, &a), 64);
-    assert_int_equal(load_checkpoint(path_in("two_ck.exr"), 5, 64, &b), 64);
-    assert_same_film(&a, &b);
-    assert_same_exr(path_in("one.exr"), path_in("two.exr"));
-    film_free(&a);
-    film_free(&b);
+    assert_same_render(test_path("one_ck.exr"), test_path("two_ck.exr"), 5, 64, test_path("one.exr"),
+                       test_path("two.exr"));
 }
 
 /* A one-process checkpoint of 32 spp resumed to 64 on two ranks. */
@@ -141,22 +118,17 @@ static void test_resume_on_two_ranks(void **state)
     reference();
     char cmd[4096], out[8192];
     snprintf(cmd, sizeof cmd, "'%s' render " SCENE " " COMMON " -q --spp 32 -o %s --checkpoint %s", exe,
-             path_in("half.exr"), path_in("half_ck.exr"));
+             test_path("half.exr"), test_path("half_ck.exr"));
     int rc0 = run(cmd, out, sizeof out);
     if (rc0)
         fail_msg("exit code %d from %s:\n%s", rc0, cmd, out);
     snprintf(cmd, sizeof cmd, MPIRUN " -n 2 '%s' render " SCENE " " COMMON " -q --spp 64 -o %s --resume %s",
-             mpi_exe, path_in("resumed.exr"), path_in("half_ck.exr"));
+             mpi_exe, test_path("resumed.exr"), test_path("half_ck.exr"));
     int rc = run(cmd, out, sizeof out);
     printf("%s", out);
     assert_int_equal(rc, 0);
-    Film a, b;
-    assert_int_equal(load_checkpoint(path_in("one_ck.exr"), 5, 64, &a), 64);
-    assert_int_equal(load_checkpoint(path_in("half_ck.exr"), 5, 64, &b), 64);
-    assert_same_film(&a, &b);
-    assert_same_exr(path_in("one.exr"), path_in("resumed.exr"));
-    film_free(&a);
-    film_free(&b);
+    assert_same_render(test_path("one_ck.exr"), test_path("half_ck.exr"), 5, 64, test_path("one.exr"),
+                       test_path("resumed.exr"));
 }
 
 /* Rank 1's device fails (test hook) or cannot be selected: the run fails with
@@ -173,7 +145,7 @@ static void test_failing_rank(void **state)
     static const char *says[2] = {"error: rank 1: injected failure", "error: rank 1: device selection '9'"};
     for (int k = 0; k < 2; k++) {
         char cmd[4096], out[8192], args[512];
-        snprintf(args, sizeof args, "render " SCENE " " COMMON " -q --spp 64 -o %s", path_in("fail.exr"));
+        snprintf(args, sizeof args, "render " SCENE " " COMMON " -q --spp 64 -o %s", test_path("fail.exr"));
         snprintf(cmd, sizeof cmd, MPIRUN " " RANKS_FIRST " -n 1 '%s' %s : %s -n 1 '%s' %s %s", mpi_exe, args, extra[k],
                  mpi_exe, args, arg1[k]);
         int rc = run(cmd, out, sizeof out);
@@ -183,7 +155,7 @@ static void test_failing_rank(void **state)
         assert_non_null(first);
         assert_true(!strncmp(first, says[k], strlen(says[k])));
         assert_null(strstr(first + 1, "error: "));
-        assert_false(exists(path_in("fail.exr")));
+        assert_false(test_exists(test_path("fail.exr")));
     }
 }
 
@@ -265,9 +237,9 @@ static void test_sigusr2_then_resume(void **state)
         skip();
     reference();
     char cmd[4096], ck[256], img[256], log[256];
-    snprintf(ck, sizeof ck, "%s", path_in("usr2_ck.exr"));
-    snprintf(img, sizeof img, "%s", path_in("usr2.exr"));
-    snprintf(log, sizeof log, "%s", path_in("usr2.log"));
+    snprintf(ck, sizeof ck, "%s", test_path("usr2_ck.exr"));
+    snprintf(img, sizeof img, "%s", test_path("usr2.exr"));
+    snprintf(log, sizeof log, "%s", test_path("usr2.log"));
     snprintf(cmd, sizeof cmd,
              "exec mpirun --allow-run-as-root --oversubscribe -x SPECTRACE_TEST_SLOW_DEVICE=0:100 -n 2 '%s' "
              "render " SCENE " " COMMON " -q --spp 64 -o %s --checkpoint %s --checkpoint-every 0.05 2>%s",
@@ -278,9 +250,9 @@ static void test_sigusr2_then_resume(void **state)
         execl("/bin/sh", "sh", "-c", cmd, (char *)NULL);
         _exit(127);
     }
-    for (int i = 0; i < 3000 && !exists(ck); i++)
+    for (int i = 0; i < 3000 && !test_exists(ck); i++)
         usleep(10000);
-    assert_true(exists(ck));
+    assert_true(test_exists(ck));
     kill(pid, SIGUSR2);
     int st;
     assert_int_equal(waitpid(pid, &st, 0), pid);
@@ -294,22 +266,22 @@ static void test_sigusr2_then_resume(void **state)
     assert_true(WIFEXITED(st));
     assert_int_equal(WEXITSTATUS(st), 0);
     assert_non_null(strstr(out, "stopped by a signal"));
-    assert_true(exists(img));
+    assert_true(test_exists(img));
     Film part;
     uint32_t done = load_checkpoint(ck, 5, 64, &part);
     film_free(&part);
     printf("stopped after %u of 64 spp\n", done);
     assert_true(done > 0 && done < 64);
     snprintf(cmd, sizeof cmd, "'%s' render " SCENE " " COMMON " -q --spp 64 -o %s --resume %s", exe,
-             path_in("usr2_done.exr"), ck);
+             test_path("usr2_done.exr"), ck);
     int rc0 = run(cmd, out, sizeof out);
     if (rc0)
         fail_msg("exit code %d from %s:\n%s", rc0, cmd, out);
     Film a, b;
-    assert_int_equal(load_checkpoint(path_in("one_ck.exr"), 5, 64, &a), 64);
+    assert_int_equal(load_checkpoint(test_path("one_ck.exr"), 5, 64, &a), 64);
     assert_int_equal(load_checkpoint(ck, 5, 64, &b), 64);
     assert_same_film(&a, &b);
-    assert_same_exr(path_in("one.exr"), path_in("usr2_done.exr"));
+    assert_same_exr(test_path("one.exr"), test_path("usr2_done.exr"));
     film_free(&a);
     film_free(&b);
 }
@@ -326,5 +298,5 @@ int main(void)
         cmocka_unit_test(test_failing_rank),
         cmocka_unit_test(test_sigusr2_then_resume),
     };
-    return cmocka_run_group_tests_name("mpi", tests, setup, teardown);
+    return cmocka_run_group_tests_name("mpi", tests, setup, test_dir_teardown);
 }

@@ -36,13 +36,8 @@ static void append_prism(Scene *s)
         if (v[1] < (float)PRISM_TOP - 0.25f)
             v[1] = (float)(PRISM_TOP - (v[0] + 0.5) * tan(PRISM_ALPHA));
     }
-    m->metallic = 0.0f;
-    m->roughness = 0.0f;
-    m->transmission = 1.0f;
-    m->ior = 1.5f;
+    set_clear_glass(m, 1.5f);
     m->dispersion = (float)PRISM_DISPERSION;
-    for (int k = 0; k < 3; k++)
-        m->base_color[k] = 1.0f;
 }
 
 /* The floor (albedo FLOOR_ALBEDO, 4 x 4 m), the prism, and one white spot light
@@ -110,13 +105,7 @@ static void test_prism_dispersion(void **state)
     /* Looking straight down from 0.5 m at the beam's landing (the prism's
      * lowest point is 0.65 m high), +x to the right. */
     double x0 = want[1];
-    s.camera.position[0] = (float)x0;
-    s.camera.position[1] = 0.5f;
-    s.camera.forward[1] = -1.0f;
-    s.camera.up[2] = -1.0f;
-    s.camera.right[0] = 1.0f;
-    s.camera.yfov = 0.4f;
-    s.camera.aspect = 1.0f;
+    camera_down(&s, (float)x0, 0.5f, 0.4f, 1.0f);
     scene_update_bounds(&s);
     GpuScene g;
     SptError e = {0};
@@ -217,13 +206,8 @@ static void test_prism_mercury_lines(void **state)
     SptError e = {0};
     assert_int_equal(spd_named(&l->spd, "mercury", &e), 0);
     double xc = 0.5 * (hg_x[0] + hg_x[5]), h = 0.5, half_w = 0.05;
-    s.camera.position[0] = (float)xc;
-    s.camera.position[1] = (float)h;
-    s.camera.forward[1] = -1.0f;
-    s.camera.up[2] = -1.0f;
-    s.camera.right[0] = 1.0f;
-    s.camera.aspect = (float)HG_W / HG_H;
-    s.camera.yfov = (float)(2.0 * atan(half_w / h / s.camera.aspect));
+    const float aspect = (float)HG_W / HG_H;
+    camera_down(&s, (float)xc, (float)h, (float)(2.0 * atan(half_w / h / aspect)), aspect);
     scene_update_bounds(&s);
     RenderSettings rs = square_settings(HG_W, HG_SPP, 4, 11);
     rs.height = HG_H;

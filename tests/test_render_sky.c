@@ -223,12 +223,7 @@ static void render_punctual(int with_directional, float *rgb, int w)
     SceneMaterial *m = append_quad(&s, 0.0f);
     for (int k = 0; k < 3; k++)
         m->base_color[k] = 0.5f;
-    s.camera.position[1] = 3.0f;
-    s.camera.forward[1] = -1.0f;
-    s.camera.up[2] = -1.0f;
-    s.camera.right[0] = 1.0f;
-    s.camera.yfov = 1.0f;
-    s.camera.aspect = 1.0f;
+    camera_down(&s, 0.0f, 3.0f, 1.0f, 1.0f);
     s.light_count = with_directional ? 2 : 1;
     s.lights = calloc(2, sizeof(SceneLight));
     SceneLight *sp = &s.lights[0], *dl = &s.lights[1];

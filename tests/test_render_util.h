@@ -42,40 +42,99 @@ static int teardown_cpu_device(void **state)
     return 0;
 }
 
-/* The test hooks of render_gltf's renders. */
-static RenderTestHooks g_hooks;
+/* Settings of a w x h render of spp samples at max_depth with seed; the rest
+ * zero (the default sky; env_intensity 0: see square_settings). */
+static inline RenderSettings test_settings(int w, int h, int spp, int depth, uint32_t seed)
+{
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = w;
+    rs.height = h;
+    rs.spp = spp;
+    rs.max_depth = depth;
+    rs.seed = seed;
+    return rs;
+}
 
-/* Renders scene file `path` at w x h, spp, depth, seed into film (initialised
- * here); returns the render's exit code. */
-static inline int render_gltf(const char *path, int w, int h, int spp, int depth, uint32_t seed,
-                       Film *film, RenderStats *st)
+/* Renders scene s with rs on the test device into film (initialised here,
+ * whatever the outcome): the one path every library render of these tests
+ * takes. Returns the exit code, e its message. */
+static inline int render_film(const Scene *s, const RenderSettings *rs, Film *film, RenderStats *st,
+                              SptError *e)
+{
+    film_init_aov(film, rs->width, rs->height, rs->aov != 0);
+    GpuScene g;
+    int rc = gpu_scene_build(&g, s, e);
+    if (rc)
+        return rc;
+    rc = render_device(device, &g, &s->camera, rs, film, st, e);
+    gpu_scene_free(&g);
+    return rc;
+}
+
+/* Renders scene s at w x h into film (initialised here); background as
+ * --background (NULL: the default sky); hooks: the test hooks (may be NULL).
+ * Returns the exit code, its message printed. */
+static inline int render_scene_hooks(const Scene *s, int w, int h, int spp, int depth, uint32_t seed,
+                                     const char *background, const RenderTestHooks *hooks,
+                                     Film *film, RenderStats *st)
+{
+    RenderSettings rs = test_settings(w, h, spp, depth, seed);
+    if (hooks)
+        rs.test = *hooks;
+    Sky sky;
+    SptError e = {0};
+    int rc = sky_from_args(&sky, NULL, background, &e);
+    if (rc) {
+        fprintf(stderr, "sky %s: %s\n", background ? background : "(default)", e.msg);
+        return rc;
+    }
+    rs.sky = background ? &sky : NULL;
+    rc = render_film(s, &rs, film, st, &e);
+    if (rc)
+        fprintf(stderr, "render: %s\n", e.msg);
+    sky_free(&sky);
+    return rc;
+}
+
+static inline int render_scene(const Scene *s, int w, int h, int spp, int depth, uint32_t seed,
+                               const char *background, Film *film, RenderStats *st)
+{
+    return render_scene_hooks(s, w, h, spp, depth, seed, background, NULL, film, st);
+}
+
+/* The same for the scene file at path. */
+static inline int render_file_hooks(const char *path, int w, int h, int spp, int depth, uint32_t seed,
+                                    const char *background, const RenderTestHooks *hooks,
+                                    Film *film, RenderStats *st)
 {
     Scene s;
-    GpuScene g;
     SptError e = {0};
     int rc = scene_load_gltf(&s, path, &e);
     if (rc) {
         fprintf(stderr, "load %s: %s\n", path, e.msg);
         return rc;
     }
-    rc = gpu_scene_build(&g, &s, &e);
-    if (!rc) {
-        RenderSettings rs;
-        memset(&rs, 0, sizeof rs);
-        rs.width = w;
-        rs.height = h;
-        rs.spp = spp;
-        rs.max_depth = depth;
-        rs.seed = seed;
-        rs.test = g_hooks;
-        film_init(film, w, h);
-        rc = render_device(device, &g, &s.camera, &rs, film, st, &e);
-        if (rc)
-            fprintf(stderr, "render %s: %s\n", path, e.msg);
-        gpu_scene_free(&g);
-    }
+    rc = render_scene_hooks(&s, w, h, spp, depth, seed, background, hooks, film, st);
     scene_free(&s);
     return rc;
+}
+
+static inline int render_file(const char *path, int w, int h, int spp, int depth, uint32_t seed,
+                              const char *background, Film *film, RenderStats *st)
+{
+    return render_file_hooks(path, w, h, spp, depth, seed, background, NULL, film, st);
+}
+
+/* The test hooks of render_gltf's renders. */
+static RenderTestHooks g_hooks;
+
+/* Renders scene file `path` at w x h, spp, depth, seed into film (initialised
+ * here) with g_hooks; returns the render's exit code. */
+static inline int render_gltf(const char *path, int w, int h, int spp, int depth, uint32_t seed,
+                              Film *film, RenderStats *st)
+{
+    return render_file_hooks(path, w, h, spp, depth, seed, NULL, &g_hooks, film, st);
 }
 
 /* A square camera at (0, y, z) looking down the y-z plane along (0, -a, -b),
@@ -94,6 +153,20 @@ static inline void aim_camera(Scene *s, double y, double z, double a, double b, 
     s->camera.yfov = yfov;
     s->camera.aspect = 1.0f;
     scene_update_bounds(s);
+}
+
+/* Points the camera of s straight down (-Y) from (x, height, 0), +X to the
+ * right and -Z up in the image, of vertical field yfov and aspect; its other
+ * fields as they were. */
+static inline void camera_down(Scene *s, float x, float height, float yfov, float aspect)
+{
+    s->camera.position[0] = x;
+    s->camera.position[1] = height;
+    s->camera.forward[1] = -1.0f;
+    s->camera.up[2] = -1.0f;
+    s->camera.right[0] = 1.0f;
+    s->camera.yfov = yfov;
+    s->camera.aspect = aspect;
 }
 
 /* The means of each channel over the 4 x 4 blocks of a w x w interleaved RGB
@@ -206,12 +279,7 @@ static inline void sphere_scene(Scene *s, float albedo)
  * zero (no environment unless set; env_intensity 1 as the command line's). */
 static inline RenderSettings square_settings(int w, int spp, int depth, uint32_t seed)
 {
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = rs.height = w;
-    rs.spp = spp;
-    rs.max_depth = depth;
-    rs.seed = seed;
+    RenderSettings rs = test_settings(w, w, spp, depth, seed);
     rs.env_intensity = 1.0f;
     return rs;
 }
@@ -220,19 +288,47 @@ static inline RenderSettings square_settings(int w, int spp, int depth, uint32_t
  * per pixel; may be NULL); returns the render's exit code, e its message. */
 static inline int render_scene_rgb(const Scene *s, const RenderSettings *rs, float *rgb, SptError *e)
 {
-    GpuScene g;
-    int rc = gpu_scene_build(&g, s, e);
-    if (rc)
-        return rc;
     Film f;
     RenderStats st;
-    film_init(&f, rs->width, rs->height);
-    rc = render_device(device, &g, &s->camera, rs, &f, &st, e);
+    int rc = render_film(s, rs, &f, &st, e);
     if (!rc && rgb)
         film_to_linear_srgb(&f, rgb);
     film_free(&f);
-    gpu_scene_free(&g);
     return rc;
+}
+
+/* Grows s by n triangles of their own 3 vertices each (tri_vidx numbers them
+ * in order; their normals and uvs zero, their positions and material to be
+ * set); returns the first new triangle. */
+static inline uint32_t grow_triangles(Scene *s, uint32_t n)
+{
+    uint32_t t0 = s->tri_count, v0 = s->vertex_count;
+    s->tri_count += n;
+    s->vertex_count += 3 * n;
+    s->tri_pos = realloc(s->tri_pos, sizeof(float) * 9 * s->tri_count);
+    s->tri_vidx = realloc(s->tri_vidx, sizeof(uint32_t) * 3 * s->tri_count);
+    s->tri_mat = realloc(s->tri_mat, sizeof(uint32_t) * s->tri_count);
+    s->vtx_normal = realloc(s->vtx_normal, sizeof(float) * 3 * s->vertex_count);
+    s->vtx_uv = realloc(s->vtx_uv, sizeof(float) * 2 * s->vertex_count);
+    for (uint32_t k = 0; k < 3 * n; k++) {
+        s->tri_vidx[3 * t0 + k] = v0 + k;
+        s->vtx_normal[3 * (v0 + k)] = s->vtx_normal[3 * (v0 + k) + 1] = s->vtx_normal[3 * (v0 + k) + 2] = 0;
+        s->vtx_uv[2 * (v0 + k)] = s->vtx_uv[2 * (v0 + k) + 1] = 0;
+    }
+    return t0;
+}
+
+/* Appends a material of the glTF defaults (scene_material_default) to s for
+ * the triangles from t0 on; returns it. */
+static inline SceneMaterial *append_material(Scene *s, uint32_t t0)
+{
+    s->materials = realloc(s->materials, sizeof(SceneMaterial) * (s->material_count + 1));
+    SceneMaterial *m = &s->materials[s->material_count];
+    scene_material_default(m);
+    for (uint32_t t = t0; t < s->tri_count; t++)
+        s->tri_mat[t] = s->material_count;
+    s->material_count++;
+    return m;
 }
 
 /* Appends the quad with corners c[0..3] (counter-clockwise about its front
@@ -240,27 +336,13 @@ static inline int render_scene_rgb(const Scene *s, const RenderSettings *rs, flo
  * specular layer) to s; returns the material. */
 static inline SceneMaterial *append_rect(Scene *s, const float c[4][3])
 {
-    uint32_t t0 = s->tri_count, v0 = s->vertex_count;
-    s->tri_count += 2;
-    s->vertex_count += 6;
-    s->tri_pos = realloc(s->tri_pos, sizeof(float) * 9 * s->tri_count);
-    s->tri_vidx = realloc(s->tri_vidx, sizeof(uint32_t) * 3 * s->tri_count);
-    s->tri_mat = realloc(s->tri_mat, sizeof(uint32_t) * s->tri_count);
-    s->vtx_normal = realloc(s->vtx_normal, sizeof(float) * 3 * s->vertex_count);
-    s->vtx_uv = realloc(s->vtx_uv, sizeof(float) * 2 * s->vertex_count);
+    uint32_t t0 = grow_triangles(s, 2);
     static const int order[6] = {0, 1, 2, 0, 2, 3};
-    for (uint32_t k = 0; k < 6; k++) {
+    for (uint32_t k = 0; k < 6; k++)
         memcpy(s->tri_pos + 9 * t0 + 3 * k, c[order[k]], 3 * sizeof(float));
-        s->tri_vidx[3 * t0 + k] = v0 + k;
-        s->vtx_normal[3 * (v0 + k)] = s->vtx_normal[3 * (v0 + k) + 1] = s->vtx_normal[3 * (v0 + k) + 2] = 0;
-        s->vtx_uv[2 * (v0 + k)] = s->vtx_uv[2 * (v0 + k) + 1] = 0;
-    }
-    s->materials = realloc(s->materials, sizeof(SceneMaterial) * (s->material_count + 1));
-    SceneMaterial *m = &s->materials[s->material_count];
-    scene_material_default(m);
+    SceneMaterial *m = append_material(s, t0);
     m->metallic = 0.0f;
     m->specular = 0.0f;
-    s->tri_mat[t0] = s->tri_mat[t0 + 1] = s->material_count++;
     return m;
 }
 
@@ -276,14 +358,7 @@ static inline SceneMaterial *append_quad(Scene *s, float height)
  * with a new material to s; returns the material. */
 static inline SceneMaterial *append_box(Scene *s, const float lo[3], const float hi[3])
 {
-    uint32_t t0 = s->tri_count, v0 = s->vertex_count;
-    s->tri_count += 12;
-    s->vertex_count += 36;
-    s->tri_pos = realloc(s->tri_pos, sizeof(float) * 9 * s->tri_count);
-    s->tri_vidx = realloc(s->tri_vidx, sizeof(uint32_t) * 3 * s->tri_count);
-    s->tri_mat = realloc(s->tri_mat, sizeof(uint32_t) * s->tri_count);
-    s->vtx_normal = realloc(s->vtx_normal, sizeof(float) * 3 * s->vertex_count);
-    s->vtx_uv = realloc(s->vtx_uv, sizeof(float) * 2 * s->vertex_count);
+    uint32_t t0 = grow_triangles(s, 12);
     static const int quad[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
     uint32_t t = t0;
     for (int axis = 0; axis < 3; axis++)
@@ -303,35 +378,31 @@ static inline SceneMaterial *append_box(Scene *s, const float lo[3], const float
                 for (int k = 0; k < 3; k++)
                     memcpy(s->tri_pos + 9 * t + 3 * k, q[tri[h][k]], sizeof q[0]);
         }
-    for (uint32_t k = 0; k < 36; k++) {
-        s->tri_vidx[3 * t0 + k] = v0 + k;
-        s->vtx_normal[3 * (v0 + k)] = s->vtx_normal[3 * (v0 + k) + 1] = s->vtx_normal[3 * (v0 + k) + 2] = 0;
-        s->vtx_uv[2 * (v0 + k)] = s->vtx_uv[2 * (v0 + k) + 1] = 0;
-    }
-    s->materials = realloc(s->materials, sizeof(SceneMaterial) * (s->material_count + 1));
-    SceneMaterial *m = &s->materials[s->material_count];
-    scene_material_default(m);
-    for (uint32_t k = 0; k < 12; k++)
-        s->tri_mat[t0 + k] = s->material_count;
-    s->material_count++;
-    return m;
+    return append_material(s, t0);
+}
+
+/* Makes m clear smooth glass of index ior: white, transmission 1, roughness 0. */
+static inline void set_clear_glass(SceneMaterial *m, float ior)
+{
+    m->metallic = 0.0f;
+    m->roughness = 0.0f;
+    m->transmission = 1.0f;
+    m->ior = ior;
+    for (int k = 0; k < 3; k++)
+        m->base_color[k] = 1.0f;
 }
 
 /* Renders s with rs on the test device into film (initialised here), which
  * must come out finite. */
 static inline void render_caustic_scene(const Scene *s, const RenderSettings *rs, Film *film)
 {
-    GpuScene g;
     SptError e = {0};
-    assert_int_equal(gpu_scene_build(&g, s, &e), 0);
     RenderStats st;
-    film_init(film, rs->width, rs->height);
-    int rc = render_device(device, &g, &s->camera, rs, film, &st, &e);
+    int rc = render_film(s, rs, film, &st, &e);
     if (rc)
         fprintf(stderr, "render: %s\n", e.msg);
     assert_int_equal(rc, 0);
     assert_int_equal(film_nonfinite_pixels(film), 0);
-    gpu_scene_free(&g);
 }
 
 /* Unpolarised Fresnel reflectance of an air-glass interface at incidence

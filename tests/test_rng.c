@@ -12,14 +12,6 @@
 /* Chi-square tests in this binary, for the Sidak correction. */
 #define RNG_CHI2_TESTS 11
 
-/* Fails with the chi-square report unless r passed. */
-static void rng_require(const Chi2Result *r)
-{
-    if (!r->passed)
-        fail_msg("%s", r->message);
-    print_message("  %s\n", r->message);
-}
-
 /* Values from an independent Python implementation of the hashes
  * (arbitrary-precision integers masked to 32 bits). */
 static void test_rand_matches_reference(void **state)
@@ -97,7 +89,7 @@ static void test_rand_uniform_1d(void **state)
         expct[b] = (double)n / BINS;
     Chi2Result r;
     chi2_test_counts("spt_rand 1D", obs, expct, BINS, chi2_sidak(0.01, RNG_CHI2_TESTS), &r);
-    rng_require(&r);
+    require_pass(&r);
 }
 
 /* Pairs of spt_rand values that differ in one argument; 2D uniformity of the pairs
@@ -151,19 +143,9 @@ static void test_rand_independent_pairs(void **state)
                                    "pairs of seeds", "one dim of two bounces"};
     for (int w = 0; w < 5; w++) {
         PairCtx c = {w};
-        Chi2Grid g = {0};
-        g.name = names[w];
-        g.domain = CHI2_PLANE;
-        g.x0 = g.y0 = 0.0;
-        g.x1 = g.y1 = 1.0;
-        g.res_x = g.res_y = 32;
-        g.num_tests = RNG_CHI2_TESTS;
-        g.sample = pair_sample;
-        g.pdf = uniform_pdf;
-        g.ctx = &c;
-        Chi2Result r;
-        chi2_grid_run(&g, &r);
-        rng_require(&r);
+        Chi2Grid g =
+            chi2_plane(names[w], 0.0, 1.0, 0.0, 1.0, 32, 32, RNG_CHI2_TESTS, pair_sample, uniform_pdf, &c);
+        chi2_require(&g);
     }
 }
 
@@ -532,15 +514,8 @@ static int pixel_lens_sample(void *ctx, uint32_t i, double p[3])
 static Chi2Grid uniform_square_grid(const char *name, uint32_t samples,
                                     int (*sample)(void *, uint32_t, double[3]))
 {
-    Chi2Grid g = {0};
-    g.domain = CHI2_PLANE;
-    g.x1 = g.y1 = 1.0;
-    g.res_x = g.res_y = 16;
-    g.num_tests = RNG_CHI2_TESTS;
-    g.pdf = uniform_pdf;
-    g.name = name;
+    Chi2Grid g = chi2_plane(name, 0.0, 1.0, 0.0, 1.0, 16, 16, RNG_CHI2_TESTS, sample, uniform_pdf, NULL);
     g.samples = samples;
-    g.sample = sample;
     return g;
 }
 
@@ -554,23 +529,23 @@ static void test_sobol_scrambles_differ(void **state)
     g.samples = 1u << 18;
     g.sample = first_point_sample;
     chi2_grid_run(&g, &r);
-    rng_require(&r);
+    require_pass(&r);
 
     g.name = "pixel x against lens u";
     g.samples = 1u << 16;
     g.sample = pixel_lens_sample;
     chi2_grid_run(&g, &r);
-    rng_require(&r);
+    require_pass(&r);
 
     g.name = "light u against BSDF v at bounce 0";
     g.sample = light_bsdf_sample;
     chi2_grid_run(&g, &r);
-    rng_require(&r);
+    require_pass(&r);
 
     g.name = "BSDF u at bounce 0 against bounce 1";
     g.sample = bounce01_sample;
     chi2_grid_run(&g, &r);
-    rng_require(&r);
+    require_pass(&r);
 
     /* Two neighbouring pixels never share a sequence. */
     int same = 0;
@@ -683,7 +658,7 @@ static void test_zsobol_sampler(void **state)
                                      zs_first_point);
     Chi2Result r;
     chi2_grid_run(&g, &r);
-    rng_require(&r);
+    require_pass(&r);
 }
 
 /* ---- Host and device agree ------------------------------------------------------ */

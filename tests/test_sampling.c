@@ -77,14 +77,9 @@ static double uniform_hemisphere_pdf(void *ctx, const double p[3])
 static void test_chi2_rejects_wrong_pdf(void **state)
 {
     (void)state;
-    Chi2Grid g = {0};
-    g.name = "cosine samples against the uniform pdf";
-    g.domain = CHI2_SPHERE;
-    g.res_x = 32;
-    g.res_y = 32;
+    Chi2Grid g = chi2_sphere("cosine samples against the uniform pdf", 32, 32, 0, cosine_sample,
+                             uniform_hemisphere_pdf, NULL);
     g.samples = 100000;
-    g.sample = cosine_sample;
-    g.pdf = uniform_hemisphere_pdf;
     Chi2Result r;
     assert_false(chi2_grid_run(&g, &r));
     assert_true(r.pvalue < 1e-6);
@@ -145,17 +140,8 @@ static double uniform_sphere_pdf(void *ctx, const double p[3])
 static void run_direction_test(const char *name, int (*sample)(void *, uint32_t, double[3]),
                                double (*pdf)(void *, const double[3]))
 {
-    Chi2Grid g = {0};
-    g.name = name;
-    g.domain = CHI2_SPHERE;
-    g.res_x = 32;
-    g.res_y = 32;
-    g.num_tests = SAMPLING_CHI2_TESTS;
-    g.sample = sample;
-    g.pdf = pdf;
-    Chi2Result r;
-    chi2_grid_run(&g, &r);
-    require_pass(&r);
+    Chi2Grid g = chi2_sphere(name, 32, 32, SAMPLING_CHI2_TESTS, sample, pdf, NULL);
+    Chi2Result r = chi2_require(&g);
     assert_close(r.integral, 1.0, 1e-6);
 }
 
@@ -233,20 +219,9 @@ static double disk_polar_pdf(void *ctx, const double p[3])
 static void test_concentric_disk(void **state)
 {
     (void)state;
-    Chi2Grid g = {0};
-    g.name = "concentric disk, in (r^2, phi)";
-    g.domain = CHI2_PLANE;
-    g.x0 = 0.0;
-    g.x1 = 1.0;
-    g.y0 = 0.0;
-    g.y1 = 2.0 * M_PI;
-    g.res_x = g.res_y = 32;
-    g.num_tests = SAMPLING_CHI2_TESTS;
-    g.sample = disk_polar_sample;
-    g.pdf = disk_polar_pdf;
-    Chi2Result r;
-    chi2_grid_run(&g, &r);
-    require_pass(&r);
+    Chi2Grid g = chi2_plane("concentric disk, in (r^2, phi)", 0.0, 1.0, 0.0, 2.0 * M_PI, 32, 32,
+                            SAMPLING_CHI2_TESTS, disk_polar_sample, disk_polar_pdf, NULL);
+    Chi2Result r = chi2_require(&g);
     assert_close(r.integral, 1.0, 1e-9);
 }
 
@@ -328,19 +303,10 @@ static double triangle_pdf(void *ctx, const double p[3])
 static void test_triangle_area_sampling(void **state)
 {
     (void)state;
-    Chi2Grid g = {0};
-    g.name = "triangle by area";
-    g.domain = CHI2_PLANE;
-    g.x0 = g.y0 = 0.0;
-    g.x1 = g.y1 = 1.0;
-    g.res_x = g.res_y = 32;
-    g.num_tests = SAMPLING_CHI2_TESTS;
-    g.sample = triangle_sample;
-    g.pdf = triangle_pdf;
+    Chi2Grid g = chi2_plane("triangle by area", 0.0, 1.0, 0.0, 1.0, 32, 32, SAMPLING_CHI2_TESTS,
+                            triangle_sample, triangle_pdf, NULL);
     g.cell_prob = triangle_cell_prob;
-    Chi2Result r;
-    chi2_grid_run(&g, &r);
-    require_pass(&r);
+    Chi2Result r = chi2_require(&g);
     assert_close(r.integral, 1.0, 1e-9);
     /* The float area the renderer divides by. */
     assert_close_rel(spt_triangle_area(v3(0.1f, 0.2f, 0.0f), v3(0.9f, 0.35f, 0.0f),
@@ -691,21 +657,9 @@ static void test_wavelength_sampling(void **state)
         if (fabs(bin[k] / total * SPT_WL_BINS - 1.0) > 1e-3)
             fail_msg("wavelength bin %d [%.4f, %.4f] nm holds %.6f of the target density, expected %.6f", k,
                      SPT_WL_INV_CDF[k], SPT_WL_INV_CDF[k + 1], bin[k] / total, 1.0 / SPT_WL_BINS);
-    Chi2Grid g = {0};
-    g.name = "hero wavelengths, through the CDF";
-    g.domain = CHI2_PLANE;
-    g.x0 = 0.0;
-    g.x1 = 1.0;
-    g.y0 = 0.0;
-    g.y1 = 1.0;
-    g.res_x = 250;
-    g.res_y = 1;
-    g.num_tests = SAMPLING_CHI2_TESTS;
-    g.sample = wavelength_sample;
-    g.pdf = unit_pdf;
-    Chi2Result r;
-    chi2_grid_run(&g, &r);
-    require_pass(&r);
+    Chi2Grid g = chi2_plane("hero wavelengths, through the CDF", 0.0, 1.0, 0.0, 1.0, 250, 1,
+                            SAMPLING_CHI2_TESTS, wavelength_sample, unit_pdf, NULL);
+    chi2_require(&g);
     /* The kernel's pdf: pointwise (between bin edges), and its integral (0.01 nm). */
     double sum = 0.0;
     for (int j = 0; j < 47000; j++) {

@@ -92,12 +92,7 @@ static double render_normal_mapped(int toward_bitangent, double light_sign)
         for (int k = 0; k < 3; k++)
             tx->texels[3 * i + k] = 0.5f * (n[k] + 1.0f);
     m->tex[SPT_SLOT_NORMAL].tex = 0;
-    s.camera.position[1] = 3.0f;
-    s.camera.forward[1] = -1.0f;
-    s.camera.up[2] = -1.0f;
-    s.camera.right[0] = 1.0f;
-    s.camera.yfov = 0.2f;
-    s.camera.aspect = 1.0f;
+    camera_down(&s, 0.0f, 3.0f, 0.2f, 1.0f);
     s.light_count = 1;
     s.lights = calloc(1, sizeof(SceneLight));
     SceneLight *dl = &s.lights[0];
@@ -147,10 +142,7 @@ static void test_volume_absorption(void **state)
     memset(&s, 0, sizeof s);
     const float lo[3] = {-4, -4, -1}, hi[3] = {4, 4, 1};
     SceneMaterial *m = append_box(&s, lo, hi);
-    m->metallic = 0.0f;
-    m->transmission = 1.0f;
-    m->ior = 1.0f;
-    m->roughness = 0.0f;
+    set_clear_glass(m, 1.0f); /* ior 1: no refraction, only the medium */
     for (int k = 0; k < 3; k++)
         m->attenuation_color[k] = 0.5f;
     m->attenuation_distance = 1.0f;
@@ -294,12 +286,7 @@ static void render_point_light(const char *spd, double rgb_xyz[3], double *ratio
     if (spd)
         assert_int_equal(spd_named(&l->spd, spd, &e), 0);
     const float tf = 0.1f; /* tan of the half field of view */
-    s.camera.position[1] = 3.0f;
-    s.camera.forward[1] = -1.0f;
-    s.camera.up[2] = -1.0f;
-    s.camera.right[0] = 1.0f;
-    s.camera.yfov = 2.0f * atanf(tf);
-    s.camera.aspect = 1.0f;
+    camera_down(&s, 0.0f, 3.0f, 2.0f * atanf(tf), 1.0f);
     scene_update_bounds(&s);
     GpuScene g;
     assert_int_equal(gpu_scene_build(&g, &s, &e), 0);

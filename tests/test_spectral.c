@@ -110,12 +110,7 @@ static void test_mercury_lines(void **state)
     SceneMaterial *m = append_quad(&s, 0.0f);
     for (int k = 0; k < 3; k++)
         m->base_color[k] = 0.5f;
-    s.camera.position[1] = 2.0f;
-    s.camera.forward[1] = -1.0f;
-    s.camera.up[2] = -1.0f;
-    s.camera.right[0] = 1.0f;
-    s.camera.yfov = 0.6f;
-    s.camera.aspect = 1.0f;
+    camera_down(&s, 0.0f, 2.0f, 0.6f, 1.0f);
     scene_update_bounds(&s);
     Sky sky;
     SptError e = {0};
@@ -178,14 +173,12 @@ static void test_mercury_lines(void **state)
 static void test_exr_layout(void **state)
 {
     (void)state;
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe)
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
-    char path[64], cmd[1024];
+    char path[64], cmd[1024], err[4096];
     snprintf(path, sizeof path, "/tmp/spt-spectral-%d.exr", (int)getpid());
-    snprintf(cmd, sizeof cmd, "'%s' render scenes/cornell_box.gltf --width 8 --height 8 --spp 2 -q --spectral 4 -o %s",
-             exe, path);
-    assert_int_equal(system(cmd), 0);
+    snprintf(cmd, sizeof cmd,
+             "render scenes/cornell_box.gltf --width 8 --height 8 --spp 2 -q --spectral 4 -o %s", path);
+    if (test_run_exe("", 0, cmd, err, sizeof err))
+        fail_msg("spectrace %s:\n%s", cmd, err);
     static const char *want[] = {"R",          "G", "B", "S0.418,750000nm", "S0.536,250000nm", "S0.653,750000nm",
                                  "S0.771,250000nm"};
     ExrLayers L;
@@ -212,14 +205,12 @@ static void test_color_pixel(void **state)
 {
     (void)state;
     skip_if_quick(); /* the colour tool is host code; PoCL runs it */
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe)
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
     char path[64], cmd[1024], out[1024];
     snprintf(path, sizeof path, "/tmp/spt-spectral-px-%d.exr", (int)getpid());
-    snprintf(cmd, sizeof cmd, "'%s' render tests/data/textures/base_nosampler.gltf --width 16 --spp 1024 -q "
-             "--spectral 47 -o %s 2>/dev/null", exe, path);
-    assert_int_equal(system(cmd), 0);
+    snprintf(cmd, sizeof cmd, "render tests/data/textures/base_nosampler.gltf --width 16 --spp 1024 -q "
+             "--spectral 47 -o %s", path);
+    if (test_run_exe("", 0, cmd, out, sizeof out))
+        fail_msg("spectrace %s:\n%s", cmd, out);
     static const char *rgb_names[3] = {"R", "G", "B"};
     ExrLayers L;
     SptError e = {0};
@@ -227,12 +218,8 @@ static void test_color_pixel(void **state)
         fail_msg("%s", e.msg);
     const int px[3][2] = {{2, 2}, {6, 10}, {13, 5}};
     for (int k = 0; k < 3; k++) {
-        snprintf(cmd, sizeof cmd, "'%s' color --pixel %d,%d %s", exe, px[k][0], px[k][1], path);
-        FILE *p = popen(cmd, "r");
-        assert_non_null(p);
-        size_t n = fread(out, 1, sizeof out - 1, p);
-        out[n] = 0;
-        assert_int_equal(pclose(p), 0);
+        snprintf(cmd, sizeof cmd, "color --pixel %d,%d %s", px[k][0], px[k][1], path);
+        assert_int_equal(test_spectrace("", 0, cmd, TEST_STDOUT, out, sizeof out), 0);
         double xyz[3], lin[3];
         const char *l = strstr(out, "linear-sRGB");
         assert_non_null(l);
@@ -247,9 +234,8 @@ static void test_color_pixel(void **state)
         }
     }
     exr_layers_free(&L);
-    snprintf(cmd, sizeof cmd, "'%s' color --pixel 16,0 %s 2>/dev/null", exe, path);
-    int st = system(cmd);
-    assert_int_equal(WEXITSTATUS(st), SPT_EXIT_USAGE);
+    snprintf(cmd, sizeof cmd, "color --pixel 16,0 %s", path);
+    assert_int_equal(test_spectrace("", 0, cmd, TEST_STDOUT, out, sizeof out), SPT_EXIT_USAGE);
     unlink(path);
 }
 

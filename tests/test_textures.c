@@ -41,36 +41,15 @@ static Image render_texture_scene(const char *name, int w, int h, int spp, int d
 {
     char path[256];
     snprintf(path, sizeof path, "tests/data/textures/%s", name);
-    Scene s;
-    SptError e = {0};
-    if (scene_load_gltf(&s, path, &e))
-        fail_msg("load %s: %s", path, e.msg);
-    GpuScene g;
-    if (gpu_scene_build(&g, &s, &e))
-        fail_msg("build %s: %s", path, e.msg);
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = w;
-    rs.height = h;
-    rs.spp = spp;
-    rs.max_depth = depth;
-    rs.seed = 7;
-    Sky sky;
-    if (sky_from_args(&sky, NULL, background, &e))
-        fail_msg("sky %s: %s", background, e.msg);
-    rs.sky = &sky;
     Film f;
     RenderStats st;
-    film_init(&f, w, h);
-    if (render_device(device, &g, &s.camera, &rs, &f, &st, &e))
-        fail_msg("render %s: %s", path, e.msg);
+    int rc = render_file(path, w, h, spp, depth, 7, background, &f, &st);
+    if (rc)
+        fail_msg("render %s: exit %d (its message above)", path, rc);
     assert_int_equal(st.nan_dropped, 0);
     Image im = {w, h, malloc(sizeof(float) * 3 * (size_t)w * h)};
     film_to_linear_srgb(&f, im.rgb);
     film_free(&f);
-    sky_free(&sky);
-    gpu_scene_free(&g);
-    scene_free(&s);
     return im;
 }
 
@@ -246,6 +225,16 @@ static void assert_kind_cells(const Image *im, const double want[4], double rel,
         }
 }
 
+/* Renders tests/data/textures/NAME (render_texture_scene, 32 samples) and
+ * checks its kinds of cells against want (assert_kind_cells). */
+static void render_kind_cells(const char *name, int w, int h, int depth, const char *background,
+                              const double want[4], double rel, double abs_tol)
+{
+    Image im = render_texture_scene(name, w, h, 32, depth, background);
+    assert_kind_cells(&im, want, rel, abs_tol);
+    free(im.rgb);
+}
+
 /* Alpha (linear, not sRGB-decoded) of the base colour texture: cells of alpha
  * 51, 128, 204, 255 over a black plane under the white sky. BLEND shows 1 - alpha;
  * MASK (cutoff 0.6) the sky where alpha < 0.6, else black. The same texture on a
@@ -261,10 +250,8 @@ static void test_alpha_blend_and_mask(void **state)
         blend[k] = 1.0 - a8[k] / 255.0;
         mask[k] = a8[k] / 255.0 < 0.6 ? 1.0 : 0.0;
     }
-    Image im = render_texture_scene("alpha_blend.gltf", 64, 64, 32, 2, NULL);
-    assert_kind_cells(&im, blend, 0.05, 0.02);
-    free(im.rgb);
-    im = render_texture_scene("alpha_mask.gltf", 64, 64, 16, 2, NULL);
+    render_kind_cells("alpha_blend.gltf", 64, 64, 2, NULL, blend, 0.05, 0.02);
+    Image im = render_texture_scene("alpha_mask.gltf", 64, 64, 16, 2, NULL);
     assert_kind_cells(&im, mask, 0.0, 0.03);
     free(im.rgb);
     const int rgb8[4][3] = {{200, 100, 50}, {40, 200, 120}, {120, 40, 200}, {200, 200, 40}};
@@ -308,9 +295,7 @@ static void test_metallic_roughness(void **state)
     skip_if_quick();
     double a = (128.0 / 255.0) * (128.0 / 255.0);
     const double want[4] = {0.25, 1.0 / (4.0 * a * a), 0.0, 0.96 + 0.01};
-    Image im = render_texture_scene("metallic_roughness.gltf", 64, 64, 32, 2, "black");
-    assert_kind_cells(&im, want, 0.03, 0.005);
-    free(im.rgb);
+    render_kind_cells("metallic_roughness.gltf", 64, 64, 2, "black", want, 0.03, 0.005);
 }
 
 /* The normal texture (scale 0.7) of a white Lambertian lit by pi lux from
@@ -385,9 +370,7 @@ static void test_transmission_texture(void **state)
     (void)state;
     skip_if_quick();
     const double want[4] = {0.0, 64.0 / 255.0, 128.0 / 255.0, 1.0};
-    Image im = render_texture_scene("transmission.gltf", 64, 64, 32, 4, "black");
-    assert_kind_cells(&im, want, 0.03, 0.03);
-    free(im.rgb);
+    render_kind_cells("transmission.gltf", 64, 64, 4, "black", want, 0.03, 0.03);
 }
 
 /* The base colour pattern read through TEXCOORD_1 (texCoord 1; TEXCOORD_0 is one
@@ -567,9 +550,7 @@ static void test_clearcoat(void **state)
     skip_if_quick();
     double a = (128.0 / 255.0) * (128.0 / 255.0), h = 128.0 / 255.0;
     const double want[4] = {0.01 / (a * a), 0.01, h * 0.01 / (a * a), 0.0};
-    Image im = render_texture_scene("clearcoat.gltf", 64, 64, 32, 2, "black");
-    assert_kind_cells(&im, want, 0.03, 0.002);
-    free(im.rgb);
+    render_kind_cells("clearcoat.gltf", 64, 64, 2, "black", want, 0.03, 0.002);
 }
 
 /* The clearcoat normal texture (NEAREST: left half flat, right half the texel
@@ -639,9 +620,7 @@ static void test_sheen(void **state)
         want[k] = M_PI * colour[k] * D * V * mu;
     }
     print_message("  expected %.5f %.5f %.5f %.5f\n", want[0], want[1], want[2], want[3]);
-    Image im = render_texture_scene("sheen.gltf", 64, 32, 32, 2, "black");
-    assert_kind_cells(&im, want, 0.03, 0.002);
-    free(im.rgb);
+    render_kind_cells("sheen.gltf", 64, 32, 2, "black", want, 0.03, 0.002);
 }
 
 /* KHR_materials_specular's textures on a black dielectric (roughness 0.5, alpha
@@ -671,24 +650,16 @@ static void test_specular_textures(void **state)
  * lights is lit by the default sky (a note, no warning that the image will be
  * black); only a black sky earns the warning. */
 
-/* Runs `$SPECTRACE_EXE render ARGS` into a temporary folder with stderr captured
+/* Runs `spectrace render ARGS` into a temporary EXR with stderr captured
  * into out; returns the exit status. */
 static int run_render(const char *args, char *out, size_t out_size)
 {
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe || access(exe, X_OK))
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
-    char dir[] = "/tmp/spt_textures_XXXXXX";
-    assert_non_null(mkdtemp(dir));
-    char cmd[1024];
-    snprintf(cmd, sizeof cmd, "'%s' render %s -q -o %s/out.exr 2>&1 >/dev/null; rm -rf %s", exe, args,
-             dir, dir);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, out_size - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : 128;
+    char exr[64], a[1024];
+    snprintf(exr, sizeof exr, "/tmp/spt_textures_%d.exr", (int)getpid());
+    snprintf(a, sizeof a, "render %s -q -o %s", args, exr);
+    int rc = test_run_exe("", 0, a, out, out_size);
+    unlink(exr);
+    return rc;
 }
 
 static void test_sky_lit_scene_not_called_black(void **state)
@@ -720,17 +691,10 @@ static void test_info_slots_and_texcoord_warning(void **state)
 {
     (void)state;
     skip_if_quick();
-    const char *exe = getenv("SPECTRACE_EXE");
-    if (!exe || access(exe, X_OK))
-        fail_msg("SPECTRACE_EXE is not set (run through tests/run_tests.sh)");
-    char cmd[1024];
-    snprintf(cmd, sizeof cmd, "'%s' info --no-bvh tests/data/textures/texcoord1.gltf 2>&1", exe);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
     static char out[16384];
-    size_t n = fread(out, 1, sizeof out - 1, p);
-    out[n] = 0;
-    assert_int_equal(pclose(p), 0);
+    assert_int_equal(test_spectrace("", 0, "info --no-bvh tests/data/textures/texcoord1.gltf", TEST_BOTH,
+                                    out, sizeof out),
+                     0);
     if (!strstr(out, "baseColor textures[0] uv 1"))
         fail_msg("info does not show the base colour slot with its texture and uv set:\n%s", out);
     int warned = 0;
@@ -738,11 +702,9 @@ static void test_info_slots_and_texcoord_warning(void **state)
         warned += strstr(q, "TEXCOORD_2") && strstr(q, "TEXCOORD_2") < strchr(q, '\n');
     if (warned != 1)
         fail_msg("expected one warning about TEXCOORD_2, got %d:\n%s", warned, out);
-    snprintf(cmd, sizeof cmd, "'%s' info --no-bvh tests/data/textures/clearcoat_normal.gltf 2>&1", exe);
-    p = popen(cmd, "r");
-    n = fread(out, 1, sizeof out - 1, p);
-    out[n] = 0;
-    assert_int_equal(pclose(p), 0);
+    assert_int_equal(test_spectrace("", 0, "info --no-bvh tests/data/textures/clearcoat_normal.gltf",
+                                    TEST_BOTH, out, sizeof out),
+                     0);
     if (!strstr(out, "clearcoat 1 roughness 0.5") || !strstr(out, "clearcoatNormal textures[0] uv 0"))
         fail_msg("info does not show the clearcoat and its normal slot:\n%s", out);
     /* The camera's far plane on its line. */
