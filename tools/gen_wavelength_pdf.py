@@ -30,7 +30,7 @@ FLOOR = 0.01
 M = ((3.2406, -1.5372, -0.4986), (-0.9689, 1.8758, 0.0415), (0.0557, -0.2040, 1.0570))
 
 
-def cie_tables(path=os.path.join(ROOT, "kernels", "shared", "cie_data.h")):
+def cie_tables(path=os.path.join(ROOT, "kernels", "spectrum", "cie_data.h")):
     text = open(path).read()
     out = {}
     for name in ("SPT_CIE_X", "SPT_CIE_Y", "SPT_CIE_Z"):

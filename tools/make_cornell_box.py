@@ -117,7 +117,7 @@ XYZ_TO_SRGB = ((3.2406, -1.5372, -0.4986), (-0.9689, 1.8758, 0.0415), (0.0557, -
 # ---------------------------------------------------------------------------
 # Colour helpers
 # ---------------------------------------------------------------------------
-def load_cie_1931(path=os.path.join(ROOT, "kernels", "shared", "cie_data.h")):
+def load_cie_1931(path=os.path.join(ROOT, "kernels", "spectrum", "cie_data.h")):
     """The CIE 1931 CMFs at 1 nm from 360 to 830 nm, parsed from kernels/spectrum/cie_data.h."""
     text = open(path).read()
     tables = {}

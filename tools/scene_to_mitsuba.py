@@ -301,9 +301,8 @@ def observer():
     if _OBSERVER is None:
         import re
         root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-        paths = [os.path.join(root, "kernels", sub, "cie_data.h") for sub in ("shared", "")]
-        path = next((q for q in paths if os.path.exists(q)), None)
-        if path is None:
+        path = os.path.join(root, "kernels", "spectrum", "cie_data.h")
+        if not os.path.exists(path):
             raise ValueError("kernels/spectrum/cie_data.h not found (the observer of --colour exact)")
         with open(path) as f:
             text = f.read()
