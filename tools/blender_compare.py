@@ -59,6 +59,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import scene_to_mitsuba as s2m  # noqa: E402  (glTF reading: nodes, cameras, bounds)
+from mitsuba_compare import flip_error  # noqa: E402  (the FLIP error both comparisons print)
 
 BPY_MISSING = "bpy is not installed: `pip install bpy flip-evaluator` (Blender as a Python module) to compare"
 
@@ -345,15 +346,6 @@ def read_exr(bpy, np, path):
         return buf.reshape(h, w, 4)[::-1, :, :3].astype(np.float64)
     finally:
         bpy.data.images.remove(img)
-
-
-def flip_error(np, ref, test):
-    try:
-        import flip_evaluator as flip
-    except ImportError:
-        return None
-    _, mean, _ = flip.evaluate(np.ascontiguousarray(ref, np.float32), np.ascontiguousarray(test, np.float32), "HDR")
-    return float(mean)
 
 
 def main(argv=None):

@@ -33,6 +33,9 @@ import re
 import struct
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from data_table import read_columns  # noqa: E402
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
@@ -69,29 +72,11 @@ CAMERA_POS_MM = (278.0, 273.0, -800.0)
 FOCAL_MM, FILM_MM = 35.0, 25.0   # 35 mm lens, 25 mm x 25 mm film
 YFOV = 2.0 * math.atan(0.5 * FILM_MM / FOCAL_MM)  # 0.68611 rad = 39.3077 degrees
 
-# Spectral reflectances, 400..700 nm in 4 nm steps (76 values), from the same page.
-WL_4NM = list(range(400, 701, 4))
-WHITE_REFL = [
-    0.343, 0.445, 0.551, 0.624, 0.665, 0.687, 0.708, 0.723, 0.715, 0.710, 0.745, 0.758, 0.739,
-    0.767, 0.777, 0.765, 0.751, 0.745, 0.748, 0.729, 0.745, 0.757, 0.753, 0.750, 0.746, 0.747,
-    0.735, 0.732, 0.739, 0.734, 0.725, 0.721, 0.733, 0.725, 0.732, 0.743, 0.744, 0.748, 0.728,
-    0.716, 0.733, 0.726, 0.713, 0.740, 0.754, 0.764, 0.752, 0.736, 0.734, 0.741, 0.740, 0.732,
-    0.745, 0.755, 0.751, 0.744, 0.731, 0.733, 0.744, 0.731, 0.712, 0.708, 0.729, 0.730, 0.727,
-    0.707, 0.703, 0.729, 0.750, 0.760, 0.751, 0.739, 0.724, 0.730, 0.740, 0.737]
-GREEN_REFL = [
-    0.092, 0.096, 0.098, 0.097, 0.098, 0.095, 0.095, 0.097, 0.095, 0.094, 0.097, 0.098, 0.096,
-    0.101, 0.103, 0.104, 0.107, 0.109, 0.112, 0.115, 0.125, 0.140, 0.160, 0.187, 0.229, 0.285,
-    0.343, 0.390, 0.435, 0.464, 0.472, 0.476, 0.481, 0.462, 0.447, 0.441, 0.426, 0.406, 0.373,
-    0.347, 0.337, 0.314, 0.285, 0.277, 0.266, 0.250, 0.230, 0.207, 0.186, 0.171, 0.160, 0.148,
-    0.141, 0.136, 0.130, 0.126, 0.123, 0.121, 0.122, 0.119, 0.114, 0.115, 0.117, 0.117, 0.118,
-    0.120, 0.122, 0.128, 0.132, 0.139, 0.144, 0.146, 0.150, 0.152, 0.157, 0.159]
-RED_REFL = [
-    0.040, 0.046, 0.048, 0.053, 0.049, 0.050, 0.053, 0.055, 0.057, 0.056, 0.059, 0.057, 0.061,
-    0.061, 0.060, 0.062, 0.062, 0.062, 0.061, 0.062, 0.060, 0.059, 0.057, 0.058, 0.058, 0.058,
-    0.056, 0.055, 0.056, 0.059, 0.057, 0.055, 0.059, 0.059, 0.058, 0.059, 0.061, 0.061, 0.063,
-    0.063, 0.067, 0.068, 0.072, 0.080, 0.090, 0.099, 0.124, 0.154, 0.192, 0.255, 0.287, 0.349,
-    0.402, 0.443, 0.487, 0.513, 0.558, 0.584, 0.620, 0.606, 0.609, 0.651, 0.612, 0.610, 0.650,
-    0.638, 0.627, 0.620, 0.630, 0.628, 0.642, 0.639, 0.657, 0.639, 0.635, 0.642]
+# Spectral reflectances, 400..700 nm in 4 nm steps (76 values), from the same
+# page (tools/data/cornell_box_reflectance.csv).
+_REFL = read_columns("cornell_box_reflectance.csv")
+WL_4NM = [int(w) for w in _REFL["wavelength_nm"]]
+WHITE_REFL, GREEN_REFL, RED_REFL = _REFL["white"], _REFL["green"], _REFL["red"]
 # The material objects of the default scene (mm, on the floor where the short
 # block stands, and in front of the tall block).
 GLASS_CENTER_MM, GLASS_RADIUS_MM = (186.0, 100.0, 169.0), 100.0
@@ -286,10 +271,10 @@ class GltfBuilder:
         self.doc["materials"].append(m)
         return len(self.doc["materials"]) - 1
 
-    def geometry(self, positions, triangles, normals=None):
+    def geometry(self, positions, triangles, normals=None, small_indices=True):
         """Writes vertex and index data once; returns (attributes, indices accessor)
         for mesh_from (several meshes may share them). Indices are u16 when the
-        vertices allow it."""
+        vertices allow it and small_indices, else u32."""
         pos = b"".join(struct.pack("<3f", *p) for p in positions)
         mn = [min(p[k] for p in positions) for k in range(3)]
         mx = [max(p[k] for p in positions) for k in range(3)]
@@ -297,7 +282,7 @@ class GltfBuilder:
         if normals is not None:
             nrm = b"".join(struct.pack("<3f", *n) for n in normals)
             attrs["NORMAL"] = self._accessor(self._view(nrm, 34962), 5126, len(normals), "VEC3")
-        if len(positions) < 65536:
+        if small_indices and len(positions) < 65536:
             idx = b"".join(struct.pack("<3H", *t) for t in triangles)
             ind = self._accessor(self._view(idx, 34963), 5123, 3 * len(triangles), "SCALAR")
         else:
@@ -345,19 +330,8 @@ class GltfBuilder:
 
     def mesh(self, name, positions, triangles, material, normals=None):
         """A triangle mesh node. positions: [(x,y,z)], triangles: [(i,j,k)]
-        counter-clockwise seen from the front."""
-        pos = b"".join(struct.pack("<3f", *p) for p in positions)
-        mn = [min(p[k] for p in positions) for k in range(3)]
-        mx = [max(p[k] for p in positions) for k in range(3)]
-        attrs = {"POSITION": self._accessor(self._view(pos, 34962), 5126, len(positions), "VEC3", mn, mx)}
-        if normals is not None:
-            nrm = b"".join(struct.pack("<3f", *n) for n in normals)
-            attrs["NORMAL"] = self._accessor(self._view(nrm, 34962), 5126, len(normals), "VEC3")
-        idx = b"".join(struct.pack("<3I", *t) for t in triangles)
-        ind = self._accessor(self._view(idx, 34963), 5125, 3 * len(triangles), "SCALAR")
-        self.doc["meshes"].append({"name": name, "primitives": [
-            {"attributes": attrs, "indices": ind, "material": material, "mode": 4}]})
-        self.node({"name": name, "mesh": len(self.doc["meshes"]) - 1})
+        counter-clockwise seen from the front (u32 indices)."""
+        self.mesh_from(name, self.geometry(positions, triangles, normals, small_indices=False), material)
 
     def quads_mesh(self, name, quads, material):
         """A mesh of flat quads (4 vertices each, already oriented), two triangles
