@@ -85,17 +85,14 @@ static void test_mask(void **state)
 static void render_box(int spp, int adaptive, Film *film)
 {
     Scene s;
-    GpuScene g;
     SptError e = {0};
-    if (scene_load_gltf(&s, SCENE, &e) || gpu_scene_build(&g, &s, &e))
+    if (scene_load_gltf(&s, SCENE, &e))
         fail_msg("%s", e.msg);
     RenderSettings rs = square_settings(W, spp, 8, 5);
     rs.adaptive = adaptive ? SPT_SWITCH_ON : SPT_SWITCH_OFF;
     RenderStats st;
-    film_init(film, W, W);
-    if (render_device(device, &g, &s.camera, &rs, film, &st, &e))
+    if (render_film(&s, &rs, film, &st, &e))
         fail_msg("render: %s", e.msg);
-    gpu_scene_free(&g);
     scene_free(&s);
 }
 

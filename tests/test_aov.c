@@ -24,16 +24,11 @@
  * here, with AOV sums when rs->aov); fails the test on an error. */
 static void render_aov(const Scene *s, const RenderSettings *rs, Film *film)
 {
-    GpuScene g;
     SptError e = {0};
-    if (gpu_scene_build(&g, s, &e))
-        fail_msg("%s", e.msg);
     RenderStats st;
-    film_init_aov(film, rs->width, rs->height, rs->aov != 0);
-    if (render_device(device, &g, &s->camera, rs, film, &st, &e))
+    if (render_film(s, rs, film, &st, &e))
         fail_msg("render: %s", e.msg);
     assert_int_equal(st.nan_dropped, 0);
-    gpu_scene_free(&g);
 }
 
 /* One layer of film, malloc'd (3 floats per pixel room). */

@@ -371,18 +371,14 @@ static void test_two_caustic_spheres(void **state)
  * s with --caustics caustics, and its film in *film. */
 static uint64_t render_counting(const Scene *s, int caustics, Film *film)
 {
-    GpuScene g;
     SptError e = {0};
-    assert_int_equal(gpu_scene_build(&g, s, &e), 0);
     RenderSettings rs = square_settings(48, 4, -1, 3);
     rs.caustics = caustics;
     RenderStats st;
-    film_init(film, rs.width, rs.height);
-    int rc = render_device(device, &g, &s->camera, &rs, film, &st, &e);
+    int rc = render_film(s, &rs, film, &st, &e);
     if (rc)
         fprintf(stderr, "render: %s\n", e.msg);
     assert_int_equal(rc, 0);
-    gpu_scene_free(&g);
     return st.rays_extend;
 }
 

@@ -30,6 +30,13 @@ static void write_text(const char *path, const char *text)
     assert_int_equal(fclose(f), 0);
 }
 
+/* Makes the new folder g_tmp/name, its path into dir. */
+static void new_folder(char *dir, size_t cap, const char *name)
+{
+    snprintf(dir, cap, "%s/%s", g_tmp, name);
+    assert_int_equal(mkdir(dir, 0755), 0);
+}
+
 static long file_size(const char *path)
 {
     struct stat st;
@@ -359,8 +366,7 @@ static void test_includes_resolve_once_with_line_markers(void **state)
 {
     (void)state;
     char dir[512], path[600];
-    snprintf(dir, sizeof dir, "%s/kinc", g_tmp);
-    assert_int_equal(mkdir(dir, 0755), 0);
+    new_folder(dir, sizeof dir, "kinc");
     snprintf(path, sizeof path, "%s/a.cl", dir);
     write_text(path, "x\n#include \"b.h\"\ny\n  #  include \"b.h\"\nz");
     snprintf(path, sizeof path, "%s/b.h", dir);
@@ -420,8 +426,7 @@ static void test_build_error_reports_device_and_log(void **state)
 {
     (void)state;
     char dir[512], path[600];
-    snprintf(dir, sizeof dir, "%s/kbroken", g_tmp);
-    assert_int_equal(mkdir(dir, 0755), 0);
+    new_folder(dir, sizeof dir, "kbroken");
     snprintf(path, sizeof path, "%s/broken.cl", dir);
     write_text(path, "#include \"helper.h\"\n"
                      "__kernel void k_broken(__global int *o) { o[0] = helper(); }\n");

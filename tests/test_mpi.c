@@ -33,6 +33,14 @@ static int run(const char *cmd, char *out, size_t cap)
     return test_sh(cmd, TEST_STDERR, out, cap);
 }
 
+/* run() that must succeed; prints the program's messages when it does not. */
+static void run_ok(const char *cmd, char *out, size_t cap)
+{
+    int rc = run(cmd, out, cap);
+    if (rc)
+        fail_msg("exit code %d from %s:\n%s", rc, cmd, out);
+}
+
 /* The one-process reference: 64 spp with its checkpoint (rendered once). */
 static void reference(void)
 {
@@ -42,9 +50,7 @@ static void reference(void)
     char cmd[2048], out[8192];
     snprintf(cmd, sizeof cmd, "'%s' render " SCENE " " COMMON " -q --spp 64 -o %s --checkpoint %s", exe,
              test_path("one.exr"), test_path("one_ck.exr"));
-    int rc0 = run(cmd, out, sizeof out);
-    if (rc0)
-        fail_msg("exit code %d from %s:\n%s", rc0, cmd, out);
+    run_ok(cmd, out, sizeof out);
     done = 1;
 }
 
@@ -119,9 +125,7 @@ static void test_resume_on_two_ranks(void **state)
     char cmd[4096], out[8192];
     snprintf(cmd, sizeof cmd, "'%s' render " SCENE " " COMMON " -q --spp 32 -o %s --checkpoint %s", exe,
              test_path("half.exr"), test_path("half_ck.exr"));
-    int rc0 = run(cmd, out, sizeof out);
-    if (rc0)
-        fail_msg("exit code %d from %s:\n%s", rc0, cmd, out);
+    run_ok(cmd, out, sizeof out);
     snprintf(cmd, sizeof cmd, MPIRUN " -n 2 '%s' render " SCENE " " COMMON " -q --spp 64 -o %s --resume %s",
              mpi_exe, test_path("resumed.exr"), test_path("half_ck.exr"));
     int rc = run(cmd, out, sizeof out);
@@ -274,9 +278,7 @@ static void test_sigusr2_then_resume(void **state)
     assert_true(done > 0 && done < 64);
     snprintf(cmd, sizeof cmd, "'%s' render " SCENE " " COMMON " -q --spp 64 -o %s --resume %s", exe,
              test_path("usr2_done.exr"), ck);
-    int rc0 = run(cmd, out, sizeof out);
-    if (rc0)
-        fail_msg("exit code %d from %s:\n%s", rc0, cmd, out);
+    run_ok(cmd, out, sizeof out);
     Film a, b;
     assert_int_equal(load_checkpoint(test_path("one_ck.exr"), 5, 64, &a), 64);
     assert_int_equal(load_checkpoint(ck, 5, 64, &b), 64);

@@ -246,22 +246,15 @@ static void test_orthographic(void **state)
 {
     (void)state;
     Scene s;
-    GpuScene g;
     SptError e = {0};
     sphere_scene(&s, 1.0f);
     s.materials[0].unlit = 1;
     s.camera.orthographic = 1;
     s.camera.xmag = s.camera.ymag = 2.0f;
-    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = rs.height = 64;
-    rs.spp = 16;
-    rs.max_depth = -1;
+    RenderSettings rs = test_settings(64, 64, 16, -1, 0);
     Film f;
     RenderStats st;
-    film_init(&f, 64, 64);
-    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    assert_int_equal(render_film(&s, &rs, &f, &st, &e), 0);
     double m[3];
     film_mean(&f, m);
     /* The polyhedral sphere's silhouette is a 96-gon inscribed in the unit circle. */
@@ -269,7 +262,6 @@ static void test_orthographic(void **state)
     printf("orthographic: mean %.4f, expected %.4f\n", m[1], want);
     assert_close_rel(m[1], want, 0.02);
     film_free(&f);
-    gpu_scene_free(&g);
     scene_free(&s);
 }
 

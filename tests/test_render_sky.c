@@ -25,19 +25,12 @@ static void test_default_sky(void **state)
 {
     (void)state;
     Scene s;
-    GpuScene g;
     SptError e = {0};
     sphere_scene(&s, 0.5f);
-    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = rs.height = 32;
-    rs.spp = 64;
-    rs.max_depth = -1;
+    RenderSettings rs = test_settings(32, 32, 64, -1, 0);
     Film f;
     RenderStats st;
-    film_init(&f, 32, 32);
-    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    assert_int_equal(render_film(&s, &rs, &f, &st, &e), 0);
     float *rgb = malloc(32 * 32 * 3 * sizeof(float));
     film_to_linear_srgb(&f, rgb);
     /* The central 8x8 pixels see the sphere's front, the corners the sky
@@ -63,15 +56,13 @@ static void test_default_sky(void **state)
     Sky black;
     assert_int_equal(sky_from_args(&black, NULL, "black", &e), 0);
     rs.sky = &black;
-    film_init(&f, 32, 32);
-    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    assert_int_equal(render_film(&s, &rs, &f, &st, &e), 0);
     film_to_linear_srgb(&f, rgb);
     for (int i = 0; i < 32 * 32 * 3; i++)
         assert_true(rgb[i] == 0.0f);
     film_free(&f);
     sky_free(&black);
     free(rgb);
-    gpu_scene_free(&g);
     scene_free(&s);
 }
 
@@ -306,7 +297,6 @@ static void test_named_light_spectra(void **state)
     const double tol[2] = {0.015, 0.03};
     for (int k = 0; k < 2; k++) {
         Scene s;
-        GpuScene g;
         SptError e = {0};
         assert_int_equal(scene_load_gltf(&s, "tests/data/scenes/plane_irradiance.gltf", &e), 0);
         Spd spd;
@@ -327,16 +317,10 @@ static void test_named_light_spectra(void **state)
                 emitters++;
             }
         assert_int_equal(emitters, 1);
-        assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
-        RenderSettings rs;
-        memset(&rs, 0, sizeof rs);
-        rs.width = rs.height = 8;
-        rs.spp = spp[k];
-        rs.max_depth = -1;
+        RenderSettings rs = test_settings(8, 8, spp[k], -1, 0);
         Film f;
         RenderStats st;
-        film_init(&f, 8, 8);
-        assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+        assert_int_equal(render_film(&s, &rs, &f, &st, &e), 0);
         double got[3] = {0, 0, 0};
         for (int i = 0; i < 64; i++)
             for (int c = 0; c < 3; c++)
@@ -348,7 +332,6 @@ static void test_named_light_spectra(void **state)
             assert_close_rel(got[c], rho_f * xyz[c] * scale / SPT_CIE_Y_INTEGRAL_HOST, tol[k]);
         spd_free(&spd);
         film_free(&f);
-        gpu_scene_free(&g);
         scene_free(&s);
     }
 }

@@ -57,12 +57,13 @@ static inline RenderSettings test_settings(int w, int h, int spp, int depth, uin
 }
 
 /* Renders scene s with rs on the test device into film (initialised here,
- * whatever the outcome): the one path every library render of these tests
- * takes. Returns the exit code, e its message. */
+ * whatever the outcome, with AOV sums when rs->aov and rs->spectral bands):
+ * the one path every library render of these tests takes. Returns the exit
+ * code, e its message. */
 static inline int render_film(const Scene *s, const RenderSettings *rs, Film *film, RenderStats *st,
                               SptError *e)
 {
-    film_init_aov(film, rs->width, rs->height, rs->aov != 0);
+    film_init_full(film, rs->width, rs->height, rs->aov != 0, rs->spectral);
     GpuScene g;
     int rc = gpu_scene_build(&g, s, e);
     if (rc)

@@ -25,23 +25,16 @@ static void test_unlit(void **state)
 {
     (void)state;
     Scene s;
-    GpuScene g;
     SptError e = {0};
     sphere_scene(&s, 0.0f);
     const float want[3] = {0.2f, 0.5f, 0.8f};
     for (int k = 0; k < 3; k++)
         s.materials[0].base_color[k] = want[k];
     s.materials[0].unlit = 1;
-    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = rs.height = 16;
-    rs.spp = 64;
-    rs.max_depth = -1;
+    RenderSettings rs = test_settings(16, 16, 64, -1, 0);
     Film f;
     RenderStats st;
-    film_init(&f, 16, 16);
-    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    assert_int_equal(render_film(&s, &rs, &f, &st, &e), 0);
     float rgb[16 * 16 * 3];
     film_to_linear_srgb(&f, rgb);
     double c[3] = {0, 0, 0};
@@ -54,7 +47,6 @@ static void test_unlit(void **state)
         assert_close(c[k], want[k], 0.01);
     assert_true(rgb[0] == 0.0f); /* a corner sees the black background */
     film_free(&f);
-    gpu_scene_free(&g);
     scene_free(&s);
 }
 
@@ -221,7 +213,6 @@ static void test_alpha_blend_and_mask(void **state)
     const double open = 0.96833700; /* tests/data/scenes/README.md: rho L0 mean(F) */
     for (int mode = 0; mode < 2; mode++) {
         Scene s;
-        GpuScene g;
         SptError e = {0};
         assert_int_equal(scene_load_gltf(&s, "tests/data/scenes/plane_irradiance.gltf", &e), 0);
         SceneMaterial *m = append_quad(&s, 0.75f);
@@ -229,16 +220,10 @@ static void test_alpha_blend_and_mask(void **state)
         m->base_color[3] = mode == 0 ? 0.5f : 0.3f;
         m->alpha_mode = mode == 0 ? SPT_ALPHA_BLEND : SPT_ALPHA_MASK;
         m->alpha_cutoff = 0.5f;
-        assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
-        RenderSettings rs;
-        memset(&rs, 0, sizeof rs);
-        rs.width = rs.height = 16;
-        rs.spp = 128;
-        rs.max_depth = -1;
+        RenderSettings rs = test_settings(16, 16, 128, -1, 0);
         Film f;
         RenderStats st;
-        film_init(&f, 16, 16);
-        assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+        assert_int_equal(render_film(&s, &rs, &f, &st, &e), 0);
         double mean[3];
         film_mean(&f, mean);
         double want = mode == 0 ? 0.5 * open : open;
@@ -246,7 +231,6 @@ static void test_alpha_blend_and_mask(void **state)
         for (int c = 0; c < 3; c++)
             assert_close_rel(mean[c], want, 0.02);
         film_free(&f);
-        gpu_scene_free(&g);
         scene_free(&s);
     }
 }
@@ -288,13 +272,10 @@ static void render_point_light(const char *spd, double rgb_xyz[3], double *ratio
     const float tf = 0.1f; /* tan of the half field of view */
     camera_down(&s, 0.0f, 3.0f, 2.0f * atanf(tf), 1.0f);
     scene_update_bounds(&s);
-    GpuScene g;
-    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
     RenderSettings rs = square_settings(SPL_W, 256, 2, 5);
     Film f;
     RenderStats st;
-    film_init(&f, SPL_W, SPL_W);
-    assert_int_equal(render_device(device, &g, &s.camera, &rs, &f, &st, &e), 0);
+    assert_int_equal(render_film(&s, &rs, &f, &st, &e), 0);
     double sum_y = 0, sum_want = 0;
     for (int k = 0; k < 3; k++)
         rgb_xyz[k] = 0;
@@ -311,7 +292,6 @@ static void render_point_light(const char *spd, double rgb_xyz[3], double *ratio
         }
     *ratio = sum_y / sum_want;
     film_free(&f);
-    gpu_scene_free(&g);
     scene_free(&s);
 }
 

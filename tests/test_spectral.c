@@ -21,16 +21,11 @@
 /* Renders s with rs into film (with rs->spectral bands). */
 static void render_bands(const Scene *s, const RenderSettings *rs, Film *film)
 {
-    GpuScene g;
     SptError e = {0};
-    if (gpu_scene_build(&g, s, &e))
-        fail_msg("%s", e.msg);
     RenderStats st;
-    film_init_full(film, rs->width, rs->height, 0, rs->spectral);
-    if (render_device(device, &g, &s->camera, rs, film, &st, &e))
+    if (render_film(s, rs, film, &st, &e))
         fail_msg("render: %s", e.msg);
     assert_int_equal(st.nan_dropped, 0);
-    gpu_scene_free(&g);
 }
 
 /* The Cornell box with 47 bands of 10 nm: per band, the integral of the CIE
