@@ -90,9 +90,7 @@ static void render_box(int spp, int adaptive, Film *film)
         fail_msg("%s", e.msg);
     RenderSettings rs = square_settings(W, spp, 8, 5);
     rs.adaptive = adaptive ? SPT_SWITCH_ON : SPT_SWITCH_OFF;
-    RenderStats st;
-    if (render_film(&s, &rs, film, &st, &e))
-        fail_msg("render: %s", e.msg);
+    render_film_ok(&s, &rs, film);
     scene_free(&s);
 }
 

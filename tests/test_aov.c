@@ -24,11 +24,7 @@
  * here, with AOV sums when rs->aov); fails the test on an error. */
 static void render_aov(const Scene *s, const RenderSettings *rs, Film *film)
 {
-    SptError e = {0};
-    RenderStats st;
-    if (render_film(s, rs, film, &st, &e))
-        fail_msg("render: %s", e.msg);
-    assert_int_equal(st.nan_dropped, 0);
+    assert_int_equal(render_film_ok(s, rs, film).nan_dropped, 0);
 }
 
 /* One layer of film, malloc'd (3 floats per pixel room). */

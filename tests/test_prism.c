@@ -107,12 +107,10 @@ static void test_prism_dispersion(void **state)
     double x0 = want[1];
     camera_down(&s, (float)x0, 0.5f, 0.4f, 1.0f);
     scene_update_bounds(&s);
-    SptError e = {0};
     RenderSettings rs = square_settings(64, 64, 4, 7);
     rs.caustics = SPT_SWITCH_ON;
     Film f;
-    RenderStats st;
-    assert_int_equal(render_film(&s, &rs, &f, &st, &e), 0);
+    render_film_ok(&s, &rs, &f);
     double half = 0.5 * tan(0.5 * s.camera.yfov); /* the view's half-width on the floor */
     double got[3], sum[3] = {0}, sx[3] = {0}, edge = 0, total = 0;
     for (int py = 0; py < 64; py++)

@@ -246,15 +246,13 @@ static void test_orthographic(void **state)
 {
     (void)state;
     Scene s;
-    SptError e = {0};
     sphere_scene(&s, 1.0f);
     s.materials[0].unlit = 1;
     s.camera.orthographic = 1;
     s.camera.xmag = s.camera.ymag = 2.0f;
     RenderSettings rs = test_settings(64, 64, 16, -1, 0);
     Film f;
-    RenderStats st;
-    assert_int_equal(render_film(&s, &rs, &f, &st, &e), 0);
+    render_film_ok(&s, &rs, &f);
     double m[3];
     film_mean(&f, m);
     /* The polyhedral sphere's silhouette is a 96-gon inscribed in the unit circle. */

@@ -29,8 +29,7 @@ static void test_default_sky(void **state)
     sphere_scene(&s, 0.5f);
     RenderSettings rs = test_settings(32, 32, 64, -1, 0);
     Film f;
-    RenderStats st;
-    assert_int_equal(render_film(&s, &rs, &f, &st, &e), 0);
+    render_film_ok(&s, &rs, &f);
     float *rgb = malloc(32 * 32 * 3 * sizeof(float));
     film_to_linear_srgb(&f, rgb);
     /* The central 8x8 pixels see the sphere's front, the corners the sky
@@ -56,7 +55,7 @@ static void test_default_sky(void **state)
     Sky black;
     assert_int_equal(sky_from_args(&black, NULL, "black", &e), 0);
     rs.sky = &black;
-    assert_int_equal(render_film(&s, &rs, &f, &st, &e), 0);
+    render_film_ok(&s, &rs, &f);
     film_to_linear_srgb(&f, rgb);
     for (int i = 0; i < 32 * 32 * 3; i++)
         assert_true(rgb[i] == 0.0f);
@@ -319,8 +318,7 @@ static void test_named_light_spectra(void **state)
         assert_int_equal(emitters, 1);
         RenderSettings rs = test_settings(8, 8, spp[k], -1, 0);
         Film f;
-        RenderStats st;
-        assert_int_equal(render_film(&s, &rs, &f, &st, &e), 0);
+        render_film_ok(&s, &rs, &f);
         double got[3] = {0, 0, 0};
         for (int i = 0; i < 64; i++)
             for (int c = 0; c < 3; c++)

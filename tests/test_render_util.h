@@ -73,6 +73,17 @@ static inline int render_film(const Scene *s, const RenderSettings *rs, Film *fi
     return rc;
 }
 
+/* render_film that must succeed: fails the test with the render's message
+ * otherwise; returns the render's statistics. */
+static inline RenderStats render_film_ok(const Scene *s, const RenderSettings *rs, Film *film)
+{
+    SptError e = {0};
+    RenderStats st;
+    if (render_film(s, rs, film, &st, &e))
+        fail_msg("render: %s", e.msg);
+    return st;
+}
+
 /* Renders scene s at w x h into film (initialised here); background as
  * --background (NULL: the default sky); hooks: the test hooks (may be NULL).
  * Returns the exit code, its message printed. */

@@ -21,11 +21,7 @@
 /* Renders s with rs into film (with rs->spectral bands). */
 static void render_bands(const Scene *s, const RenderSettings *rs, Film *film)
 {
-    SptError e = {0};
-    RenderStats st;
-    if (render_film(s, rs, film, &st, &e))
-        fail_msg("render: %s", e.msg);
-    assert_int_equal(st.nan_dropped, 0);
+    assert_int_equal(render_film_ok(s, rs, film).nan_dropped, 0);
 }
 
 /* The Cornell box with 47 bands of 10 nm: per band, the integral of the CIE
