@@ -313,6 +313,28 @@ static void test_sighup_writes(void **state)
  * camera paths than SPT_LONG_CHUNK_POOLS pools) does not depend on the device. */
 #define POOL "SPECTRACE_POOL"
 
+/* A w x h render at 1 spp on device 0 into test_path(name), in pools of
+ * 65536 paths (one long chunk), sent sigs (run_signalled_then: the first with
+ * the device line, the second once then_on shows) stops with exit 130,
+ * leaving no image and no temporary file; says_stopped: its stderr says
+ * "error: render: stopped". */
+static void stopped_unwritten(int w, int h, const char *name, const int *sigs, int nsig, const char *then_on,
+                              int says_stopped)
+{
+    char args[1024], err[16384];
+    snprintf(args, sizeof args, "render " SCENE " --width %d --height %d --spp 1 --device 0 -o %s", w, h,
+             test_path(name));
+    setenv(POOL, "65536", 1);
+    int rc = run_signalled_then(args, "device 0:", then_on, sigs, nsig, err, sizeof err);
+    unsetenv(POOL);
+    if (rc != 130)
+        fail_msg("exit %d, expected 130:\n%s", rc, err);
+    if (says_stopped)
+        assert_non_null(strstr(err, "error: render: stopped"));
+    assert_false(test_exists(test_path(name)));
+    assert_no_temporaries();
+}
+
 /* A first Ctrl-C drops a long chunk at once: a 2048x2048 render of one sample
  * per pixel is one chunk of 64 pools of 65536 (a minute on a loaded CPU); the
  * run stops within a wave of paths, with exit 130 and nothing written, as no
@@ -321,18 +343,8 @@ static void test_sighup_writes(void **state)
 static void test_first_sigint_drops_long_chunk(void **state)
 {
     (void)state;
-    char args[1024], err[16384];
-    snprintf(args, sizeof args,
-             "render " SCENE " --width 2048 --height 2048 --spp 1 --device 0 -o %s", test_path("long.exr"));
-    setenv(POOL, "65536", 1);
-    int sig = SIGINT;
-    int rc = run_signalled(args, "device 0:", &sig, 1, err, sizeof err);
-    unsetenv(POOL);
-    if (rc != 130)
-        fail_msg("exit %d, expected 130:\n%s", rc, err);
-    assert_non_null(strstr(err, "error: render: stopped"));
-    assert_false(test_exists(test_path("long.exr")));
-    assert_no_temporaries();
+    const int sig = SIGINT;
+    stopped_unwritten(2048, 2048, "long.exr", &sig, 1, "note: stopping", 1);
 }
 
 /* ... and writes the samples complete before it: 1024x640 at 2 spp is two
@@ -393,18 +405,8 @@ static void test_first_sigint_writes_whole_samples(void **state)
 static void test_second_sigint_stops_at_once(void **state)
 {
     (void)state;
-    char args[1024], err[16384];
-    snprintf(args, sizeof args,
-             "render " SCENE " --width 1600 --height 1280 --spp 1 --device 0 -o %s", test_path("int.exr"));
-    setenv(POOL, "65536", 1);
-    int sigs[2] = {SIGINT, SIGINT};
-    int rc = run_signalled(args, "device 0:", sigs, 2, err, sizeof err);
-    unsetenv(POOL);
-    if (rc != 130)
-        fail_msg("exit %d, expected 130:\n%s", rc, err);
-    assert_non_null(strstr(err, "error: render: stopped"));
-    assert_false(test_exists(test_path("int.exr")));
-    assert_no_temporaries();
+    const int sigs[2] = {SIGINT, SIGINT};
+    stopped_unwritten(1600, 1280, "int.exr", sigs, 2, "note: stopping", 1);
 }
 
 /* A signal during the clean-up of a stopped run does not kill it: a long
@@ -414,17 +416,8 @@ static void test_second_sigint_stops_at_once(void **state)
 static void test_sigint_during_cleanup(void **state)
 {
     (void)state;
-    char args[1024], err[16384];
-    snprintf(args, sizeof args,
-             "render " SCENE " --width 2048 --height 2048 --spp 1 --device 0 -o %s", test_path("late.exr"));
-    setenv(POOL, "65536", 1);
-    int sigs[2] = {SIGINT, SIGINT};
-    int rc = run_signalled_then(args, "device 0:", "error: render: stopped", sigs, 2, err, sizeof err);
-    unsetenv(POOL);
-    if (rc != 130)
-        fail_msg("exit %d, expected 130:\n%s", rc, err);
-    assert_false(test_exists(test_path("late.exr")));
-    assert_no_temporaries();
+    const int sigs[2] = {SIGINT, SIGINT};
+    stopped_unwritten(2048, 2048, "late.exr", sigs, 2, "error: render: stopped", 0);
 }
 
 /* OpenImageIO's library (libspectrace-oiio.so, src/io/oiio_lib.h) is loaded only
