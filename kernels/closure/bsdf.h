@@ -24,154 +24,110 @@
  *    Refraction through Rough Surfaces"). Refracted radiance is scaled by 1/eta^2
  *    (radiance transport, as pbrt-v4 does).
  *  - KHR_materials_dispersion: ior(lambda) from the Abbe number (bsdf_dispersion_ior).
- *  - KHR_materials_sheen over that base, as its specification defines it: the
- *    "Charlie" lobe (Estevez and Kulla 2017, "Production Friendly Microfacet Sheen
- *    BRDF": distribution sin(theta_h)^(1/alpha), the specification's fitted
- *    visibility, F = 1) in the sheen colour, and the base scaled by the albedo
- *    scaling 1 - max3(sheen colour) max(E(mu_o), E(mu_i)), E the lobe's
- *    directional albedo (kernels/closure/sheen_table.h). Where E exceeds 1 (sheen
- *    roughness below about 0.26, grazing angles) the lobe would create energy;
- *    it is divided by max(1, E(mu_o), E(mu_i)) there and E is capped at 1 in the
- *    scaling, so albedo sheen + base never exceeds 1.
- *  - KHR_materials_clearcoat on top, as its specification defines it: a second
- *    GGX lobe (glTF's specular term without Fresnel, alpha = clearcoatRoughness^2)
- *    about the coat's own normal, weighted clearcoat Fc and the layers under it
- *    1 - clearcoat Fc, with Fc Schlick's Fresnel at ior 1.5 (f0 0.04) of the
- *    view's cosine to the coat normal (fresnel_coat). Light crossing the layers
- *    into a transmissive base is scaled the same way at its outside direction.
+ *  - KHR_materials_sheen over that base (closure/lobe_sheen.h): the "Charlie"
+ *    lobe in the sheen colour, the base scaled by 1 - max3(sheen colour)
+ *    max(E(mu_o), E(mu_i)), E the lobe's directional albedo.
+ *  - KHR_materials_clearcoat on top (closure/lobe_coat.h): a second GGX lobe about
+ *    the coat's own normal, weighted clearcoat Fc, the layers under it
+ *    1 - clearcoat Fc. Light crossing the layers into a transmissive base is
+ *    scaled the same way at its outside direction (bsdf_layer_scale).
  *
- * Sampling the visible normals: Heitz 2018, "Sampling the GGX Distribution of
- * Visible Normals", JCGT 7(4). */
+ * One file per lobe, each with its selection weight, f |cos|, pdf and sampling
+ * side by side: closure/lobe_diffuse.h, lobe_specular.h (metal and the
+ * dielectric's specular layer), lobe_transmission.h (the dielectric interface,
+ * smooth and rough), lobe_coat.h, lobe_sheen.h; their building blocks (Fresnel,
+ * refraction, GGX) in closure/bsdf_microfacet.h. This file composes them into
+ * the glTF material: the lobes' selection probabilities, the layering (coat
+ * over sheen over the base) and the one-sample MIS over the lobes
+ * (docs/architecture.md, "Adding a BSDF lobe"). */
 #ifndef SPT_BSDF_H
 #define SPT_BSDF_H
 
 #include "util/portable.h"
 #include "util/vecmath.h"
-#include "closure/conductors.h"
-#include "closure/delta.h"
-#include "closure/sheen_table.h"
-
-/* Smallest alpha used by a rough lobe. */
-#define BSDF_MIN_ALPHA 1e-3f
-
-/* Per-hit material parameters, built by the renderer (not a buffer struct). */
-typedef struct BsdfParams {
-    vec4 base;          /* base reflectance per wavelength (glTF baseColor upsampled) */
-    vec4 ior;           /* dielectric index per wavelength (KHR_materials_ior/dispersion) */
-    vec4 eta;           /* conductor index, real part, per wavelength */
-    vec4 k;             /* conductor index, imaginary part, per wavelength */
-    float metallic;     /* glTF metallicFactor, 0..1 */
-    float roughness;    /* glTF perceptual roughness; alpha = roughness^2 */
-    float transmission; /* KHR_materials_transmission factor, 0..1 */
-    spt_i32 conductor;  /* nonzero: the metal uses eta, k (exact Fresnel), not base */
-    vec4 spec_tint;     /* KHR_materials_specular colour per wavelength (1: none) */
-    float specular;     /* KHR_materials_specular factor (1: the plain glTF model;
-                           0 removes the dielectric's specular layer: pure Lambert) */
-    /* KHR_materials_clearcoat (clearcoat 0: no coat). */
-    float clearcoat;    /* layer weight: clearcoatFactor x texture */
-    float cc_roughness; /* perceptual; alpha = cc_roughness^2 */
-    vec3 cc_n;          /* the coat's unit normal in this local frame (z >= 0 side) */
-    /* KHR_materials_sheen (sheen_max 0: no sheen). */
-    vec4 sheen;         /* sheen colour per wavelength */
-    float sheen_max;    /* max3 of the sheen colour's linear RGB (the albedo scaling) */
-    float sheen_roughness; /* perceptual; alpha = r^2, r raised to SPT_SHEEN_R_MIN */
-} BsdfParams;
-
-/* Outcome of bsdf_sample. */
-typedef struct BsdfSample {
-    vec3 wi;            /* sampled direction (unit) */
-    vec4 weight;        /* f |cos theta_i| / pdf per wavelength (0 if invalid) */
-    float pdf;          /* solid-angle pdf (the lobe selection probability for delta) */
-    spt_i32 is_delta;   /* the sampled lobe is a delta: no MIS with light sampling */
-    spt_i32 dispersive; /* the refraction depended on wavelength: keep only index 0 */
-    spt_i32 valid;      /* 0: the sample failed (weight 0) */
-} BsdfSample;
-
-/* The building blocks, in this order: Fresnel, refraction, dispersion and the
- * GGX distribution; then the clearcoat and sheen layers. They use BsdfParams
- * and are included here only. */
+#include "sample/sampling.h"
+#include "closure/bsdf_params.h"
 #include "closure/bsdf_microfacet.h"
-#include "closure/bsdf_layers.h"
+#include "closure/lobe_diffuse.h"
+#include "closure/lobe_specular.h"
+#include "closure/lobe_transmission.h"
+#include "closure/lobe_coat.h"
+#include "closure/lobe_sheen.h"
 
-/* ---- The combined material: lobes and their selection ---------------------------- */
+/* The lobes, in the order bsdf_sample's u0 walks their probabilities (the
+ * order is part of the images: a sample's lobe depends on it). */
+enum {
+    BSDF_LOBE_TRANSMISSION,
+    BSDF_LOBE_SPECULAR,
+    BSDF_LOBE_COAT,
+    BSDF_LOBE_SHEEN,
+    BSDF_LOBE_DIFFUSE,
+    BSDF_LOBES
+};
 
-/* Fresnel weight of the dielectric's specular layer per wavelength at cosine c, as
- * KHR_materials_specular extends glTF's fresnel_mix: f0 = min(((ior - 1)/(ior + 1))^2
- * tint, 1) s, f90 = s, F = f0 + (f90 - f0)(1 - c)^5 (s = specular factor); the
- * diffuse base gets 1 - F. With s = 1 and tint 1 this is the core glTF model. */
-SPT_FN vec4 bsdf_dielectric_fresnel(const BsdfParams *p, float c)
+/* Lobe selection probabilities for wo, indexed by BSDF_LOBE_* (in the frame
+ * where wo.z > 0 for the reflection lobes): each lobe's weight at wo, those of
+ * the base (specular, diffuse, transmission) times what the layers over it let
+ * through at wo: the coat takes its weight, the sheen max3(colour) min(1, E(mu_o))
+ * of the rest. Sum to 1 (the diffuse lobe alone when every weight is 0). */
+SPT_FN void bsdf_lobe_probs(const BsdfParams *p, vec3 wo, float pr[BSDF_LOBES])
 {
-    /* No specular layer (pure Lambert): what the arithmetic below gives too, for
-     * any finite ior, without its four divisions (called several times a hit). */
-    if (p->specular == 0.0f)
-        return v4_splat(0.0f);
-    vec4 r = v4_sub(p->ior, v4_splat(1.0f));
-    vec4 q = v4_add(p->ior, v4_splat(1.0f));
-    vec4 f0 = v4(r.x / q.x, r.y / q.y, r.z / q.z, r.w / q.w);
-    f0 = v4_mul(v4_mul(f0, f0), p->spec_tint);
-    f0 = v4(fminf(f0.x, 1.0f), fminf(f0.y, 1.0f), fminf(f0.z, 1.0f), fminf(f0.w, 1.0f));
-    f0 = v4_scale(f0, p->specular);
-    float m = fminf(fmaxf(1.0f - c, 0.0f), 1.0f);
-    float m5 = m * m * m * m * m;
-    return v4_add(f0, v4_scale(v4_sub(v4_splat(p->specular), f0), m5));
+    pr[BSDF_LOBE_SPECULAR] = bsdf_specular_weight(p, wo);
+    pr[BSDF_LOBE_DIFFUSE] = bsdf_diffuse_weight(p, wo);
+    pr[BSDF_LOBE_TRANSMISSION] = bsdf_transmission_weight(p);
+    pr[BSDF_LOBE_COAT] = 0.0f;
+    pr[BSDF_LOBE_SHEEN] = 0.0f;
+    if (wo.z > 0.0f && (bsdf_has_coat(p) || bsdf_has_sheen(p))) {
+        float wc = bsdf_coat_weight(p, wo);
+        float e = bsdf_sheen_e(p, wo);
+        float under = (1.0f - wc) * (1.0f - p->sheen_max * e);
+        pr[BSDF_LOBE_COAT] = wc;
+        pr[BSDF_LOBE_SHEEN] = (1.0f - wc) * p->sheen_max * e;
+        pr[BSDF_LOBE_SPECULAR] *= under;
+        pr[BSDF_LOBE_DIFFUSE] *= under;
+        pr[BSDF_LOBE_TRANSMISSION] *= under;
+    }
+    /* Summed in this order (its rounding is part of the images). */
+    float sum = pr[BSDF_LOBE_SPECULAR] + pr[BSDF_LOBE_DIFFUSE] + pr[BSDF_LOBE_TRANSMISSION] + pr[BSDF_LOBE_COAT] +
+                pr[BSDF_LOBE_SHEEN];
+    for (int i = 0; i < BSDF_LOBES; i++)
+        pr[i] = sum <= 0.0f ? (i == BSDF_LOBE_DIFFUSE ? 1.0f : 0.0f) : pr[i] / sum;
 }
 
-/* Lobe selection probabilities for wo (in the frame where wo.z > 0 for the
- * reflection lobes): specular reflection (GGX or delta), diffuse, dielectric
- * interface (transmission), coat, sheen. From the lobe weights: metal m,
- * dielectric (1-m) with specular share estimated by Schlick at wo.z, diffuse by
- * the base's mean, and the transmission share (1-m) t, all times what the layers
- * let through at wo; the coat's weight; the sheen's max3(colour) min(1, E(mu_o))
- * under the coat. Sum to 1. */
-SPT_FN void bsdf_lobe_probs(const BsdfParams *p, vec3 wo, float *p_spec, float *p_diff, float *p_tr,
-                            float *p_coat, float *p_sheen)
+/* The lobe that u0 in [0, 1) picks from the probabilities pr: the first whose
+ * running sum exceeds u0 (the last when rounding leaves u0 above them all); *ur:
+ * u0 remapped to [0, 1) within the lobe's interval, a fresh uniform number for
+ * a choice inside the lobe. */
+SPT_FN int bsdf_pick_lobe(const float pr[BSDF_LOBES], float u0, float *ur)
 {
-    float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
-    float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
-    float c = fabsf(wo.z);
-    vec4 fv = bsdf_dielectric_fresnel(p, c);
-    float fd = 0.25f * (fv.x + fv.y + fv.z + fv.w);
-    float mean_base = 0.25f * (p->base.x + p->base.y + p->base.z + p->base.w);
-    float ws = m + (1.0f - m) * (1.0f - t) * fd;
-    float wd = (1.0f - m) * (1.0f - t) * (1.0f - fd) * fmaxf(mean_base, 0.0f);
-    float wt = (1.0f - m) * t;
-    if (wo.z <= 0.0f) {
-        /* From inside only the interface responds. */
-        ws = 0.0f;
-        wd = 0.0f;
+    float lo = 0.0f;
+    for (int i = 0; i < BSDF_LOBES - 1; i++) {
+        float hi = lo + pr[i];
+        if (u0 < hi) {
+            *ur = (u0 - lo) / pr[i];
+            return i;
+        }
+        lo = hi;
     }
-    float wc = 0.0f, wsh = 0.0f;
-    if (wo.z > 0.0f && (bsdf_has_coat(p) || bsdf_has_sheen(p))) {
-        wc = bsdf_coat_weight(p, wo);
-        float e = bsdf_has_sheen(p) ? fminf(1.0f, bsdf_sheen_albedo(wo.z, bsdf_sheen_r(p))) : 0.0f;
-        wsh = (1.0f - wc) * p->sheen_max * e;
-        float under = (1.0f - wc) * (1.0f - p->sheen_max * e);
-        ws *= under;
-        wd *= under;
-        wt *= under;
-    }
-    float sum = ws + wd + wt + wc + wsh;
-    *p_coat = 0.0f;
-    *p_sheen = 0.0f;
-    if (sum <= 0.0f) {
-        *p_spec = 0.0f;
-        *p_diff = 1.0f;
-        *p_tr = 0.0f;
-        return;
-    }
-    *p_spec = ws / sum;
-    *p_diff = wd / sum;
-    *p_tr = wt / sum;
-    *p_coat = wc / sum;
-    *p_sheen = wsh / sum;
+    *ur = (u0 - lo) / pr[BSDF_LOBES - 1];
+    return BSDF_LOBES - 1;
+}
+
+/* Whether lobe i of p is a delta: the base's reflection and interface when the
+ * base is smooth, the coat when it is. */
+SPT_FN int bsdf_lobe_is_delta(const BsdfParams *p, int i)
+{
+    if (i == BSDF_LOBE_TRANSMISSION || i == BSDF_LOBE_SPECULAR)
+        return bsdf_base_smooth(p);
+    return i == BSDF_LOBE_COAT && bsdf_has_coat(p) && bsdf_coat_smooth(p);
 }
 
 /* Whether every lobe of the material is a delta (smooth, no diffuse, no sheen,
  * no rough coat): light sampling is then useless and MIS must not be applied. */
 SPT_FN int bsdf_is_delta(const BsdfParams *p)
 {
-    float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
-    float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
+    float m = bsdf_metallic(p);
+    float t = bsdf_transmission(p);
     int no_diffuse = m >= 1.0f || t >= 1.0f;
     return bsdf_roughness_is_delta(p->roughness) && no_diffuse && !bsdf_has_sheen(p) &&
            (!bsdf_has_coat(p) || bsdf_coat_smooth(p));
@@ -181,7 +137,7 @@ SPT_FN int bsdf_is_delta(const BsdfParams *p)
  * also rough ones. */
 SPT_FN int bsdf_has_delta(const BsdfParams *p)
 {
-    return bsdf_roughness_is_delta(p->roughness) || (bsdf_has_coat(p) && bsdf_coat_smooth(p));
+    return bsdf_base_smooth(p) || (bsdf_has_coat(p) && bsdf_coat_smooth(p));
 }
 
 /* Whether the material is Lambert's alone: no metal, no transmission and no
@@ -195,186 +151,79 @@ SPT_FN int bsdf_is_lambert(const BsdfParams *p)
            !bsdf_has_coat(p) && !bsdf_has_sheen(p);
 }
 
-/* Fresnel of the metal part at cosine c between wo and h, per wavelength: Schlick
- * with F0 = base (glTF conductor_fresnel), or exact with eta + i k. */
-SPT_FN vec4 bsdf_metal_fresnel(const BsdfParams *p, float c)
-{
-    if (p->conductor)
-        return v4(bsdf_fresnel_conductor(c, p->eta.x, p->k.x), bsdf_fresnel_conductor(c, p->eta.y, p->k.y),
-                  bsdf_fresnel_conductor(c, p->eta.z, p->k.z), bsdf_fresnel_conductor(c, p->eta.w, p->k.w));
-    return bsdf_schlick(p->base, c);
-}
+SPT_FN int bsdf_is_layered(const BsdfParams *p) { return bsdf_has_coat(p) || bsdf_has_sheen(p); }
 
-/* The reflection Fresnel weight of the specular layer per wavelength at cosine c
- * (wo.h): m F_metal + (1-m)(1-t) F_dielectric (bsdf_dielectric_fresnel). */
-SPT_FN vec4 bsdf_spec_fresnel(const BsdfParams *p, float c)
+/* Whether u0 picks a delta lobe in bsdf_sample (light tracing follows only
+ * the delta events from its first vertex on). */
+SPT_FN int bsdf_picks_delta(const BsdfParams *p, vec3 wo, float u0)
 {
-    float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
-    float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
-    vec4 fd = bsdf_dielectric_fresnel(p, c);
-    return v4_add(v4_scale(bsdf_metal_fresnel(p, c), m), v4_scale(fd, (1.0f - m) * (1.0f - t)));
-}
-
-/* The diffuse lobe's factor per wavelength, without 1/pi: (1-m)(1-t)(1 - F_dielectric)
- * base (glTF fresnel_mix). */
-SPT_FN vec4 bsdf_diffuse_factor(const BsdfParams *p, float c)
-{
-    float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
-    float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
-    vec4 one_minus = v4_sub(v4_splat(1.0f), bsdf_dielectric_fresnel(p, c));
-    return v4_scale(v4_mul(one_minus, p->base), (1.0f - m) * (1.0f - t));
-}
-
-/* Generalised half vector of a refraction (Walter et al. 2007, eq. 16), oriented to
- * +z, for wo, wi on opposite sides and eta = n_inside / n_outside. */
-SPT_FN vec3 bsdf_half_refract(vec3 wo, vec3 wi, float eta)
-{
-    float etap = wo.z > 0.0f ? eta : 1.0f / eta;
-    vec3 h = v3_normalize(v3_add(wo, v3_scale(wi, etap)));
-    return h.z < 0.0f ? v3_scale(h, -1.0f) : h;
-}
-
-/* The chance that the interface reflects at cosine cos_h (signed as
- * bsdf_fresnel_dielectric takes it): the mean of the path's wavelengths'
- * Fresnel reflectances, the hero's alone without dispersion. With a dispersive
- * index the hero's may be near 0 (n near 1) where another's is not, and
- * reflection's weight F_i / F_hero would be huge or, at F_hero = 0, that light
- * lost (docs/gltf.md, KHR_materials_dispersion). */
-SPT_FN float bsdf_interface_q(const BsdfParams *p, float cos_h)
-{
-    float f = bsdf_fresnel_dielectric(cos_h, p->ior.x);
-    if (p->ior.x == p->ior.y && p->ior.x == p->ior.z && p->ior.x == p->ior.w)
-        return f;
-    return 0.25f * (f + bsdf_fresnel_dielectric(cos_h, p->ior.y) + bsdf_fresnel_dielectric(cos_h, p->ior.z) +
-                    bsdf_fresnel_dielectric(cos_h, p->ior.w));
-}
-
-/* The rough dielectric interface's f |cos i| contribution and its pdf for the
- * given wo, wi (Walter et al. 2007 eqs. 20-21 with VNDF sampling; pdf per
- * steradian of wi), for index eta (hero wavelength's value) and alpha. Fresnel is
- * the exact dielectric one; transmission is divided by eta'^2 (radiance). */
-SPT_FN float bsdf_interface_eval_q(vec3 wo, vec3 wi, float eta, float alpha, const BsdfParams *pq, float *pdf)
-{
-    *pdf = 0.0f;
-    if (wo.z == 0.0f || wi.z == 0.0f)
-        return 0.0f;
-    int reflect = wo.z * wi.z > 0.0f;
-    float etap = 1.0f;
-    vec3 h;
-    if (reflect) {
-        h = v3_normalize(v3_add(wo, wi));
-        if (h.z < 0.0f)
-            h = v3_scale(h, -1.0f);
-    } else {
-        etap = wo.z > 0.0f ? eta : 1.0f / eta;
-        h = bsdf_half_refract(wo, wi, eta);
-    }
-    float dwo = v3_dot(wo, h), dwi = v3_dot(wi, h);
-    /* Backfacing microfacets are discarded, and so is an undefined h (a
-     * refraction at eta 1 straight through: wo + wi = 0). */
-    if (!(dwo * wo.z > 0.0f) || !(dwi * wi.z > 0.0f))
-        return 0.0f;
-    float F = bsdf_fresnel_dielectric(dwo, eta);
-    float D = bsdf_ggx_d(h, alpha);
-    /* VNDF in the frame where wo is above: flip both when wo is inside. */
-    vec3 wo_up = wo.z > 0.0f ? wo : v3_scale(wo, -1.0f);
-    vec3 wi_up = wo.z > 0.0f ? wi : v3_scale(wi, -1.0f);
-    float G = 1.0f / (1.0f + bsdf_ggx_lambda(wo_up, alpha) + bsdf_ggx_lambda(v3(wi_up.x, wi_up.y, fabsf(wi_up.z)), alpha));
-    float vis = bsdf_ggx_vndf_pdf(wo_up, h, alpha);
-    float q = pq ? bsdf_interface_q(pq, dwo) : F;
-    if (reflect) {
-        *pdf = vis / (4.0f * fabsf(dwo)) * q;
-        return D * G * F / (4.0f * fabsf(wo.z));
-    }
-    float denom = dwi + dwo / etap;
-    float jac = fabsf(dwi) / (denom * denom);
-    *pdf = vis * jac * (1.0f - q);
-    float ft = D * G * (1.0f - F) * fabsf(dwi * dwo) / (fabsf(wo.z) * denom * denom);
-    return ft / (etap * etap);
-}
-
-/* bsdf_interface_eval_q with the pdf of reflecting with eta's own Fresnel. */
-SPT_FN float bsdf_interface_eval(vec3 wo, vec3 wi, float eta, float alpha, float *pdf)
-{
-    return bsdf_interface_eval_q(wo, wi, eta, alpha, 0, pdf);
-}
-
-/* The base's (metallic-roughness, transmission) non-delta f |cos theta_i|, without
- * the layers; bsdf_eval below. */
-SPT_FN vec4 bsdf_base_eval(const BsdfParams *p, vec3 wo, vec3 wi)
-{
-    vec4 r = v4_splat(0.0f);
     if (bsdf_is_lambert(p))
-        return wo.z > 0.0f && wi.z > 0.0f ? v4_scale(p->base, SPT_INV_PI * wi.z) : r;
-    float alpha = bsdf_alpha(p->roughness);
-    int smooth = bsdf_roughness_is_delta(p->roughness);
-    float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
-    float t = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
-    if (wo.z > 0.0f && wi.z > 0.0f) {
-        vec3 h = v3_normalize(v3_add(wo, wi));
-        float c = fabsf(v3_dot(wo, h));
-        r = v4_scale(bsdf_diffuse_factor(p, c), SPT_INV_PI * wi.z);
-        /* The specular layer: skipped when it has no weight (a pure Lambertian). */
-        if (!smooth && (m > 0.0f || (p->specular > 0.0f && t < 1.0f))) {
-            float spec = bsdf_ggx_d(h, alpha) * bsdf_ggx_g2(wo, wi, alpha) / (4.0f * wo.z);
-            r = v4_add(r, v4_scale(bsdf_spec_fresnel(p, c), spec));
-        }
-    }
-    float wt = (1.0f - m) * t;
-    if (wt > 0.0f && !smooth) {
-        float pd;
-        vec4 fi = v4(bsdf_interface_eval(wo, wi, p->ior.x, alpha, &pd), bsdf_interface_eval(wo, wi, p->ior.y, alpha, &pd),
-                     bsdf_interface_eval(wo, wi, p->ior.z, alpha, &pd), bsdf_interface_eval(wo, wi, p->ior.w, alpha, &pd));
-        /* KHR_materials_transmission tints the transmitted light by the base colour. */
-        if (wo.z * wi.z < 0.0f)
-            fi = v4_mul(fi, p->base);
-        r = v4_add(r, v4_scale(fi, wt));
-    }
-    return r;
+        return 0;
+    float pr[BSDF_LOBES], ur;
+    bsdf_lobe_probs(p, wo, pr);
+    return bsdf_lobe_is_delta(p, bsdf_pick_lobe(pr, u0, &ur));
+}
+
+/* What the base's light is scaled by where it passes the layers, per wavelength:
+ * (1 - coat weight) (1 - s max(E(mu_o), E(mu_i)) capped at 1), with the coat
+ * weight and the E of the directions outside the surface only (a ray crossing a
+ * transmissive base meets the layers once), s the larger of max3(sheen colour)
+ * and the sheen's value at the wavelength (so that no wavelength gains energy
+ * where the upsampled spectrum peaks above the colour's largest component). */
+SPT_FN vec4 bsdf_layer_scale(const BsdfParams *p, vec3 wo, vec3 wi)
+{
+    int up_o = wo.z > 0.0f, up_i = wi.z > 0.0f;
+    if (!up_o && !up_i)
+        return v4_splat(1.0f);
+    float wc = bsdf_coat_weight(p, up_o ? wo : wi);
+    if (!bsdf_has_sheen(p))
+        return v4_splat(1.0f - wc);
+    float r = bsdf_sheen_r(p);
+    float eo = up_o ? bsdf_sheen_albedo(wo.z, r) : 0.0f;
+    float ei = up_i ? bsdf_sheen_albedo(wi.z, r) : 0.0f;
+    float e = fminf(1.0f, fmaxf(eo, ei));
+    vec4 s = v4(fmaxf(p->sheen.x, p->sheen_max), fmaxf(p->sheen.y, p->sheen_max),
+                fmaxf(p->sheen.z, p->sheen_max), fmaxf(p->sheen.w, p->sheen_max));
+    return v4_scale(v4_sub(v4_splat(1.0f), v4_scale(s, e)), 1.0f - wc);
 }
 
 /* Non-delta part of f(wo, wi) |cos theta_i| per wavelength, for wo.z > 0 (the
  * viewer outside) or, for the transmission lobe, either side. Delta lobes give 0.
- * The interface uses each wavelength's ior. */
+ * The interface uses each wavelength's ior. The base's lobes, scaled by what
+ * the layers let through, then the layers' own lobes (summed in this order:
+ * its rounding is part of the images). */
 SPT_FN vec4 bsdf_eval(const BsdfParams *p, vec3 wo, vec3 wi)
 {
-    vec4 r = bsdf_base_eval(p, wo, wi);
-    if (bsdf_has_coat(p) || bsdf_has_sheen(p))
-        r = bsdf_layers_eval(p, wo, wi, r);
-    return r;
+    vec4 f = v4_splat(0.0f);
+    if (bsdf_is_lambert(p))
+        return wo.z > 0.0f && wi.z > 0.0f ? v4_scale(p->base, SPT_INV_PI * wi.z) : f;
+    bsdf_diffuse_eval(p, wo, wi, &f);
+    bsdf_specular_eval(p, wo, wi, &f);
+    bsdf_transmission_eval(p, wo, wi, &f);
+    if (!bsdf_is_layered(p))
+        return f;
+    f = v4_mul(f, bsdf_layer_scale(p, wo, wi));
+    bsdf_sheen_eval(p, wo, wi, 1.0f - bsdf_coat_weight(p, wo), &f);
+    bsdf_coat_eval(p, wo, wi, &f);
+    return f;
 }
 
 /* Solid-angle pdf with which bsdf_sample produces wi given wo (non-delta lobes
- * only; one-sample MIS over the lobes with bsdf_lobe_probs). The interface's pdf
+ * only; one-sample MIS over the lobes with bsdf_lobe_probs: the lobes' shares
+ * summed in this order, its rounding part of the images). The interface's pdf
  * uses the hero wavelength's ior. */
 SPT_FN float bsdf_pdf(const BsdfParams *p, vec3 wo, vec3 wi)
 {
     if (bsdf_is_lambert(p))
-        return (wo.z > 0.0f && wi.z > 0.0f) ? wi.z * SPT_INV_PI : 0.0f;
-    int smooth = bsdf_roughness_is_delta(p->roughness);
-    float alpha = bsdf_alpha(p->roughness);
-    float ps, pd, pt, pc, psh;
-    bsdf_lobe_probs(p, wo, &ps, &pd, &pt, &pc, &psh);
+        return wo.z > 0.0f && wi.z > 0.0f ? spt_pdf_cosine_hemisphere(wi.z) : 0.0f;
+    float pr[BSDF_LOBES];
+    bsdf_lobe_probs(p, wo, pr);
     float pdf = 0.0f;
-    if (wo.z > 0.0f && wi.z > 0.0f) {
-        pdf += pd * wi.z * SPT_INV_PI;
-        if (ps > 0.0f && !smooth) {
-            vec3 h = v3_normalize(v3_add(wo, wi));
-            pdf += ps * bsdf_ggx_vndf_pdf(wo, h, alpha) / (4.0f * v3_dot(wo, h));
-        }
-        if (psh > 0.0f)
-            pdf += psh * SPT_INV_2PI;
-    }
-    if (pt > 0.0f && !smooth) {
-        float pi_;
-        bsdf_interface_eval_q(wo, wi, p->ior.x, alpha, p, &pi_);
-        pdf += pt * pi_;
-    }
-    if (pc > 0.0f && !bsdf_coat_smooth(p)) {
-        float pcd;
-        bsdf_coat_eval(p, wo, wi, &pcd);
-        pdf += pc * pcd;
-    }
+    pdf += bsdf_diffuse_pdf(wo, wi, pr[BSDF_LOBE_DIFFUSE]);
+    pdf += bsdf_specular_pdf(p, wo, wi, pr[BSDF_LOBE_SPECULAR]);
+    pdf += bsdf_sheen_pdf(wo, wi, pr[BSDF_LOBE_SHEEN]);
+    pdf += bsdf_transmission_pdf(p, wo, wi, pr[BSDF_LOBE_TRANSMISSION]);
+    pdf += bsdf_coat_pdf(p, wo, wi, pr[BSDF_LOBE_COAT]);
     return pdf;
 }
 
@@ -385,39 +234,6 @@ SPT_FN float bsdf_pdf(const BsdfParams *p, vec3 wo, vec3 wi)
  * hero wavelength; is_delta is set. When the ior differs between wavelengths and
  * the sample refracted (smooth or rough), dispersive is set and only weight.x is
  * meaningful (the others are set to it; the renderer terminates them). */
-/* sin and cos of x for |x| <= pi/4, where no argument reduction is needed: the
- * minimax polynomials of Cephes' sinf and cosf (S. Moshier), relative error
- * below 2^-23 there. Cheaper than the general sin/cos, whose argument
- * reduction (PoCL's __pocl_argReductionS) is an out-of-line call per use. */
-SPT_FN void bsdf_sincos_pi4(float x, float *s, float *c)
-{
-    float z = x * x;
-    *s = ((-1.9515295891e-4f * z + 8.3321608736e-3f) * z - 1.6666654611e-1f) * z * x + x;
-    *c = ((2.443315711809948e-5f * z - 1.388731625493765e-3f) * z + 4.166664568298827e-2f) * z * z -
-         0.5f * z + 1.0f;
-}
-
-/* Cosine-weighted hemisphere direction (Malley's method on a concentric disk).
- * The disk angle is phi = pi/4 (b/a), or pi/2 - pi/4 (a/b) on the other
- * wedges; the latter's cos and sin are the sin and cos of pi/4 (a/b), so both
- * take bsdf_sincos_pi4 of an angle in [-pi/4, pi/4]. Written with selects, not
- * branches: which wedge a random point falls in is a coin toss, which a CPU's
- * branch predictor gets wrong half the time. */
-SPT_FN vec3 bsdf_sample_cosine(float u1, float u2)
-{
-    float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f;
-    int wide = fabsf(a) > fabsf(b);
-    float r = wide ? a : b;
-    float s, c;
-    bsdf_sincos_pi4(0.25f * SPT_PI * ((wide ? b : a) / r), &s, &c);
-    float x = r * (wide ? c : s), y = r * (wide ? s : c);
-    /* The centre (a = b = 0) maps to itself (the ratio above is 0/0 there). */
-    int centre = a == 0.0f && b == 0.0f;
-    x = centre ? 0.0f : x;
-    y = centre ? 0.0f : y;
-    return v3(x, y, sqrtf(fmaxf(0.0f, 1.0f - x * x - y * y)));
-}
-
 SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, float u2)
 {
     BsdfSample s;
@@ -432,141 +248,45 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
     if (bsdf_is_lambert(p)) {
         if (wo.z <= 0.0f)
             return s;
-        s.wi = bsdf_sample_cosine(u1, u2);
-        s.pdf = s.wi.z > 0.0f ? s.wi.z * SPT_INV_PI : 0.0f;
+        s.wi = spt_sample_cosine_hemisphere_fast(u1, u2);
+        s.pdf = spt_pdf_cosine_hemisphere(s.wi.z);
         if (!(s.pdf > 0.0f))
             return s;
         s.weight = v4_scale(v4_scale(p->base, SPT_INV_PI * s.wi.z), 1.0f / s.pdf);
         s.valid = 1;
         return s;
     }
-    float ps, pd, pt, pc, psh;
-    bsdf_lobe_probs(p, wo, &ps, &pd, &pt, &pc, &psh);
-    int smooth = bsdf_roughness_is_delta(p->roughness);
-    int layered = bsdf_has_coat(p) || bsdf_has_sheen(p);
-    float eo, ei;
-    float alpha = bsdf_alpha(p->roughness);
-    int dispersive_ior = p->ior.x != p->ior.y || p->ior.x != p->ior.z || p->ior.x != p->ior.w;
-    float m = fminf(fmaxf(p->metallic, 0.0f), 1.0f);
-    float tr = fminf(fmaxf(p->transmission, 0.0f), 1.0f);
-
-    if (u0 < pt) {
-        /* The dielectric interface. */
-        float eta = p->ior.x;
-        float wt = (1.0f - m) * tr;
-        vec3 wo_up = wo.z > 0.0f ? wo : v3_scale(wo, -1.0f);
-        vec3 h = smooth ? v3(0.0f, 0.0f, 1.0f) : bsdf_ggx_sample_vndf(wo_up, alpha, u1, u2);
-        float cos_h = wo.z > 0.0f ? v3_dot(wo, h) : -v3_dot(wo_up, h);
-        float F = bsdf_fresnel_dielectric(cos_h, eta);
-        /* Reflection with the chance q of bsdf_interface_q (bsdf_pdf's too). */
-        float q = bsdf_interface_q(p, cos_h);
-        /* Reuse u0 for reflect/refract: u0/pt is uniform in [0, 1). */
-        float ur = u0 / pt;
-        int reflect = ur < q;
-        /* A hero of index 1 (docs/gltf.md: the clamp of a dispersive index)
-         * meets no interface: it passes straight through, smooth or rough (the
-         * rough refraction's half vector wo + wi would be 0). */
-        int matched = eta == 1.0f && !reflect;
-        if (matched) {
-            s.wi = v3_scale(wo, -1.0f);
-            s.dispersive = dispersive_ior;
-            s.is_delta = 1;
-            s.valid = 1;
-            s.pdf = pt * (1.0f - q);
-            s.weight = v4_scale(p->base, wt / s.pdf);
-            if (layered)
-                s.weight = v4_mul(s.weight, bsdf_layer_scale(p, wo, s.wi, &eo, &ei));
-            if (s.dispersive)
-                s.weight = v4_splat(s.weight.x);
-            return s;
-        }
-        if (reflect) {
-            s.wi = bsdf_reflect(wo, wo.z > 0.0f ? h : v3_scale(h, -1.0f));
-        } else {
-            float etap = wo.z > 0.0f ? eta : 1.0f / eta;
-            vec3 n = wo.z > 0.0f ? h : v3_scale(h, -1.0f);
-            if (!bsdf_refract(wo, n, etap, &s.wi))
-                return s;
-            s.dispersive = dispersive_ior;
-        }
-        /* A microfacet reflection that leaves through the surface (or a refraction
-         * that stays on wo's side) is not an event of this lobe. */
-        if ((s.wi.z * wo.z > 0.0f) != (reflect != 0))
-            return s;
-        if (smooth) {
-            s.is_delta = 1;
-            s.valid = 1;
-            s.pdf = pt * (reflect ? q : 1.0f - q);
-            if (reflect) {
-                /* Each wavelength's F over the chance q of reflecting. */
-                vec4 fr = v4_splat(F);
-                if (dispersive_ior)
-                    fr = v4(F, bsdf_fresnel_dielectric(cos_h, p->ior.y), bsdf_fresnel_dielectric(cos_h, p->ior.z),
-                            bsdf_fresnel_dielectric(cos_h, p->ior.w));
-                s.weight = v4_scale(fr, wt / s.pdf);
-            } else {
-                float etap = wo.z > 0.0f ? eta : 1.0f / eta;
-                float w = wt * (1.0f - F) / (s.pdf * etap * etap);
-                s.weight = v4_scale(p->base, w);
-            }
-            if (layered)
-                s.weight = v4_mul(s.weight, bsdf_layer_scale(p, wo, s.wi, &eo, &ei));
-            if (s.dispersive)
-                s.weight = v4_splat(s.weight.x);
-            return s;
-        }
-    } else if (u0 < pt + ps) {
-        if (wo.z <= 0.0f)
-            return s;
-        if (smooth) {
-            s.wi = v3(-wo.x, -wo.y, wo.z);
-            s.is_delta = 1;
-            s.valid = 1;
-            s.pdf = ps;
-            s.weight = v4_scale(bsdf_spec_fresnel(p, wo.z), 1.0f / ps);
-            if (layered)
-                s.weight = v4_mul(s.weight, bsdf_layer_scale(p, wo, s.wi, &eo, &ei));
-            return s;
-        }
-        vec3 h = bsdf_ggx_sample_vndf(wo, alpha, u1, u2);
-        s.wi = bsdf_reflect(wo, h);
-        /* A reflection into the surface is no event of this lobe (its pdf
-         * counts only wi above). */
-        if (!(s.wi.z > 0.0f))
-            return s;
-    } else if (u0 < pt + ps + pc) {
-        /* The coat, about its own normal. */
-        if (wo.z <= 0.0f)
-            return s;
-        if (bsdf_coat_smooth(p)) {
-            s.wi = bsdf_reflect(wo, p->cc_n);
-            if (!(s.wi.z > 0.0f))
-                return s;
-            s.is_delta = 1;
-            s.valid = 1;
-            s.pdf = pc;
-            s.weight = v4_splat(bsdf_coat_weight(p, wo) / pc);
-            return s;
-        }
-        vec3 o = bsdf_to_coat(p, wo);
-        if (!(o.z > 0.0f))
-            return s;
-        vec3 h = bsdf_ggx_sample_vndf(o, bsdf_alpha(p->cc_roughness), u1, u2);
-        vec3 i = bsdf_reflect(o, h);
-        if (!(i.z > 0.0f))
-            return s;
-        s.wi = bsdf_from_coat(p, i);
-    } else if (u0 < pt + ps + pc + psh) {
-        /* The sheen: uniform over the hemisphere (the lobe is broad and peaks
-         * toward grazing directions, where a cosine density is thin). */
-        if (wo.z <= 0.0f)
-            return s;
-        float z = u1, r = sqrtf(fmaxf(0.0f, 1.0f - z * z)), phi = 2.0f * SPT_PI * u2;
-        s.wi = v3(r * cosf(phi), r * sinf(phi), z);
-    } else {
-        if (wo.z <= 0.0f)
-            return s;
-        s.wi = bsdf_sample_cosine(u1, u2);
+    float pr[BSDF_LOBES], ur;
+    bsdf_lobe_probs(p, wo, pr);
+    int lobe = bsdf_pick_lobe(pr, u0, &ur);
+    int got;
+    switch (lobe) {
+    case BSDF_LOBE_TRANSMISSION:
+        got = bsdf_transmission_sample(p, wo, ur, u1, u2, pr[lobe], &s);
+        break;
+    case BSDF_LOBE_SPECULAR:
+        got = bsdf_specular_sample(p, wo, u1, u2, pr[lobe], &s);
+        break;
+    case BSDF_LOBE_COAT:
+        got = bsdf_coat_sample(p, wo, u1, u2, pr[lobe], &s);
+        break;
+    case BSDF_LOBE_SHEEN:
+        got = bsdf_sheen_sample(wo, u1, u2, &s);
+        break;
+    default:
+        got = bsdf_diffuse_sample(wo, u1, u2, &s);
+        break;
+    }
+    if (got == BSDF_SAMPLED_NONE)
+        return s;
+    if (got == BSDF_SAMPLED_DELTA) {
+        /* A delta event of the base (all but the coat, the top layer) passes
+         * the layers over it. */
+        if (lobe != BSDF_LOBE_COAT && bsdf_is_layered(p))
+            s.weight = v4_mul(s.weight, bsdf_layer_scale(p, wo, s.wi));
+        if (s.dispersive)
+            s.weight = v4_splat(s.weight.x);
+        return s;
     }
     s.pdf = bsdf_pdf(p, wo, s.wi);
     if (!(s.pdf > 0.0f))

@@ -1,12 +1,15 @@
-/* The building blocks of kernels/closure/bsdf.h (which includes this after
- * defining BsdfParams): small helpers (alpha, reflection, refraction, the
- * dielectric and conductor Fresnel equations, Schlick, the dispersion law,
- * measured conductors) and the isotropic GGX microfacet distribution with
- * visible-normal sampling. */
+/* The building blocks of the lobes of kernels/closure/: small helpers (alpha,
+ * reflection, refraction, the dielectric and conductor Fresnel equations,
+ * Schlick, the dispersion law, measured conductors) and the isotropic GGX
+ * microfacet distribution with visible-normal sampling (Heitz 2018, "Sampling
+ * the GGX Distribution of Visible Normals", JCGT 7(4)). */
 #ifndef SPT_BSDF_MICROFACET_H
 #define SPT_BSDF_MICROFACET_H
 
 #include "util/portable.h"
+#include "util/vecmath.h"
+#include "closure/bsdf_params.h"
+#include "closure/conductors.h"
 
 /* ---- Small helpers --------------------------------------------------------------- */
 

@@ -1,7 +1,7 @@
 /* When a lobe is a delta (a perfect mirror or a perfectly smooth interface),
- * the one test that the kernels' BSDF (kernels/closure/bsdf.h and its clear
- * coat, bsdf_layers.h), the light paths (kernels/integrator/light_trace.h) and
- * the host's light-tracing plan (src/render/light_plan.c: which materials may
+ * the one test that the kernels' BSDF (kernels/closure/bsdf_params.h for the
+ * base's lobes, lobe_coat.h for the clear coat; the light paths ask it through
+ * bsdf_picks_delta) and the host's light-tracing plan (src/render/light_plan.c: which materials may
  * be delta, hence the caustic spheres; docs/architecture.md, "Caustics") all
  * make, so that they cannot disagree about which surfaces start caustics.
  * C99 and OpenCL C. */

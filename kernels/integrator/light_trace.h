@@ -212,7 +212,7 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
             }
             vec3 t_, b_;
             v3_basis(n, &t_, &b_);
-            vec3 l = bsdf_sample_cosine(u3, u4);
+            vec3 l = spt_sample_cosine_hemisphere_fast(u3, u4);
             if (l.z > 0.0f) {
                 d = l.x * t_ + l.y * b_ + l.z * n;
                 TexCtx ltc = {{(float2)(0.0f), (float2)(0.0f)}, {(float2)(0.0f), (float2)(0.0f)},
@@ -309,24 +309,6 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
      * x1, camera). */
     int too_short = P.max_depth > 0 && P.max_depth < 3;
     return max4(power) > 0.0f && !too_short ? SPT_PATH_ALIVE : SPT_PATH_FINISHED;
-}
-
-/* Whether u0 picks a delta lobe in bsdf_sample (whose lobe intervals over [0, 1)
- * are: interface, specular, coat, sheen, diffuse; the first two are delta for a
- * smooth base, the coat for a smooth coat), and in *pdelta the probability that
- * it does. */
-SPT_FN_INLINE int lt_delta_lobe(const BsdfParams *bp, float3 wo, float u0, float *pdelta)
-{
-    *pdelta = 0.0f;
-    if (bsdf_is_lambert(bp))
-        return 0;
-    float ps, pd, pt, pc, psh;
-    bsdf_lobe_probs(bp, wo, &ps, &pd, &pt, &pc, &psh);
-    int smooth = bsdf_roughness_is_delta(bp->roughness);
-    int coat = bsdf_has_coat(bp) && bsdf_coat_smooth(bp);
-    float base = smooth ? pt + ps : 0.0f;
-    *pdelta = base + (coat ? pc : 0.0f);
-    return u0 < base || (coat && u0 >= pt + ps && u0 < pt + ps + pc);
 }
 
 /* Connects light vertex h (frame f, BSDF bp) to the camera, a pinhole or a
@@ -455,8 +437,7 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFER
     } else {
         /* The first vertex: a non-delta lobe makes every path through here
          * the camera paths' (its last vertex is non-delta). */
-        float pdelta;
-        if (!lt_delta_lobe(&bp, f.wo_l, ulobe, &pdelta))
+        if (!bsdf_picks_delta(&bp, f.wo_l, ulobe))
             return 0;
     }
     BsdfSample bs;

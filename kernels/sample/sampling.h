@@ -47,8 +47,46 @@ SPT_FN vec3 spt_sample_concentric_disk(float u1, float u2)
     return v3(r * cosf(theta), r * sinf(theta), 0.0f);
 }
 
+/* sin and cos of x for |x| <= pi/4, where no argument reduction is needed: the
+ * minimax polynomials of Cephes' sinf and cosf (S. Moshier), relative error
+ * below 2^-23 there. Cheaper than the general sin/cos, whose argument
+ * reduction (PoCL's __pocl_argReductionS) is an out-of-line call per use. */
+SPT_FN void spt_sincos_pi4(float x, float *s, float *c)
+{
+    float z = x * x;
+    *s = ((-1.9515295891e-4f * z + 8.3321608736e-3f) * z - 1.6666654611e-1f) * z * x + x;
+    *c = ((2.443315711809948e-5f * z - 1.388731625493765e-3f) * z + 4.166664568298827e-2f) * z * z -
+         0.5f * z + 1.0f;
+}
+
 /* A direction of the upper hemisphere (z >= 0) with density cos(theta)/pi
- * (Malley's method: lift a concentric-disk point onto the hemisphere). */
+ * (Malley's method: a point of the concentric disk lifted onto the
+ * hemisphere). The disk angle is phi = pi/4 (b/a), or pi/2 - pi/4 (a/b) on the
+ * other wedges; the latter's cos and sin are the sin and cos of pi/4 (a/b), so
+ * both take spt_sincos_pi4 of an angle in [-pi/4, pi/4]. Written with selects,
+ * not branches: which wedge a random point falls in is a coin toss, which a
+ * CPU's branch predictor gets wrong half the time. */
+SPT_FN vec3 spt_sample_cosine_hemisphere_fast(float u1, float u2)
+{
+    float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f;
+    int wide = fabsf(a) > fabsf(b);
+    float r = wide ? a : b;
+    float s, c;
+    spt_sincos_pi4(0.25f * SPT_PI * ((wide ? b : a) / r), &s, &c);
+    float x = r * (wide ? c : s), y = r * (wide ? s : c);
+    /* The centre (a = b = 0) maps to itself (the ratio above is 0/0 there). */
+    int centre = a == 0.0f && b == 0.0f;
+    x = centre ? 0.0f : x;
+    y = centre ? 0.0f : y;
+    return v3(x, y, sqrtf(fmaxf(0.0f, 1.0f - x * x - y * y)));
+}
+
+/* A direction of the upper hemisphere (z >= 0) with density cos(theta)/pi, by
+ * Malley's method through spt_sample_concentric_disk (cosf and sinf): what
+ * environment sampling (kernels/light/lights.h, env_sample_at) and the
+ * light-tracing plan (src/render/light_plan.c) use. It differs from
+ * spt_sample_cosine_hemisphere_fast in the last bits only; which of the two a
+ * kernel uses is part of its images. */
 SPT_FN vec3 spt_sample_cosine_hemisphere(float u1, float u2)
 {
     vec3 d = spt_sample_concentric_disk(u1, u2);

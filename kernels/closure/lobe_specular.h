@@ -1,0 +1,96 @@
+/* The specular reflection lobe of the glTF material: one GGX microfacet lobe
+ * (glTF 2.0 Appendix B: Trowbridge-Reitz D, Smith height-correlated G2) whose
+ * Fresnel mixes the metal's (Schlick with F0 = base, or a measured conductor's
+ * exact complex Fresnel) and the dielectric's specular layer
+ * (bsdf_dielectric_fresnel) by metallic; a mirror (delta lobe) below
+ * BSDF_DELTA_ALPHA. Weight, f |cos|, pdf and sampling side by side;
+ * kernels/closure/bsdf.h composes the lobes. */
+#ifndef SPT_LOBE_SPECULAR_H
+#define SPT_LOBE_SPECULAR_H
+
+#include "util/portable.h"
+#include "util/vecmath.h"
+#include "closure/bsdf_params.h"
+#include "closure/bsdf_microfacet.h"
+
+/* Fresnel of the metal part at cosine c between wo and h, per wavelength: Schlick
+ * with F0 = base (glTF conductor_fresnel), or exact with eta + i k. */
+SPT_FN vec4 bsdf_metal_fresnel(const BsdfParams *p, float c)
+{
+    if (p->conductor)
+        return v4(bsdf_fresnel_conductor(c, p->eta.x, p->k.x), bsdf_fresnel_conductor(c, p->eta.y, p->k.y),
+                  bsdf_fresnel_conductor(c, p->eta.z, p->k.z), bsdf_fresnel_conductor(c, p->eta.w, p->k.w));
+    return bsdf_schlick(p->base, c);
+}
+
+/* The reflection Fresnel weight of the specular layer per wavelength at cosine c
+ * (wo.h): m F_metal + (1-m)(1-t) F_dielectric (bsdf_dielectric_fresnel). */
+SPT_FN vec4 bsdf_spec_fresnel(const BsdfParams *p, float c)
+{
+    float m = bsdf_metallic(p);
+    float t = bsdf_transmission(p);
+    vec4 fd = bsdf_dielectric_fresnel(p, c);
+    return v4_add(v4_scale(bsdf_metal_fresnel(p, c), m), v4_scale(fd, (1.0f - m) * (1.0f - t)));
+}
+
+/* The lobe's unnormalised selection weight at wo: m + (1-m)(1-t) F, F estimated
+ * at wo (bsdf_dielectric_fresnel_mean); 0 from inside. */
+SPT_FN float bsdf_specular_weight(const BsdfParams *p, vec3 wo)
+{
+    if (wo.z <= 0.0f)
+        return 0.0f;
+    float m = bsdf_metallic(p);
+    float t = bsdf_transmission(p);
+    float fd = bsdf_dielectric_fresnel_mean(p, wo);
+    return m + (1.0f - m) * (1.0f - t) * fd;
+}
+
+/* Adds the rough lobe's f |cos theta_i| = F D G2 / (4 wo.z) to *f, both
+ * directions outside; nothing when the lobe is a mirror or has no weight (a
+ * pure Lambertian). */
+SPT_FN void bsdf_specular_eval(const BsdfParams *p, vec3 wo, vec3 wi, vec4 *f)
+{
+    float m = bsdf_metallic(p);
+    float t = bsdf_transmission(p);
+    if (!(wo.z > 0.0f && wi.z > 0.0f) || bsdf_base_smooth(p) || !(m > 0.0f || (p->specular > 0.0f && t < 1.0f)))
+        return;
+    float alpha = bsdf_alpha(p->roughness);
+    vec3 h = v3_normalize(v3_add(wo, wi));
+    float c = fabsf(v3_dot(wo, h));
+    float spec = bsdf_ggx_d(h, alpha) * bsdf_ggx_g2(wo, wi, alpha) / (4.0f * wo.z);
+    *f = v4_add(*f, v4_scale(bsdf_spec_fresnel(p, c), spec));
+}
+
+/* The rough lobe's share of the material's pdf: prob times the visible-normal
+ * density of h over 4 wo.h (the reflection's Jacobian). */
+SPT_FN float bsdf_specular_pdf(const BsdfParams *p, vec3 wo, vec3 wi, float prob)
+{
+    if (!(wo.z > 0.0f && wi.z > 0.0f) || !(prob > 0.0f) || bsdf_base_smooth(p))
+        return 0.0f;
+    float alpha = bsdf_alpha(p->roughness);
+    vec3 h = v3_normalize(v3_add(wo, wi));
+    return prob * bsdf_ggx_vndf_pdf(wo, h, alpha) / (4.0f * v3_dot(wo, h));
+}
+
+/* The mirror: the whole delta sample, weight F(wo.z) / prob
+ * (BSDF_SAMPLED_DELTA). Rough: wi reflected about a visible normal
+ * (BSDF_SAMPLED_WI), none when it goes into the surface (the lobe's pdf counts
+ * only wi above). */
+SPT_FN int bsdf_specular_sample(const BsdfParams *p, vec3 wo, float u1, float u2, float prob, BsdfSample *s)
+{
+    if (wo.z <= 0.0f)
+        return BSDF_SAMPLED_NONE;
+    if (bsdf_base_smooth(p)) {
+        s->wi = v3(-wo.x, -wo.y, wo.z);
+        s->is_delta = 1;
+        s->valid = 1;
+        s->pdf = prob;
+        s->weight = v4_scale(bsdf_spec_fresnel(p, wo.z), 1.0f / prob);
+        return BSDF_SAMPLED_DELTA;
+    }
+    vec3 h = bsdf_ggx_sample_vndf(wo, bsdf_alpha(p->roughness), u1, u2);
+    s->wi = bsdf_reflect(wo, h);
+    return s->wi.z > 0.0f ? BSDF_SAMPLED_WI : BSDF_SAMPLED_NONE;
+}
+
+#endif
