@@ -35,7 +35,7 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 device_tests=(test_bsdf test_bvh test_lights test_materials test_render test_render_sky test_shading test_caustics test_caustics_ref test_prism
               test_caustics_sky test_hostile_spot test_hostile_spectra test_hostile_radiance
               test_rng test_sampling test_textures test_multidevice test_checkpoint test_sweep test_aov
-              test_spectral test_adaptive)
+              test_spectral test_adaptive test_wavelength)
 
 if [ $# -gt 0 ]; then
   names=("$@")
@@ -51,7 +51,7 @@ IFS=, read -r -a impl_list <<<"$impls"
 # kernel launch here (a 64x64 Cornell box at 4 spp takes 25 s), so it runs a
 # subset: it builds the same program and runs the GPU path's kernels in each of
 # these, while pocl-gpu runs every device test on that path.
-rusticl_subset=(test_bsdf test_bvh test_lights test_rng test_sampling test_textures test_multidevice test_sweep)
+rusticl_subset=(test_bsdf test_bvh test_lights test_rng test_sampling test_textures test_multidevice test_sweep test_wavelength)
 # test_multidevice and test_sweep split one render across PoCL and another
 # implementation; pocl-gpu is PoCL itself.
 pocl_gpu_left_out=(test_multidevice test_sweep)

@@ -9,10 +9,9 @@
 #include "chi2.h"
 #include "core/distribution.h"
 #include "sample/sampling.h"
-#include "spectrum/spectrum.h"
 
 /* Chi-square tests expected to pass in this binary, for the Sidak correction. */
-#define SAMPLING_CHI2_TESTS 8
+#define SAMPLING_CHI2_TESTS 7
 
 /* The two uniforms of sample i of a test with this stream number. */
 static void test_uniform2(uint32_t stream, uint32_t i, float *u1, float *u2)
@@ -561,139 +560,6 @@ static void test_distrib_large(void **state)
     free(w);
 }
 
-/* ---- Wavelengths (kernels/spectrum/spectrum.h) ------------------------------------------- */
-
-/* The density the wavelength table is made to follow (tools/gen_wavelength_pdf.py),
- * unnormalised, written out from its definition: the Euclidean norm of the
- * linear sRGB colour matching functions (the CIE 1931 functions through the
- * XYZ -> sRGB matrix of IEC 61966-2-1) plus 1% of its largest value. */
-static double wavelength_target(double l)
-{
-    static const double m[3][3] = {{3.2406, -1.5372, -0.4986}, {-0.9689, 1.8758, 0.0415},
-                                   {0.0557, -0.2040, 1.0570}};
-    static double top = 0.0;
-    double xyz[3] = {spt_cie_x((float)l), spt_cie_y((float)l), spt_cie_z((float)l)}, n2 = 0.0;
-    for (int c = 0; c < 3; c++) {
-        double v = m[c][0] * xyz[0] + m[c][1] * xyz[1] + m[c][2] * xyz[2];
-        n2 += v * v;
-    }
-    if (top == 0.0) {
-        for (int i = SPT_CIE_LAMBDA_MIN; i <= SPT_CIE_LAMBDA_MAX; i++) {
-            double x[3] = {spt_cie_x((float)i), spt_cie_y((float)i), spt_cie_z((float)i)}, q = 0.0;
-            for (int c = 0; c < 3; c++) {
-                double v = m[c][0] * x[0] + m[c][1] * x[1] + m[c][2] * x[2];
-                q += v * v;
-            }
-            top = fmax(top, sqrt(q));
-        }
-    }
-    return sqrt(n2) + 0.01 * top;
-}
-
-/* The density the table samples, in double: bin k of SPT_WL_INV_CDF holds
- * probability 1 / SPT_WL_BINS, spread evenly over it. */
-static double wavelength_pdf_ref(double l)
-{
-    for (int k = 0; k < SPT_WL_BINS; k++)
-        if (l >= SPT_WL_INV_CDF[k] && l < SPT_WL_INV_CDF[k + 1])
-            return 1.0 / (SPT_WL_BINS * ((double)SPT_WL_INV_CDF[k + 1] - SPT_WL_INV_CDF[k]));
-    return l == SPT_WL_INV_CDF[SPT_WL_BINS]
-               ? 1.0 / (SPT_WL_BINS * ((double)SPT_WL_INV_CDF[SPT_WL_BINS] - SPT_WL_INV_CDF[SPT_WL_BINS - 1]))
-               : 0.0;
-}
-
-/* The CDF of that density at l. */
-static double wavelength_cdf_ref(double l)
-{
-    for (int k = 0; k < SPT_WL_BINS; k++)
-        if (l < SPT_WL_INV_CDF[k + 1])
-            return (k + (l - SPT_WL_INV_CDF[k]) / ((double)SPT_WL_INV_CDF[k + 1] - SPT_WL_INV_CDF[k])) /
-                   SPT_WL_BINS;
-    return 1.0;
-}
-
-/* Sample i: one of the four hero wavelengths (i % 4) of path i / 4, mapped
- * through the density's CDF, as (cdf(l), 0.5): uniform when the wavelengths
- * follow the density. (A chi-square in nm would need the cell masses of a
- * density with steps inside the cells, which a quadrature gets wrong.) */
-static int wavelength_sample(void *ctx, uint32_t i, double p[3])
-{
-    (void)ctx;
-    float lambda[SPT_NUM_LAMBDA], pdf[SPT_NUM_LAMBDA];
-    spt_sample_wavelengths(test_uniform(((uint64_t)8 << 40) + i / SPT_NUM_LAMBDA), lambda, pdf);
-    p[0] = wavelength_cdf_ref(lambda[i % SPT_NUM_LAMBDA]);
-    p[1] = 0.5;
-    return 1;
-}
-
-static double unit_pdf(void *ctx, const double p[3])
-{
-    (void)ctx;
-    (void)p;
-    return 1.0;
-}
-
-/* The table spans 360..830 nm, and each of its bins holds 1 / SPT_WL_BINS of the
- * target density (within 0.1%: the table's 4 decimals); chi-square of the hero
- * wavelengths against the table's density (every one of the four is
- * distributed by it; res 250 so that cells do not line up with the bins); the kernel's pdf equals the density and integrates to 1;
- * the pdfs returned are those of the wavelengths; the four sit at CDF values u,
- * u + 1/4, u + 1/2, u + 3/4 (mod 1), so they are stratified. */
-static void test_wavelength_sampling(void **state)
-{
-    (void)state;
-    assert_true(SPT_WL_INV_CDF[0] == (float)SPT_CIE_LAMBDA_MIN);
-    assert_true(SPT_WL_INV_CDF[SPT_WL_BINS] == (float)SPT_CIE_LAMBDA_MAX);
-    /* Simpson's rule over each bin, 256 panels. */
-    double total = 0.0, bin[SPT_WL_BINS] = {0};
-    for (int k = 0; k < SPT_WL_BINS; k++) {
-        double a = SPT_WL_INV_CDF[k], w = ((double)SPT_WL_INV_CDF[k + 1] - a) / 256.0;
-        for (int j = 0; j <= 256; j++)
-            bin[k] += (j == 0 || j == 256 ? 1.0 : (j % 2 ? 4.0 : 2.0)) * wavelength_target(a + j * w);
-        bin[k] *= w / 3.0;
-        total += bin[k];
-    }
-    for (int k = 0; k < SPT_WL_BINS; k++)
-        if (fabs(bin[k] / total * SPT_WL_BINS - 1.0) > 1e-3)
-            fail_msg("wavelength bin %d [%.4f, %.4f] nm holds %.6f of the target density, expected %.6f", k,
-                     SPT_WL_INV_CDF[k], SPT_WL_INV_CDF[k + 1], bin[k] / total, 1.0 / SPT_WL_BINS);
-    Chi2Grid g = chi2_plane("hero wavelengths, through the CDF", 0.0, 1.0, 0.0, 1.0, 250, 1,
-                            SAMPLING_CHI2_TESTS, wavelength_sample, unit_pdf, NULL);
-    chi2_require(&g);
-    /* The kernel's pdf: pointwise (between bin edges), and its integral (0.01 nm). */
-    double sum = 0.0;
-    for (int j = 0; j < 47000; j++) {
-        double l = 360.0 + 0.01 * (j + 0.5);
-        float pk = spt_wavelength_pdf((float)l);
-        assert_close_rel(pk, wavelength_pdf_ref((float)l), 1e-5);
-        sum += pk * 0.01;
-    }
-    assert_close(sum, 1.0, 1e-4);
-    assert_close(spt_wavelength_pdf(359.0f), 0.0, 0.0);
-    assert_close(spt_wavelength_pdf(831.0f), 0.0, 0.0);
-    for (uint32_t i = 0; i < 1000; i++) {
-        float lambda[SPT_NUM_LAMBDA], pdf[SPT_NUM_LAMBDA];
-        float u = test_uniform(((uint64_t)9 << 40) + i);
-        spt_sample_wavelengths(u, lambda, pdf);
-        for (int k = 0; k < SPT_NUM_LAMBDA; k++) {
-            assert_true(lambda[k] >= 360.0f && lambda[k] <= 830.0f);
-            /* Within a bin: away from its edges, where float rounding may pick the neighbour. */
-            float lp = lambda[k] + 1e-3f, lm = lambda[k] - 1e-3f;
-            if (spt_wavelength_pdf(lp) == spt_wavelength_pdf(lm))
-                assert_close_rel(pdf[k], wavelength_pdf_ref(lambda[k]), 1e-5);
-            /* The CDF at lambda is (u + k/4) mod 1, up to the wrap-around
-             * (circular distance). */
-            double cdf = wavelength_cdf_ref(lambda[k]);
-            double want = fmod((double)u + (double)k / SPT_NUM_LAMBDA, 1.0);
-            double dist = fabs(cdf - want);
-            dist = fmin(dist, 1.0 - dist);
-            if (!(dist < 1e-5))
-                fail_msg("u = %.7f, wavelength %d = %.4f nm: CDF %.6f, expected %.6f", u, k,
-                         lambda[k], cdf, want);
-        }
-    }
-}
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -711,7 +577,6 @@ int main(void)
         cmocka_unit_test(test_distrib_edges),
         cmocka_unit_test(test_discrete_matches_linear_scan),
         cmocka_unit_test(test_distrib_large),
-        cmocka_unit_test(test_wavelength_sampling),
     };
     return cmocka_run_group_tests_name("sampling", tests, NULL, NULL);
 }

@@ -9,6 +9,7 @@
 
 #include "color/spd.h"
 #include "spectrum/spectrum.h"
+#include "sample/wavelength.h"
 
 /* XYZ of a named illuminant normalised to Y = 1. */
 static void named_white(const char *name, double xyz[3])
@@ -403,8 +404,10 @@ static void test_wavelength_sampling(void **state)
     double sum = 0;
     for (int p = 0; p < paths; p++) {
         x = x * 1664525u + 1013904223u;
-        float u = (float)(x >> 8) * (1.0f / 16777216.0f), lam[4], pdf[4];
-        spt_sample_wavelengths(u, lam, pdf);
+        float u = (float)(x >> 8) * (1.0f / 16777216.0f);
+        vec4 l4, p4;
+        spt_sample_wavelengths(u, &l4, &p4);
+        float lam[4] = {l4.x, l4.y, l4.z, l4.w}, pdf[4] = {p4.x, p4.y, p4.z, p4.w};
         double s = 0;
         for (int i = 0; i < 4; i++) {
             assert_true(lam[i] >= 360.0f && lam[i] <= 830.0f && pdf[i] > 0.0f);
@@ -420,8 +423,10 @@ static void test_wavelength_sampling(void **state)
         if (fmod(l - 360.0, 10.0) < h / 2) {
             /* the sample of u = cdf(l + h) should be l + h */
             double u = cdf;
+            vec4 l4, p4;
+            spt_sample_wavelengths((float)u, &l4, &p4);
             if (u < 1.0)
-                assert_close(spt_sample_wavelength((float)u), l + h, 0.05);
+                assert_close(l4.x, l + h, 0.05);
         }
     }
     assert_close(cdf, 1.0, 1e-4);
@@ -442,8 +447,9 @@ static void test_wavelength_noise_flat_d65(void **state)
     enum { J = 1 << 16 };
     double sum[3] = {0, 0, 0}, sq[3] = {0, 0, 0};
     for (int j = 0; j < J; j++) {
-        float lam[SPT_NUM_LAMBDA], pdf[SPT_NUM_LAMBDA];
-        spt_sample_wavelengths((float)((j + 0.5) / J), lam, pdf);
+        vec4 l4, p4;
+        spt_sample_wavelengths((float)((j + 0.5) / J), &l4, &p4);
+        float lam[SPT_NUM_LAMBDA] = {l4.x, l4.y, l4.z, l4.w}, pdf[SPT_NUM_LAMBDA] = {p4.x, p4.y, p4.z, p4.w};
         double xyz[3] = {0, 0, 0}, rgb[3];
         for (int i = 0; i < SPT_NUM_LAMBDA; i++) {
             double w = 0.5 * spt_d65_norm(lam[i]) / pdf[i] / (SPT_NUM_LAMBDA * SPT_CIE_Y_INTEGRAL);

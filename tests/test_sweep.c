@@ -62,6 +62,7 @@
 #include "color/spd.h"
 #include "spectrum/cie_data.h"
 #include "spectrum/spectrum.h"
+#include "sample/wavelength.h"
 
 enum { SKY, BOX, SCENES };
 static const char *const scene_names[SCENES] = {"sky", "box"};

@@ -157,7 +157,7 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
     lt_item(w, &lp, &sample, &P);
     uint key = spt_rng_key(P.seed ^ SPT_LT_SALT, lp, sample);
     float4 lam, lpdf;
-    path_sample_wavelengths(spt_rand_key(key, SPT_DIM_WAVELENGTH), &lam, &lpdf);
+    spt_sample_wavelengths(spt_rand_key(key, SPT_DIM_WAVELENGTH), &lam, &lpdf);
     float prob = 0.0f;
     int e = -1;
     if (P.select_count > 0u)

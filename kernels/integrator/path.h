@@ -7,6 +7,7 @@
 #include "util/portable.h"
 #include "util/vecmath.h"
 #include "spectrum/spectrum.h"
+#include "sample/wavelength.h"
 #include "util/render_types.h"
 
 /* sigmoid-polynomial spectrum at four wavelengths. */
@@ -308,21 +309,6 @@ static float3 path_xyz_to_linear_srgb(float3 c)
     return (float3)(3.2406f * c.x - 1.5372f * c.y - 0.4986f * c.z,
                     -0.9689f * c.x + 1.8758f * c.y + 0.0415f * c.z,
                     0.0557f * c.x - 0.2040f * c.y + 1.0570f * c.z);
-}
-
-/* spt_sample_wavelengths (kernels/spectrum/spectrum.h) on the four lanes at once:
- * the same arithmetic per lane. */
-static void path_sample_wavelengths(float u, float4 *lambda, float4 *pdf)
-{
-    float4 ui = u + (float4)(0.0f, 0.25f, 0.5f, 0.75f);
-    ui = select(ui, ui - 1.0f, isgreaterequal(ui, 1.0f));
-    float4 x = ui * (float)SPT_WL_BINS;
-    int4 k = clamp(convert_int4(x), (int4)(0), (int4)(SPT_WL_BINS - 1));
-    float4 a = (float4)(SPT_WL_INV_CDF[k.x], SPT_WL_INV_CDF[k.y], SPT_WL_INV_CDF[k.z], SPT_WL_INV_CDF[k.w]);
-    float4 b = (float4)(SPT_WL_INV_CDF[k.x + 1], SPT_WL_INV_CDF[k.y + 1], SPT_WL_INV_CDF[k.z + 1],
-                        SPT_WL_INV_CDF[k.w + 1]);
-    *pdf = 1.0f / ((float)SPT_WL_BINS * (b - a));
-    *lambda = a + (x - convert_float4(k)) * (b - a);
 }
 
 /* Largest component of v. */

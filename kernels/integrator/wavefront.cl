@@ -205,7 +205,7 @@ static uint path_start(uint i, uint w, ALL_BUFFERS)
     ps_ray_o[i] = (float4)(org, 0.0f);
     ps_ray_d[i] = (float4)(normalize(d), P.cam_pos[3]); /* w: the ray cone's width */
     float4 lam, pdf;
-    path_sample_wavelengths(spt_sampler_1d(smp, SPT_DIM_WAVELENGTH), &lam, &pdf);
+    spt_sample_wavelengths(spt_sampler_1d(smp, SPT_DIM_WAVELENGTH), &lam, &pdf);
     ps_lambda[i] = lam;
     ps_lambda_pdf[i] = pdf;
     ps_throughput[i] = (float4)(1.0f);
