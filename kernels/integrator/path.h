@@ -77,24 +77,6 @@ static float4 spec_eval(const __global SpecRef *s, float4 lam, const __global fl
     return (float4)(0.0f);
 }
 
-/* spec_eval for a spectrum held in private memory (the kernel parameters). */
-static float4 spec_eval_private(const SpecRef *s, float4 lam, const __global float *spectra)
-{
-    if (s->kind == SPT_SPEC_SIGMOID) {
-        float4 v = s->scale * spec_sigmoid4(s->c[0], s->c[1], s->c[2], lam);
-        if (s->flags & SPT_SPEC_ILLUMINANT)
-            v *= (float4)(spt_d65_norm(lam.x), spt_d65_norm(lam.y), spt_d65_norm(lam.z),
-                          spt_d65_norm(lam.w));
-        return v;
-    }
-    if (s->kind == SPT_SPEC_TABLE) {
-        const __global float *t = spectra + s->offset;
-        return s->scale * (float4)(table_lookup(t, lam.x), table_lookup(t, lam.y),
-                                   table_lookup(t, lam.z), table_lookup(t, lam.w));
-    }
-    return (float4)(0.0f);
-}
-
 /* ---- Textures ---------------------------------------------------------------------
  * Texels live in the texels buffer (no image objects: OpenCL 1.2 devices differ in
  * what they support), as mip pyramids (GpuTexture). A lookup blends up to 8 texels:

@@ -149,17 +149,11 @@ SPT_FN vec3 spt_sample_triangle_bary(float u1, float u2)
 }
 
 /* A point uniformly distributed by area on triangle (p0, p1, p2); its area
- * density is 1 / spt_triangle_area(p0, p1, p2). */
+ * density is 1 / its area. */
 SPT_FN vec3 spt_sample_triangle(vec3 p0, vec3 p1, vec3 p2, float u1, float u2)
 {
     vec3 b = spt_sample_triangle_bary(u1, u2);
     return v3_add(v3_add(v3_scale(p0, b.x), v3_scale(p1, b.y)), v3_scale(p2, b.z));
-}
-
-/* Area of triangle (p0, p1, p2). */
-SPT_FN float spt_triangle_area(vec3 p0, vec3 p1, vec3 p2)
-{
-    return 0.5f * v3_length(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
 }
 
 /* Veach's power heuristic (beta = 2) weight of a sample drawn from the strategy
