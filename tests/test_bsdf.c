@@ -502,7 +502,6 @@ static void test_consistency_reciprocity(void **state)
     assert_true(bsdf_is_delta(&mirror));
     BsdfParams plastic = make_params(1.0f, 0.0f, 0.0f, 0.0f);
     assert_false(bsdf_is_delta(&plastic));
-    assert_true(bsdf_has_delta(&plastic));
 }
 
 /* Rough transmission obeys generalised reciprocity (Veach 1997, thesis eq. 5.14):

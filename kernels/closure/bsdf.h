@@ -133,13 +133,6 @@ SPT_FN int bsdf_is_delta(const BsdfParams *p)
            (!bsdf_has_coat(p) || bsdf_coat_smooth(p));
 }
 
-/* Whether the material has any delta lobe (smooth base or coat), while possibly
- * also rough ones. */
-SPT_FN int bsdf_has_delta(const BsdfParams *p)
-{
-    return bsdf_base_smooth(p) || (bsdf_has_coat(p) && bsdf_coat_smooth(p));
-}
-
 /* Whether the material is Lambert's alone: no metal, no transmission and no
  * specular layer, so every other lobe has weight 0 and bsdf_eval, bsdf_pdf and
  * bsdf_sample reduce to base cos / pi, cos / pi and a cosine sample. They take
