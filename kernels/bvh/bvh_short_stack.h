@@ -1,12 +1,17 @@
-/* The traversal with a short stack and restarts, the kernels' GPU path
- * (included by kernels/bvh/bvh.h, whose types and node steps it uses). */
+/* The traversal with a short stack and restarts, the kernels' GPU path, over
+ * the node layout and node steps of kernels/bvh/bvh_node.h (kernels/bvh/bvh.h
+ * picks it for SPT_BVH_SHORT_STACK). */
 #ifndef SPT_KERNELS_BVH_SHORT_STACK_H
 #define SPT_KERNELS_BVH_SHORT_STACK_H
+
+#include "util/portable.h"
+#include "util/vecmath.h"
+#include "bvh/bvh_node.h"
 
 /* The traversal with a short stack and restarts (the GPU path): private
  * memory per ray of BVH_SHORT_STACK_SIZE deferred items (16 bytes each) and a
  * trail of one byte per tree level, about 250 bytes, where the full stack
- * (bvh_trav_step, kernels/bvh/bvh.h) takes 5.4 KB. It visits the same items in the same order as
+ * (bvh_trav_step, kernels/bvh/bvh_node.h) takes 5.4 KB. It visits the same items in the same order as
  * bvh_trav_step, so its hits are the same bit for bit (tests/test_bvh.c).
  *
  * A node at level l (the root is level 0) visits its entered children in
