@@ -1,5 +1,5 @@
-/* The light-tracing pass of the wavefront kernels (kernels/integrator/wavefront.cl
- * includes this after kernels/integrator/shade_surface.h): paths that start on the
+/* The light-tracing pass of the wavefront kernels (kernels/integrator/wavefront.cl),
+ * on the shading steps of kernels/integrator/shade_surface.h: paths that start on the
  * lights and reach the camera through a shadow ray, for the caustics that
  * camera paths find badly (an area light or a map's sun seen through glass)
  * or never (a punctual light behind glass). docs/architecture.md, "Caustics",
@@ -49,6 +49,20 @@
  *   the atomics, so a chunk's image is the same whatever the schedule. */
 #ifndef SPT_LIGHT_TRACE_H
 #define SPT_LIGHT_TRACE_H
+
+#include "util/portable.h"
+#include "util/vecmath.h"
+#include "util/render_types.h"
+#include "sample/rng.h"
+#include "sample/sampling.h"
+#include "closure/bsdf.h"
+#include "light/lights.h"
+#include "integrator/path.h"
+#include "integrator/kernel_globals.h"
+#include "material/material_eval.h"
+#include "integrator/shade_surface.h"
+
+SPT_DEVICE_ONLY
 
 #define SPT_LT_SALT 0x6c8e9cf5u
 
@@ -151,17 +165,17 @@ SPT_FN_INLINE float lt_aim_parallel(const RenderParams *p, float3 ax, float u0, 
  * light's emission over the density of the start point and direction). Returns
  * the path's flags: SPT_PATH_ALIVE, or SPT_PATH_FINISHED when it carries
  * nothing (a zero sample, or a max_depth too small for any path it owns). */
-SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
+SPT_FN_INLINE uint lt_start(uint i, uint w, const KernelGlobals *kg)
 {
     uint lp, sample;
-    lt_item(w, &lp, &sample, &P);
-    uint key = spt_rng_key(P.seed ^ SPT_LT_SALT, lp, sample);
+    lt_item(w, &lp, &sample, kg->p);
+    uint key = spt_rng_key(kg->p->seed ^ SPT_LT_SALT, lp, sample);
     float4 lam, lpdf;
     spt_sample_wavelengths(spt_rand_key(key, SPT_DIM_WAVELENGTH), &lam, &lpdf);
     float prob = 0.0f;
     int e = -1;
-    if (P.select_count > 0u)
-        e = spt_discrete_sample(light_cdf, P.select_count,
+    if (kg->p->select_count > 0u)
+        e = spt_discrete_sample(kg->light_cdf, kg->p->select_count,
                                 spt_rand_key(key, spt_dim_bounce(0u, SPT_DIM_LIGHT_SELECT)), &prob, 0);
     float u1 = spt_rand_key(key, spt_dim_bounce(0u, SPT_DIM_LIGHT_U));
     float u2 = spt_rand_key(key, spt_dim_bounce(0u, SPT_DIM_LIGHT_V));
@@ -170,22 +184,22 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
     float u5 = spt_rand_key(key, spt_dim_bounce(0u, SPT_DIM_BSDF_LOBE));
     float3 o = (float3)(0.0f), d = (float3)(0.0f, 0.0f, 1.0f);
     float4 power = (float4)(0.0f);
-    if (e >= 0 && (uint)e < P.emitter_count && prob > 0.0f) {
+    if (e >= 0 && (uint)e < kg->p->emitter_count && prob > 0.0f) {
         /* An emissive triangle: a uniform point, a cosine-weighted direction
          * (either side, with probability 1/2 each, when both emit). */
-        uint lt = emitters[e];
+        uint lt = kg->emitters[e];
         vec3 a, b, c;
-        tri_positions(tri_shade, vtx_pos, lt, &a, &b, &c);
+        tri_positions(kg->tri_shade, kg->vtx_pos, lt, &a, &b, &c);
         vec3 bary = spt_sample_triangle_bary(u1, u2);
         float3 q = bary.x * a + bary.y * b + bary.z * c;
         float3 cr = cross(b - a, c - a);
         float area2 = length(cr);
-        const __global GpuMaterial *lm = materials + tri_shade[lt].material;
+        const __global GpuMaterial *lm = kg->materials + kg->tri_shade[lt].material;
         float omega, cones;
-        if (area2 > 0.0f && lt_aim_cones(&P, q, &omega)) {
+        if (area2 > 0.0f && lt_aim_cones(kg->p, q, &omega)) {
             /* Aimed at the caustic spheres: the side the direction leaves by
              * (none when that side does not emit). */
-            float3 dg = lt_aim_dir(&P, q, omega, u3, u4, &cones);
+            float3 dg = lt_aim_dir(kg->p, q, omega, u3, u4, &cones);
             float3 ng = cr / area2;
             float cn = dot(dg, ng);
             int two = (lm->flags & SPT_MAT_DOUBLE_SIDED_EMISSION) != 0;
@@ -195,9 +209,10 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
                 TexCtx ltc = {{(float2)(0.0f), (float2)(0.0f)}, {(float2)(0.0f), (float2)(0.0f)},
                               {(float2)(0.0f), (float2)(0.0f)}};
                 if (material_uses_uv(lm))
-                    ltc = tex_ctx(lm, lt, bary.y, bary.z, a, b, c, ng, d, 0.0f, tri_shade, vtx_uv, vtx_uv1);
-                float4 le = material_emission(lm, &ltc, lam, fabs(cn), lt, bary.y, bary.z, tri_shade,
-                                              vtx_color, spectra, textures, texels);
+                    ltc = tex_ctx(lm, lt, bary.y, bary.z, a, b, c, ng, d, 0.0f, kg->tri_shade, kg->vtx_uv,
+                                  kg->vtx_uv1);
+                float4 le = material_emission(lm, &ltc, lam, fabs(cn), lt, bary.y, bary.z, kg->tri_shade,
+                                              kg->vtx_color, kg->spectra, kg->textures, kg->texels);
                 /* Le cos / (prob / area  cones / omega) */
                 power = le * (fabs(cn) * (omega / cones) * 0.5f * area2 / prob);
                 o = offset_origin(q, n);
@@ -218,24 +233,25 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
                 TexCtx ltc = {{(float2)(0.0f), (float2)(0.0f)}, {(float2)(0.0f), (float2)(0.0f)},
                               {(float2)(0.0f), (float2)(0.0f)}};
                 if (material_uses_uv(lm))
-                    ltc = tex_ctx(lm, lt, bary.y, bary.z, a, b, c, ng, d, 0.0f, tri_shade, vtx_uv, vtx_uv1);
-                float4 le = material_emission(lm, &ltc, lam, l.z, lt, bary.y, bary.z, tri_shade, vtx_color,
-                                              spectra, textures, texels);
+                    ltc = tex_ctx(lm, lt, bary.y, bary.z, a, b, c, ng, d, 0.0f, kg->tri_shade, kg->vtx_uv,
+                                  kg->vtx_uv1);
+                float4 le = material_emission(lm, &ltc, lam, l.z, lt, bary.y, bary.z, kg->tri_shade,
+                                              kg->vtx_color, kg->spectra, kg->textures, kg->texels);
                 /* Le cos / (prob / area  side_p  cos / pi) */
                 power = le * (0.5f * area2 * SPT_PI / (prob * side_p));
                 o = offset_origin(q, n);
             }
         }
-    } else if (e >= 0 && (uint)e < P.emitter_count + P.light_count && prob > 0.0f) {
-        const __global GpuLight *l = lights + ((uint)e - P.emitter_count);
-        float4 spd = (float4)(light_spec_value(l->spectrum, spectra, lam.x),
-                              light_spec_value(l->spectrum, spectra, lam.y),
-                              light_spec_value(l->spectrum, spectra, lam.z),
-                              light_spec_value(l->spectrum, spectra, lam.w));
+    } else if (e >= 0 && (uint)e < kg->p->emitter_count + kg->p->light_count && prob > 0.0f) {
+        const __global GpuLight *l = kg->lights + ((uint)e - kg->p->emitter_count);
+        float4 spd = (float4)(light_spec_value(l->spectrum, kg->spectra, lam.x),
+                              light_spec_value(l->spectrum, kg->spectra, lam.y),
+                              light_spec_value(l->spectrum, kg->spectra, lam.z),
+                              light_spec_value(l->spectrum, kg->spectra, lam.w));
         float3 ax = (float3)(l->dir[0], l->dir[1], l->dir[2]);
         vec3 t_, b_;
         v3_basis(ax, &t_, &b_);
-        float3 cs = (float3)(P.scene_center[0], P.scene_center[1], P.scene_center[2]);
+        float3 cs = (float3)(kg->p->scene_center[0], kg->p->scene_center[1], kg->p->scene_center[2]);
         float3 pos = (float3)(l->pos[0], l->pos[1], l->pos[2]);
         float omega, cones;
         if (l->type == SPT_PUNCTUAL_DIRECTIONAL) {
@@ -243,19 +259,19 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
              * cover the caustic spheres (lt_aim_parallel), or without them
              * through a disc of the scene's radius, tangent to its bounding
              * sphere on the side the light comes from: E area / prob. */
-            if (P.caustic_count > 0u) {
-                power = spd * (lt_aim_parallel(&P, ax, u1, u3, u4, &o) / prob);
+            if (kg->p->caustic_count > 0u) {
+                power = spd * (lt_aim_parallel(kg->p, ax, u1, u3, u4, &o) / prob);
             } else {
-                float R = P.scene_radius;
+                float R = kg->p->scene_radius;
                 vec3 disk = spt_sample_concentric_disk(u3, u4);
                 o = cs + R * (disk.x * t_ + disk.y * b_) - ax * R;
                 power = spd * (SPT_PI * R * R / prob);
             }
             d = ax;
-        } else if (lt_aims_punctual(&P, l, &omega)) {
+        } else if (lt_aims_punctual(kg->p, l, &omega)) {
             /* Aimed at the caustic spheres: I falloff omega / (cones prob). */
             o = pos;
-            d = normalize(lt_aim_dir(&P, pos, omega, u3, u4, &cones));
+            d = normalize(lt_aim_dir(kg->p, pos, omega, u3, u4, &cones));
             power = spd * (light_spot_falloff(l, light_one_minus_cos(d, ax)) * (omega / cones) / prob);
         } else {
             o = pos;
@@ -273,7 +289,7 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
                 power = spd * (light_spot_falloff(l, x) * 2.0f * SPT_PI * span / prob);
             }
         }
-    } else if (e >= 0 && prob > 0.0f && P.env.kind == SPT_ENV_MAP) {
+    } else if (e >= 0 && prob > 0.0f && kg->p->env.kind == SPT_ENV_MAP) {
         /* An environment map (a uniform sky's share ends the path: camera paths
          * find it through glass well, and keep it): a direction w toward the
          * sky by env_sample's density (the texels' luminance), then parallel
@@ -283,31 +299,31 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
          * meets one crosses one of those discs. The rays start outside the
          * scene's bounding sphere: L(w) area / (crossed prob pdf(w)). */
         float epdf;
-        float3 w = normalize(env_sample(&P.env, env_data, u1, u2, &epdf));
-        if (epdf > 0.0f && P.caustic_count > 0u) {
+        float3 w = normalize(env_sample(&kg->p->env, kg->env_data, u1, u2, &epdf));
+        if (epdf > 0.0f && kg->p->caustic_count > 0u) {
             float la[4], lv[4];
             lambda_array(lam, la);
-            env_eval(&P.env, env_data, w, la, lv);
-            float area = lt_aim_parallel(&P, -w, u5, u3, u4, &o);
+            env_eval(&kg->p->env, kg->env_data, w, la, lv);
+            float area = lt_aim_parallel(kg->p, -w, u5, u3, u4, &o);
             d = -w;
             power = (float4)(lv[0], lv[1], lv[2], lv[3]) * (area / (prob * epdf));
         }
     }
-    ps_lambda[i] = lam;
-    ps_lambda_pdf[i] = lpdf;
-    ps_throughput[i] = (float4)(1.0f);
-    ps_radiance[i] = power;
-    ps_work[i] = w;
-    ps_depth[i] = 0;
-    ps_passes[i] = 0;
-    ps_medium[i] = 0;
-    ps_bsdf_pdf[i] = 0.0f;
-    ps_lt[i] = SPT_LT_LIGHT;
-    ps_ray_o[i] = (float4)(o, 0.0f);
-    ps_ray_d[i] = (float4)(normalize(d), 0.0f);
+    kg->ps_lambda[i] = lam;
+    kg->ps_lambda_pdf[i] = lpdf;
+    kg->ps_throughput[i] = (float4)(1.0f);
+    kg->ps_radiance[i] = power;
+    kg->ps_work[i] = w;
+    kg->ps_depth[i] = 0;
+    kg->ps_passes[i] = 0;
+    kg->ps_medium[i] = 0;
+    kg->ps_bsdf_pdf[i] = 0.0f;
+    kg->ps_lt[i] = SPT_LT_LIGHT;
+    kg->ps_ray_o[i] = (float4)(o, 0.0f);
+    kg->ps_ray_d[i] = (float4)(normalize(d), 0.0f);
     /* The shortest path the pass owns has 3 segments (light, delta vertex,
      * x1, camera). */
-    int too_short = P.max_depth > 0 && P.max_depth < 3;
+    int too_short = kg->p->max_depth > 0 && kg->p->max_depth < 3;
     return max4(power) > 0.0f && !too_short ? SPT_PATH_ALIVE : SPT_PATH_FINISHED;
 }
 
@@ -323,17 +339,17 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, ALL_BUFFERS)
  * pixel of the d whose focus point lies on the line from l through it. The
  * importance is the pinhole's with theta at l: the lens point's density
  * cancels the lens's 1/A_lens. */
-SPT_FN_INLINE int lt_connect(const ShadeHit *h, const BsdfParams *bp, const ShadeFrame *f, float lu,
-                             float lv, float u, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFERS)
+SPT_FN_INLINE int lt_connect(const ShadeHit *h, const BsdfParams *bp, const ShadeFrame *f, float lu, float lv,
+                             float u, float4 *sh_o, float4 *sh_d, float4 *sh_c, const KernelGlobals *kg)
 {
-    float3 cam = (float3)(P.cam_pos[0], P.cam_pos[1], P.cam_pos[2]);
-    float3 fwd = (float3)(P.cam_fwd[0], P.cam_fwd[1], P.cam_fwd[2]);
-    float3 right = (float3)(P.cam_right[0], P.cam_right[1], P.cam_right[2]);
-    float3 up = (float3)(P.cam_up[0], P.cam_up[1], P.cam_up[2]);
+    float3 cam = (float3)(kg->p->cam_pos[0], kg->p->cam_pos[1], kg->p->cam_pos[2]);
+    float3 fwd = (float3)(kg->p->cam_fwd[0], kg->p->cam_fwd[1], kg->p->cam_fwd[2]);
+    float3 right = (float3)(kg->p->cam_right[0], kg->p->cam_right[1], kg->p->cam_right[2]);
+    float3 up = (float3)(kg->p->cam_up[0], kg->p->cam_up[1], kg->p->cam_up[2]);
     float3 lens = cam;
-    if (P.lens_radius > 0.0f) {
+    if (kg->p->lens_radius > 0.0f) {
         vec3 disk = spt_sample_concentric_disk(lu, lv);
-        lens += P.lens_radius * (disk.x * normalize(right) + disk.y * normalize(up));
+        lens += kg->p->lens_radius * (disk.x * normalize(right) + disk.y * normalize(up));
     }
     float3 dv = lens - h->p;
     float r2 = dot(dv, dv);
@@ -346,13 +362,13 @@ SPT_FN_INLINE int lt_connect(const ShadeHit *h, const BsdfParams *bp, const Shad
     if (!(cosc > 0.0f))
         return 0;
     float3 q = -wc / cosc;
-    if (P.lens_radius > 0.0f)
-        q = (lens - cam) / P.focus_distance + q;
+    if (kg->p->lens_radius > 0.0f)
+        q = (lens - cam) / kg->p->focus_distance + q;
     float sx = dot(q, right) / dot(right, right), sy = dot(q, up) / dot(up, up);
-    float fx = 0.5f * (sx + 1.0f) * (float)P.width, fy = 0.5f * (1.0f - sy) * (float)P.height;
-    if (!(fx >= 0.0f && fx < (float)P.width && fy >= 0.0f && fy < (float)P.height))
+    float fx = 0.5f * (sx + 1.0f) * (float)kg->p->width, fy = 0.5f * (1.0f - sy) * (float)kg->p->height;
+    if (!(fx >= 0.0f && fx < (float)kg->p->width && fy >= 0.0f && fy < (float)kg->p->height))
         return 0;
-    uint px = (uint)min((int)fx, P.width - 1), py = (uint)min((int)fy, P.height - 1);
+    uint px = (uint)min((int)fx, kg->p->width - 1), py = (uint)min((int)fy, kg->p->height - 1);
     float wc_side = dot(wc, f->ngf);
     float3 wc_l = (float3)(dot(wc, f->tg), dot(wc, f->bt), dot(wc, f->ns));
     /* The geometric and shading sides must agree; an opaque surface is seen
@@ -363,23 +379,23 @@ SPT_FN_INLINE int lt_connect(const ShadeHit *h, const BsdfParams *bp, const Shad
      * path sees it. */
     float4 fv = bsdf_eval(bp, wc_l, f->wo_l);
     float a_film = 4.0f * length(right) * length(up);
-    float npix = (float)(P.width * P.height);
+    float npix = (float)(kg->p->width * kg->p->height);
     /* |cos_y| / r^2 toward the camera (geometric) over the light's arriving
      * geometric cosine, which the shading cosine in fv replaces (Veach's
      * adjoint with shading normals); W_e = npix / (A_film cos^3). */
     float g = fabs(wc_side) / (fmax(fabs(f->wo_side), 1e-8f) * r2);
     float we = npix / (a_film * cosc * cosc * cosc);
-    float4 c = ps_radiance[h->i] * h->beta * fv * (g * we / (float)P.light_paths);
+    float4 c = kg->ps_radiance[h->i] * h->beta * fv * (g * we / (float)kg->p->light_paths);
     if (!(max4(c) > 0.0f))
         return 0;
     /* With the wavelengths' pdf of this vertex: a dispersive refraction after
      * it changes the path's. */
-    float4 xyz = path_radiance_to_xyz(c, ps_lambda[h->i], ps_lambda_pdf[h->i]);
+    float4 xyz = path_radiance_to_xyz(c, kg->ps_lambda[h->i], kg->ps_lambda_pdf[h->i]);
     if (!(isfinite(xyz.x) && isfinite(xyz.y) && isfinite(xyz.z))) {
-        atomic_inc(&counters[SPT_CNT_NAN]);
+        atomic_inc(&kg->counters[SPT_CNT_NAN]);
         return 0;
     }
-    uint pixel = py * (uint)P.width + px;
+    uint pixel = py * (uint)kg->p->width + px;
     *sh_o = (float4)(offset_origin(h->p, wc_side > 0.0f ? f->ngf : -f->ngf), as_float(pixel));
     *sh_d = (float4)(wc, r * (1.0f - 1e-4f));
     *sh_c = (float4)(fmax(xyz.x, 0.0f), fmax(xyz.y, 0.0f), fmax(xyz.z, 0.0f), u);
@@ -390,41 +406,41 @@ SPT_FN_INLINE int lt_connect(const ShadeHit *h, const BsdfParams *bp, const Shad
  * it go on; at later ones it connects to the camera (when the BSDF has a
  * non-delta lobe) and samples the BSDF as a camera path does. Returns 1 and
  * fills the shadow ray when it connects. */
-static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFERS)
+static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const KernelGlobals *kg)
 {
     ShadeHit h;
-    shade_hit_begin(i, &h, ALL_ARGS);
+    shade_hit_begin(i, &h, kg);
     /* Ends here unless it goes on below. */
-    ps_flags[i] = SPT_PATH_FINISHED;
+    kg->ps_flags[i] = SPT_PATH_FINISHED;
     if (h.prim == NO_HIT)
         return 0;
     TexCtx tc;
-    shade_hit_geometry(&h, &tc, ALL_ARGS);
+    shade_hit_geometry(&h, &tc, kg);
     /* Textures with the footprint a camera ray would have here. */
-    float3 cam = (float3)(P.cam_pos[0], P.cam_pos[1], P.cam_pos[2]);
+    float3 cam = (float3)(kg->p->cam_pos[0], kg->p->cam_pos[1], kg->p->cam_pos[2]);
     float dc = length(h.p - cam);
-    h.cone_w = P.cam_pos[3] + P.cam_fwd[3] * dc;
+    h.cone_w = kg->p->cam_pos[3] + kg->p->cam_fwd[3] * dc;
     if (material_uses_uv(h.m) && dc > 0.0f)
-        tc = tex_ctx(h.m, h.prim, h.bu, h.bv, h.v0, h.v1, h.v2, h.ng, (h.p - cam) / dc, h.cone_w, tri_shade,
-                     vtx_uv, vtx_uv1);
+        tc = tex_ctx(h.m, h.prim, h.bu, h.bv, h.v0, h.v1, h.v2, h.ng, (h.p - cam) / dc, h.cone_w, kg->tri_shade,
+                     kg->vtx_uv, kg->vtx_uv1);
     uint lp, sample;
-    lt_item(ps_work[i], &lp, &sample, &P);
-    ps_flags[i] = SPT_PATH_ALIVE;
-    if (shade_alpha(&h, &tc, P.seed ^ SPT_LT_SALT, lp, sample, ALL_ARGS))
+    lt_item(kg->ps_work[i], &lp, &sample, kg->p);
+    kg->ps_flags[i] = SPT_PATH_ALIVE;
+    if (shade_alpha(&h, &tc, kg->p->seed ^ SPT_LT_SALT, lp, sample, kg))
         return 0;
-    ps_flags[i] = SPT_PATH_FINISHED;
+    kg->ps_flags[i] = SPT_PATH_FINISHED;
     /* A connection here makes a path of depth + 1 segments. */
-    if ((P.max_depth > 0 && h.depth + 1u > (uint)P.max_depth) || (h.m->flags & SPT_MAT_UNLIT))
+    if ((kg->p->max_depth > 0 && h.depth + 1u > (uint)kg->p->max_depth) || (h.m->flags & SPT_MAT_UNLIT))
         return 0;
     ShadeFrame f;
     BsdfParams bp;
     /* Light paths take independent samples: a light path is not a pixel's. */
-    shade_frame(&h, &tc, &bp, &f, spt_sampler(SPT_SAMPLER_INDEPENDENT, P.seed ^ SPT_LT_SALT, lp, sample),
-                ALL_ARGS);
+    shade_frame(&h, &tc, &bp, &f, spt_sampler(SPT_SAMPLER_INDEPENDENT, kg->p->seed ^ SPT_LT_SALT, lp, sample),
+                kg);
     /* Vertex k of a light path takes the dimensions of bounce k (bounce 0 is
      * the start on the light). */
     f.bounce = h.depth;
-    int past_delta = (ps_lt[i] & SPT_LT_SPEC) != 0u, shadow = 0;
+    int past_delta = (kg->ps_lt[i] & SPT_LT_SPEC) != 0u, shadow = 0;
     float ulobe = spt_sampler_1d(f.smp, spt_dim_bounce(f.bounce, SPT_DIM_BSDF_LOBE));
     if (past_delta) {
         /* Every vertex after the first delta one connects: the path camera -
@@ -433,7 +449,7 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFER
             shadow = lt_connect(&h, &bp, &f, spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_U)),
                                 spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_V)),
                                 spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_SPARE)), sh_o, sh_d, sh_c,
-                                ALL_ARGS);
+                                kg);
     } else {
         /* The first vertex: a non-delta lobe makes every path through here
          * the camera paths' (its last vertex is non-delta). */
@@ -444,7 +460,7 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFER
     float3 wn;
     float wn_side;
     int reflect;
-    int alive = shade_bsdf_bounce(&h, &bp, &f, ulobe, &bs, &wn, &wn_side, &reflect, ALL_ARGS) &&
+    int alive = shade_bsdf_bounce(&h, &bp, &f, ulobe, &bs, &wn, &wn_side, &reflect, kg) &&
                 (past_delta || bs.is_delta);
     if (alive) {
         /* The adjoint: refraction (delta or not) scales importance by eta'^2
@@ -459,17 +475,17 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFER
         h.beta *= den > 0.0f ? fabs(f.wo_l.z) * fabs(wn_side) / den : 0.0f;
         alive = max4(h.beta) > 0.0f && isfinite(max4(h.beta));
     }
-    alive = shade_roulette(&h, &f, alive, ALL_ARGS);
+    alive = shade_roulette(&h, &f, alive, kg);
     if (!alive)
         return shadow;
     if (!reflect && f.two_sided_bsdf)
-        ps_medium[i] = wn_side < 0.0f && h.m->attenuation.kind != SPT_SPEC_NONE ? h.ts.material + 1u : 0u;
-    ps_flags[i] = SPT_PATH_ALIVE;
-    ps_lt[i] = SPT_LT_LIGHT | SPT_LT_SPEC;
-    ps_throughput[i] = h.beta;
-    ps_ray_o[i] = (float4)(offset_origin(h.p, wn_side > 0.0f ? f.ngf : -f.ngf), 0.0f);
-    ps_ray_d[i] = (float4)(wn, 0.0f);
-    ps_depth[i] = h.depth;
+        kg->ps_medium[i] = wn_side < 0.0f && h.m->attenuation.kind != SPT_SPEC_NONE ? h.ts.material + 1u : 0u;
+    kg->ps_flags[i] = SPT_PATH_ALIVE;
+    kg->ps_lt[i] = SPT_LT_LIGHT | SPT_LT_SPEC;
+    kg->ps_throughput[i] = h.beta;
+    kg->ps_ray_o[i] = (float4)(offset_origin(h.p, wn_side > 0.0f ? f.ngf : -f.ngf), 0.0f);
+    kg->ps_ray_d[i] = (float4)(wn, 0.0f);
+    kg->ps_depth[i] = h.depth;
     return shadow;
 }
 
@@ -488,10 +504,10 @@ SPT_FN_INLINE void lt_film_add(__global uint *acc, float v, float u)
 
 /* A light path's connection that reached the camera: its XYZ (xyz, with the
  * uniform number for the rounding in w) into the light film at pixel. */
-SPT_FN_INLINE void lt_splat(uint pixel, float4 xyz, ALL_BUFFERS)
+SPT_FN_INLINE void lt_splat(uint pixel, float4 xyz, const KernelGlobals *kg)
 {
     float u = xyz.w;
-    __global uint *acc = light_film + SPT_SPLAT_WORDS * pixel;
+    __global uint *acc = kg->light_film + SPT_SPLAT_WORDS * pixel;
     lt_film_add(acc, xyz.x, u);
     lt_film_add(acc + 2, xyz.y, fmod(u + 0.3333333f, 1.0f));
     lt_film_add(acc + 4, xyz.z, fmod(u + 0.6666667f, 1.0f));

@@ -10,6 +10,11 @@
 #include "sample/wavelength.h"
 #include "util/render_types.h"
 
+SPT_DEVICE_ONLY
+
+/* ps_hit's prim (w, as bits) of a ray that hit nothing. */
+#define NO_HIT 0xffffffffu
+
 /* sigmoid-polynomial spectrum at four wavelengths. */
 static float4 spec_sigmoid4(float c0, float c1, float c2, float4 lam)
 {

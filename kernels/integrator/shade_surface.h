@@ -1,14 +1,27 @@
-/* Surface shading of the wavefront kernels (kernels/integrator/wavefront.cl, which
- * includes this where k_shade's helpers belong, after defining ALL_BUFFERS,
- * ALL_ARGS and NO_HIT): shade_path cut into the steps of a surface hit (miss,
- * alpha, emission, direct light, BSDF bounce, Russian roulette), over the
- * material evaluation of kernels/material/material_eval.h. */
+/* Surface shading of the wavefront kernels (kernels/integrator/wavefront.cl):
+ * shade_path cut into the steps of a surface hit (miss, alpha, emission,
+ * direct light, BSDF bounce, Russian roulette), over the material evaluation
+ * of kernels/material/material_eval.h. The steps take the kernel's buffers as
+ * kg (kernels/integrator/kernel_globals.h). */
 #ifndef SPT_SHADE_SURFACE_H
 #define SPT_SHADE_SURFACE_H
 
 #include "util/portable.h"
-
+#include "util/vecmath.h"
+#include "util/render_types.h"
+#include "sample/rng.h"
+#include "sample/sampling.h"
+#include "closure/bsdf.h"
+#include "light/lights.h"
+#include "integrator/path.h"
+#include "integrator/kernel_globals.h"
 #include "material/material_eval.h"
+
+SPT_DEVICE_ONLY
+
+/* Segments after which a path ends whatever its throughput (a guard; Russian
+ * roulette ends paths long before). */
+#define SPT_MAX_SEGMENTS 1024u
 
 /* shade_path's steps, in the order it runs them (as Cycles' shade_surface):
  * the miss, the hit's geometry, alpha, emission, the shading frame, direct light,
@@ -67,15 +80,15 @@ SPT_FN_INLINE uint lt_camera_next(uint lt, uint depth, int is_delta)
     return chain | (is_delta ? SPT_LT_SPEC : 0u);
 }
 
-SPT_FN_INLINE int lt_camera_drops(uint lt, uint prim, ALL_BUFFERS)
+SPT_FN_INLINE int lt_camera_drops(uint lt, uint prim, const KernelGlobals *kg)
 {
-    return P.light_paths > 0u && lt == (SPT_LT_CHAIN | SPT_LT_SPEC) && tri_light_pdf[prim] > 0.0f;
+    return kg->p->light_paths > 0u && lt == (SPT_LT_CHAIN | SPT_LT_SPEC) && kg->tri_light_pdf[prim] > 0.0f;
 }
 
-SPT_FN_INLINE int lt_camera_drops_env(uint lt, ALL_BUFFERS)
+SPT_FN_INLINE int lt_camera_drops_env(uint lt, const KernelGlobals *kg)
 {
-    return P.light_paths > 0u && lt == (SPT_LT_CHAIN | SPT_LT_SPEC) && P.env_prob > 0.0f &&
-           P.env.kind == SPT_ENV_MAP;
+    return kg->p->light_paths > 0u && lt == (SPT_LT_CHAIN | SPT_LT_SPEC) && kg->p->env_prob > 0.0f &&
+           kg->p->env.kind == SPT_ENV_MAP;
 }
 
 /* A path that left the scene sees the environment, weighted against light
@@ -83,50 +96,51 @@ SPT_FN_INLINE int lt_camera_drops_env(uint lt, ALL_BUFFERS)
  * vertex was non-delta, the light-tracing pass counts it instead (no light
  * sample covers a delta vertex's direction, so that escape has MIS weight 1:
  * all of it is the pass's). */
-SPT_FN_INLINE void shade_miss(uint i, float4 lam, float4 beta, ALL_BUFFERS)
+SPT_FN_INLINE void shade_miss(uint i, float4 lam, float4 beta, const KernelGlobals *kg)
 {
-    if (P.env.kind != SPT_ENV_NONE && !lt_camera_drops_env(ps_lt[i], ALL_ARGS)) {
-        float3 d = ps_ray_d[i].xyz;
+    if (kg->p->env.kind != SPT_ENV_NONE && !lt_camera_drops_env(kg->ps_lt[i], kg)) {
+        float3 d = kg->ps_ray_d[i].xyz;
         float la[4], le[4];
         lambda_array(lam, la);
-        env_eval(&P.env, env_data, d, la, le);
+        env_eval(&kg->p->env, kg->env_data, d, la, le);
         float w = 1.0f;
-        float prev_pdf = ps_bsdf_pdf[i];
+        float prev_pdf = kg->ps_bsdf_pdf[i];
         /* The uniform sky's light-sampling density depends on the normal of the
          * vertex the ray left, so shade_path kept it (ps_env_pdf); a map's
          * depends on the direction only. */
-        if (prev_pdf > 0.0f && P.env_prob > 0.0f)
-            w = spt_power_heuristic(prev_pdf, P.env.kind == SPT_ENV_UNIFORM
-                                                  ? ps_env_pdf[i]
-                                                  : P.env_prob * env_pdf(&P.env, env_data, d));
-        ps_radiance[i] += beta * (float4)(le[0], le[1], le[2], le[3]) * w;
+        if (prev_pdf > 0.0f && kg->p->env_prob > 0.0f)
+            w = spt_power_heuristic(prev_pdf, kg->p->env.kind == SPT_ENV_UNIFORM
+                                                  ? kg->ps_env_pdf[i]
+                                                  : kg->p->env_prob *
+                                                        env_pdf(&kg->p->env, kg->env_data, d));
+        kg->ps_radiance[i] += beta * (float4)(le[0], le[1], le[2], le[3]) * w;
     }
-    ps_flags[i] = SPT_PATH_FINISHED;
+    kg->ps_flags[i] = SPT_PATH_FINISHED;
 }
 
 /* The geometry and material of the hit, and its texture footprint tc. */
-SPT_FN_INLINE void shade_hit_geometry(ShadeHit *h, TexCtx *tc, ALL_BUFFERS)
+SPT_FN_INLINE void shade_hit_geometry(ShadeHit *h, TexCtx *tc, const KernelGlobals *kg)
 {
     uint i = h->i;
-    h->L = ps_radiance[i];
-    h->rd = ps_ray_d[i].xyz;
-    tri_positions(tri_shade, vtx_pos, h->prim, &h->v0, &h->v1, &h->v2);
+    h->L = kg->ps_radiance[i];
+    h->rd = kg->ps_ray_d[i].xyz;
+    tri_positions(kg->tri_shade, kg->vtx_pos, h->prim, &h->v0, &h->v1, &h->v2);
     h->bu = h->hit.y;
     h->bv = h->hit.z;
     h->p = (1.0f - h->bu - h->bv) * h->v0 + h->bu * h->v1 + h->bv * h->v2;
     h->ng = normalize(cross(h->v1 - h->v0, h->v2 - h->v0));
     h->front = dot(h->ng, h->rd) < 0.0f;
-    h->ts = tri_shade[h->prim];
-    h->m = materials + h->ts.material;
+    h->ts = kg->tri_shade[h->prim];
+    h->m = kg->materials + h->ts.material;
     /* The ray cone's width here: ray_d.w holds it at the last real vertex, and
      * ray_o.w the distance passed through alpha since. */
-    h->cone_w = ps_ray_d[i].w + P.cam_fwd[3] * (h->hit.x + ps_ray_o[i].w);
+    h->cone_w = kg->ps_ray_d[i].w + kg->p->cam_fwd[3] * (h->hit.x + kg->ps_ray_o[i].w);
     TexCtx none = {{(float2)(0.0f), (float2)(0.0f)}, {(float2)(0.0f), (float2)(0.0f)},
                    {(float2)(0.0f), (float2)(0.0f)}};
     *tc = none;
     if (material_uses_uv(h->m))
         *tc = tex_ctx(h->m, h->prim, h->bu, h->bv, h->v0, h->v1, h->v2, h->ng, h->rd, h->cone_w,
-                      tri_shade, vtx_uv, vtx_uv1);
+                      kg->tri_shade, kg->vtx_uv, kg->vtx_uv1);
 }
 
 /* Cut-out (MASK) and blended (BLEND) surfaces: with probability 1 - opacity the
@@ -138,24 +152,25 @@ SPT_FN_INLINE void shade_hit_geometry(ShadeHit *h, TexCtx *tc, ALL_BUFFERS)
  * pixel's samples cover a blended surface's opacity evenly; otherwise, and for
  * further surfaces, the hashed numbers of (seed, pixel, sample). */
 SPT_FN_INLINE int shade_alpha_with(const ShadeHit *h, const TexCtx *tc, int use_smp, SptSampler smp, uint seed,
-                                   uint pixel, uint sample, ALL_BUFFERS)
+                                   uint pixel, uint sample, const KernelGlobals *kg)
 {
     const __global GpuMaterial *m = h->m;
     uint i = h->i;
     if (!(m->flags & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND)))
         return 0;
-    float op = material_opacity(m, tc, h->prim, h->bu, h->bv, tri_shade, vtx_color, textures, texels);
-    uint passes = ps_passes[i];
+    float op = material_opacity(m, tc, h->prim, h->bu, h->bv, kg->tri_shade, kg->vtx_color, kg->textures,
+                                kg->texels);
+    uint passes = kg->ps_passes[i];
     if (op < 1.0f && passes < 64u) {
-        float4 o = ps_ray_o[i];
+        float4 o = kg->ps_ray_o[i];
         float u = use_smp && o.w == 0.0f ? spt_sampler_1d(smp, spt_dim_bounce(h->depth - 1u, SPT_DIM_ALPHA))
                                          : spt_rand(seed ^ 0x9e3779b9u, pixel, sample, h->depth * 64u + passes);
         if (u >= op) {
-            ps_passes[i] = passes + 1u;
+            kg->ps_passes[i] = passes + 1u;
             /* w carries the distance from the last real vertex, for MIS. */
             float3 o2 = offset_origin(h->p, h->front ? -h->ng : h->ng);
-            ps_ray_o[i] = (float4)(o2, o.w + dot(o2 - o.xyz, h->rd));
-            ps_throughput[i] = h->beta;
+            kg->ps_ray_o[i] = (float4)(o2, o.w + dot(o2 - o.xyz, h->rd));
+            kg->ps_throughput[i] = h->beta;
             return 1; /* same direction, depth and MIS state */
         }
     }
@@ -164,14 +179,14 @@ SPT_FN_INLINE int shade_alpha_with(const ShadeHit *h, const TexCtx *tc, int use_
 
 /* shade_alpha_with on the hashed numbers alone (the light paths'). */
 SPT_FN_INLINE int shade_alpha(const ShadeHit *h, const TexCtx *tc, uint seed, uint pixel, uint sample,
-                              ALL_BUFFERS)
+                              const KernelGlobals *kg)
 {
     SptSampler none = {0u, 0u, 0u, 0u};
-    return shade_alpha_with(h, tc, 0, none, seed, pixel, sample, ALL_ARGS);
+    return shade_alpha_with(h, tc, 0, none, seed, pixel, sample, kg);
 }
 
 /* Emission on the front face, weighted against light sampling by MIS. */
-SPT_FN_INLINE void shade_emission(ShadeHit *h, const TexCtx *tc, ALL_BUFFERS)
+SPT_FN_INLINE void shade_emission(ShadeHit *h, const TexCtx *tc, const KernelGlobals *kg)
 {
     const __global GpuMaterial *m = h->m;
     uint i = h->i;
@@ -180,16 +195,16 @@ SPT_FN_INLINE void shade_emission(ShadeHit *h, const TexCtx *tc, ALL_BUFFERS)
     /* Light reached through a delta vertex on a path whose first vertex was
      * non-delta: the light-tracing pass counts those paths
      * (kernels/integrator/light_trace.h). */
-    if (lt_camera_drops(ps_lt[i], h->prim, ALL_ARGS))
+    if (lt_camera_drops(kg->ps_lt[i], h->prim, kg))
         return;
     float4 le = material_emission(m, tc, h->lam, fabs(dot(h->ng, h->rd)), h->prim, h->bu, h->bv,
-                                  tri_shade, vtx_color, spectra, textures, texels);
+                                  kg->tri_shade, kg->vtx_color, kg->spectra, kg->textures, kg->texels);
     float w = 1.0f;
-    float prev_pdf = ps_bsdf_pdf[i];
+    float prev_pdf = kg->ps_bsdf_pdf[i];
     if (prev_pdf > 0.0f) {
         float cos_l = fabs(dot(h->ng, h->rd));
-        float dist = h->hit.x + ps_ray_o[i].w; /* w: distance passed through alpha */
-        float light_pdf = tri_light_pdf[h->prim] * dist * dist / fmax(cos_l, 1e-8f);
+        float dist = h->hit.x + kg->ps_ray_o[i].w; /* w: distance passed through alpha */
+        float light_pdf = kg->tri_light_pdf[h->prim] * dist * dist / fmax(cos_l, 1e-8f);
         w = spt_power_heuristic(prev_pdf, light_pdf);
     }
     h->L += h->beta * le * w;
@@ -199,16 +214,17 @@ SPT_FN_INLINE void shade_emission(ShadeHit *h, const TexCtx *tc, ALL_BUFFERS)
  * front) as +z, so the BSDF knows which side the path is on; an opaque one is
  * shaded from whichever side the path arrives. */
 SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *bp, ShadeFrame *f,
-                               SptSampler smp, ALL_BUFFERS)
+                               SptSampler smp, const KernelGlobals *kg)
 {
     const __global GpuMaterial *m = h->m;
     uint prim = h->prim;
-    *bp = material_bsdf(m, tc, prim, h->bu, h->bv, h->lam, tri_shade, vtx_color, spectra, textures,
-                        texels);
+    *bp = material_bsdf(m, tc, prim, h->bu, h->bv, h->lam, kg->tri_shade, kg->vtx_color, kg->spectra,
+                        kg->textures, kg->texels);
     f->two_sided_bsdf = bp->transmission > 0.0f && bp->metallic < 1.0f;
     float3 ngf = h->ng, n_coat;
     float3 ns = shading_normal(prim, h->bu, h->bv, &ngf, f->two_sided_bsdf, h->v0, h->v1, h->v2, m, tc,
-                               &n_coat, ALL_ARGS);
+                               &n_coat, kg->tri_shade, kg->vtx_normal, kg->vtx_uv, kg->vtx_uv1,
+                               kg->textures, kg->texels);
     if (!f->two_sided_bsdf && !h->front) {
         ns = -ns;
         n_coat = -n_coat;
@@ -244,25 +260,25 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
  * light's contribution is not zero. */
 SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const BsdfParams *bp,
                                      const ShadeFrame *f, float usel, float4 *sh_o, float4 *sh_d,
-                                     float4 *sh_c, ALL_BUFFERS)
+                                     float4 *sh_c, const KernelGlobals *kg)
 {
     uint depth = h->depth, bounce = f->bounce;
     float4 lam = h->lam;
     float3 p = h->p, ngf = f->ngf, tg = f->tg, bt = f->bt, ns = f->ns, wo_l = f->wo_l;
-    if (!(P.select_count > 0u && (P.max_depth <= 0 || depth + 1u <= (uint)P.max_depth) &&
+    if (!(kg->p->select_count > 0u && (kg->p->max_depth <= 0 || depth + 1u <= (uint)kg->p->max_depth) &&
           !bsdf_is_delta(bp)))
         return 0;
     float prob, ul, vl;
     spt_sampler_pair(f->smp, spt_dim_bounce(bounce, SPT_DIM_LIGHT_U), &ul, &vl);
-    int e = spt_discrete_sample(light_cdf, P.select_count, usel, &prob, 0);
+    int e = spt_discrete_sample(kg->light_cdf, kg->p->select_count, usel, &prob, 0);
     float3 wi = (float3)(0.0f, 0.0f, 1.0f);
     float dist = 0.0f, light_pdf = 0.0f;
     float4 le = (float4)(0.0f);
     int delta = 0;
-    if (e >= 0 && (uint)e < P.emitter_count) {
-        uint lt = emitters[e];
+    if (e >= 0 && (uint)e < kg->p->emitter_count) {
+        uint lt = kg->emitters[e];
         vec3 a, b, c;
-        tri_positions(tri_shade, vtx_pos, lt, &a, &b, &c);
+        tri_positions(kg->tri_shade, kg->vtx_pos, lt, &a, &b, &c);
         vec3 bary = spt_sample_triangle_bary(ul, vl);
         float3 q = bary.x * a + bary.y * b + bary.z * c;
         float3 nl = normalize(cross(b - a, c - a));
@@ -271,23 +287,24 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
         dist = sqrt(dist2);
         wi = dq / dist;
         float cos_l = -dot(nl, wi);
-        const __global GpuMaterial *lm = materials + tri_shade[lt].material;
+        const __global GpuMaterial *lm = kg->materials + kg->tri_shade[lt].material;
         if (lm->flags & SPT_MAT_DOUBLE_SIDED_EMISSION)
             cos_l = fabs(cos_l);
         if (cos_l > 0.0f && dist > 0.0f) {
-            light_pdf = tri_light_pdf[lt] * dist2 / cos_l;
+            light_pdf = kg->tri_light_pdf[lt] * dist2 / cos_l;
             /* The emitter's textures at their finest level (no footprint). */
             TexCtx ltc = *tc;
             if (material_uses_uv(lm))
-                ltc = tex_ctx(lm, lt, bary.y, bary.z, a, b, c, nl, wi, 0.0f, tri_shade, vtx_uv, vtx_uv1);
-            le = material_emission(lm, &ltc, lam, cos_l, lt, bary.y, bary.z, tri_shade, vtx_color, spectra,
-                                   textures, texels);
+                ltc = tex_ctx(lm, lt, bary.y, bary.z, a, b, c, nl, wi, 0.0f, kg->tri_shade, kg->vtx_uv,
+                              kg->vtx_uv1);
+            le = material_emission(lm, &ltc, lam, cos_l, lt, bary.y, bary.z, kg->tri_shade, kg->vtx_color,
+                                   kg->spectra, kg->textures, kg->texels);
         }
-    } else if (e >= 0 && (uint)e < P.emitter_count + P.light_count) {
+    } else if (e >= 0 && (uint)e < kg->p->emitter_count + kg->p->light_count) {
         float la[4];
         lambda_array(lam, la);
         LightSample ls;
-        light_punctual_sample(lights + ((uint)e - P.emitter_count), spectra, p, la, &ls);
+        light_punctual_sample(kg->lights + ((uint)e - kg->p->emitter_count), kg->spectra, p, la, &ls);
         wi = ls.wi;
         dist = ls.dist;
         le = (float4)(ls.value[0], ls.value[1], ls.value[2], ls.value[3]);
@@ -295,13 +312,13 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
         delta = 1;
     } else if (e >= 0) {
         float epdf;
-        wi = env_sample_at(&P.env, env_data, ns, tg, bt, f->two_sided_bsdf, ul, vl, &epdf);
+        wi = env_sample_at(&kg->p->env, kg->env_data, ns, tg, bt, f->two_sided_bsdf, ul, vl, &epdf);
         dist = SPT_LIGHT_FAR;
         light_pdf = prob * epdf;
         if (light_pdf > 0.0f) {
             float la[4], lv[4];
             lambda_array(lam, la);
-            env_eval(&P.env, env_data, wi, la, lv);
+            env_eval(&kg->p->env, kg->env_data, wi, la, lv);
             le = (float4)(lv[0], lv[1], lv[2], lv[3]);
         }
     }
@@ -328,7 +345,8 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
  * next direction wn (world), its side of the face, whether it reflects;
  * h->beta takes the sample's weight. Returns whether the path goes on. */
 SPT_FN_INLINE int shade_bsdf_bounce(ShadeHit *h, const BsdfParams *bp, const ShadeFrame *f, float ulobe,
-                                    BsdfSample *bs, float3 *wn, float *wn_side, int *reflect, ALL_BUFFERS)
+                                    BsdfSample *bs, float3 *wn, float *wn_side, int *reflect,
+                                    const KernelGlobals *kg)
 {
     uint i = h->i, bounce = f->bounce;
     float ub, vb;
@@ -341,12 +359,12 @@ SPT_FN_INLINE int shade_bsdf_bounce(ShadeHit *h, const BsdfParams *bp, const Sha
     int alive = bs->valid && (*reflect ? *wn_side * f->wo_side > 0.0f : *wn_side * f->wo_side < 0.0f);
     if (alive) {
         h->beta *= bs->weight;
-        float4 lp = ps_lambda_pdf[i];
+        float4 lp = kg->ps_lambda_pdf[i];
         if (bs->dispersive && lp.y > 0.0f) {
             /* The refraction split the wavelengths: only the hero carries on
              * (pbrt-v4's TerminateSecondary); its pdf becomes 1/4 of what it was. */
             lp = (float4)(0.25f * lp.x, 0.0f, 0.0f, 0.0f);
-            ps_lambda_pdf[i] = lp;
+            kg->ps_lambda_pdf[i] = lp;
         }
         if (!(lp.y > 0.0f))
             h->beta = (float4)(h->beta.x, 0.0f, 0.0f, 0.0f);
@@ -360,11 +378,11 @@ SPT_FN_INLINE int shade_bsdf_bounce(ShadeHit *h, const BsdfParams *bp, const Sha
  * internal reflection inside a smooth sphere keeps it at exactly 1) must
  * still end. SPT_MAX_SEGMENTS bounds "unlimited" depth as a last resort.
  * Returns whether the path goes on (h->beta divided by its survival chance). */
-SPT_FN_INLINE int shade_roulette(ShadeHit *h, const ShadeFrame *f, int alive, ALL_BUFFERS)
+SPT_FN_INLINE int shade_roulette(ShadeHit *h, const ShadeFrame *f, int alive, const KernelGlobals *kg)
 {
     if (alive && h->depth >= SPT_MAX_SEGMENTS)
         alive = 0;
-    if (alive && h->depth >= P.rr_depth) {
+    if (alive && h->depth >= kg->p->rr_depth) {
         float qs = fmin(max4(h->beta), 0.95f);
         float u = spt_sampler_1d(f->smp, spt_dim_bounce(f->bounce, SPT_DIM_ROULETTE));
         if (u >= qs)
@@ -384,105 +402,106 @@ SPT_FN_INLINE int shade_roulette(ShadeHit *h, const ShadeFrame *f, int alive, AL
  * behind it, as Open Image Denoise expects), or the last surface's when the
  * path ends there. */
 SPT_FN_INLINE void shade_aov(const ShadeHit *h, const TexCtx *tc, const BsdfParams *bp, const ShadeFrame *f,
-                             int ends, ALL_BUFFERS)
+                             int ends, const KernelGlobals *kg)
 {
-    uint w = ps_work[h->i];
+    uint w = kg->ps_work[h->i];
     if (h->depth == 1u) {
-        float3 fwd = normalize(vload4(0, P.cam_fwd).xyz);
-        float z = dot(h->p - vload4(0, P.cam_pos).xyz, fwd);
-        aov_sample[3u * w + 1u] = (float4)(f->ns, z);
-        aov_sample[3u * w + 2u] = (float4)(h->p, 0.0f);
+        float3 fwd = normalize(vload4(0, kg->p->cam_fwd).xyz);
+        float z = dot(h->p - vload4(0, kg->p->cam_pos).xyz, fwd);
+        kg->aov_sample[3u * w + 1u] = (float4)(f->ns, z);
+        kg->aov_sample[3u * w + 2u] = (float4)(h->p, 0.0f);
     }
-    if (aov_sample[3u * w].w == 0.0f && (ends || !bsdf_is_delta(bp))) {
-        float3 a = material_albedo(h->m, tc, h->prim, h->bu, h->bv, tri_shade, vtx_color, spectra, textures,
-                                   texels);
-        aov_sample[3u * w] = (float4)(a, 1.0f);
+    if (kg->aov_sample[3u * w].w == 0.0f && (ends || !bsdf_is_delta(bp))) {
+        float3 a = material_albedo(h->m, tc, h->prim, h->bu, h->bv, kg->tri_shade, kg->vtx_color, kg->spectra,
+                                   kg->textures, kg->texels);
+        kg->aov_sample[3u * w] = (float4)(a, 1.0f);
     }
 }
 #endif
 
 /* What path i brings to its hit (or miss): the hit, its depth, wavelengths, and
  * its throughput, through the volume it crossed. */
-SPT_FN_INLINE void shade_hit_begin(uint i, ShadeHit *h, ALL_BUFFERS)
+SPT_FN_INLINE void shade_hit_begin(uint i, ShadeHit *h, const KernelGlobals *kg)
 {
     h->i = i;
-    h->hit = ps_hit[i];
+    h->hit = kg->ps_hit[i];
     h->prim = as_uint(h->hit.w);
-    h->depth = ps_depth[i] + 1u;
-    h->lam = ps_lambda[i];
-    h->beta = ps_throughput[i];
-    uint medium = ps_medium[i];
+    h->depth = kg->ps_depth[i] + 1u;
+    h->lam = kg->ps_lambda[i];
+    h->beta = kg->ps_throughput[i];
+    uint medium = kg->ps_medium[i];
     if (medium != 0u && h->prim != NO_HIT)
-        h->beta *= volume_transmittance(materials + (medium - 1u), h->hit.x, h->lam, spectra);
+        h->beta *= volume_transmittance(kg->materials + (medium - 1u), h->hit.x, h->lam, kg->spectra);
 }
 
 /* Shades path i at its hit; returns 1 and fills the shadow ray (origin, direction
  * with tmax in w, contribution) when next-event estimation wants one. */
-static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, ALL_BUFFERS)
+static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const KernelGlobals *kg)
 {
     ShadeHit h;
-    shade_hit_begin(i, &h, ALL_ARGS);
+    shade_hit_begin(i, &h, kg);
     if (h.prim == NO_HIT) {
-        shade_miss(i, h.lam, h.beta, ALL_ARGS);
+        shade_miss(i, h.lam, h.beta, kg);
         return 0;
     }
     TexCtx tc;
-    shade_hit_geometry(&h, &tc, ALL_ARGS);
-    uint npix = (uint)(P.width * P.height);
-    uint w_item = ps_work[i];
+    shade_hit_geometry(&h, &tc, kg);
+    uint npix = (uint)(kg->p->width * kg->p->height);
+    uint w_item = kg->ps_work[i];
     uint pixel = w_item % npix;
-    uint sample = P.sample_begin + w_item / npix - pixel_lag[pixel];
-    SptSampler smp = spt_sampler_for(&P, pixel, sample);
-    if (shade_alpha_with(&h, &tc, 1, smp, P.seed, pixel, sample, ALL_ARGS))
+    uint sample = kg->p->sample_begin + w_item / npix - kg->pixel_lag[pixel];
+    SptSampler smp = spt_sampler_for(kg->p, pixel, sample);
+    if (shade_alpha_with(&h, &tc, 1, smp, kg->p->seed, pixel, sample, kg))
         return 0;
-    shade_emission(&h, &tc, ALL_ARGS);
-    if ((P.max_depth > 0 && h.depth >= (uint)P.max_depth) || (h.m->flags & SPT_MAT_UNLIT)) {
+    shade_emission(&h, &tc, kg);
+    if ((kg->p->max_depth > 0 && h.depth >= (uint)kg->p->max_depth) || (h.m->flags & SPT_MAT_UNLIT)) {
 #ifdef SPT_AOV
         {
             ShadeFrame fe;
             BsdfParams bpe;
-            shade_frame(&h, &tc, &bpe, &fe, smp, ALL_ARGS);
-            shade_aov(&h, &tc, &bpe, &fe, 1, ALL_ARGS);
+            shade_frame(&h, &tc, &bpe, &fe, smp, kg);
+            shade_aov(&h, &tc, &bpe, &fe, 1, kg);
         }
 #endif
-        ps_radiance[i] = h.L;
-        ps_flags[i] = SPT_PATH_FINISHED;
+        kg->ps_radiance[i] = h.L;
+        kg->ps_flags[i] = SPT_PATH_FINISHED;
         return 0;
     }
     ShadeFrame f;
     BsdfParams bp;
-    shade_frame(&h, &tc, &bp, &f, smp, ALL_ARGS);
+    shade_frame(&h, &tc, &bp, &f, smp, kg);
 #ifdef SPT_AOV
-    shade_aov(&h, &tc, &bp, &f, 0, ALL_ARGS);
+    shade_aov(&h, &tc, &bp, &f, 0, kg);
 #endif
     /* The light selection and the BSDF lobe are one Sobol pair (rng.h): drawn
      * together, its seed and index shuffle are computed once. */
     float usel, ulobe;
     spt_sampler_pair(f.smp, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_SELECT), &usel, &ulobe);
-    int shadow = shade_direct_light(&h, &tc, &bp, &f, usel, sh_o, sh_d, sh_c, ALL_ARGS);
+    int shadow = shade_direct_light(&h, &tc, &bp, &f, usel, sh_o, sh_d, sh_c, kg);
     BsdfSample bs;
     float3 wn;
     float wn_side;
     int reflect;
-    int alive = shade_bsdf_bounce(&h, &bp, &f, ulobe, &bs, &wn, &wn_side, &reflect, ALL_ARGS);
-    alive = shade_roulette(&h, &f, alive, ALL_ARGS);
-    ps_radiance[i] = h.L;
+    int alive = shade_bsdf_bounce(&h, &bp, &f, ulobe, &bs, &wn, &wn_side, &reflect, kg);
+    alive = shade_roulette(&h, &f, alive, kg);
+    kg->ps_radiance[i] = h.L;
     if (!alive) {
-        ps_flags[i] = SPT_PATH_FINISHED;
+        kg->ps_flags[i] = SPT_PATH_FINISHED;
         return shadow;
     }
-    if (P.light_paths > 0u)
-        ps_lt[i] = lt_camera_next(ps_lt[i], h.depth, bs.is_delta);
+    if (kg->p->light_paths > 0u)
+        kg->ps_lt[i] = lt_camera_next(kg->ps_lt[i], h.depth, bs.is_delta);
     /* Entering or leaving a volume (refraction through a transmissive surface). */
     if (!reflect && f.two_sided_bsdf)
-        ps_medium[i] = wn_side < 0.0f && h.m->attenuation.kind != SPT_SPEC_NONE ? h.ts.material + 1u : 0u;
-    ps_throughput[i] = h.beta;
-    ps_ray_o[i] = (float4)(offset_origin(h.p, wn_side > 0.0f ? f.ngf : -f.ngf), 0.0f);
-    ps_ray_d[i] = (float4)(wn, h.cone_w);
-    ps_bsdf_pdf[i] = bs.is_delta ? 0.0f : bs.pdf;
-    if (P.env.kind == SPT_ENV_UNIFORM && !bs.is_delta)
-        ps_env_pdf[i] = P.env_prob * env_pdf_at(&P.env, env_data, f.ns, f.two_sided_bsdf, wn);
-    ps_depth[i] = h.depth;
+        kg->ps_medium[i] = wn_side < 0.0f && h.m->attenuation.kind != SPT_SPEC_NONE ? h.ts.material + 1u : 0u;
+    kg->ps_throughput[i] = h.beta;
+    kg->ps_ray_o[i] = (float4)(offset_origin(h.p, wn_side > 0.0f ? f.ngf : -f.ngf), 0.0f);
+    kg->ps_ray_d[i] = (float4)(wn, h.cone_w);
+    kg->ps_bsdf_pdf[i] = bs.is_delta ? 0.0f : bs.pdf;
+    if (kg->p->env.kind == SPT_ENV_UNIFORM && !bs.is_delta)
+        kg->ps_env_pdf[i] =
+            kg->p->env_prob * env_pdf_at(&kg->p->env, kg->env_data, f.ns, f.two_sided_bsdf, wn);
+    kg->ps_depth[i] = h.depth;
     return shadow;
 }
 

@@ -24,46 +24,11 @@
 #include "integrator/path.h"
 #include "closure/bsdf.h"
 #include "light/lights.h"
-
-#define PARAM(type, name) __global type *name,
-#define PS_PARAM(type, name) __global type *ps_##name,
-#define SH_PARAM(type, name) __global type *sh_##name,
-/* Every kernel takes every buffer, in the order of these lists, and then the
- * RenderParams by value, so the host sets arguments from the same lists
- * (src/render/wavefront.c). */
-#define KERNEL_ARGS            \
-    SPT_SCENE_BUFFERS(PARAM)   \
-    SPT_WORK_BUFFERS(PARAM)    \
-    SPT_PATH_STATE(PS_PARAM)   \
-    SPT_SHADOW_STATE(SH_PARAM) \
-    const RenderParams params
-/* The kernels' helpers take the same buffers and a pointer to the parameters,
- * which every kernel sets first (KERNEL_PARAMS), and read them as P: passed by
- * value, the struct was copied onto the stack at every call that was not
- * inlined (CPU compilers leave the large helpers calls), and the loads of the
- * copy waited on its partly overlapping stores. */
-#define ALL_BUFFERS            \
-    SPT_SCENE_BUFFERS(PARAM)   \
-    SPT_WORK_BUFFERS(PARAM)    \
-    SPT_PATH_STATE(PS_PARAM)   \
-    SPT_SHADOW_STATE(SH_PARAM) \
-    const RenderParams *pp
-#define KERNEL_PARAMS const RenderParams *pp = &params
-#define P (*pp)
-#define ARG(type, name) name,
-#define PS_ARG(type, name) ps_##name,
-#define SH_ARG(type, name) sh_##name,
-#define ALL_ARGS                 \
-    SPT_SCENE_BUFFERS(ARG)       \
-    SPT_WORK_BUFFERS(ARG)        \
-    SPT_PATH_STATE(PS_ARG)       \
-    SPT_SHADOW_STATE(SH_ARG)     \
-    pp
-
-#define NO_HIT 0xffffffffu
-/* Segments after which a path ends whatever its throughput (a guard; Russian
- * roulette ends paths long before). */
-#define SPT_MAX_SEGMENTS 1024u
+#include "integrator/kernel_globals.h"
+/* Surface shading: the materials' textures and BSDFs at a hit, and shade_path
+ * in its steps; the light-tracing pass. */
+#include "integrator/shade_surface.h"
+#include "integrator/light_trace.h"
 
 /* Work-group aggregated queue slots: every work-item of the group calls this
  * with want = 0 or 1 (all must call it: it has barriers); it returns the index
@@ -113,135 +78,132 @@ static SPT_ALWAYS_INLINE uint group_queue_slot(int want, __global uint *counter,
     return *l_base + (l_slot[lid] & 0xffffu);
 }
 
-/* Surface shading: the materials' textures and BSDFs at a hit, and shade_path
- * in its steps; the light-tracing pass. */
-#include "integrator/shade_surface.h"
-#include "integrator/light_trace.h"
 
 /* A finished camera path: its XYZ into its own contribution slot (and its
  * spectral bands); a NaN or infinite one is dropped and counted. */
-static void path_finish(uint i, ALL_BUFFERS)
+static void path_finish(uint i, const KernelGlobals *kg)
 {
-    float4 rad = ps_radiance[i];
+    float4 rad = kg->ps_radiance[i];
 #ifdef SPT_TEST_INJECT_NAN
     /* Test hook (SPECTRACE_TEST_INJECT_NAN): pixel 0's radiance becomes NaN. */
-    if (ps_work[i] % (uint)(P.width * P.height) == 0u)
+    if (kg->ps_work[i] % (uint)(kg->p->width * kg->p->height) == 0u)
         rad.x = NAN;
 #endif
-    float4 xyz = path_radiance_to_xyz(rad, ps_lambda[i], ps_lambda_pdf[i]);
-    if (ps_lt[i] & SPT_LT_SKIP) {
+    float4 xyz = path_radiance_to_xyz(rad, kg->ps_lambda[i], kg->ps_lambda_pdf[i]);
+    if (kg->ps_lt[i] & SPT_LT_SKIP) {
         xyz = (float4)(0.0f); /* left out by adaptive sampling: w = 0, not counted */
     } else if (isfinite(xyz.x) && isfinite(xyz.y) && isfinite(xyz.z)) {
         xyz.w = 1.0f;
     } else {
-        atomic_inc(&counters[SPT_CNT_NAN]);
+        atomic_inc(&kg->counters[SPT_CNT_NAN]);
         xyz = (float4)(0.0f); /* w = 0: the sample is dropped, not counted */
     }
-    contrib[ps_work[i]] = xyz;
+    kg->contrib[kg->ps_work[i]] = xyz;
 #ifdef SPT_BANDS
     {
         /* Each wavelength's weight L / (4 pdf), as the XYZ film weighs it
          * without the colour matching function, and its band. */
-        float4 lam = ps_lambda[i], lp = ps_lambda_pdf[i];
+        float4 lam = kg->ps_lambda[i], lp = kg->ps_lambda_pdf[i];
         float4 wv = select((float4)(0.0f), rad / lp, isgreater(lp, (float4)(0.0f))) * 0.25f;
         if (xyz.w == 0.0f)
             wv = (float4)(0.0f);
         float4 band = clamp(floor((lam - 360.0f) * ((float)SPT_BANDS / 470.0f)), 0.0f,
                             (float)(SPT_BANDS - 1));
-        spec_sample[2u * ps_work[i]] = wv;
-        spec_sample[2u * ps_work[i] + 1u] = band;
+        kg->spec_sample[2u * kg->ps_work[i]] = wv;
+        kg->spec_sample[2u * kg->ps_work[i] + 1u] = band;
     }
 #endif
 }
 
 /* Starts work item w of the chunk in slot i (a camera path, or a light path
  * from P.light_begin on); returns its flags. */
-static uint path_start(uint i, uint w, ALL_BUFFERS)
+static uint path_start(uint i, uint w, const KernelGlobals *kg)
 {
-    if (w >= P.light_begin)
-        return lt_start(i, w, ALL_ARGS);
-    uint npix = (uint)(P.width * P.height);
+    if (w >= kg->p->light_begin)
+        return lt_start(i, w, kg);
+    uint npix = (uint)(kg->p->width * kg->p->height);
     uint pixel = w % npix;
-    uint lag = pixel_lag[pixel];
-    uint sample = P.sample_begin + w / npix - lag;
-    ps_work[i] = w;
+    uint lag = kg->pixel_lag[pixel];
+    uint sample = kg->p->sample_begin + w / npix - lag;
+    kg->ps_work[i] = w;
 #ifdef SPT_AOV
     /* A sample that sees nothing (or is skipped) has zero AOVs; k_shade fills
      * what it hits. */
-    aov_sample[3u * w + 0u] = (float4)(0.0f);
-    aov_sample[3u * w + 1u] = (float4)(0.0f);
-    aov_sample[3u * w + 2u] = (float4)(0.0f);
+    kg->aov_sample[3u * w + 0u] = (float4)(0.0f);
+    kg->aov_sample[3u * w + 1u] = (float4)(0.0f);
+    kg->aov_sample[3u * w + 2u] = (float4)(0.0f);
 #endif
     if (lag == SPT_PIXEL_SKIP) {
-        ps_radiance[i] = (float4)(0.0f);
-        ps_lambda[i] = (float4)(550.0f);
-        ps_lambda_pdf[i] = (float4)(1.0f);
-        ps_lt[i] = SPT_LT_SKIP;
+        kg->ps_radiance[i] = (float4)(0.0f);
+        kg->ps_lambda[i] = (float4)(550.0f);
+        kg->ps_lambda_pdf[i] = (float4)(1.0f);
+        kg->ps_lt[i] = SPT_LT_SKIP;
         return SPT_PATH_FINISHED;
     }
-    SptSampler smp = spt_sampler_for(&P, pixel, sample);
+    SptSampler smp = spt_sampler_for(kg->p, pixel, sample);
     float jx, jy;
     spt_sampler_pair(smp, SPT_DIM_PIXEL_X, &jx, &jy);
-    float px = (float)(pixel % (uint)P.width) + jx;
-    float py = (float)(pixel / (uint)P.width) + jy;
-    float sx = 2.0f * px / (float)P.width - 1.0f;
-    float sy = 1.0f - 2.0f * py / (float)P.height;
-    float3 fwd = vload4(0, P.cam_fwd).xyz, right = vload4(0, P.cam_right).xyz,
-           up = vload4(0, P.cam_up).xyz, org = vload4(0, P.cam_pos).xyz;
+    float px = (float)(pixel % (uint)kg->p->width) + jx;
+    float py = (float)(pixel / (uint)kg->p->width) + jy;
+    float sx = 2.0f * px / (float)kg->p->width - 1.0f;
+    float sy = 1.0f - 2.0f * py / (float)kg->p->height;
+    float3 fwd = vload4(0, kg->p->cam_fwd).xyz, right = vload4(0, kg->p->cam_right).xyz,
+           up = vload4(0, kg->p->cam_up).xyz, org = vload4(0, kg->p->cam_pos).xyz;
     float3 d = fwd + sx * right + sy * up;
-    if (P.orthographic) {
+    if (kg->p->orthographic) {
         org += sx * right + sy * up;
         d = fwd;
-    } else if (P.lens_radius > 0.0f) {
+    } else if (kg->p->lens_radius > 0.0f) {
         /* Thin lens: a point on the lens aperture, aimed at the point of the
          * pinhole ray on the plane of focus (perpendicular to fwd). */
         float lu, lv;
         spt_sampler_pair(smp, SPT_DIM_LENS_U, &lu, &lv);
         vec3 disk = spt_sample_concentric_disk(lu, lv);
-        float3 focus = org + d * P.focus_distance; /* dot(d, fwd) = 1 */
-        org += P.lens_radius * (disk.x * normalize(right) + disk.y * normalize(up));
+        float3 focus = org + d * kg->p->focus_distance; /* dot(d, fwd) = 1 */
+        org += kg->p->lens_radius * (disk.x * normalize(right) + disk.y * normalize(up));
         d = focus - org;
     }
-    ps_ray_o[i] = (float4)(org, 0.0f);
-    ps_ray_d[i] = (float4)(normalize(d), P.cam_pos[3]); /* w: the ray cone's width */
+    kg->ps_ray_o[i] = (float4)(org, 0.0f);
+    kg->ps_ray_d[i] = (float4)(normalize(d), kg->p->cam_pos[3]); /* w: the ray cone's width */
     float4 lam, pdf;
     spt_sample_wavelengths(spt_sampler_1d(smp, SPT_DIM_WAVELENGTH), &lam, &pdf);
-    ps_lambda[i] = lam;
-    ps_lambda_pdf[i] = pdf;
-    ps_throughput[i] = (float4)(1.0f);
-    ps_radiance[i] = (float4)(0.0f);
-    ps_depth[i] = 0;
-    ps_passes[i] = 0;
-    ps_medium[i] = 0;
-    ps_bsdf_pdf[i] = 0.0f; /* camera ray: emission seen directly has MIS weight 1 */
-    ps_lt[i] = 0u;
+    kg->ps_lambda[i] = lam;
+    kg->ps_lambda_pdf[i] = pdf;
+    kg->ps_throughput[i] = (float4)(1.0f);
+    kg->ps_radiance[i] = (float4)(0.0f);
+    kg->ps_depth[i] = 0;
+    kg->ps_passes[i] = 0;
+    kg->ps_medium[i] = 0;
+    kg->ps_bsdf_pdf[i] = 0.0f; /* camera ray: emission seen directly has MIS weight 1 */
+    kg->ps_lt[i] = 0u;
     return SPT_PATH_ALIVE;
 }
 
 __kernel void k_generate(KERNEL_ARGS)
 {
     __local uint l_slot[SPT_GROUP_MAX], l_base;
-    KERNEL_PARAMS;
     uint i = get_global_id(0);
-    uint flags = i < P.pool_size ? ps_flags[i] : SPT_PATH_ALIVE + 100u;
+    uint flags = i < params.pool_size ? ps_flags[i] : SPT_PATH_ALIVE + 100u;
     int finished = flags == SPT_PATH_FINISHED;
     if (finished && (ps_lt[i] & SPT_LT_LIGHT)) {
         /* A light path: its splats went to the light film in k_connect. */
         flags = SPT_PATH_DEAD;
         ps_flags[i] = flags;
     } else if (finished) {
-        path_finish(i, ALL_ARGS);
+        KERNEL_GLOBALS;
+        path_finish(i, kg);
         flags = SPT_PATH_DEAD;
         ps_flags[i] = flags;
     }
     /* Free slots take the next work items of the chunk; the group's finished
      * paths are counted in the same round of barriers. */
-    uint total = P.work_end - P.work_begin;
+    uint total = params.work_end - params.work_begin;
     int wants = flags == SPT_PATH_DEAD;
     uint w = group_queue_slot(wants, &counters[SPT_CNT_WORK], total, finished,
                               &counters[SPT_CNT_DONE], l_slot, &l_base);
     if (wants && w < total) {
-        flags = path_start(i, w, ALL_ARGS);
+        KERNEL_GLOBALS;
+        flags = path_start(i, w, kg);
         ps_flags[i] = flags;
     }
     uint q = group_queue_slot(flags == SPT_PATH_ALIVE, &counters[SPT_CNT_EXTEND], 0xffffffffu, 0,
@@ -262,14 +224,13 @@ static float4 extend_result(int found, const BvhHit *h)
  * queue entries 2 g and 2 g + 1 together (bvh_intersect2), elsewhere entry g. */
 __kernel void k_extend(KERNEL_ARGS)
 {
-    KERNEL_PARAMS;
     uint n = counters[SPT_CNT_EXTEND];
 #if defined(SPT_BVH_PAIRS)
     uint g = 2u * get_global_id(0);
     if (g >= n)
         return;
     uint i = queue_extend[g];
-    if (g + 1u < n && P.node_count > 0u) {
+    if (g + 1u < n && params.node_count > 0u) {
         uint j = queue_extend[g + 1u];
         int found[2];
         BvhHit hit[2];
@@ -289,7 +250,8 @@ __kernel void k_extend(KERNEL_ARGS)
     uint i = queue_extend[g];
     BvhHit h;
 #endif
-    int found = P.node_count > 0u && bvh_intersect(nodes, tris, ps_ray_o[i].xyz, ps_ray_d[i].xyz, 1e30f, &h);
+    int found =
+        params.node_count > 0u && bvh_intersect(nodes, tris, ps_ray_o[i].xyz, ps_ray_d[i].xyz, 1e30f, &h);
     ps_hit[i] = extend_result(found, &h);
 }
 
@@ -299,13 +261,13 @@ __kernel void k_extend(KERNEL_ARGS)
 __kernel void k_shade(KERNEL_ARGS)
 {
     __local uint l_slot[SPT_GROUP_MAX], l_base;
-    KERNEL_PARAMS;
     uint g = get_global_id(0);
     float4 so, sd, sc;
     int shadow = 0;
     uint i = 0;
     uint n = counters[SPT_CNT_EXTEND];
     if (g < n) {
+        KERNEL_GLOBALS;
         /* Cache misses hidden behind this path's work: the hit triangle's
          * shading record of the path 2 SPT_SHADE_AHEAD queue entries on is
          * fetched, and the vertex positions and normals of the one
@@ -328,8 +290,8 @@ __kernel void k_shade(KERNEL_ARGS)
             }
         }
         i = queue_extend[g];
-        shadow = (ps_lt[i] & SPT_LT_LIGHT) ? lt_shade(i, &so, &sd, &sc, ALL_ARGS)
-                                           : shade_path(i, &so, &sd, &sc, ALL_ARGS);
+        shadow = (ps_lt[i] & SPT_LT_LIGHT) ? lt_shade(i, &so, &sd, &sc, kg)
+                                           : shade_path(i, &so, &sd, &sc, kg);
     }
     uint s = group_queue_slot(shadow, &counters[SPT_CNT_SHADOW], 0xffffffffu, 0, counters, l_slot,
                               &l_base);
@@ -344,13 +306,13 @@ __kernel void k_shade(KERNEL_ARGS)
 /* Traces the shadow ray (origin so, direction and tmax sd, contribution sc)
  * of path i and, unless it is blocked, adds its contribution to the path's
  * radiance, or a light path's splat to the light film. */
-static void connect_shadow(float4 so, float4 d, float4 sc, uint i, ALL_BUFFERS)
+static void connect_shadow(float4 so, float4 d, float4 sc, uint i, const KernelGlobals *kg)
 {
     float transmit = 1.0f;
-    if (P.node_count > 0u && !P.has_alpha) {
-        if (bvh_occluded(nodes, tris, so.xyz, d.xyz, d.w))
+    if (kg->p->node_count > 0u && !kg->p->has_alpha) {
+        if (bvh_occluded(kg->nodes, kg->tris, so.xyz, d.xyz, d.w))
             return;
-    } else if (P.node_count > 0u) {
+    } else if (kg->p->node_count > 0u) {
         /* Surfaces with alpha let light through: walk the hits along the shadow
          * ray, multiplying by 1 - opacity (the expected transmission of the
          * stochastic opacity camera rays see). */
@@ -358,17 +320,19 @@ static void connect_shadow(float4 so, float4 d, float4 sc, uint i, ALL_BUFFERS)
         float tmax = d.w;
         for (int k = 0; k < 16; k++) {
             BvhHit h;
-            if (!bvh_intersect(nodes, tris, o, d.xyz, tmax, &h))
+            if (!bvh_intersect(kg->nodes, kg->tris, o, d.xyz, tmax, &h))
                 break;
-            const __global GpuMaterial *m = materials + tri_shade[h.prim].material;
+            const __global GpuMaterial *m = kg->materials + kg->tri_shade[h.prim].material;
             vec3 a, b, c;
-            tri_positions(tri_shade, vtx_pos, h.prim, &a, &b, &c);
+            tri_positions(kg->tri_shade, kg->vtx_pos, h.prim, &a, &b, &c);
             float3 ng = normalize(cross(b - a, c - a));
             float op = 1.0f;
             if (m->flags & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND)) {
                 /* At the finest level: a shadow ray carries no footprint. */
-                TexCtx tc = tex_ctx(m, h.prim, h.u, h.v, a, b, c, ng, d.xyz, 0.0f, tri_shade, vtx_uv, vtx_uv1);
-                op = material_opacity(m, &tc, h.prim, h.u, h.v, tri_shade, vtx_color, textures, texels);
+                TexCtx tc = tex_ctx(m, h.prim, h.u, h.v, a, b, c, ng, d.xyz, 0.0f, kg->tri_shade, kg->vtx_uv,
+                                    kg->vtx_uv1);
+                op = material_opacity(m, &tc, h.prim, h.u, h.v, kg->tri_shade, kg->vtx_color, kg->textures,
+                                      kg->texels);
             }
             transmit *= 1.0f - op;
             if (!(transmit > 0.0f) || k == 15)
@@ -381,23 +345,23 @@ static void connect_shadow(float4 so, float4 d, float4 sc, uint i, ALL_BUFFERS)
                 break;
         }
     }
-    if (ps_lt[i] & SPT_LT_LIGHT) {
+    if (kg->ps_lt[i] & SPT_LT_LIGHT) {
         /* A light path's connection to the camera: a splat (XYZ, its rounding's
          * number in w) at the pixel in the ray's origin's w. */
-        lt_splat(as_uint(so.w), (float4)(transmit * sc.xyz, sc.w), ALL_ARGS);
+        lt_splat(as_uint(so.w), (float4)(transmit * sc.xyz, sc.w), kg);
         return;
     }
     /* A path queues at most one shadow ray per iteration: no race on its radiance. */
-    ps_radiance[i] += transmit * sc;
+    kg->ps_radiance[i] += transmit * sc;
 }
 
 __kernel void k_connect(KERNEL_ARGS)
 {
-    KERNEL_PARAMS;
+    KERNEL_GLOBALS;
     uint g = get_global_id(0);
     if (g >= counters[SPT_CNT_SHADOW])
         return;
-    connect_shadow(sh_ray_o[g], sh_ray_d[g], sh_contrib[g], sh_path[g], ALL_ARGS);
+    connect_shadow(sh_ray_o[g], sh_ray_d[g], sh_contrib[g], sh_path[g], kg);
 }
 
 #if defined(SPT_BVH_PAIRS)
@@ -416,55 +380,55 @@ __kernel void k_connect(KERNEL_ARGS)
 
 /* The end of path i: a camera path's contribution (a light path's splats went
  * to the light film at its connections). */
-static void mega_end(uint i, ALL_BUFFERS)
+static void mega_end(uint i, const KernelGlobals *kg)
 {
-    if (!(ps_lt[i] & SPT_LT_LIGHT))
-        path_finish(i, ALL_ARGS);
+    if (!(kg->ps_lt[i] & SPT_LT_LIGHT))
+        path_finish(i, kg);
 }
 
 /* Starts the next work item in slot i; 1 when one is alive there, 0 when the
  * launch's work is all taken. */
-static int mega_next(uint i, ALL_BUFFERS)
+static int mega_next(uint i, const KernelGlobals *kg)
 {
     for (;;) {
-        uint w = P.work_begin + atomic_inc(&counters[SPT_CNT_WORK]);
-        if (w >= P.work_end)
+        uint w = kg->p->work_begin + atomic_inc(&kg->counters[SPT_CNT_WORK]);
+        if (w >= kg->p->work_end)
             return 0;
-        uint flags = path_start(i, w, ALL_ARGS);
-        ps_flags[i] = flags;
+        uint flags = path_start(i, w, kg);
+        kg->ps_flags[i] = flags;
         if (flags == SPT_PATH_ALIVE)
             return 1;
-        mega_end(i, ALL_ARGS);
+        mega_end(i, kg);
     }
 }
 
 /* Shades path i at its hit (ps_hit) and traces its shadow ray; when the path
  * ended, starts the next. Returns mega_next's 1 or 0, or 1 while the path goes
  * on. */
-SPT_FN_INLINE int mega_shade(uint i, uint *nshadow, ALL_BUFFERS)
+SPT_FN_INLINE int mega_shade(uint i, uint *nshadow, const KernelGlobals *kg)
 {
     float4 so, sd, sc;
-    int shadow = (ps_lt[i] & SPT_LT_LIGHT) ? lt_shade(i, &so, &sd, &sc, ALL_ARGS)
-                                           : shade_path(i, &so, &sd, &sc, ALL_ARGS);
+    int shadow = (kg->ps_lt[i] & SPT_LT_LIGHT) ? lt_shade(i, &so, &sd, &sc, kg)
+                                               : shade_path(i, &so, &sd, &sc, kg);
     if (shadow) {
-        connect_shadow(so, sd, sc, i, ALL_ARGS);
+        connect_shadow(so, sd, sc, i, kg);
         *nshadow += 1u;
     }
-    if (ps_flags[i] != SPT_PATH_FINISHED)
+    if (kg->ps_flags[i] != SPT_PATH_FINISHED)
         return 1;
-    mega_end(i, ALL_ARGS);
-    return mega_next(i, ALL_ARGS);
+    mega_end(i, kg);
+    return mega_next(i, kg);
 }
 
 __kernel void k_paths(KERNEL_ARGS)
 {
-    KERNEL_PARAMS;
+    KERNEL_GLOBALS;
     uint s0 = 2u * get_global_id(0), s1 = s0 + 1u;
     uint nray = 0u, nshadow = 0u;
-    int a0 = s0 < P.pool_size && mega_next(s0, ALL_ARGS);
-    int a1 = a0 && s1 < P.pool_size && mega_next(s1, ALL_ARGS);
+    int a0 = s0 < params.pool_size && mega_next(s0, kg);
+    int a1 = a0 && s1 < params.pool_size && mega_next(s1, kg);
     while (a0 | a1) {
-        if (a0 && a1 && P.node_count > 0u) {
+        if (a0 && a1 && params.node_count > 0u) {
             int found[2];
             BvhHit hit[2];
             bvh_intersect2(nodes, tris, ps_ray_o[s0].xyz, ps_ray_d[s0].xyz, ps_ray_o[s1].xyz,
@@ -488,7 +452,7 @@ __kernel void k_paths(KERNEL_ARGS)
         } else {
             uint i = a0 ? s0 : s1;
             BvhHit h;
-            int found = P.node_count > 0u &&
+            int found = params.node_count > 0u &&
                         bvh_intersect(nodes, tris, ps_ray_o[i].xyz, ps_ray_d[i].xyz, 1e30f, &h);
             ps_hit[i] = extend_result(found, &h);
             if (a0 && a1)
@@ -496,9 +460,9 @@ __kernel void k_paths(KERNEL_ARGS)
         }
         nray += (uint)a0 + (uint)a1;
         if (a0)
-            a0 = mega_shade(s0, &nshadow, ALL_ARGS);
+            a0 = mega_shade(s0, &nshadow, kg);
         if (a1)
-            a1 = mega_shade(s1, &nshadow, ALL_ARGS);
+            a1 = mega_shade(s1, &nshadow, kg);
     }
     if (nray)
         atomic_add(&counters[SPT_CNT_EXTEND], nray);
@@ -512,12 +476,11 @@ __kernel void k_paths(KERNEL_ARGS)
  * paths' splats (which count no sample). */
 __kernel void k_accumulate(KERNEL_ARGS)
 {
-    KERNEL_PARAMS;
     uint pixel = get_global_id(0);
-    uint npix = (uint)(P.width * P.height);
+    uint npix = (uint)(params.width * params.height);
     if (pixel >= npix)
         return;
-    uint n = (P.light_begin - P.work_begin) / npix;
+    uint n = (params.light_begin - params.work_begin) / npix;
     /* The squares are taken of the radiance over 2^e, e the exponent of the
      * largest kept component, and e is kept in w: float squares of radiance
      * itself pass float's range above 1.8e19 and fall below its normal range
@@ -543,7 +506,7 @@ __kernel void k_accumulate(KERNEL_ARGS)
     chunk_sq[pixel] = ssq;
     /* A pixel left out of the chunk's camera samples leaves out its light
      * paths' splats too: its sum stays that of the samples it counts. */
-    if (P.light_paths > 0u && pixel_lag[pixel] != SPT_PIXEL_SKIP) {
+    if (params.light_paths > 0u && pixel_lag[pixel] != SPT_PIXEL_SKIP) {
         const __global uint *a = light_film + SPT_SPLAT_WORDS * pixel;
         const float unit = 1.0f / (float)(1 << SPT_SPLAT_BITS);
         s.x += (float)(((ulong)a[1] << 32) | a[0]) * unit;

@@ -1,11 +1,18 @@
-/* A surface hit's material, for kernels/integrator/shade_surface.h (included
- * there, in wavefront.cl's scope): the triangle's geometry and texture
- * footprint, and the material's opacity, emission, albedo, normals and BSDF
- * parameters at the hit. */
+/* A surface hit's material, for kernels/integrator/shade_surface.h: the
+ * triangle's geometry and texture footprint, and the material's opacity,
+ * emission, albedo, normals and BSDF parameters at the hit. Each function takes
+ * the buffers it reads. */
 #ifndef SPT_MATERIAL_EVAL_H
 #define SPT_MATERIAL_EVAL_H
 
 #include "util/portable.h"
+#include "util/vecmath.h"
+#include "util/render_types.h"
+#include "spectrum/spectrum.h"
+#include "closure/bsdf.h"
+#include "integrator/path.h"
+
+SPT_DEVICE_ONLY
 
 /* The vertices of packed triangle prim, from the vertex positions (the same
  * floats as the BVH's copy, whose leaf blocks spread a triangle over up to 9
@@ -211,7 +218,10 @@ static float3 normal_map(const __global GpuMaterial *m, int k, float scale, floa
  * wins: *ng is flipped instead. */
 static float3 shading_normal(uint prim, float bu, float bv, float3 *ng, int follow_normals, float3 v0,
                              float3 v1, float3 v2, const __global GpuMaterial *m, const TexCtx *c,
-                             float3 *n_coat, ALL_BUFFERS)
+                             float3 *n_coat, const __global TriShade *tri_shade,
+                             const __global float *vtx_normal, const __global float *vtx_uv,
+                             const __global float *vtx_uv1, const __global GpuTexture *textures,
+                             const __global float4 *texels)
 {
     TriShade ts = tri_shade[prim];
     float3 ns = *ng;

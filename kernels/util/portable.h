@@ -79,6 +79,19 @@
   #define SPT_PREFETCH(p) ((void)0)
 #endif
 
+/* A header that is OpenCL C only (it uses __global pointers, vector types or
+ * built-ins with no host spelling) says so with a line holding only
+ * SPT_DEVICE_ONLY, after its includes: on the host that line stops the compile
+ * with this message. Every other header compiles alone on the host too, which
+ * tests/test_kernel_headers.c checks (docs/architecture.md, "Portability
+ * rules"). */
+#if SPT_DEVICE
+  #define SPT_DEVICE_ONLY
+#else
+  #define SPT_DEVICE_ONLY \
+    _Static_assert(0, "an OpenCL C only header (SPT_DEVICE_ONLY) is included on the host");
+#endif
+
 /* Wavelengths carried by one path (hero wavelength sampling). */
 #define SPT_NUM_LAMBDA 4
 

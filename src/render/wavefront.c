@@ -77,7 +77,8 @@ static int scene_buffer_create(Wavefront *w, const char *name, size_t bytes, con
 #define SPT_KERNEL_BUFFER_ARGS                                                                  \
     (0 SPT_SCENE_BUFFERS(ONE) SPT_WORK_BUFFERS(ONE) SPT_PATH_STATE(ONE) SPT_SHADOW_STATE(ONE))
 
-/* Sets every buffer argument of kernel k, in list order, then the params. */
+/* Sets every buffer argument of kernel k, in list order, then the params: the
+ * kernels' KERNEL_ARGS (kernels/integrator/kernel_globals.h). */
 static int set_args(cl_kernel k, const Buffers *b, const RenderParams *p, SptError *e)
 {
     cl_uint i = 0;
