@@ -160,7 +160,7 @@ SPT_FN_INLINE float lt_aim_parallel(const RenderParams *p, float3 ax, float u0, 
     return SPT_PI * total / lt_spheres_met(p, k, *o, ax);
 }
 
-/* Starts light path i as work item w (w >= P.light_begin): its wavelengths,
+/* Starts light path i as work item w (w >= params.light_begin): its wavelengths,
  * its light, its first ray, and in ps_radiance the emitted power's weight (the
  * light's emission over the density of the start point and direction). Returns
  * the path's flags: SPT_PATH_ALIVE, or SPT_PATH_FINISHED when it carries

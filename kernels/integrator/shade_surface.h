@@ -73,7 +73,7 @@ typedef struct ShadeFrame {
  * state lt is the light-tracing pass's, lt_camera_drops_env the same for the
  * environment seen by a ray that left the scene (a map only: a uniform sky,
  * which every BSDF sample through glass sees, stays the camera paths').
- * With the pass off (P.light_paths 0) every camera path keeps everything. */
+ * With the pass off (params.light_paths 0) every camera path keeps everything. */
 SPT_FN_INLINE uint lt_camera_next(uint lt, uint depth, int is_delta)
 {
     uint chain = depth == 1u ? (is_delta ? 0u : SPT_LT_CHAIN) : (lt & SPT_LT_CHAIN);

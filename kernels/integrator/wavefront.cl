@@ -5,7 +5,7 @@
  * k_extend (closest hit), k_shade (emission with MIS, next-event estimation into
  * the shadow queue, BSDF sampling, Russian roulette), k_connect (shadow rays).
  * With the light-tracing pass (kernels/integrator/light_trace.h), a chunk's work
- * items past its camera paths (P.light_begin on) are light paths in the same
+ * items past its camera paths (params.light_begin on) are light paths in the same
  * pool and queues.
  * When a chunk's work is all done, k_accumulate sums its per-sample contributions
  * into per-pixel sums in sample order, so the image does not depend on how paths
@@ -116,7 +116,7 @@ static void path_finish(uint i, const KernelGlobals *kg)
 }
 
 /* Starts work item w of the chunk in slot i (a camera path, or a light path
- * from P.light_begin on); returns its flags. */
+ * from params.light_begin on); returns its flags. */
 static uint path_start(uint i, uint w, const KernelGlobals *kg)
 {
     if (w >= kg->p->light_begin)
@@ -373,8 +373,8 @@ __kernel void k_connect(KERNEL_ARGS)
  * queues four times per segment. Each work-item keeps two paths, in slots 2 g
  * and 2 g + 1, whose closest-hit rays are traced together (bvh_intersect2),
  * and gives a slot whose path ended the next work item of
- * [P.work_begin, P.work_end) from counter SPT_CNT_WORK (counting from
- * P.work_begin; the host zeroes it per launch), until none is left. A CPU
+ * [params.work_begin, params.work_end) from counter SPT_CNT_WORK (counting from
+ * params.work_begin; the host zeroes it per launch), until none is left. A CPU
  * runs a work-group's items one after another, so each thread keeps one
  * work-item's two paths in flight. */
 
