@@ -56,6 +56,7 @@
 #include "sample/rng.h"
 #include "sample/sampling.h"
 #include "closure/bsdf.h"
+#include "closure/delta.h"
 #include "light/lights.h"
 #include "integrator/path.h"
 #include "integrator/kernel_globals.h"
