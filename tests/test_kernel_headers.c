@@ -8,13 +8,8 @@
  * kernels/x/y.h of the tree), so a new header is covered without a change here. */
 #include "test_util.h"
 
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include "cl/cl_device.h"
 #include "cl/embedded.h"
-
-static char g_tmp[256]; /* scratch folder: the kernel tree written out, the TUs, logs */
 
 static int is_header(const char *path)
 {
@@ -50,47 +45,18 @@ static const char *include_name(const char *path)
     return strncmp(path, "kernels/", 8) ? path : path + 8;
 }
 
-static void write_file(const char *path, const char *text)
+/* Writes text to path under test_dir(), making the folders on its way. */
+static void write_tree_file(const char *path, const char *text)
 {
     char dir[1024];
     snprintf(dir, sizeof dir, "%s", path);
-    for (char *s = dir + 1; *s; s++)
-        if (*s == '/') {
-            *s = 0;
+    for (char *c = dir + strlen(test_dir()) + 1; *c; c++)
+        if (*c == '/') {
+            *c = 0;
             mkdir(dir, 0755);
-            *s = '/';
+            *c = '/';
         }
-    FILE *f = fopen(path, "wb");
-    assert_non_null(f);
-    assert_int_equal(fwrite(text, 1, strlen(text), f), strlen(text));
-    assert_int_equal(fclose(f), 0);
-}
-
-/* The first lines of the file at path, into out (at most cap bytes). */
-static void read_head(const char *path, char *out, size_t cap)
-{
-    out[0] = 0;
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return;
-    size_t n = fread(out, 1, cap - 1, f);
-    out[n] = 0;
-    fclose(f);
-}
-
-static int setup(void **state)
-{
-    (void)state;
-    snprintf(g_tmp, sizeof g_tmp, "/tmp/spt_test_kernel_headers_XXXXXX");
-    return mkdtemp(g_tmp) ? 0 : -1;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", g_tmp);
-    return system(cmd) == 0 ? 0 : -1;
+    test_write_text(path, text);
 }
 
 /* The embedded tree holds the headers the tests below go through: the
@@ -123,16 +89,14 @@ static void test_host_headers_compile_alone(void **state)
     const char *cc = getenv("CC");
     if (!cc || !*cc)
         cc = "cc";
-    char cmd[4096], path[1024], log[4096];
-    snprintf(cmd, sizeof cmd, "%s --version > /dev/null 2>&1", cc);
-    if (system(cmd) != 0) {
+    char cmd[4096], log[4096];
+    snprintf(cmd, sizeof cmd, "%s --version", cc);
+    if (test_sh(cmd, TEST_BOTH, NULL, 0) != 0) {
         print_message("no host C compiler (%s): skipped\n", cc);
         skip();
     }
-    for (int i = 0; i < spt_kernel_file_count; i++) {
-        snprintf(path, sizeof path, "%s/%s", g_tmp, spt_kernel_files[i].path);
-        write_file(path, spt_kernel_files[i].text);
-    }
+    for (int i = 0; i < spt_kernel_file_count; i++)
+        write_tree_file(test_path(spt_kernel_files[i].path), spt_kernel_files[i].text);
     int host = 0, failed = 0;
     char failures[2048] = "";
     for (int i = 0; i < spt_kernel_file_count; i++) {
@@ -140,16 +104,12 @@ static void test_host_headers_compile_alone(void **state)
         if (!is_header(f->path) || is_device_only(f->text))
             continue;
         host++;
-        char tu[1024], text[600];
-        snprintf(tu, sizeof tu, "%s/host_tu.c", g_tmp);
+        char text[600];
         snprintf(text, sizeof text, "#include \"%s\"\n", include_name(f->path));
-        write_file(tu, text);
-        snprintf(cmd, sizeof cmd,
-                 "%s -std=c11 -Wall -Wextra -Werror -fsyntax-only -I '%s/kernels' '%s' > '%s/host.log' 2>&1",
-                 cc, g_tmp, tu, g_tmp);
-        if (system(cmd) != 0) {
-            snprintf(path, sizeof path, "%s/host.log", g_tmp);
-            read_head(path, log, sizeof log);
+        test_write_text(test_path("host_tu.c"), text);
+        snprintf(cmd, sizeof cmd, "%s -std=c11 -Wall -Wextra -Werror -fsyntax-only -I '%s' '%s'", cc,
+                 test_path("kernels"), test_path("host_tu.c"));
+        if (test_sh(cmd, TEST_BOTH, log, sizeof log) != 0) {
             /* stderr: cmocka's print_message cuts a message at 1 KB. */
             fprintf(stderr, "%s does not compile alone on the host:\n%s\n\n", f->path, log);
             size_t used = strlen(failures);
@@ -219,5 +179,5 @@ int main(void)
         cmocka_unit_test(test_host_headers_compile_alone),
         cmocka_unit_test(test_device_headers_compile_alone),
     };
-    return cmocka_run_group_tests_name("kernel_headers", tests, setup, teardown);
+    return cmocka_run_group_tests_name("kernel_headers", tests, test_dir_setup, test_dir_teardown);
 }
