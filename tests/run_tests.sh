@@ -15,6 +15,12 @@
 # SPECTRACE_TEST_IMPLS: the implementations to run, "all" (the default) or a comma
 # list such as "pocl" or "pocl,pocl-gpu" (make test-san: the sanitizers check our host code, which is
 # the same whichever implementation runs the kernels).
+# SPECTRACE_TEST_FORM: "quick" (the default, make test) runs PoCL in full and the
+# device tests' quick form (tests/test_util.h, test_quick) on pocl-gpu, intel and
+# rusticl; "full" (make test-all, CI) runs pocl-gpu and intel in full too.
+# rusticl runs the quick form of a subset, larger in the full run (below).
+# Each binary's line ends with its wall time and the CPU time (user + system) of
+# its processes: on a shared machine the CPU time is the steadier figure.
 set -u
 build=${1:?usage: tests/run_tests.sh BUILD_DIR [TEST_NAME...]}
 shift
@@ -43,6 +49,8 @@ else
   names=(); for b in "$build"/tests/test_*; do names+=("$(basename "$b")"); done
 fi
 
+form=${SPECTRACE_TEST_FORM:-quick}
+case "$form" in quick|full) ;; *) echo "SPECTRACE_TEST_FORM: quick or full, not '$form'" >&2; exit 2 ;; esac
 impls=${SPECTRACE_TEST_IMPLS:-all}
 [ "$impls" = all ] && impls=pocl,pocl-gpu,rusticl,intel
 IFS=, read -r -a impl_list <<<"$impls"
@@ -50,11 +58,24 @@ IFS=, read -r -a impl_list <<<"$impls"
 # rusticl (Mesa 22.3's, on llvmpipe) spends about 10 ms of its own time per
 # kernel launch here (a 64x64 Cornell box at 4 spp takes 25 s), so it runs a
 # subset: it builds the same program and runs the GPU path's kernels in each of
-# these, while pocl-gpu runs every device test on that path.
-rusticl_subset=(test_bsdf test_bvh test_lights test_rng test_sampling test_textures test_multidevice test_sweep test_wavelength)
+# these, while pocl-gpu runs every device test on that path. The full form adds
+# the two that render most there (quick form, 2 cores: test_textures 342 s and
+# test_multidevice 173 s of CPU time, the other six 67 s together).
+rusticl_subset=(test_bsdf test_bvh test_lights test_rng test_sampling test_sweep test_wavelength)
+[ "$form" = full ] && rusticl_subset+=(test_textures test_multidevice)
 # test_multidevice and test_sweep split one render across PoCL and another
 # implementation; pocl-gpu is PoCL itself.
 pocl_gpu_left_out=(test_multidevice test_sweep)
+
+# The user + system CPU seconds of this shell's finished children, into the
+# variable named $1 (bash's times, run in this shell: a subshell has its own).
+cpu_file=$(mktemp); trap 'rm -f "$cpu_file"' EXIT
+children_cpu() {
+  times >"$cpu_file"
+  printf -v "$1" '%s' "$(awk 'NR == 2 {
+    for (i = 1; i <= 2; i++) { split($i, t, /[ms]/); s += t[1] * 60 + t[2] }
+    printf "%d", s + 0.5 }' "$cpu_file")"
+}
 
 total_p=0; total_f=0; total_s=0; summary=(); failed_bins=()
 for impl in "${impl_list[@]}"; do
@@ -78,7 +99,7 @@ for impl in "${impl_list[@]}"; do
     continue
   fi
   mixed=""; [ "$base" != pocl ] && mixed=$(tools/opencl_env.sh "pocl,$impl" "$PWD/$build/icd/pocl+$impl" 2>/dev/null)
-  p_sum=0; f_sum=0; s_sum=0
+  p_sum=0; f_sum=0; s_sum=0; impl_start=$(date +%s); children_cpu impl_cpu_start
   for name in "${bins[@]}"; do
     bin=$build/tests/$name
     [ -x "$bin" ] || continue
@@ -89,9 +110,11 @@ export SPECTRACE_KERNEL_PATH=gpu"
     echo "== $name ($impl)"
     log=$(mktemp)
     start=$(date +%s)
-    # rusticl spends about 10 ms per kernel launch here: the quick form of the
-    # device tests (tests/test_util.h, test_quick).
-    quick=0; [ "$impl" = rusticl ] && quick=1
+    children_cpu cpu_start
+    # PoCL runs the full form; rusticl, at about 10 ms per kernel launch here,
+    # always the quick form; the others the quick form unless the run is "full".
+    quick=0
+    if [ "$impl" = rusticl ] || { [ "$impl" != pocl ] && [ "$form" = quick ]; }; then quick=1; fi
     (eval "$env_here"; export SPECTRACE_TEST_IMPL=$impl SPECTRACE_TEST_QUICK=$quick; exec "$bin") 2>&1 |
       tee "$log"
     rc=${PIPESTATUS[0]}
@@ -99,13 +122,15 @@ export SPECTRACE_KERNEL_PATH=gpu"
     f=$(sed -n 's/^\[  FAILED  \] \([0-9]*\) test.*/\1/p' "$log" | awk '{s+=$1} END {print s+0}')
     s=$(sed -n 's/^\[  SKIPPED \] \([0-9]*\) test.*/\1/p' "$log" | awk '{s+=$1} END {print s+0}')
     if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then f=1; fi
-    echo "== $name ($impl): $p passed, $f failed, $s skipped ($(( $(date +%s) - start )) s)"
+    children_cpu cpu_end
+    echo "== $name ($impl): $p passed, $f failed, $s skipped ($(( $(date +%s) - start )) s, CPU $((cpu_end - cpu_start)) s)"
     p_sum=$((p_sum + p)); f_sum=$((f_sum + f)); s_sum=$((s_sum + s))
     [ "$f" -gt 0 ] && failed_bins+=("$name($impl)")
     rm -f "$log"
   done
   left=""; [ "$impl" = rusticl ] && [ ${#summary_left[@]} -gt 0 ] && left=" (left out there: ${summary_left[*]})"
-  summary+=("$impl: $p_sum passed, $f_sum failed, $s_sum skipped$left")
+  children_cpu impl_cpu_end
+  summary+=("$impl: $p_sum passed, $f_sum failed, $s_sum skipped$left ($(( $(date +%s) - impl_start )) s, CPU $((impl_cpu_end - impl_cpu_start)) s)")
   total_p=$((total_p + p_sum)); total_f=$((total_f + f_sum)); total_s=$((total_s + s_sum))
 done
 echo
