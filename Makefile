@@ -56,7 +56,7 @@ MPI_PROG := $(BUILD)/spectrace-mpi
 MPI_LIBS = $(shell $(MPICC) --showme:link 2>/dev/null)
 TOOL_BINS := $(patsubst tools/%.c,$(BUILD)/tools/%,$(wildcard tools/*.c))
 
-.PHONY: all deps render test test-san check tests bench mpi check-kernels clean denoise
+.PHONY: all deps render test test-all test-san check tests bench mpi check-kernels clean denoise
 all: $(PROG) $(TEST_BINS)
 
 # Every program loads it from beside itself or the folder above.
@@ -91,12 +91,15 @@ render: deps
 denoise:
 	@tools/install_oidn.sh
 
-# The tests: install what is missing, build, run every test binary. The tests
-# of --denoise skip, saying why, where Open Image Denoise cannot be installed.
-test: deps
+# The tests: install what is missing, build, run every test binary on PoCL and
+# the device tests' quick form on the other implementations (tests/run_tests.sh,
+# SPECTRACE_TEST_FORM). test-all runs the device tests' full form on pocl-gpu and
+# Intel's runtime too (CI). The tests of --denoise skip, saying why, where Open
+# Image Denoise cannot be installed.
+test test-all: deps
 	@tools/install_oidn.sh --optional
 	@$(MAKE) --no-print-directory tests
-	@tests/run_tests.sh $(BUILD)
+	@SPECTRACE_TEST_FORM=$(if $(filter test-all,$@),full,quick) tests/run_tests.sh $(BUILD)
 
 # A quick subset for the edit-compile-test loop (under a minute once built):
 # the unit tests of the host code, the options, the loader and the kernels'
