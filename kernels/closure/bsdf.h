@@ -241,7 +241,7 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
     if (bsdf_is_lambert(p)) {
         if (wo.z <= 0.0f)
             return s;
-        s.wi = spt_sample_cosine_hemisphere_fast(u1, u2);
+        s.wi = spt_sample_cosine_hemisphere(u1, u2);
         s.pdf = spt_pdf_cosine_hemisphere(s.wi.z);
         if (!(s.pdf > 0.0f))
             return s;

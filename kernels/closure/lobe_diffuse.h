@@ -58,7 +58,7 @@ SPT_FN int bsdf_diffuse_sample(vec3 wo, float u1, float u2, BsdfSample *s)
 {
     if (wo.z <= 0.0f)
         return BSDF_SAMPLED_NONE;
-    s->wi = spt_sample_cosine_hemisphere_fast(u1, u2);
+    s->wi = spt_sample_cosine_hemisphere(u1, u2);
     return BSDF_SAMPLED_WI;
 }
 

@@ -228,7 +228,7 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, const KernelGlobals *kg)
             }
             vec3 t_, b_;
             v3_basis(n, &t_, &b_);
-            vec3 l = spt_sample_cosine_hemisphere_fast(u3, u4);
+            vec3 l = spt_sample_cosine_hemisphere(u3, u4);
             if (l.z > 0.0f) {
                 d = l.x * t_ + l.y * b_ + l.z * n;
                 TexCtx ltc = {{(float2)(0.0f), (float2)(0.0f)}, {(float2)(0.0f), (float2)(0.0f)},

@@ -66,7 +66,7 @@ SPT_FN void spt_sincos_pi4(float x, float *s, float *c)
  * both take spt_sincos_pi4 of an angle in [-pi/4, pi/4]. Written with selects,
  * not branches: which wedge a random point falls in is a coin toss, which a
  * CPU's branch predictor gets wrong half the time. */
-SPT_FN vec3 spt_sample_cosine_hemisphere_fast(float u1, float u2)
+SPT_FN vec3 spt_sample_cosine_hemisphere(float u1, float u2)
 {
     float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f;
     int wide = fabsf(a) > fabsf(b);
@@ -79,19 +79,6 @@ SPT_FN vec3 spt_sample_cosine_hemisphere_fast(float u1, float u2)
     x = centre ? 0.0f : x;
     y = centre ? 0.0f : y;
     return v3(x, y, sqrtf(fmaxf(0.0f, 1.0f - x * x - y * y)));
-}
-
-/* A direction of the upper hemisphere (z >= 0) with density cos(theta)/pi, by
- * Malley's method through spt_sample_concentric_disk (cosf and sinf): what
- * environment sampling (kernels/light/lights.h, env_sample_at) and the
- * light-tracing plan (src/render/light_plan.c) use. It differs from
- * spt_sample_cosine_hemisphere_fast in the last bits only; which of the two a
- * kernel uses is part of its images. */
-SPT_FN vec3 spt_sample_cosine_hemisphere(float u1, float u2)
-{
-    vec3 d = spt_sample_concentric_disk(u1, u2);
-    float z = sqrtf(fmaxf(0.0f, 1.0f - d.x * d.x - d.y * d.y));
-    return v3(d.x, d.y, z);
 }
 
 /* Density of spt_sample_cosine_hemisphere at a direction with this cos(theta)
