@@ -19,7 +19,7 @@
 /* The key of path's render: ours, with the file's kernel-source hash, so a test
  * binary and a program built from different kernel sources (another build) still
  * read each other's checkpoints; everything else must match. */
-static void key_for(const char *path, CheckpointKey *k)
+static inline void key_for(const char *path, CheckpointKey *k)
 {
     ExrLayers L;
     SptError e = {0};
@@ -42,7 +42,7 @@ static int ckpt_spectral;
 
 /* Reads a checkpoint of a test render (32x32, seed, SCENE, --aov ckpt_aov) into
  * film; returns the samples per pixel it holds. */
-static uint32_t load_checkpoint(const char *path, uint32_t seed, uint32_t spp, Film *film)
+static inline uint32_t load_checkpoint(const char *path, uint32_t seed, uint32_t spp, Film *film)
 {
     RenderSettings rs;
     memset(&rs, 0, sizeof rs);
@@ -69,7 +69,7 @@ static uint32_t load_checkpoint(const char *path, uint32_t seed, uint32_t spp, F
 
 /* The R, G, B channels of two EXR images agree within 1e-4 of each pixel's
  * largest channel. */
-static void assert_same_exr(const char *pa, const char *pb)
+static inline void assert_same_exr(const char *pa, const char *pb)
 {
     static const char *rgb[3] = {"R", "G", "B"};
     ExrLayers a, b;

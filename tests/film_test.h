@@ -10,7 +10,7 @@
 
 /* Every pixel's XYZ sums agree within tol of the pixel's largest channel, and
  * the sample counts are equal. */
-static void assert_same_film_tol(const Film *a, const Film *b, double tol)
+static inline void assert_same_film_tol(const Film *a, const Film *b, double tol)
 {
     assert_int_equal(a->width, b->width);
     size_t n = (size_t)a->width * a->height;
@@ -67,7 +67,7 @@ static inline void assert_same_bands_tol(const Film *a, const Film *b, double to
 }
 
 /* The same within 1e-4: the films of one implementation. */
-static void assert_same_film(const Film *a, const Film *b)
+static inline void assert_same_film(const Film *a, const Film *b)
 {
     assert_same_film_tol(a, b, 1e-4);
 }

@@ -24,7 +24,7 @@
 /* Samples {1, 3} in every channel: mean 2, unbiased variance 2, so each
  * channel's error per sample is 2 / (4 + 0.01). Fewer than two samples, or
  * samples that agree, give 0. */
-static void test_pixel_error(void **state)
+TEST(test_pixel_error)
 {
     (void)state;
     const double sum[3] = {4, 4, 4}, sq[3] = {10, 10, 10};
@@ -58,7 +58,7 @@ static double var_none(int x) { (void)x; return 0.0; }
  * averaging radius (2 pixels) the left takes the segment and the right does
  * not. Every pixel alike: all take it. No noise anywhere: all take it (there
  * is nothing to choose by). A pixel without two samples takes it. */
-static void test_mask(void **state)
+TEST(test_mask)
 {
     (void)state;
     enum { w = 20, h = 10, n = w * h };
@@ -103,7 +103,7 @@ static void assert_pixel_close(const float *a, const float *b, size_t i)
     }
 }
 
-static void test_render_prefixes(void **state)
+TEST(test_render_prefixes)
 {
     (void)state;
     enum { n = W * W };
@@ -166,7 +166,7 @@ static int run_render(const char *args, const char *out, char *line, size_t size
 /* The command line: a bad value, and --adaptive on with a checkpoint (whose
  * film keeps no sums of squares) are refused with one error line and no
  * output; auto with --checkpoint renders without it. */
-static void test_command_line(void **state)
+TEST(test_command_line)
 {
     (void)state;
     char out[64], ck[64], line[512];
@@ -188,13 +188,4 @@ static void test_command_line(void **state)
     unlink(ck);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_pixel_error),
-        cmocka_unit_test(test_mask),
-        cmocka_unit_test(test_render_prefixes),
-        cmocka_unit_test(test_command_line),
-    };
-    return cmocka_run_group_tests_name("adaptive", tests, setup_cpu_device, teardown_cpu_device);
-}
+TEST_MAIN("adaptive", setup_cpu_device, teardown_cpu_device)

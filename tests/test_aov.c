@@ -47,7 +47,7 @@ static void plane_scene(Scene *s, float d, float yfov)
 
 /* Z is the plane's distance and P lies on it, at the mean of the pixel's
  * footprint; N is the plane's normal; the albedo is the plane's grey. */
-static void test_plane_depth_position_normal(void **state)
+TEST(test_plane_depth_position_normal)
 {
     (void)state;
     const float d = 2.5f, yfov = 0.6f;
@@ -95,7 +95,7 @@ static void test_plane_depth_position_normal(void **state)
  * away from the centre (along P), |P| = 1 (within the tessellation) and
  * Z = 4 - P.z (the camera at z = 4 looks down -Z); pixels that see only the
  * sky have zero layers. */
-static void test_sphere_normals(void **state)
+TEST(test_sphere_normals)
 {
     (void)state;
     Scene s;
@@ -169,7 +169,7 @@ static void fitted_colour(const double rgb[3], double out[3])
     xyz_to_linear_srgb(xyz, out);
 }
 
-static void test_albedo_of_textured_plane(void **state)
+TEST(test_albedo_of_textured_plane)
 {
     (void)state;
     Scene s;
@@ -218,7 +218,7 @@ static void test_albedo_of_textured_plane(void **state)
 
 /* The beauty image with AOVs is the one without: on PoCL bit for bit, on other
  * implementations (another compilation of the kernels) within 1e-5. */
-static void test_beauty_unchanged(void **state)
+TEST(test_beauty_unchanged)
 {
     (void)state;
     Scene s;
@@ -291,7 +291,7 @@ static void independent_variance(const Scene *s, int W, int K, int spp, double *
  * of a pixel's value smaller than the layer's estimate (on this sphere a half
  * to a quarter of it, on the Cornell box about 0.8); the layer is measured
  * against renders of the same sample count too, and must not be below it. */
-static void test_variance_against_independent_renders(void **state)
+TEST(test_variance_against_independent_renders)
 {
     (void)state;
     skip_if_quick();
@@ -325,7 +325,7 @@ static void test_variance_against_independent_renders(void **state)
 /* The command line: the EXR holds the layers asked for, named layer.channel,
  * and nothing else; --aov without an EXR output is one usage error before
  * anything renders. */
-static void test_command_line(void **state)
+TEST(test_command_line)
 {
     (void)state;
     char out_exr[64], out_png[64], cmd[1024], line[512] = "";
@@ -358,7 +358,7 @@ static void test_command_line(void **state)
 }
 
 /* --aov names: a list, "all", aliases; unknown names refused. */
-static void test_parse(void **state)
+TEST(test_parse)
 {
     (void)state;
     unsigned m;
@@ -373,16 +373,4 @@ static void test_parse(void **state)
     assert_int_equal(film_aov_parse("alb", &m), -1);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_parse),
-        cmocka_unit_test(test_command_line),
-        cmocka_unit_test(test_plane_depth_position_normal),
-        cmocka_unit_test(test_sphere_normals),
-        cmocka_unit_test(test_albedo_of_textured_plane),
-        cmocka_unit_test(test_beauty_unchanged),
-        cmocka_unit_test(test_variance_against_independent_renders),
-    };
-    return cmocka_run_group_tests_name("aov", tests, setup_cpu_device, teardown_cpu_device);
-}
+TEST_MAIN("aov", setup_cpu_device, teardown_cpu_device)

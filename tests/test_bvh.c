@@ -299,7 +299,7 @@ static float *make_soup(uint32_t n, double size)
     return t;
 }
 
-static void test_soup_matches_brute_force(void **state)
+TEST(test_soup_matches_brute_force)
 {
     (void)state;
     rng_state = 11;
@@ -317,7 +317,7 @@ static void test_soup_matches_brute_force(void **state)
     free(t);
 }
 
-static void test_sphere_matches_brute_force(void **state)
+TEST(test_sphere_matches_brute_force)
 {
     (void)state;
     rng_state = 12;
@@ -366,7 +366,7 @@ static void traversal_ray(vec3 *org, vec3 *dir)
  * that hit) and the kernels' size; a dense soup (boxes entered several at a
  * time) and a sphere of small leaves (a deeper tree), rays from inside and
  * outside, random tmax. */
-static void test_short_stack_matches_full(void **state)
+TEST(test_short_stack_matches_full)
 {
     (void)state;
     rng_state = 19;
@@ -419,7 +419,7 @@ static void test_short_stack_matches_full(void **state)
  * ray the single-ray answer: bvh_intersect2's hits equal bvh_intersect's bit
  * for bit; a dense soup and a sphere of small leaves, rays from inside and
  * outside. */
-static void test_pairs_match_single(void **state)
+TEST(test_pairs_match_single)
 {
     (void)state;
     rng_state = 23;
@@ -454,7 +454,7 @@ static void test_pairs_match_single(void **state)
 
 /* The full-sweep reference builder makes a valid tree too, with SAH cost no
  * higher than the binned one's by more than rounding (it searches a superset). */
-static void test_full_sweep_builder(void **state)
+TEST(test_full_sweep_builder)
 {
     (void)state;
     rng_state = 13;
@@ -473,7 +473,7 @@ static void test_full_sweep_builder(void **state)
     free(t);
 }
 
-static void test_million_triangles(void **state)
+TEST(test_million_triangles)
 {
     (void)state;
     rng_state = 14;
@@ -492,7 +492,7 @@ static void test_million_triangles(void **state)
 }
 
 /* Rays from inside a closed mesh must all hit, also far from the origin. */
-static void test_watertight(void **state)
+TEST(test_watertight)
 {
     (void)state;
     rng_state = 15;
@@ -530,7 +530,7 @@ static void test_watertight(void **state)
 }
 
 /* Bad triangles are dropped and counted; the rest is indexed and traced. */
-static void test_garbage_dropped(void **state)
+TEST(test_garbage_dropped)
 {
     (void)state;
     rng_state = 16;
@@ -570,7 +570,7 @@ static void test_garbage_dropped(void **state)
 }
 
 /* 100,000 identical triangles: no SAH split exists; the tree stays shallow. */
-static void test_identical_triangles(void **state)
+TEST(test_identical_triangles)
 {
     (void)state;
     uint32_t n = 100000;
@@ -600,7 +600,7 @@ static void test_identical_triangles(void **state)
 /* The default leaves: a row of the CPU devices' leaf test (8 or 16) at a
  * node cost of as many triangles, and 16 for a tree far beyond any cache
  * (2^32 triangles). */
-static void test_default_leaves(void **state)
+TEST(test_default_leaves)
 {
     (void)state;
     BvhOptions small = bvh_default_options(), huge = bvh_default_options_for(0xffffffffu);
@@ -611,7 +611,7 @@ static void test_default_leaves(void **state)
 }
 
 /* No triangles, or only bad ones: a tree every ray misses. */
-static void test_empty_scene(void **state)
+TEST(test_empty_scene)
 {
     (void)state;
     rng_state = 17;
@@ -710,7 +710,7 @@ static int device_differences(const TestCl *cl, const char *options, const Bvh *
     return differ;
 }
 
-static void test_device_matches_host(void **state)
+TEST(test_device_matches_host)
 {
     (void)state;
     TestCl cl = test_cl_open();
@@ -759,21 +759,4 @@ static void test_device_matches_host(void **state)
     free(t);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_soup_matches_brute_force),
-        cmocka_unit_test(test_sphere_matches_brute_force),
-        cmocka_unit_test(test_short_stack_matches_full),
-        cmocka_unit_test(test_pairs_match_single),
-        cmocka_unit_test(test_full_sweep_builder),
-        cmocka_unit_test(test_million_triangles),
-        cmocka_unit_test(test_watertight),
-        cmocka_unit_test(test_garbage_dropped),
-        cmocka_unit_test(test_identical_triangles),
-        cmocka_unit_test(test_default_leaves),
-        cmocka_unit_test(test_empty_scene),
-        cmocka_unit_test(test_device_matches_host),
-    };
-    return cmocka_run_group_tests_name("bvh", tests, NULL, NULL);
-}
+TEST_MAIN("bvh", NULL, NULL)

@@ -233,7 +233,7 @@ static void slab_floor(int light, int caustics, int spp, double r_max, double re
 /* A spot light and a directional light through the slab: without the pass the
  * floor under the slab is black (punctual lights never pass glass); with it,
  * its radiance is the analytic one. */
-static void test_punctual_through_glass(void **state)
+TEST(test_punctual_through_glass)
 {
     (void)state;
     Film f;
@@ -252,7 +252,7 @@ static void test_punctual_through_glass(void **state)
 /* A thin lens: light paths connect to points of its aperture. Focused on the
  * floor's centre, with a lens of 3 cm, the floor's smooth caustic looks as it
  * does through the pinhole. */
-static void test_thin_lens(void **state)
+TEST(test_thin_lens)
 {
     (void)state;
     skip_if_quick();
@@ -265,7 +265,7 @@ static void test_thin_lens(void **state)
 /* An area light through the slab: the light paths (on) and the camera paths
  * alone (off) both find the analytic caustic, so the pass takes over exactly
  * what the camera paths give up. */
-static void test_area_light_caustic(void **state)
+TEST(test_area_light_caustic)
 {
     (void)state;
     /* 256 spp: the mean's noise is about 0.65% there (1.2% at 64 spp, where a
@@ -277,7 +277,7 @@ static void test_area_light_caustic(void **state)
 
 /* Without delta surfaces the pass adds nothing: the image is the same bit for
  * bit (light paths end at their first vertex, and camera paths drop nothing). */
-static void test_no_delta_unchanged(void **state)
+TEST(test_no_delta_unchanged)
 {
     (void)state;
     skip_if_quick();
@@ -352,7 +352,7 @@ static double render_two_cubes(int light, int shared, int spp, uint32_t seed)
  * it lies in; for the directional light, discs) give the floor of the same
  * scene as one sphere around both cubes, for the area light's, the spot's
  * and the directional light's aiming. */
-static void test_two_caustic_spheres(void **state)
+TEST(test_two_caustic_spheres)
 {
     (void)state;
     skip_if_quick();
@@ -386,7 +386,7 @@ static uint64_t render_counting(const Scene *s, int caustics, Film *film)
  * caustics: --caustics auto then traces no light paths (the same closest-hit
  * rays and film as with the pass off), while on the slab it turns the pass on
  * (more rays than with it off). */
-static void test_unused_glass_no_pass(void **state)
+TEST(test_unused_glass_no_pass)
 {
     (void)state;
     for (int used = 0; used <= 1; used++) {
@@ -423,7 +423,7 @@ static void test_unused_glass_no_pass(void **state)
 /* The splats do not depend on scheduling: a small path pool (other paths in
  * flight, other orders of the atomics) gives the same film bit for bit; and
  * two renders of samples [0, 4) and [4, 8) add up to the render of [0, 8). */
-static void test_split_invariance(void **state)
+TEST(test_split_invariance)
 {
     (void)state;
     skip_if_quick();
@@ -514,7 +514,7 @@ static void render_closed_box(int light_patch, int caustics, int w, int spp, Fil
 /* The furnace of closed_box_scene with the pass on: the mean of each quarter
  * of the image (the glass cube fills much of the lower half) and of the
  * whole, against BOX_LE / (1 - BOX_ALBEDO). */
-static void test_closed_box_furnace(void **state)
+TEST(test_closed_box_furnace)
 {
     (void)state;
     skip_if_quick();
@@ -546,7 +546,7 @@ static void test_closed_box_furnace(void **state)
  * means of the image's 4 x 4 blocks agree within their noise (the standard
  * error of each block's mean from its pixels' spread) and the whole image's
  * within 1%. */
-static void test_closed_box_one_light(void **state)
+TEST(test_closed_box_one_light)
 {
     (void)state;
     skip_if_quick();
@@ -590,18 +590,4 @@ static void test_closed_box_one_light(void **state)
     film_free(&off);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_punctual_through_glass),
-        cmocka_unit_test(test_thin_lens),
-        cmocka_unit_test(test_area_light_caustic),
-        cmocka_unit_test(test_no_delta_unchanged),
-        cmocka_unit_test(test_unused_glass_no_pass),
-        cmocka_unit_test(test_two_caustic_spheres),
-        cmocka_unit_test(test_split_invariance),
-        cmocka_unit_test(test_closed_box_furnace),
-        cmocka_unit_test(test_closed_box_one_light),
-    };
-    return cmocka_run_group_tests(tests, setup_cpu_device, teardown_cpu_device);
-}
+TEST_MAIN("tests", setup_cpu_device, teardown_cpu_device)

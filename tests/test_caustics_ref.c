@@ -143,7 +143,7 @@ static void mitsuba_case(const char *name, int spp, int by_image_t, const char *
         assert_true(rel < 0.01);
 }
 
-static void test_sphere_caustic_mitsuba(void **state)
+TEST(test_sphere_caustic_mitsuba)
 {
     (void)state;
     skip_if_quick();
@@ -155,7 +155,7 @@ static void test_sphere_caustic_mitsuba(void **state)
  * whose converter sums nested Mitsuba spots to glTF's falloff), all of whose
  * beam goes through the sphere and lands focused in the view's middle: the
  * same passes, Welch bound and image mean bound as the wide spot. */
-static void test_sphere_narrow_spot_mitsuba(void **state)
+TEST(test_sphere_narrow_spot_mitsuba)
 {
     (void)state;
     skip_if_quick();
@@ -171,7 +171,7 @@ static void test_sphere_narrow_spot_mitsuba(void **state)
  * statistics as for the spot: the blocks below CS_WELCH_BOUND, the image
  * mean (one statistic per channel; P(|t_7| > 4) is 0.005) below 4. A glass of
  * ior 1.45 instead of 1.5 gives a block statistic of 16 (1.52: 5). */
-static void test_sphere_area_light_mitsuba(void **state)
+TEST(test_sphere_area_light_mitsuba)
 {
     (void)state;
     skip_if_quick();
@@ -183,7 +183,7 @@ static void test_sphere_area_light_mitsuba(void **state)
  * divided by that number: with 0.37 light paths per camera path (not a
  * divisor of the pixels), samples [0, 3) and [3, 8) add up to [0, 8), and a
  * small path pool (another schedule) gives the same film bit for bit. */
-static void test_light_paths_split(void **state)
+TEST(test_light_paths_split)
 {
     (void)state;
     Scene s;
@@ -221,13 +221,4 @@ static void test_light_paths_split(void **state)
     scene_free(&s);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_light_paths_split),
-        cmocka_unit_test(test_sphere_caustic_mitsuba),
-        cmocka_unit_test(test_sphere_narrow_spot_mitsuba),
-        cmocka_unit_test(test_sphere_area_light_mitsuba),
-    };
-    return cmocka_run_group_tests(tests, setup_cpu_device, teardown_cpu_device);
-}
+TEST_MAIN("tests", setup_cpu_device, teardown_cpu_device)

@@ -161,7 +161,7 @@ static void check_furnace(int view, const Sky *sky, int caustics, int spp, const
  * paths' directions by the map's sampling), then the uniform sky of the same
  * radiance (the camera paths keep it whole), and through the slab's top. The
  * camera paths alone agree (off). */
-static void test_sky_furnace(void **state)
+TEST(test_sky_furnace)
 {
     (void)state;
     Sky map = flat_map_sky();
@@ -178,7 +178,7 @@ static void test_sky_furnace(void **state)
  * pool (other paths in flight, other orders of the light film's atomics)
  * gives the same image bit for bit; and under the default white sky auto
  * renders as off. */
-static void test_sky_auto_and_pool(void **state)
+TEST(test_sky_auto_and_pool)
 {
     (void)state;
     skip_if_quick();
@@ -241,7 +241,7 @@ static Sky sun_sky(void)
     return map_sky(sun_map, SMW, SMH);
 }
 
-static void test_sun_sphere_on_off(void **state)
+TEST(test_sun_sphere_on_off)
 {
     (void)state;
     skip_if_quick();
@@ -300,12 +300,4 @@ static void test_sun_sphere_on_off(void **state)
     assert_true(z < 4.0);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_sky_furnace),
-        cmocka_unit_test(test_sky_auto_and_pool),
-        cmocka_unit_test(test_sun_sphere_on_off),
-    };
-    return cmocka_run_group_tests_name("caustics_sky", tests, setup_cpu_device, teardown_cpu_device);
-}
+TEST_MAIN("caustics_sky", setup_cpu_device, teardown_cpu_device)

@@ -52,7 +52,7 @@ static int setup(void **state)
 }
 
 /* The file keeps the double sums (hi + lo floats) and non-contiguous done sets. */
-static void test_file_round_trip(void **state)
+TEST(test_file_round_trip)
 {
     (void)state;
     RenderSettings rs;
@@ -122,7 +122,7 @@ static void render_split(const char *extra, const char *tag)
 
 /* 64 spp in one go, on one device, equals 32 spp on one device, stopped, then
  * resumed to 64 on two devices. */
-static void test_resume_split_invariance(void **state)
+TEST(test_resume_split_invariance)
 {
     (void)state;
     render_split("", "");
@@ -133,7 +133,7 @@ static void test_resume_split_invariance(void **state)
 /* The same with every AOV layer (--aov all) and 47 spectral bands: the
  * checkpoint keeps their sums, and the resumed render's layers and bands are
  * those of the render in one go. */
-static void test_resume_split_invariance_aov(void **state)
+TEST(test_resume_split_invariance_aov)
 {
     (void)state;
     char cmd[1024], out[4096];
@@ -182,7 +182,7 @@ static void refused(const char *args, const char *ckpt, int want, const char *sa
     free(after);
 }
 
-static void test_resume_refusals(void **state)
+TEST(test_resume_refusals)
 {
     (void)state;
     char cmd[1024], out[4096];
@@ -225,7 +225,7 @@ static void test_resume_refusals(void **state)
 /* SIGINT during a two-device render with checkpoints: the checkpoint and the
  * image of the samples done are written, and resuming finishes the image, equal
  * to the one rendered without a stop. */
-static void test_sigint_then_resume(void **state)
+TEST(test_sigint_then_resume)
 {
     (void)state;
     const char *exe = test_exe();
@@ -299,17 +299,6 @@ static void test_sigint_then_resume(void **state)
     film_free(&b);
 }
 
-int main(void)
-{
-    setenv("POCL_DEVICES", "pthread pthread", 1);
-    setenv("POCL_MAX_PTHREAD_COUNT", "1", 1);
-    setenv("SPECTRACE_POOL", "512", 1);
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_file_round_trip),
-        cmocka_unit_test(test_resume_split_invariance),
-        cmocka_unit_test(test_resume_split_invariance_aov),
-        cmocka_unit_test(test_resume_refusals),
-        cmocka_unit_test(test_sigint_then_resume),
-    };
-    return cmocka_run_group_tests_name("checkpoint", tests, setup, test_dir_teardown);
-}
+TEST_MAIN_ENV("checkpoint", setup, test_dir_teardown,
+              "POCL_DEVICES=pthread pthread", "POCL_MAX_PTHREAD_COUNT=1",
+              "SPECTRACE_POOL=512")

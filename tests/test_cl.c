@@ -129,7 +129,7 @@ static int teardown(void **state)
 
 /* ---- listing and selection -------------------------------------------------- */
 
-static void test_list_matches_direct_query(void **state)
+TEST(test_list_matches_direct_query)
 {
     (void)state;
     /* Count devices with the raw API, independently of cl_device_list. */
@@ -163,7 +163,7 @@ static void test_list_matches_direct_query(void **state)
     }
 }
 
-static void test_select_by_index_and_default(void **state)
+TEST(test_select_by_index_and_default)
 {
     (void)state;
     int sel[64], n = 0;
@@ -184,7 +184,7 @@ static void test_select_by_index_and_default(void **state)
     assert_int_equal(sel[0], want < 0 ? 0 : want);
 }
 
-static void test_select_by_name_ignores_case(void **state)
+TEST(test_select_by_name_ignores_case)
 {
     (void)state;
     const char *name = g_list.devices[0].name;
@@ -226,7 +226,7 @@ static void expect_selection(const ClDeviceList *list, const char *sel, const ch
                  e.msg);
 }
 
-static void test_select_rules_on_made_up_devices(void **state)
+TEST(test_select_rules_on_made_up_devices)
 {
     (void)state;
     ClDeviceInfo d[4];
@@ -268,7 +268,7 @@ static void test_select_rules_on_made_up_devices(void **state)
     expect_selection(&list, NULL, "3");
 }
 
-static void test_select_out_of_range_lists_devices(void **state)
+TEST(test_select_out_of_range_lists_devices)
 {
     (void)state;
     int sel[64], n = 5;
@@ -284,7 +284,7 @@ static void test_select_out_of_range_lists_devices(void **state)
     assert_null(strchr(e.msg, '\n'));
 }
 
-static void test_select_no_match_lists_devices(void **state)
+TEST(test_select_no_match_lists_devices)
 {
     (void)state;
     int sel[64], n = 0;
@@ -302,7 +302,7 @@ static void test_select_no_match_lists_devices(void **state)
     assert_non_null(strstr(e.msg, "SPECTRACE_DEVICE"));
 }
 
-static void test_two_pocl_devices_all_and_lists(void **state)
+TEST(test_two_pocl_devices_all_and_lists)
 {
     (void)state;
     char cmd[5000], out[4096];
@@ -326,7 +326,7 @@ static void test_two_pocl_devices_all_and_lists(void **state)
         fail_msg("child printed:\n%s\nexpected:\n%s", out, want);
 }
 
-static void test_no_platform_says_how_to_install(void **state)
+TEST(test_no_platform_says_how_to_install)
 {
     (void)state;
     char empty[512];
@@ -342,7 +342,7 @@ static void test_no_platform_says_how_to_install(void **state)
     assert_int_equal(count_lines(out), 1);
 }
 
-static void test_devices_command_lists_and_marks(void **state)
+TEST(test_devices_command_lists_and_marks)
 {
     (void)state;
     char args[64], out[8192], want[600];
@@ -362,7 +362,7 @@ static void test_devices_command_lists_and_marks(void **state)
 
 /* ---- sources and builds ------------------------------------------------------ */
 
-static void test_includes_resolve_once_with_line_markers(void **state)
+TEST(test_includes_resolve_once_with_line_markers)
 {
     (void)state;
     char dir[512], path[600];
@@ -405,7 +405,7 @@ static void test_includes_resolve_once_with_line_markers(void **state)
     assert_non_null(strstr(e2.msg, "SPECTRACE_KERNEL_DIR"));
 }
 
-static void test_embedded_sources_resolve(void **state)
+TEST(test_embedded_sources_resolve)
 {
     (void)state;
     char *out = NULL;
@@ -422,7 +422,7 @@ static void test_embedded_sources_resolve(void **state)
     free(out);
 }
 
-static void test_build_error_reports_device_and_log(void **state)
+TEST(test_build_error_reports_device_and_log)
 {
     (void)state;
     char dir[512], path[600];
@@ -521,7 +521,7 @@ static void build_square(int want_hit)
     clReleaseProgram(prog);
 }
 
-static void test_cache_hit_and_corrupt_entries_rebuilt(void **state)
+TEST(test_cache_hit_and_corrupt_entries_rebuilt)
 {
     (void)state;
     build_square(0); /* compiled, stored */
@@ -562,7 +562,7 @@ static void test_cache_hit_and_corrupt_entries_rebuilt(void **state)
     clReleaseProgram(prog);
 }
 
-static void test_unwritable_cache_warns_once(void **state)
+TEST(test_unwritable_cache_warns_once)
 {
     (void)state;
     /* A cache folder below a regular file cannot be created, even as root. */
@@ -605,7 +605,7 @@ static void test_unwritable_cache_warns_once(void **state)
     assert_non_null(strstr(text, cache));
 }
 
-static void test_cache_dir_choice(void **state)
+TEST(test_cache_dir_choice)
 {
     (void)state;
     char old[512], buf[600];
@@ -636,7 +636,7 @@ static void test_cache_dir_choice(void **state)
     assert_string_equal(d, "");
 }
 
-static void test_fnv1a_reference_values(void **state)
+TEST(test_fnv1a_reference_values)
 {
     (void)state;
     /* Published FNV-1a 64-bit test vectors. */
@@ -647,7 +647,7 @@ static void test_fnv1a_reference_values(void **state)
 
 /* ---- memory checks, errors, layout ----------------------------------------- */
 
-static void test_memory_limits_checked_before_allocating(void **state)
+TEST(test_memory_limits_checked_before_allocating)
 {
     (void)state;
     ClDeviceInfo info = {0};
@@ -684,7 +684,7 @@ static int release_null_buffer(SptError *e)
     return SPT_EXIT_OK;
 }
 
-static void test_error_names_and_check_macro(void **state)
+TEST(test_error_names_and_check_macro)
 {
     (void)state;
     assert_string_equal(cl_error_name(CL_SUCCESS), "CL_SUCCESS");
@@ -717,7 +717,7 @@ static void test_error_names_and_check_macro(void **state)
                         "OpenCL: clCreateBuffer failed at x.c:7: CL_INVALID_BUFFER_SIZE (-61)");
 }
 
-static void test_layout_matches_host(void **state)
+TEST(test_layout_matches_host)
 {
     (void)state;
     /* The host's values, straight from the list. */
@@ -757,7 +757,7 @@ static void test_layout_matches_host(void **state)
 /* Implementation names: classified from the platform's name, vendor and ICD
  * suffix; "intel" selects Intel's runtime, not PoCL's device on an Intel CPU
  * (whose name contains "Intel") listed before it. No OpenCL call. */
-static void test_impl_names_and_selection(void **state)
+TEST(test_impl_names_and_selection)
 {
     (void)state;
     static const char *cases[][4] = {
@@ -810,31 +810,12 @@ static void test_impl_names_and_selection(void **state)
     assert_non_null(strstr(e.msg, "rusticl"));
 }
 
-int main(int argc, char **argv)
+/* `test_cl --child-select ...` is the child process of the selection tests. */
+static int child_mode(int argc, char **argv)
 {
     if (argc >= 2 && !strcmp(argv[1], "--child-select"))
         return child_select(argc - 2, argv + 2);
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_impl_names_and_selection),
-        cmocka_unit_test(test_list_matches_direct_query),
-        cmocka_unit_test(test_select_by_index_and_default),
-        cmocka_unit_test(test_select_by_name_ignores_case),
-        cmocka_unit_test(test_select_rules_on_made_up_devices),
-        cmocka_unit_test(test_select_out_of_range_lists_devices),
-        cmocka_unit_test(test_select_no_match_lists_devices),
-        cmocka_unit_test(test_two_pocl_devices_all_and_lists),
-        cmocka_unit_test(test_no_platform_says_how_to_install),
-        cmocka_unit_test(test_devices_command_lists_and_marks),
-        cmocka_unit_test(test_includes_resolve_once_with_line_markers),
-        cmocka_unit_test(test_embedded_sources_resolve),
-        cmocka_unit_test(test_build_error_reports_device_and_log),
-        cmocka_unit_test(test_cache_hit_and_corrupt_entries_rebuilt),
-        cmocka_unit_test(test_unwritable_cache_warns_once),
-        cmocka_unit_test(test_cache_dir_choice),
-        cmocka_unit_test(test_fnv1a_reference_values),
-        cmocka_unit_test(test_memory_limits_checked_before_allocating),
-        cmocka_unit_test(test_error_names_and_check_macro),
-        cmocka_unit_test(test_layout_matches_host),
-    };
-    return cmocka_run_group_tests_name("cl", tests, setup, teardown);
+    return TEST_GO_ON;
 }
+
+TEST_MAIN_HOOK("cl", setup, teardown, child_mode)

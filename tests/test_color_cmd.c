@@ -40,7 +40,7 @@ static void parse3(const char *out, double xyz[3], double rgb[3], int rgb8[3])
 }
 
 /* D65 and A normalised to Y = 1 print their published white points (CIE 15:2004). */
-static void test_white_points(void **state)
+TEST(test_white_points)
 {
     (void)state;
     char out[4096];
@@ -64,7 +64,7 @@ static void test_white_points(void **state)
 }
 
 /* --reflectance with a ColorChecker CSV gives colour-science's XYZ and sRGB8. */
-static void test_reflectance(void **state)
+TEST(test_reflectance)
 {
     (void)state;
     char out[4096];
@@ -84,7 +84,7 @@ static void test_reflectance(void **state)
 }
 
 /* Other names run and print the format. */
-static void test_names(void **state)
+TEST(test_names)
 {
     (void)state;
     const char *names[] = {"F2", "F7", "F11", "mercury", "blackbody:2856", "BLACKBODY:6500"};
@@ -110,7 +110,7 @@ static void expect_error(const char *args, int code, const char *want)
 }
 
 /* Errors: unknown name, unreadable file, bad CSV line, usage. */
-static void test_errors(void **state)
+TEST(test_errors)
 {
     (void)state;
     expect_error("color D66", 3, "D66");
@@ -137,13 +137,4 @@ static void test_errors(void **state)
     assert_non_null(strstr(out, "--reflectance"));
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_white_points),
-        cmocka_unit_test(test_reflectance),
-        cmocka_unit_test(test_names),
-        cmocka_unit_test(test_errors),
-    };
-    return cmocka_run_group_tests_name("color_cmd", tests, NULL, NULL);
-}
+TEST_MAIN("color_cmd", NULL, NULL)

@@ -74,7 +74,7 @@ static double rel_mse(const float *x, const float *r, size_t n)
  * samples it is a draw: with the light paths carrying the caustics seen after
  * further bounces, 256 samples come to 0.0117, the denoised 16 to 0.0127,
  * both near the reference's own noise.) */
-static void test_cornell_box_denoised(void **state)
+TEST(test_cornell_box_denoised)
 {
     (void)state;
     need_oidn();
@@ -104,7 +104,7 @@ static void test_cornell_box_denoised(void **state)
  * border) it stays within 0.01 of its albedo layer (linear) on average, and
  * the steps across the borders keep at least 90% of the albedo's: a denoiser
  * that blurred the texture would lose them. */
-static void test_texture_edges_kept(void **state)
+TEST(test_texture_edges_kept)
 {
     (void)state;
     need_oidn();
@@ -149,7 +149,7 @@ static void test_texture_edges_kept(void **state)
 
 /* The command line: the EXR's R, G, B are denoised and noisy.R/G/B is the image
  * the same render gives without --denoise. */
-static void test_command_line_layers(void **state)
+TEST(test_command_line_layers)
 {
     (void)state;
     need_oidn();
@@ -190,7 +190,7 @@ static void test_command_line_layers(void **state)
  * existing one untouched. The program is copied where deps/oidn/ is not, and
  * SPECTRACE_OIDN is unset, so only a system-wide Open Image Denoise would be
  * found (skipped then). */
-static void test_missing_library(void **state)
+TEST(test_missing_library)
 {
     (void)state;
     const char *exe = test_exe();
@@ -221,13 +221,4 @@ static void test_missing_library(void **state)
     assert_int_equal(system(cmd), 0);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_missing_library),
-        cmocka_unit_test(test_command_line_layers),
-        cmocka_unit_test(test_texture_edges_kept),
-        cmocka_unit_test(test_cornell_box_denoised),
-    };
-    return cmocka_run_group_tests_name("denoise", tests, setup, teardown);
-}
+TEST_MAIN("denoise", setup, teardown)

@@ -53,7 +53,7 @@ static void assert_all_visible(const Scene *s)
     }
 }
 
-static void test_external_bin_translation(void **state)
+TEST(test_external_bin_translation)
 {
     (void)state;
     Scene s;
@@ -86,7 +86,7 @@ static void test_external_bin_translation(void **state)
     scene_free(&s);
 }
 
-static void test_data_uri_matrix(void **state)
+TEST(test_data_uri_matrix)
 {
     (void)state;
     Scene s;
@@ -99,7 +99,7 @@ static void test_data_uri_matrix(void **state)
     scene_free(&s);
 }
 
-static void test_glb_trs(void **state)
+TEST(test_glb_trs)
 {
     (void)state;
     Scene s;
@@ -115,7 +115,7 @@ static void test_glb_trs(void **state)
     scene_free(&s);
 }
 
-static void test_mirrored_swaps_winding(void **state)
+TEST(test_mirrored_swaps_winding)
 {
     (void)state;
     Scene s;
@@ -134,7 +134,7 @@ static void test_mirrored_swaps_winding(void **state)
     scene_free(&s);
 }
 
-static void test_strips_fans_index_types(void **state)
+TEST(test_strips_fans_index_types)
 {
     (void)state;
     Scene s;
@@ -159,7 +159,7 @@ static void test_strips_fans_index_types(void **state)
     scene_free(&s);
 }
 
-static void test_garbage_triangles_dropped(void **state)
+TEST(test_garbage_triangles_dropped)
 {
     (void)state;
     Scene s;
@@ -172,7 +172,7 @@ static void test_garbage_triangles_dropped(void **state)
     scene_free(&s);
 }
 
-static void test_materials_textures_extras(void **state)
+TEST(test_materials_textures_extras)
 {
     (void)state;
     Scene s;
@@ -254,7 +254,7 @@ static void test_materials_textures_extras(void **state)
     scene_free(&s);
 }
 
-static void test_lights_and_camera(void **state)
+TEST(test_lights_and_camera)
 {
     (void)state;
     Scene s;
@@ -295,7 +295,7 @@ static void test_lights_and_camera(void **state)
     scene_free(&s);
 }
 
-static void test_orthographic_camera(void **state)
+TEST(test_orthographic_camera)
 {
     (void)state;
     Scene s;
@@ -311,7 +311,7 @@ static void test_orthographic_camera(void **state)
 
 /* A chain of 20000 nodes, each moving by (0, 0, 0.005): no recursion limit, and
  * the mesh at the bottom sits at z = 100. */
-static void test_deep_hierarchy(void **state)
+TEST(test_deep_hierarchy)
 {
     (void)state;
     const int depth = 20000;
@@ -381,7 +381,7 @@ static int load_one(Scene *s, const void *bytes, size_t n, const char *views, co
  * (zeros), a buffer without uri in a .gltf that nothing reads, and a data URI
  * buffer in a GLB. Positions are checked against the values the specification
  * gives them. */
-static void test_valid_sparse_and_zeros(void **state)
+TEST(test_valid_sparse_and_zeros)
 {
     (void)state;
     struct {
@@ -475,7 +475,7 @@ static void test_valid_sparse_and_zeros(void **state)
  * naming the property and the value (the glTF library read "0", 0.5 and 2^64 as
  * 0 or -1, which dropped a mesh silently, 2147483648 as -2147483648, and a
  * negative byteOffset as a huge one). */
-static void test_index_numbers_refused(void **state)
+TEST(test_index_numbers_refused)
 {
     (void)state;
     static const struct {
@@ -520,7 +520,7 @@ static void test_index_numbers_refused(void **state)
 /* A scene that will not fit the memory stops at the object that passes the
  * limit, with one error (SPECTRACE_MAX_MEMORY_MB stands for a small machine):
  * 10000 instances of a triangle against 1 MiB, and a texture against 0.01 MiB. */
-static void test_memory_budget(void **state)
+TEST(test_memory_budget)
 {
     (void)state;
     const int n = 10000;
@@ -561,7 +561,7 @@ static void test_memory_budget(void **state)
         fail_msg("texture: returned %d: %s", rc, e.msg);
 }
 
-static void test_default_camera_frames_box(void **state)
+TEST(test_default_camera_frames_box)
 {
     (void)state;
     /* Two triangles spanning the box (-3,-1,2)..(5,4,9), built by hand. */
@@ -682,7 +682,7 @@ static void test_bad_file(void **state)
 
 /* Inputs that once crashed or hung the loader (libFuzzer, tools/fuzz/): each
  * must load or be refused with SPT_EXIT_INPUT. */
-static void test_fuzz_regressions(void **state)
+TEST(test_fuzz_regressions)
 {
     (void)state;
     const char *dir = DATA("regress");
@@ -711,7 +711,7 @@ static int run_spectrace(const char *args, char *out, size_t out_size)
     return test_spectrace("", 0, args, TEST_BOTH, out, out_size);
 }
 
-static void test_info_command(void **state)
+TEST(test_info_command)
 {
     (void)state;
     static char out[65536];
@@ -744,31 +744,14 @@ static void test_info_command(void **state)
     assert_non_null(strstr(out, "usage: spectrace info SCENE"));
 }
 
-int main(void)
+/* One test per damaged file, named by the file, after the tests above. */
+static int add_bad_cases(int argc, char **argv)
 {
-    enum { NBAD = sizeof bad_cases / sizeof bad_cases[0] };
-    struct CMUnitTest tests[13 + NBAD] = {
-        cmocka_unit_test(test_external_bin_translation),
-        cmocka_unit_test(test_data_uri_matrix),
-        cmocka_unit_test(test_glb_trs),
-        cmocka_unit_test(test_mirrored_swaps_winding),
-        cmocka_unit_test(test_strips_fans_index_types),
-        cmocka_unit_test(test_garbage_triangles_dropped),
-        cmocka_unit_test(test_materials_textures_extras),
-        cmocka_unit_test(test_lights_and_camera),
-        cmocka_unit_test(test_orthographic_camera),
-        cmocka_unit_test(test_deep_hierarchy),
-        cmocka_unit_test(test_valid_sparse_and_zeros),
-        cmocka_unit_test(test_index_numbers_refused),
-        cmocka_unit_test(test_memory_budget),
-        cmocka_unit_test(test_default_camera_frames_box),
-        cmocka_unit_test(test_fuzz_regressions),
-        cmocka_unit_test(test_info_command),
-    };
-    for (int i = 0; i < NBAD; i++) {
-        struct CMUnitTest t = {bad_cases[i].file, test_bad_file, NULL, NULL,
-                               (void *)&bad_cases[i]};
-        tests[13 + i] = t;
-    }
-    return _cmocka_run_group_tests("gltf", tests, 13 + NBAD, NULL, NULL);
+    (void)argc;
+    (void)argv;
+    for (size_t i = 0; i < sizeof bad_cases / sizeof bad_cases[0]; i++)
+        test_add(bad_cases[i].file, test_bad_file, (void *)&bad_cases[i]);
+    return TEST_GO_ON;
 }
+
+TEST_MAIN_HOOK("gltf", NULL, NULL, add_bad_cases)

@@ -64,7 +64,7 @@ static void assert_matrix(const float *m, const double want[6])
             fail_msg("uv_transform[%d] is %g, expected %g", k, m[k], want[k]);
 }
 
-static void test_texture_transform(void **state)
+TEST(test_texture_transform)
 {
     (void)state;
     Scene s;
@@ -101,7 +101,7 @@ static void test_texture_transform(void **state)
     scene_free(&s);
 }
 
-static void test_spec_gloss_and_ignored(void **state)
+TEST(test_spec_gloss_and_ignored)
 {
     (void)state;
     Scene s;
@@ -146,7 +146,7 @@ static void test_spec_gloss_and_ignored(void **state)
 
 /* A file that requires an ignored or unknown extension: one error line naming
  * all of them and none of the supported ones. */
-static void test_required_refused(void **state)
+TEST(test_required_refused)
 {
     (void)state;
     const char *json =
@@ -234,7 +234,7 @@ static void compare_with_plain(const char *file, double pos_tol, double nrm_tol,
     scene_free(&c);
 }
 
-static void test_quantized_matches_plain(void **state)
+TEST(test_quantized_matches_plain)
 {
     (void)state;
     /* int16 steps of 2/32767 (half a step of rounding error), int8 normals
@@ -243,7 +243,7 @@ static void test_quantized_matches_plain(void **state)
 }
 
 /* The same file without KHR_mesh_quantization declared: refused, with a hint. */
-static void test_quantized_needs_extension(void **state)
+TEST(test_quantized_needs_extension)
 {
     (void)state;
     FILE *f = fopen(DATA("wild_quantized.gltf"), "rb");
@@ -263,7 +263,7 @@ static void test_quantized_needs_extension(void **state)
         fail_msg("got '%s'", e.msg);
 }
 
-static void test_meshopt_matches_plain(void **state)
+TEST(test_meshopt_matches_plain)
 {
     (void)state;
     /* The meshopt codecs are lossless on floats; the normals went through the
@@ -273,7 +273,7 @@ static void test_meshopt_matches_plain(void **state)
     compare_with_plain(DATA("wild_meshopt.glb"), 0, 2.0 / 127, 0);
 }
 
-static void test_draco_matches_plain(void **state)
+TEST(test_draco_matches_plain)
 {
     (void)state;
     /* 14-bit positions over a range of 2, 10-bit (octahedral) normals, 12-bit uvs. */
@@ -281,7 +281,7 @@ static void test_draco_matches_plain(void **state)
 }
 
 /* Damaged meshopt data: one error naming the buffer view. */
-static void test_meshopt_damaged(void **state)
+TEST(test_meshopt_damaged)
 {
     (void)state;
     FILE *f = fopen(DATA("wild_meshopt.gltf"), "rb");
@@ -314,7 +314,7 @@ static void test_meshopt_damaged(void **state)
 
 /* Primitives sharing vertex accessors share one copy of the vertices per
  * instance; the flattened instances are counted. */
-static void test_shared_vertices_and_instances(void **state)
+TEST(test_shared_vertices_and_instances)
 {
     (void)state;
     Scene s;
@@ -350,7 +350,7 @@ static double srgb_to_linear(double x)
     return x <= 0.04045 ? x / 12.92 : pow((x + 0.055) / 1.055, 2.4);
 }
 
-static void test_webp_texture(void **state)
+TEST(test_webp_texture)
 {
     (void)state;
     Scene s;
@@ -407,7 +407,7 @@ static int load_with(Scene *s, const char *path, const char *members, SptError *
  * view, a .gltf buffer without uri, a mesh on a node of a file with no scene.
  * Where the files place a mesh, its zero positions make degenerate triangles,
  * which are dropped and counted. */
-static void test_validator_valid_files(void **state)
+TEST(test_validator_valid_files)
 {
     (void)state;
     static const char *const files[] = {
@@ -480,7 +480,7 @@ static size_t make_glb(unsigned char *out, size_t cap, const char *json, const v
  * refused by name (the validator's BUFFER_MISSING_GLB_DATA; byteLength 0 is
  * below the schema's minimum of 1 as well). Another buffer without uri holds no
  * data: valid while nothing reads it (the validator's valid_placeholder.glb). */
-static void test_glb_buffers(void **state)
+TEST(test_glb_buffers)
 {
     (void)state;
     static const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
@@ -535,21 +535,4 @@ static void test_glb_buffers(void **state)
     }
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_texture_transform),
-        cmocka_unit_test(test_spec_gloss_and_ignored),
-        cmocka_unit_test(test_required_refused),
-        cmocka_unit_test(test_quantized_matches_plain),
-        cmocka_unit_test(test_quantized_needs_extension),
-        cmocka_unit_test(test_meshopt_matches_plain),
-        cmocka_unit_test(test_draco_matches_plain),
-        cmocka_unit_test(test_meshopt_damaged),
-        cmocka_unit_test(test_webp_texture),
-        cmocka_unit_test(test_shared_vertices_and_instances),
-        cmocka_unit_test(test_validator_valid_files),
-        cmocka_unit_test(test_glb_buffers),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TEST_MAIN("tests", NULL, NULL)

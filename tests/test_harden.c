@@ -70,7 +70,7 @@ static unsigned char *good_output(const char *name, size_t *n)
  * (a full disk, by the test hook), fails the run with exit 5 and leaves the first
  * output as it was: every output is written to a temporary file first and renamed
  * only when all were written. */
-static void test_failed_output_keeps_others(void **state)
+TEST(test_failed_output_keeps_others)
 {
     (void)state;
     size_t n;
@@ -105,7 +105,7 @@ static void test_failed_output_keeps_others(void **state)
  * device and inode: the environment map (by name, through "x/..", through a
  * symbolic link), the scene under another name (a hard link), an SPD file, the
  * checkpoint being resumed; and two outputs naming one file. */
-static void test_output_naming_input(void **state)
+TEST(test_output_naming_input)
 {
     (void)state;
     size_t n;
@@ -168,7 +168,7 @@ static void test_output_naming_input(void **state)
 
 /* An output that is a symbolic link stays one: the file it points to is
  * replaced. */
-static void test_output_symlink_kept(void **state)
+TEST(test_output_symlink_kept)
 {
     (void)state;
     size_t n;
@@ -189,7 +189,7 @@ static void test_output_symlink_kept(void **state)
 
 /* Inputs that are not regular files, or too large, are refused before they are
  * read (exit 3), without reading /dev/zero forever or a multi-gigabyte file. */
-static void test_input_files(void **state)
+TEST(test_input_files)
 {
     (void)state;
     char args[1024];
@@ -242,7 +242,7 @@ static void test_input_files(void **state)
 
 /* JSON nested 20,000 arrays deep (a stack overflow in the glTF library's
  * recursive conversion) is refused before parsing, in a .gltf and in a GLB. */
-static void test_deep_json(void **state)
+TEST(test_deep_json)
 {
     (void)state;
     const int depth = 20000;
@@ -295,7 +295,7 @@ static int run_signalled(const char *args, const char *wait_for, const int *sigs
 
 /* SIGHUP is SIGTERM: after one chunk is done (its progress line), a render that
  * would take hours stops after its current chunk and writes what is complete. */
-static void test_sighup_writes(void **state)
+TEST(test_sighup_writes)
 {
     (void)state;
     char args[1024], err[16384];
@@ -340,7 +340,7 @@ static void stopped_unwritten(int w, int h, const char *name, const int *sigs, i
  * run stops within a wave of paths, with exit 130 and nothing written, as no
  * sample of every pixel is complete. (Had it waited for the chunk, it would
  * write the image with exit 0.) */
-static void test_first_sigint_drops_long_chunk(void **state)
+TEST(test_first_sigint_drops_long_chunk)
 {
     (void)state;
     const int sig = SIGINT;
@@ -353,7 +353,7 @@ static void test_first_sigint_drops_long_chunk(void **state)
  * holds the same whole number of samples (the spp layer), the one its
  * spectrace:spp attribute and the note give: 1, or 2 had the second chunk
  * finished before the signal. */
-static void test_first_sigint_writes_whole_samples(void **state)
+TEST(test_first_sigint_writes_whole_samples)
 {
     (void)state;
     char args[1024], err[16384];
@@ -402,7 +402,7 @@ static void test_first_sigint_writes_whole_samples(void **state)
  * image with exit 0.) The device line comes while the devices open, so the
  * first signal may also land before rendering, which ends with exit 130 too;
  * the second then comes during the clean-up and must not kill the process. */
-static void test_second_sigint_stops_at_once(void **state)
+TEST(test_second_sigint_stops_at_once)
 {
     (void)state;
     const int sigs[2] = {SIGINT, SIGINT};
@@ -413,7 +413,7 @@ static void test_second_sigint_stops_at_once(void **state)
  * chunk (as in test_first_sigint_drops_long_chunk) so that the first SIGINT,
  * with the device line, stops the run, and the second once the run has said
  * it stopped; the exit stays 130 and nothing is written. */
-static void test_sigint_during_cleanup(void **state)
+TEST(test_sigint_during_cleanup)
 {
     (void)state;
     const int sigs[2] = {SIGINT, SIGINT};
@@ -425,7 +425,7 @@ static void test_sigint_during_cleanup(void **state)
  * does not hold it in SPECTRACE_OIIO_DIR) a PNG output fails before rendering
  * with one error line naming the output and exit 5, leaving the existing file
  * as it was, while an EXR-only render of an untextured scene succeeds. */
-static void test_image_library_when_needed(void **state)
+TEST(test_image_library_when_needed)
 {
     (void)state;
     char args[1024], err[16384];
@@ -460,7 +460,7 @@ static void test_image_library_when_needed(void **state)
  * a point light of 1e38 cd, an environment texel of 3e38, an SPD sample of
  * 1e308; a negative SPD sample is refused too. `color --` ends the options.
  * Each error names the file first (the light's check runs after loading). */
-static void test_values_beyond_float(void **state)
+TEST(test_values_beyond_float)
 {
     (void)state;
     size_t n;
@@ -512,7 +512,7 @@ static void test_values_beyond_float(void **state)
 /* A render whose film and outputs do not fit the host memory is refused before
  * any work with the amount and the limit (exit 4; SPECTRACE_MAX_MEMORY_MB stands
  * for a small machine), and nothing is written. */
-static void test_host_memory_refused(void **state)
+TEST(test_host_memory_refused)
 {
     (void)state;
     char args[1024], err[4096];
@@ -528,7 +528,7 @@ static void test_host_memory_refused(void **state)
 
 /* Inputs that libFuzzer found to crash, hang or exhaust memory in a reader
  * (tests/data/fuzz/TARGET/, README there): each is refused as bad input. */
-static void test_fuzz_regressions(void **state)
+TEST(test_fuzz_regressions)
 {
     (void)state;
     const char *folder = "tests/data/fuzz/checkpoint";
@@ -556,23 +556,4 @@ static void test_fuzz_regressions(void **state)
     assert_true(count >= 2);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_failed_output_keeps_others),
-        cmocka_unit_test(test_output_naming_input),
-        cmocka_unit_test(test_output_symlink_kept),
-        cmocka_unit_test(test_input_files),
-        cmocka_unit_test(test_deep_json),
-        cmocka_unit_test(test_sighup_writes),
-        cmocka_unit_test(test_first_sigint_drops_long_chunk),
-        cmocka_unit_test(test_first_sigint_writes_whole_samples),
-        cmocka_unit_test(test_second_sigint_stops_at_once),
-        cmocka_unit_test(test_sigint_during_cleanup),
-        cmocka_unit_test(test_image_library_when_needed),
-        cmocka_unit_test(test_values_beyond_float),
-        cmocka_unit_test(test_fuzz_regressions),
-        cmocka_unit_test(test_host_memory_refused),
-    };
-    return cmocka_run_group_tests(tests, test_dir_setup, test_dir_teardown);
-}
+TEST_MAIN("tests", test_dir_setup, test_dir_teardown)

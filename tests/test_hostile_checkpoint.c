@@ -125,7 +125,7 @@ static int setup(void **state)
 /* The control: the file read and written again unchanged resumes, to the image
  * of the render of 8 spp in one go, so the refusals below come from the edits
  * and not from the rewriting. */
-static void test_rewritten_unchanged_resumes(void **state)
+TEST(test_rewritten_unchanged_resumes)
 {
     (void)state;
     ExrLayers L;
@@ -144,7 +144,7 @@ static void test_rewritten_unchanged_resumes(void **state)
 /* A render whose pixel (0, 0) drops every sample (the test hook
  * SPECTRACE_TEST_INJECT_NAN makes its radiance NaN) writes a checkpoint with a
  * count of 0 there, which the cross-checks must accept: it resumes. */
-static void test_dropped_samples_resume(void **state)
+TEST(test_dropped_samples_resume)
 {
     (void)state;
     char args[1024], err[8192];
@@ -168,7 +168,7 @@ static void test_dropped_samples_resume(void **state)
  * old sums to the new samples' count (an image 2x too bright), or to the same
  * spp give a black image. Single process and over MPI (the ranks' rank 0 reads
  * the checkpoint through the same code). */
-static void test_count_zero(void **state)
+TEST(test_count_zero)
 {
     (void)state;
     ExrLayers L;
@@ -195,7 +195,7 @@ static void test_count_zero(void **state)
 }
 
 /* One spectral band's channels deleted from a --spectral 2 checkpoint. */
-static void test_band_removed(void **state)
+TEST(test_band_removed)
 {
     (void)state;
     ExrLayers L;
@@ -205,7 +205,7 @@ static void test_band_removed(void **state)
 }
 
 /* Sums of 1e38: a float the file can hold, far beyond what 4 samples give. */
-static void test_huge_sums(void **state)
+TEST(test_huge_sums)
 {
     (void)state;
     ExrLayers L;
@@ -220,7 +220,7 @@ static void test_huge_sums(void **state)
 /* A negative band sum (radiance is never negative), and an albedo sum of -100
  * over 4 samples (no reflectance in [0, 1] gives a linear sRGB component below
  * -0.484). */
-static void test_negative_sums(void **state)
+TEST(test_negative_sums)
 {
     (void)state;
     ExrLayers L;
@@ -234,7 +234,7 @@ static void test_negative_sums(void **state)
 
 /* One value changed in one bit, everything else plausible: only the checksum
  * sees it. */
-static void test_one_flipped_bit(void **state)
+TEST(test_one_flipped_bit)
 {
     (void)state;
     ExrLayers L;
@@ -255,7 +255,7 @@ static void test_one_flipped_bit(void **state)
 
 /* A checkpoint of the format before the checksum (version 1): refused, saying
  * to render again (docs/outputs.md, "Checkpoints"). */
-static void test_old_format(void **state)
+TEST(test_old_format)
 {
     (void)state;
     ExrLayers L;
@@ -272,7 +272,7 @@ static void test_old_format(void **state)
 
 /* The cross-checks hold where the checksum is right: checkpoint_write gives
  * these implausible films a valid checksum, and checkpoint_read refuses them. */
-static void test_cross_checks(void **state)
+TEST(test_cross_checks)
 {
     (void)state;
     RenderSettings rs;
@@ -334,7 +334,7 @@ static void test_cross_checks(void **state)
 
 /* Case 15: a resume with other settings names each option and both values as
  * the user types them, never the numbers the key stores. */
-static void test_mismatch_names_values(void **state)
+TEST(test_mismatch_names_values)
 {
     (void)state;
     static const char *const extra[4] = {"--caustics on", "--sampler independent",
@@ -358,24 +358,6 @@ static void test_mismatch_names_values(void **state)
     }
 }
 
-int main(void)
-{
-    (void)load_checkpoint; /* ckpt_test.h's helpers that this file does not use */
-    (void)assert_same_film;
-    setenv("POCL_DEVICES", "pthread", 1);
-    setenv("POCL_MAX_PTHREAD_COUNT", "1", 1);
-    setenv("SPECTRACE_POOL", "512", 1);
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_rewritten_unchanged_resumes),
-        cmocka_unit_test(test_dropped_samples_resume),
-        cmocka_unit_test(test_count_zero),
-        cmocka_unit_test(test_band_removed),
-        cmocka_unit_test(test_huge_sums),
-        cmocka_unit_test(test_negative_sums),
-        cmocka_unit_test(test_one_flipped_bit),
-        cmocka_unit_test(test_old_format),
-        cmocka_unit_test(test_cross_checks),
-        cmocka_unit_test(test_mismatch_names_values),
-    };
-    return cmocka_run_group_tests_name("hostile_checkpoint", tests, setup, test_dir_teardown);
-}
+TEST_MAIN_ENV("hostile_checkpoint", setup, test_dir_teardown,
+              "POCL_DEVICES=pthread", "POCL_MAX_PTHREAD_COUNT=1",
+              "SPECTRACE_POOL=512")

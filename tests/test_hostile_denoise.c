@@ -77,7 +77,7 @@ static const char *const noisy[3] = {"noisy.R", "noisy.G", "noisy.B"};
  * image over the strength is the same image at every strength (within 1% of
  * its sum), as are the albedo and normal guides, which do not depend on the
  * light at all. */
-static void test_exposure_sweep(void **state)
+TEST(test_exposure_sweep)
 {
     (void)state;
     need_oidn();
@@ -143,7 +143,7 @@ static void test_exposure_sweep(void **state)
  * are normal floats; where the sums of squares pass float's range (strength
  * x 1e20) the run is refused with one error line naming the scene, exit 3
  * (docs/limits.md), not written nor called an internal error. */
-static void test_variance_layer(void **state)
+TEST(test_variance_layer)
 {
     (void)state;
     static const double k[] = {1, 1e-9, 1e-3, 1e3, 1e9};
@@ -218,7 +218,7 @@ static const char stub_src[] =
  * SPECTRACE_OIDN): each way ends in one error line naming the denoiser and
  * not an internal error, exit 1 (README.md, "Exit codes"), nothing written;
  * a black image returned without an error counts as failing. */
-static void test_denoiser_failure(void **state)
+TEST(test_denoiser_failure)
 {
     (void)state;
     char src[256], lib[256], cmd[1024], out[256], env[512], args[1024], err[4096];
@@ -254,7 +254,7 @@ static void test_denoiser_failure(void **state)
 /* SPECTRACE_OIDN naming a FIFO (which dlopen would wait on for a writer), a
  * folder or a device file: one error line naming it, exit 2 (as for a file
  * that is not the library), at once and before rendering. */
-static void test_oidn_not_regular_file(void **state)
+TEST(test_oidn_not_regular_file)
 {
     (void)state;
     char fifo[256], out[256], env[512], args[512], err[4096];
@@ -279,13 +279,4 @@ static void test_oidn_not_regular_file(void **state)
     }
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_oidn_not_regular_file),
-        cmocka_unit_test(test_exposure_sweep),
-        cmocka_unit_test(test_variance_layer),
-        cmocka_unit_test(test_denoiser_failure),
-    };
-    return cmocka_run_group_tests_name("hostile_denoise", tests, setup, test_dir_teardown);
-}
+TEST_MAIN("hostile_denoise", setup, test_dir_teardown)

@@ -71,7 +71,7 @@ static void assert_triangle(const Scene *s, unsigned tris)
 /* Case 10: a float option's value that turns into 0 or infinity as a 32-bit float
  * (what the kernels get) is refused naming the option and the value: 1e-46 passed
  * "> 0" as a double and became 0, which for --light-paths means the default 2. */
-static void test_float_options_hold_their_value(void **state)
+TEST(test_float_options_hold_their_value)
 {
     (void)state;
     static const char *const bad[][2] = {
@@ -101,7 +101,7 @@ static void test_float_options_hold_their_value(void **state)
 
 /* Case 14: option values are case-insensitive throughout (README.md, "Rendering"):
  * --sampler SOBOL was accepted while --caustics ON was refused. */
-static void test_option_values_any_case(void **state)
+TEST(test_option_values_any_case)
 {
     (void)state;
     RenderArgs a;
@@ -123,7 +123,7 @@ static void test_option_values_any_case(void **state)
 /* Case 11: an implementation's name selects only its devices. PoCL's device on
  * an Intel CPU has "Intel" in its name and vendor, and `--device intel` rendered
  * on it when Intel's runtime was absent. */
-static void test_device_implementation_name(void **state)
+TEST(test_device_implementation_name)
 {
     (void)state;
     ClDeviceInfo d = {0};
@@ -177,7 +177,7 @@ static void test_device_implementation_name(void **state)
 /* Case 14: values outside the range the glTF specification or the extension
  * gives are refused with the object and the value named (a clearcoatFactor of
  * -1 was clamped to 0: a black coat without a word); the range's ends load. */
-static void test_gltf_out_of_range_values(void **state)
+TEST(test_gltf_out_of_range_values)
 {
     (void)state;
     static const struct {
@@ -255,7 +255,7 @@ static void test_gltf_out_of_range_values(void **state)
 
 /* Case 14: a sampler's magFilter written as the string "NEAREST" (not 9728) was
  * ignored, the texture then filtered linearly. */
-static void test_gltf_sampler_enum_as_string(void **state)
+TEST(test_gltf_sampler_enum_as_string)
 {
     (void)state;
     static char json[8192];
@@ -269,7 +269,7 @@ static void test_gltf_sampler_enum_as_string(void **state)
 
 /* Case 14: a NaN in COLOR_0 was clamped into a colour; it is refused naming the
  * accessor and the vertex. */
-static void test_gltf_color_nan(void **state)
+TEST(test_gltf_color_nan)
 {
     (void)state;
     const char *json =
@@ -293,7 +293,7 @@ static void test_gltf_color_nan(void **state)
 /* Case 14: an --env map whose every texel is 0 lights nothing; with no other
  * light the image is black, which the run now says, as it does for
  * --env-intensity 0. */
-static void test_env_all_zero_warns(void **state)
+TEST(test_env_all_zero_warns)
 {
     (void)state;
     char path[256], scene[256];
@@ -315,7 +315,7 @@ static void test_env_all_zero_warns(void **state)
 
 /* Case 15: an indices accessor that does not exist is named with its mesh and
  * primitive (the glTF library said "primitive indices accessor out of bounds"). */
-static void test_gltf_indices_named(void **state)
+TEST(test_gltf_indices_named)
 {
     (void)state;
     static char json[8192];
@@ -334,7 +334,7 @@ static void test_gltf_indices_named(void **state)
 
 /* The validator's json/integer_written_as_float.gltf (tests/data/gltf/validator):
  * indices and counts written as 1.0, 1e0, 10e-1. */
-static void test_gltf_validator_integers_as_floats(void **state)
+TEST(test_gltf_validator_integers_as_floats)
 {
     (void)state;
     Scene s;
@@ -371,7 +371,7 @@ static void test_gltf_validator_integers_as_floats(void **state)
 
 /* Like the validator's buffer/data_uri.glb: a GLB whose buffer is a data URI with
  * percent-encoded bytes (no ";base64"), here the triangle's positions. */
-static void test_gltf_glb_data_uri_buffer(void **state)
+TEST(test_gltf_glb_data_uri_buffer)
 {
     (void)state;
     const char *json =
@@ -399,7 +399,7 @@ static void test_gltf_glb_data_uri_buffer(void **state)
 /* Like the validator's mesh/valid.gltf: an indices accessor without bufferView
  * (all zeros, glTF 2.0 3.6.2.3) with sparse values: the quad's indices become
  * 0 1 2 0 2 3, two triangles; without the sparse part, one degenerate triangle. */
-static void test_gltf_indices_without_buffer_view(void **state)
+TEST(test_gltf_indices_without_buffer_view)
 {
     (void)state;
     static const char head[] =
@@ -432,20 +432,4 @@ static void test_gltf_indices_without_buffer_view(void **state)
     scene_free(&s);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_float_options_hold_their_value),
-        cmocka_unit_test(test_option_values_any_case),
-        cmocka_unit_test(test_device_implementation_name),
-        cmocka_unit_test(test_gltf_out_of_range_values),
-        cmocka_unit_test(test_gltf_sampler_enum_as_string),
-        cmocka_unit_test(test_gltf_color_nan),
-        cmocka_unit_test(test_env_all_zero_warns),
-        cmocka_unit_test(test_gltf_indices_named),
-        cmocka_unit_test(test_gltf_validator_integers_as_floats),
-        cmocka_unit_test(test_gltf_glb_data_uri_buffer),
-        cmocka_unit_test(test_gltf_indices_without_buffer_view),
-    };
-    return cmocka_run_group_tests(tests, test_dir_setup, test_dir_teardown);
-}
+TEST_MAIN("tests", test_dir_setup, test_dir_teardown)

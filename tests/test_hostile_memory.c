@@ -101,7 +101,7 @@ static void not_under_sanitizers(void)
 #endif
 }
 
-static void test_time_excludes_cold_build(void **state)
+TEST(test_time_excludes_cold_build)
 {
     (void)state;
     not_under_sanitizers();
@@ -136,7 +136,7 @@ static void test_time_excludes_cold_build(void **state)
  * program cache (the build given up is not stored). The build takes seconds on PoCL (more on the other
  * implementations); the run must end within 2 s of the second signal, which
  * it is sent once the first one's note shows. */
-static void test_second_sigint_during_build(void **state)
+TEST(test_second_sigint_during_build)
 {
     (void)state;
     char saved[512], args[1024], err[16384];
@@ -208,7 +208,7 @@ static void write_map(const char *path, int w, int h)
  * lacks it, and PoCL compiles a kernel again at its first launch on a large
  * grid (kept in PoCL's own cache; on the GPU code path this added 61 MiB to
  * the --aov all render). */
-static void test_estimate_matches_rss(void **state)
+TEST(test_estimate_matches_rss)
 {
     (void)state;
     not_under_sanitizers();
@@ -257,7 +257,7 @@ static void test_estimate_matches_rss(void **state)
  * (SIGABRT, exit 134) or a failed allocation: --spectral 470 at 512x512 needs
  * about 1.9 GiB (a film of 470 bands in double, their device and host sums),
  * under a 2 GiB limit. */
-static void test_address_space_limit(void **state)
+TEST(test_address_space_limit)
 {
     (void)state;
     not_under_sanitizers();
@@ -276,7 +276,7 @@ static void test_address_space_limit(void **state)
 
 /* Small amounts read in MiB, never "0.0 GiB": a 256x256 render (about 19 MiB)
  * under a limit of 1 MiB. */
-static void test_small_amounts_in_mib(void **state)
+TEST(test_small_amounts_in_mib)
 {
     (void)state;
     char args[1024], err[16384];
@@ -296,7 +296,7 @@ static void test_small_amounts_in_mib(void **state)
  * one error line naming the file and its size, before its texels are read. A
  * 2048x1024 map takes about 104 MiB (texels, tables, a device's copy); the
  * limit is 20 MiB. */
-static void test_env_map_too_big(void **state)
+TEST(test_env_map_too_big)
 {
     (void)state;
     const char *map = test_path("map_limit.exr");
@@ -315,15 +315,4 @@ static void test_env_map_too_big(void **state)
     assert_false(test_exists(test_path("env.exr")));
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_estimate_matches_rss),
-        cmocka_unit_test(test_address_space_limit),
-        cmocka_unit_test(test_small_amounts_in_mib),
-        cmocka_unit_test(test_env_map_too_big),
-        cmocka_unit_test(test_time_excludes_cold_build),
-        cmocka_unit_test(test_second_sigint_during_build),
-    };
-    return cmocka_run_group_tests(tests, test_dir_setup, test_dir_teardown);
-}
+TEST_MAIN("tests", test_dir_setup, test_dir_teardown)

@@ -36,7 +36,7 @@ static const char *box_times(double k)
 /* (a) At 1e20 times the light, with --denoise's guides (the albedo layer) but
  * not the variance layer: 2 spp checkpointed then resumed to 4 gives the image
  * of a straight 4 spp render, and the checkpoint run exits 0. */
-static void test_bright_checkpoint_resumes(void **state)
+TEST(test_bright_checkpoint_resumes)
 {
     (void)state;
     char args[2048], err[8192];
@@ -61,7 +61,7 @@ static void test_bright_checkpoint_resumes(void **state)
 
 /* (a) The same with the variance layer, which cannot hold these squares: one
  * error line naming the scene and the layer, exit 3, as without --checkpoint. */
-static void test_bright_checkpoint_variance_refused(void **state)
+TEST(test_bright_checkpoint_variance_refused)
 {
     (void)state;
     char args[2048], err[8192];
@@ -93,7 +93,7 @@ static void adaptive_at(double k, const char *out)
  * plain sampling, and the images over the strength by at most 2% of the
  * image's sum (float rounding at another scale can flip a pixel's close
  * choice, so not exactly). */
-static void test_adaptive_scale_invariant(void **state)
+TEST(test_adaptive_scale_invariant)
 {
     (void)state;
     static const char *const want[] = {"R", "G", "B", "spp"};
@@ -149,7 +149,7 @@ static void test_adaptive_scale_invariant(void **state)
  * says so in one warning naming the scene and the variance layer
  * (docs/limits.md). How far the layer over k^2 is from x 1's is printed
  * (0.001% of its sum on PoCL, which keeps subnormals). */
-static void test_dim_variance_not_silent(void **state)
+TEST(test_dim_variance_not_silent)
 {
     (void)state;
     static const char *const want[] = {"variance.R", "variance.G", "variance.B"};
@@ -189,16 +189,4 @@ static void test_dim_variance_not_silent(void **state)
         print_message("  this device loses the subnormal squares (warned)\n");
 }
 
-int main(void)
-{
-    /* ckpt_test.h's helpers that these tests do not use. */
-    (void)load_checkpoint;
-    (void)assert_same_film;
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_bright_checkpoint_resumes),
-        cmocka_unit_test(test_bright_checkpoint_variance_refused),
-        cmocka_unit_test(test_adaptive_scale_invariant),
-        cmocka_unit_test(test_dim_variance_not_silent),
-    };
-    return cmocka_run_group_tests(tests, test_dir_setup, test_dir_teardown);
-}
+TEST_MAIN("tests", test_dir_setup, test_dir_teardown)

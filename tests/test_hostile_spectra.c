@@ -146,7 +146,7 @@ static void furnace_glass(const char *path, const char *roughness, double disper
  * with strong dispersion); rough glass between 0.6 and 1 (single-scattering GGX
  * loses energy: 0.88 at ior 1.5 without dispersion, as
  * tests/data/mitsuba/mat_furnace_roughglass_means.json has it). */
-static void test_dispersion_furnace(void **state)
+TEST(test_dispersion_furnace)
 {
     (void)state;
     const double disp[] = {0, 1, 20, 150, 200, 300, 1000, 1e5, 1e6};
@@ -192,7 +192,7 @@ static void test_dispersion_furnace(void **state)
  * integral of bsdf_eval over the upper hemisphere (a 400 x 800 midpoint
  * quadrature). Before, reflection was chosen with the hero's Fresnel, 0 here, and
  * that light was lost. */
-static void test_dispersive_reflection(void **state)
+TEST(test_dispersive_reflection)
 {
     (void)state;
     BsdfParams p;
@@ -254,7 +254,7 @@ static void test_dispersive_reflection(void **state)
  * of dispersion 0 in that sky (a furnace) has mean Y 1 at every temperature the
  * option accepts, from the dimmest (about 24 K, where Planck's law underflows
  * in double) to 1e5 K. Below that it is refused as having no luminance. */
-static void test_dim_blackbody_sky(void **state)
+TEST(test_dim_blackbody_sky)
 {
     (void)state;
     const char *temps[] = {"100", "160", "200", "1000", "6500", "1e5"};
@@ -295,7 +295,7 @@ static void spd_file_refused(const char *name, const char *text, const char *why
     refused(args, 3, (const char *const[]){csv, why, NULL});
 }
 
-static void test_spd_csv_refused(void **state)
+TEST(test_spd_csv_refused)
 {
     (void)state;
     char args[1024];
@@ -365,7 +365,7 @@ static void band_xyz(int n, int step, double xyz[3])
         xyz[k] /= SPT_CIE_Y_INTEGRAL;
 }
 
-static void test_color_pixel_bands(void **state)
+TEST(test_color_pixel_bands)
 {
     (void)state;
     const int counts[] = {1, 2, 3, 47};
@@ -434,14 +434,4 @@ static void test_color_pixel_bands(void **state)
     }
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_dispersion_furnace),
-        cmocka_unit_test(test_dispersive_reflection),
-        cmocka_unit_test(test_dim_blackbody_sky),
-        cmocka_unit_test(test_spd_csv_refused),
-        cmocka_unit_test(test_color_pixel_bands),
-    };
-    return cmocka_run_group_tests(tests, test_dir_setup, test_dir_teardown);
-}
+TEST_MAIN("tests", test_dir_setup, test_dir_teardown)

@@ -180,7 +180,7 @@ static double slab_ratio(double inner_deg, double outer_deg, int spp)
  * transitions (inner close to outer), a hard edge (inner = outer), and a
  * point light on the floor's square: within 2% of the analytic flux each
  * (the noise of 64 spp is below 1%). */
-static void test_spot_energy_through_glass(void **state)
+TEST(test_spot_energy_through_glass)
 {
     (void)state;
     const double cones[][2] = {{0.008, 0.01}, {0.04, 0.05}, {0.4, 0.5}, {1.5, 2.0}, {3.0, 3.0},
@@ -196,7 +196,7 @@ static void test_spot_energy_through_glass(void **state)
 /* The same cones without the slab: the floor's direct light (camera paths'
  * next-event estimation, light_punctual_sample) within 2% of the analytic
  * flux. */
-static void test_spot_energy_direct(void **state)
+TEST(test_spot_energy_direct)
 {
     (void)state;
     const double cones[][2] = {{0.008, 0.01}, {0.4, 0.5}, {1.5, 2.0}, {3.0, 3.0}, {10.3, 11.5}};
@@ -268,7 +268,7 @@ static double small_ratio(double inner_deg, double outer_deg, int spp)
 
 /* Aimed light paths through the small slab, whose edge (at 0.94 to 1.33 deg
  * from the axis) lies in the spot's falloff: within 2% of the analytic flux. */
-static void test_spot_energy_aimed(void **state)
+TEST(test_spot_energy_aimed)
 {
     (void)state;
     const double cones[][2] = {{0.9, 1.2}, {1.0, 1.0}, {1.5, 2.0}};
@@ -285,7 +285,7 @@ static void test_spot_energy_aimed(void **state)
  * within 1e-3, where float cosines differ by a few units in the last place;
  * and light_one_minus_cos of unit vectors at those angles within 1e-4
  * relative of 1 - cos in double. */
-static void test_spot_falloff_narrow(void **state)
+TEST(test_spot_falloff_narrow)
 {
     (void)state;
     const double cones[][2] = {{0.008, 0.01}, {0.4, 0.5}, {1.5, 2.0}, {3.0, 3.0}, {20.0, 60.0}};
@@ -483,7 +483,7 @@ static double prism_ratio(double inner_deg, double outer_deg, float dispersion, 
 /* Energy through the prism, issue 35's scene (1.5/2 deg, with and without
  * dispersion: 1, an Abbe number of 20) and a wider cone: within 2% of the
  * analytic flux. */
-static void test_spot_energy_prism(void **state)
+TEST(test_spot_energy_prism)
 {
     (void)state;
     const double cones[][3] = {{1.5, 2.0, 0.0}, {1.5, 2.0, 1.0}, {10.3, 11.5, 0.0}};
@@ -495,14 +495,4 @@ static void test_spot_energy_prism(void **state)
     assert_int_equal(bad, 0);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_spot_falloff_narrow),
-        cmocka_unit_test(test_spot_energy_through_glass),
-        cmocka_unit_test(test_spot_energy_aimed),
-        cmocka_unit_test(test_spot_energy_direct),
-        cmocka_unit_test(test_spot_energy_prism),
-    };
-    return cmocka_run_group_tests(tests, setup_cpu_device, teardown_cpu_device);
-}
+TEST_MAIN("tests", setup_cpu_device, teardown_cpu_device)

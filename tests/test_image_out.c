@@ -67,7 +67,7 @@ static void assert_attr(const char *path, const char *name, const char *want)
 
 /* ------------------------------------------------------------------------- */
 
-static void test_exr_roundtrip_read_by_oiio(void **state)
+TEST_FIXTURE(test_exr_roundtrip_read_by_oiio, setup, teardown)
 {
     (void)state;
     enum { W = 4, H = 3 };
@@ -128,7 +128,7 @@ static const float k_lin[] = {0.0f, 0.001f, 0.0031308f, 0.18f, 0.25f, 0.5f, 1.0f
                               -0.5f, 0.5f, 0.25f};
 static const int k_code[] = {0, 3, 10, 118, 137, 188, 255, 255, 0, 0, 188, 137};
 
-static void test_png_srgb_codes(void **state)
+TEST_FIXTURE(test_png_srgb_codes, setup, teardown)
 {
     (void)state;
     enum { W = 2, H = 2 }; /* 4 pixels = the 12 values above */
@@ -166,7 +166,7 @@ static void test_png_srgb_codes(void **state)
     free(back);
 }
 
-static void test_exposure_doubles_linear(void **state)
+TEST_FIXTURE(test_exposure_doubles_linear, setup, teardown)
 {
     (void)state;
     DisplayOptions plus1 = {1.0f, SPT_TONEMAP_NONE}, minus1 = {-1.0f, SPT_TONEMAP_NONE};
@@ -211,7 +211,7 @@ static void test_exposure_doubles_linear(void **state)
  *   (1,1,1)          -> 1 - 0.0576/0.44 = 0.869090909 (grey stays grey at pn)
  *   (2,0.5,0.05)     -> (0.960155642, 0.323470556, 0.132465030)
  *   (10,1,0.1)       -> (0.993898305, 0.610899015, 0.572599086) */
-static void test_tonemap_neutral_values(void **state)
+TEST_FIXTURE(test_tonemap_neutral_values, setup, teardown)
 {
     (void)state;
     static const float in[][3] = {{0, 0, 0}, {0.5f, 0.5f, 0.5f}, {0.04f, 0.2f, 0.6f},
@@ -252,7 +252,7 @@ static void test_tonemap_neutral_values(void **state)
     assert_int_equal(image_tonemap_parse("aces", &t), -1);
 }
 
-static void test_tiff_float_and_hdr(void **state)
+TEST_FIXTURE(test_tiff_float_and_hdr, setup, teardown)
 {
     (void)state;
     float rgb[2 * 2 * 3] = {0.1f, 0.2f, 0.3f, 1.5f, 2.5f, 3.5f, 100.0f, 0.01f, 0.5f,
@@ -295,7 +295,7 @@ static void test_tiff_float_and_hdr(void **state)
     assert_int_equal(temp_files_left(), 0);
 }
 
-static void test_output_check_failures(void **state)
+TEST_FIXTURE(test_output_check_failures, setup, teardown)
 {
     (void)state;
     SptError e = {0};
@@ -352,7 +352,7 @@ static void test_output_check_failures(void **state)
     assert_int_equal(temp_files_left(), 0);
 }
 
-static void test_read_only_folder(void **state)
+TEST_FIXTURE(test_read_only_folder, setup, teardown)
 {
     (void)state;
     if (geteuid() == 0) {
@@ -369,7 +369,7 @@ static void test_read_only_folder(void **state)
 
 /* A failed write leaves an existing output byte for byte as it was and no
  * temporary file, for every writer. */
-static void test_failed_write_keeps_existing_output(void **state)
+TEST_FIXTURE(test_failed_write_keeps_existing_output, setup, teardown)
 {
     (void)state;
     const char *names[] = {"keep.png", "keep.exr", "keep.tif", "keep.hdr", "keep.jpg"};
@@ -416,7 +416,7 @@ static void test_failed_write_keeps_existing_output(void **state)
 /* A real write failure in every encoder, as on a full disk: the file size limit
  * (RLIMIT_FSIZE) makes write() fail with EFBIG once a file reaches 2 KiB. Noise
  * does not compress, so every format needs more than that. */
-static void test_disk_full_keeps_existing_output(void **state)
+TEST_FIXTURE(test_disk_full_keeps_existing_output, setup, teardown)
 {
     (void)state;
     enum { W = 64, H = 64 };
@@ -483,7 +483,7 @@ static void write_checkpoint(const char *path, int w, int h, float *sums, uint32
         fail_msg("%s", e.msg);
 }
 
-static void test_exr_layers_roundtrip(void **state)
+TEST_FIXTURE(test_exr_layers_roundtrip, setup, teardown)
 {
     (void)state;
     enum { W = 5, H = 37 }; /* more rows than one ZIP chunk (16) */
@@ -562,7 +562,7 @@ static void test_exr_layers_roundtrip(void **state)
  * them. Every image must read back bit for bit, through our reader and through
  * OpenImageIO, from both writers. 64x16 RGB floats are one ZIP chunk of 12288
  * bytes (5 of these 80 images hit the equal size with Debian 12's zlib). */
-static void test_exr_noise_roundtrip(void **state)
+TEST_FIXTURE(test_exr_noise_roundtrip, setup, teardown)
 {
     (void)state;
     enum { W = 64, H = 16, IMAGES = 80 };
@@ -621,7 +621,7 @@ static void test_exr_noise_roundtrip(void **state)
     assert_int_equal(temp_files_left(), 0);
 }
 
-static void test_exr_damaged_files_refused(void **state)
+TEST_FIXTURE(test_exr_damaged_files_refused, setup, teardown)
 {
     (void)state;
     enum { W = 16, H = 40 };
@@ -668,23 +668,4 @@ static void test_exr_damaged_files_refused(void **state)
     assert_non_null(strstr(e.msg, "absent.exr"));
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test_setup_teardown(test_exr_roundtrip_read_by_oiio, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_png_srgb_codes, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_exposure_doubles_linear, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_tonemap_neutral_values, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_tiff_float_and_hdr, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_output_check_failures, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_read_only_folder, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_failed_write_keeps_existing_output, setup,
-                                        teardown),
-        cmocka_unit_test_setup_teardown(test_disk_full_keeps_existing_output, setup,
-                                        teardown),
-        cmocka_unit_test_setup_teardown(test_exr_layers_roundtrip, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_exr_damaged_files_refused, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_exr_noise_roundtrip, setup, teardown),
-    };
-    return cmocka_run_group_tests_name("image_out", tests, NULL, NULL);
-}
+TEST_MAIN("image_out", NULL, NULL)

@@ -56,7 +56,7 @@ static int check_planted(const char *dir, const char *file, const char *text, ch
     return sh(cmd, out, cap);
 }
 
-static void test_tree_passes(void **state)
+TEST(test_tree_passes)
 {
     (void)state;
     char out[8192];
@@ -69,7 +69,7 @@ static void test_tree_passes(void **state)
 /* Includes against the order, each planted alone in a fresh copy: core/ is
  * the last step, so render/ is before it; io/ and cl/ share a step, so neither
  * comes after the other. The check must fail, naming the file and the include. */
-static void test_include_against_order_fails(void **state)
+TEST(test_include_against_order_fails)
 {
     (void)state;
     static const struct {
@@ -95,7 +95,7 @@ static void test_include_against_order_fails(void **state)
 
 /* An include from later in the order (render/ -> core/) is allowed, and an
  * include through ".." is refused whatever its folder. */
-static void test_include_order_and_dotdot(void **state)
+TEST(test_include_order_and_dotdot)
 {
     (void)state;
     char dir[64], out[8192];
@@ -110,7 +110,7 @@ static void test_include_order_and_dotdot(void **state)
 }
 
 /* Without the pipeline line in the docs the check cannot run, and says so. */
-static void test_missing_order_line(void **state)
+TEST(test_missing_order_line)
 {
     (void)state;
     char dir[64], out[8192], cmd[1024];
@@ -123,13 +123,4 @@ static void test_missing_order_line(void **state)
     assert_non_null(strstr(out, "pipeline"));
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_tree_passes),
-        cmocka_unit_test(test_include_against_order_fails),
-        cmocka_unit_test(test_include_order_and_dotdot),
-        cmocka_unit_test(test_missing_order_line),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TEST_MAIN("tests", NULL, NULL)

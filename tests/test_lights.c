@@ -48,7 +48,7 @@ static double table_at(const float *t, double lambda)
 /* ---- Punctual lights ------------------------------------------------------- */
 
 /* E = I cos(theta) / r^2 on the plane y = 0 under a point light at (0.3, 2, -0.5). */
-static void test_point_irradiance_on_plane(void **state)
+TEST(test_point_irradiance_on_plane)
 {
     (void)state;
     SceneLight sl = make_light(SPT_LIGHT_POINT, 0.3f, 2.0f, -0.5f, 25.0f);
@@ -77,7 +77,7 @@ static void test_point_irradiance_on_plane(void **state)
 /* The spot falloff at the axis, the inner cone, between, the outer cone and
  * outside, against the specification's formula evaluated here in double:
  * t = clamp((cos a - cos outer) / (cos inner - cos outer), 0, 1), falloff t^2. */
-static void test_spot_falloff(void **state)
+TEST(test_spot_falloff)
 {
     (void)state;
     SceneLight sl = make_light(SPT_LIGHT_SPOT, 0.0f, 3.0f, 0.0f, 4.0f);
@@ -109,7 +109,7 @@ static void test_spot_falloff(void **state)
 
 /* A directional light gives its irradiance E(l) at any point, from the direction
  * opposite to where it shines, at the far distance. */
-static void test_directional(void **state)
+TEST(test_directional)
 {
     (void)state;
     SceneLight sl = make_light(SPT_LIGHT_DIRECTIONAL, 0, 0, 0, 3.0f);
@@ -139,7 +139,7 @@ static void test_directional(void **state)
 
 /* White (1,1,1) at 1 cd: radiant intensity 1/K W/sr, K = 683 sum(ybar D65) /
  * sum(D65) from the CIE tables; a coloured light keeps its candela. */
-static void test_photometric_conversion(void **state)
+TEST(test_photometric_conversion)
 {
     (void)state;
     double sy = 0.0, sd = 0.0;
@@ -187,7 +187,7 @@ static void test_photometric_conversion(void **state)
 }
 
 /* Bad input is refused with the light's name. */
-static void test_bad_lights(void **state)
+TEST(test_bad_lights)
 {
     (void)state;
     float table[SPT_CIE_SAMPLES];
@@ -225,7 +225,7 @@ static double ybar_at(double nm)
  * - an inline table of 1 over 400-700 nm at 50 cd: 50 / (683 sum ybar) W/(sr nm)
  *   inside, 0 outside;
  * - D65 at 3 lx: the white RGB light's table (itself D65 to the upsampling fit). */
-static void test_spectral_lights(void **state)
+TEST(test_spectral_lights)
 {
     (void)state;
     Scene s;
@@ -377,7 +377,7 @@ static double env_pdf_uv_cb(void *ctx, const double p[3])
 /* env_sample against env_pdf: chi-square over the map's (u, v) square (cells of
  * half a texel), rotated map; the samples come back through the rotation and
  * the direction convention, the density through env_pdf and the Jacobian. */
-static void test_env_sample_chi2(void **state)
+TEST(test_env_sample_chi2)
 {
     (void)state;
     float *rgb = make_map();
@@ -394,7 +394,7 @@ static void test_env_sample_chi2(void **state)
 }
 
 /* The uniform background's sampling against its pdf. */
-static void test_uniform_sample_chi2(void **state)
+TEST(test_uniform_sample_chi2)
 {
     (void)state;
     EnvLight env;
@@ -453,7 +453,7 @@ static EnvAtCtx env_at_ctx(EnvLight *env, int two_sided)
 
 /* env_sample_at against env_pdf_at over the sphere (cos/pi on the normal's side,
  * |cos|/(2 pi) on both), and the chi-square grid's integral of the pdf is 1. */
-static void test_uniform_sample_at_chi2(void **state)
+TEST(test_uniform_sample_at_chi2)
 {
     (void)state;
     EnvLight env;
@@ -477,7 +477,7 @@ static void test_uniform_sample_at_chi2(void **state)
  * the sphere's uniform sampling (env_sample), whose estimate 4 pi cos+ has a
  * variance of 5/3 pi^2, half its samples wasted below the horizon. A map keeps
  * env_sample. */
-static void test_uniform_sample_at_irradiance(void **state)
+TEST(test_uniform_sample_at_irradiance)
 {
     (void)state;
     EnvLight env;
@@ -530,7 +530,7 @@ static void test_uniform_sample_at_irradiance(void **state)
 
 /* env_pdf integrates to 1 over the sphere: midpoint rule in (phi, cos theta) on a
  * grid much finer than the map. */
-static void test_env_pdf_normalised(void **state)
+TEST(test_env_pdf_normalised)
 {
     (void)state;
     float *rgb = make_map();
@@ -589,7 +589,7 @@ static vec3 texel_dir(int x, int y, double rot)
 /* The sampling weight is luminance times sin(theta): a constant map is then
  * sampled almost uniformly over the sphere (1/(4 pi) at texel centres, within
  * the midpoint rule's error over 16 rows, ~0.2%), whatever its colour. */
-static void test_env_constant_map_uniform(void **state)
+TEST(test_env_constant_map_uniform)
 {
     (void)state;
     float *rgb = malloc(sizeof(float) * 3 * MAP_W * MAP_H);
@@ -610,7 +610,7 @@ static void test_env_constant_map_uniform(void **state)
 
 /* env_eval gives back every texel's colour (times the intensity) within the
  * upsampling's accuracy; the orientation follows the documented convention. */
-static void test_env_eval_colour(void **state)
+TEST(test_env_eval_colour)
 {
     (void)state;
     float *rgb = make_map();
@@ -668,7 +668,7 @@ static void test_env_eval_colour(void **state)
 /* A uniform background of radiance L gives the irradiance pi L on a plane
  * (quadrature of L cos over the hemisphere with env_eval); it reads as film
  * Y = 1 for white (1,1,1), and its sampler estimates the same irradiance. */
-static void test_uniform_irradiance(void **state)
+TEST(test_uniform_irradiance)
 {
     (void)state;
     EnvLight env;
@@ -714,7 +714,7 @@ static void test_uniform_irradiance(void **state)
 
 /* An environment read from an EXR file equals the one built from the same
  * texels; a missing file and bad texels are refused with the file's name. */
-static void test_env_load_file(void **state)
+TEST(test_env_load_file)
 {
     (void)state;
     float *rgb = make_map();
@@ -756,7 +756,7 @@ static void test_env_load_file(void **state)
 /* ---- Selection ----------------------------------------------------------------- */
 
 /* Probabilities proportional to the documented power formulas, computed here. */
-static void test_selection(void **state)
+TEST(test_selection)
 {
     (void)state;
     float spectra[3 * SPT_CIE_SAMPLES];
@@ -822,7 +822,7 @@ static const char *k_device_src =
     "    o[11] = (float)(sizeof(GpuLight) * 1000 + sizeof(GpuEnvMap));\n"
     "}\n";
 
-static void test_device_matches_host(void **state)
+TEST(test_device_matches_host)
 {
     (void)state;
     TestCl cl = test_cl_open();
@@ -872,26 +872,4 @@ static void test_device_matches_host(void **state)
     free(rgb);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_point_irradiance_on_plane),
-        cmocka_unit_test(test_spot_falloff),
-        cmocka_unit_test(test_directional),
-        cmocka_unit_test(test_photometric_conversion),
-        cmocka_unit_test(test_bad_lights),
-        cmocka_unit_test(test_spectral_lights),
-        cmocka_unit_test(test_env_sample_chi2),
-        cmocka_unit_test(test_uniform_sample_chi2),
-        cmocka_unit_test(test_uniform_sample_at_chi2),
-        cmocka_unit_test(test_uniform_sample_at_irradiance),
-        cmocka_unit_test(test_env_pdf_normalised),
-        cmocka_unit_test(test_env_eval_colour),
-        cmocka_unit_test(test_env_constant_map_uniform),
-        cmocka_unit_test(test_uniform_irradiance),
-        cmocka_unit_test(test_env_load_file),
-        cmocka_unit_test(test_selection),
-        cmocka_unit_test(test_device_matches_host),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TEST_MAIN("tests", NULL, NULL)

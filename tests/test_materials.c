@@ -54,26 +54,26 @@ static void compare_with_mitsuba(const char *name, int spp)
     film_free(&f);
 }
 
-static void test_conductor_vs_mitsuba(void **state)
+TEST(test_conductor_vs_mitsuba)
 {
     (void)state;
     compare_with_mitsuba("mat_conductor", 64);
 }
 
-static void test_roughconductor_vs_mitsuba(void **state)
+TEST(test_roughconductor_vs_mitsuba)
 {
     (void)state;
     compare_with_mitsuba("mat_roughconductor", 64);
 }
 
-static void test_dielectric_vs_mitsuba(void **state)
+TEST(test_dielectric_vs_mitsuba)
 {
     (void)state;
     skip_if_quick();
     compare_with_mitsuba("mat_dielectric", 128);
 }
 
-static void test_roughdielectric_vs_mitsuba(void **state)
+TEST(test_roughdielectric_vs_mitsuba)
 {
     (void)state;
     skip_if_quick();
@@ -206,7 +206,7 @@ static double ggx_albedo_lookup(double mu, double alpha)
  * F0 = 1 is exactly 1) in the furnace, roughness 0, 0.25, 0.5 and 1: the sphere
  * shows its single-scattering GGX albedo E(mu) <= 1 (exactly 1 when smooth);
  * the whole image never exceeds 1. */
-static void test_furnace_white_metal(void **state)
+TEST(test_furnace_white_metal)
 {
     (void)state;
     skip_if_quick();
@@ -242,7 +242,7 @@ static void test_furnace_white_metal(void **state)
  * (sheen roughness 0.2, where the Charlie lobe alone would exceed albedo 1 at
  * grazing angles): the whole renderer, every bounce, never returns more than
  * the sky sends; what is lost is printed. */
-static void test_furnace_layers(void **state)
+TEST(test_furnace_layers)
 {
     (void)state;
     for (int k = 0; k < 2; k++) {
@@ -274,7 +274,7 @@ static void test_furnace_layers(void **state)
  * scaling cancels in and out), so the sphere shows 1 within 1%; rough (0.5),
  * single-scattering microfacets lose energy (how much: the next test) but the
  * sphere never exceeds 1. */
-static void test_furnace_glass(void **state)
+TEST(test_furnace_glass)
 {
     (void)state;
     skip_if_quick();
@@ -338,7 +338,7 @@ static double point_light_expected_y(int x, int y)
     return e;
 }
 
-static void test_point_light_irradiance(void **state)
+TEST(test_point_light_irradiance)
 {
     (void)state;
     Film f;
@@ -383,7 +383,7 @@ static void test_point_light_irradiance(void **state)
  * roughdielectric (GGX, alpha 0.25) under a constant sky of radiance 1: the
  * image mean within 2%. Mitsuba's Smith masking is separable, ours height-
  * correlated (which loses a little less), so ours may sit slightly above. */
-static void test_furnace_roughglass_vs_mitsuba(void **state)
+TEST(test_furnace_roughglass_vs_mitsuba)
 {
     (void)state;
     skip_if_quick();
@@ -411,18 +411,4 @@ static void test_furnace_roughglass_vs_mitsuba(void **state)
     film_free(&f);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_conductor_vs_mitsuba),
-        cmocka_unit_test(test_roughconductor_vs_mitsuba),
-        cmocka_unit_test(test_dielectric_vs_mitsuba),
-        cmocka_unit_test(test_roughdielectric_vs_mitsuba),
-        cmocka_unit_test(test_furnace_white_metal),
-        cmocka_unit_test(test_furnace_layers),
-        cmocka_unit_test(test_furnace_glass),
-        cmocka_unit_test(test_furnace_roughglass_vs_mitsuba),
-        cmocka_unit_test(test_point_light_irradiance),
-    };
-    return cmocka_run_group_tests_name("materials", tests, setup_cpu_device, teardown_cpu_device);
-}
+TEST_MAIN("materials", setup_cpu_device, teardown_cpu_device)

@@ -85,7 +85,7 @@ static int mpi_unavailable(void)
 /* Two ranks, rank 1 started in a folder where the scene's relative path does not
  * exist (it gets the scene from rank 0), give the one-process image; only rank 0
  * prints and writes. */
-static void test_two_ranks_same_image(void **state)
+TEST(test_two_ranks_same_image)
 {
     (void)state;
     if (mpi_unavailable())
@@ -116,7 +116,7 @@ static void test_two_ranks_same_image(void **state)
 }
 
 /* A one-process checkpoint of 32 spp resumed to 64 on two ranks. */
-static void test_resume_on_two_ranks(void **state)
+TEST(test_resume_on_two_ranks)
 {
     (void)state;
     if (mpi_unavailable())
@@ -137,7 +137,7 @@ static void test_resume_on_two_ranks(void **state)
 
 /* Rank 1's device fails (test hook) or cannot be selected: the run fails with
  * one error line naming rank 1, and no image. */
-static void test_failing_rank(void **state)
+TEST(test_failing_rank)
 {
     (void)state;
     if (mpi_unavailable())
@@ -165,7 +165,7 @@ static void test_failing_rank(void **state)
 
 /* What rank 1 gets: a scene with textures and spectral extras survives
  * scene_pack/scene_unpack with every array equal (and packs to the same bytes). */
-static void test_scene_pack_round_trip(void **state)
+TEST(test_scene_pack_round_trip)
 {
     (void)state;
     static const char *files[5] = {"tests/data/gltf/materials.gltf", "tests/data/scenes/furnace_spectral.gltf",
@@ -234,7 +234,7 @@ static void test_scene_pack_round_trip(void **state)
 /* SIGUSR2 to mpirun (passed on to every rank) stops the render after the
  * current chunks: the image and checkpoint of the samples done are written, and
  * resuming in one process gives the one-process image. */
-static void test_sigusr2_then_resume(void **state)
+TEST(test_sigusr2_then_resume)
 {
     (void)state;
     if (mpi_unavailable())
@@ -288,17 +288,6 @@ static void test_sigusr2_then_resume(void **state)
     film_free(&b);
 }
 
-int main(void)
-{
-    setenv("POCL_DEVICES", "pthread", 1);
-    setenv("POCL_MAX_PTHREAD_COUNT", "1", 1);
-    setenv("SPECTRACE_POOL", "512", 1);
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_scene_pack_round_trip),
-        cmocka_unit_test(test_two_ranks_same_image),
-        cmocka_unit_test(test_resume_on_two_ranks),
-        cmocka_unit_test(test_failing_rank),
-        cmocka_unit_test(test_sigusr2_then_resume),
-    };
-    return cmocka_run_group_tests_name("mpi", tests, setup, test_dir_teardown);
-}
+TEST_MAIN_ENV("mpi", setup, test_dir_teardown,
+              "POCL_DEVICES=pthread", "POCL_MAX_PTHREAD_COUNT=1",
+              "SPECTRACE_POOL=512")

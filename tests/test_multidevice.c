@@ -71,7 +71,7 @@ static int render_on(const int *which, int n, RenderTestHooks hooks, Film *film,
     return render_on_aov(which, n, hooks, 0, film, per, e);
 }
 
-static void test_split_invariance(void **state)
+TEST(test_split_invariance)
 {
     (void)state;
     Film one, two;
@@ -92,7 +92,7 @@ static void test_split_invariance(void **state)
 
 /* The AOV layers (--aov) and spectral bands (--spectral 47) of two devices
  * sharing the samples are those of one (with the ZSobol sampler). */
-static void test_split_invariance_aov(void **state)
+TEST(test_split_invariance_aov)
 {
     (void)state;
     Film one, two;
@@ -111,7 +111,7 @@ static void test_split_invariance_aov(void **state)
 }
 
 /* A device slowed down by the test hook takes fewer chunks. */
-static void test_balance(void **state)
+TEST(test_balance)
 {
     (void)state;
     Film f;
@@ -129,7 +129,7 @@ static void test_balance(void **state)
 
 /* A device failing after its first chunk is dropped; its chunk goes to the other
  * and the image equals the one-device image. */
-static void test_device_failure(void **state)
+TEST(test_device_failure)
 {
     (void)state;
     Film one, f;
@@ -165,7 +165,7 @@ static void test_device_failure(void **state)
  * rounding). A sample that took another path, or a lost or doubled sample,
  * changes its pixel by about 1/32 (32 spp) and fails. Skipped when only PoCL is
  * visible. */
-static void test_split_across_implementations(void **state)
+TEST(test_split_across_implementations)
 {
     (void)state;
     int other = -1;
@@ -195,22 +195,19 @@ static void test_split_across_implementations(void **state)
     film_free(&two);
 }
 
-int main(void)
+/* Two PoCL CPU devices of one compute unit each; run for another implementation
+ * (tests/run_tests.sh shows PoCL and it), only the test across the two: the
+ * others ran on PoCL alone. */
+static int two_devices(int argc, char **argv)
 {
-    /* Two PoCL CPU devices of one compute unit each. */
+    (void)argc;
+    (void)argv;
     setenv("POCL_DEVICES", "pthread pthread", 1);
     setenv("POCL_MAX_PTHREAD_COUNT", "1", 1);
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_split_invariance),
-        cmocka_unit_test(test_split_invariance_aov),
-        cmocka_unit_test(test_balance),
-        cmocka_unit_test(test_device_failure),
-        cmocka_unit_test(test_split_across_implementations),
-    };
-    /* Run for another implementation (tests/run_tests.sh shows PoCL and it), only
-     * the test across the two: the others ran on PoCL alone. */
     const char *impl = getenv("SPECTRACE_TEST_IMPL");
     if (impl && strcmp(impl, "pocl") != 0)
-        return _cmocka_run_group_tests("multidevice", tests + 4, 1, setup, teardown);
-    return cmocka_run_group_tests_name("multidevice", tests, setup, teardown);
+        test_keep_only("test_split_across_implementations");
+    return TEST_GO_ON;
 }
+
+TEST_MAIN_HOOK("multidevice", setup, teardown, two_devices)

@@ -104,7 +104,7 @@ static void key_of(const char *option, const char *value, CheckpointKey *k)
     sky_free(&sky);
 }
 
-static void test_image_options_are_in_the_key(void **state)
+TEST(test_image_options_are_in_the_key)
 {
     (void)state;
     CheckpointKey base, k;
@@ -140,7 +140,7 @@ static void test_image_options_are_in_the_key(void **state)
 }
 
 /* Each example lands in the field of its row, by the row's kind. */
-static void test_values_reach_their_fields(void **state)
+TEST(test_values_reach_their_fields)
 {
     (void)state;
     char *argv[] = {"render", "--spp", "64", "--width", "100", "--seed", "4294967295",
@@ -175,7 +175,7 @@ static void test_values_reach_their_fields(void **state)
 }
 
 /* Values outside a row's range are refused with a usage error. */
-static void test_bad_values(void **state)
+TEST(test_bad_values)
 {
     (void)state;
     static const char *bad[][2] = {
@@ -201,7 +201,7 @@ static void test_bad_values(void **state)
  * first one freed) starts afresh. A libFuzzer run of the command line found this
  * (a read of freed memory); here the stale 'q' would set quiet. Unknown options
  * and missing values give one error line, not getopt's line and the usage. */
-static void test_parse_after_failed_group(void **state)
+TEST(test_parse_after_failed_group)
 {
     (void)state;
     char *group = strdup("-zq");
@@ -240,7 +240,7 @@ static double simulate_deadline(double T, double start, double r, double swing, 
     return t;
 }
 
-static void test_deadline_chunks(void **state)
+TEST(test_deadline_chunks)
 {
     (void)state;
     /* The cases of the rule. */
@@ -275,14 +275,4 @@ static void test_deadline_chunks(void **state)
     assert_true(samples >= 9);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_image_options_are_in_the_key),
-        cmocka_unit_test(test_values_reach_their_fields),
-        cmocka_unit_test(test_bad_values),
-        cmocka_unit_test(test_parse_after_failed_group),
-        cmocka_unit_test(test_deadline_chunks),
-    };
-    return cmocka_run_group_tests_name("options", tests, setup, teardown);
-}
+TEST_MAIN("options", setup, teardown)

@@ -83,7 +83,7 @@ static double prism_landing(double l, double *transmit)
     return yh * tx / -ty;
 }
 
-static void test_prism_dispersion(void **state)
+TEST(test_prism_dispersion)
 {
     (void)state;
     skip_if_quick();
@@ -182,7 +182,7 @@ static void cmf_at(double nm, double cmf[3])
     cmf[2] = (1 - fr) * SPT_CIE_Z[i] + fr * SPT_CIE_Z[i + 1];
 }
 
-static void test_prism_mercury_lines(void **state)
+TEST(test_prism_mercury_lines)
 {
     (void)state;
     skip_if_quick();
@@ -287,11 +287,4 @@ static void test_prism_mercury_lines(void **state)
     }
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_prism_dispersion),
-        cmocka_unit_test(test_prism_mercury_lines),
-    };
-    return cmocka_run_group_tests(tests, setup_cpu_device, teardown_cpu_device);
-}
+TEST_MAIN("tests", setup_cpu_device, teardown_cpu_device)

@@ -21,7 +21,7 @@
 
 /* Closed diffuse enclosure, albedo a = 0.8, emitted radiance 1: the radiance
  * is sum_{k<D} a^k (Le / (1 - a) = 5 unlimited). */
-static void test_white_furnace(void **state)
+TEST(test_white_furnace)
 {
     (void)state;
     const double a = 0.8;
@@ -46,7 +46,7 @@ static void test_white_furnace(void **state)
 
 /* Flat spectral tables (reflectance 0.8, emission 1 at every wavelength): linear
  * sRGB of equal-energy white E computed from the CIE tables, times 1 / (1 - a). */
-static void test_white_furnace_spectral(void **state)
+TEST(test_white_furnace_spectral)
 {
     (void)state;
     skip_if_quick();
@@ -79,7 +79,7 @@ static double view_factor_corner(double a, double b, double h)
 
 /* A Lambertian plane (rho 0.5) 1 m under a 10 m square emitter of radiance 2:
  * L = rho E / pi = rho L0 F, F the view factor, averaged over the framed region. */
-static void test_plane_irradiance(void **state)
+TEST(test_plane_irradiance)
 {
     (void)state;
     const double rho = 0.5, L0 = 2.0, s = 5.0, h = 1.0, w = 0.5 * tan(5.0 * M_PI / 180.0);
@@ -117,7 +117,7 @@ static void test_plane_irradiance(void **state)
  * in k_paths; in the stage kernels (the stages hook) it gives the same film.
  * The GPU path also runs under Oclgrind, a GPU to spectrace (make
  * check-kernels). */
-static void test_gpu_path_on_cpu_device(void **state)
+TEST(test_gpu_path_on_cpu_device)
 {
     (void)state;
     skip_if_quick();
@@ -143,7 +143,7 @@ static void test_gpu_path_on_cpu_device(void **state)
 
 /* The same seed on the same device gives the same film bit for bit; another seed
  * does not. Rendering three times also exercises release of every object. */
-static void test_determinism(void **state)
+TEST(test_determinism)
 {
     (void)state;
     Film a, b, c;
@@ -162,7 +162,7 @@ static void test_determinism(void **state)
 
 /* NaN radiance never reaches the film: with the test hook, pixel 0's samples are
  * dropped and counted, and every pixel stays finite. */
-static void test_nan_guard(void **state)
+TEST(test_nan_guard)
 {
     (void)state;
     Film f;
@@ -183,7 +183,7 @@ static void test_nan_guard(void **state)
  * llvm_ad_spectral image means (tests/data/mitsuba/cornell_box_means.json), at max
  * depth 8: within 2% per channel, and the 4x4 block means (which catch a mirrored
  * or shifted image) within 10% where they are not tiny. */
-static void test_cornell_box_vs_mitsuba(void **state)
+TEST(test_cornell_box_vs_mitsuba)
 {
     (void)state;
     skip_if_quick();
@@ -242,7 +242,7 @@ static void test_cornell_box_vs_mitsuba(void **state)
 
 /* An orthographic camera (ymag 2: the view spans [-2, 2]^2) sees a unit sphere of
  * unlit white as a disc covering pi / 16 of the image. */
-static void test_orthographic(void **state)
+TEST(test_orthographic)
 {
     (void)state;
     Scene s;
@@ -263,17 +263,4 @@ static void test_orthographic(void **state)
     scene_free(&s);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_white_furnace),
-        cmocka_unit_test(test_white_furnace_spectral),
-        cmocka_unit_test(test_plane_irradiance),
-        cmocka_unit_test(test_gpu_path_on_cpu_device),
-        cmocka_unit_test(test_determinism),
-        cmocka_unit_test(test_nan_guard),
-        cmocka_unit_test(test_cornell_box_vs_mitsuba),
-        cmocka_unit_test(test_orthographic),
-    };
-    return cmocka_run_group_tests_name("render", tests, setup_cpu_device, teardown_cpu_device);
-}
+TEST_MAIN("render", setup_cpu_device, teardown_cpu_device)

@@ -21,7 +21,7 @@
 /* With no light at all, the default sky (D65, radiance 1) lights the scene: a
  * Lambertian surface of albedo rho open to the whole sky shows rho, the sky
  * itself shows 1; --background black keeps it dark. */
-static void test_default_sky(void **state)
+TEST(test_default_sky)
 {
     (void)state;
     Scene s;
@@ -157,7 +157,7 @@ static int grey_box_noise_blocks(spt_u32 sampler, int w, int spp, double mean[3]
  * light samples were spread over the whole sphere, half of them below the
  * face's horizon; 0.011 in blue with a wavelength density fitted to ybar,
  * whose blue weights vary most). */
-static void test_sampler_noise(void **state)
+TEST(test_sampler_noise)
 {
     (void)state;
     double m_sob[3], e_sob[3], m_ind[3], e_ind[3];
@@ -179,7 +179,7 @@ static void test_sampler_noise(void **state)
  * pixel blocks keep at most 0.6 times the squared error that the Sobol
  * sampler's keep (whose pixels' errors are independent: a quarter of a
  * pixel's; measured 0.30, 0.29 and 0.44 in red, green and blue). */
-static void test_zsobol_blue_noise(void **state)
+TEST(test_zsobol_blue_noise)
 {
     (void)state;
     double m_z[3], e_z[3], b_z[3], m_s[3], e_s[3], b_s[3], m_i[3], e_i[3];
@@ -235,7 +235,7 @@ static void render_punctual(int with_directional, float *rgb, int w)
     scene_free(&s);
 }
 
-static void test_punctual_lights(void **state)
+TEST(test_punctual_lights)
 {
     (void)state;
     enum { W = 48 };
@@ -287,7 +287,7 @@ static void test_punctual_lights(void **state)
  * SPD normalised to Y = 1 (illuminant A, the mercury lamp's lines): the plane's
  * XYZ is rho * mean(F) times the SPD's XYZ from the colour science (what
  * `spectrace color` prints), per channel. */
-static void test_named_light_spectra(void **state)
+TEST(test_named_light_spectra)
 {
     (void)state;
     const double rho_f = 0.5 * 0.96833700;
@@ -349,7 +349,7 @@ static void env_dir(double u, double v, double d[3])
  * front shows rho/pi times the integral of L max(0, w.n) over the map, summed by
  * brute force over sub-cells of every texel. This checks the map's importance
  * sampling, its pdf and its MIS with BSDF sampling in the renderer. */
-static void test_env_map(void **state)
+TEST(test_env_map)
 {
     (void)state;
     enum { MW = 32, MH = 16, W = 32 };
@@ -471,7 +471,7 @@ static void test_env_map(void **state)
 }
 
 /* --env names a missing file: one error naming it, an input error. */
-static void test_env_missing(void **state)
+TEST(test_env_missing)
 {
     (void)state;
     SptError e = {0};
@@ -482,16 +482,4 @@ static void test_env_missing(void **state)
     assert_int_equal(sky_from_args(&sky, "/nonexistent/sky.exr", "1,1,1", &e), SPT_EXIT_USAGE);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_default_sky),
-        cmocka_unit_test(test_sampler_noise),
-        cmocka_unit_test(test_zsobol_blue_noise),
-        cmocka_unit_test(test_punctual_lights),
-        cmocka_unit_test(test_named_light_spectra),
-        cmocka_unit_test(test_env_map),
-        cmocka_unit_test(test_env_missing),
-    };
-    return cmocka_run_group_tests_name("render_sky", tests, setup_cpu_device, teardown_cpu_device);
-}
+TEST_MAIN("render_sky", setup_cpu_device, teardown_cpu_device)

@@ -21,7 +21,7 @@
 
 /* KHR_materials_unlit: the surface shows its base colour (upsampled as an
  * illuminant, so it comes back as the same linear sRGB), lit or not. */
-static void test_unlit(void **state)
+TEST(test_unlit)
 {
     (void)state;
     Scene s;
@@ -107,7 +107,7 @@ static double render_normal_mapped(int toward_bitangent, double light_sign)
     return mean;
 }
 
-static void test_normal_map(void **state)
+TEST(test_normal_map)
 {
     (void)state;
     const double full = 0.5 / M_PI * 1000.0; /* film Y in cd/m^2 */
@@ -124,7 +124,7 @@ static void test_normal_map(void **state)
  * Fresnel loss, no bending) with attenuation colour 0.5 at 1 m, in the default
  * white sky: each pixel sees the sky through 2 / cos(theta) metres of it, so
  * L = 0.5^(2 / cos theta) (Beer-Lambert). */
-static void test_volume_absorption(void **state)
+TEST(test_volume_absorption)
 {
     (void)state;
     enum { W = 16 };
@@ -166,7 +166,7 @@ static void test_volume_absorption(void **state)
  * exactly like the sky, whatever the wavelengths do: paths that refract keep
  * only their hero wavelength (pbrt-v4's TerminateSecondary), which must stay
  * unbiased, so the sphere's pixels average 1 in every channel. */
-static void test_dispersion_furnace(void **state)
+TEST(test_dispersion_furnace)
 {
     (void)state;
     enum { W = 24 };
@@ -205,7 +205,7 @@ static void test_dispersion_furnace(void **state)
 /* alphaMode BLEND: a black plane of alpha 0.5 between the emitter and the lit
  * plane of plane_irradiance.gltf transmits half the light (camera and shadow
  * rays both); alphaMode MASK below its cutoff transmits all of it. */
-static void test_alpha_blend_and_mask(void **state)
+TEST(test_alpha_blend_and_mask)
 {
     (void)state;
     const double open = 0.96833700; /* tests/data/scenes/README.md: rho L0 mean(F) */
@@ -291,7 +291,7 @@ static void render_point_light(const char *spd, double rgb_xyz[3], double *ratio
     scene_free(&s);
 }
 
-static void test_spectral_point_light(void **state)
+TEST(test_spectral_point_light)
 {
     (void)state;
     static const char *spds[4] = {NULL, "D65", "A", "mercury"};
@@ -328,15 +328,4 @@ static void test_spectral_point_light(void **state)
     assert_true(worst < 0.01);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_unlit),
-        cmocka_unit_test(test_normal_map),
-        cmocka_unit_test(test_volume_absorption),
-        cmocka_unit_test(test_dispersion_furnace),
-        cmocka_unit_test(test_alpha_blend_and_mask),
-        cmocka_unit_test(test_spectral_point_light),
-    };
-    return cmocka_run_group_tests_name("shading", tests, setup_cpu_device, teardown_cpu_device);
-}
+TEST_MAIN("shading", setup_cpu_device, teardown_cpu_device)

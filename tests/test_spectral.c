@@ -29,7 +29,7 @@ static void render_bands(const Scene *s, const RenderSettings *rs, Film *film)
  * bands and normalised as the film is (by the sum of ybar), give the film's
  * XYZ: the image means within 1%. (Per pixel they differ by the noise of the
  * functions' slope within a band against the pixel's few samples.) */
-static void test_bands_reproduce_xyz(void **state)
+TEST(test_bands_reproduce_xyz)
 {
     (void)state;
     Scene s;
@@ -90,7 +90,7 @@ static void test_bands_reproduce_xyz(void **state)
  * of the 470 that wavelengths are drawn from, so 1024 samples of 256 pixels
  * hit each some thousands of times), and the bands the spectrum does not
  * reach hold exactly nothing. */
-static void test_mercury_lines(void **state)
+TEST(test_mercury_lines)
 {
     (void)state;
     /* 262,144 paths: minutes at rusticl's launch cost; PoCL and Intel's
@@ -161,7 +161,7 @@ static void test_mercury_lines(void **state)
 /* The command line: the EXR holds R, G, B and the bands as channels
  * "S0.<centre>nm" (comma decimal separator), with spectralLayoutVersion and
  * emissiveUnits; 4 bands of 117.5 nm are named by their centres. */
-static void test_exr_layout(void **state)
+TEST(test_exr_layout)
 {
     (void)state;
     char path[64], cmd[1024], err[4096];
@@ -192,7 +192,7 @@ static void test_exr_layout(void **state)
  * (16 x 16, 1024 samples a pixel), the linear sRGB it prints for the centre of
  * a cell is the EXR's R, G, B there within 1.5% (0.002 absolute); a pixel
  * outside the image is a usage error. */
-static void test_color_pixel(void **state)
+TEST(test_color_pixel)
 {
     (void)state;
     skip_if_quick(); /* the colour tool is host code; PoCL runs it */
@@ -230,13 +230,4 @@ static void test_color_pixel(void **state)
     unlink(path);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_exr_layout),
-        cmocka_unit_test(test_bands_reproduce_xyz),
-        cmocka_unit_test(test_mercury_lines),
-        cmocka_unit_test(test_color_pixel),
-    };
-    return cmocka_run_group_tests_name("spectral", tests, setup_cpu_device, teardown_cpu_device);
-}
+TEST_MAIN("spectral", setup_cpu_device, teardown_cpu_device)

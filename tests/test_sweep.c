@@ -427,13 +427,13 @@ static void run_sweep(int scene)
                   done, count, worst);
 }
 
-static void test_sweep_sky(void **state)
+TEST(test_sweep_sky)
 {
     (void)state;
     run_sweep(SKY);
 }
 
-static void test_sweep_box(void **state)
+TEST(test_sweep_box)
 {
     (void)state;
     run_sweep(BOX);
@@ -460,7 +460,7 @@ static char *slurp(const char *path, size_t *n)
 /* `spectrace render` with SPECTRACE_TEST_FILM_NAN=3 (the first 3 pixels of the
  * film NaN after the render): exit code 1, one error: line naming 3 pixels, the
  * existing output untouched, no new output and no checkpoint. */
-static void test_nonfinite_film_refused(void **state)
+TEST(test_nonfinite_film_refused)
 {
     (void)state;
     char old[400], png[400], ck[400], cmd[2400];
@@ -499,7 +499,7 @@ static void test_nonfinite_film_refused(void **state)
 
 /* checkpoint_write refuses such a film too (the periodic checkpoints of a render
  * whose film went wrong), and leaves the file there as it was. */
-static void test_nonfinite_checkpoint_refused(void **state)
+TEST(test_nonfinite_checkpoint_refused)
 {
     (void)state;
     char ck[400];
@@ -586,16 +586,6 @@ static int teardown(void **state)
     return system(cmd) == 0 ? 0 : -1;
 }
 
-int main(void)
-{
-    /* Two PoCL CPU devices, set before any OpenCL call (with another
-     * implementation visible too, its device is the one under test). */
-    setenv("POCL_DEVICES", "pthread pthread", 1);
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_sweep_sky),
-        cmocka_unit_test(test_sweep_box),
-        cmocka_unit_test(test_nonfinite_film_refused),
-        cmocka_unit_test(test_nonfinite_checkpoint_refused),
-    };
-    return cmocka_run_group_tests_name("sweep", tests, setup, teardown);
-}
+/* Two PoCL CPU devices, set before any OpenCL call (with another
+ * implementation visible too, its device is the one under test). */
+TEST_MAIN_ENV("sweep", setup, teardown, "POCL_DEVICES=pthread pthread")

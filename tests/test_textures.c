@@ -125,13 +125,13 @@ static void check_base_pattern(const char *scene, const double factor[3])
 static const double one[3] = {1.0, 1.0, 1.0};
 
 /* The texture without a sampler, and with an empty sampler object. */
-static void test_base_color_no_sampler(void **state)
+TEST(test_base_color_no_sampler)
 {
     (void)state;
     check_base_pattern("base_nosampler.gltf", one);
 }
 
-static void test_base_color_empty_sampler(void **state)
+TEST(test_base_color_empty_sampler)
 {
     (void)state;
     skip_if_quick();
@@ -140,7 +140,7 @@ static void test_base_color_empty_sampler(void **state)
 
 /* The texture times baseColorFactor (0.5, 0.8, 1): each channel of each cell
  * scaled by its factor. */
-static void test_base_color_factor(void **state)
+TEST(test_base_color_factor)
 {
     (void)state;
     skip_if_quick();
@@ -178,7 +178,7 @@ static void base_bilinear(double u, double v, double out[3])
  * of (i + 0.5) / 16 up to 200%, CLAMP_TO_EDGE at the border 68%; the renderer's
  * own error (noise at 64 samples, the spectral upsampling of texels) stays
  * under 4%. */
-static void test_base_color_texel_boundaries(void **state)
+TEST(test_base_color_texel_boundaries)
 {
     (void)state;
     skip_if_quick();
@@ -240,7 +240,7 @@ static void render_kind_cells(const char *name, int w, int h, int depth, const c
  * MASK (cutoff 0.6) the sky where alpha < 0.6, else black. The same texture on a
  * white OPAQUE plane shows each cell's colour as stored: glTF's texels are not
  * premultiplied by their alpha. */
-static void test_alpha_blend_and_mask(void **state)
+TEST(test_alpha_blend_and_mask)
 {
     (void)state;
     skip_if_quick();
@@ -270,7 +270,7 @@ static void test_alpha_blend_and_mask(void **state)
  * covered (the bilinear alpha is >= 0.5 on exactly half of a checkerboard), so
  * it reads 0.5 over the white sky; the cutoff applied to the blurred alpha (0.5
  * everywhere from the first mip level on) would keep it all. */
-static void test_alpha_mask_minified(void **state)
+TEST(test_alpha_mask_minified)
 {
     (void)state;
     skip_if_quick();
@@ -289,7 +289,7 @@ static void test_alpha_mask_minified(void **state)
  * (1 - F0) / pi besides, F0 = 0.04. Cells: metal rough 1 (1/4); metal rough
  * 128/255 (1 / (4 alpha^2)); mirror metal (0: a delta lobe never meets a delta
  * light); dielectric rough 1 (0.96 + 0.04/4). */
-static void test_metallic_roughness(void **state)
+TEST(test_metallic_roughness)
 {
     (void)state;
     skip_if_quick();
@@ -335,7 +335,7 @@ static void check_normal_map(const char *scene, double tangent_x)
     free(im.rgb);
 }
 
-static void test_normal_map(void **state)
+TEST(test_normal_map)
 {
     (void)state;
     skip_if_quick();
@@ -345,7 +345,7 @@ static void test_normal_map(void **state)
 
 /* The emissive texture (the base pattern, sRGB) times emissiveFactor (1, 0.8,
  * 0.6) times KHR_materials_emissive_strength 2, seen directly. */
-static void test_emissive_texture(void **state)
+TEST(test_emissive_texture)
 {
     (void)state;
     skip_if_quick();
@@ -365,7 +365,7 @@ static void test_emissive_texture(void **state)
 /* KHR_materials_transmission's texture (R, linear) on a smooth plane of ior 1 in
  * front of an emitter of radiance 1: each cell passes its transmission (0, 64,
  * 128, 255 / 255) of the light; the rest is diffuse reflection of the black sky. */
-static void test_transmission_texture(void **state)
+TEST(test_transmission_texture)
 {
     (void)state;
     skip_if_quick();
@@ -375,7 +375,7 @@ static void test_transmission_texture(void **state)
 
 /* The base colour pattern read through TEXCOORD_1 (texCoord 1; TEXCOORD_0 is one
  * constant point, so reading set 0 shows one colour). */
-static void test_texcoord1(void **state)
+TEST(test_texcoord1)
 {
     (void)state;
     skip_if_quick();
@@ -458,21 +458,21 @@ static void check_vertex_colors(const char *scene, int blend)
     free(im.rgb);
 }
 
-static void test_color0_vec3_float(void **state)
+TEST(test_color0_vec3_float)
 {
     (void)state;
     skip_if_quick();
     check_vertex_colors("color0_vec3_float.gltf", 0);
 }
 
-static void test_color0_vec3_ushort(void **state)
+TEST(test_color0_vec3_ushort)
 {
     (void)state;
     skip_if_quick();
     check_vertex_colors("color0_vec3_ushort.gltf", 0);
 }
 
-static void test_color0_vec4_ubyte(void **state)
+TEST(test_color0_vec4_ubyte)
 {
     (void)state;
     skip_if_quick();
@@ -484,7 +484,7 @@ static void test_color0_vec4_ubyte(void **state)
  * LINEAR the interpolation between the texel centres (u = 1/4 and 3/4):
  * 1 - (u - 1/4) / (1/2) there, 1 and 0 outside. The ramp's kinks fall on pixel
  * boundaries of a 64-pixel row, so each pixel's mean is its centre's value. */
-static void test_nearest_and_linear(void **state)
+TEST(test_nearest_and_linear)
 {
     (void)state;
     Image nearest = render_texture_scene("filter_nearest.gltf", 64, 64, 16, 2, NULL);
@@ -512,7 +512,7 @@ static void test_nearest_and_linear(void **state)
  * samples is about 0.06; 256 samples give 0.008), where squares picked at random
  * by 4 samples give about 0.25. Near the camera the squares must still show (a
  * standard deviation above 0.3). */
-static void test_horizon_converges_to_grey(void **state)
+TEST(test_horizon_converges_to_grey)
 {
     (void)state;
     skip_if_quick();
@@ -544,7 +544,7 @@ static void test_horizon_converges_to_grey(void **state)
  * clearcoat Fc(1) = 0.04 clearcoat times D(n) G2 / 4 = 1 / (4 pi alpha^2): pixel =
  * 0.01 clearcoat / alpha^2 (alpha = roughness^2). Cells (clearcoat R, roughness G
  * of one texture): (1, 128/255), (1, 1), (128/255, 128/255), (0, -). */
-static void test_clearcoat(void **state)
+TEST(test_clearcoat)
 {
     (void)state;
     skip_if_quick();
@@ -557,7 +557,7 @@ static void test_clearcoat(void **state)
  * (191, 128, 238), about 30 degrees toward +X): head-on view and light, so with
  * c = n_c.z the coat reflects Fc(c) D(c) G2 / (4 c) with glTF's D and G2 (alpha
  * 0.25) and Fc = 0.04 + 0.96 (1 - c)^5; the left half 0.01 / alpha^2 = 0.16. */
-static void test_clearcoat_normal(void **state)
+TEST(test_clearcoat_normal)
 {
     (void)state;
     skip_if_quick();
@@ -580,7 +580,7 @@ static void test_clearcoat_normal(void **state)
 /* The coat is on top of emission (KHR_materials_clearcoat, "Emission"): an
  * emitter of radiance 1 under a smooth coat, seen head-on under a black sky,
  * shows 1 - clearcoat Fc(1) = 0.96. */
-static void test_clearcoat_over_emission(void **state)
+TEST(test_clearcoat_over_emission)
 {
     (void)state;
     skip_if_quick();
@@ -607,7 +607,7 @@ static double spec_sheen_l(double x, double alpha)
     return c[0] / (1 + c[1] * pow(x, c[2])) + c[3] * x + c[4];
 }
 
-static void test_sheen(void **state)
+TEST(test_sheen)
 {
     (void)state;
     const double colour[4] = {1.0, srgb8_to_linear(188), 1.0, 0.0}, rough[4] = {77, 153, 255, 255};
@@ -627,7 +627,7 @@ static void test_sheen(void **state)
  * 0.25), head-on under pi lux: the GGX lobe with F = F0 = 0.04 colour specular,
  * D(n) / 4 = 1 / (4 pi alpha^2): pixel = 0.16 colour specular. Cells (colour RGB
  * sRGB, specular A linear): white 1; (255, 128, 64) 1; white 128/255; white 0. */
-static void test_specular_textures(void **state)
+TEST(test_specular_textures)
 {
     (void)state;
     skip_if_quick();
@@ -662,7 +662,7 @@ static int run_render(const char *args, char *out, size_t out_size)
     return rc;
 }
 
-static void test_sky_lit_scene_not_called_black(void **state)
+TEST(test_sky_lit_scene_not_called_black)
 {
     (void)state;
     skip_if_quick();
@@ -687,7 +687,7 @@ static void test_sky_lit_scene_not_called_black(void **state)
 
 /* `spectrace info` names each texture slot with the file's texture index and its
  * uv set; a TEXCOORD_2 is warned about once. */
-static void test_info_slots_and_texcoord_warning(void **state)
+TEST(test_info_slots_and_texcoord_warning)
 {
     (void)state;
     skip_if_quick();
@@ -712,32 +712,4 @@ static void test_info_slots_and_texcoord_warning(void **state)
         fail_msg("info does not show the camera's zfar on its line:\n%s", out);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_base_color_no_sampler),
-        cmocka_unit_test(test_base_color_empty_sampler),
-        cmocka_unit_test(test_base_color_factor),
-        cmocka_unit_test(test_base_color_texel_boundaries),
-        cmocka_unit_test(test_alpha_blend_and_mask),
-        cmocka_unit_test(test_alpha_mask_minified),
-        cmocka_unit_test(test_metallic_roughness),
-        cmocka_unit_test(test_normal_map),
-        cmocka_unit_test(test_emissive_texture),
-        cmocka_unit_test(test_transmission_texture),
-        cmocka_unit_test(test_texcoord1),
-        cmocka_unit_test(test_color0_vec3_float),
-        cmocka_unit_test(test_color0_vec3_ushort),
-        cmocka_unit_test(test_color0_vec4_ubyte),
-        cmocka_unit_test(test_nearest_and_linear),
-        cmocka_unit_test(test_horizon_converges_to_grey),
-        cmocka_unit_test(test_clearcoat),
-        cmocka_unit_test(test_clearcoat_normal),
-        cmocka_unit_test(test_clearcoat_over_emission),
-        cmocka_unit_test(test_sheen),
-        cmocka_unit_test(test_specular_textures),
-        cmocka_unit_test(test_info_slots_and_texcoord_warning),
-        cmocka_unit_test(test_sky_lit_scene_not_called_black),
-    };
-    return cmocka_run_group_tests(tests, setup_cpu_device, teardown_cpu_device);
-}
+TEST_MAIN("tests", setup_cpu_device, teardown_cpu_device)

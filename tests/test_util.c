@@ -5,7 +5,7 @@
 
 #include "core/util.h"
 
-static void test_fail_fills_record(void **state)
+TEST(test_fail_fills_record)
 {
     (void)state;
     SptError e = {0};
@@ -15,7 +15,7 @@ static void test_fail_fills_record(void **state)
     assert_string_equal(e.msg, "a.gltf: meshes[2]: bad");
 }
 
-static void test_fail_truncates_long_messages(void **state)
+TEST(test_fail_truncates_long_messages)
 {
     (void)state;
     SptError e = {0};
@@ -26,11 +26,4 @@ static void test_fail_truncates_long_messages(void **state)
     assert_int_equal(strlen(e.msg), sizeof e.msg - 1);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_fail_fills_record),
-        cmocka_unit_test(test_fail_truncates_long_messages),
-    };
-    return cmocka_run_group_tests_name("util", tests, NULL, NULL);
-}
+TEST_MAIN("util", NULL, NULL)
