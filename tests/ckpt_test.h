@@ -8,7 +8,10 @@
 
 #include <stdlib.h>
 #include <string.h>
+#include <signal.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "render/checkpoint.h"
 #include "io/exr.h"
@@ -126,6 +129,25 @@ static inline void assert_same_render(const char *ck_a, const char *ck_b, uint32
     assert_same_exr(exr_a, exr_b);
     film_free(&a);
     film_free(&b);
+}
+
+/* Waits (up to 30 s) for the first checkpoint ck of the render pid, so that it
+ * has made progress, sends it sig and requires that it stopped cleanly: exit
+ * status 0 and "stopped by a signal" in its log. */
+static inline void stop_after_checkpoint(pid_t pid, const char *ck, int sig, const char *log)
+{
+    for (int i = 0; i < 3000 && !test_exists(ck); i++)
+        usleep(10000);
+    assert_true(test_exists(ck));
+    kill(pid, sig);
+    int st;
+    assert_int_equal(waitpid(pid, &st, 0), pid);
+    char *text = test_slurp(log, NULL);
+    printf("%s", text);
+    assert_true(WIFEXITED(st));
+    assert_int_equal(WEXITSTATUS(st), 0);
+    assert_non_null(strstr(text, "stopped by a signal"));
+    free(text);
 }
 
 #endif

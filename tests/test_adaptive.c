@@ -26,7 +26,6 @@
  * samples that agree, give 0. */
 TEST(test_pixel_error)
 {
-    (void)state;
     const double sum[3] = {4, 4, 4}, sq[3] = {10, 10, 10};
     assert_close(adaptive_pixel_error(sum, sq, 2.0), 2.0 / 4.01, 1e-12);
     const double sum2[3] = {4, 2, 0}, sq2[3] = {10, 2, 0}; /* {1,3}, {1,1}, {0,0} */
@@ -60,7 +59,6 @@ static double var_none(int x) { (void)x; return 0.0; }
  * is nothing to choose by). A pixel without two samples takes it. */
 TEST(test_mask)
 {
-    (void)state;
     enum { w = 20, h = 10, n = w * h };
     double xyz[3 * n], count[n], sq[3 * n];
     uint32_t mask[n];
@@ -85,9 +83,7 @@ TEST(test_mask)
 static void render_box(int spp, int adaptive, Film *film)
 {
     Scene s;
-    SptError e = {0};
-    if (scene_load_gltf(&s, SCENE, &e))
-        fail_msg("%s", e.msg);
+    test_load_scene(&s, SCENE);
     RenderSettings rs = square_settings(W, spp, 8, 5);
     rs.adaptive = adaptive ? SPT_SWITCH_ON : SPT_SWITCH_OFF;
     render_film_ok(&s, &rs, film);
@@ -105,7 +101,6 @@ static void assert_pixel_close(const float *a, const float *b, size_t i)
 
 TEST(test_render_prefixes)
 {
-    (void)state;
     enum { n = W * W };
     Film plain[4], ad, ad2, first;
     float *rgb_plain[4], *rgb_ad = malloc(sizeof(float) * 3 * n), *rgb = malloc(sizeof(float) * 3 * n);
@@ -168,7 +163,6 @@ static int run_render(const char *args, const char *out, char *line, size_t size
  * output; auto with --checkpoint renders without it. */
 TEST(test_command_line)
 {
-    (void)state;
     char out[64], ck[64], line[512];
     snprintf(out, sizeof out, "/tmp/spt-adaptive-%d.exr", (int)getpid());
     snprintf(ck, sizeof ck, "/tmp/spt-adaptive-ck-%d.exr", (int)getpid());

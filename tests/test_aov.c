@@ -49,7 +49,6 @@ static void plane_scene(Scene *s, float d, float yfov)
  * footprint; N is the plane's normal; the albedo is the plane's grey. */
 TEST(test_plane_depth_position_normal)
 {
-    (void)state;
     const float d = 2.5f, yfov = 0.6f;
     const int W = 24, spp = 16;
     Scene s;
@@ -97,7 +96,6 @@ TEST(test_plane_depth_position_normal)
  * sky have zero layers. */
 TEST(test_sphere_normals)
 {
-    (void)state;
     Scene s;
     sphere_scene(&s, 0.5f);
     const int W = 32;
@@ -171,11 +169,8 @@ static void fitted_colour(const double rgb[3], double out[3])
 
 TEST(test_albedo_of_textured_plane)
 {
-    (void)state;
     Scene s;
-    SptError e = {0};
-    if (scene_load_gltf(&s, "tests/data/textures/base_nosampler.gltf", &e))
-        fail_msg("%s", e.msg);
+    test_load_scene(&s, "tests/data/textures/base_nosampler.gltf");
     const int W = 64;
     RenderSettings rs = square_settings(W, 4, -1, 7);
     rs.aov = SPT_AOV_ALBEDO;
@@ -220,11 +215,8 @@ TEST(test_albedo_of_textured_plane)
  * implementations (another compilation of the kernels) within 1e-5. */
 TEST(test_beauty_unchanged)
 {
-    (void)state;
     Scene s;
-    SptError e = {0};
-    if (scene_load_gltf(&s, "scenes/cornell_box.gltf", &e))
-        fail_msg("%s", e.msg);
+    test_load_scene(&s, "scenes/cornell_box.gltf");
     RenderSettings rs = square_settings(24, 8, -1, 9);
     Film a, b;
     render_aov(&s, &rs, &a);
@@ -293,7 +285,6 @@ static void independent_variance(const Scene *s, int W, int K, int spp, double *
  * against renders of the same sample count too, and must not be below it. */
 TEST(test_variance_against_independent_renders)
 {
-    (void)state;
     skip_if_quick();
     Scene s;
     sphere_scene(&s, 0.5f);
@@ -327,7 +318,6 @@ TEST(test_variance_against_independent_renders)
  * anything renders. */
 TEST(test_command_line)
 {
-    (void)state;
     char out_exr[64], out_png[64], cmd[1024], line[512] = "";
     snprintf(out_exr, sizeof out_exr, "/tmp/spt-aov-%d.exr", (int)getpid());
     snprintf(out_png, sizeof out_png, "/tmp/spt-aov-%d.png", (int)getpid());
@@ -360,7 +350,6 @@ TEST(test_command_line)
 /* --aov names: a list, "all", aliases; unknown names refused. */
 TEST(test_parse)
 {
-    (void)state;
     unsigned m;
     assert_int_equal(film_aov_parse("albedo,N,Z", &m), 0);
     assert_int_equal(m, SPT_AOV_ALBEDO | SPT_AOV_NORMAL | SPT_AOV_DEPTH);

@@ -235,7 +235,6 @@ static void slab_floor(int light, int caustics, int spp, double r_max, double re
  * its radiance is the analytic one. */
 TEST(test_punctual_through_glass)
 {
-    (void)state;
     Film f;
     slab_floor(LIGHT_SPOT, SPT_SWITCH_ON, 64, 0.5, 0.01, "spot through glass");
     skip_if_quick();
@@ -254,7 +253,6 @@ TEST(test_punctual_through_glass)
  * does through the pinhole. */
 TEST(test_thin_lens)
 {
-    (void)state;
     skip_if_quick();
     slab_aperture = 0.03f;
     slab_focus = (float)sqrt(0.9 * 0.9 + 2.5 * 2.5);
@@ -267,7 +265,6 @@ TEST(test_thin_lens)
  * what the camera paths give up. */
 TEST(test_area_light_caustic)
 {
-    (void)state;
     /* 256 spp: the mean's noise is about 0.65% there (1.2% at 64 spp, where a
      * 1% tolerance was a coin toss between seeds and samplers). */
     slab_floor(LIGHT_AREA, SPT_SWITCH_ON, 256, 0.5, 0.02, "area light, --caustics on");
@@ -279,7 +276,6 @@ TEST(test_area_light_caustic)
  * bit (light paths end at their first vertex, and camera paths drop nothing). */
 TEST(test_no_delta_unchanged)
 {
-    (void)state;
     skip_if_quick();
     Film a, b;
     render_slab(LIGHT_SPOT, 0, SPT_SWITCH_OFF, 8, -1, 0, 0, &a);
@@ -354,7 +350,6 @@ static double render_two_cubes(int light, int shared, int spp, uint32_t seed)
  * and the directional light's aiming. */
 TEST(test_two_caustic_spheres)
 {
-    (void)state;
     skip_if_quick();
     const int lights[3] = {LIGHT_AREA, LIGHT_SPOT, LIGHT_DIRECTIONAL};
     for (int k = 0; k < 3; k++) {
@@ -388,7 +383,6 @@ static uint64_t render_counting(const Scene *s, int caustics, Film *film)
  * (more rays than with it off). */
 TEST(test_unused_glass_no_pass)
 {
-    (void)state;
     for (int used = 0; used <= 1; used++) {
         Scene s;
         slab_scene(&s, LIGHT_SPOT, used);
@@ -425,7 +419,6 @@ TEST(test_unused_glass_no_pass)
  * two renders of samples [0, 4) and [4, 8) add up to the render of [0, 8). */
 TEST(test_split_invariance)
 {
-    (void)state;
     skip_if_quick();
     Film a, b, c, d;
     render_slab(LIGHT_SPOT, 1, SPT_SWITCH_ON, 8, -1, 0, 0, &a);
@@ -516,7 +509,6 @@ static void render_closed_box(int light_patch, int caustics, int w, int spp, Fil
  * whole, against BOX_LE / (1 - BOX_ALBEDO). */
 TEST(test_closed_box_furnace)
 {
-    (void)state;
     skip_if_quick();
     Film f;
     enum { W = 32 };
@@ -548,7 +540,6 @@ TEST(test_closed_box_furnace)
  * within 1%. */
 TEST(test_closed_box_one_light)
 {
-    (void)state;
     skip_if_quick();
     enum { W = 32, B = 4 };
     Film on, off;

@@ -145,7 +145,6 @@ static void mitsuba_case(const char *name, int spp, int by_image_t, const char *
 
 TEST(test_sphere_caustic_mitsuba)
 {
-    (void)state;
     skip_if_quick();
     mitsuba_case("caustic_sphere", 64, 0, "spot light through the sphere vs Mitsuba ptracer");
 }
@@ -157,7 +156,6 @@ TEST(test_sphere_caustic_mitsuba)
  * same passes, Welch bound and image mean bound as the wide spot. */
 TEST(test_sphere_narrow_spot_mitsuba)
 {
-    (void)state;
     skip_if_quick();
     mitsuba_case("caustic_sphere_narrow", 64, 0,
                  "narrow spot (1.5/2 degrees) through the sphere vs Mitsuba ptracer");
@@ -173,7 +171,6 @@ TEST(test_sphere_narrow_spot_mitsuba)
  * ior 1.45 instead of 1.5 gives a block statistic of 16 (1.52: 5). */
 TEST(test_sphere_area_light_mitsuba)
 {
-    (void)state;
     skip_if_quick();
     mitsuba_case("caustic_sphere_area", 32, 1, "area light through the sphere vs Mitsuba path");
 }
@@ -185,7 +182,6 @@ TEST(test_sphere_area_light_mitsuba)
  * small path pool (another schedule) gives the same film bit for bit. */
 TEST(test_light_paths_split)
 {
-    (void)state;
     Scene s;
     GpuScene g;
     SptError e = {0};

@@ -163,7 +163,6 @@ static void check_furnace(int view, const Sky *sky, int caustics, int spp, const
  * camera paths alone agree (off). */
 TEST(test_sky_furnace)
 {
-    (void)state;
     Sky map = flat_map_sky();
     check_furnace(VIEW_UNDER, &map, SPT_SWITCH_ON, 512, "furnace under the slab, flat map, on");
     skip_if_quick();
@@ -180,7 +179,6 @@ TEST(test_sky_furnace)
  * renders as off. */
 TEST(test_sky_auto_and_pool)
 {
-    (void)state;
     skip_if_quick();
     enum { W = 16, N = 6 };
     Scene s;
@@ -243,7 +241,6 @@ static Sky sun_sky(void)
 
 TEST(test_sun_sphere_on_off)
 {
-    (void)state;
     skip_if_quick();
     Scene s;
     SptError e = {0};

@@ -54,7 +54,6 @@ static int setup(void **state)
 /* The file keeps the double sums (hi + lo floats) and non-contiguous done sets. */
 TEST(test_file_round_trip)
 {
-    (void)state;
     RenderSettings rs;
     memset(&rs, 0, sizeof rs);
     rs.width = 3;
@@ -124,7 +123,6 @@ static void render_split(const char *extra, const char *tag)
  * resumed to 64 on two devices. */
 TEST(test_resume_split_invariance)
 {
-    (void)state;
     render_split("", "");
     assert_same_render(test_path("full_ck.exr"), test_path("half_ck.exr"), 3, 64, test_path("full.exr"),
                        test_path("resumed.exr"));
@@ -135,7 +133,6 @@ TEST(test_resume_split_invariance)
  * those of the render in one go. */
 TEST(test_resume_split_invariance_aov)
 {
-    (void)state;
     char cmd[1024], out[4096];
     Film a, b;
     ckpt_aov = SPT_AOV_ALL;
@@ -184,7 +181,6 @@ static void refused(const char *args, const char *ckpt, int want, const char *sa
 
 TEST(test_resume_refusals)
 {
-    (void)state;
     char cmd[1024], out[4096];
     char ck[256], tr[256], img[256], txt[256];
     snprintf(ck, sizeof ck, "%s", test_path("ref_ck.exr"));
@@ -227,7 +223,6 @@ TEST(test_resume_refusals)
  * to the one rendered without a stop. */
 TEST(test_sigint_then_resume)
 {
-    (void)state;
     const char *exe = test_exe();
     char ck[256], img[256], log[256];
     snprintf(ck, sizeof ck, "%s", test_path("int_ck.exr"));
@@ -245,20 +240,7 @@ TEST(test_sigint_then_resume)
               "-o", img, (char *)NULL);
         _exit(127);
     }
-    /* Wait for the first periodic checkpoint: the render has made progress. */
-    for (int i = 0; i < 3000 && !test_exists(ck); i++)
-        usleep(10000);
-    assert_true(test_exists(ck));
-    kill(pid, SIGINT);
-    int st;
-    assert_int_equal(waitpid(pid, &st, 0), pid);
-    size_t n;
-    char *text = test_slurp(log, &n);
-    printf("%s", text);
-    assert_true(WIFEXITED(st));
-    assert_int_equal(WEXITSTATUS(st), 0);
-    assert_non_null(strstr(text, "stopped by a signal"));
-    free(text);
+    stop_after_checkpoint(pid, ck, SIGINT, log);
     Film part;
     uint32_t done = load_checkpoint(ck, 3, 128, &part);
     printf("stopped after %u of 128 spp\n", done);
@@ -290,13 +272,8 @@ TEST(test_sigint_then_resume)
     snprintf(cmd, sizeof cmd, "render " SCENE " " COMMON " --device 0 --spp 128 -o %s --checkpoint %s",
              test_path("straight.exr"), test_path("straight_ck.exr"));
     run_ok(cmd, out, sizeof out);
-    Film a, b;
-    assert_int_equal(load_checkpoint(ck, 3, 128, &a), 128);
-    assert_int_equal(load_checkpoint(test_path("straight_ck.exr"), 3, 128, &b), 128);
-    assert_same_film(&a, &b);
-    assert_same_exr(test_path("int_done.exr"), test_path("straight.exr"));
-    film_free(&a);
-    film_free(&b);
+    assert_same_render(ck, test_path("straight_ck.exr"), 3, 128, test_path("int_done.exr"),
+                       test_path("straight.exr"));
 }
 
 TEST_MAIN_ENV("checkpoint", setup, test_dir_teardown,

@@ -131,7 +131,6 @@ static int teardown(void **state)
 
 TEST(test_list_matches_direct_query)
 {
-    (void)state;
     /* Count devices with the raw API, independently of cl_device_list. */
     cl_uint np = 0, total = 0;
     assert_int_equal(clGetPlatformIDs(0, NULL, &np), CL_SUCCESS);
@@ -165,7 +164,6 @@ TEST(test_list_matches_direct_query)
 
 TEST(test_select_by_index_and_default)
 {
-    (void)state;
     int sel[64], n = 0;
     SptError e = {0};
     assert_int_equal(cl_device_select(&g_list, " 0 ", sel, &n, &e), SPT_EXIT_OK);
@@ -186,7 +184,6 @@ TEST(test_select_by_index_and_default)
 
 TEST(test_select_by_name_ignores_case)
 {
-    (void)state;
     const char *name = g_list.devices[0].name;
     assert_true(strlen(name) >= 4);
     /* A middle part of the name with its letter case flipped. */
@@ -226,23 +223,30 @@ static void expect_selection(const ClDeviceList *list, const char *sel, const ch
                  e.msg);
 }
 
+/* A device entry as cl_device_list would fill it, for the selection rules. */
+static void made_up_device(ClDeviceInfo *d, int index, cl_device_type type, const char *name,
+                           const char *vendor, const char *platform, const char *impl)
+{
+    memset(d, 0, sizeof *d);
+    d->index = index;
+    d->type = type;
+    snprintf(d->name, sizeof d->name, "%s", name);
+    snprintf(d->vendor, sizeof d->vendor, "%s", vendor);
+    snprintf(d->platform_name, sizeof d->platform_name, "%s", platform);
+    snprintf(d->impl, sizeof d->impl, "%s", impl);
+}
+
 TEST(test_select_rules_on_made_up_devices)
 {
-    (void)state;
     ClDeviceInfo d[4];
-    memset(d, 0, sizeof d);
     const char *names[4] = {"Xeon CPU", "Radeon GPU A", "Radeon GPU B", "FPGA thing"};
     cl_device_type types[4] = {CL_DEVICE_TYPE_CPU, CL_DEVICE_TYPE_GPU, CL_DEVICE_TYPE_GPU,
                                CL_DEVICE_TYPE_ACCELERATOR};
-    for (int i = 0; i < 4; i++) {
-        d[i].index = i;
-        snprintf(d[i].name, sizeof d[i].name, "%s", names[i]);
-        snprintf(d[i].vendor, sizeof d[i].vendor, "%s", i == 0 ? "Intel" : "AMD");
-        snprintf(d[i].platform_name, sizeof d[i].platform_name, "Platform %d", i);
+    const char *platforms[4] = {"Platform 0", "Platform 1", "Platform 2", "Platform 3"};
+    for (int i = 0; i < 4; i++)
         /* The CPU on PoCL, the GPUs on AMD's runtime, the FPGA on none known. */
-        snprintf(d[i].impl, sizeof d[i].impl, "%s", i == 0 ? "pocl" : i < 3 ? "amd" : "fpga");
-        d[i].type = types[i];
-    }
+        made_up_device(&d[i], i, types[i], names[i], i == 0 ? "Intel" : "AMD", platforms[i],
+                       i == 0 ? "pocl" : i < 3 ? "amd" : "fpga");
     ClDeviceList list = {d, 4};
     expect_selection(&list, NULL, "1");      /* the first GPU */
     expect_selection(&list, "", "1");
@@ -270,7 +274,6 @@ TEST(test_select_rules_on_made_up_devices)
 
 TEST(test_select_out_of_range_lists_devices)
 {
-    (void)state;
     int sel[64], n = 5;
     SptError e = {0};
     char bad[16];
@@ -286,7 +289,6 @@ TEST(test_select_out_of_range_lists_devices)
 
 TEST(test_select_no_match_lists_devices)
 {
-    (void)state;
     int sel[64], n = 0;
     SptError e = {0};
     assert_int_equal(cl_device_select(&g_list, "0,no-such-device-xyz", sel, &n, &e),
@@ -304,7 +306,6 @@ TEST(test_select_no_match_lists_devices)
 
 TEST(test_two_pocl_devices_all_and_lists)
 {
-    (void)state;
     char cmd[5000], out[4096];
     snprintf(cmd, sizeof cmd,
              "POCL_DEVICES='pthread pthread' POCL_MAX_PTHREAD_COUNT=1 '%s' --child-select "
@@ -328,7 +329,6 @@ TEST(test_two_pocl_devices_all_and_lists)
 
 TEST(test_no_platform_says_how_to_install)
 {
-    (void)state;
     char empty[512];
     snprintf(empty, sizeof empty, "%s/no_vendors", g_tmp);
     assert_int_equal(mkdir(empty, 0755), 0);
@@ -344,7 +344,6 @@ TEST(test_no_platform_says_how_to_install)
 
 TEST(test_devices_command_lists_and_marks)
 {
-    (void)state;
     char args[64], out[8192], want[600];
     assert_int_equal(test_spectrace("", 0, "devices --device 0", TEST_BOTH, out, sizeof out), 0);
     snprintf(want, sizeof want, " *[0] %s\n", g_list.devices[0].name);
@@ -364,7 +363,6 @@ TEST(test_devices_command_lists_and_marks)
 
 TEST(test_includes_resolve_once_with_line_markers)
 {
-    (void)state;
     char dir[512], path[600];
     new_folder(dir, sizeof dir, "kinc");
     snprintf(path, sizeof path, "%s/a.cl", dir);
@@ -407,7 +405,6 @@ TEST(test_includes_resolve_once_with_line_markers)
 
 TEST(test_embedded_sources_resolve)
 {
-    (void)state;
     char *out = NULL;
     SptError e = {0};
     assert_int_equal(cl_source_resolve("kernels/util/layout_check.cl", &out, &e), SPT_EXIT_OK);
@@ -424,7 +421,6 @@ TEST(test_embedded_sources_resolve)
 
 TEST(test_build_error_reports_device_and_log)
 {
-    (void)state;
     char dir[512], path[600];
     new_folder(dir, sizeof dir, "kbroken");
     snprintf(path, sizeof path, "%s/broken.cl", dir);
@@ -523,7 +519,6 @@ static void build_square(int want_hit)
 
 TEST(test_cache_hit_and_corrupt_entries_rebuilt)
 {
-    (void)state;
     build_square(0); /* compiled, stored */
     char path[sizeof g_dev.last_cache_path];
     snprintf(path, sizeof path, "%s", g_dev.last_cache_path);
@@ -564,7 +559,6 @@ TEST(test_cache_hit_and_corrupt_entries_rebuilt)
 
 TEST(test_unwritable_cache_warns_once)
 {
-    (void)state;
     /* A cache folder below a regular file cannot be created, even as root. */
     char file[512], cache[600], log[600];
     snprintf(file, sizeof file, "%s/plainfile", g_tmp);
@@ -607,7 +601,6 @@ TEST(test_unwritable_cache_warns_once)
 
 TEST(test_cache_dir_choice)
 {
-    (void)state;
     char old[512], buf[600];
     snprintf(old, sizeof old, "%s", getenv("SPECTRACE_CACHE_DIR"));
     const char *xdg = getenv("XDG_CACHE_HOME");
@@ -638,7 +631,6 @@ TEST(test_cache_dir_choice)
 
 TEST(test_fnv1a_reference_values)
 {
-    (void)state;
     /* Published FNV-1a 64-bit test vectors. */
     assert_true(cl_fnv1a(SPT_FNV1A_INIT, "", 0) == 0xcbf29ce484222325ull);
     assert_true(cl_fnv1a(SPT_FNV1A_INIT, "a", 1) == 0xaf63dc4c8601ec8cull);
@@ -649,7 +641,6 @@ TEST(test_fnv1a_reference_values)
 
 TEST(test_memory_limits_checked_before_allocating)
 {
-    (void)state;
     ClDeviceInfo info = {0};
     snprintf(info.name, sizeof info.name, "tiny");
     info.max_alloc = 1000;
@@ -686,7 +677,6 @@ static int release_null_buffer(SptError *e)
 
 TEST(test_error_names_and_check_macro)
 {
-    (void)state;
     assert_string_equal(cl_error_name(CL_SUCCESS), "CL_SUCCESS");
     assert_string_equal(cl_error_name(CL_BUILD_PROGRAM_FAILURE), "CL_BUILD_PROGRAM_FAILURE");
     assert_string_equal(cl_error_name(CL_INVALID_KERNEL_ARGS), "CL_INVALID_KERNEL_ARGS");
@@ -719,7 +709,6 @@ TEST(test_error_names_and_check_macro)
 
 TEST(test_layout_matches_host)
 {
-    (void)state;
     /* The host's values, straight from the list. */
     static const struct {
         const char *name;
@@ -759,7 +748,6 @@ TEST(test_layout_matches_host)
  * (whose name contains "Intel") listed before it. No OpenCL call. */
 TEST(test_impl_names_and_selection)
 {
-    (void)state;
     static const char *cases[][4] = {
         {"Portable Computing Language", "The pocl project", "POCL", "pocl"},
         {"Intel(R) OpenCL", "Intel(R) Corporation", "INTEL", "intel"},
@@ -777,19 +765,10 @@ TEST(test_impl_names_and_selection)
         assert_string_equal(s, cases[k][3]);
     }
     ClDeviceInfo d[2];
-    memset(d, 0, sizeof d);
-    d[0].index = 0;
-    d[0].type = CL_DEVICE_TYPE_CPU;
-    snprintf(d[0].name, sizeof d[0].name, "pthread-skylake-avx512-Intel(R) Xeon(R) Gold 6230");
-    snprintf(d[0].vendor, sizeof d[0].vendor, "GenuineIntel");
-    snprintf(d[0].platform_name, sizeof d[0].platform_name, "Portable Computing Language");
-    snprintf(d[0].impl, sizeof d[0].impl, "pocl");
-    d[1].index = 1;
-    d[1].type = CL_DEVICE_TYPE_CPU;
-    snprintf(d[1].name, sizeof d[1].name, "Intel(R) Xeon(R) Gold 6230");
-    snprintf(d[1].vendor, sizeof d[1].vendor, "Intel(R) Corporation");
-    snprintf(d[1].platform_name, sizeof d[1].platform_name, "Intel(R) OpenCL");
-    snprintf(d[1].impl, sizeof d[1].impl, "intel");
+    made_up_device(&d[0], 0, CL_DEVICE_TYPE_CPU, "pthread-skylake-avx512-Intel(R) Xeon(R) Gold 6230",
+                   "GenuineIntel", "Portable Computing Language", "pocl");
+    made_up_device(&d[1], 1, CL_DEVICE_TYPE_CPU, "Intel(R) Xeon(R) Gold 6230",
+                   "Intel(R) Corporation", "Intel(R) OpenCL", "intel");
     ClDeviceList list = {d, 2};
     int out[2], n = 0;
     SptError e = {0};

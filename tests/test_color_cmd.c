@@ -42,7 +42,6 @@ static void parse3(const char *out, double xyz[3], double rgb[3], int rgb8[3])
 /* D65 and A normalised to Y = 1 print their published white points (CIE 15:2004). */
 TEST(test_white_points)
 {
-    (void)state;
     char out[4096];
     double xyz[3], rgb[3];
     int r8[3];
@@ -66,7 +65,6 @@ TEST(test_white_points)
 /* --reflectance with a ColorChecker CSV gives colour-science's XYZ and sRGB8. */
 TEST(test_reflectance)
 {
-    (void)state;
     char out[4096];
     double xyz[3], rgb[3];
     int r8[3];
@@ -86,7 +84,6 @@ TEST(test_reflectance)
 /* Other names run and print the format. */
 TEST(test_names)
 {
-    (void)state;
     const char *names[] = {"F2", "F7", "F11", "mercury", "blackbody:2856", "BLACKBODY:6500"};
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
         char args[128], out[4096];
@@ -112,7 +109,6 @@ static void expect_error(const char *args, int code, const char *want)
 /* Errors: unknown name, unreadable file, bad CSV line, usage. */
 TEST(test_errors)
 {
-    (void)state;
     expect_error("color D66", 3, "D66");
     expect_error("color /nonexistent/spd.csv", 3, "/nonexistent/spd.csv: cannot read");
     expect_error("color tests", 3, "tests: the SPD file is a folder");

@@ -41,9 +41,8 @@ static void render_rgb_aov(const char *path, int W, int spp, uint32_t seed, floa
                            float *normal)
 {
     Scene s;
+    test_load_scene(&s, path);
     SptError e = {0};
-    if (scene_load_gltf(&s, path, &e))
-        fail_msg("%s: %s", path, e.msg);
     RenderSettings rs = square_settings(W, spp, -1, seed);
     rs.aov = albedo ? SPT_AOV_ALBEDO | SPT_AOV_NORMAL : 0;
     Film f;
@@ -76,7 +75,6 @@ static double rel_mse(const float *x, const float *r, size_t n)
  * both near the reference's own noise.) */
 TEST(test_cornell_box_denoised)
 {
-    (void)state;
     need_oidn();
     enum { W = 48 };
     size_t n = 3 * (size_t)W * W;
@@ -106,7 +104,6 @@ TEST(test_cornell_box_denoised)
  * that blurred the texture would lose them. */
 TEST(test_texture_edges_kept)
 {
-    (void)state;
     need_oidn();
     enum { W = 64 };
     size_t n = 3 * (size_t)W * W;
@@ -151,7 +148,6 @@ TEST(test_texture_edges_kept)
  * the same render gives without --denoise. */
 TEST(test_command_line_layers)
 {
-    (void)state;
     need_oidn();
     char a[64], b[64], cmd[1024], out[4096];
     snprintf(a, sizeof a, "/tmp/spt-den-%d-a.exr", (int)getpid());
@@ -192,7 +188,6 @@ TEST(test_command_line_layers)
  * found (skipped then). */
 TEST(test_missing_library)
 {
-    (void)state;
     const char *exe = test_exe();
     char dir[64] = "/tmp/spt-nooidn-XXXXXX", cmd[2048], out[4096];
     assert_non_null(mkdtemp(dir));

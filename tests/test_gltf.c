@@ -13,13 +13,6 @@
 
 #define DATA(f) SPT_TEST_DATA("gltf/" f)
 
-static void load_ok(Scene *s, const char *path)
-{
-    SptError e = {0};
-    int rc = scene_load_gltf(s, path, &e);
-    if (rc) fail_msg("loading %s failed (%d): %s", path, rc, e.msg);
-}
-
 /* Vertex k (0..2) of triangle t equals (x, y, z). */
 static void assert_vertex(const Scene *s, uint32_t t, int k, double x, double y, double z)
 {
@@ -55,9 +48,8 @@ static void assert_all_visible(const Scene *s)
 
 TEST(test_external_bin_translation)
 {
-    (void)state;
     Scene s;
-    load_ok(&s, DATA("tri_external.gltf"));
+    test_load_scene(&s, DATA("tri_external.gltf"));
     assert_int_equal(s.tri_count, 1);
     assert_int_equal(s.vertex_count, 3);
     assert_vertex(&s, 0, 0, 1, 2, 3);
@@ -88,9 +80,8 @@ TEST(test_external_bin_translation)
 
 TEST(test_data_uri_matrix)
 {
-    (void)state;
     Scene s;
-    load_ok(&s, DATA("tri_datauri.gltf"));
+    test_load_scene(&s, DATA("tri_datauri.gltf"));
     assert_int_equal(s.tri_count, 1);
     assert_vertex(&s, 0, 0, 0, 0, -5);
     assert_vertex(&s, 0, 1, 2, 0, -5);
@@ -101,9 +92,8 @@ TEST(test_data_uri_matrix)
 
 TEST(test_glb_trs)
 {
-    (void)state;
     Scene s;
-    load_ok(&s, DATA("tri.glb"));
+    test_load_scene(&s, DATA("tri.glb"));
     /* Scale x by 3, then 90 degrees about +Z: (x, y, z) -> (-y, 3x, z). */
     assert_int_equal(s.tri_count, 1);
     assert_vertex(&s, 0, 0, 0, 0, 0);
@@ -117,9 +107,8 @@ TEST(test_glb_trs)
 
 TEST(test_mirrored_swaps_winding)
 {
-    (void)state;
     Scene s;
-    load_ok(&s, DATA("mirrored.gltf"));
+    test_load_scene(&s, DATA("mirrored.gltf"));
     /* Scale -1 on x maps (0,0,0) (1,0,0) (0,1,0) to (0,0,0) (-1,0,0) (0,1,0); the
      * winding is swapped so the front face stays counter-clockwise. */
     assert_int_equal(s.tri_count, 1);
@@ -136,9 +125,8 @@ TEST(test_mirrored_swaps_winding)
 
 TEST(test_strips_fans_index_types)
 {
-    (void)state;
     Scene s;
-    load_ok(&s, DATA("modes.gltf"));
+    test_load_scene(&s, DATA("modes.gltf"));
     /* strip (3) + fan (3) + u8 quad (2) + u32 quad (2); points and lines skipped. */
     assert_int_equal(s.tri_count, 10);
     assert_int_equal(s.stats.skipped_primitives, 2);
@@ -161,9 +149,8 @@ TEST(test_strips_fans_index_types)
 
 TEST(test_garbage_triangles_dropped)
 {
-    (void)state;
     Scene s;
-    load_ok(&s, DATA("garbage.gltf"));
+    test_load_scene(&s, DATA("garbage.gltf"));
     assert_int_equal(s.tri_count, 1);
     assert_int_equal(s.stats.dropped_nonfinite, 3);  /* NaN, Inf, 1e19 */
     assert_int_equal(s.stats.dropped_degenerate, 2); /* collinear, repeated index */
@@ -174,9 +161,8 @@ TEST(test_garbage_triangles_dropped)
 
 TEST(test_materials_textures_extras)
 {
-    (void)state;
     Scene s;
-    load_ok(&s, DATA("materials.gltf"));
+    test_load_scene(&s, DATA("materials.gltf"));
     assert_int_equal(s.material_count, 6);
     assert_int_equal(s.tri_count, 6);
     for (uint32_t t = 0; t < 6; t++) assert_int_equal(s.tri_mat[t], t);
@@ -256,9 +242,8 @@ TEST(test_materials_textures_extras)
 
 TEST(test_lights_and_camera)
 {
-    (void)state;
     Scene s;
-    load_ok(&s, DATA("lights.gltf"));
+    test_load_scene(&s, DATA("lights.gltf"));
     /* Camera node: rotation -90 degrees about X under a parent at (0, 10, 0), so
      * it looks down -Y with +Y mapped to -Z. The second camera is not used. */
     const SceneCamera *c = &s.camera;
@@ -297,9 +282,8 @@ TEST(test_lights_and_camera)
 
 TEST(test_orthographic_camera)
 {
-    (void)state;
     Scene s;
-    load_ok(&s, DATA("ortho.gltf"));
+    test_load_scene(&s, DATA("ortho.gltf"));
     assert_int_equal(s.camera.orthographic, 1);
     assert_close(s.camera.xmag, 2, 0);
     assert_close(s.camera.ymag, 1, 0);
@@ -313,7 +297,6 @@ TEST(test_orthographic_camera)
  * the mesh at the bottom sits at z = 100. */
 TEST(test_deep_hierarchy)
 {
-    (void)state;
     const int depth = 20000;
     size_t cap = (size_t)depth * 64 + 4096, n = 0;
     char *j = malloc(cap);
@@ -383,7 +366,6 @@ static int load_one(Scene *s, const void *bytes, size_t n, const char *views, co
  * gives them. */
 TEST(test_valid_sparse_and_zeros)
 {
-    (void)state;
     struct {
         float pos[9];
         uint32_t idx[2];
@@ -477,7 +459,6 @@ TEST(test_valid_sparse_and_zeros)
  * negative byteOffset as a huge one). */
 TEST(test_index_numbers_refused)
 {
-    (void)state;
     static const struct {
         const char *nodes, *accessor_extra, *view_extra, *want;
     } cases[] = {
@@ -522,7 +503,6 @@ TEST(test_index_numbers_refused)
  * 10000 instances of a triangle against 1 MiB, and a texture against 0.01 MiB. */
 TEST(test_memory_budget)
 {
-    (void)state;
     const int n = 10000;
     size_t cap = (size_t)n * 16 + 4096, len = 0;
     char *j = malloc(cap);
@@ -563,7 +543,6 @@ TEST(test_memory_budget)
 
 TEST(test_default_camera_frames_box)
 {
-    (void)state;
     /* Two triangles spanning the box (-3,-1,2)..(5,4,9), built by hand. */
     float pos[18] = {-3, -1, 2, 5, 4, 9, -3, 4, 2, 5, -1, 9, -3, -1, 9, 5, 4, 2};
     Scene s;
@@ -684,7 +663,6 @@ static void test_bad_file(void **state)
  * must load or be refused with SPT_EXIT_INPUT. */
 TEST(test_fuzz_regressions)
 {
-    (void)state;
     const char *dir = DATA("regress");
     DIR *d = opendir(dir);
     assert_non_null(d);
@@ -713,7 +691,6 @@ static int run_spectrace(const char *args, char *out, size_t out_size)
 
 TEST(test_info_command)
 {
-    (void)state;
     static char out[65536];
     int rc = run_spectrace("info --no-bvh tests/data/gltf/modes.gltf", out, sizeof out);
     if (rc != 0) fail_msg("info modes.gltf exited %d:\n%s", rc, out);

@@ -72,7 +72,6 @@ static unsigned char *good_output(const char *name, size_t *n)
  * only when all were written. */
 TEST(test_failed_output_keeps_others)
 {
-    (void)state;
     size_t n;
     unsigned char *good = good_output("good.exr", &n);
     char name[300], args[2048];
@@ -107,7 +106,6 @@ TEST(test_failed_output_keeps_others)
  * checkpoint being resumed; and two outputs naming one file. */
 TEST(test_output_naming_input)
 {
-    (void)state;
     size_t n;
     unsigned char *env = good_output("env.exr", &n);
     char args[2048];
@@ -170,7 +168,6 @@ TEST(test_output_naming_input)
  * replaced. */
 TEST(test_output_symlink_kept)
 {
-    (void)state;
     size_t n;
     unsigned char *old = good_output("target.exr", &n);
     assert_int_equal(symlink("target.exr", test_path("via_link.exr")), 0);
@@ -191,7 +188,6 @@ TEST(test_output_symlink_kept)
  * read (exit 3), without reading /dev/zero forever or a multi-gigabyte file. */
 TEST(test_input_files)
 {
-    (void)state;
     char args[1024];
     refused("info /dev/zero", 3, "character device");
     refused("render /dev/zero " TINY, 3, "character device");
@@ -244,7 +240,6 @@ TEST(test_input_files)
  * recursive conversion) is refused before parsing, in a .gltf and in a GLB. */
 TEST(test_deep_json)
 {
-    (void)state;
     const int depth = 20000;
     size_t cap = 64 + 2 * (size_t)depth + 8;
     char *json = malloc(cap);
@@ -297,7 +292,6 @@ static int run_signalled(const char *args, const char *wait_for, const int *sigs
  * would take hours stops after its current chunk and writes what is complete. */
 TEST(test_sighup_writes)
 {
-    (void)state;
     char args[1024], err[16384];
     snprintf(args, sizeof args, "render " SCENE " --width 16 --spp 16777216 --device 0 -o %s",
              test_path("hup.exr"));
@@ -342,7 +336,6 @@ static void stopped_unwritten(int w, int h, const char *name, const int *sigs, i
  * write the image with exit 0.) */
 TEST(test_first_sigint_drops_long_chunk)
 {
-    (void)state;
     const int sig = SIGINT;
     stopped_unwritten(2048, 2048, "long.exr", &sig, 1, "note: stopping", 1);
 }
@@ -355,7 +348,6 @@ TEST(test_first_sigint_drops_long_chunk)
  * finished before the signal. */
 TEST(test_first_sigint_writes_whole_samples)
 {
-    (void)state;
     char args[1024], err[16384];
     const char *out = test_path("whole.exr");
     snprintf(args, sizeof args, "render " SCENE " --width 1024 --height 640 --spp 2 --aov spp "
@@ -404,7 +396,6 @@ TEST(test_first_sigint_writes_whole_samples)
  * the second then comes during the clean-up and must not kill the process. */
 TEST(test_second_sigint_stops_at_once)
 {
-    (void)state;
     const int sigs[2] = {SIGINT, SIGINT};
     stopped_unwritten(1600, 1280, "int.exr", sigs, 2, "note: stopping", 1);
 }
@@ -415,7 +406,6 @@ TEST(test_second_sigint_stops_at_once)
  * it stopped; the exit stays 130 and nothing is written. */
 TEST(test_sigint_during_cleanup)
 {
-    (void)state;
     const int sigs[2] = {SIGINT, SIGINT};
     stopped_unwritten(2048, 2048, "late.exr", sigs, 2, "error: render: stopped", 0);
 }
@@ -427,7 +417,6 @@ TEST(test_sigint_during_cleanup)
  * as it was, while an EXR-only render of an untextured scene succeeds. */
 TEST(test_image_library_when_needed)
 {
-    (void)state;
     char args[1024], err[16384];
     const char *png = test_path("lib.png"), *exr = test_path("lib.exr");
     FILE *f = fopen(png, "w");
@@ -462,7 +451,6 @@ TEST(test_image_library_when_needed)
  * Each error names the file first (the light's check runs after loading). */
 TEST(test_values_beyond_float)
 {
-    (void)state;
     size_t n;
     unsigned char *text = (unsigned char *)test_slurp("tests/data/scenes/mat_point_light.gltf", &n);
     char *at = strstr((char *)text, "\"intensity\": 100000.0");
@@ -514,7 +502,6 @@ TEST(test_values_beyond_float)
  * for a small machine), and nothing is written. */
 TEST(test_host_memory_refused)
 {
-    (void)state;
     char args[1024], err[4096];
     snprintf(args, sizeof args, "render " SCENE " --width 2048 --height 2048 --spp 1 -q --device 0 -o %s",
              test_path("mem.exr"));
@@ -530,7 +517,6 @@ TEST(test_host_memory_refused)
  * (tests/data/fuzz/TARGET/, README there): each is refused as bad input. */
 TEST(test_fuzz_regressions)
 {
-    (void)state;
     const char *folder = "tests/data/fuzz/checkpoint";
     DIR *d = opendir(folder);
     assert_non_null(d);

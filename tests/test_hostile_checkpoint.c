@@ -127,7 +127,6 @@ static int setup(void **state)
  * and not from the rewriting. */
 TEST(test_rewritten_unchanged_resumes)
 {
-    (void)state;
     ExrLayers L;
     edit_begin(&L);
     const char *p = edit_end(&L, "same_ck.exr", NULL);
@@ -146,7 +145,6 @@ TEST(test_rewritten_unchanged_resumes)
  * count of 0 there, which the cross-checks must accept: it resumes. */
 TEST(test_dropped_samples_resume)
 {
-    (void)state;
     char args[1024], err[8192];
     const char *ck = test_path("nan_ck.exr");
     snprintf(args, sizeof args, ARGS " --spp 4 -o %s --checkpoint %s", test_path("nan.exr"), ck);
@@ -170,7 +168,6 @@ TEST(test_dropped_samples_resume)
  * the checkpoint through the same code). */
 TEST(test_count_zero)
 {
-    (void)state;
     ExrLayers L;
     edit_begin(&L);
     const ExrChannel *c = exr_layers_channel(&L, "count");
@@ -197,7 +194,6 @@ TEST(test_count_zero)
 /* One spectral band's channels deleted from a --spectral 2 checkpoint. */
 TEST(test_band_removed)
 {
-    (void)state;
     ExrLayers L;
     edit_begin(&L);
     const char *p = edit_end(&L, "band_ck.exr", "band_sum.001");
@@ -207,7 +203,6 @@ TEST(test_band_removed)
 /* Sums of 1e38: a float the file can hold, far beyond what 4 samples give. */
 TEST(test_huge_sums)
 {
-    (void)state;
     ExrLayers L;
     edit_begin(&L);
     size_t n = (size_t)L.width * L.height;
@@ -222,7 +217,6 @@ TEST(test_huge_sums)
  * -0.484). */
 TEST(test_negative_sums)
 {
-    (void)state;
     ExrLayers L;
     edit_begin(&L);
     chan_f(&L, "band_sum.000")[5] = -1.0f;
@@ -236,7 +230,6 @@ TEST(test_negative_sums)
  * sees it. */
 TEST(test_one_flipped_bit)
 {
-    (void)state;
     ExrLayers L;
     edit_begin(&L);
     float *y = chan_f(&L, "sum.Y");
@@ -257,7 +250,6 @@ TEST(test_one_flipped_bit)
  * to render again (docs/outputs.md, "Checkpoints"). */
 TEST(test_old_format)
 {
-    (void)state;
     ExrLayers L;
     edit_begin(&L);
     int found = 0;
@@ -274,7 +266,6 @@ TEST(test_old_format)
  * these implausible films a valid checksum, and checkpoint_read refuses them. */
 TEST(test_cross_checks)
 {
-    (void)state;
     RenderSettings rs;
     memset(&rs, 0, sizeof rs);
     rs.width = 2;
@@ -336,7 +327,6 @@ TEST(test_cross_checks)
  * the user types them, never the numbers the key stores. */
 TEST(test_mismatch_names_values)
 {
-    (void)state;
     static const char *const extra[4] = {"--caustics on", "--sampler independent",
                                          "--aov albedo,N", "--denoise"};
     static const char *const says[4] = {

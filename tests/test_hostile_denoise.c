@@ -79,7 +79,6 @@ static const char *const noisy[3] = {"noisy.R", "noisy.G", "noisy.B"};
  * light at all. */
 TEST(test_exposure_sweep)
 {
-    (void)state;
     need_oidn();
     static const double k[] = {1, 1e-20, 1e-9, 1e-3, 1e3, 1e9, 1e19, 1e20};
     enum { NK = sizeof k / sizeof k[0] };
@@ -145,7 +144,6 @@ TEST(test_exposure_sweep)
  * (docs/limits.md), not written nor called an internal error. */
 TEST(test_variance_layer)
 {
-    (void)state;
     static const double k[] = {1, 1e-9, 1e-3, 1e3, 1e9};
     enum { NK = sizeof k / sizeof k[0] };
     static const char *const want[] = {"variance.R", "variance.G", "variance.B"};
@@ -220,7 +218,6 @@ static const char stub_src[] =
  * a black image returned without an error counts as failing. */
 TEST(test_denoiser_failure)
 {
-    (void)state;
     char src[256], lib[256], cmd[1024], out[256], env[512], args[1024], err[4096];
     snprintf(src, sizeof src, "%s/stub.c", test_dir());
     snprintf(lib, sizeof lib, "%s/libstub.so", test_dir());
@@ -256,7 +253,6 @@ TEST(test_denoiser_failure)
  * that is not the library), at once and before rendering. */
 TEST(test_oidn_not_regular_file)
 {
-    (void)state;
     char fifo[256], out[256], env[512], args[512], err[4096];
     snprintf(fifo, sizeof fifo, "%s/oidn.fifo", test_dir());
     assert_int_equal(mkfifo(fifo, 0600), 0);

@@ -101,9 +101,19 @@ static void not_under_sanitizers(void)
 #endif
 }
 
+/* Runs args with SPECTRACE_MAX_MEMORY_MB=mb (stderr into err) and requires the
+ * exit status want. */
+static void run_memory_limited(const char *args, const char *mb, int want, char *err, size_t cap)
+{
+    setenv("SPECTRACE_MAX_MEMORY_MB", mb, 1);
+    int rc = run_child(args, 0, NULL, err, cap, NULL);
+    unsetenv("SPECTRACE_MAX_MEMORY_MB");
+    if (rc != want)
+        fail_msg("exit %d, expected %d:\n%s", rc, want, err);
+}
+
 TEST(test_time_excludes_cold_build)
 {
-    (void)state;
     not_under_sanitizers();
     char saved[512], args[1024], err[16384];
     snprintf(saved, sizeof saved, "%s", getenv("SPECTRACE_CACHE_DIR") ? getenv("SPECTRACE_CACHE_DIR") : "");
@@ -138,7 +148,6 @@ TEST(test_time_excludes_cold_build)
  * it is sent once the first one's note shows. */
 TEST(test_second_sigint_during_build)
 {
-    (void)state;
     char saved[512], args[1024], err[16384];
     snprintf(saved, sizeof saved, "%s", getenv("SPECTRACE_CACHE_DIR") ? getenv("SPECTRACE_CACHE_DIR") : "");
     const char *out = test_path("int.exr");
@@ -210,7 +219,6 @@ static void write_map(const char *path, int w, int h)
  * the --aov all render). */
 TEST(test_estimate_matches_rss)
 {
-    (void)state;
     not_under_sanitizers();
     write_map(test_path("map_big.exr"), 2048, 1024);
     write_map(test_path("map_small.exr"), 16, 8);
@@ -259,7 +267,6 @@ TEST(test_estimate_matches_rss)
  * under a 2 GiB limit. */
 TEST(test_address_space_limit)
 {
-    (void)state;
     not_under_sanitizers();
     char args[1024], err[16384];
     snprintf(args, sizeof args, "render " SCENE " --width 512 --height 512 --spectral 470 --spp 1 -q "
@@ -278,15 +285,10 @@ TEST(test_address_space_limit)
  * under a limit of 1 MiB. */
 TEST(test_small_amounts_in_mib)
 {
-    (void)state;
     char args[1024], err[16384];
     snprintf(args, sizeof args, "render " SCENE " --width 256 --height 256 --spp 1 -q --device 0 -o %s",
              test_path("small.exr"));
-    setenv("SPECTRACE_MAX_MEMORY_MB", "1", 1);
-    int rc = run_child(args, 0, NULL, err, sizeof err, NULL);
-    unsetenv("SPECTRACE_MAX_MEMORY_MB");
-    if (rc != 4)
-        fail_msg("exit %d, expected 4:\n%s", rc, err);
+    run_memory_limited(args, "1", 4, err, sizeof err);
     one_error_line(err, "MiB of host memory");
     if (!strstr(err, "more than the 1.0 MiB available") || strstr(err, "0.0 GiB"))
         fail_msg("expected the amounts in MiB:\n%s", err);
@@ -298,17 +300,12 @@ TEST(test_small_amounts_in_mib)
  * limit is 20 MiB. */
 TEST(test_env_map_too_big)
 {
-    (void)state;
     const char *map = test_path("map_limit.exr");
     write_map(map, 2048, 1024);
     char args[1024], err[16384];
     snprintf(args, sizeof args, "render " SCENE " --env %s --width 8 --spp 1 -q --device 0 -o %s", map,
              test_path("env.exr"));
-    setenv("SPECTRACE_MAX_MEMORY_MB", "20", 1);
-    int rc = run_child(args, 0, NULL, err, sizeof err, NULL);
-    unsetenv("SPECTRACE_MAX_MEMORY_MB");
-    if (rc != 3)
-        fail_msg("exit %d, expected 3:\n%s", rc, err);
+    run_memory_limited(args, "20", 3, err, sizeof err);
     char want[700];
     snprintf(want, sizeof want, "%s: a 2048x1024 environment map needs about ", map);
     one_error_line(err, want);

@@ -38,7 +38,6 @@ static const char *box_times(double k)
  * of a straight 4 spp render, and the checkpoint run exits 0. */
 TEST(test_bright_checkpoint_resumes)
 {
-    (void)state;
     char args[2048], err[8192];
     const char *box = box_times(1e20);
     snprintf(args, sizeof args, "render %s " ARGS " --spp 4 --aov albedo,N -o %s", box,
@@ -63,7 +62,6 @@ TEST(test_bright_checkpoint_resumes)
  * error line naming the scene and the layer, exit 3, as without --checkpoint. */
 TEST(test_bright_checkpoint_variance_refused)
 {
-    (void)state;
     char args[2048], err[8192];
     const char *box = box_times(1e20);
     snprintf(args, sizeof args, "render %s " ARGS " --spp 2 --aov variance -o %s --checkpoint %s", box,
@@ -95,7 +93,6 @@ static void adaptive_at(double k, const char *out)
  * choice, so not exactly). */
 TEST(test_adaptive_scale_invariant)
 {
-    (void)state;
     static const char *const want[] = {"R", "G", "B", "spp"};
     static const double ks[] = {1e20, 1e-20};
     ExrLayers ref;
@@ -151,7 +148,6 @@ TEST(test_adaptive_scale_invariant)
  * (0.001% of its sum on PoCL, which keeps subnormals). */
 TEST(test_dim_variance_not_silent)
 {
-    (void)state;
     static const char *const want[] = {"variance.R", "variance.G", "variance.B"};
     const double k = 1e-20;
     char args[2048], err[8192];

@@ -61,6 +61,22 @@ static int warned(const char *err)
     return 0;
 }
 
+/* Runs the spectrace command cmd (exit 0 required, stderr into err), then reads
+ * the R, G and B layers of the EXR exr it wrote into l (c: their pixels). */
+static void run_read_rgb(const char *cmd, const char *exr, ExrLayers *l, const float *c[3],
+                         char *err, size_t err_cap)
+{
+    int rc = run(cmd, NULL, 0, err, err_cap);
+    if (rc)
+        fail_msg("`%s`: exit %d: %s", cmd, rc, err);
+    SptError e = {0};
+    static const char *const rgb[3] = {"R", "G", "B"};
+    if (exr_read_layers(exr, rgb, 3, l, &e))
+        fail_msg("%s", e.msg);
+    for (int k = 0; k < 3; k++)
+        c[k] = exr_layers_channel(l, rgb[k])->data;
+}
+
 /* Renders args to an EXR in the test folder (exit 0 required, stderr into err)
  * and returns the mean luminance of its linear sRGB pixels (Y of
  * docs/architecture.md's matrix) and, in *nonfinite, how many pixels are not
@@ -69,17 +85,9 @@ static double render_mean_y(const char *args, int *nonfinite, char *err, size_t 
 {
     char cmd[4096];
     snprintf(cmd, sizeof cmd, "render %s " TINY " -o %s", args, test_path("out.exr"));
-    int rc = run(cmd, NULL, 0, err, err_cap);
-    if (rc)
-        fail_msg("`%s`: exit %d: %s", cmd, rc, err);
     ExrLayers l;
-    SptError e = {0};
-    const char *rgb[3] = {"R", "G", "B"};
-    if (exr_read_layers(test_path("out.exr"), rgb, 3, &l, &e))
-        fail_msg("%s", e.msg);
     const float *c[3];
-    for (int k = 0; k < 3; k++)
-        c[k] = exr_layers_channel(&l, rgb[k])->data;
+    run_read_rgb(cmd, test_path("out.exr"), &l, c, err, err_cap);
     double sum = 0.0;
     int bad = 0, n = l.width * l.height;
     for (int i = 0; i < n; i++) {
@@ -148,7 +156,6 @@ static void furnace_glass(const char *path, const char *roughness, double disper
  * tests/data/mitsuba/mat_furnace_roughglass_means.json has it). */
 TEST(test_dispersion_furnace)
 {
-    (void)state;
     const double disp[] = {0, 1, 20, 150, 200, 300, 1000, 1e5, 1e6};
     const char *rough[] = {"0.0", "0.5"};
     char err[8192], args[1024];
@@ -194,7 +201,6 @@ TEST(test_dispersion_furnace)
  * that light was lost. */
 TEST(test_dispersive_reflection)
 {
-    (void)state;
     BsdfParams p;
     memset(&p, 0, sizeof p);
     p.base = v4_splat(1.0f);
@@ -256,7 +262,6 @@ TEST(test_dispersive_reflection)
  * in double) to 1e5 K. Below that it is refused as having no luminance. */
 TEST(test_dim_blackbody_sky)
 {
-    (void)state;
     const char *temps[] = {"100", "160", "200", "1000", "6500", "1e5"};
     char err[8192], args[1024];
     int failed = 0;
@@ -297,7 +302,6 @@ static void spd_file_refused(const char *name, const char *text, const char *why
 
 TEST(test_spd_csv_refused)
 {
-    (void)state;
     char args[1024];
     furnace_glass(test_path("csv.gltf"), "0.0", 0);
     /* One sample: the README's SPD has at least 2 rows (linear between them). */
@@ -367,7 +371,6 @@ static void band_xyz(int n, int step, double xyz[3])
 
 TEST(test_color_pixel_bands)
 {
-    (void)state;
     const int counts[] = {1, 2, 3, 47};
     char args[1024], out[4096], err[4096];
     for (size_t c = 0; c < sizeof counts / sizeof counts[0]; c++)
@@ -400,21 +403,16 @@ TEST(test_color_pixel_bands)
     for (size_t c = 0; c < sizeof rendered / sizeof rendered[0]; c++) {
         snprintf(args, sizeof args, "render %s --width 8 --spp 256 --max-depth 1 --background %s --spectral %d " TINY
                  " -o %s", test_path("flat.gltf"), flat, rendered[c], test_path("flat.exr"));
-        int rc = run(args, NULL, 0, err, sizeof err);
-        if (rc)
-            fail_msg("`%s`: exit %d: %s", args, rc, err);
         ExrLayers l;
-        SptError e = {0};
-        const char *rgb_names[3] = {"R", "G", "B"};
-        if (exr_read_layers(test_path("flat.exr"), rgb_names, 3, &l, &e))
-            fail_msg("%s", e.msg);
+        const float *px[3];
+        run_read_rgb(args, test_path("flat.exr"), &l, px, err, sizeof err);
         double rgb[3], want[3], got[3];
         for (int k = 0; k < 3; k++)
-            rgb[k] = ((const float *)exr_layers_channel(&l, rgb_names[k])->data)[0];
+            rgb[k] = px[k][0];
         exr_layers_free(&l);
         linear_srgb_to_xyz(rgb, want);
         snprintf(args, sizeof args, "color --pixel 0,0 %s", test_path("flat.exr"));
-        rc = run(args, out, sizeof out, err, sizeof err);
+        int rc = run(args, out, sizeof out, err, sizeof err);
         if (rc || sscanf(out, "XYZ %lf %lf %lf", &got[0], &got[1], &got[2]) != 3)
             fail_msg("`%s`: exit %d: %s%s", args, rc, out, err);
         print_message("  render --spectral %d, pixel 0,0: bands XYZ %.4f %.4f %.4f, its RGB's XYZ %.4f %.4f %.4f\n",

@@ -176,21 +176,27 @@ static double slab_ratio(double inner_deg, double outer_deg, int spp)
     return got / want;
 }
 
+/* How many of the n cones (inner, outer in degrees) give a ratio (64 spp)
+ * more than 2% off 1. */
+static int cones_off(double (*ratio)(double, double, int), const double cones[][2], size_t n)
+{
+    int bad = 0;
+    for (size_t k = 0; k < n; k++) {
+        double r = ratio(cones[k][0], cones[k][1], 64);
+        bad += !(fabs(r - 1.0) < 0.02);
+    }
+    return bad;
+}
+
 /* Energy through the wide slab for cones from 0.05 deg to 60 deg, narrow
  * transitions (inner close to outer), a hard edge (inner = outer), and a
  * point light on the floor's square: within 2% of the analytic flux each
  * (the noise of 64 spp is below 1%). */
 TEST(test_spot_energy_through_glass)
 {
-    (void)state;
     const double cones[][2] = {{0.008, 0.01}, {0.04, 0.05}, {0.4, 0.5}, {1.5, 2.0}, {3.0, 3.0},
                                {10.3, 11.5}, {0.0, 20.0}, {50.0, 60.0}, {0.0, -1.0}};
-    int bad = 0;
-    for (size_t k = 0; k < sizeof cones / sizeof cones[0]; k++) {
-        double r = slab_ratio(cones[k][0], cones[k][1], 64);
-        bad += !(fabs(r - 1.0) < 0.02);
-    }
-    assert_int_equal(bad, 0);
+    assert_int_equal(cones_off(slab_ratio, cones, sizeof cones / sizeof cones[0]), 0);
 }
 
 /* The same cones without the slab: the floor's direct light (camera paths'
@@ -198,14 +204,9 @@ TEST(test_spot_energy_through_glass)
  * flux. */
 TEST(test_spot_energy_direct)
 {
-    (void)state;
     const double cones[][2] = {{0.008, 0.01}, {0.4, 0.5}, {1.5, 2.0}, {3.0, 3.0}, {10.3, 11.5}};
-    int bad = 0;
     slab_glass = 0;
-    for (size_t k = 0; k < sizeof cones / sizeof cones[0]; k++) {
-        double r = slab_ratio(cones[k][0], cones[k][1], 64);
-        bad += !(fabs(r - 1.0) < 0.02);
-    }
+    int bad = cones_off(slab_ratio, cones, sizeof cones / sizeof cones[0]);
     slab_glass = 1;
     assert_int_equal(bad, 0);
 }
@@ -270,14 +271,8 @@ static double small_ratio(double inner_deg, double outer_deg, int spp)
  * from the axis) lies in the spot's falloff: within 2% of the analytic flux. */
 TEST(test_spot_energy_aimed)
 {
-    (void)state;
     const double cones[][2] = {{0.9, 1.2}, {1.0, 1.0}, {1.5, 2.0}};
-    int bad = 0;
-    for (size_t k = 0; k < sizeof cones / sizeof cones[0]; k++) {
-        double r = small_ratio(cones[k][0], cones[k][1], 64);
-        bad += !(fabs(r - 1.0) < 0.02);
-    }
-    assert_int_equal(bad, 0);
+    assert_int_equal(cones_off(small_ratio, cones, sizeof cones / sizeof cones[0]), 0);
 }
 
 /* The falloff itself (light_from_scene's GpuLight, light_spot_falloff) for
@@ -287,7 +282,6 @@ TEST(test_spot_energy_aimed)
  * relative of 1 - cos in double. */
 TEST(test_spot_falloff_narrow)
 {
-    (void)state;
     const double cones[][2] = {{0.008, 0.01}, {0.4, 0.5}, {1.5, 2.0}, {3.0, 3.0}, {20.0, 60.0}};
     for (size_t k = 0; k < sizeof cones / sizeof cones[0]; k++) {
         SceneLight sl;
@@ -485,7 +479,6 @@ static double prism_ratio(double inner_deg, double outer_deg, float dispersion, 
  * analytic flux. */
 TEST(test_spot_energy_prism)
 {
-    (void)state;
     const double cones[][3] = {{1.5, 2.0, 0.0}, {1.5, 2.0, 1.0}, {10.3, 11.5, 0.0}};
     int bad = 0;
     for (size_t k = 0; k < sizeof cones / sizeof cones[0]; k++) {

@@ -65,11 +65,27 @@ static void assert_attr(const char *path, const char *name, const char *want)
         fail_msg("%s: attribute %s = '%s', expected '%s'", path, name, got, want);
 }
 
+/* Writes rgb (w x h) to path with meta and reads its description back, which
+ * must name the file format format_name and the pixel format format (when not
+ * NULL). */
+static ImageIoInfo write_image(const char *path, const float *rgb, int w, int h,
+                               const ImageMeta *meta, const char *format_name, const char *format)
+{
+    SptError e = {0};
+    if (image_write(path, rgb, w, h, meta, NULL, &e))
+        fail_msg("%s", e.msg);
+    ImageIoInfo info;
+    assert_int_equal(image_io_info(path, &info, &e), SPT_EXIT_OK);
+    assert_string_equal(info.format_name, format_name);
+    if (format)
+        assert_string_equal(info.format, format);
+    return info;
+}
+
 /* ------------------------------------------------------------------------- */
 
 TEST_FIXTURE(test_exr_roundtrip_read_by_oiio, setup, teardown)
 {
-    (void)state;
     enum { W = 4, H = 3 };
     float rgb[W * H * 3];
     /* Values that a half-float or lossy path would change. */
@@ -82,14 +98,7 @@ TEST_FIXTURE(test_exr_roundtrip_read_by_oiio, setup, teardown)
     assert_int_equal(image_meta_add(&meta, "integrator", "path"), 0);
     const char *path = test_path("out.exr");
     SptError e = {0};
-    int rc = image_write(path, rgb, W, H, &meta, NULL, &e);
-    if (rc)
-        fail_msg("%s", e.msg);
-
-    ImageIoInfo info;
-    assert_int_equal(image_io_info(path, &info, &e), SPT_EXIT_OK);
-    assert_string_equal(info.format_name, "openexr");
-    assert_string_equal(info.format, "float");
+    ImageIoInfo info = write_image(path, rgb, W, H, &meta, "openexr", "float");
     assert_int_equal(info.width, W);
     assert_int_equal(info.height, H);
     assert_int_equal(info.channels, 3);
@@ -130,18 +139,11 @@ static const int k_code[] = {0, 3, 10, 118, 137, 188, 255, 255, 0, 0, 188, 137};
 
 TEST_FIXTURE(test_png_srgb_codes, setup, teardown)
 {
-    (void)state;
     enum { W = 2, H = 2 }; /* 4 pixels = the 12 values above */
     const char *path = test_path("codes.png");
     SptError e = {0};
     ImageMeta meta = {.spp = 4, .seed = 7};
-    int rc = image_write(path, k_lin, W, H, &meta, NULL, &e);
-    if (rc)
-        fail_msg("%s", e.msg);
-    ImageIoInfo info;
-    assert_int_equal(image_io_info(path, &info, &e), SPT_EXIT_OK);
-    assert_string_equal(info.format_name, "png");
-    assert_string_equal(info.format, "uint8");
+    write_image(path, k_lin, W, H, &meta, "png", "uint8");
     assert_attr(path, "spectrace:spp", "4");
     /* Tagged sRGB: the PNG specification's sRGB chunk (length 1, type "sRGB") is
      * present in the bytes, before the image data. */
@@ -168,7 +170,6 @@ TEST_FIXTURE(test_png_srgb_codes, setup, teardown)
 
 TEST_FIXTURE(test_exposure_doubles_linear, setup, teardown)
 {
-    (void)state;
     DisplayOptions plus1 = {1.0f, SPT_TONEMAP_NONE}, minus1 = {-1.0f, SPT_TONEMAP_NONE};
     uint8_t out[3];
     float quarter[3] = {0.25f, 0.25f, 0.25f}, one[3] = {1, 1, 1}, zero[3] = {0, 0, 0};
@@ -213,7 +214,6 @@ TEST_FIXTURE(test_exposure_doubles_linear, setup, teardown)
  *   (10,1,0.1)       -> (0.993898305, 0.610899015, 0.572599086) */
 TEST_FIXTURE(test_tonemap_neutral_values, setup, teardown)
 {
-    (void)state;
     static const float in[][3] = {{0, 0, 0}, {0.5f, 0.5f, 0.5f}, {0.04f, 0.2f, 0.6f},
                                   {1, 1, 1}, {2, 0.5f, 0.05f},   {10, 1, 0.1f}};
     static const double want[][3] = {{0, 0, 0},
@@ -254,16 +254,11 @@ TEST_FIXTURE(test_tonemap_neutral_values, setup, teardown)
 
 TEST_FIXTURE(test_tiff_float_and_hdr, setup, teardown)
 {
-    (void)state;
     float rgb[2 * 2 * 3] = {0.1f, 0.2f, 0.3f, 1.5f, 2.5f, 3.5f, 100.0f, 0.01f, 0.5f,
                             0.0f, 0.75f, 7.0f};
     SptError e = {0};
     const char *tif = test_path("out.tif");
-    assert_int_equal(image_write(tif, rgb, 2, 2, NULL, NULL, &e), SPT_EXIT_OK);
-    ImageIoInfo info;
-    assert_int_equal(image_io_info(tif, &info, &e), SPT_EXIT_OK);
-    assert_string_equal(info.format_name, "tiff");
-    assert_string_equal(info.format, "float");
+    write_image(tif, rgb, 2, 2, NULL, "tiff", "float");
     float *back = NULL;
     int w, h;
     assert_int_equal(image_read_rgb(tif, &back, &w, &h, &e), SPT_EXIT_OK);
@@ -271,9 +266,7 @@ TEST_FIXTURE(test_tiff_float_and_hdr, setup, teardown)
     free(back);
 
     const char *hdr = test_path("out.HDR"); /* extensions are case-insensitive */
-    assert_int_equal(image_write(hdr, rgb, 2, 2, NULL, NULL, &e), SPT_EXIT_OK);
-    assert_int_equal(image_io_info(hdr, &info, &e), SPT_EXIT_OK);
-    assert_string_equal(info.format_name, "hdr");
+    write_image(hdr, rgb, 2, 2, NULL, "hdr", NULL);
     assert_int_equal(image_read_rgb(hdr, &back, &w, &h, &e), SPT_EXIT_OK);
     /* RGBE: an 8-bit mantissa (>= 128 for the largest channel) and a shared exponent:
      * truncation error below one step, at most max / 128. */
@@ -297,7 +290,6 @@ TEST_FIXTURE(test_tiff_float_and_hdr, setup, teardown)
 
 TEST_FIXTURE(test_output_check_failures, setup, teardown)
 {
-    (void)state;
     SptError e = {0};
     assert_int_equal(image_output_check(test_path("ok.exr"), &e), SPT_EXIT_OK);
     assert_int_equal(image_output_check(test_path("ok.JPG"), &e), SPT_EXIT_OK);
@@ -354,7 +346,6 @@ TEST_FIXTURE(test_output_check_failures, setup, teardown)
 
 TEST_FIXTURE(test_read_only_folder, setup, teardown)
 {
-    (void)state;
     if (geteuid() == 0) {
         print_message("  run as root, which writes into a read-only folder anyway: skipped\n");
         skip();
@@ -367,11 +358,19 @@ TEST_FIXTURE(test_read_only_folder, setup, teardown)
     chmod(test_path("ro"), 0755);
 }
 
+/* Writes the w x h image px to path, which must succeed, and returns the
+ * file's bytes (*n of them): the output a failed write must keep. */
+static char *write_and_slurp(const char *path, const float *px, int w, int h, size_t *n)
+{
+    SptError e = {0};
+    assert_int_equal(image_write(path, px, w, h, NULL, NULL, &e), SPT_EXIT_OK);
+    return test_slurp(path, n);
+}
+
 /* A failed write leaves an existing output byte for byte as it was and no
  * temporary file, for every writer. */
 TEST_FIXTURE(test_failed_write_keeps_existing_output, setup, teardown)
 {
-    (void)state;
     const char *names[] = {"keep.png", "keep.exr", "keep.tif", "keep.hdr", "keep.jpg"};
     float a[4 * 3], b[4 * 3];
     for (int i = 0; i < 12; ++i)
@@ -379,9 +378,8 @@ TEST_FIXTURE(test_failed_write_keeps_existing_output, setup, teardown)
     for (size_t k = 0; k < sizeof names / sizeof names[0]; ++k) {
         const char *path = test_path(names[k]);
         SptError e = {0};
-        assert_int_equal(image_write(path, a, 2, 2, NULL, NULL, &e), SPT_EXIT_OK);
         size_t n0;
-        char *before = test_slurp(path, &n0);
+        char *before = write_and_slurp(path, a, 2, 2, &n0);
 
         atomic_test_fail_commits = 1;
         int rc = image_write(path, b, 2, 2, NULL, NULL, &e);
@@ -418,7 +416,6 @@ TEST_FIXTURE(test_failed_write_keeps_existing_output, setup, teardown)
  * does not compress, so every format needs more than that. */
 TEST_FIXTURE(test_disk_full_keeps_existing_output, setup, teardown)
 {
-    (void)state;
     enum { W = 64, H = 64 };
     static float noise[W * H * 3];
     uint32_t x = 12345;
@@ -434,9 +431,8 @@ TEST_FIXTURE(test_disk_full_keeps_existing_output, setup, teardown)
     for (size_t k = 0; k < sizeof names / sizeof names[0]; ++k) {
         const char *path = test_path(names[k]);
         SptError e = {0};
-        assert_int_equal(image_write(path, small, 1, 1, NULL, NULL, &e), SPT_EXIT_OK);
         size_t n0;
-        char *before = test_slurp(path, &n0);
+        char *before = write_and_slurp(path, small, 1, 1, &n0);
 
         struct rlimit lim = old_limit;
         lim.rlim_cur = 2048;
@@ -485,7 +481,6 @@ static void write_checkpoint(const char *path, int w, int h, float *sums, uint32
 
 TEST_FIXTURE(test_exr_layers_roundtrip, setup, teardown)
 {
-    (void)state;
     enum { W = 5, H = 37 }; /* more rows than one ZIP chunk (16) */
     static float sums[W * H * 3];
     static uint32_t counts[W * H];
@@ -564,7 +559,6 @@ TEST_FIXTURE(test_exr_layers_roundtrip, setup, teardown)
  * bytes (5 of these 80 images hit the equal size with Debian 12's zlib). */
 TEST_FIXTURE(test_exr_noise_roundtrip, setup, teardown)
 {
-    (void)state;
     enum { W = 64, H = 16, IMAGES = 80 };
     static float rgb[W * H * 3];
     static uint32_t counts[W * H];
@@ -623,7 +617,6 @@ TEST_FIXTURE(test_exr_noise_roundtrip, setup, teardown)
 
 TEST_FIXTURE(test_exr_damaged_files_refused, setup, teardown)
 {
-    (void)state;
     enum { W = 16, H = 40 };
     static float sums[W * H * 3];
     static uint32_t counts[W * H];

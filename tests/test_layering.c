@@ -58,7 +58,6 @@ static int check_planted(const char *dir, const char *file, const char *text, ch
 
 TEST(test_tree_passes)
 {
-    (void)state;
     char out[8192];
     int rc = sh("tools/check_includes.sh", out, sizeof out);
     if (rc != 0)
@@ -71,7 +70,6 @@ TEST(test_tree_passes)
  * comes after the other. The check must fail, naming the file and the include. */
 TEST(test_include_against_order_fails)
 {
-    (void)state;
     static const struct {
         const char *file, *include;
     } cases[] = {
@@ -97,7 +95,6 @@ TEST(test_include_against_order_fails)
  * include through ".." is refused whatever its folder. */
 TEST(test_include_order_and_dotdot)
 {
-    (void)state;
     char dir[64], out[8192];
     copy_tree(dir, sizeof dir);
     int ok = check_planted(dir, "src/render/film.c", "#include \"core/util.h\"", out, sizeof out);
@@ -112,7 +109,6 @@ TEST(test_include_order_and_dotdot)
 /* Without the pipeline line in the docs the check cannot run, and says so. */
 TEST(test_missing_order_line)
 {
-    (void)state;
     char dir[64], out[8192], cmd[1024];
     copy_tree(dir, sizeof dir);
     snprintf(cmd, sizeof cmd, "sed -i '/^pipeline: /d' '%s/docs/architecture.md' && tools/check_includes.sh '%s'",

@@ -50,7 +50,6 @@ static double table_at(const float *t, double lambda)
 /* E = I cos(theta) / r^2 on the plane y = 0 under a point light at (0.3, 2, -0.5). */
 TEST(test_point_irradiance_on_plane)
 {
-    (void)state;
     SceneLight sl = make_light(SPT_LIGHT_POINT, 0.3f, 2.0f, -0.5f, 25.0f);
     sl.color[0] = 0.8f;
     sl.color[2] = 0.4f;
@@ -79,7 +78,6 @@ TEST(test_point_irradiance_on_plane)
  * t = clamp((cos a - cos outer) / (cos inner - cos outer), 0, 1), falloff t^2. */
 TEST(test_spot_falloff)
 {
-    (void)state;
     SceneLight sl = make_light(SPT_LIGHT_SPOT, 0.0f, 3.0f, 0.0f, 4.0f);
     sl.inner_cone = 0.3f;
     sl.outer_cone = 0.6f;
@@ -111,7 +109,6 @@ TEST(test_spot_falloff)
  * opposite to where it shines, at the far distance. */
 TEST(test_directional)
 {
-    (void)state;
     SceneLight sl = make_light(SPT_LIGHT_DIRECTIONAL, 0, 0, 0, 3.0f);
     sl.direction[0] = 1.0f; /* not unit: normalised by the conversion */
     sl.direction[1] = -1.0f;
@@ -141,7 +138,6 @@ TEST(test_directional)
  * sum(D65) from the CIE tables; a coloured light keeps its candela. */
 TEST(test_photometric_conversion)
 {
-    (void)state;
     double sy = 0.0, sd = 0.0;
     for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
         sy += SPT_CIE_Y[i] * SPT_D65_NORM[i];
@@ -189,7 +185,6 @@ TEST(test_photometric_conversion)
 /* Bad input is refused with the light's name. */
 TEST(test_bad_lights)
 {
-    (void)state;
     float table[SPT_CIE_SAMPLES];
     GpuLight gl;
     SptError e;
@@ -227,11 +222,9 @@ static double ybar_at(double nm)
  * - D65 at 3 lx: the white RGB light's table (itself D65 to the upsampling fit). */
 TEST(test_spectral_lights)
 {
-    (void)state;
     Scene s;
+    test_load_scene(&s, "tests/data/gltf/spectral_lights.gltf");
     SptError e = {0};
-    if (scene_load_gltf(&s, "tests/data/gltf/spectral_lights.gltf", &e))
-        fail_msg("%s", e.msg);
     assert_int_equal(s.light_count, 3);
     float t[3][SPT_CIE_SAMPLES];
     GpuLight gl;
@@ -379,7 +372,6 @@ static double env_pdf_uv_cb(void *ctx, const double p[3])
  * the direction convention, the density through env_pdf and the Jacobian. */
 TEST(test_env_sample_chi2)
 {
-    (void)state;
     float *rgb = make_map();
     EnvLight env;
     SptError e;
@@ -396,7 +388,6 @@ TEST(test_env_sample_chi2)
 /* The uniform background's sampling against its pdf. */
 TEST(test_uniform_sample_chi2)
 {
-    (void)state;
     EnvLight env;
     const float white[3] = {1, 1, 1};
     env_build_uniform(&env, white, 1.0f);
@@ -455,7 +446,6 @@ static EnvAtCtx env_at_ctx(EnvLight *env, int two_sided)
  * |cos|/(2 pi) on both), and the chi-square grid's integral of the pdf is 1. */
 TEST(test_uniform_sample_at_chi2)
 {
-    (void)state;
     EnvLight env;
     const float white[3] = {1, 1, 1};
     env_build_uniform(&env, white, 1.0f);
@@ -479,7 +469,6 @@ TEST(test_uniform_sample_at_chi2)
  * env_sample. */
 TEST(test_uniform_sample_at_irradiance)
 {
-    (void)state;
     EnvLight env;
     const float white[3] = {1, 1, 1};
     env_build_uniform(&env, white, 1.0f);
@@ -532,7 +521,6 @@ TEST(test_uniform_sample_at_irradiance)
  * grid much finer than the map. */
 TEST(test_env_pdf_normalised)
 {
-    (void)state;
     float *rgb = make_map();
     EnvLight env;
     SptError e;
@@ -591,7 +579,6 @@ static vec3 texel_dir(int x, int y, double rot)
  * the midpoint rule's error over 16 rows, ~0.2%), whatever its colour. */
 TEST(test_env_constant_map_uniform)
 {
-    (void)state;
     float *rgb = malloc(sizeof(float) * 3 * MAP_W * MAP_H);
     for (int i = 0; i < MAP_W * MAP_H; i++) {
         rgb[3 * i] = 0.2f;
@@ -612,7 +599,6 @@ TEST(test_env_constant_map_uniform)
  * upsampling's accuracy; the orientation follows the documented convention. */
 TEST(test_env_eval_colour)
 {
-    (void)state;
     float *rgb = make_map();
     EnvLight env;
     SptError e;
@@ -670,7 +656,6 @@ TEST(test_env_eval_colour)
  * Y = 1 for white (1,1,1), and its sampler estimates the same irradiance. */
 TEST(test_uniform_irradiance)
 {
-    (void)state;
     EnvLight env;
     const float col[3] = {0.2f, 0.7f, 0.4f};
     env_build_uniform(&env, col, 3.0f);
@@ -716,7 +701,6 @@ TEST(test_uniform_irradiance)
  * texels; a missing file and bad texels are refused with the file's name. */
 TEST(test_env_load_file)
 {
-    (void)state;
     float *rgb = make_map();
     char path[64];
     snprintf(path, sizeof path, "/tmp/spt_test_env_%d.exr", (int)getpid());
@@ -755,22 +739,27 @@ TEST(test_env_load_file)
 
 /* ---- Selection ----------------------------------------------------------------- */
 
+/* light_from_scene of the n lights ls into gl, light i's table at
+ * spectra + i * SPT_CIE_SAMPLES. */
+static void gpu_lights(const SceneLight *ls, int n, float *spectra, GpuLight *gl)
+{
+    SptError e;
+    for (int i = 0; i < n; i++)
+        assert_int_equal(light_from_scene(&ls[i], spectra + i * SPT_CIE_SAMPLES,
+                                          (uint32_t)(i * SPT_CIE_SAMPLES), &gl[i], &e), 0);
+}
+
 /* Probabilities proportional to the documented power formulas, computed here. */
 TEST(test_selection)
 {
-    (void)state;
     float spectra[3 * SPT_CIE_SAMPLES];
     GpuLight gl[3];
-    SptError e;
-    SceneLight p = make_light(SPT_LIGHT_POINT, 0, 1, 0, 2.0f);
-    SceneLight s = make_light(SPT_LIGHT_SPOT, 0, 1, 0, 8.0f);
-    s.inner_cone = 0.2f;
-    s.outer_cone = 0.6f;
-    SceneLight d = make_light(SPT_LIGHT_DIRECTIONAL, 0, 0, 0, 5.0f);
-    assert_int_equal(light_from_scene(&p, spectra, 0, &gl[0], &e), 0);
-    assert_int_equal(light_from_scene(&s, spectra + SPT_CIE_SAMPLES, SPT_CIE_SAMPLES, &gl[1], &e), 0);
-    assert_int_equal(
-        light_from_scene(&d, spectra + 2 * SPT_CIE_SAMPLES, 2 * SPT_CIE_SAMPLES, &gl[2], &e), 0);
+    SceneLight sl[3] = {make_light(SPT_LIGHT_POINT, 0, 1, 0, 2.0f),
+                        make_light(SPT_LIGHT_SPOT, 0, 1, 0, 8.0f),
+                        make_light(SPT_LIGHT_DIRECTIONAL, 0, 0, 0, 5.0f)};
+    sl[1].inner_cone = 0.2f;
+    sl[1].outer_cone = 0.6f;
+    gpu_lights(sl, 3, spectra, gl);
     EnvLight env;
     const float white[3] = {1, 1, 1};
     env_build_uniform(&env, white, 0.5f);
@@ -824,17 +813,15 @@ static const char *k_device_src =
 
 TEST(test_device_matches_host)
 {
-    (void)state;
     TestCl cl = test_cl_open();
     float spectra[2 * SPT_CIE_SAMPLES];
     GpuLight gl[2];
     SptError e;
-    SceneLight a = make_light(SPT_LIGHT_SPOT, 0, 2, 0, 10.0f);
-    a.inner_cone = 0.4f;
-    a.outer_cone = 0.9f;
-    SceneLight b = make_light(SPT_LIGHT_DIRECTIONAL, 0, 0, 0, 2.0f);
-    assert_int_equal(light_from_scene(&a, spectra, 0, &gl[0], &e), 0);
-    assert_int_equal(light_from_scene(&b, spectra + SPT_CIE_SAMPLES, SPT_CIE_SAMPLES, &gl[1], &e), 0);
+    SceneLight sl[2] = {make_light(SPT_LIGHT_SPOT, 0, 2, 0, 10.0f),
+                        make_light(SPT_LIGHT_DIRECTIONAL, 0, 0, 0, 2.0f)};
+    sl[0].inner_cone = 0.4f;
+    sl[0].outer_cone = 0.9f;
+    gpu_lights(sl, 2, spectra, gl);
     float *rgb = make_map();
     EnvLight env;
     assert_int_equal(env_build_map(&env, rgb, MAP_W, MAP_H, 0.4f, 1.0f, "map", &e), SPT_EXIT_OK);

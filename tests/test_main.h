@@ -6,12 +6,13 @@
  *     TEST_MAIN_ENV("group", group_setup, group_teardown, "NAME=value", ...)
  *     TEST_MAIN_HOOK("group", group_setup, group_teardown, hook)
  *
- * TEST declares `static void test_name(void **state)` and a constructor that
- * records it with its line; TEST_MAIN's main sorts the tests by line, so they run
- * in the order the file defines them, and hands them to cmocka under the test's
- * own name. TEST_MAIN_ENV first sets the environment variables given (before any
- * OpenCL call: PoCL reads POCL_DEVICES once). The hook, `static int hook(int argc, char **argv)`, runs first: it
- * sets the environment, adds tests made at run time (test_add) or keeps only some
+ * TEST declares `static void test_name(void **state)` (state may go unused) and
+ * a constructor that records it with its line; TEST_MAIN's main sorts the tests
+ * by line, so they run in the order the file defines them, and hands them to
+ * cmocka under the test's own name. TEST_MAIN_ENV first sets the environment
+ * variables given (before any OpenCL call: PoCL reads POCL_DEVICES once). The
+ * hook, `static int hook(int argc, char **argv)`, runs first: it sets the
+ * environment, adds tests made at run time (test_add) or keeps only some
  * (test_keep_only), and returns TEST_GO_ON, or an exit status to stop there.
  * A binary that ends with no test fails: no file passes for want of tests.
  * A file may keep its own main and cmocka's array instead (nothing here runs
@@ -127,12 +128,12 @@ static inline int test_run_all(const char *group, CMFixtureFunction setup,
 }
 
 #define TEST_FIXTURE(name, setup, teardown)                                    \
-    static void name(void **state);                                            \
+    static void name(void **state __attribute__((unused)));                    \
     __attribute__((constructor)) static void name##_register(void)             \
     {                                                                          \
         test_add_at(#name, name, setup, teardown, NULL, __LINE__);             \
     }                                                                          \
-    static void name(void **state)
+    static void name(void **state __attribute__((unused)))
 
 #define TEST(name) TEST_FIXTURE(name, NULL, NULL)
 

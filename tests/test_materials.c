@@ -56,26 +56,22 @@ static void compare_with_mitsuba(const char *name, int spp)
 
 TEST(test_conductor_vs_mitsuba)
 {
-    (void)state;
     compare_with_mitsuba("mat_conductor", 64);
 }
 
 TEST(test_roughconductor_vs_mitsuba)
 {
-    (void)state;
     compare_with_mitsuba("mat_roughconductor", 64);
 }
 
 TEST(test_dielectric_vs_mitsuba)
 {
-    (void)state;
     skip_if_quick();
     compare_with_mitsuba("mat_dielectric", 128);
 }
 
 TEST(test_roughdielectric_vs_mitsuba)
 {
-    (void)state;
     skip_if_quick();
     compare_with_mitsuba("mat_roughdielectric", 128);
 }
@@ -208,7 +204,6 @@ static double ggx_albedo_lookup(double mu, double alpha)
  * the whole image never exceeds 1. */
 TEST(test_furnace_white_metal)
 {
-    (void)state;
     skip_if_quick();
     const float rough[4] = {0.0f, 0.25f, 0.5f, 1.0f};
     for (int k = 0; k < 4; k++) {
@@ -244,7 +239,6 @@ TEST(test_furnace_white_metal)
  * the sky sends; what is lost is printed. */
 TEST(test_furnace_layers)
 {
-    (void)state;
     for (int k = 0; k < 2; k++) {
         SceneMaterial m;
         scene_material_default(&m);
@@ -276,7 +270,6 @@ TEST(test_furnace_layers)
  * sphere never exceeds 1. */
 TEST(test_furnace_glass)
 {
-    (void)state;
     skip_if_quick();
     const float rough[2] = {0.0f, 0.5f};
     const double tol_below[2] = {0.01, 1.0};
@@ -340,7 +333,6 @@ static double point_light_expected_y(int x, int y)
 
 TEST(test_point_light_irradiance)
 {
-    (void)state;
     Film f;
     RenderStats st;
     assert_int_equal(render_file("tests/data/scenes/mat_point_light.gltf", PL_SIZE, PL_SIZE, 256, -1, 31,
@@ -385,7 +377,6 @@ TEST(test_point_light_irradiance)
  * correlated (which loses a little less), so ours may sit slightly above. */
 TEST(test_furnace_roughglass_vs_mitsuba)
 {
-    (void)state;
     skip_if_quick();
     double want[3];
     assert_int_equal(json_triple("tests/data/mitsuba/mat_furnace_roughglass_means.json", "\"max_depth_-1\"",

@@ -87,7 +87,6 @@ static int mpi_unavailable(void)
  * prints and writes. */
 TEST(test_two_ranks_same_image)
 {
-    (void)state;
     if (mpi_unavailable())
         skip();
     reference();
@@ -118,7 +117,6 @@ TEST(test_two_ranks_same_image)
 /* A one-process checkpoint of 32 spp resumed to 64 on two ranks. */
 TEST(test_resume_on_two_ranks)
 {
-    (void)state;
     if (mpi_unavailable())
         skip();
     reference();
@@ -139,7 +137,6 @@ TEST(test_resume_on_two_ranks)
  * one error line naming rank 1, and no image. */
 TEST(test_failing_rank)
 {
-    (void)state;
     if (mpi_unavailable())
         skip();
     /* Rank 1 fails as it starts its first chunk, which RANKS_FIRST guarantees it
@@ -167,7 +164,6 @@ TEST(test_failing_rank)
  * scene_pack/scene_unpack with every array equal (and packs to the same bytes). */
 TEST(test_scene_pack_round_trip)
 {
-    (void)state;
     static const char *files[5] = {"tests/data/gltf/materials.gltf", "tests/data/scenes/furnace_spectral.gltf",
                                    "tests/data/textures/texcoord1.gltf", "tests/data/textures/color0_vec4_ubyte.gltf",
                                    "tests/data/gltf/spectral_lights.gltf"};
@@ -236,7 +232,6 @@ TEST(test_scene_pack_round_trip)
  * resuming in one process gives the one-process image. */
 TEST(test_sigusr2_then_resume)
 {
-    (void)state;
     if (mpi_unavailable())
         skip();
     reference();
@@ -254,22 +249,8 @@ TEST(test_sigusr2_then_resume)
         execl("/bin/sh", "sh", "-c", cmd, (char *)NULL);
         _exit(127);
     }
-    for (int i = 0; i < 3000 && !test_exists(ck); i++)
-        usleep(10000);
-    assert_true(test_exists(ck));
-    kill(pid, SIGUSR2);
-    int st;
-    assert_int_equal(waitpid(pid, &st, 0), pid);
+    stop_after_checkpoint(pid, ck, SIGUSR2, log);
     char out[8192];
-    FILE *f = fopen(log, "r");
-    assert_non_null(f);
-    size_t n = fread(out, 1, sizeof out - 1, f);
-    out[n] = 0;
-    fclose(f);
-    printf("%s", out);
-    assert_true(WIFEXITED(st));
-    assert_int_equal(WEXITSTATUS(st), 0);
-    assert_non_null(strstr(out, "stopped by a signal"));
     assert_true(test_exists(img));
     Film part;
     uint32_t done = load_checkpoint(ck, 5, 64, &part);
@@ -279,13 +260,8 @@ TEST(test_sigusr2_then_resume)
     snprintf(cmd, sizeof cmd, "'%s' render " SCENE " " COMMON " -q --spp 64 -o %s --resume %s", exe,
              test_path("usr2_done.exr"), ck);
     run_ok(cmd, out, sizeof out);
-    Film a, b;
-    assert_int_equal(load_checkpoint(test_path("one_ck.exr"), 5, 64, &a), 64);
-    assert_int_equal(load_checkpoint(ck, 5, 64, &b), 64);
-    assert_same_film(&a, &b);
-    assert_same_exr(test_path("one.exr"), test_path("usr2_done.exr"));
-    film_free(&a);
-    film_free(&b);
+    assert_same_render(test_path("one_ck.exr"), ck, 5, 64, test_path("one.exr"),
+                       test_path("usr2_done.exr"));
 }
 
 TEST_MAIN_ENV("mpi", setup, test_dir_teardown,

@@ -71,17 +71,27 @@ static int render_on(const int *which, int n, RenderTestHooks hooks, Film *film,
     return render_on_aov(which, n, hooks, 0, film, per, e);
 }
 
+/* The image of device 0 alone (one) and of devices 0 and 1 with the test hooks
+ * (two; per: each device's share), with the layers aov; both renders must
+ * succeed. */
+static void render_one_and_two(RenderTestHooks hooks, unsigned aov, Film *one, Film *two,
+                               RenderDeviceStats per[2])
+{
+    SptError e = {0};
+    const int d0[1] = {0}, d01[2] = {0, 1};
+    if (render_on_aov(d0, 1, no_hooks, aov, one, NULL, &e))
+        fail_msg("device 0 alone: %s", e.msg);
+    if (render_on_aov(d01, 2, hooks, aov, two, per, &e))
+        fail_msg("devices 0 and 1: %s", e.msg);
+}
+
 TEST(test_split_invariance)
 {
-    (void)state;
     Film one, two;
-    SptError e = {0};
     RenderDeviceStats per[2];
-    const int d0[1] = {0}, d01[2] = {0, 1};
-    assert_int_equal(render_on(d0, 1, no_hooks, &one, NULL, &e), 0);
     /* In turns, so that both devices render half of the samples however the
      * threads are scheduled. */
-    assert_int_equal(render_on(d01, 2, turns, &two, per, &e), 0);
+    render_one_and_two(turns, 0, &one, &two, per);
     printf("two devices: %u and %u spp\n", per[0].samples, per[1].samples);
     assert_int_equal(per[0].samples, 16);
     assert_int_equal(per[1].samples, 16);
@@ -94,13 +104,9 @@ TEST(test_split_invariance)
  * sharing the samples are those of one (with the ZSobol sampler). */
 TEST(test_split_invariance_aov)
 {
-    (void)state;
     Film one, two;
-    SptError e = {0};
     RenderDeviceStats per[2];
-    const int d0[1] = {0}, d01[2] = {0, 1};
-    assert_int_equal(render_on_aov(d0, 1, no_hooks, SPT_AOV_ALL, &one, NULL, &e), 0);
-    assert_int_equal(render_on_aov(d01, 2, turns, SPT_AOV_ALL, &two, per, &e), 0);
+    render_one_and_two(turns, SPT_AOV_ALL, &one, &two, per);
     assert_int_equal(per[0].samples, 16);
     assert_int_equal(per[1].samples, 16);
     assert_same_film(&one, &two);
@@ -113,7 +119,6 @@ TEST(test_split_invariance_aov)
 /* A device slowed down by the test hook takes fewer chunks. */
 TEST(test_balance)
 {
-    (void)state;
     Film f;
     SptError e = {0};
     RenderDeviceStats per[2];
@@ -131,17 +136,13 @@ TEST(test_balance)
  * and the image equals the one-device image. */
 TEST(test_device_failure)
 {
-    (void)state;
     Film one, f;
     SptError e = {0};
     RenderDeviceStats per[2];
-    const int d0[1] = {0}, d01[2] = {0, 1};
-    assert_int_equal(render_on(d0, 1, no_hooks, &one, NULL, &e), 0);
     /* Device 1 fails as it starts its second chunk; the devices take chunks in
      * turn, so it does come to its second. */
     const RenderTestHooks fail1 = {.fail_device = 1 + 1, .fail_after = 1, .take_turns = 1};
-    int rc = render_on(d01, 2, fail1, &f, per, &e);
-    assert_int_equal(rc, 0);
+    render_one_and_two(fail1, 0, &one, &f, per);
     assert_true(per[1].failed);
     assert_false(per[0].failed);
     assert_same_film(&one, &f);
@@ -150,8 +151,7 @@ TEST(test_device_failure)
     /* Both failing: the render fails. */
     const RenderTestHooks fail0 = {.fail_device = 0 + 1, .fail_after = 0};
     const int d0only[1] = {0};
-    rc = render_on(d0only, 1, fail0, &f, per, &e);
-    assert_int_equal(rc, SPT_EXIT_DEVICE);
+    assert_int_equal(render_on(d0only, 1, fail0, &f, per, &e), SPT_EXIT_DEVICE);
     film_free(&f);
 }
 
@@ -167,7 +167,6 @@ TEST(test_device_failure)
  * visible. */
 TEST(test_split_across_implementations)
 {
-    (void)state;
     int other = -1;
     for (int i = 0; i < devices.count && other < 0; i++)
         if (strcmp(devices.devices[i].platform_name, devices.devices[0].platform_name) != 0)

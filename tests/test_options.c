@@ -106,7 +106,6 @@ static void key_of(const char *option, const char *value, CheckpointKey *k)
 
 TEST(test_image_options_are_in_the_key)
 {
-    (void)state;
     CheckpointKey base, k;
     key_of(NULL, NULL, &base);
     int image = 0, other = 0;
@@ -142,7 +141,6 @@ TEST(test_image_options_are_in_the_key)
 /* Each example lands in the field of its row, by the row's kind. */
 TEST(test_values_reach_their_fields)
 {
-    (void)state;
     char *argv[] = {"render", "--spp", "64", "--width", "100", "--seed", "4294967295",
                     "--env-rotation", "-30", "--max-depth", "-1", "--tonemap", "neutral",
                     "--sampler", "Independent", "-o", "a.png", "-o", "b.exr", "--profile", "-q", SCENE};
@@ -177,7 +175,6 @@ TEST(test_values_reach_their_fields)
 /* Values outside a row's range are refused with a usage error. */
 TEST(test_bad_values)
 {
-    (void)state;
     static const char *bad[][2] = {
         {"--spp", "0"},          {"--spp", "16777217"},  {"--width", "x"},
         {"--max-depth", "0"},    {"--max-depth", "-2"},  {"--seed", "-1"},
@@ -203,7 +200,6 @@ TEST(test_bad_values)
  * and missing values give one error line, not getopt's line and the usage. */
 TEST(test_parse_after_failed_group)
 {
-    (void)state;
     char *group = strdup("-zq");
     char *argv1[] = {"render", group, SCENE};
     RenderArgs a;
@@ -242,7 +238,6 @@ static double simulate_deadline(double T, double start, double r, double swing, 
 
 TEST(test_deadline_chunks)
 {
-    (void)state;
     /* The cases of the rule. */
     assert_int_equal(render_deadline_chunk(0, 10.0, 0.1), 0);   /* nothing wanted */
     assert_int_equal(render_deadline_chunk(16, 0.0, 0.1), 0);   /* time is up */

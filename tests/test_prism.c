@@ -85,7 +85,6 @@ static double prism_landing(double l, double *transmit)
 
 TEST(test_prism_dispersion)
 {
-    (void)state;
     skip_if_quick();
     /* The predicted centroids. */
     double want[3], wsum[3] = {0}, wx[3] = {0};
@@ -184,7 +183,6 @@ static void cmf_at(double nm, double cmf[3])
 
 TEST(test_prism_mercury_lines)
 {
-    (void)state;
     skip_if_quick();
     static const double hg_nm[6] = {404.656, 407.783, 435.833, 546.074, 576.960, 579.066};
     static const double hg_rel[6] = {1800, 150, 4000, 1100, 240, 280};

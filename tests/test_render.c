@@ -23,7 +23,6 @@
  * is sum_{k<D} a^k (Le / (1 - a) = 5 unlimited). */
 TEST(test_white_furnace)
 {
-    (void)state;
     const double a = 0.8;
     const int depths[] = {1, 2, 3, 8, -1};
     /* Quick runs: the bounded depths up to 3 (unlimited depth is the slow case). */
@@ -48,7 +47,6 @@ TEST(test_white_furnace)
  * sRGB of equal-energy white E computed from the CIE tables, times 1 / (1 - a). */
 TEST(test_white_furnace_spectral)
 {
-    (void)state;
     skip_if_quick();
     /* XYZ of the flat spectrum (sum cmf / sum ybar) -> linear sRGB, independently
      * of the renderer: from the CIE 1 nm table sums (colour-science) and the sRGB
@@ -81,7 +79,6 @@ static double view_factor_corner(double a, double b, double h)
  * L = rho E / pi = rho L0 F, F the view factor, averaged over the framed region. */
 TEST(test_plane_irradiance)
 {
-    (void)state;
     const double rho = 0.5, L0 = 2.0, s = 5.0, h = 1.0, w = 0.5 * tan(5.0 * M_PI / 180.0);
     double fsum = 0;
     const int n = 64;
@@ -119,7 +116,6 @@ TEST(test_plane_irradiance)
  * check-kernels). */
 TEST(test_gpu_path_on_cpu_device)
 {
-    (void)state;
     skip_if_quick();
     Film a, b, c;
     RenderStats st;
@@ -145,7 +141,6 @@ TEST(test_gpu_path_on_cpu_device)
  * does not. Rendering three times also exercises release of every object. */
 TEST(test_determinism)
 {
-    (void)state;
     Film a, b, c;
     RenderStats st;
     const char *p = "scenes/cornell_box.gltf";
@@ -164,7 +159,6 @@ TEST(test_determinism)
  * dropped and counted, and every pixel stays finite. */
 TEST(test_nan_guard)
 {
-    (void)state;
     Film f;
     RenderStats st;
     g_hooks.inject_nan = 1;
@@ -185,7 +179,6 @@ TEST(test_nan_guard)
  * or shifted image) within 10% where they are not tiny. */
 TEST(test_cornell_box_vs_mitsuba)
 {
-    (void)state;
     skip_if_quick();
     const char *ref = "tests/data/mitsuba/cornell_box_means.json";
     double want[3];
@@ -244,7 +237,6 @@ TEST(test_cornell_box_vs_mitsuba)
  * unlit white as a disc covering pi / 16 of the image. */
 TEST(test_orthographic)
 {
-    (void)state;
     Scene s;
     sphere_scene(&s, 1.0f);
     s.materials[0].unlit = 1;

@@ -23,7 +23,6 @@
  * itself shows 1; --background black keeps it dark. */
 TEST(test_default_sky)
 {
-    (void)state;
     Scene s;
     SptError e = {0};
     sphere_scene(&s, 0.5f);
@@ -159,7 +158,6 @@ static int grey_box_noise_blocks(spt_u32 sampler, int w, int spp, double mean[3]
  * whose blue weights vary most). */
 TEST(test_sampler_noise)
 {
-    (void)state;
     double m_sob[3], e_sob[3], m_ind[3], e_ind[3];
     assert_int_equal(grey_box_noise(SPT_SAMPLER_SOBOL, 64, 64, m_sob, e_sob), 0);
     assert_int_equal(grey_box_noise(SPT_SAMPLER_INDEPENDENT, 64, 64, m_ind, e_ind), 0);
@@ -181,7 +179,6 @@ TEST(test_sampler_noise)
  * pixel's; measured 0.30, 0.29 and 0.44 in red, green and blue). */
 TEST(test_zsobol_blue_noise)
 {
-    (void)state;
     double m_z[3], e_z[3], b_z[3], m_s[3], e_s[3], b_s[3], m_i[3], e_i[3];
     /* The independent sampler's figure is printed for comparison: at 4
      * samples neither Sobol form beats it per pixel on this scene. */
@@ -209,10 +206,7 @@ TEST(test_zsobol_blue_noise)
 static void render_punctual(int with_directional, float *rgb, int w)
 {
     Scene s;
-    memset(&s, 0, sizeof s);
-    SceneMaterial *m = append_quad(&s, 0.0f);
-    for (int k = 0; k < 3; k++)
-        m->base_color[k] = 0.5f;
+    grey_quad_scene(&s);
     camera_down(&s, 0.0f, 3.0f, 1.0f, 1.0f);
     s.light_count = with_directional ? 2 : 1;
     s.lights = calloc(2, sizeof(SceneLight));
@@ -237,7 +231,6 @@ static void render_punctual(int with_directional, float *rgb, int w)
 
 TEST(test_punctual_lights)
 {
-    (void)state;
     enum { W = 48 };
     float *rgb = malloc(W * W * 3 * sizeof(float));
     const double to_film = 1.0; /* film Y = luminance in cd/m^2 (kernels/light/lights.h) */
@@ -289,7 +282,6 @@ TEST(test_punctual_lights)
  * `spectrace color` prints), per channel. */
 TEST(test_named_light_spectra)
 {
-    (void)state;
     const double rho_f = 0.5 * 0.96833700;
     const char *names[2] = {"A", "mercury"};
     const int spp[2] = {64, 512};
@@ -351,7 +343,6 @@ static void env_dir(double u, double v, double d[3])
  * sampling, its pdf and its MIS with BSDF sampling in the renderer. */
 TEST(test_env_map)
 {
-    (void)state;
     enum { MW = 32, MH = 16, W = 32 };
     static float map[MW * MH * 3];
     const double sun[3] = {0.6 / 1.0, 0.5, 0.6};
@@ -473,7 +464,6 @@ TEST(test_env_map)
 /* --env names a missing file: one error naming it, an input error. */
 TEST(test_env_missing)
 {
-    (void)state;
     SptError e = {0};
     Sky sky;
     assert_int_equal(sky_from_args(&sky, "/nonexistent/sky.exr", NULL, &e), SPT_EXIT_INPUT);

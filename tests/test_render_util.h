@@ -366,6 +366,17 @@ static inline SceneMaterial *append_quad(Scene *s, float height)
     return append_rect(s, c);
 }
 
+/* A new scene s of the grey (0.5) quad y = 0 (append_quad) alone; returns its
+ * material. */
+static inline SceneMaterial *grey_quad_scene(Scene *s)
+{
+    memset(s, 0, sizeof *s);
+    SceneMaterial *m = append_quad(s, 0.0f);
+    for (int k = 0; k < 3; k++)
+        m->base_color[k] = 0.5f;
+    return m;
+}
+
 /* Appends the box [lo, hi] (12 triangles, counter-clockwise seen from outside)
  * with a new material to s; returns the material. */
 static inline SceneMaterial *append_box(Scene *s, const float lo[3], const float hi[3])

@@ -23,7 +23,6 @@
  * illuminant, so it comes back as the same linear sRGB), lit or not. */
 TEST(test_unlit)
 {
-    (void)state;
     Scene s;
     sphere_scene(&s, 0.0f);
     const float want[3] = {0.2f, 0.5f, 0.8f};
@@ -59,10 +58,7 @@ static double render_normal_mapped(int toward_bitangent, double light_sign)
     enum { W = 8 };
     const double a = M_PI / 6.0;
     Scene s;
-    memset(&s, 0, sizeof s);
-    SceneMaterial *m = append_quad(&s, 0.0f);
-    for (int k = 0; k < 3; k++)
-        m->base_color[k] = 0.5f;
+    SceneMaterial *m = grey_quad_scene(&s);
     for (uint32_t v = 0; v < s.vertex_count; v++) {
         uint32_t t = v / 3, c = v % 3;
         const float *p = s.tri_pos + 9 * t + 3 * c;
@@ -109,7 +105,6 @@ static double render_normal_mapped(int toward_bitangent, double light_sign)
 
 TEST(test_normal_map)
 {
-    (void)state;
     const double full = 0.5 / M_PI * 1000.0; /* film Y in cd/m^2 */
     for (int b = 0; b < 2; b++) {
         double toward = render_normal_mapped(b, 1.0), away = render_normal_mapped(b, -1.0);
@@ -126,7 +121,6 @@ TEST(test_normal_map)
  * L = 0.5^(2 / cos theta) (Beer-Lambert). */
 TEST(test_volume_absorption)
 {
-    (void)state;
     enum { W = 16 };
     Scene s;
     memset(&s, 0, sizeof s);
@@ -168,7 +162,6 @@ TEST(test_volume_absorption)
  * unbiased, so the sphere's pixels average 1 in every channel. */
 TEST(test_dispersion_furnace)
 {
-    (void)state;
     enum { W = 24 };
     Scene s;
     SptError e = {0};
@@ -207,7 +200,6 @@ TEST(test_dispersion_furnace)
  * rays both); alphaMode MASK below its cutoff transmits all of it. */
 TEST(test_alpha_blend_and_mask)
 {
-    (void)state;
     const double open = 0.96833700; /* tests/data/scenes/README.md: rho L0 mean(F) */
     for (int mode = 0; mode < 2; mode++) {
         Scene s;
@@ -293,7 +285,6 @@ static void render_point_light(const char *spd, double rgb_xyz[3], double *ratio
 
 TEST(test_spectral_point_light)
 {
-    (void)state;
     static const char *spds[4] = {NULL, "D65", "A", "mercury"};
     /* Mercury's chromaticity from the NIST lines (tests/test_lights.c). */
     static const double hg_nm[6] = {404.656, 407.783, 435.833, 546.074, 576.960, 579.066};

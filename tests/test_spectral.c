@@ -31,11 +31,8 @@ static void render_bands(const Scene *s, const RenderSettings *rs, Film *film)
  * functions' slope within a band against the pixel's few samples.) */
 TEST(test_bands_reproduce_xyz)
 {
-    (void)state;
     Scene s;
-    SptError e = {0};
-    if (scene_load_gltf(&s, "scenes/cornell_box.gltf", &e))
-        fail_msg("%s", e.msg);
+    test_load_scene(&s, "scenes/cornell_box.gltf");
     enum { W = 32, B = 47 };
     RenderSettings rs = square_settings(W, 64, -1, 21);
     rs.spectral = B;
@@ -92,15 +89,11 @@ TEST(test_bands_reproduce_xyz)
  * reach hold exactly nothing. */
 TEST(test_mercury_lines)
 {
-    (void)state;
     /* 262,144 paths: minutes at rusticl's launch cost; PoCL and Intel's
      * runtime run it, and the binning it checks is the same code there. */
     skip_if_quick();
     Scene s;
-    memset(&s, 0, sizeof s);
-    SceneMaterial *m = append_quad(&s, 0.0f);
-    for (int k = 0; k < 3; k++)
-        m->base_color[k] = 0.5f;
+    grey_quad_scene(&s);
     camera_down(&s, 0.0f, 2.0f, 0.6f, 1.0f);
     scene_update_bounds(&s);
     Sky sky;
@@ -163,7 +156,6 @@ TEST(test_mercury_lines)
  * emissiveUnits; 4 bands of 117.5 nm are named by their centres. */
 TEST(test_exr_layout)
 {
-    (void)state;
     char path[64], cmd[1024], err[4096];
     snprintf(path, sizeof path, "/tmp/spt-spectral-%d.exr", (int)getpid());
     snprintf(cmd, sizeof cmd,
@@ -194,7 +186,6 @@ TEST(test_exr_layout)
  * outside the image is a usage error. */
 TEST(test_color_pixel)
 {
-    (void)state;
     skip_if_quick(); /* the colour tool is host code; PoCL runs it */
     char path[64], cmd[1024], out[1024];
     snprintf(path, sizeof path, "/tmp/spt-spectral-px-%d.exr", (int)getpid());

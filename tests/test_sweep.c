@@ -429,13 +429,11 @@ static void run_sweep(int scene)
 
 TEST(test_sweep_sky)
 {
-    (void)state;
     run_sweep(SKY);
 }
 
 TEST(test_sweep_box)
 {
-    (void)state;
     run_sweep(BOX);
 }
 
@@ -462,7 +460,6 @@ static char *slurp(const char *path, size_t *n)
  * existing output untouched, no new output and no checkpoint. */
 TEST(test_nonfinite_film_refused)
 {
-    (void)state;
     char old[400], png[400], ck[400], cmd[2400];
     snprintf(old, sizeof old, "%s/old.exr", g_dir);
     snprintf(png, sizeof png, "%s/new.png", g_dir);
@@ -501,7 +498,6 @@ TEST(test_nonfinite_film_refused)
  * whose film went wrong), and leaves the file there as it was. */
 TEST(test_nonfinite_checkpoint_refused)
 {
-    (void)state;
     char ck[400];
     snprintf(ck, sizeof ck, "%s/ck2.exr", g_dir);
     Film film;

@@ -7,7 +7,6 @@
 
 TEST(test_fail_fills_record)
 {
-    (void)state;
     SptError e = {0};
     int rc = spt_fail(&e, SPT_EXIT_INPUT, "%s: meshes[%d]: %s", "a.gltf", 2, "bad");
     assert_int_equal(rc, SPT_EXIT_INPUT);
@@ -17,7 +16,6 @@ TEST(test_fail_fills_record)
 
 TEST(test_fail_truncates_long_messages)
 {
-    (void)state;
     SptError e = {0};
     char big[4000];
     memset(big, 'x', sizeof big - 1);

@@ -23,6 +23,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "scene/scene.h"
+
 /* Fails with both values printed when |got - want| > tol. */
 #define assert_close(got, want, tol)                                                    \
     do {                                                                                \
@@ -380,6 +382,15 @@ static inline float test_uniform(uint64_t i)
     z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
     z ^= z >> 31;
     return (float)(z >> 40) * (1.0f / 16777216.0f);
+}
+
+/* Loads the scene file at path into s; fails the test with the loader's message
+ * when it cannot. */
+static inline void test_load_scene(Scene *s, const char *path)
+{
+    SptError e = {0};
+    if (scene_load_gltf(s, path, &e))
+        fail_msg("load %s: %s", path, e.msg);
 }
 
 /* The source tree's root, for test data: tests run from it (tests/run_tests.sh). */
