@@ -8,16 +8,9 @@
 
 #include "accel/bvh_build.h"
 
-/* splitmix64: a small deterministic generator for the test data. */
+/* The test data's random numbers (bvh_gen_uniform), reseeded by each test. */
 static uint64_t rng_state = 1;
-static double rnd(void)
-{
-    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    z ^= z >> 31;
-    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
-}
+static double rnd(void) { return bvh_gen_uniform(&rng_state); }
 static double rnd_range(double a, double b) { return a + (b - a) * rnd(); }
 
 static void rnd_dir(double d[3])
@@ -301,7 +294,6 @@ static float *make_soup(uint32_t n, double size)
 
 TEST(test_soup_matches_brute_force)
 {
-    (void)state;
     rng_state = 11;
     uint32_t n = 1000;
     float *t = make_soup(n, 0.15);
@@ -319,7 +311,6 @@ TEST(test_soup_matches_brute_force)
 
 TEST(test_sphere_matches_brute_force)
 {
-    (void)state;
     rng_state = 12;
     uint32_t n;
     const float c[3] = {0.3f, -0.2f, 0.1f};
@@ -368,7 +359,6 @@ static void traversal_ray(vec3 *org, vec3 *dir)
  * outside, random tmax. */
 TEST(test_short_stack_matches_full)
 {
-    (void)state;
     rng_state = 19;
     const int caps[4] = {1, 2, 3, BVH_SHORT_STACK_SIZE};
     for (int scene = 0; scene < 2; scene++) {
@@ -421,7 +411,6 @@ TEST(test_short_stack_matches_full)
  * outside. */
 TEST(test_pairs_match_single)
 {
-    (void)state;
     rng_state = 23;
     for (int scene = 0; scene < 2; scene++) {
         Bvh bvh;
@@ -456,7 +445,6 @@ TEST(test_pairs_match_single)
  * higher than the binned one's by more than rounding (it searches a superset). */
 TEST(test_full_sweep_builder)
 {
-    (void)state;
     rng_state = 13;
     uint32_t n = 2000;
     float *t = make_soup(n, 0.1);
@@ -475,7 +463,6 @@ TEST(test_full_sweep_builder)
 
 TEST(test_million_triangles)
 {
-    (void)state;
     rng_state = 14;
     uint32_t n;
     const float c[3] = {0, 0, 0};
@@ -494,7 +481,6 @@ TEST(test_million_triangles)
 /* Rays from inside a closed mesh must all hit, also far from the origin. */
 TEST(test_watertight)
 {
-    (void)state;
     rng_state = 15;
     const double offsets[3] = {0.0, 1e4, 1e5};
     const float radius[3] = {1.0f, 4.0f, 4.0f};
@@ -532,7 +518,6 @@ TEST(test_watertight)
 /* Bad triangles are dropped and counted; the rest is indexed and traced. */
 TEST(test_garbage_dropped)
 {
-    (void)state;
     rng_state = 16;
     uint32_t good = 500, n = good + 8;
     float *t = make_soup(n, 0.2);
@@ -572,7 +557,6 @@ TEST(test_garbage_dropped)
 /* 100,000 identical triangles: no SAH split exists; the tree stays shallow. */
 TEST(test_identical_triangles)
 {
-    (void)state;
     uint32_t n = 100000;
     float *t = malloc((size_t)n * 9 * sizeof *t);
     const float tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
@@ -602,7 +586,6 @@ TEST(test_identical_triangles)
  * (2^32 triangles). */
 TEST(test_default_leaves)
 {
-    (void)state;
     BvhOptions small = bvh_default_options(), huge = bvh_default_options_for(0xffffffffu);
     assert_true(small.max_leaf == 8 || small.max_leaf == 16);
     assert_true(small.cost_node == (float)small.max_leaf);
@@ -613,7 +596,6 @@ TEST(test_default_leaves)
 /* No triangles, or only bad ones: a tree every ray misses. */
 TEST(test_empty_scene)
 {
-    (void)state;
     rng_state = 17;
     float bad[9] = {NAN, 0, 0, 1, 0, 0, 0, 1, 0};
     for (int k = 0; k < 2; k++) {
@@ -712,7 +694,6 @@ static int device_differences(const TestCl *cl, const char *options, const Bvh *
 
 TEST(test_device_matches_host)
 {
-    (void)state;
     TestCl cl = test_cl_open();
     rng_state = 18;
     uint32_t n;

@@ -13,14 +13,7 @@
 #include "accel/bvh_build.h"
 
 static uint64_t rng_state = 7;
-static double rnd(void)
-{
-    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    z ^= z >> 31;
-    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
-}
+static double rnd(void) { return bvh_gen_uniform(&rng_state); }
 
 static int cmp_double(const void *a, const void *b)
 {

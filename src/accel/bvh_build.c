@@ -580,3 +580,12 @@ float *bvh_gen_sphere(uint32_t stacks, uint32_t slices, float radius, const floa
     *tri_count = nt;
     return t;
 }
+
+double bvh_gen_uniform(uint64_t *state)
+{
+    uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+}

@@ -96,4 +96,9 @@ static inline void bvh_vertices(const Bvh *bvh, uint32_t i, vec3 *v0, vec3 *v1, 
 float *bvh_gen_sphere(uint32_t stacks, uint32_t slices, float radius, const float center[3],
                       float amplitude, uint32_t *tri_count);
 
+/* The next number of the SplitMix64 stream (Steele, Lea and Flood 2014) at
+ * *state, as a double in [0, 1) (its top 53 bits): reproducible random test
+ * geometry and rays for the BVH's tests and benchmark. */
+double bvh_gen_uniform(uint64_t *state);
+
 #endif

@@ -71,17 +71,6 @@ static double channel_nm(const char *name)
     return *end || !(v > 0) ? 0 : v;
 }
 
-typedef struct Band {
-    double nm, value;
-} Band;
-
-/* qsort order of bands by wavelength. */
-static int cmp_band(const void *a, const void *b)
-{
-    double x = ((const Band *)a)->nm, y = ((const Band *)b)->nm;
-    return x < y ? -1 : x > y;
-}
-
 /* The XYZ of pixel (x, y) of the spectral EXR at path, as the film's units
  * (docs/outputs.md, "Spectral images"): each channel is its band's mean
  * spectral radiance, so the spectrum is constant over each band, and XYZ is the
@@ -96,7 +85,7 @@ static int pixel_xyz(const char *path, long x, long y, double xyz[3], SptError *
     int rc = exr_read_layers(path, NULL, 0, &L, e);
     if (rc)
         return rc;
-    Band *band = spt_malloc(sizeof(Band) * (size_t)(L.channel_count + 1));
+    SpdSample *band = spt_malloc(sizeof(SpdSample) * (size_t)(L.channel_count + 1));
     int n = 0;
     if (x < 0 || y < 0 || x >= L.width || y >= L.height) {
         rc = spt_fail(e, SPT_EXIT_USAGE, "color: --pixel %ld,%ld is outside %s (%dx%d)", x, y, path,
@@ -122,7 +111,7 @@ static int pixel_xyz(const char *path, long x, long y, double xyz[3], SptError *
                       "EXR (spectrace render --spectral N writes one)", path);
         goto done;
     }
-    qsort(band, (size_t)n, sizeof *band, cmp_band);
+    spd_sort_samples(band, (size_t)n);
     for (int b = 1; b < n; b++)
         if (band[b].nm == band[b - 1].nm) {
             rc = spt_fail(e, SPT_EXIT_INPUT, "%s: two spectral channels at %g nm", path, band[b].nm);

@@ -51,23 +51,21 @@ int spd_copy(Spd *dst, const Spd *src)
     return 0;
 }
 
-typedef struct Pair {
-    double nm, v;
-} Pair;
-
-/* qsort order of (nm, value) pairs by wavelength. */
-static int cmp_pair(const void *a, const void *b)
+/* qsort order of samples by wavelength. */
+static int cmp_sample(const void *a, const void *b)
 {
-    double x = ((const Pair *)a)->nm, y = ((const Pair *)b)->nm;
+    double x = ((const SpdSample *)a)->nm, y = ((const SpdSample *)b)->nm;
     return x < y ? -1 : x > y;
 }
+
+void spd_sort_samples(SpdSample *s, size_t n) { qsort(s, n, sizeof *s, cmp_sample); }
 
 int spd_from_samples(Spd *out, const double *nm, const double *value, int n, SptError *e)
 {
     memset(out, 0, sizeof *out);
     if (n < 1)
         return spt_fail(e, SPT_EXIT_INPUT, "an SPD needs at least one sample");
-    Pair *p = spt_malloc((size_t)n * sizeof(Pair));
+    SpdSample *p = spt_malloc((size_t)n * sizeof(SpdSample));
     for (int i = 0; i < n; i++) {
         if (!isfinite(nm[i]) || !isfinite(value[i]) || nm[i] <= 0) {
             free(p);
@@ -82,9 +80,9 @@ int spd_from_samples(Spd *out, const double *nm, const double *value, int n, Spt
                                                    : "above 1e30 (the renderer computes in float)");
         }
         p[i].nm = nm[i];
-        p[i].v = value[i];
+        p[i].value = value[i];
     }
-    qsort(p, (size_t)n, sizeof *p, cmp_pair);
+    spd_sort_samples(p, (size_t)n);
     for (int i = 1; i < n; i++)
         if (p[i].nm == p[i - 1].nm) {
             double w = p[i].nm;
@@ -96,7 +94,7 @@ int spd_from_samples(Spd *out, const double *nm, const double *value, int n, Spt
     out->value = spt_malloc((size_t)n * sizeof(double));
     for (int i = 0; i < n; i++) {
         out->nm[i] = p[i].nm;
-        out->value[i] = p[i].v;
+        out->value[i] = p[i].value;
     }
     free(p);
     return 0;

@@ -4,8 +4,18 @@
 #ifndef SPT_SPECTRUM_H
 #define SPT_SPECTRUM_H
 
+#include <stddef.h>
+
 #include "core/util.h"
 #include "io/srgb.h"
+
+/* One (wavelength, value) sample of a tabulated spectrum. */
+typedef struct SpdSample {
+    double nm, value;
+} SpdSample;
+
+/* Sorts n samples by wavelength. */
+void spd_sort_samples(SpdSample *s, size_t n);
 
 /* A spectral power distribution: a piecewise-linear function of wavelength (nm),
  * zero outside [nm[0], nm[count-1]], plus optional spectral lines (delta

@@ -82,6 +82,23 @@ char *spt_strdup(const char *s) { return check(strdup(s), strlen(s) + 1); }
  * of address space left after loading and worked with 580 MiB. */
 #define SPT_AS_RESERVE (512.0 * 1048576.0)
 
+/* The value of the line "field: value kB" of the /proc file path, in kB; 0
+ * when there is none. */
+static double proc_kb(const char *path, const char *field)
+{
+    FILE *f = fopen(path, "r");
+    double kb = 0, v;
+    char line[256], name[64];
+    while (f && fgets(line, sizeof line, f))
+        if (sscanf(line, "%63[^:]: %lf", name, &v) == 2 && !strcmp(name, field)) {
+            kb = v;
+            break;
+        }
+    if (f)
+        fclose(f);
+    return kb;
+}
+
 /* The address space a limit (RLIMIT_AS: ulimit -v) leaves the process: the
  * limit less what is mapped now (VmSize of /proc/self/status) and less
  * SPT_AS_RESERVE for the OpenCL implementation (docs/limits.md); -1 without a
@@ -91,14 +108,7 @@ static double address_space_left(void)
     struct rlimit rl;
     if (getrlimit(RLIMIT_AS, &rl) != 0 || rl.rlim_cur == RLIM_INFINITY)
         return -1.0;
-    FILE *f = fopen("/proc/self/status", "r");
-    double kb = 0;
-    char line[256];
-    while (f && fgets(line, sizeof line, f))
-        if (sscanf(line, "VmSize: %lf kB", &kb) == 1)
-            break;
-    if (f)
-        fclose(f);
+    double kb = proc_kb("/proc/self/status", "VmSize");
     double left = (double)rl.rlim_cur - kb * 1024.0 - SPT_AS_RESERVE;
     return left > 0.0 ? left : 0.0;
 }
@@ -114,15 +124,7 @@ static double memory_available(void)
             return mb * 1048576.0;
         spt_warn("SPECTRACE_MAX_MEMORY_MB '%s' is not a positive number of MiB; ignored", s);
     }
-    FILE *f = fopen("/proc/meminfo", "r");
-    double kb = 0;
-    char line[256];
-    while (f && fgets(line, sizeof line, f))
-        if (sscanf(line, "MemAvailable: %lf kB", &kb) == 1)
-            break;
-    if (f)
-        fclose(f);
-    return kb * 1024.0;
+    return proc_kb("/proc/meminfo", "MemAvailable") * 1024.0;
 }
 
 static int limit_is_address_space;

@@ -104,6 +104,19 @@ static int device_error(Denoiser *d, OIDNDevice dev, const char *stage, SptError
                     "output written", d->path, stage, msg ? msg : "no message");
 }
 
+/* Commits the filter f, runs it and releases it; stage names it in errors. */
+static int execute_filter(Denoiser *d, OIDNDevice dev, OIDNFilter f, const char *stage, SptError *e)
+{
+    d->oidnCommitFilter(f);
+    int rc = device_error(d, dev, stage, e);
+    if (!rc) {
+        d->oidnExecuteFilter(f);
+        rc = device_error(d, dev, stage, e);
+    }
+    d->oidnReleaseFilter(f);
+    return rc;
+}
+
 /* One RT filter: color (and the guides when given) into out. */
 static int run_filter(Denoiser *d, OIDNDevice dev, float *color, float *albedo, float *normal, int width,
                       int height, int hdr, int clean_aux, float *out, const char *stage, SptError *e)
@@ -122,14 +135,7 @@ static int run_filter(Denoiser *d, OIDNDevice dev, float *color, float *albedo, 
     d->oidnSetFilterBool(f, "hdr", hdr != 0);
     if (albedo)
         d->oidnSetFilterBool(f, "cleanAux", clean_aux != 0);
-    d->oidnCommitFilter(f);
-    int rc = device_error(d, dev, stage, e);
-    if (!rc) {
-        d->oidnExecuteFilter(f);
-        rc = device_error(d, dev, stage, e);
-    }
-    d->oidnReleaseFilter(f);
-    return rc;
+    return execute_filter(d, dev, f, stage, e);
 }
 
 /* Prefilters a noisy guide in place: an RT filter with only that image
@@ -144,14 +150,7 @@ static int prefilter(Denoiser *d, OIDNDevice dev, const char *name, float *img, 
                                                : spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: no RT filter");
     d->oidnSetSharedFilterImage(f, name, img, OIDN_FORMAT_FLOAT3, (size_t)width, (size_t)height, 0, 0, 0);
     d->oidnSetSharedFilterImage(f, "output", img, OIDN_FORMAT_FLOAT3, (size_t)width, (size_t)height, 0, 0, 0);
-    d->oidnCommitFilter(f);
-    int rc = device_error(d, dev, name, e);
-    if (!rc) {
-        d->oidnExecuteFilter(f);
-        rc = device_error(d, dev, name, e);
-    }
-    d->oidnReleaseFilter(f);
-    return rc;
+    return execute_filter(d, dev, f, name, e);
 }
 
 /* The power of two nearest the mean absolute value of the n floats of v (1 for

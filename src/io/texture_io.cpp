@@ -89,6 +89,21 @@ int read_opened(ImageInput *in, TextureImage *img, char *why, size_t why_size)
     return 0;
 }
 
+// Opens the image name with config and reads it into img; fail says what went
+// wrong when it cannot be opened.
+int open_and_read(const char *name, const ImageSpec &config, const char *fail,
+                  TextureImage *img, char *why, size_t why_size)
+{
+    auto in = ImageInput::open(name, &config);
+    if (!in) {
+        say(why, why_size, oiio_reason(nullptr, fail));
+        return -1;
+    }
+    int rc = read_opened(in.get(), img, why, why_size);
+    in->close();
+    return rc;
+}
+
 uint32_t be32(const unsigned char *p)
 {
     return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
@@ -207,15 +222,7 @@ static int load_file(const char *path, TextureImage *img, char *why, size_t why_
         return oiio_texture_load_memory(bytes.data(), bytes.size(), nullptr, img, why, why_size);
     }
     fclose(f);
-    ImageSpec config = unassociated_alpha();
-    auto in = ImageInput::open(path, &config);
-    if (!in) {
-        say(why, why_size, oiio_reason(nullptr, "cannot open the image"));
-        return -1;
-    }
-    int rc = read_opened(in.get(), img, why, why_size);
-    in->close();
-    return rc;
+    return open_and_read(path, unassociated_alpha(), "cannot open the image", img, why, why_size);
 }
 
 static int load_memory(const void *data, size_t size, const char *mime_type, TextureImage *img,
@@ -247,12 +254,5 @@ static int load_memory(const void *data, size_t size, const char *mime_type, Tex
     ImageSpec config = unassociated_alpha();
     void *proxy_ptr = &proxy;
     config.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy_ptr);
-    auto in = ImageInput::open(name, &config);
-    if (!in) {
-        say(why, why_size, oiio_reason(nullptr, "cannot decode the image"));
-        return -1;
-    }
-    int rc = read_opened(in.get(), img, why, why_size);
-    in->close();
-    return rc;
+    return open_and_read(name, config, "cannot decode the image", img, why, why_size);
 }
