@@ -173,6 +173,17 @@ def uses(s, *names):
             s.doc["extensionsUsed"].append(n)
 
 
+def save_plane(s, mat, name, *used, lit=False):
+    """Saves s as name: the grid plane of material mat seen by the orthographic
+    camera, lit head-on by pi lux when lit, with the extensions used."""
+    s.grid_plane(mat)
+    s.ortho_camera()
+    if lit:
+        directional_light(s, (0.0, 0.0, 1.0))
+    uses(s, *used)
+    s.save(name)
+
+
 def base_scenes():
     png = cells_png(BASE_CELLS, 4)
     # No sampler, and an empty sampler object: both mean linear filtering, repeat.
@@ -185,9 +196,8 @@ def base_scenes():
     # The same texture times a coloured baseColorFactor.
     s = Scene()
     tex = s.texture(png)
-    s.grid_plane(s.material(lambert(baseColorFactor=list(BASE_FACTOR), baseColorTexture={"index": tex})))
-    s.ortho_camera()
-    s.save("base_factor.gltf")
+    save_plane(s, s.material(lambert(baseColorFactor=list(BASE_FACTOR), baseColorTexture={"index": tex})),
+               "base_factor.gltf")
 
 
 BASE_FACTOR = (0.5, 0.8, 1.0, 1.0)
@@ -254,11 +264,9 @@ def metallic_roughness_scene():
     png = grid_cells([[kinds[k] for k in row] for row in KIND_GRID])
     s = Scene()
     tex = s.texture(png)
-    s.grid_plane(s.material(material({"metallicFactor": 1.0, "roughnessFactor": 1.0,
-                                      "metallicRoughnessTexture": {"index": tex}})))
-    s.ortho_camera()
-    directional_light(s, (0.0, 0.0, 1.0))
-    s.save("metallic_roughness.gltf")
+    save_plane(s, s.material(material({"metallicFactor": 1.0, "roughnessFactor": 1.0,
+                                       "metallicRoughnessTexture": {"index": tex}})),
+               "metallic_roughness.gltf", lit=True)
 
 
 NORMAL_CODES = [(128, 128, 255),   # flat
@@ -294,12 +302,10 @@ def emissive_scene():
     under a black sky."""
     s = Scene()
     tex = s.texture(cells_png(BASE_CELLS, 4))
-    s.grid_plane(s.material(material({"baseColorFactor": [0, 0, 0, 1]}, specular=0.0,
-                                     extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}},
-                                     emissiveFactor=[1.0, 0.8, 0.6], emissiveTexture={"index": tex})))
-    s.ortho_camera()
-    uses(s, "KHR_materials_emissive_strength", "KHR_materials_specular")
-    s.save("emissive.gltf")
+    save_plane(s, s.material(material({"baseColorFactor": [0, 0, 0, 1]}, specular=0.0,
+                                      extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}},
+                                      emissiveFactor=[1.0, 0.8, 0.6], emissiveTexture={"index": tex})),
+               "emissive.gltf", "KHR_materials_emissive_strength", "KHR_materials_specular")
 
 
 def transmission_scene():
@@ -409,34 +415,26 @@ def clearcoat_scenes():
     kinds = [(255, 128, 0), (255, 255, 0), (128, 128, 0), (0, 128, 0)]  # (coat R, rough G)
     s = Scene()
     tex = s.texture(grid_cells([[kinds[k] for k in row] for row in KIND_GRID]))
-    s.grid_plane(s.material(material({"baseColorFactor": [0, 0, 0, 1]}, specular=0.0, extensions={
+    save_plane(s, s.material(material({"baseColorFactor": [0, 0, 0, 1]}, specular=0.0, extensions={
         "KHR_materials_clearcoat": {"clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 1.0,
-                                    "clearcoatTexture": {"index": tex},
-                                    "clearcoatRoughnessTexture": {"index": tex}}})))
-    s.ortho_camera()
-    directional_light(s, (0.0, 0.0, 1.0))
-    uses(s, "KHR_materials_clearcoat", "KHR_materials_specular")
-    s.save("clearcoat.gltf")
+                                     "clearcoatTexture": {"index": tex},
+                                     "clearcoatRoughnessTexture": {"index": tex}}})),
+               "clearcoat.gltf", "KHR_materials_clearcoat", "KHR_materials_specular", lit=True)
 
     s = Scene()
     ntex = s.texture(gg.png(2, 1, [[128, 128, 255, 191, 128, 238]]),
                      {"magFilter": 9728, "wrapS": 33071, "wrapT": 33071})
-    s.grid_plane(s.material(material({"baseColorFactor": [0, 0, 0, 1]}, specular=0.0, extensions={
+    save_plane(s, s.material(material({"baseColorFactor": [0, 0, 0, 1]}, specular=0.0, extensions={
         "KHR_materials_clearcoat": {"clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 0.5,
-                                    "clearcoatNormalTexture": {"index": ntex}}})))
-    s.ortho_camera()
-    directional_light(s, (0.0, 0.0, 1.0))
-    uses(s, "KHR_materials_clearcoat", "KHR_materials_specular")
-    s.save("clearcoat_normal.gltf")
+                                     "clearcoatNormalTexture": {"index": ntex}}})),
+               "clearcoat_normal.gltf", "KHR_materials_clearcoat", "KHR_materials_specular", lit=True)
 
     # An emitter of radiance 1 under a smooth coat, under a black sky: the coat
     # passes 1 - clearcoat Fc(1) = 0.96 of the emission.
     s = Scene()
-    s.grid_plane(s.material(material({"baseColorFactor": [0, 0, 0, 1]}, specular=0.0, emissiveFactor=[1.0, 1.0, 1.0],
-                                     extensions={"KHR_materials_clearcoat": {"clearcoatFactor": 1.0}})))
-    s.ortho_camera()
-    uses(s, "KHR_materials_clearcoat", "KHR_materials_specular")
-    s.save("clearcoat_emissive.gltf")
+    save_plane(s, s.material(material({"baseColorFactor": [0, 0, 0, 1]}, specular=0.0, emissiveFactor=[1.0, 1.0, 1.0],
+                                      extensions={"KHR_materials_clearcoat": {"clearcoatFactor": 1.0}})),
+               "clearcoat_emissive.gltf", "KHR_materials_clearcoat", "KHR_materials_specular")
 
 
 def sheen_scene():
@@ -466,13 +464,10 @@ def specular_scene():
     kinds = [(255, 255, 255, 255), (255, 128, 64, 255), (255, 255, 255, 128), (255, 255, 255, 0)]
     s = Scene()
     tex = s.texture(grid_cells([[kinds[k] for k in row] for row in KIND_GRID], channels=4))
-    s.grid_plane(s.material(material({"baseColorFactor": [0, 0, 0, 1], "roughnessFactor": 0.5},
-                                     specular=1.0, extensions={"KHR_materials_specular": {
-                                         "specularTexture": {"index": tex}, "specularColorTexture": {"index": tex}}})))
-    s.ortho_camera()
-    directional_light(s, (0.0, 0.0, 1.0))
-    uses(s, "KHR_materials_specular")
-    s.save("specular.gltf")
+    save_plane(s, s.material(material({"baseColorFactor": [0, 0, 0, 1], "roughnessFactor": 0.5},
+                                      specular=1.0, extensions={"KHR_materials_specular": {
+                                          "specularTexture": {"index": tex}, "specularColorTexture": {"index": tex}}})),
+               "specular.gltf", "KHR_materials_specular", lit=True)
 
 
 if __name__ == "__main__":
