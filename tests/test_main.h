@@ -16,7 +16,7 @@
  * (test_keep_only), and returns TEST_GO_ON, or an exit status to stop there.
  * A binary that ends with no test fails: no file passes for want of tests.
  * A file may keep its own main and cmocka's array instead (nothing here runs
- * unless TEST_MAIN is used). See docs/testing.md, "Writing a test". */
+ * unless it uses TEST or TEST_MAIN). See docs/testing.md, "Writing a test". */
 #ifndef SPT_TEST_MAIN_H
 #define SPT_TEST_MAIN_H
 
