@@ -13,7 +13,7 @@ static int have_oidn;
 
 /* Opens the denoiser into d (closed by the caller); sets have_oidn, and says
  * why the tests that need it will skip when it does not load. */
-static void oidn_probe(Denoiser *d)
+static inline void oidn_probe(Denoiser *d)
 {
     SptError e = {0};
     have_oidn = denoiser_open(d, &e) == 0;
@@ -22,7 +22,7 @@ static void oidn_probe(Denoiser *d)
 }
 
 /* Skips the calling test, saying why, where the denoiser cannot run. */
-static void need_oidn(void)
+static inline void need_oidn(void)
 {
 #if defined(__SANITIZE_ADDRESS__)
     /* Open Image Denoise's TBB loads libtbbbind with RTLD_DEEPBIND, which

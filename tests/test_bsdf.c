@@ -41,9 +41,8 @@ static BsdfParams make_params(float base, float metallic, float roughness, float
 
 /* The dielectric Fresnel against the sine/tangent forms (Hecht, Optics, 4.42-4.43),
  * a different algebraic route, and against published air-glass numbers. */
-static void test_fresnel_dielectric(void **state)
+TEST(test_fresnel_dielectric)
 {
-    (void)state;
     const double n = 1.5;
     assert_close(bsdf_fresnel_dielectric(1.0f, 1.5f), 0.04, 1e-6);
     /* Brewster's angle: Rp = 0, so R = Rs / 2 = 0.0739 (Hecht). */
@@ -63,9 +62,8 @@ static void test_fresnel_dielectric(void **state)
 
 /* The conductor Fresnel: at normal incidence ((n-1)^2 + k^2) / ((n+1)^2 + k^2);
  * with k = 0 it equals the dielectric one at every angle; at grazing it tends to 1. */
-static void test_fresnel_conductor(void **state)
+TEST(test_fresnel_conductor)
 {
-    (void)state;
     /* (n, k) pairs spanning metals at visible wavelengths (gold-like, silver-like,
      * aluminium-like, copper-like); the formula is the check, not the values. */
     const float nk[5][2] = {{0.18f, 3.4f}, {0.05f, 4.3f}, {1.2f, 7.3f}, {0.27f, 3.4f}, {1.5f, 0.0f}};
@@ -84,9 +82,8 @@ static void test_fresnel_conductor(void **state)
  * entries equal the source values (pbrt-v4, tools/gen_conductors.py) interpolated
  * by hand; reflectances have the published character (gold and copper dark in the
  * blue, bright in the red; silver bright; aluminium about 0.91 at 550 nm). */
-static void test_conductor_tables(void **state)
+TEST(test_conductor_tables)
 {
-    (void)state;
     const char *names[4] = {"Au", "Ag", "Cu", "Al"};
     const float lams[3] = {450.0f, 550.0f, 700.0f};
     double R[4][3];
@@ -120,9 +117,8 @@ static void test_conductor_tables(void **state)
 
 /* KHR_materials_dispersion: n(lambda_d) = ior and (n_d - 1)/(n_F - n_C) = V with
  * dispersion = 20/V; Fraunhofer d 587.5618, F 486.1327, C 656.2725 nm. */
-static void test_dispersion_ior(void **state)
+TEST(test_dispersion_ior)
 {
-    (void)state;
     const double ld = 587.5618, lf = 486.1327, lc = 656.2725;
     const double ior = 1.5168, V = 64.17;
     float disp = (float)(20.0 / V);
@@ -140,9 +136,8 @@ static void test_dispersion_ior(void **state)
  * faces with each wavelength's ior; deviation against Snell's law in angles:
  * delta = theta1 + theta4 - A, theta2 = asin(sin theta1 / n), theta3 = A - theta2,
  * theta4 = asin(n sin theta3). Red is bent least. */
-static void test_prism(void **state)
+TEST(test_prism)
 {
-    (void)state;
     const double A = 60.0 * M_PI / 180.0, theta1 = 50.0 * M_PI / 180.0;
     const float lambdas[3] = {450.0f, 550.0f, 700.0f};
     double dev[3];
@@ -215,9 +210,8 @@ static double vndf_pdf(void *ctx, const double p[3])
  * [-3, 3]^2 in units of alpha for narrow lobes (the tail outside is the pdf's
  * missing mass), the sphere for wide ones (whose projected density is singular at
  * the disk's rim). */
-static void test_vndf_chi2(void **state)
+TEST(test_vndf_chi2)
 {
-    (void)state;
     const float alphas[2] = {0.1f, 0.6f};
     const double thetas[2] = {10.0, 70.0};
     uint32_t stream = 1;
@@ -272,9 +266,8 @@ static void run_mat_chi2(const char *what, BsdfParams p, vec3 wo, uint32_t strea
 
 /* The full metallic-roughness sampler (diffuse + GGX), a measured conductor and
  * the rough dielectric (reflection + transmission, from outside and inside). */
-static void test_material_chi2(void **state)
+TEST(test_material_chi2)
 {
-    (void)state;
     run_mat_chi2("metallic-roughness m 0.3", make_params(0.8f, 0.3f, 0.5f, 0.0f), dir_deg(30), 101);
     run_mat_chi2("metallic-roughness m 0.0", make_params(0.5f, 0.0f, 0.45f, 0.0f), dir_deg(75), 102);
     BsdfParams cu = make_params(1.0f, 1.0f, 0.3f, 0.0f);
@@ -308,9 +301,8 @@ static BsdfParams with_layers(BsdfParams p, float cc, float r, double tilt, floa
 /* The layered sampler against its pdf: coat over a rough metallic-roughness base,
  * a coat with its own (tilted) normal over a diffuse base, sheen over diffuse, and
  * coat + sheen over a rough metal. */
-static void test_layers_chi2(void **state)
+TEST(test_layers_chi2)
 {
-    (void)state;
     run_mat_chi2("coat 0.3 over m 0.3", with_layers(make_params(0.8f, 0.3f, 0.5f, 0.0f), 1.0f, 0.3f, 0, 0, 0),
                  dir_deg(40), 201);
     run_mat_chi2("tilted coat 0.2 over diffuse",
@@ -324,9 +316,8 @@ static void test_layers_chi2(void **state)
 /* The sample weight is eval / pdf for layered materials, and a sheen over a
  * diffuse base is reciprocal (the albedo scaling uses max(E(mu_o), E(mu_i)), and
  * the lobe's own normalisation max(1, E(mu_o), E(mu_i)), both symmetric). */
-static void test_layers_consistency(void **state)
+TEST(test_layers_consistency)
 {
-    (void)state;
     BsdfParams mats[3] = {with_layers(make_params(0.6f, 0.4f, 0.45f, 0.0f), 1.0f, 0.25f, 10, 0.7f, 0.3f),
                           with_layers(make_params(0.8f, 0.0f, 0.5f, 0.5f), 0.5f, 0.35f, 0, 0.0f, 0.0f),
                           with_layers(make_params(0.6f, 0.0f, 0.8f, 0.0f), 0.0f, 0.0f, 0, 0.9f, 0.15f)};
@@ -385,9 +376,8 @@ static double spec_sheen_albedo(double mu, double r)
     return 2 * sum / nt * M_PI / np;
 }
 
-static void test_sheen_table(void **state)
+TEST(test_sheen_table)
 {
-    (void)state;
     const double mus[4] = {0.07, 0.33, 0.61, 0.93}, rs[4] = {0.12, 0.35, 0.66, 0.97};
     for (int i = 0; i < 4; i++)
         for (int j = 0; j < 4; j++) {
@@ -421,9 +411,8 @@ static double albedo_err(const BsdfParams *p, vec3 wo, uint32_t n, uint32_t stre
  * smooth, and Fc times single-scattering GGX's albedo when rough (which loses
  * energy at high roughness, as the base's GGX does); a sheen over a white Lambert
  * base keeps most of the energy. The printed table states the losses. */
-static void test_layer_furnace(void **state)
+TEST(test_layer_furnace)
 {
-    (void)state;
     const float roughs[4] = {0.07f, 0.3f, 0.6f, 1.0f};
     const double thetas[4] = {0.0, 45.0, 75.0, 88.0};
     uint32_t stream = 900;
@@ -478,9 +467,8 @@ static void test_layer_furnace(void **state)
 /* For rough materials the sample weight equals eval / pdf at the sampled wi, and
  * reflection is reciprocal: f(wo, wi) = f(wi, wo), i.e. eval(wo,wi)/wi.z =
  * eval(wi,wo)/wo.z. */
-static void test_consistency_reciprocity(void **state)
+TEST(test_consistency_reciprocity)
 {
-    (void)state;
     BsdfParams p = make_params(0.6f, 0.4f, 0.45f, 0.0f);
     for (uint32_t i = 0; i < 2000; i++) {
         vec3 wo = v3_normalize(v3(test_uniform(7000 + i) - 0.5f, test_uniform(9000 + i) - 0.5f, test_uniform(11000 + i) + 0.05f));
@@ -509,9 +497,8 @@ static void test_consistency_reciprocity(void **state)
  * indices on wi's and wo's sides). bsdf_eval divides refraction by eta'^2 for
  * radiance transport, so with wo outside and wi inside glass of index eta,
  * eval(wo,wi)/|wi.z| = eval(wi,wo)/|wo.z| / eta^2. */
-static void test_transmission_reciprocity(void **state)
+TEST(test_transmission_reciprocity)
 {
-    (void)state;
     const float roughs[2] = {0.3f, 0.7f};
     int checked = 0;
     for (int r = 0; r < 2; r++) {
@@ -553,9 +540,8 @@ static double albedo(const BsdfParams *p, vec3 wo, uint32_t n, uint32_t stream, 
 
 /* A white rough metal and a rough dielectric never exceed albedo 1 (single
  * scattering loses energy at high roughness); the smooth dielectric's R + T is 1. */
-static void test_energy(void **state)
+TEST(test_energy)
 {
-    (void)state;
     const float roughs[4] = {0.05f, 0.3f, 0.6f, 1.0f};
     const double thetas[3] = {0.0, 45.0, 80.0};
     uint32_t stream = 500;
@@ -591,9 +577,8 @@ static void test_energy(void **state)
 /* Smooth dielectric sampling: the reflect fraction equals the Fresnel reflectance,
  * and the directions obey the mirror law and Snell's law. A dispersive ior sets
  * the dispersive flag on refraction only. */
-static void test_smooth_dielectric(void **state)
+TEST(test_smooth_dielectric)
 {
-    (void)state;
     BsdfParams glass = make_params(1.0f, 0.0f, 0.0f, 1.0f);
     const double thetas[3] = {0.0, 45.0, 80.0};
     for (int t = 0; t < 3; t++) {
@@ -667,9 +652,8 @@ static const char *k_device_src =
     "}\n";
 
 /* The header builds as OpenCL C 1.2 and the device's samples equal the host's. */
-static void test_device_matches_host(void **state)
+TEST(test_device_matches_host)
 {
-    (void)state;
     TestCl cl = test_cl_open();
     enum { N = 512 };
     static float in[10 * N], out[10 * N];
@@ -724,25 +708,4 @@ static void test_device_matches_host(void **state)
     test_cl_close(&cl);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_fresnel_dielectric),
-        cmocka_unit_test(test_fresnel_conductor),
-        cmocka_unit_test(test_conductor_tables),
-        cmocka_unit_test(test_dispersion_ior),
-        cmocka_unit_test(test_prism),
-        cmocka_unit_test(test_vndf_chi2),
-        cmocka_unit_test(test_material_chi2),
-        cmocka_unit_test(test_layers_chi2),
-        cmocka_unit_test(test_layers_consistency),
-        cmocka_unit_test(test_sheen_table),
-        cmocka_unit_test(test_layer_furnace),
-        cmocka_unit_test(test_consistency_reciprocity),
-        cmocka_unit_test(test_transmission_reciprocity),
-        cmocka_unit_test(test_energy),
-        cmocka_unit_test(test_smooth_dielectric),
-        cmocka_unit_test(test_device_matches_host),
-    };
-    return cmocka_run_group_tests_name("bsdf", tests, NULL, NULL);
-}
+TEST_MAIN("bsdf", NULL, NULL)

@@ -61,9 +61,8 @@ static void write_tree_file(const char *path, const char *text)
 
 /* The embedded tree holds the headers the tests below go through: the
  * folders of docs/architecture.md, "Source layout", a header each at least. */
-static void test_embedded_tree_lists_the_headers(void **state)
+TEST(test_embedded_tree_lists_the_headers)
 {
-    (void)state;
     const char *folders[] = {"util/", "sample/", "spectrum/", "bvh/", "closure/",
                              "material/", "light/", "integrator/"};
     for (size_t k = 0; k < sizeof folders / sizeof folders[0]; k++) {
@@ -83,9 +82,8 @@ static void test_embedded_tree_lists_the_headers(void **state)
 
 /* Each header alone with the host's C compiler ($CC, else cc), as the project
  * compiles its host code (C11, -Wall -Wextra), warnings as errors. */
-static void test_host_headers_compile_alone(void **state)
+TEST(test_host_headers_compile_alone)
 {
-    (void)state;
     const char *cc = getenv("CC");
     if (!cc || !*cc)
         cc = "cc";
@@ -127,9 +125,8 @@ static void test_host_headers_compile_alone(void **state)
  * the CPU code path and once with those of the GPU path
  * (src/render/wavefront.c), the optional parts (AOVs, spectral bands, the
  * NaN test hook) switched on. */
-static void test_device_headers_compile_alone(void **state)
+TEST(test_device_headers_compile_alone)
 {
-    (void)state;
     const char *options[] = {
         "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 -DSPT_BVH_STEP_PREFETCH=1 -DSPT_AOV=1 "
         "-DSPT_BANDS=16 -DSPT_TEST_INJECT_NAN=1",
@@ -172,12 +169,4 @@ static void test_device_headers_compile_alone(void **state)
         fail_msg("%d header builds failed on the device:%s", failed, failures);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_embedded_tree_lists_the_headers),
-        cmocka_unit_test(test_host_headers_compile_alone),
-        cmocka_unit_test(test_device_headers_compile_alone),
-    };
-    return cmocka_run_group_tests_name("kernel_headers", tests, test_dir_setup, test_dir_teardown);
-}
+TEST_MAIN("kernel_headers", test_dir_setup, test_dir_teardown)

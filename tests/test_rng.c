@@ -14,9 +14,8 @@
 
 /* Values from an independent Python implementation of the hashes
  * (arbitrary-precision integers masked to 32 bits). */
-static void test_rand_matches_reference(void **state)
+TEST(test_rand_matches_reference)
 {
-    (void)state;
     static const spt_u32 want[][5] = {
         {0u, 0u, 0u, 0u, 0x52fa79b7u},
         {1u, 2u, 3u, 4u, 0x48c7ebb6u},
@@ -46,9 +45,8 @@ static void test_rand_matches_reference(void **state)
 }
 
 /* Same arguments, same number, in any order of calls (no hidden state). */
-static void test_rand_is_deterministic(void **state)
+TEST(test_rand_is_deterministic)
 {
-    (void)state;
     float first[64];
     for (int i = 0; i < 64; i++)
         first[i] = spt_rand(7u, (spt_u32)i * 31u, (spt_u32)i, (spt_u32)i % 9u);
@@ -59,9 +57,8 @@ static void test_rand_is_deterministic(void **state)
 }
 
 /* The conversion never returns 1, and 10^6 outputs lie in [0, 1). */
-static void test_rand_range(void **state)
+TEST(test_rand_range)
 {
-    (void)state;
     assert_true(spt_u32_to_unit(0xffffffffu) < 1.0f);
     assert_true(spt_u32_to_unit(0xffffffffu) == 1.0f - 1.0f / 16777216.0f);
     assert_true(spt_u32_to_unit(0u) == 0.0f);
@@ -74,9 +71,8 @@ static void test_rand_range(void **state)
 }
 
 /* 10^6 values over pixels, samples and dims into 1000 equal bins. */
-static void test_rand_uniform_1d(void **state)
+TEST(test_rand_uniform_1d)
 {
-    (void)state;
     enum { BINS = 1000 };
     static double obs[BINS], expct[BINS];
     memset(obs, 0, sizeof obs);
@@ -136,9 +132,8 @@ static double uniform_pdf(void *ctx, const double p[3])
     return 1.0;
 }
 
-static void test_rand_independent_pairs(void **state)
+TEST(test_rand_independent_pairs)
 {
-    (void)state;
     static const char *names[5] = {"pairs of dims", "pairs of pixels", "pairs of samples",
                                    "pairs of seeds", "one dim of two bounces"};
     for (int w = 0; w < 5; w++) {
@@ -152,9 +147,8 @@ static void test_rand_independent_pairs(void **state)
 /* The direction-number table equals the one built here from Joe and Kuo's
  * (s, a, m) with the textbook recurrence
  * m_k = 2 a_1 m_{k-1} ^ 4 a_2 m_{k-2} ^ ... ^ 2^s m_{k-s} ^ m_{k-s}. */
-static void test_sobol_directions_match_joe_kuo(void **state)
+TEST(test_sobol_directions_match_joe_kuo)
 {
-    (void)state;
     static const struct { int s, a; spt_u32 m[5]; } jk[7] = {
         {1, 0, {1}}, {2, 1, {1, 3}}, {3, 1, {1, 3, 1}}, {3, 2, {1, 1, 1}},
         {4, 1, {1, 1, 3, 3}}, {4, 4, {1, 3, 5, 13}}, {5, 2, {1, 1, 5, 5, 17}},
@@ -193,9 +187,8 @@ static void test_sobol_directions_match_joe_kuo(void **state)
  * Pascal's triangle mod 2; dims 2 and up from the table of 4-bit digits)
  * equals the XOR of the direction numbers of the index's bits, for indices
  * with bits everywhere (and so every entry of SPT_SOBOL_NIBBLE_REV is right). */
-static void test_sobol_dims_match_directions(void **state)
+TEST(test_sobol_dims_match_directions)
 {
-    (void)state;
     for (spt_u32 dim = 0; dim < SPT_SOBOL_DIMS; dim++)
         for (spt_u32 i = 0; i < 100000u; i++) {
             spt_u32 index = i < 50000u ? i : spt_hash_u32(i ^ dim);
@@ -212,9 +205,8 @@ static void test_sobol_dims_match_directions(void **state)
 /* The kernels' shortcuts spt_sample_pair and the SptSampler functions give exactly spt_sample_1d of the dims they stand for
  * (spt_rand for the independent sampler), at the camera dims and at the dims of
  * several bounces. */
-static void test_sample_pair_matches_1d(void **state)
+TEST(test_sample_pair_matches_1d)
 {
-    (void)state;
     enum { GROUPS = SPT_DIM_BOUNCE_BASE / 2u + 6u * SPT_DIM_BOUNCE_BLOCK / 2u };
     for (spt_u32 n = 0; n < 20000u; n++) {
         spt_u32 seed = n % 7u, pixel = spt_hash_u32(n) % 1000003u, sample = n * 37u % 4099u;
@@ -323,9 +315,8 @@ static int joined_pair_t(spt_u32 dim)
  * and (roulette, spare), for several pixels and seeds; the two pairs at bounce
  * 1 joined to the BSDF direction at bounce 0 are (t,k,2)-nets with the t of
  * their Sobol dims. */
-static void test_sobol_prefixes_are_nets(void **state)
+TEST(test_sobol_prefixes_are_nets)
 {
-    (void)state;
     enum { K = 10 };
     static float x[1 << K], y[1 << K];
     char why[200];
@@ -366,9 +357,8 @@ static void test_sobol_prefixes_are_nets(void **state)
  * with the wavelength (Sobol dims 0, 1, 6; x^4+x^3+1) a (3,k,3)-net; padded
  * pairs are not stratified together (the point on the light and the BSDF
  * direction at bounce 0, as 4 dims, are no (3,10,4)-net). */
-static void test_sobol_joined_dims(void **state)
+TEST(test_sobol_joined_dims)
 {
-    (void)state;
     enum { K = 10 };
     static float p[1 << K][6];
     char why[200];
@@ -428,9 +418,8 @@ static double smooth_rms_error(spt_u32 kind, spt_u32 n)
     return sqrt(se / PIXELS);
 }
 
-static void test_sobol_converges_faster(void **state)
+TEST(test_sobol_converges_faster)
 {
-    (void)state;
     double sob16 = smooth_rms_error(SPT_SAMPLER_SOBOL, 16u), sob1k = smooth_rms_error(SPT_SAMPLER_SOBOL, 1024u);
     double ind16 = smooth_rms_error(SPT_SAMPLER_INDEPENDENT, 16u),
            ind1k = smooth_rms_error(SPT_SAMPLER_INDEPENDENT, 1024u);
@@ -445,9 +434,8 @@ static void test_sobol_converges_faster(void **state)
 
 /* Every Sobol dim (and the wavelength dim) is stratified in 1D: the first 2^k
  * points fall one in each interval of length 2^-k. */
-static void test_sobol_1d_stratified(void **state)
+TEST(test_sobol_1d_stratified)
 {
-    (void)state;
     enum { K = 12 };
     static int count[1 << K];
     for (spt_u32 dim = 0; dim <= SPT_SOBOL_DIMS; dim++)
@@ -519,9 +507,8 @@ static Chi2Grid uniform_square_grid(const char *name, uint32_t samples,
     return g;
 }
 
-static void test_sobol_scrambles_differ(void **state)
+TEST(test_sobol_scrambles_differ)
 {
-    (void)state;
     Chi2Grid g = uniform_square_grid("", 0, NULL);
     Chi2Result r;
 
@@ -568,9 +555,8 @@ static void zs_point(spt_u32 seed, spt_u32 x, spt_u32 y, spt_u32 l, spt_u32 s, s
  * their first 2^k for k < l of l's parity (the Sobol index's low base-4
  * digits, below them the single bit of an odd l, vary first), for several
  * pixels, seeds, l and pair groups. */
-static void test_zsobol_pixel_nets(void **state)
+TEST(test_zsobol_pixel_nets)
 {
-    (void)state;
     static float x[1 << 10], y[1 << 10];
     char why[200];
     static const spt_u32 px[3][2] = {{0u, 0u}, {5u, 3u}, {63u, 47u}};
@@ -594,9 +580,8 @@ static void test_zsobol_pixel_nets(void **state)
  * pixels together form a (0, l + 2b, 2)-net, so neighbouring pixels fill each
  * other's gaps (blue-noise error); at one sample per pixel, for example, each
  * 4 x 4 block's 16 pixels hold one point in each 1/4 x 1/4 square. */
-static void test_zsobol_pixel_blocks_are_nets(void **state)
+TEST(test_zsobol_pixel_blocks_are_nets)
 {
-    (void)state;
     static float x[1 << 10], y[1 << 10];
     char why[200];
     for (spt_u32 l = 0; l <= 3u; l++)
@@ -631,9 +616,8 @@ static int zs_first_point(void *ctx, uint32_t i, double p[3])
 /* The kernels' form (spt_sampler_for, spt_sampler_pair and spt_sampler_1d)
  * gives spt_zsobol_1d's values, and the first samples of 2^16 pixels pass a
  * chi-square for uniformity. */
-static void test_zsobol_sampler(void **state)
+TEST(test_zsobol_sampler)
 {
-    (void)state;
     RenderParams p;
     memset(&p, 0, sizeof p);
     p.width = 37;
@@ -786,9 +770,8 @@ static void run_device_check(ClDevice *d, const char *options, float float_tol)
  * -cl-fast-relaxed-math (the "Scale" principle: a sample's numbers do not depend
  * on the device), and the host's warps to float precision (loosely under fast
  * math, which allows approximate sin and cos). Skipped without an OpenCL device. */
-static void test_device_matches_host(void **state)
+TEST(test_device_matches_host)
 {
-    (void)state;
     SptError e = {0};
     ClDevice *devs = NULL;
     int count = 0;
@@ -811,26 +794,4 @@ static void test_device_matches_host(void **state)
     cl_devices_close(devs, count);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_rand_matches_reference),
-        cmocka_unit_test(test_rand_is_deterministic),
-        cmocka_unit_test(test_rand_range),
-        cmocka_unit_test(test_rand_uniform_1d),
-        cmocka_unit_test(test_rand_independent_pairs),
-        cmocka_unit_test(test_sobol_directions_match_joe_kuo),
-        cmocka_unit_test(test_sobol_dims_match_directions),
-        cmocka_unit_test(test_sample_pair_matches_1d),
-        cmocka_unit_test(test_sobol_prefixes_are_nets),
-        cmocka_unit_test(test_sobol_joined_dims),
-        cmocka_unit_test(test_sobol_1d_stratified),
-        cmocka_unit_test(test_zsobol_pixel_nets),
-        cmocka_unit_test(test_zsobol_pixel_blocks_are_nets),
-        cmocka_unit_test(test_zsobol_sampler),
-        cmocka_unit_test(test_sobol_converges_faster),
-        cmocka_unit_test(test_sobol_scrambles_differ),
-        cmocka_unit_test(test_device_matches_host),
-    };
-    return cmocka_run_group_tests_name("rng", tests, NULL, NULL);
-}
+TEST_MAIN("rng", NULL, NULL)

@@ -24,9 +24,8 @@ static void test_uniform2(uint32_t stream, uint32_t i, float *u1, float *u2)
 /* ---- The chi-square helper ---------------------------------------------------- */
 
 /* The survival function against closed forms and published table values. */
-static void test_chi2_survival_function(void **state)
+TEST(test_chi2_survival_function)
 {
-    (void)state;
     /* dof 2: Q = exp(-x/2). dof 1: Q = erfc(sqrt(x/2)). */
     for (double x = 0.01; x < 60.0; x *= 1.7) {
         assert_close_rel(chi2_survival(x, 2.0), exp(-0.5 * x), 1e-12);
@@ -73,9 +72,8 @@ static double uniform_hemisphere_pdf(void *ctx, const double p[3])
 
 /* A wrong pdf must be rejected: cosine-distributed samples against the uniform
  * hemisphere density, and a sampler that covers half the domain. */
-static void test_chi2_rejects_wrong_pdf(void **state)
+TEST(test_chi2_rejects_wrong_pdf)
 {
-    (void)state;
     Chi2Grid g = chi2_sphere("cosine samples against the uniform pdf", 32, 32, 0, cosine_sample,
                              uniform_hemisphere_pdf, NULL);
     g.samples = 100000;
@@ -145,9 +143,8 @@ static void run_direction_test(const char *name, int (*sample)(void *, uint32_t,
 }
 
 /* Chi-square of the cosine-weighted hemisphere; its pdf function. */
-static void test_cosine_hemisphere(void **state)
+TEST(test_cosine_hemisphere)
 {
-    (void)state;
     run_direction_test("cosine hemisphere", cosine_sample, cosine_pdf);
     /* The kernel's pdf function agrees with the analytic density. */
     for (float c = -0.5f; c <= 1.0f; c += 0.125f)
@@ -155,27 +152,24 @@ static void test_cosine_hemisphere(void **state)
 }
 
 /* Chi-square of the uniform hemisphere; its pdf function. */
-static void test_uniform_hemisphere(void **state)
+TEST(test_uniform_hemisphere)
 {
-    (void)state;
     run_direction_test("uniform hemisphere", uniform_hemisphere_sample, uniform_hemisphere_pdf);
     assert_close(spt_pdf_uniform_hemisphere(0.3f), 1.0 / (2.0 * M_PI), 1e-8);
     assert_close(spt_pdf_uniform_hemisphere(-0.3f), 0.0, 0.0);
 }
 
 /* Chi-square of the uniform sphere; its pdf function. */
-static void test_uniform_sphere(void **state)
+TEST(test_uniform_sphere)
 {
-    (void)state;
     run_direction_test("uniform sphere", uniform_sphere_sample, uniform_sphere_pdf);
     assert_close(spt_pdf_uniform_sphere(), 1.0 / (4.0 * M_PI), 1e-8);
 }
 
 /* The directions are unit length, within the hemisphere for the hemisphere maps,
  * also at the corners of the unit square. */
-static void test_directions_are_unit(void **state)
+TEST(test_directions_are_unit)
 {
-    (void)state;
     const float us[5] = {0.0f, 0.25f, 0.5f, 0.75f, SPT_ONE_MINUS_EPSILON};
     for (int i = 0; i < 5; i++)
         for (int j = 0; j < 5; j++) {
@@ -215,9 +209,8 @@ static double disk_polar_pdf(void *ctx, const double p[3])
 }
 
 /* Chi-square of the concentric disk in (r^2, phi). */
-static void test_concentric_disk(void **state)
+TEST(test_concentric_disk)
 {
-    (void)state;
     Chi2Grid g = chi2_plane("concentric disk, in (r^2, phi)", 0.0, 1.0, 0.0, 2.0 * M_PI, 32, 32,
                             SAMPLING_CHI2_TESTS, disk_polar_sample, disk_polar_pdf, NULL);
     Chi2Result r = chi2_require(&g);
@@ -299,9 +292,8 @@ static double triangle_pdf(void *ctx, const double p[3])
 
 /* Chi-square of triangle sampling with exact cell probabilities; the
  * barycentrics and the area function. */
-static void test_triangle_area_sampling(void **state)
+TEST(test_triangle_area_sampling)
 {
-    (void)state;
     Chi2Grid g = chi2_plane("triangle by area", 0.0, 1.0, 0.0, 1.0, 32, 32, SAMPLING_CHI2_TESTS,
                             triangle_sample, triangle_pdf, NULL);
     g.cell_prob = triangle_cell_prob;
@@ -320,9 +312,8 @@ static void test_triangle_area_sampling(void **state)
 /* ---- MIS ------------------------------------------------------------------------- */
 
 /* Power heuristic values against a^2 / (a^2 + b^2), and its edge cases. */
-static void test_power_heuristic(void **state)
+TEST(test_power_heuristic)
 {
-    (void)state;
     assert_close(spt_power_heuristic(1.0f, 1.0f), 0.5, 1e-7);
     assert_close(spt_power_heuristic(2.0f, 1.0f), 0.8, 1e-7);
     assert_close(spt_power_heuristic(1.0f, 3.0f), 0.1, 1e-7);
@@ -369,9 +360,8 @@ static int light_usable(float w)
 }
 
 /* The CDF table: bounds, monotonicity, probabilities equal weight / total. */
-static void test_distrib_table(void **state)
+TEST(test_distrib_table)
 {
-    (void)state;
     float w[LIGHTS];
     light_weights(w);
     Distrib d;
@@ -405,9 +395,8 @@ static void test_distrib_table(void **state)
 
 /* Sampling by power: counts against weight/total, zero weights never chosen, the
  * probability returned is the entry's, and the remapped uniform is uniform. */
-static void test_distrib_sampling(void **state)
+TEST(test_distrib_sampling)
 {
-    (void)state;
     float w[LIGHTS];
     light_weights(w);
     Distrib d;
@@ -445,9 +434,8 @@ static void test_distrib_sampling(void **state)
 }
 
 /* Edge cases: boundaries of u, a single entry, empty distributions. */
-static void test_distrib_edges(void **state)
+TEST(test_distrib_edges)
 {
-    (void)state;
     float prob, ur;
     /* u = 0 and u just below 1 (and out-of-range u) pick the first and last
      * usable entries, never the zero ones around them. */
@@ -496,9 +484,8 @@ static void test_distrib_edges(void **state)
 /* The binary search agrees with a linear scan (the i with cdf[i] <= u <
  * cdf[i+1]) for many sizes, with runs of zero weights, and for u exactly on
  * table values. */
-static void test_discrete_matches_linear_scan(void **state)
+TEST(test_discrete_matches_linear_scan)
 {
-    (void)state;
     float w[70];
     uint64_t r = 99;
     for (uint32_t n = 1; n <= 70; n++) {
@@ -526,9 +513,8 @@ static void test_discrete_matches_linear_scan(void **state)
 
 /* Millions of entries: the double-precision sum keeps the table exact to float
  * rounding (a float running sum would stall once the total dwarfs an entry). */
-static void test_distrib_large(void **state)
+TEST(test_distrib_large)
 {
-    (void)state;
     const uint32_t n = 3000000;
     float *w = malloc(sizeof(float) * n);
     for (uint32_t i = 0; i < n; i++)
@@ -556,23 +542,4 @@ static void test_distrib_large(void **state)
     free(w);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_chi2_survival_function),
-        cmocka_unit_test(test_chi2_rejects_wrong_pdf),
-        cmocka_unit_test(test_cosine_hemisphere),
-        cmocka_unit_test(test_uniform_hemisphere),
-        cmocka_unit_test(test_uniform_sphere),
-        cmocka_unit_test(test_directions_are_unit),
-        cmocka_unit_test(test_concentric_disk),
-        cmocka_unit_test(test_triangle_area_sampling),
-        cmocka_unit_test(test_power_heuristic),
-        cmocka_unit_test(test_distrib_table),
-        cmocka_unit_test(test_distrib_sampling),
-        cmocka_unit_test(test_distrib_edges),
-        cmocka_unit_test(test_discrete_matches_linear_scan),
-        cmocka_unit_test(test_distrib_large),
-    };
-    return cmocka_run_group_tests_name("sampling", tests, NULL, NULL);
-}
+TEST_MAIN("sampling", NULL, NULL)

@@ -25,9 +25,8 @@ static void named_white(const char *name, double xyz[3])
 }
 
 /* White points of CIE A (from its formula) and D65 (table) vs CIE 15:2004. */
-static void test_white_points(void **state)
+TEST(test_white_points)
 {
-    (void)state;
     double xyz[3];
     named_white("D65", xyz);
     assert_close(xyz[0], 0.95047, 1e-3);
@@ -39,9 +38,8 @@ static void test_white_points(void **state)
 
 /* Planck's law sampled at 1, 5, 10, 20 nm and irregularly: chromaticity of 6500 K
  * on the CIE 1931 Planckian locus, x = 0.3135, y = 0.3236 (CIE 15:2004 tables). */
-static void test_spacing_and_planckian_locus(void **state)
+TEST(test_spacing_and_planckian_locus)
 {
-    (void)state;
     const int steps[] = {1, 5, 10, 20, 0};
     for (int k = 0; k < 5; k++) {
         double nm[600], v[600];
@@ -65,9 +63,8 @@ static void test_spacing_and_planckian_locus(void **state)
 
 /* Reads the colour-science XYZ and sRGB8 of the 24 ColorChecker patches under D65
  * and compares with spd_read_csv + spd_reflectance_to_xyz. */
-static void test_colorchecker(void **state)
+TEST(test_colorchecker)
 {
-    (void)state;
     FILE *f = fopen(SPT_TEST_DATA("colour/colorchecker_expected.csv"), "r");
     assert_non_null(f);
     char line[512];
@@ -168,9 +165,8 @@ static void round_trip_check(const float rgb[3], double *worst, double *worst_fa
  * colour of the interpolated spectrum (1 nm sums, D65, computed here) must be
  * within 0.004 of the colour in every channel and 3e-4 on average (64 cells per
  * axis: 0.0026 and 0.00015; 32: 0.0078 and 0.0006). */
-static void test_table_on_8bit_colours(void **state)
+TEST(test_table_on_8bit_colours)
 {
-    (void)state;
     double worst = 0.0, sum = 0.0;
     int n = 0;
     for (int r = 0; r < 256; r += 15)
@@ -202,9 +198,8 @@ static void test_table_on_8bit_colours(void **state)
     assert_true(sum / n <= 3e-4);
 }
 
-static void test_reflectance_round_trip(void **state)
+TEST(test_reflectance_round_trip)
 {
-    (void)state;
     const int n = 9;
     double worst = 0, worst_fast = 0;
     for (int r = 0; r < n; r++)
@@ -228,9 +223,8 @@ static void test_reflectance_round_trip(void **state)
 
 /* Illuminant RGB -> scale * sigmoid * D65(Y=1) -> sRGB, including values above 1;
  * rgb (1,1,1) gives D65 itself. Within 2e-4 per channel times the largest. */
-static void test_illuminant_round_trip(void **state)
+TEST(test_illuminant_round_trip)
 {
-    (void)state;
     const float vals[] = {0.0f, 0.05f, 0.3f, 0.5f, 0.8f, 1.0f, 3.0f};
     const int nv = sizeof vals / sizeof vals[0];
     double worst = 0;
@@ -266,9 +260,8 @@ static void test_illuminant_round_trip(void **state)
 }
 
 /* White and black coefficients give exactly 1 and 0 everywhere, never NaN. */
-static void test_sigmoid_extremes(void **state)
+TEST(test_sigmoid_extremes)
 {
-    (void)state;
     float white[3] = {1, 1, 1}, black[3] = {0, 0, 0}, cw[3], cb[3];
     rgb_to_coeffs(white, cw);
     rgb_to_coeffs(black, cb);
@@ -287,9 +280,8 @@ static void test_sigmoid_extremes(void **state)
 
 /* The matrices of docs/architecture.md: sRGB white (1,1,1) is D65 (0.9505, 1, 1.0890, IEC
  * 61966-2-1) and the two matrices invert each other to their 4-digit rounding. */
-static void test_matrices(void **state)
+TEST(test_matrices)
 {
-    (void)state;
     double one[3] = {1, 1, 1}, xyz[3], back[3];
     linear_srgb_to_xyz(one, xyz);
     assert_close(xyz[0], 0.9505, 1e-4);
@@ -310,9 +302,8 @@ static void test_matrices(void **state)
 
 /* The transfer curve: continuous at its threshold, the inverse inverts it, and
  * published 8-bit codes: linear 0.5 -> 188, 0.2158605 -> 128 (IEC 61966-2-1). */
-static void test_transfer_curve(void **state)
+TEST(test_transfer_curve)
 {
-    (void)state;
     double t = 0.0031308;
     assert_close(srgb_encode(t * (1 - 1e-9)), srgb_encode(t * (1 + 1e-9)), 1e-6);
     assert_close(srgb_decode(0.04045 * (1 - 1e-9)), srgb_decode(0.04045 * (1 + 1e-9)), 1e-6);
@@ -327,9 +318,8 @@ static void test_transfer_curve(void **state)
 }
 
 /* Wien's displacement law: the peak is at b / T, b = 2.897771955e-3 m K (CODATA). */
-static void test_blackbody_wien(void **state)
+TEST(test_blackbody_wien)
 {
-    (void)state;
     const double temps[] = {2856, 4000, 6500};
     for (int k = 0; k < 3; k++) {
         double best = 0, best_nm = 0;
@@ -346,9 +336,8 @@ static void test_blackbody_wien(void **state)
 
 /* Luminous efficacy of blackbodies vs colour-science (tests/data/colour/
  * efficacy.csv), and a 555 nm line is 683 lm/W by definition. */
-static void test_luminous_efficacy(void **state)
+TEST(test_luminous_efficacy)
 {
-    (void)state;
     FILE *f = fopen(SPT_TEST_DATA("colour/efficacy.csv"), "r");
     assert_non_null(f);
     char line[512];
@@ -378,9 +367,8 @@ static void test_luminous_efficacy(void **state)
 /* Published CIE 1931 values: ybar(555) = 1, xbar(600) = 1.0622, zbar(450) = 1.77211,
  * linear interpolation between samples, zero outside 360-830 nm; D65 ratio
  * S(460)/S(560) = 117.812/100 (CIE 15:2004). */
-static void test_cmf_lookup(void **state)
+TEST(test_cmf_lookup)
 {
-    (void)state;
     assert_close(spt_cie_y(555.0f), 1.0, 1e-6);
     assert_close(spt_cie_x(600.0f), 1.0622, 1e-4);
     assert_close(spt_cie_z(450.0f), 1.77211, 1e-4);
@@ -396,9 +384,8 @@ static void test_cmf_lookup(void **state)
 /* Sampled-wavelength integration of ybar: the mean of (1/4) sum ybar(l)/pdf(l)
  * over many paths is the tabulated integral within 1e-3; the pdf integrates to 1
  * and sampling inverts its CDF. */
-static void test_wavelength_sampling(void **state)
+TEST(test_wavelength_sampling)
 {
-    (void)state;
     uint32_t x = 12345;
     const int paths = 1 << 19;
     double sum = 0;
@@ -441,9 +428,8 @@ static void test_wavelength_sampling(void **state)
  * channel (it measured 0.22, 0.15, 0.20 in R, G, B; a density fitted to ybar,
  * pbrt-v4's visible-wavelength density, gives 0.15, 0.03 and 0.58: blue noise
  * dominates a grey image). */
-static void test_wavelength_noise_flat_d65(void **state)
+TEST(test_wavelength_noise_flat_d65)
 {
-    (void)state;
     enum { J = 1 << 16 };
     double sum[3] = {0, 0, 0}, sq[3] = {0, 0, 0};
     for (int j = 0; j < J; j++) {
@@ -486,9 +472,8 @@ static const char *temp_file(const char *text)
 }
 
 /* CSV: header, comments, blank lines, irregular spacing; the bad line's number. */
-static void test_csv(void **state)
+TEST(test_csv)
 {
-    (void)state;
     const char *p = temp_file("# a comment\nwavelength_nm,value\n400,1\n\n410, 3 # note\n"
                               "  # indented comment\n450,0.5\n451.5,2\n");
     Spd s;
@@ -528,9 +513,8 @@ static void test_csv(void **state)
 }
 
 /* Mercury: six lines at the published wavelengths (the issue rounds them to 0.1 nm); spd_to_grid keeps their power. */
-static void test_mercury(void **state)
+TEST(test_mercury)
 {
-    (void)state;
     Spd s;
     assert_int_equal(spd_named(&s, "mercury", NULL), 0);
     const double want[6] = {404.7, 407.8, 435.8, 546.1, 577.0, 579.0};
@@ -549,25 +533,4 @@ static void test_mercury(void **state)
     spd_free(&s);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_white_points),
-        cmocka_unit_test(test_spacing_and_planckian_locus),
-        cmocka_unit_test(test_colorchecker),
-        cmocka_unit_test(test_reflectance_round_trip),
-        cmocka_unit_test(test_table_on_8bit_colours),
-        cmocka_unit_test(test_illuminant_round_trip),
-        cmocka_unit_test(test_sigmoid_extremes),
-        cmocka_unit_test(test_matrices),
-        cmocka_unit_test(test_transfer_curve),
-        cmocka_unit_test(test_blackbody_wien),
-        cmocka_unit_test(test_luminous_efficacy),
-        cmocka_unit_test(test_cmf_lookup),
-        cmocka_unit_test(test_wavelength_sampling),
-        cmocka_unit_test(test_wavelength_noise_flat_d65),
-        cmocka_unit_test(test_csv),
-        cmocka_unit_test(test_mercury),
-    };
-    return cmocka_run_group_tests_name("spectrum", tests, NULL, NULL);
-}
+TEST_MAIN("spectrum", NULL, NULL)

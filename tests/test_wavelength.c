@@ -131,9 +131,8 @@ static void check_wavelengths(const char *who)
  * target density (within 0.1%: the table's 4 decimals); spt_wavelength_pdf is
  * the table's density and integrates to 1; the host's wavelengths pass
  * check_wavelengths. */
-static void test_wavelength_sampling(void **state)
+TEST(test_wavelength_sampling)
 {
-    (void)state;
     assert_true(SPT_WL_INV_CDF[0] == (float)SPT_CIE_LAMBDA_MIN);
     assert_true(SPT_WL_INV_CDF[SPT_WL_BINS] == (float)SPT_CIE_LAMBDA_MAX);
     /* Simpson's rule over each bin, 256 panels. */
@@ -181,9 +180,8 @@ static const char device_src[] =
  * wavelengths pass check_wavelengths, and equal the host's to float precision
  * (OpenCL allows division within 2.5 ulp and contraction into an FMA). Skipped
  * without an OpenCL device. */
-static void test_device_wavelengths(void **state)
+TEST(test_device_wavelengths)
 {
-    (void)state;
     TestCl cl = test_cl_open();
     for (uint32_t i = 0; i < PATHS; i++)
         path_u[i] = test_uniform(((uint64_t)10 << 40) + i);
@@ -207,11 +205,4 @@ static void test_device_wavelengths(void **state)
                      dev_lambda[i], dev_pdf[i], path_lambda[i], path_pdf[i]);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_wavelength_sampling),
-        cmocka_unit_test(test_device_wavelengths),
-    };
-    return cmocka_run_group_tests_name("wavelength", tests, NULL, NULL);
-}
+TEST_MAIN("wavelength", NULL, NULL)
