@@ -87,11 +87,15 @@ int Loader::read_primitive(int mi, int pi)
             }
         auto vkey = std::make_tuple(pit->second, nit != p.attributes.end() ? nit->second : -1, acc[0],
                                     acc[1], acc[2]);
-        auto own = vertex_owner.find(vkey);
+        pd.deformable = !p.targets.empty() || p.attributes.count("JOINTS_0") ||
+                        p.attributes.count("WEIGHTS_0") || p.attributes.count("JOINTS_1") ||
+                        p.attributes.count("WEIGHTS_1");
+        auto own = pd.deformable ? vertex_owner.end() : vertex_owner.find(vkey);
         if (own != vertex_owner.end()) {
             pd.vsrc = own->second;
         } else {
-            vertex_owner[vkey] = &pd;
+            if (!pd.deformable) vertex_owner[vkey] = &pd;
+            else if ((rc = read_deform(mi, pi, nv))) return rc;
             read_floats(pit->second, 3, pd.pos);
             if (nit != p.attributes.end()) read_floats(nit->second, 3, pd.nrm);
             if (acc[0] >= 0) read_floats(acc[0], 2, pd.uv);
@@ -309,8 +313,11 @@ int Loader::read_draco(int mi, int pi, const Value &x, std::vector<uint32_t> &id
 
 bool coordinate_ok(double x) { return std::isfinite(x) && fabs(x) < 1e18; }
 
-int Loader::emit_instance(int mi, const Mat4 &world)
+int Loader::emit_instance(int mi, const Mat4 &world, int node)
 {
+    Deform deform;
+    int rc;
+    if ((rc = deform_for(node, mi, &deform))) return rc;
     const auto &mesh = m.meshes[mi];
     stats.instances++;
     bool repeat = mesh_emitted[mi]++ > 0; // a further instance: flattened copy
@@ -322,9 +329,9 @@ int Loader::emit_instance(int mi, const Mat4 &world)
     // Vertices already emitted for this instance: shared vertex data -> base, world
     // positions.
     std::map<const PrimData *, std::pair<uint64_t, std::vector<double>>> emitted;
+    std::map<const PrimData *, std::vector<char>> vflip; // deformed vertices: mirrored?
     for (size_t pi = 0; pi < mesh.primitives.size(); pi++) {
         PrimData &pd = prim[mi][pi];
-        int rc;
         if (!pd.read && (rc = read_primitive(mi, (int)pi))) return rc;
         if (pd.skip) continue;
         stats.primitives++;
@@ -337,11 +344,19 @@ int Loader::emit_instance(int mi, const Mat4 &world)
             done = emitted.emplace(&vd, std::make_pair(vertex_count, std::vector<double>())).first;
             std::vector<double> &wp = done->second.second;
             wp.resize(nv * 3);
+            if (vd.deformable) vflip[&vd].assign(nv, 0);
             for (size_t v = 0; v < nv; v++) {
                 double p[3] = {vd.pos[v * 3], vd.pos[v * 3 + 1], vd.pos[v * 3 + 2]};
-                mat_point(world, p, &wp[v * 3]);
                 double nw[3] = {0, 0, 0};
-                if (!vd.nrm.empty()) {
+                bool flip = false;
+                if (vd.deformable) {
+                    if ((rc = deform_vertex(vd, mi, (int)pi, v, deform, world, &wp[v * 3], nw, &flip)))
+                        return rc;
+                    vflip[&vd][v] = flip;
+                } else {
+                    mat_point(world, p, &wp[v * 3]);
+                }
+                if (!vd.nrm.empty() && !vd.deformable) {
                     const float *n = &vd.nrm[v * 3];
                     for (int r = 0; r < 3; r++)
                         nw[r] = (cof[r * 3] * n[0] + cof[r * 3 + 1] * n[1] + cof[r * 3 + 2] * n[2]) *
@@ -383,7 +398,9 @@ int Loader::emit_instance(int mi, const Mat4 &world)
                 stats.dropped_degenerate++;
                 continue;
             }
-            if (mirrored) std::swap(b, c);
+            // A skinned vertex has its own transform: the first vertex's says
+            // whether the triangle is mirrored.
+            if (vd.deformable ? vflip[&vd][a] != 0 : mirrored) std::swap(b, c);
             float fp[9];
             bool finite = true;
             for (int k = 0; k < 3; k++) {

@@ -80,6 +80,14 @@ int Loader::finish(Scene *s)
     s->lights = copy_out(lights);
     lights.clear(); // their SPDs too
     s->stats = stats;
+    s->camera_info_count = (uint32_t)cam_info.size();
+    s->camera_info = copy_out(cam_info);
+    s->animation_info_count = (uint32_t)anim_info.size();
+    s->animation_info = copy_out(anim_info);
+    if (unplayed_channels)
+        spt_warn("%s: %u animation channel(s) without target.node (an extension's, such as "
+                 "KHR_animation_pointer) not played",
+                 file, unplayed_channels);
     scene_update_bounds(s);
     if (have_camera) {
         s->camera = camera;
@@ -91,12 +99,14 @@ int Loader::finish(Scene *s)
     return 0;
 }
 
-static int load(Scene *s, const unsigned char *data, size_t size, const char *name, SptError *e)
+static int load(Scene *s, const unsigned char *data, size_t size, const char *name,
+                const ScenePose *pose, SptError *e)
 {
     memset(s, 0, sizeof *s);
     Loader L;
     L.file = name;
     L.e = e;
+    if (pose) L.pose_opts = *pose;
     const char *slash = strrchr(name, '/');
     L.dir = slash ? std::string(name, (size_t)(slash - name)) : std::string(".");
     if (L.dir.empty()) L.dir = "/";
@@ -122,7 +132,7 @@ static int load(Scene *s, const unsigned char *data, size_t size, const char *na
                 goto out;
             }
         }
-        if ((rc = L.traverse())) goto out;
+        if ((rc = L.select_camera()) || (rc = L.traverse())) goto out;
         s->path = spt_strdup(name);
         rc = L.finish(s);
     } catch (const std::bad_alloc &) {
@@ -147,17 +157,23 @@ out:
 extern "C" int scene_load_gltf_memory(Scene *s, const void *data, size_t size, const char *name,
                                       SptError *e)
 {
-    return spt_gltf::load(s, (const unsigned char *)data, size, name, e);
+    return spt_gltf::load(s, (const unsigned char *)data, size, name, nullptr, e);
 }
 
 extern "C" int scene_load_gltf(Scene *s, const char *path, SptError *e)
+{
+    return scene_load_gltf_posed(s, path, nullptr, e);
+}
+
+extern "C" int scene_load_gltf_posed(Scene *s, const char *path, const ScenePose *pose,
+                                     SptError *e)
 {
     memset(s, 0, sizeof *s);
     unsigned char *bytes = nullptr;
     size_t size = 0;
     int rc = input_read(path, "scene file", &bytes, &size, e);
     if (rc) return rc;
-    rc = spt_gltf::load(s, bytes, size, path, e);
+    rc = spt_gltf::load(s, bytes, size, path, pose, e);
     free(bytes);
     return rc;
 }

@@ -141,6 +141,26 @@ struct PrimData {
     const PrimData *vsrc = nullptr;
     std::vector<uint32_t> tris;      // 3 local vertex indices per triangle, file winding
     uint32_t material = 0;
+    // Morph targets and skin weights (src/scene/gltf_pose.cpp): a primitive with
+    // either keeps its own vertices (vsrc stays null), as they move per instance.
+    bool deformable = false;
+    std::vector<std::vector<float>> tpos, tnrm; // per target: POSITION, NORMAL deltas (or empty)
+    std::vector<float> joints, weights;         // 8 per vertex (JOINTS_0/1, WEIGHTS_0/1); empty: none
+};
+
+// A node's animated properties at the posed time (which ones the animations set).
+struct NodePose {
+    bool t = false, r = false, s = false, w = false;
+    double T[3] = {0, 0, 0}, R[4] = {0, 0, 0, 1}, S[3] = {1, 1, 1};
+    std::vector<double> W; // morph weights
+};
+
+// What moves one mesh instance's vertices: its morph weights and, when its node
+// has a skin, the joint matrices.
+struct Deform {
+    std::vector<double> weights;
+    std::vector<Mat4> joints;
+    int skin = -1;
 };
 
 struct Loader {
@@ -162,6 +182,17 @@ struct Loader {
     std::vector<SceneLight> lights;
     SceneCamera camera = {};
     bool have_camera = false;
+    // The pose (src/scene/gltf_pose.cpp): what was asked, each node's animated
+    // properties, parents and world transforms (computed on demand for joints).
+    ScenePose pose_opts = {NAN, nullptr, nullptr};
+    std::vector<NodePose> pose;
+    std::vector<int> parent;
+    std::vector<Mat4> world;
+    std::vector<char> world_state;
+    int chosen_camera = -1; // --camera's index into cameras[]; -1: the first placed
+    uint32_t unplayed_channels = 0; // channels without target.node (extensions')
+    std::vector<SceneAnimationInfo> anim_info;
+    std::vector<SceneCameraInfo> cam_info;
     SceneStats stats = {};
     int default_material = -1;
     uint32_t modes_skipped = 0, no_position = 0, texcoord_warned = 0, leftover_indices = 0;
@@ -242,7 +273,14 @@ struct Loader {
     int read_primitive(int mesh, int p);
     int read_draco(int mesh, int p, const Value &ext, std::vector<uint32_t> &idx);
     int decode_meshopt_views();
-    int emit_instance(int mesh, const Mat4 &world);
+    int emit_instance(int mesh, const Mat4 &world, int node);
+    int select_camera();
+    int animations();
+    int node_world(int n, Mat4 *out);
+    int read_deform(int mesh, int p, size_t nv);
+    int deform_for(int node, int mesh, Deform *d);
+    int deform_vertex(const PrimData &pd, int mesh, int p, size_t v, const Deform &d,
+                      const Mat4 &world, double wp[3], double nw[3], bool *flip);
     int camera_from(int cam, const Mat4 &world, int node);
     int light_from(int light, const Mat4 &world, int node);
     int finish(Scene *s);

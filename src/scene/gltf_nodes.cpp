@@ -23,6 +23,12 @@ int Loader::node_local(int n, Mat4 *out)
     for (size_t i = 0; i < node.translation.size(); i++) t[i] = node.translation[i];
     for (size_t i = 0; i < node.rotation.size(); i++) q[i] = node.rotation[i];
     for (size_t i = 0; i < node.scale.size(); i++) s[i] = node.scale[i];
+    if ((size_t)n < pose.size()) { // the animations' values at --at replace the file's
+        const NodePose &np = pose[n];
+        if (np.t) std::copy(np.T, np.T + 3, t);
+        if (np.r) std::copy(np.R, np.R + 4, q);
+        if (np.s) std::copy(np.S, np.S + 3, s);
+    }
     double ql = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
     if (!(ql > 0) || !std::isfinite(ql))
         return bad("nodes[%d].rotation: not a unit quaternion", n);
@@ -42,7 +48,7 @@ int Loader::node_local(int n, Mat4 *out)
 int Loader::traverse()
 {
     size_t nn = m.nodes.size();
-    std::vector<int> parent(nn, -1);
+    parent.assign(nn, -1);
     for (size_t i = 0; i < nn; i++) {
         const auto &node = m.nodes[i];
         for (size_t k = 0; k < node.children.size(); k++) {
@@ -60,6 +66,8 @@ int Loader::traverse()
         if (node.mesh < -1) return bad("nodes[%zu].mesh: meshes[%d] does not exist", i, node.mesh);
         if (node.camera < -1 || (node.camera >= 0 && (size_t)node.camera >= m.cameras.size()))
             return bad("nodes[%zu].camera: cameras[%d] does not exist", i, node.camera);
+        if (node.skin < -1 || (node.skin >= 0 && (size_t)node.skin >= m.skins.size()))
+            return bad("nodes[%zu].skin: skins[%d] does not exist", i, node.skin);
         auto lit = node.extensions.find("KHR_lights_punctual");
         if (lit != node.extensions.end()) {
             const Value &l = lit->second.IsObject() ? lit->second.Get("light") : Value();
@@ -111,6 +119,16 @@ int Loader::traverse()
 
     // Depth-first, pre-order, children in file order, with an explicit stack (no
     // recursion, so any depth works).
+    int rc;
+    if ((rc = animations())) return rc;
+    cam_info.assign(m.cameras.size(), SceneCameraInfo());
+    for (size_t c = 0; c < m.cameras.size(); c++) {
+        snprintf(cam_info[c].name, sizeof cam_info[c].name, "%s", m.cameras[c].name.c_str());
+        cam_info[c].orthographic = m.cameras[c].type == "orthographic";
+        cam_info[c].node = -1;
+    }
+    world_state.assign(nn, 0);
+    world.assign(nn, mat_identity());
     std::vector<std::pair<int, Mat4>> stack;
     for (size_t k = roots.size(); k-- > 0;) stack.push_back({roots[k], mat_identity()});
     while (!stack.empty()) {
@@ -118,12 +136,18 @@ int Loader::traverse()
         Mat4 parent_world = stack.back().second;
         stack.pop_back();
         Mat4 local;
-        int rc = node_local(n, &local);
-        if (rc) return rc;
+        if ((rc = node_local(n, &local))) return rc;
         Mat4 world = mat_mul(parent_world, local);
+        this->world[n] = world;
+        world_state[n] = 1;
         const auto &node = m.nodes[n];
-        if (node.mesh >= 0 && (rc = emit_instance(node.mesh, world))) return rc;
-        if (node.camera >= 0 && !have_camera && (rc = camera_from(node.camera, world, n)))
+        if (node.mesh >= 0 && (rc = emit_instance(node.mesh, world, n))) return rc;
+        // The camera: --camera's on the first node placing it, else the first
+        // placed (docs/gltf.md, "Cameras").
+        if (node.camera >= 0 && cam_info[node.camera].node < 0) cam_info[node.camera].node = n;
+        if (node.camera >= 0 && !have_camera &&
+            (chosen_camera < 0 || node.camera == chosen_camera) &&
+            (rc = camera_from(node.camera, world, n)))
             return rc;
         auto lit = node.extensions.find("KHR_lights_punctual");
         if (lit != node.extensions.end() &&
@@ -131,6 +155,12 @@ int Loader::traverse()
             return rc;
         for (size_t k = node.children.size(); k-- > 0;) stack.push_back({node.children[k], world});
     }
+    if (chosen_camera >= 0 && !have_camera)
+        return bad("--camera '%s': cameras[%d]%s is placed on no node of the scene",
+                   pose_opts.camera, chosen_camera,
+                   m.cameras[chosen_camera].name.empty()
+                       ? ""
+                       : (" '" + m.cameras[chosen_camera].name + "'").c_str());
     return 0;
 }
 

@@ -96,5 +96,7 @@ void scene_free(Scene *s)
     free(s->textures);
     for (uint32_t i = 0; i < s->light_count; i++) spd_free(&s->lights[i].spd);
     free(s->lights);
+    free(s->camera_info);
+    free(s->animation_info);
     memset(s, 0, sizeof *s);
 }

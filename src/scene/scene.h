@@ -134,6 +134,30 @@ typedef struct SceneStats {
     uint32_t flattened_triangles, flattened_vertices;
 } SceneStats;
 
+/* The file's cameras and animations as `spectrace info` lists them
+ * (docs/gltf.md, "Animation, skins and morph targets"). */
+typedef struct SceneCameraInfo {
+    char name[128];       /* "" when the file gives none */
+    int orthographic;
+    int node;             /* the first node in scene order that places it; -1: none */
+} SceneCameraInfo;
+
+typedef struct SceneAnimationInfo {
+    char name[128];       /* "" when the file gives none */
+    double start, end;    /* seconds: the first and last key time of its channels */
+    uint32_t channels;
+} SceneAnimationInfo;
+
+/* What pose the loader puts the scene in (docs/gltf.md, "Animation, skins and
+ * morph targets"). A pose of zeros with at = NAN, or a NULL pose, is the file's
+ * rest state. */
+typedef struct ScenePose {
+    double at;             /* seconds; NAN: no animation sampled (the rest state) */
+    const char *animation; /* index or name of the one animation played; NULL: all */
+    const char *camera;    /* index or name into the file's cameras; NULL: the first
+                              camera in scene order */
+} ScenePose;
+
 typedef struct Scene {
     char *path;
     /* Triangles, world space, counter-clockwise front faces (a mirrored transform
@@ -157,6 +181,11 @@ typedef struct Scene {
     SceneLight *lights;
     uint32_t light_count;
     SceneCamera camera;
+    /* For `info` only (not sent to MPI ranks): the file's cameras and animations. */
+    SceneCameraInfo *camera_info;
+    uint32_t camera_info_count;
+    SceneAnimationInfo *animation_info;
+    uint32_t animation_info_count;
     float bounds_min[3], bounds_max[3]; /* of the kept triangles; min > max when empty */
     SceneStats stats;
 } Scene;
@@ -167,6 +196,11 @@ void scene_material_default(SceneMaterial *m);
 /* Loads a .gltf or .glb file into s (zeroed first). Returns 0, or an exit code
  * with e naming the file, the object and the reason; s is then empty. */
 int scene_load_gltf(Scene *s, const char *path, SptError *e);
+
+/* The same posed: pose (NULL: the rest state) samples the file's animations at a
+ * time and picks the camera. An --animation or --camera the file lacks is an
+ * error naming the file and it (SPT_EXIT_INPUT). */
+int scene_load_gltf_posed(Scene *s, const char *path, const ScenePose *pose, SptError *e);
 
 /* The same from the file's bytes in memory (.gltf or .glb, told apart by the GLB
  * magic); name stands for the file in messages and its folder is where external

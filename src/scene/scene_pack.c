@@ -138,6 +138,10 @@ int scene_unpack(Scene *s, const void *bytes, size_t size, const char *what, Spt
     s->vtx_normal = s->vtx_uv = s->vtx_uv1 = s->vtx_color = NULL;
     s->materials = NULL;
     s->textures = NULL;
+    /* `info`'s lists are not packed: the ranks render, they do not list. */
+    s->camera_info = NULL;
+    s->animation_info = NULL;
+    s->camera_info_count = s->animation_info_count = 0;
     s->lights = NULL;
     uint64_t plen = 0;
     size_t at = r.at;
