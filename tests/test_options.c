@@ -39,6 +39,8 @@ static const struct {
     {"aov", "albedo,N"},        {"spectral", "47"},
     {"light-paths", "0.5"},
     {"adaptive", "on"},
+    {"at", "1.25"},             {"animation", "walk"},
+    {"camera", "1"},
 };
 
 /* What the list says of each option. */

@@ -259,7 +259,10 @@ static int load_scene(RenderJob *j, SptError *e)
     int rc;
     input_seen_reset();
     if ((rc = sky_from_args(&j->sky, j->a.env, j->a.background, e)) ||
-        (rc = scene_load_gltf(&j->scene, j->a.scene, e)) ||
+        (rc = scene_load_gltf_posed(&j->scene, j->a.scene,
+                                    &(ScenePose){rs->at ? strtod(rs->at, NULL) : NAN,
+                                                  rs->animation, rs->camera},
+                                    e)) ||
         (rc = check_outputs_are_not_inputs(j, e)))
         return rc;
     const SceneCamera *cam = &j->scene.camera;

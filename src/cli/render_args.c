@@ -269,6 +269,13 @@ int render_args_parse(RenderArgs *a, int argc, char **argv)
         return SPT_EXIT_USAGE;
     }
     a->scene = argv[optind];
+    /* --at is kept as typed (NULL, a RenderSettings' zero, is the rest pose);
+     * its value is checked here. */
+    double at;
+    if (a->rs.at && (parse_double(a->rs.at, &at) || !isfinite(at))) {
+        spt_error("render: --at '%s': %s", a->rs.at, rows[SPT_ARG_at].expect);
+        return SPT_EXIT_USAGE;
+    }
     if (a->given[SPT_ARG_time_limit] && !a->given[SPT_ARG_spp])
         a->rs.spp = 1 << 24;
     return SPT_EXIT_OK;

@@ -115,6 +115,9 @@ int checkpoint_key(CheckpointKey *k, const char *scene_path, const RenderSetting
 #define KEY_RS_U32(name) key_add(k, #name, "%u", rs->name);
 #define KEY_RS_FLT(name) key_add(k, #name, "%.9g", rs->name);
 #define KEY_RS_DBL(name) key_add(k, #name, "%.17g", rs->name);
+/* A STR row of RenderSettings (--at, --animation, --camera) by its text; NULL,
+ * the value of a RenderSettings of zeros, is not given. */
+#define KEY_RS_STR(name) key_add(k, #name, "%s", rs->name ? rs->name : "default");
 #define KEY_RS_FLAG(name) key_add(k, #name, "%d", rs->name);
 #define KEY_RS_SWITCH(name) key_add(k, #name, "%d", rs->name);
 #define KEY_RS_SAMPLER(name) key_add(k, #name, "%u", rs->name);

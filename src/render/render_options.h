@@ -157,6 +157,17 @@ enum { SPT_SWITCH_AUTO = 0, SPT_SWITCH_OFF = 1, SPT_SWITCH_ON = 2 };
     X(CLI, STR, const char *, resume, "resume", 0, "FILE", NULL, 0, 0, 0, "",                   \
       "continue the checkpoint FILE to --spp samples per pixel in\n"                           \
       "total (same scene and settings; keeps checkpointing to FILE)")                          \
+    X(RS, STR, const char *, at, "at", 0, "SECONDS", NULL, 0, 0, SPT_OPT_IMAGE,               \
+      "expected a finite time in seconds",                                                      \
+      "pose the scene at this time of its glTF animations (all\n"                             \
+      "of them, or --animation's), clamped to each one's keys\n"                             \
+      "(default: the file's rest pose, no animation)")                                          \
+    X(RS, STR, const char *, animation, "animation", 0, "N|NAME", NULL, 0, 0, SPT_OPT_IMAGE, "", \
+      "play only this animation (index or name) at --at (default\n"                          \
+      "all; without --at at its time 0)")                                                     \
+    X(RS, STR, const char *, camera, "camera", 0, "N|NAME", NULL, 0, 0, SPT_OPT_IMAGE, "",       \
+      "the file's camera (index or name; default the first in\n"                             \
+      "scene order), placed by the first node that uses it")                                  \
     X(RS, FLAG, int, profile, "profile", 0, "", 0, 0, 0, SPT_OPT_MPI, "",                       \
       "time the kernel stages and print where the time went")                                   \
     X(CLI, FLAG, int, quiet, "quiet", 'q', "", 0, 0, 0, 0, "", "no progress display")           \
