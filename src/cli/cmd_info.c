@@ -16,7 +16,8 @@ static const char info_usage[] =
     "Loads a glTF 2.0 scene (.gltf or .glb) and prints: triangles kept and dropped\n"
     "(NaN/Inf/huge coordinates, degenerate), skipped primitives, meshes, instances,\n"
     "materials, textures with their sizes, emissive triangles, punctual lights, the\n"
-    "camera, the bounds, the load time, the BVH statistics and build time, and an\n"
+    "camera (and the file's cameras, for render --camera), the animations with their\n"
+    "times (for render --at and --animation), the bounds, the load time, the BVH statistics and build time, and an\n"
     "estimate of the device memory for the scene (film and path state excluded).\n"
     "\n"
     "  --no-bvh   skip the BVH build\n"
@@ -170,6 +171,30 @@ static void print_camera(const SceneCamera *c)
            z(c->forward[1]), z(c->forward[2]), z(c->up[0]), z(c->up[1]), z(c->up[2]));
 }
 
+/* The file's cameras (the one rendered is the first placed, or render
+ * --camera's) and animations with their key times (docs/gltf.md, "Animation,
+ * skins and morph targets"). */
+static void print_cameras_and_animations(const Scene *s)
+{
+    for (uint32_t i = 0; i < s->camera_info_count; i++) {
+        const SceneCameraInfo *c = &s->camera_info[i];
+        printf("%s %u%s%s%s %s, ", i ? "            " : "cameras     ", i, c->name[0] ? " '" : "",
+               c->name, c->name[0] ? "'" : "", c->orthographic ? "orthographic" : "perspective");
+        if (c->node >= 0)
+            printf("placed by nodes[%d]\n", c->node);
+        else
+            printf("placed by no node of the scene\n");
+    }
+    if (!s->animation_info_count)
+        printf("animations   none\n");
+    for (uint32_t i = 0; i < s->animation_info_count; i++) {
+        const SceneAnimationInfo *a = &s->animation_info[i];
+        printf("%s %u%s%s%s %.4g s (keys %.4g .. %.4g s), %u channel(s)\n",
+               i ? "            " : "animations  ", i, a->name[0] ? " '" : "", a->name,
+               a->name[0] ? "'" : "", a->end, a->start, a->end, a->channels);
+    }
+}
+
 int cmd_info(int argc, char **argv)
 {
     const char *path = NULL;
@@ -225,6 +250,7 @@ int cmd_info(int argc, char **argv)
             spt_error("%s: %s", path, e.msg);
     }
     print_camera(&s.camera);
+    print_cameras_and_animations(&s);
     if (s.tri_count)
         printf("bounds       %.4g %.4g %.4g .. %.4g %.4g %.4g\n", s.bounds_min[0], s.bounds_min[1],
                s.bounds_min[2], s.bounds_max[0], s.bounds_max[1], s.bounds_max[2]);
