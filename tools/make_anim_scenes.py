@@ -319,8 +319,10 @@ def skin_strip(out, exp):
     ibi, ibb = d.acc(ibm, "MAT4")
     d.j["skins"] = [{"joints": [1, 2], "inverseBindMatrices": ibi}]
     d.j["nodes"] = [{"mesh": 0, "skin": 0, "translation": [5, 0, 0]},
-                    {"children": [2]}, {"translation": [0, 1, 0]}]
-    d.j["scenes"][0]["nodes"] = [0, 1]
+                    {"children": [2]}, {"translation": [0, 1, 0]},
+                    {"camera": 0, "translation": [0.5, 1, 6]}]
+    d.j["scenes"][0]["nodes"] = [0, 1, 3]
+    d.j["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]
     nodes = [{"t": [5, 0, 0]}, {}, {"t": [0, 1, 0]}]
     an = Anim(d, "bend")
     an.channel(1, "translation", [0, 1], [0, 0, 0, 0, 0, 1])
@@ -365,8 +367,10 @@ def morph_quad(out, exp):
     t1pb = [0, 0, 0, 0, 0, 1, 0, 0, 0, 0.5, 0, 0]
     prim, pb, nb = tri_mesh(d, pos, nrm, tris, targets=[{"POSITION": t0p, "NORMAL": t0n}, {"POSITION": t1p}])
     d.j["meshes"].append({"primitives": [prim], "weights": [0.5, 0.25]})
-    d.j["nodes"] = [{"mesh": 0}, {"mesh": 0, "translation": [3, 0, 0], "weights": [1, 0.5]}]
-    d.j["scenes"][0]["nodes"] = [0, 1]
+    d.j["nodes"] = [{"mesh": 0}, {"mesh": 0, "translation": [3, 0, 0], "weights": [1, 0.5]},
+                    {"camera": 0, "translation": [2, 0.5, 6]}]
+    d.j["scenes"][0]["nodes"] = [0, 1, 2]
+    d.j["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]
     nodes = [{"w": [0.5, 0.25]}, {"t": [3, 0, 0], "w": [1, 0.5]}]
     blend = Anim(d, "blend")
     blend.channel(0, "weights", [0, 1], [0, 0, 1, 1], atype="SCALAR", nc=2)
