@@ -127,8 +127,11 @@ int Loader::traverse()
         cam_info[c].orthographic = m.cameras[c].type == "orthographic";
         cam_info[c].node = -1;
     }
-    world_state.assign(nn, 0);
-    world.assign(nn, mat_identity());
+    // World transforms are kept only for skins, whose joints may come later.
+    if (!m.skins.empty()) {
+        world_state.assign(nn, 0);
+        world.assign(nn, mat_identity());
+    }
     std::vector<std::pair<int, Mat4>> stack;
     for (size_t k = roots.size(); k-- > 0;) stack.push_back({roots[k], mat_identity()});
     while (!stack.empty()) {
@@ -138,8 +141,10 @@ int Loader::traverse()
         Mat4 local;
         if ((rc = node_local(n, &local))) return rc;
         Mat4 world = mat_mul(parent_world, local);
-        this->world[n] = world;
-        world_state[n] = 1;
+        if (!world_state.empty()) {
+            this->world[n] = world;
+            world_state[n] = 1;
+        }
         const auto &node = m.nodes[n];
         if (node.mesh >= 0 && (rc = emit_instance(node.mesh, world, n))) return rc;
         // The camera: --camera's on the first node placing it, else the first

@@ -108,7 +108,7 @@ int Loader::animations()
     }
     double at = pose_opts.at;
     if (pose_opts.animation && !std::isfinite(at)) at = 0; // --animation alone: its start
-    pose.assign(m.nodes.size(), NodePose());
+    if (!m.animations.empty()) pose.assign(m.nodes.size(), NodePose()); // else: no pose
     if (std::isfinite(at) && m.animations.empty())
         spt_warn("%s: --at %g: the file has no animations; its rest pose is rendered", file, at);
     bool zeros;
