@@ -207,12 +207,22 @@ static void test_posed_renders_as_static(void **state)
     char dir[] = "/tmp/spt_anim_XXXXXX", args[1024], err[4096];
     assert_non_null(mkdtemp(dir));
     const char *common = "render -q --spp 4 --width 32 --height 24 --seed 3";
-    snprintf(args, sizeof args, "%s --at 0.25 -o %s/posed.exr %s", common, dir,
-             ANIM("render_posed.gltf"));
+    snprintf(args, sizeof args, "%s --at 0.25 --camera 0 -o %s/posed.exr -o %s/posed.png %s",
+             common, dir, dir, ANIM("render_posed.gltf"));
     if (test_run_exe("", 300, args, err, sizeof err)) fail_msg("%s", err);
     snprintf(args, sizeof args, "%s -o %s/static.exr %s", common, dir, ANIM("render_static.gltf"));
     if (test_run_exe("", 300, args, err, sizeof err)) fail_msg("%s", err);
     char pa[600], pb[600];
+    /* The image records its pose (PNG tEXt: key, NUL, value). */
+    snprintf(pa, sizeof pa, "%s/posed.png", dir);
+    FILE *png = fopen(pa, "rb");
+    assert_non_null(png);
+    static char bytes[1 << 16];
+    size_t nb = fread(bytes, 1, sizeof bytes, png);
+    fclose(png);
+    assert_non_null(memmem(bytes, nb, "spectrace:at\0" "0.25", 17));
+    assert_non_null(memmem(bytes, nb, "spectrace:camera\0" "0", 18));
+    unlink(pa);
     snprintf(pa, sizeof pa, "%s/posed.exr", dir);
     snprintf(pb, sizeof pb, "%s/static.exr", dir);
     float *ia = NULL, *ib = NULL;

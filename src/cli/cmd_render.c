@@ -620,6 +620,14 @@ static int write_outputs(RenderJob *j, SptError *e)
     snprintf(nan_s, sizeof nan_s, "%llu", (unsigned long long)j->st.nan_dropped);
     image_meta_add(&meta, "max_depth", depth_s);
     image_meta_add(&meta, "nan_dropped", nan_s);
+    /* The pose, when not the rest state (docs/gltf.md, "Animation, skins and
+     * morph targets"): which frame of the file the image is. */
+    if (rs->at)
+        image_meta_add(&meta, "at", rs->at);
+    if (rs->animation)
+        image_meta_add(&meta, "animation", rs->animation);
+    if (rs->camera)
+        image_meta_add(&meta, "camera", rs->camera);
     j->layers = spt_malloc((size_t)(32 + (rs->spectral > 0 ? rs->spectral : 0)) * sizeof(ExrChannel));
     j->layer_count = 0;
     if (rs->aov)
