@@ -117,8 +117,7 @@ int Loader::traverse()
                  roots.size());
     }
 
-    // Depth-first, pre-order, children in file order, with an explicit stack (no
-    // recursion, so any depth works).
+    // The animations checked and, at --at, sampled into the nodes' poses.
     int rc;
     if ((rc = animations())) return rc;
     cam_info.assign(m.cameras.size(), SceneCameraInfo());
@@ -132,6 +131,8 @@ int Loader::traverse()
         world_state.assign(nn, 0);
         world.assign(nn, mat_identity());
     }
+    // Depth-first, pre-order, children in file order, with an explicit stack (no
+    // recursion, so any depth works).
     std::vector<std::pair<int, Mat4>> stack;
     for (size_t k = roots.size(); k-- > 0;) stack.push_back({roots[k], mat_identity()});
     while (!stack.empty()) {
@@ -148,7 +149,7 @@ int Loader::traverse()
         const auto &node = m.nodes[n];
         if (node.mesh >= 0 && (rc = emit_instance(node.mesh, world, n))) return rc;
         // The camera: --camera's on the first node placing it, else the first
-        // placed (docs/gltf.md, "Cameras").
+        // placed (docs/gltf.md, "Animation, skins and morph targets").
         if (node.camera >= 0 && cam_info[node.camera].node < 0) cam_info[node.camera].node = n;
         if (node.camera >= 0 && !have_camera &&
             (chosen_camera < 0 || node.camera == chosen_camera) &&

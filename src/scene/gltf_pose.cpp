@@ -4,6 +4,8 @@
 // and the --camera choice.
 #include "scene/gltf_loader.h"
 
+#include <cctype>
+
 namespace spt_gltf {
 
 namespace {
