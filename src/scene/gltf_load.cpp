@@ -1,6 +1,6 @@
 // glTF 2.0 loading into the flat Scene (src/scene/scene.h): the entry points and
 // the last step, the Scene's arrays. The steps before live in src/scene/gltf_*.cpp
-// (files, parse, nodes, materials, geometry), the only tinygltf code.
+// (files, parse, nodes, pose, materials, geometry), the only tinygltf code.
 //
 // tinygltf parses the JSON (and the GLB container, after we have checked it);
 // everything it does not check is checked here before any data is read: buffer
