@@ -159,7 +159,7 @@ struct NodePose {
 // has a skin, the joint matrices.
 struct Deform {
     std::vector<double> weights;
-    std::vector<Mat4> joints;
+    const std::vector<Mat4> *joints = nullptr; // the skin's (Loader::skin_matrices); null: none
     int skin = -1;
 };
 
@@ -191,6 +191,11 @@ struct Loader {
     std::vector<char> world_state;
     int chosen_camera = -1; // --camera's index into cameras[]; -1: the first placed
     uint32_t unplayed_channels = 0; // channels without target.node (extensions')
+    // Read once however many samplers or instances share them: animation
+    // accessors by (accessor, values per key: 0 for times) and skins' joint
+    // matrices by skin.
+    std::map<std::pair<int, int>, std::vector<float>> anim_floats;
+    std::map<int, std::vector<Mat4>> skin_matrices;
     std::vector<SceneAnimationInfo> anim_info;
     std::vector<SceneCameraInfo> cam_info;
     SceneStats stats = {};

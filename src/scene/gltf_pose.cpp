@@ -123,20 +123,27 @@ int Loader::animations()
         snprintf(info.name, sizeof info.name, "%s", an.name.c_str());
         info.start = HUGE_VAL;
         info.end = -HUGE_VAL;
-        // Each sampler's input: times in seconds, >= 0 and strictly increasing.
-        std::vector<std::vector<float>> times(an.samplers.size());
+        // Each sampler's input: times in seconds, >= 0 and strictly increasing
+        // (each accessor read and checked once, however many samplers share it).
+        std::vector<const std::vector<float> *> times(an.samplers.size());
         std::vector<int> interp(an.samplers.size());
         for (size_t si = 0; si < an.samplers.size(); si++) {
             const auto &sp = an.samplers[si];
             std::string so = ao + ".samplers[" + std::to_string(si) + "]";
-            if ((rc = check_accessor(sp.input, so + ".input", 1, {f}, 0, &zeros))) return rc;
-            read_floats(sp.input, 1, times[si]);
-            for (size_t k = 0; k < times[si].size(); k++)
-                if (!std::isfinite(times[si][k]) || times[si][k] < 0 ||
-                    (k && !(times[si][k] > times[si][k - 1])))
-                    return bad("%s.input (accessors[%d]): time %zu is %g: times must be finite, "
-                               ">= 0 and strictly increasing",
-                               so.c_str(), sp.input, k, (double)times[si][k]);
+            auto key = std::make_pair(sp.input, 0); // 0: as times
+            auto it = anim_floats.find(key);
+            if (it == anim_floats.end()) {
+                if ((rc = check_accessor(sp.input, so + ".input", 1, {f}, 0, &zeros))) return rc;
+                std::vector<float> t;
+                read_floats(sp.input, 1, t);
+                for (size_t k = 0; k < t.size(); k++)
+                    if (!std::isfinite(t[k]) || t[k] < 0 || (k && !(t[k] > t[k - 1])))
+                        return bad("%s.input (accessors[%d]): time %zu is %g: times must be "
+                                   "finite, >= 0 and strictly increasing",
+                                   so.c_str(), sp.input, k, (double)t[k]);
+                it = anim_floats.emplace(key, std::move(t)).first;
+            }
+            times[si] = &it->second;
             if (sp.interpolation == "LINEAR") interp[si] = INTERP_LINEAR;
             else if (sp.interpolation == "STEP") interp[si] = INTERP_STEP;
             else if (sp.interpolation == "CUBICSPLINE") interp[si] = INTERP_CUBIC;
@@ -187,8 +194,23 @@ int Loader::animations()
             const auto &sp = an.samplers[ch.sampler];
             std::string oo = ao + ".samplers[" + std::to_string(ch.sampler) + "].output";
             int per_value = path == "weights" ? 1 : nc;
-            if ((rc = check_accessor(sp.output, oo, per_value, types, norm, &zeros))) return rc;
-            const auto &tin = times[ch.sampler];
+            // The output, read and checked once per accessor and value size (which
+            // decides the allowed types: 3 translation and scale, 4 rotation, 1
+            // weights).
+            auto key = std::make_pair(sp.output, per_value);
+            auto it = anim_floats.find(key);
+            if (it == anim_floats.end()) {
+                if ((rc = check_accessor(sp.output, oo, per_value, types, norm, &zeros))) return rc;
+                std::vector<float> o;
+                read_floats(sp.output, per_value, o);
+                for (size_t k = 0; k < o.size(); k++)
+                    if (!std::isfinite(o[k]))
+                        return bad("%s (accessors[%d]): value %zu is not finite", oo.c_str(),
+                                   sp.output, k);
+                it = anim_floats.emplace(key, std::move(o)).first;
+            }
+            const std::vector<float> &out = it->second;
+            const auto &tin = *times[ch.sampler];
             size_t want = tin.size() * (interp[ch.sampler] == INTERP_CUBIC ? 3 : 1) *
                           (path == "weights" ? (size_t)nc : 1);
             if (m.accessors[sp.output].count != want)
@@ -196,12 +218,6 @@ int Loader::animations()
                            oo.c_str(), sp.output, m.accessors[sp.output].count, want, tin.size(),
                            interp[ch.sampler] == INTERP_CUBIC ? " of CUBICSPLINE triples" : "",
                            path == "weights" ? (" of " + std::to_string(nc) + " weights").c_str() : "");
-            std::vector<float> out;
-            read_floats(sp.output, per_value, out);
-            for (size_t k = 0; k < out.size(); k++)
-                if (!std::isfinite(out[k]))
-                    return bad("%s (accessors[%d]): value %zu is not finite", oo.c_str(),
-                               sp.output, k);
             info.channels++;
             info.start = std::min(info.start, (double)tin.front());
             info.end = std::max(info.end, (double)tin.back());
@@ -322,7 +338,7 @@ int Loader::deform_for(int node, int mi, Deform *d)
     const auto &nd = m.nodes[node];
     const auto &mesh = m.meshes[mi];
     d->weights.clear();
-    d->joints.clear();
+    d->joints = nullptr;
     // Morph weights: the animation's, else the node's, else the mesh's, else 0.
     size_t nt = 0;
     for (const auto &p : mesh.primitives) nt = std::max(nt, p.targets.size());
@@ -350,6 +366,14 @@ int Loader::deform_for(int node, int mi, Deform *d)
     if (nd.skin < 0) return 0;
     if ((size_t)nd.skin >= m.skins.size())
         return bad("nodes[%d].skin: skins[%d] does not exist", node, nd.skin);
+    d->skin = nd.skin;
+    // The joint matrices depend on the skin alone (not on the node using it):
+    // computed once per skin.
+    auto done = skin_matrices.find(nd.skin);
+    if (done != skin_matrices.end()) {
+        d->joints = &done->second;
+        return 0;
+    }
     const auto &sk = m.skins[nd.skin];
     std::string so = "skins[" + std::to_string(nd.skin) + "]";
     if (sk.joints.empty()) return bad("%s.joints: empty", so.c_str());
@@ -370,6 +394,7 @@ int Loader::deform_for(int node, int mi, Deform *d)
     }
     // Joint matrix = the joint's world transform x its inverse bind matrix; the
     // skinned node's own transform is not applied (glTF 2.0 3.7.3.1).
+    std::vector<Mat4> joints;
     for (size_t k = 0; k < sk.joints.size(); k++) {
         int jn = sk.joints[k];
         if (jn < 0 || (size_t)jn >= m.nodes.size())
@@ -378,9 +403,9 @@ int Loader::deform_for(int node, int mi, Deform *d)
         if (int rc = node_world(jn, &jw)) return rc;
         if (!ibm.empty())
             for (int c = 0; c < 16; c++) b.m[c] = ibm[k * 16 + c];
-        d->joints.push_back(mat_mul(jw, b));
+        joints.push_back(mat_mul(jw, b));
     }
-    d->skin = nd.skin;
+    d->joints = &skin_matrices.emplace(nd.skin, std::move(joints)).first->second;
     return 0;
 }
 
@@ -401,17 +426,17 @@ int Loader::deform_vertex(const PrimData &pd, int mi, int pi, size_t v, const De
         }
     }
     Mat4 M = world;
-    if (d.skin >= 0 && !pd.joints.empty()) {
+    if (d.joints && !pd.joints.empty()) {
         M = Mat4{};
         for (int k = 0; k < 8; k++) {
             double w = pd.weights[v * 8 + k];
             if (w == 0) continue;
             size_t j = (size_t)pd.joints[v * 8 + k];
-            if (j >= d.joints.size())
+            if (j >= d.joints->size())
                 return bad("meshes[%d].primitives[%d].attributes.JOINTS_%d: vertex %zu names joint "
                            "%zu, but skins[%d] has %zu joints",
-                           mi, pi, k / 4, v, j, d.skin, d.joints.size());
-            for (int c = 0; c < 16; c++) M.m[c] += w * d.joints[j].m[c];
+                           mi, pi, k / 4, v, j, d.skin, d.joints->size());
+            for (int c = 0; c < 16; c++) M.m[c] += w * (*d.joints)[j].m[c];
         }
     }
     mat_point(M, p, wp);
