@@ -42,9 +42,8 @@ static double *read_values(FILE *f, const char *tag, uint32_t *tris)
     return v;
 }
 
-static void test_expected_poses(void **state)
+TEST(test_expected_poses)
 {
-    (void)state;
     FILE *f = fopen(ANIM("expected.txt"), "r");
     assert_non_null(f);
     char word[64], file[256], anim[128], cam[128];
@@ -109,9 +108,8 @@ static void test_expected_poses(void **state)
 
 /* Each bad file or selection: refused with SPT_EXIT_INPUT, the message naming
  * the file and the fault. */
-static void test_bad_inputs(void **state)
+TEST(test_bad_inputs)
 {
-    (void)state;
     FILE *f = fopen(ANIM("expected.txt"), "r");
     assert_non_null(f);
     char line[1024], file[256], anim[128], cam[128], want[512];
@@ -141,9 +139,8 @@ static void test_bad_inputs(void **state)
 
 /* The command line: an unknown camera is one error line, exit 3 (README.md,
  * "Exit codes"); a bad --at is a usage error. */
-static void test_cli_errors(void **state)
+TEST(test_cli_errors)
 {
-    (void)state;
     char err[4096];
     int rc = test_run_exe("", 60, "render -q --camera Nope -o /tmp/spt_anim_never.png "
                           "tests/data/anim/anim_triangle.gltf", err, sizeof err);
@@ -161,9 +158,8 @@ static void test_cli_errors(void **state)
 
 /* Without --at the rest state: a NULL pose and a pose of NaN load the same
  * scene; --animation alone poses at time 0. */
-static void test_rest_state(void **state)
+TEST(test_rest_state)
 {
-    (void)state;
     Scene a, b, c;
     SptError e = {0};
     assert_int_equal(scene_load_gltf(&a, ANIM("anim_triangle.gltf"), &e), 0);
@@ -188,9 +184,8 @@ static void test_rest_state(void **state)
 
 /* render_posed.gltf at --at 0.25 is render_static.gltf: the loaded scenes are
  * equal bit for bit, and so are the rendered images. */
-static void test_posed_renders_as_static(void **state)
+TEST(test_posed_renders_as_static)
 {
-    (void)state;
     Scene a, b;
     SptError e = {0};
     ScenePose p = {0.25, NULL, NULL};
@@ -251,14 +246,4 @@ static void test_posed_renders_as_static(void **state)
     rmdir(dir);
 }
 
-int main(void)
-{
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_expected_poses),
-        cmocka_unit_test(test_bad_inputs),
-        cmocka_unit_test(test_cli_errors),
-        cmocka_unit_test(test_rest_state),
-        cmocka_unit_test(test_posed_renders_as_static),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TEST_MAIN("animation", NULL, NULL)
