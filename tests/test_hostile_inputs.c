@@ -14,6 +14,7 @@
 
 #include "cl/cl_device.h"
 #include "cli/render_args.h"
+#include "io/image_in.h"
 #include "render/render_options.h"
 #include "scene/scene.h"
 
@@ -415,6 +416,36 @@ TEST(test_gltf_indices_without_buffer_view)
     assert_int_equal(s.tri_count, 0);
     assert_int_equal(s.stats.dropped_degenerate, 1);
     scene_free(&s);
+}
+
+/* A scene with no triangles (a scene of no nodes) renders its sky: the
+ * device's BVH buffer is its root node's size with no data behind it, once
+ * read past a 16-byte placeholder (AddressSanitizer: heap-buffer-overflow). */
+TEST(test_empty_scene_renders_sky)
+{
+    char scene[256], out[256];
+    snprintf(scene, sizeof scene, "%s/empty.gltf", test_dir());
+    snprintf(out, sizeof out, "%s/empty.exr", test_dir());
+    test_write_text(scene, "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[]}],\"scene\":0}");
+    char args[1024], err[8192];
+    snprintf(args, sizeof args, "render %s --width 8 --spp 64 -q --device 0 -o %s", scene, out);
+    int rc = run_exe(args, err, sizeof err);
+    if (rc) fail_msg("exit %d:\n%s", rc, err);
+    float *rgb = NULL;
+    int w = 0, h = 0;
+    SptError e = {0};
+    if (image_read_rgb(out, &rgb, &w, &h, &e)) fail_msg("%s", e.msg);
+    /* The default sky is D65 at luminance 1, which is linear sRGB's white
+     * (1, 1, 1); each pixel's few wavelengths scatter its colour, their mean
+     * over the image does not. */
+    double mean[3] = {0, 0, 0};
+    for (int i = 0; i < w * h * 3; i++) {
+        if (!(rgb[i] > 0.0f && isfinite(rgb[i]))) fail_msg("pixel value %d is %g", i, rgb[i]);
+        mean[i % 3] += rgb[i] / (double)(w * h);
+    }
+    for (int c = 0; c < 3; c++)
+        if (!(fabs(mean[c] - 1.0) < 0.01)) fail_msg("channel %d's mean is %g, not the sky's 1", c, mean[c]);
+    free(rgb);
 }
 
 TEST_MAIN("tests", test_dir_setup, test_dir_teardown)
