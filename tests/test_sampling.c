@@ -21,6 +21,19 @@ static void test_uniform2(uint32_t stream, uint32_t i, float *u1, float *u2)
     *u2 = test_uniform(base + 1u);
 }
 
+/* Sample i of a direction sampler of two uniforms, drawn from this stream. */
+static int direction_sample(uint32_t stream, uint32_t i, vec3 (*sampler)(float, float),
+                            double p[3])
+{
+    float u1, u2;
+    test_uniform2(stream, i, &u1, &u2);
+    vec3 d = sampler(u1, u2);
+    p[0] = d.x;
+    p[1] = d.y;
+    p[2] = d.z;
+    return 1;
+}
+
 /* ---- The chi-square helper ---------------------------------------------------- */
 
 /* The survival function against closed forms and published table values. */
@@ -54,13 +67,7 @@ TEST(test_chi2_survival_function)
 static int cosine_sample(void *ctx, uint32_t i, double p[3])
 {
     (void)ctx;
-    float u1, u2;
-    test_uniform2(1, i, &u1, &u2);
-    vec3 d = spt_sample_cosine_hemisphere(u1, u2);
-    p[0] = d.x;
-    p[1] = d.y;
-    p[2] = d.z;
-    return 1;
+    return direction_sample(1, i, spt_sample_cosine_hemisphere, p);
 }
 
 /* Density of the uniform hemisphere, per steradian. */
@@ -102,26 +109,14 @@ static double cosine_pdf(void *ctx, const double p[3])
 static int uniform_hemisphere_sample(void *ctx, uint32_t i, double p[3])
 {
     (void)ctx;
-    float u1, u2;
-    test_uniform2(2, i, &u1, &u2);
-    vec3 d = spt_sample_uniform_hemisphere(u1, u2);
-    p[0] = d.x;
-    p[1] = d.y;
-    p[2] = d.z;
-    return 1;
+    return direction_sample(2, i, spt_sample_uniform_hemisphere, p);
 }
 
 /* Sample i of spt_sample_uniform_sphere. */
 static int uniform_sphere_sample(void *ctx, uint32_t i, double p[3])
 {
     (void)ctx;
-    float u1, u2;
-    test_uniform2(3, i, &u1, &u2);
-    vec3 d = spt_sample_uniform_sphere(u1, u2);
-    p[0] = d.x;
-    p[1] = d.y;
-    p[2] = d.z;
-    return 1;
+    return direction_sample(3, i, spt_sample_uniform_sphere, p);
 }
 
 /* Density of the uniform sphere, per steradian. */
