@@ -471,6 +471,20 @@ static const char *temp_file(const char *text)
     return path;
 }
 
+/* A CSV of this text must be rejected with a message naming the file and this line. */
+static void csv_rejected_at_line(const char *text, int line)
+{
+    const char *p = temp_file(text);
+    Spd s;
+    SptError e = {0};
+    char want[128];
+    assert_int_equal(spd_read_csv(&s, p, &e), SPT_EXIT_INPUT);
+    snprintf(want, sizeof want, "%s: line %d:", p, line);
+    if (!strstr(e.msg, want))
+        fail_msg("message '%s' does not name '%s'", e.msg, want);
+    unlink(p);
+}
+
 /* CSV: header, comments, blank lines, irregular spacing; the bad line's number. */
 TEST(test_csv)
 {
@@ -488,20 +502,8 @@ TEST(test_csv)
     spd_free(&s);
     unlink(p);
 
-    p = temp_file("wavelength_nm,value\n400,1\n410,2\n420;3\n430,4\n");
-    char want[128];
-    assert_int_equal(spd_read_csv(&s, p, &e), SPT_EXIT_INPUT);
-    snprintf(want, sizeof want, "%s: line 4:", p);
-    if (!strstr(e.msg, want))
-        fail_msg("message '%s' does not name '%s'", e.msg, want);
-    unlink(p);
-
-    p = temp_file("400,1\n410,abc\n");
-    assert_int_equal(spd_read_csv(&s, p, &e), SPT_EXIT_INPUT);
-    snprintf(want, sizeof want, "%s: line 2:", p);
-    if (!strstr(e.msg, want))
-        fail_msg("message '%s' does not name '%s'", e.msg, want);
-    unlink(p);
+    csv_rejected_at_line("wavelength_nm,value\n400,1\n410,2\n420;3\n430,4\n", 4);
+    csv_rejected_at_line("400,1\n410,abc\n", 2);
 
     p = temp_file("400,1\n400,2\n");
     assert_int_equal(spd_read_csv(&s, p, &e), SPT_EXIT_INPUT);
