@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "chi2.h"
+#include "sheen_spec.h"
 #include "closure/bsdf.h"
 
 /* Chi-square tests expected to pass in this binary, for the Sidak correction. */
@@ -344,18 +345,6 @@ TEST(test_layers_consistency)
 /* E(mu, r) of kernels/closure/sheen_table.h between its nodes against the directional
  * albedo of the specification's Charlie lobe integrated here over wi (midpoint
  * rule, 1000 x 400 nodes, double precision). */
-static double spec_sheen_lambda(double mu, double alpha)
-{
-    const double r0[5] = {21.5473, 3.82987, 0.19823, -1.97760, -4.32054};
-    const double r1[5] = {25.3245, 3.32435, 0.16801, -1.27393, -4.85967};
-    double t = (1 - alpha) * (1 - alpha), c[5];
-    for (int k = 0; k < 5; k++)
-        c[k] = r0[k] + (r1[k] - r0[k]) * t;
-#define SPEC_L(x) (c[0] / (1 + c[1] * pow((x), c[2])) + c[3] * (x) + c[4])
-    return mu < 0.5 ? exp(SPEC_L(mu)) : exp(2 * SPEC_L(0.5) - SPEC_L(1 - mu));
-#undef SPEC_L
-}
-
 static double spec_sheen_albedo(double mu, double r)
 {
     double alpha = r * r, sum = 0;

@@ -26,6 +26,7 @@
 #include "render/film.h"
 #include "render/render.h"
 #include "scene/scene.h"
+#include "sheen_spec.h"
 
 /* An image rendered from a scene: linear sRGB, 3 floats per pixel, rows top to
  * bottom. */
@@ -574,16 +575,6 @@ TEST(test_clearcoat_over_emission)
  * Charlie D = (2 + 1/alpha) sin(theta_h)^(1/alpha) / (2 pi) and V = 1 / ((1 + 2
  * Lambda(1/2)) 4 mu^2), alpha = r^2, written here from the specification. Cells
  * (colour RGB sRGB, roughness A linear): (1, 77), (188, 153), (1, 255), (0, -). */
-static double spec_sheen_l(double x, double alpha)
-{
-    const double r0[5] = {21.5473, 3.82987, 0.19823, -1.97760, -4.32054};
-    const double r1[5] = {25.3245, 3.32435, 0.16801, -1.27393, -4.85967};
-    double t = (1 - alpha) * (1 - alpha), c[5];
-    for (int k = 0; k < 5; k++)
-        c[k] = r0[k] + (r1[k] - r0[k]) * t;
-    return c[0] / (1 + c[1] * pow(x, c[2])) + c[3] * x + c[4];
-}
-
 TEST(test_sheen)
 {
     const double colour[4] = {1.0, srgb8_to_linear(188), 1.0, 0.0}, rough[4] = {77, 153, 255, 255};
