@@ -15,6 +15,7 @@
 #include "render/render.h"
 #include "scene/scene.h"
 #include "spectrum/cie_data.h"
+#include "sphere_scene.h"
 
 #define SPT_CIE_Y_INTEGRAL_HOST ((double)SPT_CIE_Y_INTEGRAL)
 
@@ -250,20 +251,7 @@ static inline int json_triple(const char *path, const char *section, const char 
  * camera at +Z 4 looking toward -Z, yfov 0.6 rad. */
 static inline void sphere_scene_material(Scene *s, const SceneMaterial *m)
 {
-    memset(s, 0, sizeof *s);
-    uint32_t n = 0;
-    const float c[3] = {0, 0, 0};
-    s->tri_pos = bvh_gen_sphere(48, 96, 1.0f, c, 0.0f, &n);
-    s->tri_count = n;
-    s->vertex_count = 3 * n;
-    s->tri_vidx = malloc(sizeof(uint32_t) * 3 * n);
-    s->tri_mat = calloc(n, sizeof(uint32_t));
-    s->vtx_normal = calloc((size_t)9 * n, sizeof(float));
-    s->vtx_uv = calloc((size_t)6 * n, sizeof(float));
-    for (uint32_t i = 0; i < 3 * n; i++)
-        s->tri_vidx[i] = i;
-    s->material_count = 1;
-    s->materials = calloc(1, sizeof(SceneMaterial));
+    sphere_scene_mesh(s, 48, 96, 0.0f);
     s->materials[0] = *m;
     s->camera.position[2] = 4.0f;
     s->camera.forward[2] = -1.0f;

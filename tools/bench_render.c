@@ -23,6 +23,8 @@
 #include "render/film.h"
 #include "render/render.h"
 #include "scene/scene.h"
+/* Not on the tools' include path: named from this folder. */
+#include "../tests/sphere_scene.h"
 
 static int cmp_double(const void *a, const void *b)
 {
@@ -40,20 +42,7 @@ static double median(double *v, int n)
  * emissive, so every bounce sends rays in all directions. */
 static void make_sphere_scene(Scene *s)
 {
-    memset(s, 0, sizeof *s);
-    uint32_t n = 0;
-    const float c[3] = {0, 0, 0};
-    s->tri_pos = bvh_gen_sphere(500, 1000, 1.0f, c, 0.2f, &n);
-    s->tri_count = n;
-    s->vertex_count = 3 * n;
-    s->tri_vidx = malloc(sizeof(uint32_t) * 3 * n);
-    s->tri_mat = calloc(n, sizeof(uint32_t));
-    s->vtx_normal = calloc((size_t)3 * 3 * n, sizeof(float));
-    s->vtx_uv = calloc((size_t)2 * 3 * n, sizeof(float));
-    for (uint32_t i = 0; i < 3 * n; i++)
-        s->tri_vidx[i] = i;
-    s->material_count = 1;
-    s->materials = calloc(1, sizeof(SceneMaterial));
+    sphere_scene_mesh(s, 500, 1000, 0.2f);
     scene_material_default(&s->materials[0]);
     for (int k = 0; k < 3; k++) {
         s->materials[0].base_color[k] = 0.8f;
