@@ -16,6 +16,8 @@ import struct
 import sys
 import zlib
 
+from gltf_doc import GltfDoc
+
 OUT = sys.argv[1] if len(sys.argv) > 1 else os.path.join(os.path.dirname(__file__), "..", "tests", "data", "gltf")
 
 FLOAT, U8, U16, U32 = 5126, 5121, 5123, 5125
@@ -38,24 +40,11 @@ def png(width, height, rows, channels=3):
 PNG_2X2 = png(2, 2, [[0, 64, 128, 255, 255, 255], [128, 0, 255, 10, 20, 30]])
 
 
-class G:
+class G(GltfDoc):
     """A glTF document with one binary buffer built up in memory."""
 
     def __init__(self):
-        self.doc = {"asset": {"version": "2.0", "generator": "tools/gen_gltf_tests.py"},
-                    "scene": 0, "scenes": [{"nodes": []}], "nodes": [], "meshes": [],
-                    "accessors": [], "bufferViews": [], "buffers": []}
-        self.bin = bytearray()
-
-    def view(self, data, stride=None):
-        while len(self.bin) % 4:
-            self.bin.append(0)
-        v = {"buffer": 0, "byteOffset": len(self.bin), "byteLength": len(data)}
-        if stride:
-            v["byteStride"] = stride
-        self.bin += data
-        self.doc["bufferViews"].append(v)
-        return len(self.doc["bufferViews"]) - 1
+        super().__init__("tools/gen_gltf_tests.py")
 
     def acc(self, view, ctype, count, typ, offset=0, normalized=False, **kw):
         a = {"bufferView": view, "componentType": ctype, "count": count, "type": typ}

@@ -36,6 +36,8 @@ import os
 import struct
 import sys
 
+from gltf_doc import GltfDoc
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
@@ -43,20 +45,9 @@ def f32(x):
     return struct.unpack("<f", struct.pack("<f", x))[0]
 
 
-class Doc:
+class Doc(GltfDoc):
     def __init__(self):
-        self.j = {"asset": {"version": "2.0", "generator": "tools/make_anim_scenes.py"},
-                  "scene": 0, "scenes": [{"nodes": []}], "nodes": [], "meshes": [],
-                  "accessors": [], "bufferViews": [], "buffers": []}
-        self.blob = bytearray()
-
-    def view(self, data):
-        while len(self.blob) % 4:
-            self.blob.append(0)
-        self.j["bufferViews"].append({"buffer": 0, "byteOffset": len(self.blob),
-                                      "byteLength": len(data)})
-        self.blob.extend(data)
-        return len(self.j["bufferViews"]) - 1
+        super().__init__("tools/make_anim_scenes.py")
 
     def acc(self, values, atype, ctype=5126, normalized=False, minmax=False):
         """values: flat list. Returns (accessor index, the values as read back)."""
@@ -70,18 +61,18 @@ class Doc:
         if minmax:
             a["min"] = [min(values[k::n]) for k in range(n)]
             a["max"] = [max(values[k::n]) for k in range(n)]
-        self.j["accessors"].append(a)
+        self.doc["accessors"].append(a)
         back = list(struct.unpack("<%d%s" % (len(values), fmt), data))
         if ctype != 5126:
             back = [v / {5121: 255.0, 5123: 65535.0}[ctype] for v in back] if normalized else back
-        return len(self.j["accessors"]) - 1, back
+        return len(self.doc["accessors"]) - 1, back
 
     def write(self, path):
-        self.j["buffers"] = [{"byteLength": len(self.blob), "uri":
+        self.doc["buffers"] = [{"byteLength": len(self.bin), "uri":
                               "data:application/octet-stream;base64," +
-                              base64.b64encode(bytes(self.blob)).decode()}]
+                              base64.b64encode(bytes(self.bin)).decode()}]
         with open(path, "w") as f:
-            json.dump(self.j, f, indent=1)
+            json.dump(self.doc, f, indent=1)
             f.write("\n")
 
 
@@ -167,7 +158,7 @@ class Anim:
     def __init__(self, doc, name):
         self.doc, self.a = doc, {"name": name, "channels": [], "samplers": []}
         self.ch = []
-        doc.j.setdefault("animations", []).append(self.a)
+        doc.doc.setdefault("animations", []).append(self.a)
 
     def channel(self, node, path, times, values, interp="LINEAR", atype="VEC3", nc=None):
         ti, tb = self.doc.acc([f32(x) for x in times], "SCALAR", minmax=True)
@@ -220,21 +211,21 @@ def anim_triangle(out, exp):
     pos = [0, 0, 0, 1, 0, 0, 0, 1, 0]
     nrm = [0, 0, 1] * 3
     prim, pb, nb = tri_mesh(d, pos, nrm, [0, 1, 2])
-    d.j["meshes"].append({"primitives": [prim]})
+    d.doc["meshes"].append({"primitives": [prim]})
     cam_q = axis_angle((0, 1, 0), 30)
     nodes = [{"t": [0, 0, 0]}, {"t": [f32(0.5), 0, 0]}, {"t": [0, 0, 5], "q": cam_q},
              {"t": [0, 0, 10]}, {"t": [0, 0, 20]}, {"t": [0, 3, 0]}]
-    d.j["nodes"] = [{"name": "tri", "mesh": 0, "children": [1], "translation": [0, 0, 0]},
+    d.doc["nodes"] = [{"name": "tri", "mesh": 0, "children": [1], "translation": [0, 0, 0]},
                     {"name": "cubic", "mesh": 0, "translation": [f32(0.5), 0, 0]},
                     {"name": "cam", "camera": 0, "translation": [0, 0, 5], "rotation": cam_q},
                     {"camera": 1, "translation": [0, 0, 10]},
                     {"camera": 1, "translation": [0, 0, 20]},
                     {"translation": [0, 3, 0], "extensions": {"KHR_lights_punctual": {"light": 0}}}]
-    d.j["scenes"][0]["nodes"] = [0, 2, 3, 4, 5]
-    d.j["cameras"] = [{"name": "Main", "type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}},
+    d.doc["scenes"][0]["nodes"] = [0, 2, 3, 4, 5]
+    d.doc["cameras"] = [{"name": "Main", "type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}},
                       {"name": "Side", "type": "perspective", "perspective": {"yfov": 0.6, "znear": 0.1}}]
-    d.j["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 10}]}}
-    d.j["extensionsUsed"] = ["KHR_lights_punctual"]
+    d.doc["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 10}]}}
+    d.doc["extensionsUsed"] = ["KHR_lights_punctual"]
     move = Anim(d, "move")
     move.channel(0, "translation", [0, 1, 2], [0, 0, 0, 1, 2, 0, 1, 2, 3])
     qa, qb = axis_angle((0, 1, 0), 0), axis_angle((0, 1, 0), 90)
@@ -313,16 +304,16 @@ def skin_strip(out, exp):
     w1i, w1b = d.acc(w1q, "VEC4", 5121, normalized=True)
     prim1, pb1, nb1 = tri_mesh(d, pos1, nrm, tris, {"JOINTS_0": j0b, "WEIGHTS_0": w0bi,
                                                     "JOINTS_1": j1, "WEIGHTS_1": w1i})
-    d.j["meshes"].append({"primitives": [prim0, prim1]})
+    d.doc["meshes"].append({"primitives": [prim0, prim1]})
     ibm = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,
            1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, -1, 0, 1]  # column-major: identity, T(0,-1,0)
     ibi, ibb = d.acc(ibm, "MAT4")
-    d.j["skins"] = [{"joints": [1, 2], "inverseBindMatrices": ibi}]
-    d.j["nodes"] = [{"mesh": 0, "skin": 0, "translation": [5, 0, 0]},
+    d.doc["skins"] = [{"joints": [1, 2], "inverseBindMatrices": ibi}]
+    d.doc["nodes"] = [{"mesh": 0, "skin": 0, "translation": [5, 0, 0]},
                     {"children": [2]}, {"translation": [0, 1, 0]},
                     {"camera": 0, "translation": [0.5, 1, 6]}]
-    d.j["scenes"][0]["nodes"] = [0, 1, 3]
-    d.j["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]
+    d.doc["scenes"][0]["nodes"] = [0, 1, 3]
+    d.doc["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]
     nodes = [{"t": [5, 0, 0]}, {}, {"t": [0, 1, 0]}]
     an = Anim(d, "bend")
     an.channel(1, "translation", [0, 1], [0, 0, 0, 0, 0, 1])
@@ -360,17 +351,17 @@ def morph_quad(out, exp):
     # target 1: sparse, no bufferView: vertices 1 and 3 move
     iv = d.view(struct.pack("<2H", 1, 3))
     vv = d.view(struct.pack("<6f", 0, 0, 1, 0.5, 0, 0))
-    d.j["accessors"].append({"componentType": 5126, "count": 4, "type": "VEC3",
+    d.doc["accessors"].append({"componentType": 5126, "count": 4, "type": "VEC3",
                              "sparse": {"count": 2, "indices": {"bufferView": iv, "componentType": 5123},
                                         "values": {"bufferView": vv}}})
-    t1p = len(d.j["accessors"]) - 1
+    t1p = len(d.doc["accessors"]) - 1
     t1pb = [0, 0, 0, 0, 0, 1, 0, 0, 0, 0.5, 0, 0]
     prim, pb, nb = tri_mesh(d, pos, nrm, tris, targets=[{"POSITION": t0p, "NORMAL": t0n}, {"POSITION": t1p}])
-    d.j["meshes"].append({"primitives": [prim], "weights": [0.5, 0.25]})
-    d.j["nodes"] = [{"mesh": 0}, {"mesh": 0, "translation": [3, 0, 0], "weights": [1, 0.5]},
+    d.doc["meshes"].append({"primitives": [prim], "weights": [0.5, 0.25]})
+    d.doc["nodes"] = [{"mesh": 0}, {"mesh": 0, "translation": [3, 0, 0], "weights": [1, 0.5]},
                     {"camera": 0, "translation": [2, 0.5, 6]}]
-    d.j["scenes"][0]["nodes"] = [0, 1, 2]
-    d.j["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]
+    d.doc["scenes"][0]["nodes"] = [0, 1, 2]
+    d.doc["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]
     nodes = [{"w": [0.5, 0.25]}, {"t": [3, 0, 0], "w": [1, 0.5]}]
     blend = Anim(d, "blend")
     blend.channel(0, "weights", [0, 1], [0, 0, 1, 1], atype="SCALAR", nc=2)
@@ -406,22 +397,22 @@ def render_pair(out):
         box = [-0.3, 0, 0, 0.3, 0, 0, 0.3, 0.6, 0, -0.3, 0.6, 0]
         bprim, _, _ = tri_mesh(d, box, [0, 0, 1] * 4, [0, 1, 2, 0, 2, 3])
         bprim["material"] = 1
-        d.j["meshes"] = [{"primitives": [prim]}, {"primitives": [bprim]}]
-        d.j["materials"] = [{"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1],
+        d.doc["meshes"] = [{"primitives": [prim]}, {"primitives": [bprim]}]
+        d.doc["materials"] = [{"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1],
                                                       "metallicFactor": 0}},
                             {"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.2, 0.1, 1],
                                                       "metallicFactor": 0}, "doubleSided": True}]
         q = axis_angle((0, 1, 0), 20)
-        d.j["nodes"] = [{"mesh": 0},
+        d.doc["nodes"] = [{"mesh": 0},
                         {"mesh": 1, "translation": [0.5, 0, 0] if not posed_file else [0, 0, 0],
                          "rotation": q},
                         {"camera": 0, "translation": [0, 1.5, 4] if not posed_file else [0, 1.5, 6],
                          "rotation": axis_angle((1, 0, 0), -15)},
                         {"translation": [1, 3, 1], "extensions": {"KHR_lights_punctual": {"light": 0}}}]
-        d.j["scenes"][0]["nodes"] = [0, 1, 2, 3]
-        d.j["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]
-        d.j["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 40}]}}
-        d.j["extensionsUsed"] = ["KHR_lights_punctual"]
+        d.doc["scenes"][0]["nodes"] = [0, 1, 2, 3]
+        d.doc["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]
+        d.doc["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 40}]}}
+        d.doc["extensionsUsed"] = ["KHR_lights_punctual"]
         if posed_file:
             an = Anim(d, "slide")
             # at 0.25: 0 + 0.25 * 2 = 0.5 and 6 - 0.25 * 8 = 4, exact in float
@@ -434,7 +425,7 @@ def render_pair(out):
 
 def bad_files(out, exp, base):
     def variant(name, change, pose, text):
-        j = json.loads(json.dumps(base.j))
+        j = json.loads(json.dumps(base.doc))
         change(j)
         with open(os.path.join(out, name), "w") as f:
             json.dump(j, f)
