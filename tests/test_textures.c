@@ -92,6 +92,14 @@ static void assert_cell(const Image *im, int cols, int rows, int col, int row, c
                      col, row, c, got[c], want[c], got[0], got[1], got[2], want[0], want[1], want[2]);
 }
 
+/* Asserts that every cell of an n x n grid has colour want, as assert_cell. */
+static void assert_cells_all(const Image *im, int n, const double want[3], double rel, double abs_tol)
+{
+    for (int row = 0; row < n; row++)
+        for (int col = 0; col < n; col++)
+            assert_cell(im, n, n, col, row, want, rel, abs_tol);
+}
+
 /* ------------------------------------------------------------------------- */
 /* Base colour texture: 4 x 4 cells of 16 different colours (no two related by a
  * flip or transpose of the grid), cell (col, row) = palette entry
@@ -276,9 +284,7 @@ TEST(test_alpha_mask_minified)
     skip_if_quick();
     Image im = render_texture_scene("alpha_mask_far.gltf", 64, 64, 16, 2, NULL);
     double half[3] = {0.5, 0.5, 0.5};
-    for (int row = 0; row < 4; row++)
-        for (int col = 0; col < 4; col++)
-            assert_cell(&im, 4, 4, col, row, half, 0.0, 0.05);
+    assert_cells_all(&im, 4, half, 0.0, 0.05);
     free(im.rgb);
 }
 
@@ -564,9 +570,7 @@ TEST(test_clearcoat_over_emission)
     skip_if_quick();
     Image im = render_texture_scene("clearcoat_emissive.gltf", 32, 32, 64, 2, "black");
     double want[3] = {0.96, 0.96, 0.96};
-    for (int row = 0; row < 2; row++)
-        for (int col = 0; col < 2; col++)
-            assert_cell(&im, 2, 2, col, row, want, 0.01, 0.0);
+    assert_cells_all(&im, 2, want, 0.01, 0.0);
     free(im.rgb);
 }
 
