@@ -15,7 +15,7 @@
 #include "render/render.h"
 #include "scene/scene.h"
 #include "spectrum/cie_data.h"
-#include "sphere_scene.h"
+#include "render_fixture.h"
 
 #define SPT_CIE_Y_INTEGRAL_HOST ((double)SPT_CIE_Y_INTEGRAL)
 
@@ -41,20 +41,6 @@ static int teardown_cpu_device(void **state)
     (void)state;
     cl_device_list_free(&devices);
     return 0;
-}
-
-/* Settings of a w x h render of spp samples at max_depth with seed; the rest
- * zero (the default sky; env_intensity 0: see square_settings). */
-static inline RenderSettings test_settings(int w, int h, int spp, int depth, uint32_t seed)
-{
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = w;
-    rs.height = h;
-    rs.spp = spp;
-    rs.max_depth = depth;
-    rs.seed = seed;
-    return rs;
 }
 
 /* Renders scene s with rs on the test device into film (initialised here,

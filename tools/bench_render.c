@@ -24,7 +24,7 @@
 #include "render/render.h"
 #include "scene/scene.h"
 /* Not on the tools' include path: named from this folder. */
-#include "../tests/sphere_scene.h"
+#include "../tests/render_fixture.h"
 
 static int cmp_double(const void *a, const void *b)
 {
@@ -65,12 +65,7 @@ static int run(const ClDeviceInfo *dev, const Scene *s, int w, int h, int spp, i
     SptError e = {0};
     int rc = gpu_scene_build(&g, s, &e);
     if (!rc) {
-        RenderSettings rs;
-        memset(&rs, 0, sizeof rs);
-        rs.width = w;
-        rs.height = h;
-        rs.spp = spp;
-        rs.max_depth = depth;
+        RenderSettings rs = test_settings(w, h, spp, depth, 0);
         rs.profile = profile;
         rs.test.stages = stages;
         Film f;

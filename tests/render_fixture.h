@@ -1,15 +1,31 @@
-/* A scene built in code around bvh_gen_sphere's mesh, shared by the render
- * tests (test_render_util.h) and the renderer benchmark (tools/bench_render.c,
- * which includes it by its path). */
-#ifndef SPT_SPHERE_SCENE_H
-#define SPT_SPHERE_SCENE_H
+/* Render settings and a scene built in code, shared by the render tests
+ * (test_render_util.h) and the renderer benchmark (tools/bench_render.c, which
+ * includes this file by its path): nothing here depends on the test harness. */
+#ifndef SPT_RENDER_FIXTURE_H
+#define SPT_RENDER_FIXTURE_H
 
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "accel/bvh_build.h"
+#include "render/render.h"
 #include "scene/scene.h"
+
+/* Settings of a w x h render of spp samples at max_depth with seed; the rest
+ * zero (the default sky; env_intensity 0: see square_settings in
+ * test_render_util.h). */
+static inline RenderSettings test_settings(int w, int h, int spp, int depth, uint32_t seed)
+{
+    RenderSettings rs;
+    memset(&rs, 0, sizeof rs);
+    rs.width = w;
+    rs.height = h;
+    rs.spp = spp;
+    rs.max_depth = depth;
+    rs.seed = seed;
+    return rs;
+}
 
 /* s holds a sphere of radius 1 at the origin, stacks x slices, its vertices
  * moved along the radius by up to `displace`: flat triangles of their own
