@@ -9,6 +9,7 @@
  * (tests/test_denoise.c). */
 #include "test_util.h"
 #include "denoise_test.h"
+#include "scaled_box.h"
 
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -18,8 +19,6 @@
 #include "io/denoise.h"
 #include "io/exr.h"
 
-#define BOX "tests/data/scenes/cornell_box_rgb.gltf"
-#define BOX_STRENGTH "\"emissiveStrength\": 20.717675477527486"
 #define W 64
 
 static int setup(void **state)
@@ -30,17 +29,6 @@ static int setup(void **state)
     oidn_probe(&d);
     denoiser_close(&d);
     return 0;
-}
-
-/* The Cornell box with its light's emissive strength set to s, in test_dir(). */
-static const char *box_at(double s)
-{
-    static char path[256];
-    char repl[64];
-    snprintf(path, sizeof path, "%s/box_%g.gltf", test_dir(), s);
-    snprintf(repl, sizeof repl, "\"emissiveStrength\": %.17g", s);
-    test_copy_replacing(BOX, BOX_STRENGTH, repl, path);
-    return path;
 }
 
 /* Sum of channel name over the image. */
@@ -91,7 +79,7 @@ TEST(test_exposure_sweep)
         char args[1024], err[8192], out[256];
         snprintf(out, sizeof out, "%s/den.exr", test_dir());
         snprintf(args, sizeof args, "render %s --width %d --spp 4 -q --device 0 --denoise --aov albedo,N -o %s",
-                 box_at(k[i] * 20.717675477527486), W, out);
+                 box_times(k[i]), W, out);
         int rc = test_run_exe("", 120, args, err, sizeof err);
         if (rc && i == 0)
             fail_msg("strength x 1: exit %d: %s", rc, err);
@@ -152,7 +140,7 @@ TEST(test_variance_layer)
     ExrLayers ref;
     for (int i = 0; i < NK; i++) {
         snprintf(args, sizeof args, "render %s --width %d --spp 4 -q --device 0 --aov variance -o %s",
-                 box_at(k[i] * 20.717675477527486), W, out);
+                 box_times(k[i]), W, out);
         int rc = test_run_exe("", 120, args, err, sizeof err);
         if (rc)
             fail_msg("strength x %g: exit %d: %s", k[i], rc, err);
@@ -176,7 +164,7 @@ TEST(test_variance_layer)
         exr_layers_free(&l);
     }
     exr_layers_free(&ref);
-    const char *scene = box_at(1e20 * 20.717675477527486);
+    const char *scene = box_times(1e20);
     snprintf(args, sizeof args, "render %s --width %d --spp 4 -q --device 0 --aov variance -o %s", scene, W,
              out);
     unlink(out);

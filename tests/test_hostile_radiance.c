@@ -10,27 +10,15 @@
 
 #include <sys/wait.h>
 
-#define BOX "tests/data/scenes/cornell_box_rgb.gltf"
+#include "scaled_box.h"
 #define SCENE BOX
 #include "ckpt_test.h"
 
-#define BOX_STRENGTH "\"emissiveStrength\": 20.717675477527486"
 #define ARGS "--width 16 -q --device 0"
 
 static int run(const char *args, char *err, size_t cap)
 {
     return test_run_exe("", 120, args, err, cap);
-}
-
-/* The Cornell box with its light's emissive strength times k, in test_dir(). */
-static const char *box_times(double k)
-{
-    static char path[256];
-    char repl[64];
-    snprintf(path, sizeof path, "%s/box_%g.gltf", test_dir(), k);
-    snprintf(repl, sizeof repl, "\"emissiveStrength\": %.17g", k * 20.717675477527486);
-    test_copy_replacing(BOX, BOX_STRENGTH, repl, path);
-    return path;
 }
 
 /* (a) At 1e20 times the light, with --denoise's guides (the albedo layer) but
