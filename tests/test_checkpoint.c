@@ -20,6 +20,7 @@
 #define COMMON "--width 32 --height 32 --seed 3 -q"
 
 #include "ckpt_test.h"
+#include "render_fixture.h"
 
 /* Runs spectrace with args, stderr into out (may be NULL); returns the exit status. */
 static int run(const char *args, char *out, size_t cap)
@@ -54,11 +55,7 @@ static int setup(void **state)
 /* The file keeps the double sums (hi + lo floats) and non-contiguous done sets. */
 TEST(test_file_round_trip)
 {
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = 3;
-    rs.height = 2;
-    rs.seed = 7;
+    RenderSettings rs = test_settings(3, 2, 0, 0, 7);
     CheckpointKey k;
     SptError e = {0};
     assert_int_equal(checkpoint_key(&k, SCENE, &rs, &e), 0);

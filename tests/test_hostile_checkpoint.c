@@ -25,6 +25,7 @@
 
 #include "ckpt_test.h"
 #include "denoise_test.h"
+#include "render_fixture.h"
 
 static char base[256]; /* the untouched checkpoint (4 spp) */
 
@@ -267,11 +268,7 @@ TEST(test_old_format)
  * these implausible films a valid checksum, and checkpoint_read refuses them. */
 TEST(test_cross_checks)
 {
-    RenderSettings rs;
-    memset(&rs, 0, sizeof rs);
-    rs.width = 2;
-    rs.height = 2;
-    rs.max_depth = -1;
+    RenderSettings rs = test_settings(2, 2, 0, -1, 0);
     rs.aov = SPT_AOV_ALBEDO;
     rs.spectral = 2;
     CheckpointKey k;
