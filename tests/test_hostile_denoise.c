@@ -31,29 +31,6 @@ static int setup(void **state)
     return 0;
 }
 
-/* Sum of channel name over the image. */
-static double channel_sum(const ExrLayers *l, const char *name)
-{
-    const ExrChannel *c = exr_layers_channel(l, name);
-    if (!c)
-        fail_msg("no channel %s", name);
-    const float *v = c->data;
-    double s = 0;
-    for (int i = 0; i < l->width * l->height; i++)
-        s += v[i];
-    return s;
-}
-
-/* Sum over pixels of |a / ka - b / kb| for one channel of two images. */
-static double channel_diff(const ExrLayers *a, double ka, const ExrLayers *b, double kb, const char *name)
-{
-    const float *x = exr_layers_channel(a, name)->data, *y = exr_layers_channel(b, name)->data;
-    double s = 0;
-    for (int i = 0; i < a->width * a->height; i++)
-        s += fabs(x[i] / ka - y[i] / kb);
-    return s;
-}
-
 static const char *const rgb[3] = {"R", "G", "B"};
 static const char *const noisy[3] = {"noisy.R", "noisy.G", "noisy.B"};
 
