@@ -41,28 +41,30 @@ ROOT = os.path.dirname(HERE)
 
 # ---------------------------------------------------------------------------
 # Cornell data (https://www.graphics.cornell.edu/online/box/data.html), mm.
-# Each quad as published; winding is fixed below so front faces point into the
-# box (walls) or out of the blocks, and the light faces down.
+# Each quad as published (a block's sides, as published, drop the edges of its
+# top to the floor: block_faces writes them so); winding is fixed below so
+# front faces point into the box (walls) or out of the blocks, and the light
+# faces down.
 # ---------------------------------------------------------------------------
 FLOOR = [(552.8, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 559.2), (549.6, 0.0, 559.2)]
 CEILING = [(556.0, 548.8, 0.0), (556.0, 548.8, 559.2), (0.0, 548.8, 559.2), (0.0, 548.8, 0.0)]
 BACK_WALL = [(549.6, 0.0, 559.2), (0.0, 0.0, 559.2), (0.0, 548.8, 559.2), (556.0, 548.8, 559.2)]
 RIGHT_WALL = [(0.0, 0.0, 559.2), (0.0, 0.0, 0.0), (0.0, 548.8, 0.0), (0.0, 548.8, 559.2)]   # green
 LEFT_WALL = [(552.8, 0.0, 0.0), (549.6, 0.0, 559.2), (556.0, 548.8, 559.2), (556.0, 548.8, 0.0)]  # red
-SHORT_BLOCK = [
-    [(130.0, 165.0, 65.0), (82.0, 165.0, 225.0), (240.0, 165.0, 272.0), (290.0, 165.0, 114.0)],
-    [(290.0, 0.0, 114.0), (290.0, 165.0, 114.0), (240.0, 165.0, 272.0), (240.0, 0.0, 272.0)],
-    [(130.0, 0.0, 65.0), (130.0, 165.0, 65.0), (290.0, 165.0, 114.0), (290.0, 0.0, 114.0)],
-    [(82.0, 0.0, 225.0), (82.0, 165.0, 225.0), (130.0, 165.0, 65.0), (130.0, 0.0, 65.0)],
-    [(240.0, 0.0, 272.0), (240.0, 165.0, 272.0), (82.0, 165.0, 225.0), (82.0, 0.0, 225.0)],
-]
-TALL_BLOCK = [
-    [(423.0, 330.0, 247.0), (265.0, 330.0, 296.0), (314.0, 330.0, 456.0), (472.0, 330.0, 406.0)],
-    [(423.0, 0.0, 247.0), (423.0, 330.0, 247.0), (472.0, 330.0, 406.0), (472.0, 0.0, 406.0)],
-    [(472.0, 0.0, 406.0), (472.0, 330.0, 406.0), (314.0, 330.0, 456.0), (314.0, 0.0, 456.0)],
-    [(314.0, 0.0, 456.0), (314.0, 330.0, 456.0), (265.0, 330.0, 296.0), (265.0, 0.0, 296.0)],
-    [(265.0, 0.0, 296.0), (265.0, 330.0, 296.0), (423.0, 330.0, 247.0), (423.0, 0.0, 247.0)],
-]
+
+
+def block_faces(top, side_corners):
+    """A block as published: its top face, then one side per edge of the top,
+    from top corner k down to the floor and across to corner k - 1, taking k in
+    side_corners (the published order of the sides)."""
+    return [top] + [[(top[k][0], 0.0, top[k][2]), top[k], top[k - 1], (top[k - 1][0], 0.0, top[k - 1][2])]
+                    for k in side_corners]
+
+
+SHORT_BLOCK = block_faces([(130.0, 165.0, 65.0), (82.0, 165.0, 225.0), (240.0, 165.0, 272.0), (290.0, 165.0, 114.0)],
+                          (3, 0, 1, 2))
+TALL_BLOCK = block_faces([(423.0, 330.0, 247.0), (265.0, 330.0, 296.0), (314.0, 330.0, 456.0), (472.0, 330.0, 406.0)],
+                         (0, 3, 2, 1))
 # The published light sits in a hole of the ceiling at y = 548.8; here the
 # ceiling is whole and the light quad is 0.5 mm below it (as in Mitsuba's cbox).
 LIGHT_Y = 548.3
