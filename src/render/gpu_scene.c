@@ -527,8 +527,12 @@ void gpu_scene_free(GpuScene *g)
 }
 
 
-static size_t NZ(size_t x) { return x ? x : 16; }
-size_t gpu_scene_buffer_bytes(const GpuScene *g, const RenderLights *L, const char *name)
+/* OpenCL refuses empty buffers: an empty one is 16 bytes of zeros. */
+#define NZ(x) (pad ? nz(x) : (size_t)(x))
+static size_t nz(size_t x) { return x ? x : 16; }
+
+/* The buffer's size, padded (pad) as the device gets it or as its data holds. */
+static size_t buffer_bytes(const GpuScene *g, const RenderLights *L, const char *name, int pad)
 {
     uint32_t n = g->bvh.prim_count;
     if (!strcmp(name, "nodes")) return NZ((size_t)g->bvh.node_count * sizeof(BvhNode));
@@ -550,11 +554,22 @@ size_t gpu_scene_buffer_bytes(const GpuScene *g, const RenderLights *L, const ch
     if (!strcmp(name, "tri_light_pdf")) return NZ((size_t)n * sizeof(float));
     if (!strcmp(name, "lights")) return NZ((size_t)g->light_count * sizeof(GpuLight));
     if (!strcmp(name, "env_data")) return NZ(L ? (size_t)L->env.data_count * sizeof(float) : 0);
-    return 16;
+    return pad ? 16 : 0;
+}
+#undef NZ
+
+size_t gpu_scene_buffer_bytes(const GpuScene *g, const RenderLights *L, const char *name)
+{
+    return buffer_bytes(g, L, name, 1);
 }
 
+/* A buffer whose data holds fewer bytes than the device's buffer (an empty
+ * array padded to 16 bytes, whose placeholder allocation is smaller) is
+ * given no data: the device's copy is zeros. */
 const void *gpu_scene_buffer_data(const GpuScene *g, const RenderLights *L, const char *name)
 {
+    if (buffer_bytes(g, L, name, 0) < buffer_bytes(g, L, name, 1))
+        return NULL;
     if (!strcmp(name, "nodes")) return g->bvh.nodes;
     if (!strcmp(name, "tris")) return g->bvh.tri_data;
     if (!strcmp(name, "tri_shade")) return g->tri_shade;

@@ -68,18 +68,8 @@ static int scene_buffer_create(Wavefront *w, const char *name, size_t bytes, con
                                     mem, out, e);
         }
     }
-    if (data || bytes <= sizeof zeros)
-        return cl_buffer_create(&w->dev, name, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
-                                (void *)(data ? data : zeros), out, e);
-    /* No data but a size above the placeholder's (a scene without triangles
-     * still has its BVH's root node): zeros of that size. */
-    void *z = calloc(1, bytes);
-    if (!z)
-        return spt_fail(e, SPT_EXIT_DEVICE, "render: out of host memory for the %s buffer (%zu bytes)",
-                        name, bytes);
-    int rc = cl_buffer_create(&w->dev, name, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes, z, out, e);
-    free(z);
-    return rc;
+    return cl_buffer_create(&w->dev, name, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
+                            (void *)(data ? data : zeros), out, e);
 }
 
 /* The number of buffer arguments of every kernel (the params come after). */
