@@ -22,21 +22,10 @@ static float4 spec_sigmoid4(float c0, float c1, float c2, float4 lam)
                     spt_sigmoid_poly(c0, c1, c2, lam.z), spt_sigmoid_poly(c0, c1, c2, lam.w));
 }
 
-/* A tabulated spectrum on the 1 nm grid 360..830 at four wavelengths. */
-static float table_lookup(const __global float *t, float l)
-{
-    float x = l - (float)SPT_CIE_LAMBDA_MIN;
-    if (!(x >= 0.0f) || x > (float)(SPT_CIE_SAMPLES - 1))
-        return 0.0f;
-    int i = min((int)x, SPT_CIE_SAMPLES - 2);
-    float f = x - (float)i;
-    return t[i] * (1.0f - f) + t[i + 1] * f;
-}
-
-/* Where table_lookup reads at four wavelengths l: the entries i and i + 1, the
- * fraction *f between them, and *in (-1 for lanes inside the table; the others
- * read entry 0 and must give 0). The same arithmetic per lane, with selects
- * instead of the per-wavelength range branches. min's bound is written as a
+/* Where a linear lookup in a table on the 1 nm grid 360..830 reads at four
+ * wavelengths l: the entries i and i + 1, the fraction *f between them, and
+ * *in (-1 for lanes inside the table; the others read entry 0 and must give
+ * 0). Selects, not per-wavelength range branches. min's bound is written as a
  * vector: Oclgrind 21.10 computes min(int4, int) wrongly (reads out of the table
  * under make check-kernels). */
 static int4 table_index4(float4 l, float4 *f, int4 *in)
@@ -49,8 +38,9 @@ static int4 table_index4(float4 l, float4 *f, int4 *in)
     return i;
 }
 
-/* table_lookup at four wavelengths at once, for a table in address space AS
- * (OpenCL 1.2 has no generic pointers, so one body serves two functions). */
+/* Linear interpolation in such a table at four wavelengths, for a table in
+ * address space AS (OpenCL 1.2 has no generic pointers, so one body serves
+ * two functions). */
 #define SPT_TABLE_LOOKUP4(name, AS)                                            \
     static float4 name(AS const float *t, float4 l)                            \
     {                                                                          \
