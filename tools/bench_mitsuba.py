@@ -2,7 +2,7 @@
 """`make bench` against Mitsuba 3: paths per second and the equal-time race.
 
     python3 tools/bench_mitsuba.py [--spectrace BIN] [--time T] [--ref-spp N]
-        [--runs R] [--only speed|race] [--scenes cornell,mesh]
+        [--runs R] [--only speed|race] [--scenes cornell,mesh] [--isa native|avx2]
 
 Two scenes: the Cornell box (scenes/cornell_box.gltf) and a mesh scene made here
 in a temporary folder (mesh_scene: the same box and light without the two
@@ -34,6 +34,12 @@ is off by some percent): a second ratio scales each relMSE to T seconds
 (relMSE ~ 1 / time). The reference's own noise adds to every relMSE alike and
 so pulls the ratios toward 1: the halves' difference measures it, and a third
 ratio, scaled too, takes it from both relMSE.
+
+The first line names the CPU, its vector width, the load, spectrace's OpenCL
+device (PoCL names the target it compiles for) and Mitsuba's LLVM target and
+lanes. --isa avx2 makes both compile for AVX2 on an AVX-512 host (PoCL's AVX2
+kernel library, POCL_KERNELLIB_NAME=avx2; Mitsuba's target Haswell, 8 lanes),
+to compare the two widths on one machine.
 
 Defaults: --time 20 (SPECTRACE_BENCH_TIME), --ref-spp 4096
 (SPECTRACE_BENCH_REF_SPP), --runs 3 (SPECTRACE_BENCH_RUNS). Without Mitsuba (pip
@@ -126,7 +132,68 @@ def spectrace_render(a, scene, out, size, extra):
     return wall, int(m[-1][0]), float(m[-1][1])
 
 
+def machine_line(a, mi_target):
+    """The CPU's name, its widest float vector (AVX-512: 16 lanes, AVX2: 8, else
+    SSE's 4), cores and load, and the OpenCL device spectrace selects (PoCL
+    names the target it compiles for): ratios differ between the two kinds
+    of CPU (docs/performance.md, "Vector width")."""
+    name, flags = "unknown CPU", set()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                key, _, val = line.partition(":")
+                if key.strip() == "model name" and name == "unknown CPU":
+                    name = val.strip()
+                elif key.strip() == "flags" and not flags:
+                    flags = set(val.split())
+    except OSError:
+        pass
+    width = ("AVX-512, 16 float lanes" if "avx512f" in flags else "AVX2, 8 float lanes" if "avx2" in flags
+             else "SSE, 4 float lanes")
+    device = "?"
+    r = subprocess.run([a.spectrace, "devices"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    m = re.search(r"^ \*\[\d+\] (.*)$", r.stdout, re.M)
+    if m:
+        device = m.group(1).strip()
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return "machine: %s (%s), %d cores, load %.2f; spectrace's device: %s%s" % (
+        name, width, os.cpu_count() or 0, load, device, "; Mitsuba's LLVM target: " + mi_target if mi_target else "")
+
+
 # ---- Mitsuba --------------------------------------------------------------------
+
+def _drjit_llvm(mi, name, mangled):
+    """The Dr.Jit core function `name` (C++ linkage in Dr.Jit 1.x: `mangled`),
+    through ctypes, or None."""
+    import ctypes
+    import drjit
+    lib = ctypes.CDLL(os.path.join(os.path.dirname(drjit.__file__), "libdrjit-core.so"))
+    for n in (name, mangled):
+        if hasattr(lib, n):
+            return getattr(lib, n)
+    return None
+
+
+def mitsuba_target(mi, isa):
+    """Mitsuba's LLVM target: its own choice for `native`; for `avx2` Haswell
+    with every AVX-512 feature off and 8 lanes (jit_llvm_set_target), as on an
+    AVX2 host. Returns "cpu, N lanes", or why it is not known."""
+    import ctypes
+    cpu = _drjit_llvm(mi, "jit_llvm_target_cpu", "_Z19jit_llvm_target_cpuv")
+    feats = _drjit_llvm(mi, "jit_llvm_target_features", "_Z24jit_llvm_target_featuresv")
+    width = _drjit_llvm(mi, "jit_llvm_vector_width", "_Z21jit_llvm_vector_widthv")
+    setter = _drjit_llvm(mi, "jit_llvm_set_target", "_Z19jit_llvm_set_targetPKcS0_j")
+    if not (cpu and feats and width and setter):
+        return "target unknown (Dr.Jit's core library has no jit_llvm_target_cpu)"
+    cpu.restype = feats.restype = ctypes.c_char_p
+    width.restype = ctypes.c_uint32
+    if isa == "avx2":
+        off = ",".join(("-" + f[1:]) if f.startswith("+") and ("avx512" in f or f == "+evex512") else f
+                       for f in feats().decode().split(","))
+        setter.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_uint32]
+        setter(b"haswell", off.encode(), 8)
+    return "%s, %d lanes" % (cpu().decode(), width())
+
 
 class MitsubaScene:
     """A converted scene: its band scenes (one when nothing is dispersive) and,
@@ -345,10 +412,17 @@ def main():
     ap.add_argument("--runs", type=int, default=int(os.environ.get("SPECTRACE_BENCH_RUNS", "3")))
     ap.add_argument("--only", choices=("speed", "race"))
     ap.add_argument("--scenes", default="cornell,mesh")
+    ap.add_argument("--isa", choices=("native", "avx2"), default="native",
+                    help="avx2: both renderers compile for AVX2 (8 lanes) on an AVX-512 host")
     a = ap.parse_args()
     if a.time <= 0 or a.ref_spp < 1 or a.runs < 1:
         ap.error("--time must be > 0, --ref-spp and --runs >= 1")
     a.cache = os.environ.get("SPECTRACE_CACHE_DIR", os.path.join(ROOT, "build", "cache"))
+    if a.isa == "avx2":
+        # PoCL's CPU device then compiles with its AVX2 kernel library and
+        # target (it names itself pthread-haswell); other implementations
+        # ignore the variable.
+        os.environ["POCL_KERNELLIB_NAME"] = "avx2"
     mi = None
     try:
         mi = s2m.import_mitsuba("llvm_ad_spectral")
@@ -362,6 +436,8 @@ def main():
     names = [n for n in a.scenes.split(",") if n]
     if any(n not in ("cornell", "mesh") for n in names):
         ap.error("--scenes takes cornell and mesh")
+    mi_target = mitsuba_target(mi, a.isa) if mi is not None else None
+    print(machine_line(a, mi_target), flush=True)
     with tempfile.TemporaryDirectory(prefix="spt_bench_") as tmp:
         scenes = [(n, CORNELL if n == "cornell" else mesh_scene(tmp), 0) for n in names]
         if a.only in (None, "speed"):
