@@ -8,6 +8,10 @@ cd "$(dirname "$0")/.."
 export SPECTRACE_CACHE_DIR=${SPECTRACE_CACHE_DIR:-$PWD/$build/cache}
 status=0
 
+# The CPU and its vector width first: ratios against Mitsuba differ between
+# AVX2 and AVX-512 machines (docs/performance.md, "Vector width").
+python3 tools/bench_mitsuba.py --spectrace "$build/spectrace" --machine || status=1
+
 # ---- renderer: paths/s on the Cornell box, extend-stage rays/s on ~1M triangles ----
 echo "== renderer (tools/bench_render.c)"
 "$build/tools/bench_render" 3 || status=1

@@ -3,6 +3,7 @@
 
     python3 tools/bench_mitsuba.py [--spectrace BIN] [--time T] [--ref-spp N]
         [--runs R] [--only speed|race] [--scenes cornell,mesh] [--isa native|avx2]
+    python3 tools/bench_mitsuba.py --machine [--spectrace BIN]
 
 Two scenes: the Cornell box (scenes/cornell_box.gltf) and a mesh scene made here
 in a temporary folder (mesh_scene: the same box and light without the two
@@ -37,9 +38,9 @@ ratio, scaled too, takes it from both relMSE.
 
 The first line names the CPU, its vector width, the load, spectrace's OpenCL
 device (PoCL names the target it compiles for) and Mitsuba's LLVM target and
-lanes. --isa avx2 makes both compile for AVX2 on an AVX-512 host (PoCL's AVX2
-kernel library, POCL_KERNELLIB_NAME=avx2; Mitsuba's target Haswell, 8 lanes),
-to compare the two widths on one machine.
+lanes (--machine prints that line alone). --isa avx2 makes both compile for
+AVX2 on an AVX-512 host (PoCL's AVX2 kernel library, POCL_KERNELLIB_NAME=avx2;
+Mitsuba's target Haswell, 8 lanes), to compare the two widths on one machine.
 
 Defaults: --time 20 (SPECTRACE_BENCH_TIME), --ref-spp 4096
 (SPECTRACE_BENCH_REF_SPP), --runs 3 (SPECTRACE_BENCH_RUNS). Without Mitsuba (pip
@@ -414,9 +415,13 @@ def main():
     ap.add_argument("--scenes", default="cornell,mesh")
     ap.add_argument("--isa", choices=("native", "avx2"), default="native",
                     help="avx2: both renderers compile for AVX2 (8 lanes) on an AVX-512 host")
+    ap.add_argument("--machine", action="store_true", help="print the machine line alone and exit")
     a = ap.parse_args()
     if a.time <= 0 or a.ref_spp < 1 or a.runs < 1:
         ap.error("--time must be > 0, --ref-spp and --runs >= 1")
+    if a.machine:
+        print(machine_line(a, None))
+        return 0
     a.cache = os.environ.get("SPECTRACE_CACHE_DIR", os.path.join(ROOT, "build", "cache"))
     if a.isa == "avx2":
         # PoCL's CPU device then compiles with its AVX2 kernel library and
