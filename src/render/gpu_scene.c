@@ -434,6 +434,37 @@ int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
         }
     }
 
+    return gpu_scene_build_shading(g, s, e);
+}
+
+/* Frees what gpu_scene_build_shading makes. */
+static void shading_free(GpuScene *g)
+{
+    free(g->materials);
+    free(g->spectra);
+    free(g->textures);
+    free(g->texels);
+    free(g->emitters);
+    free(g->emitter_power);
+    free(g->emitter_area);
+    free(g->lights);
+    g->materials = NULL;
+    g->spectra = NULL;
+    g->textures = NULL;
+    g->texels = NULL;
+    g->emitters = NULL;
+    g->emitter_power = g->emitter_area = NULL;
+    g->lights = NULL;
+    g->material_count = g->spectra_count = g->texture_count = 0;
+    g->texel_count = 0;
+    g->emitter_count = g->light_count = 0;
+}
+
+int gpu_scene_build_shading(GpuScene *g, const Scene *s, SptError *e)
+{
+    shading_free(g);
+    uint32_t n = g->bvh.prim_count;
+    int rc;
     /* Materials, their textures uploaded on first use (once per kind and factor). */
     TexUploads uploads = {0, NULL};
     g->material_count = s->material_count;
@@ -515,14 +546,7 @@ void gpu_scene_free(GpuScene *g)
     free(g->tri_shade);
     free(g->vtx_pos);
     free(g->vtx_color);
-    free(g->materials);
-    free(g->spectra);
-    free(g->textures);
-    free(g->texels);
-    free(g->emitters);
-    free(g->emitter_power);
-    free(g->emitter_area);
-    free(g->lights);
+    shading_free(g);
     memset(g, 0, sizeof *g);
 }
 

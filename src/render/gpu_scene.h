@@ -45,6 +45,13 @@ typedef struct GpuScene {
 int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e);
 void gpu_scene_free(GpuScene *g);
 
+/* Rebuilds what depends on s's materials and lights (materials, spectra,
+ * textures, emitters, punctual lights) of a g that gpu_scene_build made,
+ * keeping its BVH and vertices: after a change of a material's or a light's
+ * parameters (src/api/spectrace.h). Returns 0 or an exit code; g is then
+ * freed. */
+int gpu_scene_build_shading(GpuScene *g, const Scene *s, SptError *e);
+
 /* Bytes of device memory the scene arrays need (for `info` and limit checks). */
 size_t gpu_scene_bytes(const GpuScene *g);
 
