@@ -23,6 +23,7 @@
 #include "mpi/mpi_hook.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
+#include "render/film_layers.h"
 #include "render/render.h"
 #include "render/test_hooks.h"
 #include "scene/scene.h"
@@ -45,11 +46,7 @@ typedef struct RenderJob {
     RenderStats st;
     RenderDeviceStats per_dev[MAX_DEVICES];
     float *rgb;
-    float *aov;          /* the AOV layers' pixels (3 floats per pixel each) */
-    ExrChannel *layers;  /* AOV, noisy and spectral channels of an EXR output */
-    int layer_count;
-    float *bands;        /* --spectral: each band's mean spectral radiance */
-    char (*band_names)[40];
+    FilmLayers layers;   /* AOV, spectral and noisy channels of an EXR output */
     Denoiser den;        /* --denoise: Open Image Denoise, loaded before rendering */
     float *noisy;        /* --denoise: the image before denoising */
     double denoise_seconds;
@@ -293,23 +290,8 @@ static int open_devices(RenderJob *j, SptError *e)
     return gpu_scene_build(&j->gpu, &j->scene, e);
 }
 
-/* The AOV layers an output may hold (make_layers): each keeps 3 floats per
- * pixel in j->aov, whichever of them --aov asks for. */
-static const struct {
-    unsigned bit;
-    const char *names[3];
-} aov_layer[] = {
-    {SPT_AOV_ALBEDO, {"albedo.R", "albedo.G", "albedo.B"}},
-    {SPT_AOV_NORMAL, {"N.X", "N.Y", "N.Z"}},
-    {SPT_AOV_DEPTH, {"Z", NULL, NULL}},
-    {SPT_AOV_POSITION, {"P.X", "P.Y", "P.Z"}},
-    {SPT_AOV_VARIANCE, {"variance.R", "variance.G", "variance.B"}},
-    {SPT_AOV_SPP, {"spp", NULL, NULL}},
-};
-#define AOV_LAYERS ((int)(sizeof aov_layer / sizeof aov_layer[0]))
-
 /* The host memory write_outputs takes (after the render's own is freed): the
- * linear sRGB image, the AOV layers (make_layers), the bands (spectral_layers),
+ * linear sRGB image, the AOV layers and the bands (film_layers_make),
  * with --denoise the noisy image and the two guides (denoise), and for each
  * output not written as EXR (which is encoded a few rows at a time) its
  * encoding in memory, counted as 16 bytes per pixel (8-bit or float pixels
@@ -319,7 +301,7 @@ static size_t output_bytes(const RenderArgs *a)
     const RenderSettings *rs = &a->rs;
     size_t np = (size_t)rs->width * (size_t)rs->height, floats = 3;
     if (rs->aov)
-        floats += (size_t)AOV_LAYERS * 3;
+        floats += (size_t)SPT_FILM_AOV_LAYERS * 3;
     if (rs->spectral > 0)
         floats += (size_t)rs->spectral;
     if (rs->denoise)
@@ -509,23 +491,6 @@ static void describe_devices(const RenderJob *j, char *out, size_t cap)
         fprintf(stderr, "devices: %s\n", out);
 }
 
-/* The AOV layers of --aov from the film, as EXR channels (OpenEXR's
- * layer.channel names, as Cycles and Mitsuba write them). */
-static void make_layers(RenderJob *j)
-{
-    unsigned mask = j->a.rs.aov;
-    size_t npix = (size_t)j->film.width * j->film.height;
-    j->aov = spt_malloc((size_t)AOV_LAYERS * 3 * npix * sizeof(float));
-    for (int l = 0; l < AOV_LAYERS; l++) {
-        if (!(mask & aov_layer[l].bit) || (!j->film.aov && aov_layer[l].bit != SPT_AOV_SPP))
-            continue;
-        float *px = j->aov + (size_t)l * 3 * npix;
-        int channels = film_aov_layer(&j->film, aov_layer[l].bit, px);
-        for (int c = 0; c < channels; c++)
-            j->layers[j->layer_count++] = (ExrChannel){aov_layer[l].names[c], SPT_EXR_FLOAT, px + c, channels};
-    }
-}
-
 /* --denoise: the image (j->rgb) denoised by Open Image Denoise's RT filter,
  * guided by the albedo and normal layers; j->noisy keeps the image as it was.
  * The guides count as free of noise (cleanAux) for a pinhole camera; with a
@@ -569,31 +534,6 @@ static int denoise(RenderJob *j, SptError *e)
     return SPT_EXIT_OK;
 }
 
-/* --spectral: the bands as the emissive channels of Fichet, Pacanowski and
- * Wilkie 2021 ("An OpenEXR Layout for Spectral Images", JCGT 10(3)): "S0."
- * (Stokes component 0: unpolarised radiance), the band's centre wavelength
- * with a comma as the decimal separator, and the unit, e.g. "S0.545,000000nm";
- * with the attributes spectralLayoutVersion "1.0" and emissiveUnits
- * "W.m^-2.sr^-1" (set by write_outputs). Each value is the band's mean
- * spectral radiance per nm. */
-static void spectral_layers(RenderJob *j)
-{
-    int nb = j->film.bands;
-    size_t np = (size_t)j->film.width * j->film.height;
-    j->bands = spt_malloc((size_t)nb * np * sizeof(float));
-    j->band_names = spt_malloc((size_t)nb * sizeof *j->band_names);
-    film_spectral_layer(&j->film, j->bands);
-    double width = (SPT_SPECTRAL_MAX_NM - SPT_SPECTRAL_MIN_NM) / nb;
-    for (int b = 0; b < nb; b++) {
-        snprintf(j->band_names[b], sizeof j->band_names[b], "S0.%.6fnm",
-                 SPT_SPECTRAL_MIN_NM + (b + 0.5) * width);
-        char *dot = strchr(j->band_names[b] + 3, '.');
-        if (dot)
-            *dot = ',';
-        j->layers[j->layer_count++] = (ExrChannel){j->band_names[b], SPT_EXR_FLOAT, j->bands + b, nb};
-    }
-}
-
 /* The film as every output image (with the render's metadata), then the final
  * checkpoint: all written to temporary files first and renamed over their names
  * only when every one was written, so a failed run (a full disk at the second
@@ -628,24 +568,17 @@ static int write_outputs(RenderJob *j, SptError *e)
         image_meta_add(&meta, "animation", rs->animation);
     if (rs->camera)
         image_meta_add(&meta, "camera", rs->camera);
-    j->layers = spt_malloc((size_t)(32 + (rs->spectral > 0 ? rs->spectral : 0)) * sizeof(ExrChannel));
-    j->layer_count = 0;
-    if (rs->aov)
-        make_layers(j);
-    ExrAttr spectral_attrs[2] = {{"spectralLayoutVersion", SPT_EXR_ATTR_STRING, "1.0", 0, 0},
-                                 {"emissiveUnits", SPT_EXR_ATTR_STRING, "W.m^-2.sr^-1", 0, 0}};
-    if (rs->spectral > 0) {
-        spectral_layers(j);
-        meta.exr_attrs = spectral_attrs;
-        meta.exr_attr_count = 2;
-    }
+    FilmLayers *L = &j->layers;
+    film_layers_make(L, &j->film, rs->aov, 3);
+    meta.exr_attrs = L->attrs;
+    meta.exr_attr_count = L->attr_count;
     if (j->noisy) {
         static const char *names[3] = {"noisy.R", "noisy.G", "noisy.B"};
         for (int c = 0; c < 3; c++)
-            j->layers[j->layer_count++] = (ExrChannel){names[c], SPT_EXR_FLOAT, j->noisy + c, 3};
+            L->channels[L->count++] = (ExrChannel){names[c], SPT_EXR_FLOAT, j->noisy + c, 3};
     }
-    meta.layers = j->layers;
-    meta.layer_count = j->layer_count;
+    meta.layers = L->channels;
+    meta.layer_count = L->count;
     DisplayOptions disp = {(float)a->exposure, a->tonemap};
     const char *fail_at = getenv("SPECTRACE_TEST_FAIL_OUTPUT");
     atomic_test_fail_commit_at = fail_at ? atoi(fail_at) : 0;
@@ -669,11 +602,8 @@ static void job_free(RenderJob *j)
 {
     checkpoint_run_free(&j->ckpt);
     free(j->rgb);
-    free(j->aov);
     free(j->noisy);
-    free(j->layers);
-    free(j->bands);
-    free(j->band_names);
+    film_layers_free(&j->layers);
     denoiser_close(&j->den);
     film_free(&j->film);
     gpu_scene_free(&j->gpu);
