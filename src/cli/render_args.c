@@ -105,19 +105,18 @@ static int parse_double(const char *s, double *out)
     return 0;
 }
 
-/* Stores optarg into row r's field of a; SPT_EXIT_USAGE (with the row's error)
- * when it is not a valid value. */
-static int store(RenderArgs *a, const OptRow *r, const char *arg)
+/* Stores optarg into row r's field of a; SPT_EXIT_USAGE (with the row's error
+ * in e) when it is not a valid value. */
+static int store(RenderArgs *a, const OptRow *r, const char *arg, SptError *e)
 {
     void *field = (char *)a + r->offset;
     int ok = 1;
     switch (r->kind) {
     case KIND_LIST: {
         int *count = (int *)((char *)field + sizeof(const char *[SPT_MAX_OUTPUTS]));
-        if (*count == SPT_MAX_OUTPUTS) {
-            spt_error("render: too many outputs (at most %d)", SPT_MAX_OUTPUTS);
-            return SPT_EXIT_USAGE;
-        }
+        if (*count == SPT_MAX_OUTPUTS)
+            return spt_fail(e, SPT_EXIT_USAGE, "render: too many outputs (at most %d)",
+                            SPT_MAX_OUTPUTS);
         ((const char **)field)[(*count)++] = arg;
         break;
     }
@@ -143,10 +142,10 @@ static int store(RenderArgs *a, const OptRow *r, const char *arg)
             /* The value goes to the kernels as a 32-bit float: 1e-46 would become
              * 0 (for --light-paths, the default) and 1e39 infinity. Values below
              * FLT_MIN are refused too, since GPUs may flush such denormals to 0. */
-            spt_error("render: --%s '%s': %s a 32-bit float can hold (%g to %g)", r->option,
-                      arg, fabs(v) > FLT_MAX ? "larger than" : "closer to 0 than",
-                      (double)FLT_MIN, (double)FLT_MAX);
-            return SPT_EXIT_USAGE;
+            return spt_fail(e, SPT_EXIT_USAGE,
+                            "render: --%s '%s': %s a 32-bit float can hold (%g to %g)", r->option,
+                            arg, fabs(v) > FLT_MAX ? "larger than" : "closer to 0 than",
+                            (double)FLT_MIN, (double)FLT_MAX);
         } else if (ok) {
             *(float *)field = (float)v;
         }
@@ -180,15 +179,12 @@ static int store(RenderArgs *a, const OptRow *r, const char *arg)
         ok = !film_aov_parse(arg, (unsigned *)field);
         break;
     }
-    if (!ok) {
-        spt_error("render: --%s '%s': %s", r->option, arg, r->expect);
-        return SPT_EXIT_USAGE;
-    }
+    if (!ok)
+        return spt_fail(e, SPT_EXIT_USAGE, "render: --%s '%s': %s", r->option, arg, r->expect);
     return SPT_EXIT_OK;
 }
 
-/* Every option at its default. */
-static void set_defaults(RenderArgs *a)
+void render_args_defaults(RenderArgs *a)
 {
     memset(a, 0, sizeof *a);
 #define DEF_LIST(f, def)
@@ -211,7 +207,7 @@ static void set_defaults(RenderArgs *a)
 
 int render_args_parse(RenderArgs *a, int argc, char **argv)
 {
-    set_defaults(a);
+    render_args_defaults(a);
     struct option opts[SPT_ARG_COUNT + 1];
     char shorts[2 * SPT_ARG_COUNT + 2];
     int ns = 0;
@@ -255,9 +251,10 @@ int render_args_parse(RenderArgs *a, int argc, char **argv)
             render_args_usage(stderr);
             return SPT_EXIT_USAGE;
         }
-        int rc = store(a, &rows[row], optarg);
+        SptError e = {0};
+        int rc = store(a, &rows[row], optarg, &e);
         if (rc)
-            return rc;
+            return spt_report(&e);
         a->given[row] = 1;
         if (rows[row].kind == KIND_HELP) {
             render_args_usage(stdout);
@@ -279,4 +276,109 @@ int render_args_parse(RenderArgs *a, int argc, char **argv)
     if (a->given[SPT_ARG_time_limit] && !a->given[SPT_ARG_spp])
         a->rs.spp = 1 << 24;
     return SPT_EXIT_OK;
+}
+
+int render_args_find(const char *option)
+{
+    for (int i = 0; i < SPT_ARG_COUNT; i++)
+        if (!strcmp(rows[i].option, option))
+            return i;
+    return -1;
+}
+
+int render_args_set(RenderArgs *a, int i, const char *value, SptError *e)
+{
+    const OptRow *r = &rows[i];
+    if (r->kind == KIND_FLAG || r->kind == KIND_HELP) {
+        /* A flag takes no value on the command line; here it is set or cleared. */
+        static const char *const on[] = {"1", "on", "true", "yes"}, *const off[] = {"0", "off", "false", "no"};
+        for (int k = 0; k < 4; k++)
+            if (!strcasecmp(value, on[k]) || !strcasecmp(value, off[k])) {
+                *(int *)((char *)a + r->offset) = !strcasecmp(value, on[k]);
+                a->given[i] = 1;
+                return SPT_EXIT_OK;
+            }
+        return spt_fail(e, SPT_EXIT_USAGE, "render: --%s '%s': expected 1 or 0 (on or off)",
+                        r->option, value);
+    }
+    int rc = store(a, r, value, e);
+    if (!rc)
+        a->given[i] = 1;
+    return rc;
+}
+
+const char *render_args_option_name(int i)
+{
+    return rows[i].option;
+}
+
+const char *render_args_option_help(int i)
+{
+    return rows[i].help;
+}
+
+const char *render_args_option_kind(int i)
+{
+    static const char *const kinds[] = {"list",   "int",    "int",     "double", "double", "string",
+                                        "flag",   "choice", "choice",  "choice", "list",   "flag"};
+    return kinds[rows[i].kind];
+}
+
+/* The names of a choice option's values, by value. */
+static const char *choice_name(int kind, int v)
+{
+    static const char *const switches[] = SPT_SWITCH_NAMES, *const samplers[] = SPT_SAMPLER_NAMES;
+    static const char *const tonemaps[] = {"none", "neutral"};
+    const char *const *names = kind == KIND_SWITCH ? switches : kind == KIND_SAMPLER ? samplers : tonemaps;
+    int n = kind == KIND_SWITCH ? 3 : kind == KIND_SAMPLER ? 3 : 2;
+    return v >= 0 && v < n ? names[v] : "?";
+}
+
+void render_args_format(const RenderArgs *a, int i, char *out, size_t n)
+{
+    const OptRow *r = &rows[i];
+    const void *field = (const char *)a + r->offset;
+    out[0] = 0;
+    switch (r->kind) {
+    case KIND_LIST: {
+        int count = *(const int *)((const char *)field + sizeof(const char *[SPT_MAX_OUTPUTS]));
+        size_t len = 0;
+        for (int k = 0; k < count && len < n; k++)
+            len += (size_t)snprintf(out + len, n - len, "%s%s", k ? "," : "", ((const char *const *)field)[k]);
+        break;
+    }
+    case KIND_INT:
+    case KIND_FLAG:
+    case KIND_HELP:
+        snprintf(out, n, "%d", *(const int *)field);
+        break;
+    case KIND_U32:
+        snprintf(out, n, "%u", (unsigned)*(const uint32_t *)field);
+        break;
+    case KIND_DBL:
+        snprintf(out, n, "%.17g", *(const double *)field);
+        break;
+    case KIND_FLT:
+        snprintf(out, n, "%.9g", (double)*(const float *)field);
+        break;
+    case KIND_STR:
+        snprintf(out, n, "%s", *(const char *const *)field ? *(const char *const *)field : "");
+        break;
+    case KIND_TONEMAP:
+    case KIND_SWITCH:
+        snprintf(out, n, "%s", choice_name(r->kind, *(const int *)field));
+        break;
+    case KIND_SAMPLER:
+        snprintf(out, n, "%s", choice_name(r->kind, (int)*(const uint32_t *)field));
+        break;
+    case KIND_AOV: {
+        static const char *const aovs[] = SPT_AOV_NAMES;
+        unsigned mask = *(const unsigned *)field;
+        size_t len = 0;
+        for (int b = 0; b < (int)(sizeof aovs / sizeof aovs[0]) && len < n; b++)
+            if (mask & (1u << b))
+                len += (size_t)snprintf(out + len, n - len, "%s%s", len ? "," : "", aovs[b]);
+        break;
+    }
+    }
 }

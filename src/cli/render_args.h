@@ -50,4 +50,22 @@ int render_args_parse(RenderArgs *a, int argc, char **argv);
 /* The usage text of `spectrace render`. */
 void render_args_usage(FILE *f);
 
+/* Every option at its default: the state render_args_parse starts from. */
+void render_args_defaults(RenderArgs *a);
+
+/* The options one by one, for the library's settings (src/api/spectrace.h):
+ * the position of the option named option (as on the command line, without
+ * "--"), or -1; option i set from value as the command line parses it (a flag
+ * takes 1/0, on/off, true/false, yes/no; a list value is appended); value is
+ * borrowed. Returns 0, or SPT_EXIT_USAGE with the command line's message in e. */
+int render_args_find(const char *option);
+int render_args_set(RenderArgs *a, int i, const char *value, SptError *e);
+/* Option i's name, help text, kind ("int", "double", "string", "flag",
+ * "choice" or "list") and value as text (a choice by its name, a list comma
+ * separated) into out (n bytes). */
+const char *render_args_option_name(int i);
+const char *render_args_option_help(int i);
+const char *render_args_option_kind(int i);
+void render_args_format(const RenderArgs *a, int i, char *out, size_t n);
+
 #endif
