@@ -22,8 +22,11 @@ PKG_CFLAGS = $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 PKG_LIBS = $(shell pkg-config --libs $(filter-out OpenImageIO,$(PKGS)) 2>/dev/null)
 OIIO_LIBS = $(shell pkg-config --libs OpenImageIO 2>/dev/null)
 CPPFLAGS := -Isrc -Ikernels -I$(BUILD)/gen -DCL_TARGET_OPENCL_VERSION=120 -D_GNU_SOURCE
-CFLAGS := -std=c11 $(OPT) -g -Wall -Wextra -MMD -MP $(SANFLAGS)
-CXXFLAGS := -std=c++17 $(OPT) -g -Wall -Wextra -MMD -MP $(SANFLAGS) -I/usr/include/stb -I/usr/include/nlohmann
+# Position-independent code, for build/libspectrace.so too; without semantic
+# interposition the compiler inlines and calls as for the programs' PIE code.
+PICFLAGS := -fPIC -fno-semantic-interposition
+CFLAGS := -std=c11 $(OPT) -g -Wall -Wextra -MMD -MP $(PICFLAGS) $(SANFLAGS)
+CXXFLAGS := -std=c++17 $(OPT) -g -Wall -Wextra -MMD -MP $(PICFLAGS) $(SANFLAGS) -I/usr/include/stb -I/usr/include/nlohmann
 LDFLAGS := $(SANFLAGS)
 LDLIBS = $(PKG_LIBS) -lmeshoptimizer -lm -lpthread -ldl -Wl,--dynamic-list=src/io/oiio_exports.list
 
@@ -56,8 +59,8 @@ MPI_PROG := $(BUILD)/spectrace-mpi
 MPI_LIBS = $(shell $(MPICC) --showme:link 2>/dev/null)
 TOOL_BINS := $(patsubst tools/%.c,$(BUILD)/tools/%,$(wildcard tools/*.c))
 
-.PHONY: all deps render test test-all test-san check tests bench mpi check-kernels clean denoise
-all: $(PROG) $(TEST_BINS)
+.PHONY: all deps render test test-all test-san check tests bench mpi check-kernels clean denoise python
+all: $(PROG) $(TEST_BINS) $(SHLIB)
 
 # Every program loads it from beside itself or the folder above.
 $(OIIO_LIB): $(OIIO_SRCS:src/%.cpp=$(BUILD)/obj/pic/%.o)
@@ -93,13 +96,14 @@ denoise:
 
 # The tests: install what is missing, build, run every test binary on PoCL and
 # the device tests' quick form on the other implementations (tests/run_tests.sh,
-# SPECTRACE_TEST_FORM). test-all runs the device tests' full form on pocl-gpu and
+# SPECTRACE_TEST_FORM), then the Python module's tests (tests/run_pytest.sh). test-all runs the device tests' full form on pocl-gpu and
 # Intel's runtime too (CI). The tests of --denoise skip, saying why, where Open
 # Image Denoise cannot be installed.
 test test-all: deps
 	@tools/install_oidn.sh --optional
 	@$(MAKE) --no-print-directory tests
 	@SPECTRACE_TEST_FORM=$(if $(filter test-all,$@),full,quick) tests/run_tests.sh $(BUILD)
+	@tests/run_pytest.sh $(BUILD)
 
 # A quick subset for the edit-compile-test loop (under a minute once built):
 # the unit tests of the host code, the options, the loader and the kernels'
@@ -122,11 +126,34 @@ check-kernels: deps
 	@$(MAKE) --no-print-directory $(PROG)
 	@tools/check_kernels.sh $(BUILD)
 
-tests: $(PROG) $(TEST_BINS) $(if $(filter 1,$(SAN)),,$(MPI_PROG))
+tests: $(PROG) $(TEST_BINS) $(SHLIB) $(if $(filter 1,$(SAN)),,$(MPI_PROG))
 
 bench: deps
 	@$(MAKE) --no-print-directory OPT=-O3 $(PROG) $(MPI_PROG) $(TOOL_BINS)
 	@tools/bench.sh $(BUILD)
+
+# The library for other programs (src/api/spectrace.h, docs/api.md): the
+# objects of libspectrace.a (PICFLAGS), exporting only spectrace_* and what
+# libspectrace-oiio.so calls back (the version script).
+SHLIB := $(BUILD)/libspectrace.so
+$(SHLIB): $(LIB_OBJS) src/api/spectrace.map | $(OIIO_LIB)
+	@echo "LINK $@"
+	$(Q)$(CXX) -shared $(LDFLAGS) -Wl,--version-script=src/api/spectrace.map \
+	    -o $@ $(LIB_OBJS) $(PKG_LIBS) -lmeshoptimizer -lm -lpthread -ldl
+
+# The Python module (src/python/spectrace) installed with pip into the virtual
+# environment VENV (made when missing, with NumPy and pytest), finding the
+# library through SPECTRACE_LIB or beside its sources (docs/api.md).
+VENV ?= $(BUILD)/venv
+# The copy that pip installs names the library's absolute path
+# (spectrace/_library.py).
+python: $(SHLIB)
+	@test -x $(VENV)/bin/python || python3 -m venv --system-site-packages $(VENV)
+	$(Q)$(VENV)/bin/python -c 'import numpy, pytest' 2>/dev/null || $(VENV)/bin/python -m pip install -q numpy pytest
+	$(Q)rm -rf $(BUILD)/python && mkdir -p $(BUILD)/python && cp -r src/python/. $(BUILD)/python/
+	$(Q)echo 'LIBRARY = "$(abspath $(SHLIB))"' > $(BUILD)/python/spectrace/_library.py
+	$(Q)$(VENV)/bin/python -m pip install -q --force-reinstall --no-deps $(BUILD)/python
+	@echo "installed spectrace into $(VENV) (library: $(abspath $(SHLIB)))"
 
 $(PROG): $(BUILD)/obj/cli/main.o $(LIB) | $(OIIO_LIB)
 	@echo "LINK $@"
@@ -146,6 +173,11 @@ $(BUILD)/obj/mpi/cli_main.o: src/cli/main.c
 	@mkdir -p $(dir $@)
 	@echo "CC   $< (as spectrace_main)"
 	$(Q)$(CC) $(CPPFLAGS) $(CFLAGS) -Dmain=spectrace_main -c -o $@ $<
+
+# Objects compiled before PICFLAGS are built again once (this stamp is newer).
+$(LIB_OBJS): $(BUILD)/obj/.pic
+$(BUILD)/obj/.pic:
+	@mkdir -p $(dir $@) && touch $@
 
 $(LIB): $(LIB_OBJS)
 	@echo "AR   $@"

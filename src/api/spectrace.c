@@ -1,0 +1,859 @@
+/* The library's C API (src/api/spectrace.h) over the code the command line
+ * runs: its option list and parsing (src/cli/render_args.h), the glTF loader,
+ * the device arrays (src/render/gpu_scene.h), the scheduler (render_devices)
+ * and the writers. */
+#include "api/spectrace.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cl/cl_device.h"
+#include "cli/render_args.h"
+#include "color/spd.h"
+#include "core/input_file.h"
+#include "core/util.h"
+#include "io/image_out.h"
+#include "io/srgb.h"
+#include "render/film.h"
+#include "render/film_layers.h"
+#include "render/gpu_scene.h"
+#include "render/render.h"
+#include "scene/scene.h"
+#include "scene/sky.h"
+
+#define MAX_DEVICES 64
+
+_Static_assert(sizeof(((spectrace_error *)0)->message) == sizeof(((SptError *)0)->msg),
+               "spectrace_error mirrors SptError");
+
+/* The loaders note every file they read (src/core/input_file.h) in one list per
+ * process, and the EXR writer keeps its last message in one: loads and writes
+ * take turns. */
+static pthread_mutex_t io_lock = PTHREAD_MUTEX_INITIALIZER;
+
+static int fail(spectrace_error *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+
+static int fail(spectrace_error *err, int code, const char *fmt, ...)
+{
+    if (err) {
+        va_list ap;
+        va_start(ap, fmt);
+        err->code = code;
+        vsnprintf(err->message, sizeof err->message, fmt, ap);
+        va_end(ap);
+    }
+    return code;
+}
+
+/* An SptError's code and message into err. */
+static int pass(spectrace_error *err, const SptError *e, int rc)
+{
+    if (err) {
+        err->code = rc;
+        snprintf(err->message, sizeof err->message, "%s", e->msg);
+    }
+    return rc;
+}
+
+int spectrace_version(void)
+{
+    return SPECTRACE_API_VERSION;
+}
+
+/* ---- Devices ---------------------------------------------------------- */
+
+struct spectrace_renderer {
+    ClDeviceList list;
+    const ClDeviceInfo *devs[MAX_DEVICES];
+    char names[MAX_DEVICES][520];
+    int count;
+};
+
+spectrace_renderer *spectrace_renderer_open(const char *selector, spectrace_error *err)
+{
+    spectrace_renderer *r = spt_calloc(1, sizeof *r);
+    SptError e = {0};
+    int sel[MAX_DEVICES], rc;
+    if ((rc = cl_device_list(&r->list, &e)) ||
+        (rc = cl_device_select(&r->list, selector, sel, &r->count, &e))) {
+        pass(err, &e, rc);
+        spectrace_renderer_close(r);
+        return NULL;
+    }
+    for (int i = 0; i < r->count; i++) {
+        r->devs[i] = &r->list.devices[sel[i]];
+        snprintf(r->names[i], sizeof r->names[i], "%s (%s)", r->devs[i]->name, r->devs[i]->platform_name);
+    }
+    return r;
+}
+
+void spectrace_renderer_close(spectrace_renderer *r)
+{
+    if (!r)
+        return;
+    cl_device_list_free(&r->list);
+    free(r);
+}
+
+int spectrace_renderer_device_count(const spectrace_renderer *r)
+{
+    return r->count;
+}
+
+const char *spectrace_renderer_device_name(const spectrace_renderer *r, int i)
+{
+    return i >= 0 && i < r->count ? r->names[i] : NULL;
+}
+
+/* ---- Settings --------------------------------------------------------- */
+
+struct spectrace_settings {
+    RenderArgs a;
+    char *owned[SPT_ARG_COUNT]; /* each option's text, which a borrows */
+};
+
+spectrace_settings *spectrace_settings_new(void)
+{
+    spectrace_settings *s = spt_calloc(1, sizeof *s);
+    render_args_defaults(&s->a);
+    return s;
+}
+
+spectrace_settings *spectrace_settings_copy(const spectrace_settings *src)
+{
+    spectrace_settings *s = spectrace_settings_new();
+    char buf[4096];
+    for (int i = 0; i < SPT_ARG_COUNT; i++)
+        if (src->a.given[i]) {
+            render_args_format(&src->a, i, buf, sizeof buf);
+            spectrace_settings_set(s, render_args_option_name(i), buf, NULL);
+        }
+    return s;
+}
+
+void spectrace_settings_free(spectrace_settings *s)
+{
+    if (!s)
+        return;
+    for (int i = 0; i < SPT_ARG_COUNT; i++)
+        free(s->owned[i]);
+    free(s);
+}
+
+/* The options that are not settings of a render here (spectrace.h). */
+static int not_a_setting(int i)
+{
+    return i == SPT_ARG_outputs || i == SPT_ARG_device || i == SPT_ARG_checkpoint ||
+           i == SPT_ARG_checkpoint_every || i == SPT_ARG_resume || i == SPT_ARG_quiet ||
+           i == SPT_ARG_help || i == SPT_ARG_denoise;
+}
+
+static int find_option(const char *name, spectrace_error *err)
+{
+    int i = name ? render_args_find(name) : -1;
+    if (i < 0)
+        return -fail(err, SPECTRACE_ERR_USAGE, "settings: unknown option '%s' (the options of "
+                     "spectrace render --help, without --)", name ? name : "(null)");
+    if (not_a_setting(i))
+        return -fail(err, SPECTRACE_ERR_USAGE, "settings: --%s is the command line's, not a "
+                     "render setting of the library (docs/api.md)", name);
+    return i;
+}
+
+int spectrace_settings_set(spectrace_settings *s, const char *name, const char *value,
+                           spectrace_error *err)
+{
+    int i = find_option(name, err);
+    if (i < 0)
+        return -i;
+    if (!value)
+        return fail(err, SPECTRACE_ERR_USAGE, "settings: --%s: no value", name);
+    /* Parsed into a copy, so a bad value leaves the settings as they were. */
+    char *text = spt_strdup(value);
+    RenderArgs a = s->a;
+    SptError e = {0};
+    int rc = render_args_set(&a, i, text, &e);
+    if (!rc && i == SPT_ARG_at) {
+        char *end;
+        double at = strtod(text, &end);
+        if (!*text || *end || !isfinite(at))
+            rc = spt_fail(&e, SPT_EXIT_USAGE, "render: --at '%s': expected a finite time in seconds", text);
+    }
+    if (rc) {
+        free(text);
+        return pass(err, &e, rc);
+    }
+    s->a = a;
+    free(s->owned[i]);
+    s->owned[i] = text;
+    return SPECTRACE_OK;
+}
+
+int spectrace_settings_set_int(spectrace_settings *s, const char *name, long long value,
+                               spectrace_error *err)
+{
+    char buf[32];
+    snprintf(buf, sizeof buf, "%lld", value);
+    return spectrace_settings_set(s, name, buf, err);
+}
+
+int spectrace_settings_set_double(spectrace_settings *s, const char *name, double value,
+                                  spectrace_error *err)
+{
+    char buf[64];
+    snprintf(buf, sizeof buf, "%.17g", value);
+    return spectrace_settings_set(s, name, buf, err);
+}
+
+int spectrace_settings_get(const spectrace_settings *s, const char *name, char *out, size_t cap,
+                           spectrace_error *err)
+{
+    int i = find_option(name, err);
+    if (i < 0)
+        return -i;
+    render_args_format(&s->a, i, out, cap);
+    return SPECTRACE_OK;
+}
+
+int spectrace_settings_count(void)
+{
+    return SPT_ARG_COUNT;
+}
+
+const char *spectrace_settings_name(int i)
+{
+    return i >= 0 && i < SPT_ARG_COUNT ? render_args_option_name(i) : NULL;
+}
+
+const char *spectrace_settings_kind(int i)
+{
+    return i >= 0 && i < SPT_ARG_COUNT ? render_args_option_kind(i) : NULL;
+}
+
+const char *spectrace_settings_help(int i)
+{
+    return i >= 0 && i < SPT_ARG_COUNT ? render_args_option_help(i) : NULL;
+}
+
+/* ---- Scenes ----------------------------------------------------------- */
+
+struct spectrace_scene {
+    Scene scene;
+    char *pose_at, *pose_animation, *pose_camera; /* as loaded (NULL: not given) */
+    int from_memory;
+    GpuScene gpu;
+    int gpu_built;     /* the BVH and the device arrays exist */
+    int shading_dirty; /* a material or light changed since */
+    Sky sky;           /* the last render's, kept while its env and background stay */
+    char *sky_env, *sky_background;
+    int sky_loaded;
+};
+
+static char *dup_or_null(const char *s)
+{
+    return s ? spt_strdup(s) : NULL;
+}
+
+static int same_text(const char *a, const char *b)
+{
+    return (!a && !b) || (a && b && !strcmp(a, b));
+}
+
+spectrace_scene *spectrace_scene_load(const char *path, const spectrace_settings *settings,
+                                      spectrace_error *err)
+{
+    if (!path) {
+        fail(err, SPECTRACE_ERR_USAGE, "scene: no path");
+        return NULL;
+    }
+    spectrace_scene *s = spt_calloc(1, sizeof *s);
+    const RenderSettings *rs = settings ? &settings->a.rs : NULL;
+    if (rs) {
+        s->pose_at = dup_or_null(rs->at);
+        s->pose_animation = dup_or_null(rs->animation);
+        s->pose_camera = dup_or_null(rs->camera);
+    }
+    ScenePose pose = {s->pose_at ? strtod(s->pose_at, NULL) : NAN, s->pose_animation, s->pose_camera};
+    SptError e = {0};
+    pthread_mutex_lock(&io_lock);
+    input_seen_reset();
+    int rc = scene_load_gltf_posed(&s->scene, path, &pose, &e);
+    input_seen_reset();
+    pthread_mutex_unlock(&io_lock);
+    if (rc) {
+        pass(err, &e, rc);
+        spectrace_scene_free(s);
+        return NULL;
+    }
+    return s;
+}
+
+spectrace_scene *spectrace_scene_load_memory(const void *data, size_t size, const char *base_dir,
+                                             spectrace_error *err)
+{
+    if (!data) {
+        fail(err, SPECTRACE_ERR_USAGE, "scene: no data");
+        return NULL;
+    }
+    spectrace_scene *s = spt_calloc(1, sizeof *s);
+    s->from_memory = 1;
+    /* The loader looks up external files in the folder of the name. */
+    char name[4096];
+    snprintf(name, sizeof name, "%s/(memory)", base_dir && *base_dir ? base_dir : ".");
+    SptError e = {0};
+    pthread_mutex_lock(&io_lock);
+    input_seen_reset();
+    int rc = scene_load_gltf_memory(&s->scene, data, size, name, &e);
+    input_seen_reset();
+    pthread_mutex_unlock(&io_lock);
+    if (rc) {
+        pass(err, &e, rc);
+        spectrace_scene_free(s);
+        return NULL;
+    }
+    return s;
+}
+
+void spectrace_scene_free(spectrace_scene *s)
+{
+    if (!s)
+        return;
+    if (s->gpu_built)
+        gpu_scene_free(&s->gpu);
+    if (s->sky_loaded)
+        sky_free(&s->sky);
+    scene_free(&s->scene);
+    free(s->pose_at);
+    free(s->pose_animation);
+    free(s->pose_camera);
+    free(s->sky_env);
+    free(s->sky_background);
+    free(s);
+}
+
+/* A parameter of a material or a light: its name, where it lies in the
+ * struct, how many floats, and the range the loader accepts (docs/gltf.md). */
+typedef struct Param {
+    const char *name;
+    size_t offset;
+    int count;
+    float lo, hi;
+} Param;
+
+#define MAT(field, n, lo, hi) {#field, offsetof(SceneMaterial, field), n, lo, hi}
+static const Param material_params[] = {
+    MAT(base_color, 4, 0, 1),        MAT(metallic, 1, 0, 1),
+    MAT(roughness, 1, 0, 1),         MAT(emissive, 3, 0, 1),
+    MAT(emissive_strength, 1, 0, HUGE_VALF), MAT(ior, 1, 1, HUGE_VALF),
+    MAT(transmission, 1, 0, 1),      MAT(dispersion, 1, 0, HUGE_VALF),
+    MAT(attenuation_color, 3, 0, 1), MAT(attenuation_distance, 1, 0, HUGE_VALF),
+    MAT(thickness, 1, 0, HUGE_VALF), MAT(specular, 1, 0, 1),
+    MAT(specular_color, 3, 0, HUGE_VALF), MAT(clearcoat, 1, 0, 1),
+    MAT(clearcoat_roughness, 1, 0, 1), MAT(sheen_color, 3, 0, 1),
+    MAT(sheen_roughness, 1, 0, 1),
+};
+#undef MAT
+
+#define LIGHT(name, field, n, lo, hi) {name, offsetof(SceneLight, field), n, lo, hi}
+static const Param light_params[] = {
+    LIGHT("intensity", intensity, 1, 0, SPT_MAX_INPUT_VALUE),
+    LIGHT("color", color, 3, 0, HUGE_VALF),
+    LIGHT("range", range, 1, 0, HUGE_VALF),
+    LIGHT("inner_cone_angle", inner_cone, 1, 0, (float)(M_PI / 2)),
+    LIGHT("outer_cone_angle", outer_cone, 1, 0, (float)(M_PI / 2)),
+};
+#undef LIGHT
+
+static const Param *find_param(const Param *table, size_t n, const char *name)
+{
+    for (size_t k = 0; k < n && name; k++)
+        if (!strcmp(table[k].name, name))
+            return &table[k];
+    return NULL;
+}
+
+int spectrace_scene_material_count(const spectrace_scene *s)
+{
+    return (int)s->scene.material_count;
+}
+
+const char *spectrace_scene_material_name(const spectrace_scene *s, int i)
+{
+    return i >= 0 && i < (int)s->scene.material_count ? s->scene.materials[i].name : NULL;
+}
+
+int spectrace_scene_material_find(const spectrace_scene *s, const char *name)
+{
+    for (uint32_t i = 0; i < s->scene.material_count && name; i++)
+        if (!strcmp(s->scene.materials[i].name, name))
+            return (int)i;
+    return -1;
+}
+
+int spectrace_scene_light_count(const spectrace_scene *s)
+{
+    return (int)s->scene.light_count;
+}
+
+const char *spectrace_scene_light_name(const spectrace_scene *s, int i)
+{
+    return i >= 0 && i < (int)s->scene.light_count ? s->scene.lights[i].name : NULL;
+}
+
+/* The object (a material or a light, what names it in messages) a parameter
+ * belongs to: i in [0, n), else an error. */
+static int check_index(int i, uint32_t n, const char *what, spectrace_error *err)
+{
+    if (i < 0 || (uint32_t)i >= n)
+        return fail(err, SPECTRACE_ERR_USAGE, "scene: %s %d does not exist (the scene has %u)", what, i, n);
+    return SPECTRACE_OK;
+}
+
+static int param_get(void *obj, const Param *table, size_t n, const char *what, const char *param,
+                     float *values, spectrace_error *err)
+{
+    const Param *p = find_param(table, n, param);
+    if (!p)
+        return -fail(err, SPECTRACE_ERR_USAGE, "scene: %s has no parameter '%s'", what, param ? param : "(null)");
+    memcpy(values, (char *)obj + p->offset, (size_t)p->count * sizeof(float));
+    return p->count;
+}
+
+static int param_set(void *obj, const Param *table, size_t n, const char *what, const char *param,
+                     const float *values, int count, spectrace_error *err)
+{
+    const Param *p = find_param(table, n, param);
+    if (!p)
+        return fail(err, SPECTRACE_ERR_USAGE, "scene: %s has no parameter '%s'", what, param ? param : "(null)");
+    if (count != p->count)
+        return fail(err, SPECTRACE_ERR_USAGE, "scene: %s: %s takes %d value%s, not %d", what, param,
+                    p->count, p->count > 1 ? "s" : "", count);
+    for (int k = 0; k < count; k++)
+        if (!isfinite(values[k]) || values[k] < p->lo || values[k] > p->hi)
+            return fail(err, SPECTRACE_ERR_USAGE, "scene: %s: %s %g is outside [%g, %g]", what, param,
+                        (double)values[k], (double)p->lo, (double)p->hi);
+    memcpy((char *)obj + p->offset, values, (size_t)count * sizeof(float));
+    return SPECTRACE_OK;
+}
+
+int spectrace_scene_material_get(const spectrace_scene *s, int i, const char *param,
+                                 float *values, spectrace_error *err)
+{
+    int rc = check_index(i, s->scene.material_count, "material", err);
+    if (rc)
+        return -rc;
+    return param_get(&s->scene.materials[i], material_params,
+                     sizeof material_params / sizeof material_params[0], s->scene.materials[i].name,
+                     param, values, err);
+}
+
+int spectrace_scene_material_set(spectrace_scene *s, int i, const char *param,
+                                 const float *values, int count, spectrace_error *err)
+{
+    int rc = check_index(i, s->scene.material_count, "material", err);
+    if (!rc)
+        rc = param_set(&s->scene.materials[i], material_params,
+                       sizeof material_params / sizeof material_params[0],
+                       s->scene.materials[i].name, param, values, count, err);
+    s->shading_dirty |= !rc;
+    return rc;
+}
+
+int spectrace_scene_light_get(const spectrace_scene *s, int i, const char *param, float *values,
+                              spectrace_error *err)
+{
+    int rc = check_index(i, s->scene.light_count, "light", err);
+    if (rc)
+        return -rc;
+    return param_get(&s->scene.lights[i], light_params, sizeof light_params / sizeof light_params[0],
+                     s->scene.lights[i].name, param, values, err);
+}
+
+int spectrace_scene_light_set(spectrace_scene *s, int i, const char *param, const float *values,
+                              int count, spectrace_error *err)
+{
+    int rc = check_index(i, s->scene.light_count, "light", err);
+    if (!rc)
+        rc = param_set(&s->scene.lights[i], light_params, sizeof light_params / sizeof light_params[0],
+                       s->scene.lights[i].name, param, values, count, err);
+    s->shading_dirty |= !rc;
+    return rc;
+}
+
+/* An SPD from count (nm, value) pairs into *dst (count 0: none). */
+static int set_spd(Spd *dst, const char *what, const double *nm, const double *value, int count,
+                   spectrace_error *err)
+{
+    Spd spd = {0};
+    if (count < 0 || (count > 0 && (!nm || !value)))
+        return fail(err, SPECTRACE_ERR_USAGE, "scene: %s: no samples", what);
+    for (int k = 0; k < count; k++)
+        if (!(value[k] >= 0 && value[k] <= SPT_MAX_INPUT_VALUE))
+            return fail(err, SPECTRACE_ERR_USAGE, "scene: %s: the value at %g nm, %g, is outside [0, %g]",
+                        what, nm[k], value[k], SPT_MAX_INPUT_VALUE);
+    SptError e = {0};
+    int rc = count > 0 ? spd_from_samples(&spd, nm, value, count, &e) : 0;
+    if (rc)
+        return fail(err, SPECTRACE_ERR_USAGE, "scene: %s: %s", what, e.msg);
+    spd_free(dst);
+    *dst = spd;
+    return SPECTRACE_OK;
+}
+
+int spectrace_scene_material_set_spectrum(spectrace_scene *s, int i, const char *which,
+                                          const double *nm, const double *value, int count,
+                                          spectrace_error *err)
+{
+    int rc = check_index(i, s->scene.material_count, "material", err);
+    if (rc)
+        return rc;
+    SceneMaterial *m = &s->scene.materials[i];
+    Spd *dst = which && !strcmp(which, "reflectance") ? &m->reflectance_spd
+               : which && !strcmp(which, "emission")  ? &m->emission_spd
+                                                      : NULL;
+    if (!dst)
+        return fail(err, SPECTRACE_ERR_USAGE, "scene: %s: the spectrum '%s' is not reflectance or emission",
+                    m->name, which ? which : "(null)");
+    char what[256];
+    snprintf(what, sizeof what, "%s: %s", m->name, which);
+    rc = set_spd(dst, what, nm, value, count, err);
+    s->shading_dirty |= !rc;
+    return rc;
+}
+
+int spectrace_scene_light_set_spectrum(spectrace_scene *s, int i, const double *nm,
+                                       const double *value, int count, spectrace_error *err)
+{
+    int rc = check_index(i, s->scene.light_count, "light", err);
+    if (rc)
+        return rc;
+    char what[256];
+    snprintf(what, sizeof what, "%s: emission", s->scene.lights[i].name);
+    rc = set_spd(&s->scene.lights[i].spd, what, nm, value, count, err);
+    s->shading_dirty |= !rc;
+    return rc;
+}
+
+/* ---- Rendering -------------------------------------------------------- */
+
+struct spectrace_image {
+    Film film;
+    RenderStats st;
+    unsigned aov;
+    int seed, max_depth;
+    DisplayOptions disp;
+    char *scene_path;
+    char device[4096];
+};
+
+/* The progress callback through the scheduler's on_chunk hook. */
+typedef struct Progress {
+    spectrace_progress_fn fn;
+    void *user;
+    volatile sig_atomic_t stop;
+    uint32_t sample_total;
+} Progress;
+
+static void on_chunk(void *ctx, const Film *film, const unsigned char *done, uint32_t total)
+{
+    (void)film;
+    Progress *p = ctx;
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < total; i++)
+        n += done[i];
+    if (p->fn && p->fn(p->user, n, total))
+        p->stop = 1;
+}
+
+/* The scene's device arrays and sky for rs: built once, the materials and
+ * lights again after a change, the sky again when its options change. */
+static int prepare_scene(spectrace_scene *s, const RenderArgs *a, SptError *e)
+{
+    int rc;
+    if (!s->gpu_built) {
+        if ((rc = gpu_scene_build(&s->gpu, &s->scene, e)))
+            return rc;
+        s->gpu_built = 1;
+        s->shading_dirty = 0;
+    } else if (s->shading_dirty) {
+        if ((rc = gpu_scene_build_shading(&s->gpu, &s->scene, e))) {
+            s->gpu_built = 0; /* freed: built anew next time */
+            return rc;
+        }
+        s->shading_dirty = 0;
+    }
+    if (!s->sky_loaded || !same_text(s->sky_env, a->env) || !same_text(s->sky_background, a->background)) {
+        if (s->sky_loaded)
+            sky_free(&s->sky);
+        s->sky_loaded = 0;
+        pthread_mutex_lock(&io_lock);
+        rc = sky_from_args(&s->sky, a->env, a->background, e);
+        pthread_mutex_unlock(&io_lock);
+        if (rc)
+            return rc;
+        s->sky_loaded = 1;
+        free(s->sky_env);
+        free(s->sky_background);
+        s->sky_env = dup_or_null(a->env);
+        s->sky_background = dup_or_null(a->background);
+    }
+    return SPT_EXIT_OK;
+}
+
+/* The settings as the command line completes them (src/cli/cmd_render.c):
+ * the image size from the camera's aspect ratio, adaptive sampling's auto. */
+static void complete(RenderSettings *rs, const SceneCamera *cam)
+{
+    if (!rs->width && !rs->height)
+        rs->width = 512;
+    float aspect = cam->aspect > 0 ? cam->aspect : 1.0f;
+    if (!rs->height)
+        rs->height = (long)(rs->width / aspect + 0.5f) > 0 ? (int)(long)(rs->width / aspect + 0.5f) : 1;
+    if (!rs->width)
+        rs->width = (long)(rs->height * aspect + 0.5f) > 0 ? (int)(long)(rs->height * aspect + 0.5f) : 1;
+    /* auto: on for a render given seconds; off is kept as 0, the default. */
+    if (rs->adaptive == SPT_SWITCH_AUTO && rs->time_limit > 0)
+        rs->adaptive = SPT_SWITCH_ON;
+    if (rs->adaptive == SPT_SWITCH_OFF)
+        rs->adaptive = SPT_SWITCH_AUTO;
+}
+
+int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
+                     const spectrace_settings *settings, spectrace_progress_fn progress,
+                     void *user, spectrace_image **out, spectrace_error *err)
+{
+    *out = NULL;
+    spectrace_settings *defaults = settings ? NULL : spectrace_settings_new();
+    const RenderArgs *a = settings ? &settings->a : &defaults->a;
+    RenderSettings rs = a->rs;
+    SptError e = {0};
+    int rc = SPT_EXIT_OK;
+    if (!same_text(rs.at, scene->pose_at) || !same_text(rs.animation, scene->pose_animation) ||
+        !same_text(rs.camera, scene->pose_camera)) {
+        rc = fail(err, SPECTRACE_ERR_USAGE, "render: the settings' at, animation or camera differ "
+                  "from the pose the scene was loaded in (load it with these settings)%s",
+                  scene->from_memory ? "; a scene from memory has the rest pose" : "");
+        spectrace_settings_free(defaults);
+        return rc;
+    }
+    if ((rc = prepare_scene(scene, a, &e))) {
+        spectrace_settings_free(defaults);
+        return pass(err, &e, rc);
+    }
+    complete(&rs, &scene->scene.camera);
+    Progress prog = {progress, user, 0, (uint32_t)rs.spp};
+    rs.sky = &scene->sky;
+    rs.progress = 0;
+    rs.stop = &prog.stop;
+    rs.on_chunk = on_chunk;
+    rs.on_chunk_ctx = &prog;
+    spectrace_image *img = spt_calloc(1, sizeof *img);
+    film_init_full(&img->film, rs.width, rs.height, render_keeps_aov(&rs), rs.spectral);
+    RenderDeviceStats per_dev[MAX_DEVICES];
+    rc = render_devices(r->devs, r->count, &scene->gpu, &scene->scene.camera, &rs, &img->film,
+                        &img->st, per_dev, &e);
+    if (!rc && prog.stop)
+        rc = fail(err, SPECTRACE_ERR_CANCELLED, "render: stopped by the progress callback after %u of "
+                  "%d samples per pixel", img->st.spp_done, rs.spp);
+    else if (rc)
+        pass(err, &e, rc);
+    else if (img->st.spp_done == 0)
+        rc = fail(err, SPECTRACE_ERR_CANCELLED, "render: stopped before any pass completed");
+    else if (film_nonfinite_except_squares(&img->film))
+        rc = fail(err, SPECTRACE_ERR_FAILURE, "render: %zu of %ld pixels came out NaN or infinite (an "
+                  "internal error)", film_nonfinite_except_squares(&img->film),
+                  (long)rs.width * rs.height);
+    if (rc) {
+        spectrace_image_free(img);
+        spectrace_settings_free(defaults);
+        return rc;
+    }
+    img->aov = rs.aov;
+    img->seed = (int)rs.seed;
+    img->max_depth = rs.max_depth;
+    img->disp = (DisplayOptions){(float)a->exposure, a->tonemap};
+    img->scene_path = spt_strdup(scene->scene.path ? scene->scene.path : "(memory)");
+    size_t len = 0;
+    for (int i = 0; i < r->count && len < sizeof img->device; i++)
+        len += (size_t)snprintf(img->device + len, sizeof img->device - len, "%s%s", i ? "; " : "", r->names[i]);
+    *out = img;
+    spectrace_settings_free(defaults);
+    return SPECTRACE_OK;
+}
+
+void spectrace_image_free(spectrace_image *img)
+{
+    if (!img)
+        return;
+    film_free(&img->film);
+    free(img->scene_path);
+    free(img);
+}
+
+int spectrace_image_width(const spectrace_image *img)
+{
+    return img->film.width;
+}
+
+int spectrace_image_height(const spectrace_image *img)
+{
+    return img->film.height;
+}
+
+int spectrace_image_spp(const spectrace_image *img)
+{
+    return (int)img->st.spp_done;
+}
+
+double spectrace_image_seconds(const spectrace_image *img)
+{
+    return img->st.seconds;
+}
+
+int spectrace_image_rgb(const spectrace_image *img, float *out)
+{
+    film_to_linear_srgb(&img->film, out);
+    return SPECTRACE_OK;
+}
+
+int spectrace_image_xyz(const spectrace_image *img, float *out)
+{
+    size_t npix = (size_t)img->film.width * img->film.height;
+    for (size_t i = 0; i < npix; i++) {
+        double n = img->film.count[i];
+        for (int k = 0; k < 3; k++)
+            out[3 * i + k] = n > 0 ? (float)(img->film.xyz[3 * i + k] / n) : 0.0f;
+    }
+    return SPECTRACE_OK;
+}
+
+int spectrace_image_counts(const spectrace_image *img, float *out)
+{
+    size_t npix = (size_t)img->film.width * img->film.height;
+    for (size_t i = 0; i < npix; i++)
+        out[i] = (float)img->film.count[i];
+    return SPECTRACE_OK;
+}
+
+int spectrace_image_aov(const spectrace_image *img, const char *layer, float *out,
+                        spectrace_error *err)
+{
+    unsigned bit = 0;
+    if (!layer || film_aov_parse(layer, &bit) || (bit & (bit - 1)))
+        return -fail(err, SPECTRACE_ERR_USAGE, "image: '%s' is not an AOV layer (albedo, N, Z, P, "
+                     "variance, spp)", layer ? layer : "(null)");
+    if (!(img->aov & bit))
+        return -fail(err, SPECTRACE_ERR_USAGE, "image: the render has no %s layer (add it to the "
+                     "aov setting)", layer);
+    return film_aov_layer(&img->film, bit, out);
+}
+
+int spectrace_image_band_count(const spectrace_image *img)
+{
+    return img->film.bands;
+}
+
+int spectrace_image_bands(const spectrace_image *img, float *out)
+{
+    if (img->film.bands > 0)
+        film_spectral_layer(&img->film, out);
+    return SPECTRACE_OK;
+}
+
+int spectrace_image_write(const spectrace_image *img, const char *path, spectrace_error *err)
+{
+    const Film *f = &img->film;
+    SptError e = {0};
+    int rc = path ? image_output_check(path, &e) : spt_fail(&e, SPT_EXIT_USAGE, "image: no path");
+    if (rc)
+        return pass(err, &e, rc);
+    float *rgb = spt_malloc((size_t)f->width * f->height * 3 * sizeof(float));
+    film_to_linear_srgb(f, rgb);
+    FilmLayers L;
+    film_layers_make(&L, f, img->aov, 0);
+    ImageMeta meta;
+    memset(&meta, 0, sizeof meta);
+    meta.spp = (int)img->st.spp_done;
+    meta.render_seconds = img->st.seconds;
+    meta.device = img->device;
+    meta.seed = (uint32_t)img->seed;
+    meta.scene = img->scene_path;
+    char depth_s[32];
+    snprintf(depth_s, sizeof depth_s, "%d", img->max_depth);
+    image_meta_add(&meta, "max_depth", depth_s);
+    meta.layers = L.channels;
+    meta.layer_count = L.count;
+    meta.exr_attrs = L.attrs;
+    meta.exr_attr_count = L.attr_count;
+    pthread_mutex_lock(&io_lock);
+    rc = image_write(path, rgb, f->width, f->height, &meta, &img->disp, &e);
+    pthread_mutex_unlock(&io_lock);
+    film_layers_free(&L);
+    free(rgb);
+    return rc ? pass(err, &e, rc) : SPECTRACE_OK;
+}
+
+int spectrace_write_rgb(const char *path, const float *rgb, int width, int height,
+                        spectrace_error *err)
+{
+    SptError e = {0};
+    int rc = !path || !rgb ? spt_fail(&e, SPT_EXIT_USAGE, "image: no path or no pixels")
+             : width < 1 || height < 1 || width > 65536 || height > 65536
+                 ? spt_fail(&e, SPT_EXIT_USAGE, "%s: a %dx%d image is not writable", path, width, height)
+                 : image_output_check(path, &e);
+    if (rc)
+        return pass(err, &e, rc);
+    pthread_mutex_lock(&io_lock);
+    rc = image_write(path, rgb, width, height, NULL, NULL, &e);
+    pthread_mutex_unlock(&io_lock);
+    return rc ? pass(err, &e, rc) : SPECTRACE_OK;
+}
+
+/* ---- Colour ----------------------------------------------------------- */
+
+int spectrace_color(const char *spd_text, const double *nm, const double *value, int count,
+                    int reflectance, spectrace_color_info *out, spectrace_error *err)
+{
+    Spd spd = {0};
+    SptError e = {0};
+    int rc;
+    pthread_mutex_lock(&io_lock);
+    rc = spd_text ? spd_parse(&spd, spd_text, &e)
+         : count > 0 && nm && value ? spd_from_samples(&spd, nm, value, count, &e)
+                                    : spt_fail(&e, SPT_EXIT_USAGE, "color: no SPD given");
+    pthread_mutex_unlock(&io_lock);
+    if (rc)
+        return pass(err, &e, rc);
+    const char *name = spd_text ? spd_text : "the SPD";
+    double xyz[3];
+    if (reflectance) {
+        spd_reflectance_to_xyz(&spd, xyz);
+    } else {
+        spd_to_xyz(&spd, xyz);
+        if (!(xyz[1] > 0.0)) {
+            spd_free(&spd);
+            return fail(err, SPECTRACE_ERR_INPUT, "%s: the SPD has no luminance (Y = %g), so it cannot "
+                        "be normalised to Y = 1", name, xyz[1]);
+        }
+        double y = xyz[1];
+        for (int k = 0; k < 3; k++)
+            xyz[k] /= y;
+    }
+    spd_free(&spd);
+    if (!isfinite(xyz[0]) || !isfinite(xyz[1]) || !isfinite(xyz[2]))
+        return fail(err, SPECTRACE_ERR_INPUT, "%s: the SPD's colour is not finite (XYZ %g %g %g)", name,
+                    xyz[0], xyz[1], xyz[2]);
+    memcpy(out->xyz, xyz, sizeof xyz);
+    xyz_to_linear_srgb(xyz, out->linear_srgb);
+    for (int k = 0; k < 3; k++)
+        out->srgb8[k] = srgb_to_8bit(out->linear_srgb[k]);
+    double sum = xyz[0] + xyz[1] + xyz[2];
+    out->x = sum > 0 ? xyz[0] / sum : 0;
+    out->y = sum > 0 ? xyz[1] / sum : 0;
+    return SPECTRACE_OK;
+}

@@ -1,0 +1,233 @@
+/* spectrace as a library: the public C API of build/libspectrace.so
+ * (docs/api.md). A program opens devices (a renderer), loads a scene once,
+ * renders it with settings as many times as it likes, changing materials and
+ * lights in between, and reads each render's image as arrays or writes it with
+ * the command line's writers.
+ *
+ * The API is versioned: SPECTRACE_API_VERSION in this header, and
+ * spectrace_version() in the library, whose major number must match (a new
+ * minor version only adds). Every name of the library starts with spectrace_;
+ * nothing else is exported except three functions libspectrace-oiio.so calls
+ * back (src/io/oiio_exports.list).
+ *
+ * Errors: every function that can fail returns 0 or one of the codes below
+ * (the command line's exit codes, README.md "Exit codes") and fills the
+ * spectrace_error it is given (NULL: not wanted) with the code and the one-line
+ * message the command line prints after "error: ". The library never exits the
+ * process and prints nothing but warnings ("warning: ..." on stderr, as the
+ * command line does).
+ *
+ * Threads: the library keeps no state of its own beyond a lock around scene
+ * loading and image writing (the loaders' bookkeeping of files read is one
+ * per process). Objects are not shared between threads while in use: two
+ * threads may render at once with a renderer and a scene each. */
+#ifndef SPECTRACE_H
+#define SPECTRACE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define SPECTRACE_API_VERSION_MAJOR 1
+#define SPECTRACE_API_VERSION_MINOR 0
+/* major * 10000 + minor * 100 */
+#define SPECTRACE_API_VERSION (SPECTRACE_API_VERSION_MAJOR * 10000 + SPECTRACE_API_VERSION_MINOR * 100)
+
+/* The codes (README.md, "Exit codes"). */
+enum {
+    SPECTRACE_OK = 0,
+    SPECTRACE_ERR_FAILURE = 1,    /* internal or unexpected failure */
+    SPECTRACE_ERR_USAGE = 2,      /* a bad setting, name or argument */
+    SPECTRACE_ERR_INPUT = 3,      /* a scene, SPD or image file unreadable or invalid */
+    SPECTRACE_ERR_DEVICE = 4,     /* no OpenCL device, a build failure, device limits */
+    SPECTRACE_ERR_OUTPUT = 5,     /* an output cannot be written */
+    SPECTRACE_ERR_CANCELLED = 130 /* the progress callback stopped the render */
+};
+
+typedef struct spectrace_error {
+    int code;
+    char message[1024];
+} spectrace_error;
+
+/* The library's version, SPECTRACE_API_VERSION's form. */
+int spectrace_version(void);
+
+/* ---- Devices ---------------------------------------------------------- */
+
+typedef struct spectrace_renderer spectrace_renderer;
+
+/* Opens the OpenCL devices of selector, as the command line's --device takes
+ * it (an index, a name substring, cpu, gpu, a comma list or all; NULL: the
+ * SPECTRACE_DEVICE variable, else the first GPU, else the CPU). NULL on
+ * failure, with err filled. A render on several devices splits the samples
+ * between them. */
+spectrace_renderer *spectrace_renderer_open(const char *selector, spectrace_error *err);
+void spectrace_renderer_close(spectrace_renderer *r);
+/* The devices chosen and each one's "NAME (PLATFORM)". */
+int spectrace_renderer_device_count(const spectrace_renderer *r);
+const char *spectrace_renderer_device_name(const spectrace_renderer *r, int i);
+
+/* ---- Settings --------------------------------------------------------- */
+
+/* A render's settings: every option of `spectrace render` (src/render/
+ * render_options.h, README.md "Rendering"), by its command-line name without
+ * "--" ("spp", "width", "max-depth", "aov", ...), parsed and checked as the
+ * command line does, so a new option is here without code of its own. Not
+ * settings of a render here: output, device (spectrace_renderer_open),
+ * checkpoint, checkpoint-every, resume, quiet, help and denoise, which are
+ * refused; exposure and tonemap apply to spectrace_image_write. */
+typedef struct spectrace_settings spectrace_settings;
+
+spectrace_settings *spectrace_settings_new(void); /* every option at its default */
+spectrace_settings *spectrace_settings_copy(const spectrace_settings *s);
+void spectrace_settings_free(spectrace_settings *s);
+/* Sets option name from text as the command line takes it ("64", "0.5",
+ * "on", "albedo,N"); a flag takes 1/0, on/off, true/false, yes/no. */
+int spectrace_settings_set(spectrace_settings *s, const char *name, const char *value,
+                           spectrace_error *err);
+/* Typed: the number is written out and parsed as above (the same checks). */
+int spectrace_settings_set_int(spectrace_settings *s, const char *name, long long value,
+                               spectrace_error *err);
+int spectrace_settings_set_double(spectrace_settings *s, const char *name, double value,
+                                  spectrace_error *err);
+/* Option name's value as text ("16", "sobol", "albedo,Z", "" for a string
+ * not set) into out (cap bytes). */
+int spectrace_settings_get(const spectrace_settings *s, const char *name, char *out, size_t cap,
+                           spectrace_error *err);
+/* The options one by one: their count, and option i's name, kind ("int",
+ * "double", "string", "flag", "choice" or "list") and help text. */
+int spectrace_settings_count(void);
+const char *spectrace_settings_name(int i);
+const char *spectrace_settings_kind(int i);
+const char *spectrace_settings_help(int i);
+
+/* ---- Scenes ----------------------------------------------------------- */
+
+typedef struct spectrace_scene spectrace_scene;
+
+/* Loads a .gltf or .glb file. settings (may be NULL) gives the pose: its "at",
+ * "animation" and "camera" (docs/gltf.md); a render whose settings name
+ * another pose is refused. NULL on failure, with err filled. */
+spectrace_scene *spectrace_scene_load(const char *path, const spectrace_settings *settings,
+                                      spectrace_error *err);
+/* The same from the file's bytes (.gltf or .glb); its external buffers and
+ * images are read from folder base_dir (NULL: the current folder). The rest
+ * pose and the first camera. */
+spectrace_scene *spectrace_scene_load_memory(const void *data, size_t size, const char *base_dir,
+                                             spectrace_error *err);
+void spectrace_scene_free(spectrace_scene *s);
+
+/* Materials: their count, index i's name, and the index of the first named
+ * name (-1: none). */
+int spectrace_scene_material_count(const spectrace_scene *s);
+const char *spectrace_scene_material_name(const spectrace_scene *s, int i);
+int spectrace_scene_material_find(const spectrace_scene *s, const char *name);
+/* A material's parameter (glTF's, docs/api.md "Materials and lights"):
+ * base_color (4 values), metallic, roughness, emissive (3), emissive_strength,
+ * ior, transmission, dispersion, attenuation_color (3), attenuation_distance,
+ * thickness, specular, specular_color (3), clearcoat, clearcoat_roughness,
+ * sheen_color (3), sheen_roughness. get returns the number of values (at most
+ * 4) written to values; set takes exactly that many. Values are checked as the
+ * loader checks the file's (finite, within range). The next render uses them. */
+int spectrace_scene_material_get(const spectrace_scene *s, int i, const char *param,
+                                 float *values, spectrace_error *err);
+int spectrace_scene_material_set(spectrace_scene *s, int i, const char *param,
+                                 const float *values, int count, spectrace_error *err);
+/* A material's spectrum, "reflectance" or "emission" (the spectrace extras of
+ * docs/gltf.md, which replace the RGB base colour or emission), as count
+ * (nm, value) pairs, nm increasing; count 0 removes it. */
+int spectrace_scene_material_set_spectrum(spectrace_scene *s, int i, const char *which,
+                                          const double *nm, const double *value, int count,
+                                          spectrace_error *err);
+
+/* Punctual lights (KHR_lights_punctual): count, name, parameters intensity
+ * (candela or lux, as in the file), color (3), range, inner_cone_angle,
+ * outer_cone_angle (radians), and the "emission" spectrum, as for materials. */
+int spectrace_scene_light_count(const spectrace_scene *s);
+const char *spectrace_scene_light_name(const spectrace_scene *s, int i);
+int spectrace_scene_light_get(const spectrace_scene *s, int i, const char *param, float *values,
+                              spectrace_error *err);
+int spectrace_scene_light_set(spectrace_scene *s, int i, const char *param, const float *values,
+                              int count, spectrace_error *err);
+int spectrace_scene_light_set_spectrum(spectrace_scene *s, int i, const double *nm,
+                                       const double *value, int count, spectrace_error *err);
+
+/* ---- Rendering -------------------------------------------------------- */
+
+typedef struct spectrace_image spectrace_image;
+
+/* Called after every chunk of samples with the samples per pixel done and
+ * asked for; a non-zero return stops the render after the chunks in progress
+ * (SPECTRACE_ERR_CANCELLED). Called from a render thread, one call at a time. */
+typedef int (*spectrace_progress_fn)(void *user, uint32_t done, uint32_t total);
+
+/* Renders scene with settings (NULL: the defaults) on r's devices, blocking,
+ * into *out (free with spectrace_image_free). A scene's BVH is built once;
+ * changed materials and lights are rebuilt before the render. The image is the
+ * command line's for the same scene and settings, bit for bit. */
+int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
+                     const spectrace_settings *settings, spectrace_progress_fn progress,
+                     void *user, spectrace_image **out, spectrace_error *err);
+
+void spectrace_image_free(spectrace_image *img);
+int spectrace_image_width(const spectrace_image *img);
+int spectrace_image_height(const spectrace_image *img);
+/* Samples per pixel rendered, and the render's seconds. */
+int spectrace_image_spp(const spectrace_image *img);
+double spectrace_image_seconds(const spectrace_image *img);
+
+/* The arrays, rows top to bottom, into out (allocated by the caller):
+ * - rgb: linear sRGB, 3 floats per pixel (the EXR's R, G, B);
+ * - xyz: CIE XYZ, 3 floats per pixel (luminance Y in cd/m^2);
+ * - counts: the samples kept per pixel, 1 float per pixel;
+ * - aov: layer name ("albedo", "N", "Z", "P", "variance", "spp") of a render
+ *   with that layer in its "aov" setting, 3 floats per pixel (1 for Z and
+ *   spp); returns the channels (1 or 3), or an error code as a negative number;
+ * - bands: a render with "spectral" N: N floats per pixel, each band's mean
+ *   spectral radiance (W m^-2 sr^-1 nm^-1) over N equal bands of 360-830 nm
+ *   (band b's centre is 360 + (b + 0.5) * 470 / N nm). */
+int spectrace_image_rgb(const spectrace_image *img, float *out);
+int spectrace_image_xyz(const spectrace_image *img, float *out);
+int spectrace_image_counts(const spectrace_image *img, float *out);
+int spectrace_image_aov(const spectrace_image *img, const char *layer, float *out,
+                        spectrace_error *err);
+int spectrace_image_band_count(const spectrace_image *img);
+int spectrace_image_bands(const spectrace_image *img, float *out);
+
+/* Writes the image as the command line does (the format from the extension:
+ * .exr with the AOV layers and bands, .png, .jpg, .tif, .hdr), with the
+ * render's settings' exposure and tonemap for display formats. */
+int spectrace_image_write(const spectrace_image *img, const char *path, spectrace_error *err);
+
+/* Writes any linear sRGB array (3 floats per pixel, rows top to bottom: a
+ * contact sheet of several renders) with the same writers, without metadata;
+ * display formats get the sRGB transfer curve and no exposure or tone map. */
+int spectrace_write_rgb(const char *path, const float *rgb, int width, int height,
+                        spectrace_error *err);
+
+/* ---- Colour ----------------------------------------------------------- */
+
+/* What `spectrace color` prints for an SPD: its CIE 1931 XYZ normalised to
+ * Y = 1 (with reflectance: as a reflectance under D65, a perfect white
+ * reflector at Y = 1), the linear sRGB of that XYZ (unclamped), 8-bit sRGB
+ * and the chromaticity x, y. spd is as the command takes it (A, D65, F2, F7,
+ * F11, mercury, blackbody:K, or a CSV file), or NULL with count (nm, value)
+ * pairs, nm increasing. */
+typedef struct spectrace_color_info {
+    double xyz[3];
+    double linear_srgb[3];
+    int srgb8[3];
+    double x, y;
+} spectrace_color_info;
+
+int spectrace_color(const char *spd, const double *nm, const double *value, int count,
+                    int reflectance, spectrace_color_info *out, spectrace_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
