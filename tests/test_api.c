@@ -1,0 +1,558 @@
+/* The library's C API (src/api/spectrace.h) against the command line: the same
+ * scene and settings give the same image bit for bit, in one process or two
+ * threads; changed materials equal the changed file; errors are the command
+ * line's; the progress callback cancels. Each render is small (32 x 32, 4
+ * samples) on the implementation's default device. */
+#include <pthread.h>
+#include <unistd.h>
+
+#include "test_util.h"
+#include "test_main.h"
+
+#include "api/spectrace.h"
+#include "io/exr.h"
+
+#define BOX "scenes/cornell_box.gltf"
+#define W 32
+
+static spectrace_renderer *R;
+
+static int setup(void **state)
+{
+    spectrace_error err;
+    if (!(R = spectrace_renderer_open(NULL, &err))) {
+        fprintf(stderr, "no device: %s\n", err.message);
+        return -1;
+    }
+    return test_dir_setup(state);
+}
+
+static int teardown(void **state)
+{
+    spectrace_renderer_close(R);
+    return test_dir_teardown(state);
+}
+
+/* Settings from "name=value" words. */
+static spectrace_settings *settings(const char *const *kv)
+{
+    spectrace_settings *s = spectrace_settings_new();
+    spectrace_error err;
+    for (; *kv; kv++) {
+        char name[64];
+        const char *eq = strchr(*kv, '=');
+        snprintf(name, sizeof name, "%.*s", (int)(eq - *kv), *kv);
+        if (spectrace_settings_set(s, name, eq + 1, &err))
+            fail_msg("%s: %s", *kv, err.message);
+    }
+    return s;
+}
+
+static const char *const base_kv[] = {"width=32", "spp=4", "seed=7", "caustics=off", NULL};
+
+static spectrace_image *render_or_fail(spectrace_renderer *r, spectrace_scene *s, const spectrace_settings *st)
+{
+    spectrace_image *img;
+    spectrace_error err;
+    if (spectrace_render(r, s, st, NULL, NULL, &img, &err))
+        fail_msg("render: %s", err.message);
+    return img;
+}
+
+static float *rgb_of(const spectrace_image *img)
+{
+    size_t n = (size_t)spectrace_image_width(img) * spectrace_image_height(img) * 3;
+    float *rgb = malloc(n * sizeof(float));
+    assert_non_null(rgb);
+    spectrace_image_rgb(img, rgb);
+    return rgb;
+}
+
+/* The EXR channel called name of the file at path, compared with want (stride
+ * floats per pixel) bit for bit. */
+static void assert_channel_is(const ExrLayers *L, const char *name, const float *want, int stride)
+{
+    for (int c = 0; c < L->channel_count; c++) {
+        if (strcmp(L->channels[c].name, name))
+            continue;
+        const float *got = L->channels[c].data;
+        for (int i = 0; i < L->width * L->height; i++)
+            if (memcmp(&got[i], &want[(size_t)i * stride], sizeof(float)))
+                fail_msg("channel %s, pixel %d: the command line's %.9g, the library's %.9g", name, i,
+                         (double)got[i], (double)want[(size_t)i * stride]);
+        return;
+    }
+    fail_msg("no channel %s", name);
+}
+
+/* The command line's render of scene with args into path, read back. */
+static void cli_render(const char *scene, const char *args, const char *path, ExrLayers *L)
+{
+    char cmd[2048], err[4096];
+    snprintf(cmd, sizeof cmd, "render %s --width 32 --spp 4 --seed 7 --caustics off %s -q -o %s", scene,
+             args, path);
+    if (test_run_exe("", 600, cmd, err, sizeof err))
+        fail_msg("spectrace %s: %s", cmd, err);
+    SptError e = {0};
+    if (exr_read_layers(path, NULL, 0, L, &e))
+        fail_msg("%s: %s", path, e.msg);
+}
+
+/* The image, its AOV layers and spectral bands equal the command line's bit
+ * for bit, and the library's EXR holds the same channels. */
+TEST(test_api_equals_command_line)
+{
+    static const char *const kv[] = {"width=32", "spp=4", "seed=7", "caustics=off", "aov=albedo,Z",
+                                     "spectral=4", NULL};
+    spectrace_settings *st = settings(kv);
+    spectrace_error err;
+    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
+    if (!s)
+        fail_msg("%s", err.message);
+    spectrace_image *img = render_or_fail(R, s, st);
+    assert_int_equal(spectrace_image_width(img), W);
+    assert_int_equal(spectrace_image_height(img), W); /* the box's camera is square */
+    assert_int_equal(spectrace_image_spp(img), 4);
+    float *rgb = rgb_of(img), *albedo = malloc(W * W * 3 * sizeof(float)), *z = malloc(W * W * 3 * sizeof(float));
+    float *bands = malloc(W * W * 4 * sizeof(float)), *counts = malloc(W * W * sizeof(float));
+    assert_int_equal(spectrace_image_aov(img, "albedo", albedo, &err), 3);
+    assert_int_equal(spectrace_image_aov(img, "Z", z, &err), 1);
+    assert_int_equal(spectrace_image_aov(img, "N", z, &err), -SPECTRACE_ERR_USAGE); /* not asked for */
+    assert_int_equal(spectrace_image_band_count(img), 4);
+    spectrace_image_bands(img, bands);
+    spectrace_image_counts(img, counts);
+    for (int i = 0; i < W * W; i++)
+        assert_true(counts[i] == 4.0f);
+    ExrLayers L;
+    cli_render(BOX, "--aov albedo,Z --spectral 4", test_path("cli.exr"), &L);
+    static const char *const rgbn[] = {"R", "G", "B"}, *const albn[] = {"albedo.R", "albedo.G", "albedo.B"};
+    for (int c = 0; c < 3; c++) {
+        assert_channel_is(&L, rgbn[c], rgb + c, 3);
+        assert_channel_is(&L, albn[c], albedo + c, 3);
+    }
+    assert_channel_is(&L, "Z", z, 1);
+    assert_channel_is(&L, "S0.418,750000nm", bands + 0, 4);
+    assert_channel_is(&L, "S0.771,250000nm", bands + 3, 4);
+    /* The library's own EXR: the same channels, the same values. */
+    if (spectrace_image_write(img, test_path("api.exr"), &err))
+        fail_msg("%s", err.message);
+    ExrLayers M;
+    SptError e = {0};
+    if (exr_read_layers(test_path("api.exr"), NULL, 0, &M, &e))
+        fail_msg("%s", e.msg);
+    assert_int_equal(M.channel_count, L.channel_count);
+    for (int c = 0; c < L.channel_count; c++)
+        assert_channel_is(&M, L.channels[c].name, L.channels[c].data, 1);
+    exr_layers_free(&L);
+    exr_layers_free(&M);
+    free(rgb);
+    free(albedo);
+    free(z);
+    free(bands);
+    free(counts);
+    spectrace_image_free(img);
+    spectrace_scene_free(s);
+    spectrace_settings_free(st);
+}
+
+/* Two scenes one after the other in one process, the first again after the
+ * second, and each equal to its command-line render (a separate process). */
+TEST(test_api_two_scenes_in_one_process)
+{
+    const char *files[2] = {BOX, SPT_TEST_DATA("scenes/caustic_sphere_area.gltf")};
+    spectrace_settings *st = settings(base_kv);
+    spectrace_error err;
+    float *first[2];
+    for (int k = 0; k < 3; k++) {
+        spectrace_scene *s = spectrace_scene_load(files[k % 2], st, &err);
+        if (!s)
+            fail_msg("%s", err.message);
+        spectrace_image *img = render_or_fail(R, s, st);
+        float *rgb = rgb_of(img);
+        if (k < 2) {
+            first[k] = rgb;
+            ExrLayers L;
+            cli_render(files[k], "", test_path("cli2.exr"), &L);
+            static const char *const rgbn[] = {"R", "G", "B"};
+            for (int c = 0; c < 3; c++)
+                assert_channel_is(&L, rgbn[c], rgb + c, 3);
+            exr_layers_free(&L);
+        } else {
+            assert_memory_equal(rgb, first[0], W * W * 3 * sizeof(float));
+            free(rgb);
+        }
+        spectrace_image_free(img);
+        spectrace_scene_free(s);
+    }
+    free(first[0]);
+    free(first[1]);
+    spectrace_settings_free(st);
+}
+
+typedef struct ThreadJob {
+    const char *file;
+    float *rgb;
+    char error[1100];
+} ThreadJob;
+
+static void *thread_render(void *arg)
+{
+    ThreadJob *j = arg;
+    spectrace_error err;
+    spectrace_renderer *r = spectrace_renderer_open(NULL, &err);
+    spectrace_settings *st = spectrace_settings_new();
+    spectrace_settings_set(st, "width", "32", NULL);
+    spectrace_settings_set(st, "spp", "4", NULL);
+    spectrace_settings_set(st, "seed", "7", NULL);
+    spectrace_settings_set(st, "caustics", "off", NULL);
+    spectrace_scene *s = r ? spectrace_scene_load(j->file, st, &err) : NULL;
+    spectrace_image *img = NULL;
+    if (s && !spectrace_render(r, s, st, NULL, NULL, &img, &err)) {
+        j->rgb = malloc(W * W * 3 * sizeof(float));
+        spectrace_image_rgb(img, j->rgb);
+    } else {
+        snprintf(j->error, sizeof j->error, "%s: %s", j->file, err.message);
+    }
+    spectrace_image_free(img);
+    spectrace_scene_free(s);
+    spectrace_settings_free(st);
+    spectrace_renderer_close(r);
+    return NULL;
+}
+
+/* Two renderers in two threads at once give the images of one at a time. */
+TEST(test_api_two_threads)
+{
+    ThreadJob jobs[2] = {{BOX, NULL, ""}, {SPT_TEST_DATA("scenes/caustic_sphere_area.gltf"), NULL, ""}};
+    float *alone[2];
+    for (int k = 0; k < 2; k++) {
+        thread_render(&jobs[k]);
+        if (!jobs[k].rgb)
+            fail_msg("%s", jobs[k].error);
+        alone[k] = jobs[k].rgb;
+        jobs[k].rgb = NULL;
+    }
+    pthread_t t[2];
+    for (int k = 0; k < 2; k++)
+        assert_int_equal(pthread_create(&t[k], NULL, thread_render, &jobs[k]), 0);
+    for (int k = 0; k < 2; k++)
+        pthread_join(t[k], NULL);
+    for (int k = 0; k < 2; k++) {
+        if (!jobs[k].rgb)
+            fail_msg("%s", jobs[k].error);
+        assert_memory_equal(jobs[k].rgb, alone[k], W * W * 3 * sizeof(float));
+        free(jobs[k].rgb);
+        free(alone[k]);
+    }
+}
+
+/* A material changed between renders: the glass's roughness set to 0.3 gives
+ * the command line's image of the file with that roughness; back to the
+ * file's value gives the first image again. */
+TEST(test_api_material_changes)
+{
+    spectrace_settings *st = settings(base_kv);
+    spectrace_error err;
+    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
+    if (!s)
+        fail_msg("%s", err.message);
+    int glass = spectrace_scene_material_find(s, "dispersive_glass"), light = spectrace_scene_material_find(s, "light");
+    assert_true(glass >= 0 && light >= 0);
+    assert_int_equal(spectrace_scene_material_find(s, "no such"), -1);
+    spectrace_image *img = render_or_fail(R, s, st);
+    float *before = rgb_of(img);
+    spectrace_image_free(img);
+
+    float v[4], rough = 0.3f;
+    assert_int_equal(spectrace_scene_material_get(s, glass, "roughness", v, &err), 1);
+    assert_true(v[0] == 0.0f);
+    assert_int_equal(spectrace_scene_material_set(s, glass, "roughness", &rough, 1, &err), 0);
+    img = render_or_fail(R, s, st);
+    float *rough_rgb = rgb_of(img);
+    spectrace_image_free(img);
+    test_copy_replacing(BOX, "\"metallicFactor\": 0.0,\n    \"roughnessFactor\": 0.0\n",
+                        "\"metallicFactor\": 0.0,\n    \"roughnessFactor\": 0.3\n", test_path("rough.gltf"));
+    ExrLayers L;
+    cli_render(test_path("rough.gltf"), "", test_path("rough.exr"), &L);
+    static const char *const rgbn[] = {"R", "G", "B"};
+    for (int c = 0; c < 3; c++)
+        assert_channel_is(&L, rgbn[c], rough_rgb + c, 3);
+    exr_layers_free(&L);
+    assert_memory_not_equal(rough_rgb, before, W * W * 3 * sizeof(float));
+
+    float zero = 0.0f;
+    assert_int_equal(spectrace_scene_material_set(s, glass, "roughness", &zero, 1, &err), 0);
+    img = render_or_fail(R, s, st);
+    float *again = rgb_of(img);
+    spectrace_image_free(img);
+    assert_memory_equal(again, before, W * W * 3 * sizeof(float));
+
+    /* Bad parameters: named errors, nothing changed. */
+    float big = 2.0f;
+    assert_int_equal(spectrace_scene_material_set(s, glass, "roughness", &big, 1, &err), SPECTRACE_ERR_USAGE);
+    assert_non_null(strstr(err.message, "dispersive_glass: roughness 2 is outside [0, 1]"));
+    assert_int_equal(spectrace_scene_material_set(s, glass, "roughness", v, 2, &err), SPECTRACE_ERR_USAGE);
+    assert_int_equal(spectrace_scene_material_set(s, glass, "shininess", v, 1, &err), SPECTRACE_ERR_USAGE);
+    assert_int_equal(spectrace_scene_material_set(s, 99, "roughness", v, 1, &err), SPECTRACE_ERR_USAGE);
+    assert_int_equal(spectrace_scene_material_get(s, glass, "roughness", v, &err), 1);
+    assert_true(v[0] == 0.0f);
+    free(before);
+    free(rough_rgb);
+    free(again);
+    spectrace_scene_free(s);
+    spectrace_settings_free(st);
+}
+
+/* A spectrum as (nm, value) pairs replaces the file's: the light's emission
+ * set to the file's own samples renders the same image, and to twice them
+ * twice the image (one emitter: the light choice and every path stay, each
+ * contribution doubles exactly, up to float rounding). */
+TEST(test_api_spectrum_changes)
+{
+    spectrace_settings *st = settings(base_kv);
+    spectrace_error err;
+    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
+    if (!s)
+        fail_msg("%s", err.message);
+    int light = spectrace_scene_material_find(s, "light");
+    spectrace_image *img = render_or_fail(R, s, st);
+    float *before = rgb_of(img);
+    spectrace_image_free(img);
+    double nm[4] = {400, 500, 600, 700}, same[4] = {0, 8, 15.6, 18.4}, twice[4] = {0, 16, 31.2, 36.8};
+    assert_int_equal(spectrace_scene_material_set_spectrum(s, light, "emission", nm, same, 4, &err), 0);
+    img = render_or_fail(R, s, st);
+    float *rgb = rgb_of(img);
+    spectrace_image_free(img);
+    assert_memory_equal(rgb, before, W * W * 3 * sizeof(float));
+    free(rgb);
+    assert_int_equal(spectrace_scene_material_set_spectrum(s, light, "emission", nm, twice, 4, &err), 0);
+    img = render_or_fail(R, s, st);
+    rgb = rgb_of(img);
+    spectrace_image_free(img);
+    for (int i = 0; i < W * W * 3; i++)
+        assert_close_rel(rgb[i], 2.0 * before[i], 1e-5);
+    double bad[4] = {0, -1, 1, 1};
+    assert_int_equal(spectrace_scene_material_set_spectrum(s, light, "emission", nm, bad, 4, &err),
+                     SPECTRACE_ERR_USAGE);
+    assert_int_equal(spectrace_scene_material_set_spectrum(s, light, "glow", nm, same, 4, &err),
+                     SPECTRACE_ERR_USAGE);
+    free(rgb);
+    free(before);
+    spectrace_scene_free(s);
+    spectrace_settings_free(st);
+}
+
+/* A punctual light's intensity doubled doubles the image (a spot light, the
+ * only light: as above); its colour set to black leaves only the sky. */
+TEST(test_api_light_changes)
+{
+    spectrace_settings *st = settings(base_kv);
+    spectrace_error err;
+    spectrace_scene *s = spectrace_scene_load(SPT_TEST_DATA("scenes/caustic_sphere.gltf"), st, &err);
+    if (!s)
+        fail_msg("%s", err.message);
+    assert_int_equal(spectrace_scene_light_count(s), 1);
+    spectrace_image *img = render_or_fail(R, s, st);
+    float *before = rgb_of(img);
+    spectrace_image_free(img);
+    float intensity, twice;
+    assert_int_equal(spectrace_scene_light_get(s, 0, "intensity", &intensity, &err), 1);
+    assert_true(intensity > 0);
+    twice = 2 * intensity;
+    assert_int_equal(spectrace_scene_light_set(s, 0, "intensity", &twice, 1, &err), 0);
+    img = render_or_fail(R, s, st);
+    float *rgb = rgb_of(img);
+    spectrace_image_free(img);
+    double sum = 0;
+    for (int i = 0; i < W * W * 3; i++) {
+        assert_close_rel(rgb[i], 2.0 * before[i], 1e-5);
+        sum += before[i];
+    }
+    assert_true(sum > 0);
+    float neg = -1;
+    assert_int_equal(spectrace_scene_light_set(s, 0, "intensity", &neg, 1, &err), SPECTRACE_ERR_USAGE);
+    assert_int_equal(spectrace_scene_light_set(s, 3, "intensity", &twice, 1, &err), SPECTRACE_ERR_USAGE);
+    free(rgb);
+    free(before);
+    spectrace_scene_free(s);
+    spectrace_settings_free(st);
+}
+
+/* Settings by name as the command line's options, with its messages. */
+TEST(test_api_settings)
+{
+    spectrace_settings *st = spectrace_settings_new();
+    spectrace_error err;
+    char v[256];
+    assert_int_equal(spectrace_settings_get(st, "spp", v, sizeof v, &err), 0);
+    assert_string_equal(v, "16");
+    assert_int_equal(spectrace_settings_get(st, "sampler", v, sizeof v, &err), 0);
+    assert_string_equal(v, "sobol");
+    assert_int_equal(spectrace_settings_set_int(st, "max-depth", 8, &err), 0);
+    assert_int_equal(spectrace_settings_get(st, "max-depth", v, sizeof v, &err), 0);
+    assert_string_equal(v, "8");
+    assert_int_equal(spectrace_settings_set_double(st, "light-paths", 0.5, &err), 0);
+    assert_int_equal(spectrace_settings_get(st, "light-paths", v, sizeof v, &err), 0);
+    assert_string_equal(v, "0.5");
+    assert_int_equal(spectrace_settings_set(st, "aov", "z,ALBEDO", &err), 0);
+    assert_int_equal(spectrace_settings_get(st, "aov", v, sizeof v, &err), 0);
+    assert_string_equal(v, "albedo,Z");
+    assert_int_equal(spectrace_settings_set(st, "profile", "on", &err), 0);
+    assert_int_equal(spectrace_settings_get(st, "profile", v, sizeof v, &err), 0);
+    assert_string_equal(v, "1");
+    /* A bad value: the command line's message, and the setting as it was. */
+    char out[4096];
+    assert_int_equal(test_run_exe("", 60, "render " BOX " --spp 0", out, sizeof out), SPECTRACE_ERR_USAGE);
+    assert_int_equal(spectrace_settings_set(st, "spp", "0", &err), SPECTRACE_ERR_USAGE);
+    assert_int_equal(err.code, SPECTRACE_ERR_USAGE);
+    char want[1100];
+    snprintf(want, sizeof want, "error: %s\n", err.message);
+    assert_string_equal(out, want);
+    assert_int_equal(spectrace_settings_get(st, "spp", v, sizeof v, &err), 0);
+    assert_string_equal(v, "16");
+    assert_int_equal(spectrace_settings_set(st, "no-such", "1", &err), SPECTRACE_ERR_USAGE);
+    assert_int_equal(spectrace_settings_set(st, "output", "x.png", &err), SPECTRACE_ERR_USAGE);
+    assert_int_equal(spectrace_settings_set(st, "at", "soon", &err), SPECTRACE_ERR_USAGE);
+    /* Every option of the list is named, with a kind. */
+    int n = spectrace_settings_count(), seen_spp = 0;
+    assert_true(n > 20);
+    for (int i = 0; i < n; i++) {
+        assert_non_null(spectrace_settings_kind(i));
+        seen_spp += !strcmp(spectrace_settings_name(i), "spp") && !strcmp(spectrace_settings_kind(i), "int");
+    }
+    assert_int_equal(seen_spp, 1);
+    spectrace_settings *copy = spectrace_settings_copy(st);
+    assert_int_equal(spectrace_settings_get(copy, "aov", v, sizeof v, &err), 0);
+    assert_string_equal(v, "albedo,Z");
+    spectrace_settings_free(copy);
+    spectrace_settings_free(st);
+}
+
+/* A missing file: the command line's error line and code. */
+TEST(test_api_load_errors)
+{
+    spectrace_error err;
+    assert_null(spectrace_scene_load("no/such.gltf", NULL, &err));
+    char out[4096], want[1100];
+    assert_int_equal(test_run_exe("", 60, "render no/such.gltf", out, sizeof out), err.code);
+    assert_int_equal(err.code, SPECTRACE_ERR_INPUT);
+    snprintf(want, sizeof want, "error: %s\n", err.message);
+    assert_string_equal(out, want);
+    /* The pose is the scene's: a render with another camera is refused. */
+    spectrace_scene *s = spectrace_scene_load(BOX, NULL, &err);
+    assert_non_null(s);
+    spectrace_settings *st = spectrace_settings_new();
+    spectrace_settings_set(st, "camera", "0", &err);
+    spectrace_image *img;
+    assert_int_equal(spectrace_render(R, s, st, NULL, NULL, &img, &err), SPECTRACE_ERR_USAGE);
+    assert_null(img);
+    spectrace_settings_free(st);
+    spectrace_scene_free(s);
+}
+
+/* The scene from its bytes renders as from its file. */
+TEST(test_api_scene_from_memory)
+{
+    size_t n;
+    char *bytes = test_slurp(BOX, &n);
+    spectrace_error err;
+    spectrace_scene *a = spectrace_scene_load_memory(bytes, n, "scenes", &err);
+    if (!a)
+        fail_msg("%s", err.message);
+    spectrace_scene *b = spectrace_scene_load(BOX, NULL, &err);
+    spectrace_settings *st = settings(base_kv);
+    spectrace_image *ia = render_or_fail(R, a, st), *ib = render_or_fail(R, b, st);
+    float *ra = rgb_of(ia), *rb = rgb_of(ib);
+    assert_memory_equal(ra, rb, W * W * 3 * sizeof(float));
+    free(ra);
+    free(rb);
+    free(bytes);
+    spectrace_image_free(ia);
+    spectrace_image_free(ib);
+    spectrace_scene_free(a);
+    spectrace_scene_free(b);
+    spectrace_settings_free(st);
+    assert_null(spectrace_scene_load_memory("{", 1, NULL, &err));
+    assert_int_equal(err.code, SPECTRACE_ERR_INPUT);
+}
+
+typedef struct Calls {
+    int n;
+    uint32_t last, total;
+    int bad;
+} Calls;
+
+static int stop_at_first(void *user, uint32_t done, uint32_t total)
+{
+    Calls *c = user;
+    c->bad |= done <= c->last || done > total;
+    c->n++;
+    c->last = done;
+    c->total = total;
+    return 1;
+}
+
+static int count_calls(void *user, uint32_t done, uint32_t total)
+{
+    Calls *c = user;
+    c->bad |= done <= c->last || done > total;
+    c->n++;
+    c->last = done;
+    c->total = total;
+    return 0;
+}
+
+/* The progress callback sees the samples grow to the total, and stops the
+ * render when it returns non-zero. */
+TEST(test_api_progress_and_cancel)
+{
+    static const char *const kv[] = {"width=32", "spp=64", "seed=7", "caustics=off", NULL};
+    spectrace_settings *st = settings(kv);
+    spectrace_error err;
+    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
+    assert_non_null(s);
+    Calls c = {0, 0, 0, 0};
+    spectrace_image *img;
+    assert_int_equal(spectrace_render(R, s, st, count_calls, &c, &img, &err), 0);
+    assert_false(c.bad);
+    assert_true(c.n >= 1);
+    assert_int_equal(c.last, 64);
+    assert_int_equal(c.total, 64);
+    spectrace_image_free(img);
+    memset(&c, 0, sizeof c);
+    assert_int_equal(spectrace_render(R, s, st, stop_at_first, &c, &img, &err), SPECTRACE_ERR_CANCELLED);
+    assert_null(img);
+    assert_int_equal(c.n, 1);
+    assert_non_null(strstr(err.message, "stopped by the progress callback"));
+    spectrace_scene_free(s);
+    spectrace_settings_free(st);
+}
+
+/* spectrace_color prints what `spectrace color` prints. */
+TEST(test_api_color)
+{
+    static const char *const spds[] = {"D65", "A", "blackbody:3000", "mercury"};
+    for (size_t k = 0; k < sizeof spds / sizeof spds[0]; k++) {
+        spectrace_color_info c;
+        spectrace_error err;
+        assert_int_equal(spectrace_color(spds[k], NULL, NULL, 0, 0, &c, &err), 0);
+        char args[128], out[1024], want[1024];
+        snprintf(args, sizeof args, "color %s", spds[k]);
+        assert_int_equal(test_spectrace("", 60, args, TEST_STDOUT, out, sizeof out), 0);
+        snprintf(want, sizeof want, "XYZ %.6f %.6f %.6f\nlinear-sRGB %.6f %.6f %.6f\nsRGB8 %d %d %d\n", c.xyz[0],
+                 c.xyz[1], c.xyz[2], c.linear_srgb[0], c.linear_srgb[1], c.linear_srgb[2], c.srgb8[0],
+                 c.srgb8[1], c.srgb8[2]);
+        assert_string_equal(out, want);
+        assert_close(c.x + c.y, (c.xyz[0] + c.xyz[1]) / (c.xyz[0] + c.xyz[1] + c.xyz[2]), 1e-12);
+    }
+    /* Samples: a flat spectrum is illuminant E, x = y = 1/3. */
+    double nm[2] = {360, 830}, v[2] = {1, 1};
+    spectrace_color_info c;
+    assert_int_equal(spectrace_color(NULL, nm, v, 2, 0, &c, NULL), 0);
+    assert_close(c.x, 1.0 / 3.0, 2e-4);
+    assert_close(c.y, 1.0 / 3.0, 2e-4);
+    spectrace_error err;
+    assert_int_equal(spectrace_color("no-such-spd", NULL, NULL, 0, 0, &c, &err), SPECTRACE_ERR_INPUT);
+}
+
+TEST_MAIN("api", setup, teardown)
