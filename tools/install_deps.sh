@@ -11,6 +11,7 @@ packages=(
   libopenimageio-dev libopenexr-dev
   libcmocka-dev
   libdraco-dev libmeshoptimizer-dev
+  python3-numpy python3-pytest python3-venv
 )
 # Extra groups, asked for by name: "mpi" for build/spectrace-mpi, "pip" for
 # tools/install_oidn.sh.

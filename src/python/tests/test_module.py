@@ -1,0 +1,165 @@
+"""The Python module over build/libspectrace.so: arrays, settings, changes between
+renders, errors, progress and colour, each checked against independent values
+(the sRGB matrix of docs/architecture.md, exact scalings, the CIE white points)
+or against the library's other paths."""
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import spectrace
+
+BOX = "scenes/cornell_box.gltf"
+SPOT = "tests/data/scenes/caustic_sphere.gltf"
+SMALL = dict(width=32, spp=4, seed=3, caustics="off")
+XYZ_TO_RGB = np.array([[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415],
+                       [0.0557, -0.2040, 1.0570]])
+
+
+@pytest.fixture(scope="module")
+def box():
+    return spectrace.Scene(BOX)
+
+
+def test_version():
+    assert spectrace.version() == (1, 0)
+
+
+def test_only_the_api_is_exported():
+    lib = Path(spectrace._library_path())
+    out = subprocess.run(["nm", "-D", "--defined-only", str(lib)], capture_output=True, text=True,
+                         check=True).stdout
+    names = {line.split()[-1].split("@")[0] for line in out.splitlines() if line.strip()}
+    names.discard("SPECTRACE_1")
+    extra = {n for n in names if not n.startswith("spectrace_")}
+    assert extra == {"spt_fail", "input_check", "texture_io_free"}
+    assert "spectrace_render" in names
+
+
+def test_render_arrays(box):
+    img = box.render(aov=["albedo", "Z", "spp"], spectral=8, **SMALL)
+    rgb, xyz = img.rgb, img.xyz
+    assert rgb.shape == (32, 32, 3) and rgb.dtype == np.float32
+    # The linear sRGB is the XYZ through the sRGB matrix, pixel by pixel.
+    np.testing.assert_allclose(rgb, xyz @ XYZ_TO_RGB.T, rtol=1e-4, atol=1e-6)
+    assert np.all(img.counts == 4) and img.spp == 4
+    np.testing.assert_array_equal(img.aov("spp"), img.counts)
+    assert img.aov("albedo").shape == (32, 32, 3)
+    z = img.aov("Z")
+    # Depth along the view axis: positive where a ray hits (the box fills the view but
+    # for the corners just past its edges), 0 where it misses.
+    assert z.shape == (32, 32) and np.all(z >= 0) and np.mean(z > 0) > 0.95
+    assert img.bands.shape == (32, 32, 8) and np.all(img.bands >= 0)
+    np.testing.assert_allclose(img.band_centers, 360 + (np.arange(8) + 0.5) * 470 / 8)
+    with pytest.raises(spectrace.SpectraceError) as e:
+        img.aov("N")
+    assert e.value.code == 2 and "no N layer" in e.value.message
+
+
+def test_render_function_and_layers(box):
+    rgb = spectrace.render(BOX, **SMALL)
+    rgb2, extra = spectrace.render(box, layers=["xyz", "albedo", "counts"], **SMALL)
+    # The same scene and settings: the same image, however it was asked for.
+    np.testing.assert_array_equal(rgb, rgb2)
+    assert set(extra) == {"xyz", "albedo", "counts"}
+    assert np.all(extra["counts"] == 4)
+
+
+def test_settings():
+    s = spectrace.Settings(max_depth=8, light_paths=0.5, aov=["z", "albedo"], sampler="ZSOBOL")
+    assert s["max-depth"] == "8" and s["max_depth"] == "8"
+    assert s["light-paths"] == "0.5" and s["aov"] == "albedo,Z" and s["sampler"] == "zsobol"
+    with pytest.raises(spectrace.SpectraceError) as e:
+        s["spp"] = 0
+    assert e.value.code == 2
+    assert e.value.message == "render: --spp '0': expected a whole number from 1 to 16777216"
+    assert s["spp"] == "16"
+    with pytest.raises(spectrace.SpectraceError):
+        s["output"] = "x.png"
+    names = spectrace.settings_names()
+    assert names["spp"][0] == "int" and "output" not in names and "width" in names
+
+
+def test_roughness_and_back(box):
+    glass = box.materials["dispersive_glass"]
+    assert glass.roughness == 0.0 and glass.name == "dispersive_glass"
+    first = box.render(**SMALL).rgb
+    glass.roughness = 0.4
+    rough = box.render(**SMALL).rgb
+    glass.roughness = 0.0
+    again = box.render(**SMALL).rgb
+    assert not np.array_equal(first, rough)
+    np.testing.assert_array_equal(first, again)
+    with pytest.raises(spectrace.SpectraceError) as e:
+        glass.roughness = 1.5
+    assert e.value.code == 2 and "outside [0, 1]" in e.value.message
+    with pytest.raises(AttributeError):
+        glass.shininess = 1
+
+
+def test_light_intensity_and_emission_spectrum():
+    scene = spectrace.Scene(SPOT)
+    before = scene.render(**SMALL).rgb
+    assert before.sum() > 0
+    scene.lights[0].intensity = 2 * scene.lights[0].intensity
+    # One light, every path the same: each contribution doubles.
+    np.testing.assert_allclose(scene.render(**SMALL).rgb, 2 * before, rtol=1e-5, atol=1e-12)
+    box = spectrace.Scene(BOX)
+    base = box.render(**SMALL).rgb
+    box.materials["light"].emission = np.array([[400, 0], [500, 16], [600, 31.2], [700, 36.8]])
+    np.testing.assert_allclose(box.render(**SMALL).rgb, 2 * base, rtol=1e-5, atol=1e-12)
+
+
+def test_scene_from_bytes(box):
+    data = Path(BOX).read_bytes()
+    mem = spectrace.Scene.from_bytes(data, base_dir="scenes")
+    assert mem.materials.keys() == box.materials.keys()
+    fresh = spectrace.Scene(BOX)
+    np.testing.assert_array_equal(mem.render(**SMALL).rgb, fresh.render(**SMALL).rgb)
+
+
+def test_errors():
+    with pytest.raises(spectrace.SpectraceError) as e:
+        spectrace.Scene("no/such.gltf")
+    assert e.value.code == 3 and e.value.message.startswith("no/such.gltf")
+    with pytest.raises(spectrace.SpectraceError) as e:
+        spectrace.render(BOX, width=0)
+    assert e.value.code == 2
+
+
+def test_progress_and_cancel(box):
+    seen = []
+    box.render(progress=lambda done, total: seen.append((done, total)), width=32, spp=32, caustics="off")
+    assert seen and seen[-1] == (32, 32)
+    assert all(b[0] > a[0] for a, b in zip(seen, seen[1:]))
+    with pytest.raises(spectrace.Cancelled) as e:
+        box.render(progress=lambda done, total: True, width=32, spp=32, caustics="off")
+    assert e.value.code == 130
+
+
+def test_color():
+    d65 = spectrace.color("D65")
+    # The D65 white point (CIE 15:2004), Y = 1, and white in sRGB.
+    np.testing.assert_allclose(d65.xyz, [0.95047, 1.0, 1.08883], atol=2e-4)
+    assert d65.srgb8 == (255, 255, 255)
+    np.testing.assert_allclose(d65.xy, [0.3127, 0.3290], atol=2e-4)
+    flat = spectrace.color([[360, 1.0], [830, 1.0]])  # illuminant E
+    np.testing.assert_allclose(flat.xy, [1 / 3, 1 / 3], atol=2e-4)
+    a = spectrace.color("A")
+    np.testing.assert_allclose(a.xy, [0.44757, 0.40745], atol=2e-4)
+    with pytest.raises(spectrace.SpectraceError) as e:
+        spectrace.color("no-such-spd")
+    assert e.value.code == 3
+
+
+def test_write_image(tmp_path):
+    ramp = np.zeros((4, 8, 3), dtype=np.float32)
+    ramp[:, :, 0] = np.linspace(0, 1, 8)
+    spectrace.write_image(tmp_path / "ramp.exr", ramp)
+    spectrace.write_image(tmp_path / "ramp.png", ramp)
+    assert (tmp_path / "ramp.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (tmp_path / "ramp.exr").read_bytes()[:4] == b"\x76\x2f\x31\x01"
+    with pytest.raises(spectrace.SpectraceError) as e:
+        spectrace.write_image(tmp_path / "ramp.xyz", ramp)
+    assert e.value.code == 2
