@@ -264,15 +264,13 @@ static int same_text(const char *a, const char *b)
     return (!a && !b) || (a && b && !strcmp(a, b));
 }
 
-spectrace_scene *spectrace_scene_load(const char *path, const spectrace_settings *settings,
-                                      spectrace_error *err)
+/* A scene from the file at path, or from data (size bytes) standing for the
+ * file name; NULL with err filled on failure. */
+static spectrace_scene *load(const char *path, const void *data, size_t size, const char *name,
+                             const RenderSettings *rs, spectrace_error *err)
 {
-    if (!path) {
-        fail(err, SPECTRACE_ERR_USAGE, "scene: no path");
-        return NULL;
-    }
     spectrace_scene *s = spt_calloc(1, sizeof *s);
-    const RenderSettings *rs = settings ? &settings->a.rs : NULL;
+    s->from_memory = data != NULL;
     if (rs) {
         s->pose_at = dup_or_null(rs->at);
         s->pose_animation = dup_or_null(rs->animation);
@@ -282,7 +280,8 @@ spectrace_scene *spectrace_scene_load(const char *path, const spectrace_settings
     SptError e = {0};
     pthread_mutex_lock(&io_lock);
     input_seen_reset();
-    int rc = scene_load_gltf_posed(&s->scene, path, &pose, &e);
+    int rc = data ? scene_load_gltf_memory(&s->scene, data, size, name, &e)
+                  : scene_load_gltf_posed(&s->scene, path, &pose, &e);
     input_seen_reset();
     pthread_mutex_unlock(&io_lock);
     if (rc) {
@@ -293,6 +292,16 @@ spectrace_scene *spectrace_scene_load(const char *path, const spectrace_settings
     return s;
 }
 
+spectrace_scene *spectrace_scene_load(const char *path, const spectrace_settings *settings,
+                                      spectrace_error *err)
+{
+    if (!path) {
+        fail(err, SPECTRACE_ERR_USAGE, "scene: no path");
+        return NULL;
+    }
+    return load(path, NULL, 0, NULL, settings ? &settings->a.rs : NULL, err);
+}
+
 spectrace_scene *spectrace_scene_load_memory(const void *data, size_t size, const char *base_dir,
                                              spectrace_error *err)
 {
@@ -300,23 +309,10 @@ spectrace_scene *spectrace_scene_load_memory(const void *data, size_t size, cons
         fail(err, SPECTRACE_ERR_USAGE, "scene: no data");
         return NULL;
     }
-    spectrace_scene *s = spt_calloc(1, sizeof *s);
-    s->from_memory = 1;
     /* The loader looks up external files in the folder of the name. */
     char name[4096];
     snprintf(name, sizeof name, "%s/(memory)", base_dir && *base_dir ? base_dir : ".");
-    SptError e = {0};
-    pthread_mutex_lock(&io_lock);
-    input_seen_reset();
-    int rc = scene_load_gltf_memory(&s->scene, data, size, name, &e);
-    input_seen_reset();
-    pthread_mutex_unlock(&io_lock);
-    if (rc) {
-        pass(err, &e, rc);
-        spectrace_scene_free(s);
-        return NULL;
-    }
-    return s;
+    return load(NULL, data, size, name, NULL, err);
 }
 
 void spectrace_scene_free(spectrace_scene *s)
@@ -609,13 +605,7 @@ static int prepare_scene(spectrace_scene *s, const RenderArgs *a, SptError *e)
  * the image size from the camera's aspect ratio, adaptive sampling's auto. */
 static void complete(RenderSettings *rs, const SceneCamera *cam)
 {
-    if (!rs->width && !rs->height)
-        rs->width = 512;
-    float aspect = cam->aspect > 0 ? cam->aspect : 1.0f;
-    if (!rs->height)
-        rs->height = (long)(rs->width / aspect + 0.5f) > 0 ? (int)(long)(rs->width / aspect + 0.5f) : 1;
-    if (!rs->width)
-        rs->width = (long)(rs->height * aspect + 0.5f) > 0 ? (int)(long)(rs->height * aspect + 0.5f) : 1;
+    render_image_size(rs, cam);
     /* auto: on for a render given seconds; off is kept as 0, the default. */
     if (rs->adaptive == SPT_SWITCH_AUTO && rs->time_limit > 0)
         rs->adaptive = SPT_SWITCH_ON;

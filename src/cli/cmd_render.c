@@ -262,14 +262,7 @@ static int load_scene(RenderJob *j, SptError *e)
                                     e)) ||
         (rc = check_outputs_are_not_inputs(j, e)))
         return rc;
-    const SceneCamera *cam = &j->scene.camera;
-    if (!rs->width && !rs->height)
-        rs->width = 512;
-    float aspect = cam->aspect > 0 ? cam->aspect : 1.0f;
-    if (!rs->height)
-        rs->height = (long)(rs->width / aspect + 0.5f) > 0 ? (int)(long)(rs->width / aspect + 0.5f) : 1;
-    if (!rs->width)
-        rs->width = (long)(rs->height * aspect + 0.5f) > 0 ? (int)(long)(rs->height * aspect + 0.5f) : 1;
+    render_image_size(rs, &j->scene.camera);
     return SPT_EXIT_OK;
 }
 

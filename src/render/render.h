@@ -83,6 +83,11 @@ static inline int render_keeps_aov(const RenderSettings *rs)
     return rs->aov != 0 || rs->denoise;
 }
 
+/* The image size of rs (--width and --height) where the options leave it
+ * open: a width of 512 when neither is given, the other side from the
+ * camera's aspect ratio (1 when it has none). */
+void render_image_size(RenderSettings *rs, const SceneCamera *cam);
+
 /* Kernel stages timed by --profile (src/render/wavefront.h, K_*). */
 #define SPT_STAGES 6
 

@@ -95,3 +95,14 @@ void render_params(RenderParams *p, const RenderLights *L, const GpuScene *g,
                                 ? hit.t : 1000.0f;
     }
 }
+
+void render_image_size(RenderSettings *rs, const SceneCamera *cam)
+{
+    if (!rs->width && !rs->height)
+        rs->width = 512;
+    float aspect = cam->aspect > 0 ? cam->aspect : 1.0f;
+    if (!rs->height)
+        rs->height = (long)(rs->width / aspect + 0.5f) > 0 ? (int)(long)(rs->width / aspect + 0.5f) : 1;
+    if (!rs->width)
+        rs->width = (long)(rs->height * aspect + 0.5f) > 0 ? (int)(long)(rs->height * aspect + 0.5f) : 1;
+}
