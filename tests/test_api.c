@@ -102,6 +102,9 @@ static void cli_render(const char *scene, const char *args, const char *path, Ex
  * for bit, and the library's EXR holds the same channels. */
 TEST(test_api_equals_command_line)
 {
+    /* The AOV and spectral kernels take rusticl over 15 minutes to build;
+     * test_api_two_scenes_in_one_process compares the plain image there. */
+    skip_if_quick();
     static const char *const kv[] = {"width=32", "spp=4", "seed=7", "caustics=off", "aov=albedo,Z",
                                      "spectral=4", NULL};
     spectrace_settings *st = settings(kv);
@@ -526,6 +529,33 @@ TEST(test_api_progress_and_cancel)
     assert_non_null(strstr(err.message, "stopped by the progress callback"));
     spectrace_scene_free(s);
     spectrace_settings_free(st);
+}
+
+/* A render larger than the memory allows is refused before any allocation
+ * (SPECTRACE_MAX_MEMORY_MB sets the limit, as for the command line), and a
+ * render given seconds without samples renders whole samples until then. */
+TEST(test_api_memory_and_time)
+{
+    spectrace_error err;
+    spectrace_scene *s = spectrace_scene_load(BOX, NULL, &err);
+    assert_non_null(s);
+    static const char *const big[] = {"width=4096", "spectral=470", NULL};
+    spectrace_settings *st = settings(big);
+    spectrace_image *img;
+    setenv("SPECTRACE_MAX_MEMORY_MB", "256", 1);
+    assert_int_equal(spectrace_render(R, s, st, NULL, NULL, &img, &err), SPECTRACE_ERR_DEVICE);
+    unsetenv("SPECTRACE_MAX_MEMORY_MB");
+    assert_null(img);
+    assert_non_null(strstr(err.message, "render: a 4096x4096 render needs about"));
+    spectrace_settings_free(st);
+    static const char *const timed[] = {"width=16", "time=0.5", "caustics=off", NULL};
+    st = settings(timed);
+    assert_int_equal(spectrace_render(R, s, st, NULL, NULL, &img, &err), 0);
+    assert_true(spectrace_image_spp(img) >= 1);
+    assert_true(spectrace_image_spp(img) < (1 << 24));
+    spectrace_image_free(img);
+    spectrace_settings_free(st);
+    spectrace_scene_free(s);
 }
 
 /* spectrace_color prints what `spectrace color` prints. */

@@ -613,6 +613,25 @@ static void complete(RenderSettings *rs, const SceneCamera *cam)
         rs->adaptive = SPT_SWITCH_AUTO;
 }
 
+/* The host memory of the film and of the render against what is available,
+ * as the command line checks it (docs/limits.md, "The memory estimate"):
+ * too much is SPECTRACE_ERR_DEVICE, before an allocation could fail. */
+static int check_memory(const spectrace_renderer *r, const spectrace_scene *scene,
+                        const RenderSettings *rs, spectrace_error *err)
+{
+    RenderMemory m;
+    render_memory(r->devs, r->count, &scene->gpu, &scene->scene.camera, rs, &m);
+    double need = (double)film_bytes(rs->width, rs->height, render_keeps_aov(rs), rs->spectral) +
+                  (double)m.total,
+           limit = spt_memory_limit();
+    char a[32], b[32];
+    if (limit > 0 && need > limit)
+        return fail(err, SPECTRACE_ERR_DEVICE, "render: a %dx%d render needs about %s of host memory, "
+                    "more than the %s %s", rs->width, rs->height, spt_format_bytes(a, sizeof a, need),
+                    spt_format_bytes(b, sizeof b, limit), spt_memory_limit_why());
+    return SPECTRACE_OK;
+}
+
 int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
                      const spectrace_settings *settings, spectrace_progress_fn progress,
                      void *user, spectrace_image **out, spectrace_error *err)
@@ -636,8 +655,15 @@ int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
         return pass(err, &e, rc);
     }
     complete(&rs, &scene->scene.camera);
-    Progress prog = {progress, user, 0, (uint32_t)rs.spp};
+    /* --time without --spp: as many samples as the time allows. */
+    if (a->given[SPT_ARG_time_limit] && !a->given[SPT_ARG_spp])
+        rs.spp = 1 << 24;
     rs.sky = &scene->sky;
+    if ((rc = check_memory(r, scene, &rs, err))) {
+        spectrace_settings_free(defaults);
+        return rc;
+    }
+    Progress prog = {progress, user, 0, (uint32_t)rs.spp};
     rs.progress = 0;
     rs.stop = &prog.stop;
     rs.on_chunk = on_chunk;
