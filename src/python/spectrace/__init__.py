@@ -498,7 +498,7 @@ class Scene:
             _lib.spectrace_scene_free(self._h)
             self._h = None
 
-    def render(self, settings=None, device=None, progress=False, **kw):
+    def render(self, settings=None, device=None, progress=None, **kw):
         """Renders with settings (a Settings, and/or keyword settings) on device's renderer
         (a selector or a Renderer); returns an Image."""
         s = settings.copy() if settings is not None else Settings()
