@@ -91,7 +91,8 @@ static void cli_render(const char *scene, const char *args, const char *path, Ex
     char cmd[2048], err[4096];
     snprintf(cmd, sizeof cmd, "render %s --width 32 --spp 4 --seed 7 --caustics off %s -q -o %s", scene,
              args, path);
-    if (test_run_exe("", 600, cmd, err, sizeof err))
+    /* A kernel build on rusticl takes minutes on a loaded machine. */
+    if (test_run_exe("", 1800, cmd, err, sizeof err))
         fail_msg("spectrace %s: %s", cmd, err);
     SptError e = {0};
     if (exr_read_layers(path, NULL, 0, L, &e))
