@@ -260,10 +260,7 @@ static void build_wide(Builder *bd, uint32_t w, const Item *it, uint32_t wdepth)
     }
 }
 
-/* 1 when the cross product of the edges (in float, as the renderer computes a
- * geometric normal) is the zero vector. Inputs are finite and below 1e18, so it
- * cannot overflow. */
-static int tri_zero_area(const float *p)
+int bvh_tri_zero_area(const float *p)
 {
     float e1[3], e2[3];
     for (int a = 0; a < 3; a++) {
@@ -399,7 +396,7 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
             bvh->stats.dropped_nonfinite++;
             continue;
         }
-        if (tri_zero_area(p)) {
+        if (bvh_tri_zero_area(p)) {
             bvh->stats.dropped_degenerate++;
             continue;
         }

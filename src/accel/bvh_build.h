@@ -75,6 +75,16 @@ int bvh_build(Bvh *bvh, const float *tri_pos, uint32_t tri_count, SptError *e);
 int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOptions *opt,
                  SptError *e);
 
+/* Refits bvh, built over built_count triangles, to the same triangles moved
+ * to tri_pos (tri_count, 9 floats each): the tree and the packed order are
+ * kept, the leaf blocks' vertices and every box recomputed, so the boxes are
+ * those a build of the same tree would give. Returns 1, or 0 when only a build
+ * can index the new positions: another count, a triangle kept or dropped
+ * (bvh_build's rules) that now is not, or two corners that shared a leaf
+ * vertex moved apart; bvh is then partly rewritten and must be freed. The
+ * time goes to bvh->stats.build_seconds. */
+int bvh_refit(Bvh *bvh, const float *tri_pos, uint32_t tri_count, uint32_t built_count);
+
 /* Frees what bvh_build allocated and zeroes bvh; safe on a zeroed or freed Bvh. */
 void bvh_free(Bvh *bvh);
 

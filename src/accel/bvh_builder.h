@@ -1,6 +1,7 @@
 /* What the BVH builder's files (src/accel/bvh_build.c, bvh_split.c) share: the
  * triangle references, the binary tree's nodes as they are decided, and the
- * split searches. Nothing else includes it. */
+ * split searches; the refit (bvh_refit.c) shares the rule that drops a
+ * triangle. Nothing else includes it. */
 #ifndef SPT_BVH_BUILDER_H
 #define SPT_BVH_BUILDER_H
 
@@ -97,6 +98,11 @@ static inline float box_half_area(const Box *b)
         return 0.0f;
     return dx * dy + dy * dz + dz * dx;
 }
+
+/* 1 when the cross product of triangle p's edges (in float, as the renderer
+ * computes a geometric normal) is the zero vector: bvh_build drops it. Its
+ * coordinates must be finite and below 1e18, so it cannot overflow. */
+int bvh_tri_zero_area(const float *p);
 
 /* Bounds and centroid bounds of refs[begin, end). */
 void bvh_refs_bounds(const PrimRef *refs, uint32_t begin, uint32_t end, Box *b, Box *cb);

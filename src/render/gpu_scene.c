@@ -398,10 +398,21 @@ static int in_scene_file(const Scene *s, int rc, SptError *e)
 
 int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
 {
-    memset(g, 0, sizeof *g);
-    int rc = bvh_build(&g->bvh, s->tri_pos, s->tri_count, e);
-    if (rc)
+    Bvh bvh;
+    int rc = bvh_build(&bvh, s->tri_pos, s->tri_count, e);
+    if (rc) {
+        memset(g, 0, sizeof *g);
         return in_scene_file(s, rc, e);
+    }
+    return gpu_scene_build_with(g, s, &bvh, e);
+}
+
+int gpu_scene_build_with(GpuScene *g, const Scene *s, Bvh *bvh, SptError *e)
+{
+    int rc;
+    memset(g, 0, sizeof *g);
+    g->bvh = *bvh;
+    memset(bvh, 0, sizeof *bvh);
     uint32_t n = g->bvh.prim_count;
     g->tri_shade = spt_calloc(n ? n : 1, sizeof(TriShade));
     for (uint32_t i = 0; i < n; i++) {

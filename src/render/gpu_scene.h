@@ -43,6 +43,10 @@ typedef struct GpuScene {
 
 /* Builds the BVH and the device arrays of s. Returns 0 or an exit code. */
 int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e);
+
+/* The same with the BVH given (built, or refitted by bvh_refit, over s's
+ * triangles): g takes it over, whatever the outcome (*bvh is zeroed). */
+int gpu_scene_build_with(GpuScene *g, const Scene *s, Bvh *bvh, SptError *e);
 void gpu_scene_free(GpuScene *g);
 
 /* Rebuilds what depends on s's materials and lights (materials, spectra,
