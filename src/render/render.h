@@ -40,7 +40,28 @@ typedef struct RenderTestHooks {
                          (0: the device's own) */
     int stages;       /* 1: the stage kernels on the CPU path too, instead of
                          k_paths (comparisons; the extend stage's own time) */
+    int bvh_rebuild;  /* spectrace render --frames: every frame's BVH built anew,
+                         never refitted (comparisons and timing) */
 } RenderTestHooks;
+
+struct Wavefront;
+
+/* Programs kept from one render to the next (a frame sequence: docs/gltf.md,
+ * "Frame sequences"): per device of the selection (the same selection in
+ * every render), its wavefront's context, program and kernels (NULL until a
+ * render opens it; a device that fails is closed and opened again by the next
+ * render), and the count of programs built (or loaded from the binary cache).
+ * The kernels' build options come from the settings, which must give the same
+ * options in every render that shares them. */
+typedef struct RenderPrograms {
+    struct Wavefront **w;
+    int count;
+    int builds;
+} RenderPrograms;
+
+/* count empty slots; render_programs_free closes every device opened. */
+void render_programs_init(RenderPrograms *p, int count);
+void render_programs_free(RenderPrograms *p);
 
 /* What a render does. Its first fields are every option of the command line
  * marked RS in src/render/render_options.h, where each one's type, default,
@@ -74,6 +95,7 @@ typedef struct RenderSettings {
     void *chunk_ctx;
     void (*on_chunk)(void *ctx, const Film *film, const unsigned char *done, uint32_t total);
     void *on_chunk_ctx;
+    RenderPrograms *programs; /* NULL: the render builds its programs and frees them */
 } RenderSettings;
 
 /* Whether the film and the kernels keep AOV sums: for --aov, and for --denoise

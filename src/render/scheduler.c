@@ -263,29 +263,91 @@ typedef struct Worker {
     char *build_log;
 } Worker;
 
+void render_programs_init(RenderPrograms *p, int count)
+{
+    p->count = count;
+    p->builds = 0;
+    p->w = spt_calloc((size_t)(count > 0 ? count : 1), sizeof *p->w);
+}
+
+void render_programs_free(RenderPrograms *p)
+{
+    for (int i = 0; i < p->count; i++)
+        if (p->w[i]) {
+            wavefront_free(p->w[i]);
+            free(p->w[i]);
+        }
+    free(p->w);
+    memset(p, 0, sizeof *p);
+}
+
+/* The worker's wavefront: with kept programs (rs->programs) the device's kept
+ * one, opened (and counted) by the first render and given this render's
+ * buffers; else its own, *own. */
+static int worker_wavefront(Worker *wk, Wavefront *own, Wavefront **out)
+{
+    const RenderSettings *rs = wk->s->rs;
+    RenderPrograms *keep = rs->programs;
+    int light_film = wk->base->light_paths > 0;
+    if (!keep) {
+        *out = own;
+        return wavefront_create(own, wk->info, wk->g, rs, wk->lights, light_film, &wk->e);
+    }
+    Wavefront **slot = &keep->w[wk->index];
+    int rc;
+    if (!*slot) {
+        *slot = spt_calloc(1, sizeof **slot);
+        rc = wavefront_create(*slot, wk->info, wk->g, rs, wk->lights, light_film, &wk->e);
+        __atomic_add_fetch(&keep->builds, 1, __ATOMIC_SEQ_CST);
+    } else {
+        (*slot)->dev.last_build_seconds = 0.0;
+        rc = wavefront_buffers(*slot, wk->g, rs, wk->lights, light_film, &wk->e);
+    }
+    *out = *slot;
+    return rc;
+}
+
+/* After the worker's last chunk: a kept wavefront keeps its program unless
+ * the render failed on it (the next render opens the device again). */
+static void worker_wavefront_done(Worker *wk, Wavefront *w)
+{
+    RenderPrograms *keep = wk->s->rs->programs;
+    if (keep && !wk->rc) {
+        wavefront_release_buffers(w);
+        return;
+    }
+    wavefront_free(w);
+    if (keep) {
+        free(keep->w[wk->index]);
+        keep->w[wk->index] = NULL;
+    }
+}
+
 static void *worker_main(void *arg)
 {
     Worker *wk = arg;
     const RenderSettings *rs = wk->s->rs;
-    Wavefront w;
-    wk->rc = wavefront_create(&w, wk->info, wk->g, rs, wk->lights, wk->base->light_paths > 0, &wk->e);
-    wk->st.build_seconds = w.dev.last_build_seconds;
+    Wavefront own, *wp;
+    memset(&own, 0, sizeof own);
+    wk->rc = worker_wavefront(wk, &own, &wp);
+    Wavefront *w = wp;
+    wk->st.build_seconds = w->dev.last_build_seconds;
     if (wk->rc) {
-        if (w.dev.build_log)
-            wk->build_log = spt_strdup(w.dev.build_log);
-        wavefront_free(&w);
+        if (w->dev.build_log)
+            wk->build_log = spt_strdup(w->dev.build_log);
+        worker_wavefront_done(wk, w);
         sched_leave(wk->s, wk->index);
         return NULL;
     }
     sched_start(wk->s);
     RenderParams p = *wk->base;
-    p.pool_size = w.pool;
-    w.stop = rs->stop;
+    p.pool_size = w->pool;
+    w->stop = rs->stop;
     /* The host arrays as planned (wavefront_plan), which render_memory counts. */
-    float *sums = spt_malloc(w.plan.host_sums);
-    float *aov_sums = w.plan.host_aov ? spt_malloc(w.plan.host_aov) : NULL;
-    float *spec_sums = w.plan.host_spec ? spt_malloc(w.plan.host_spec) : NULL;
-    float *sq_sums = wk->s->adaptive ? spt_malloc(w.plan.host_sq) : NULL;
+    float *sums = spt_malloc(w->plan.host_sums);
+    float *aov_sums = w->plan.host_aov ? spt_malloc(w->plan.host_aov) : NULL;
+    float *spec_sums = w->plan.host_spec ? spt_malloc(w->plan.host_spec) : NULL;
+    float *sq_sums = wk->s->adaptive ? spt_malloc(w->plan.host_sq) : NULL;
     int mask_gen = 0; /* the adaptive mask on the device: all pixels at first */
     /* The test hooks that concern this device. */
     int fail_after = rs->test.fail_device == wk->index + 1 ? rs->test.fail_after : -1;
@@ -294,7 +356,7 @@ static void *worker_main(void *arg)
     uint32_t begin, n;
     double per_sample = 0.0; /* seconds per sample of this device's last chunk */
     for (;;) {
-        uint32_t want = w.chunk_spp;
+        uint32_t want = w->chunk_spp;
         if (rs->time_limit > 0 &&
             !(want = render_deadline_chunk(want, rs->time_limit - (spt_now() - wk->s->t0),
                                            per_sample))) {
@@ -315,10 +377,10 @@ static void *worker_main(void *arg)
             /* The segment's mask does not change while this chunk is taken. */
             if (wk->s->adaptive && mask_gen != wk->s->mask_gen) {
                 mask_gen = wk->s->mask_gen;
-                wk->rc = wavefront_set_lags(&w, wk->s->lag, (size_t)rs->width * rs->height, &wk->e);
+                wk->rc = wavefront_set_lags(w, wk->s->lag, (size_t)rs->width * rs->height, &wk->e);
             }
             if (!wk->rc)
-                wk->rc = render_chunk(&w, &p, rs->sample_begin + begin, n, rs->profile, sums,
+                wk->rc = render_chunk(w, &p, rs->sample_begin + begin, n, rs->profile, sums,
                                       aov_sums, spec_sums, sq_sums, &wk->st, &wk->e);
             if (!wk->rc) {
                 per_sample = (spt_now() - t) / n;
@@ -340,7 +402,7 @@ static void *worker_main(void *arg)
     free(aov_sums);
     free(spec_sums);
     free(sq_sums);
-    wavefront_free(&w);
+    worker_wavefront_done(wk, w);
     sched_leave(wk->s, wk->index);
     return NULL;
 }

@@ -17,7 +17,7 @@ typedef cl_uint uint;
 static const char *const kernel_names[K_COUNT] = {"k_generate", "k_extend", "k_shade",
                                                   "k_connect", "k_accumulate", "k_paths"};
 
-void wavefront_free(Wavefront *w)
+void wavefront_release_buffers(Wavefront *w)
 {
 #define REL(type, name) if (w->b.name) clReleaseMemObject(w->b.name);
 #define PS_REL(type, name) if (w->b.ps_##name) clReleaseMemObject(w->b.ps_##name);
@@ -29,14 +29,24 @@ void wavefront_free(Wavefront *w)
 #undef REL
 #undef PS_REL
 #undef SH_REL
+    memset(&w->b, 0, sizeof w->b);
+    /* The buffers are released before the memory they used in place. */
+    if (w->dev.queue)
+        clFinish(w->dev.queue);
+    for (int i = 0; i < w->host_mem_count; i++)
+        free(w->host_mem[i]);
+    w->host_mem_count = 0;
+}
+
+void wavefront_free(Wavefront *w)
+{
+    wavefront_release_buffers(w);
     for (int i = 0; i < K_COUNT; i++)
         if (w->k[i])
             clReleaseKernel(w->k[i]);
     if (w->program)
         clReleaseProgram(w->program);
     cl_device_close(&w->dev);
-    for (int i = 0; i < w->host_mem_count; i++)
-        free(w->host_mem[i]);
     memset(w, 0, sizeof *w);
 }
 
@@ -259,23 +269,13 @@ void wavefront_plan(WavefrontPlan *p, const ClDeviceInfo *info, const GpuScene *
         p->device += al[i].bytes;
 }
 
-int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
-                            const RenderSettings *rs, const RenderLights *L, int light_film,
-                            SptError *e)
+int wavefront_open(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
+                   const RenderSettings *rs, SptError *e)
 {
     int rc;
     memset(w, 0, sizeof *w);
-    WavefrontPlan *pl = &w->plan;
-    wavefront_plan(pl, info, g, rs, L, 0, light_film);
-    w->pool = pl->pool;
-    w->chunk_spp = pl->chunk_spp;
-    w->aov = pl->aov;
-    w->bands = pl->bands;
-
-    /* Check everything against the device before allocating. */
-    if ((rc = cl_device_check_memory(info, pl->allocs, pl->count, e)))
-        return rc;
-
+    w->aov = render_keeps_aov(rs);
+    w->bands = rs->spectral > 0 ? rs->spectral : 0;
     if ((rc = cl_device_open(&w->dev, info, rs->profile, e)))
         return rc;
     w->ray_pairs = kernel_path_pairs(info);
@@ -329,6 +329,20 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
         if ((rc = group_size_for(w->k[i], w->dev.info.id, &w->local[i], e)))
             return rc;
     }
+    return 0;
+}
+
+int wavefront_buffers(Wavefront *w, const GpuScene *g, const RenderSettings *rs,
+                      const RenderLights *L, int light_film, SptError *e)
+{
+    int rc;
+    const ClDeviceInfo *info = &w->dev.info;
+    WavefrontPlan *pl = &w->plan;
+    wavefront_plan(pl, info, g, rs, L, 0, light_film);
+    w->pool = pl->pool;
+    w->chunk_spp = pl->chunk_spp;
+    if ((rc = cl_device_check_memory(info, pl->allocs, pl->count, e)))
+        return rc;
 #define MAKE_RO(type, name)                                                             \
     if ((rc = scene_buffer_create(w, #name, gpu_scene_buffer_bytes(g, L, #name),              \
                                   gpu_scene_buffer_data(g, L, #name), &w->b.name, e)))        \
@@ -380,6 +394,20 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
     SPT_CL_CHECK(e, clEnqueueFillBuffer(w->dev.queue, w->b.ps_flags, &zero, sizeof zero, 0,
                                         pool * sizeof(cl_uint), 0, NULL, NULL));
     return 0;
+}
+
+int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
+                     const RenderSettings *rs, const RenderLights *L, int light_film, SptError *e)
+{
+    int rc;
+    memset(w, 0, sizeof *w);
+    /* Everything checked against the device before it is opened. */
+    WavefrontPlan pl;
+    wavefront_plan(&pl, info, g, rs, L, 0, light_film);
+    if ((rc = cl_device_check_memory(info, pl.allocs, pl.count, e)) ||
+        (rc = wavefront_open(w, info, g, rs, e)))
+        return rc;
+    return wavefront_buffers(w, g, rs, L, light_film, e);
 }
 
 int wavefront_set_lags(Wavefront *w, const uint32_t *lag, size_t npix, SptError *e)

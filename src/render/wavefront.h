@@ -81,6 +81,18 @@ int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
                      const RenderSettings *rs, const RenderLights *L, int light_film, SptError *e);
 void wavefront_free(Wavefront *w);
 
+/* The two halves of wavefront_create, for a program kept from one render to
+ * the next (RenderPrograms, src/render/render.h): wavefront_open opens the
+ * device and builds the program and kernels for rs's kernel options (g only
+ * chooses whether the traversal prefetches, which changes no result);
+ * wavefront_buffers checks the device's memory and makes the buffers of a
+ * render of g; wavefront_release_buffers releases them, keeping the program. */
+int wavefront_open(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
+                   const RenderSettings *rs, SptError *e);
+int wavefront_buffers(Wavefront *w, const GpuScene *g, const RenderSettings *rs,
+                      const RenderLights *L, int light_film, SptError *e);
+void wavefront_release_buffers(Wavefront *w);
+
 /* A chunk of more camera paths than this many pools is long: a first stop
  * request (*stop 1) drops it rather than waiting for it. */
 #define SPT_LONG_CHUNK_POOLS 32u
