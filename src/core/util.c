@@ -19,10 +19,40 @@ int spt_fail(SptError *e, int code, const char *fmt, ...)
     return code;
 }
 
+/* spt_warn_repeats(0): the FNV-1a hashes of the warnings and notes printed
+ * (the first 256; later ones always print). */
+static int hide_repeats;
+static unsigned long long said[256];
+static int said_count;
+
+void spt_warn_repeats(int show)
+{
+    hide_repeats = !show;
+    said_count = 0;
+}
+
+/* 1 when line was said before under spt_warn_repeats(0) (and records it). */
+static int said_before(const char *line)
+{
+    if (!hide_repeats)
+        return 0;
+    unsigned long long h = 1469598103934665603ull;
+    for (const char *c = line; *c; c++)
+        h = (h ^ (unsigned char)*c) * 1099511628211ull;
+    for (int i = 0; i < said_count; i++)
+        if (said[i] == h)
+            return 1;
+    if (said_count < (int)(sizeof said / sizeof said[0]))
+        said[said_count++] = h;
+    return 0;
+}
+
 static void say(const char *prefix, const char *fmt, va_list ap)
 {
     char line[2048];
     vsnprintf(line, sizeof line, fmt, ap);
+    if (*prefix != 'e' && said_before(line))
+        return;
     fprintf(stderr, "%s%s\n", prefix, line);
 }
 

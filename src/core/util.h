@@ -40,6 +40,11 @@ void spt_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void spt_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void spt_note(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
+/* With show 0, a warning or note already printed is not printed again (a frame
+ * sequence loads its scene once per frame: docs/gltf.md, "Frame sequences");
+ * 1, the default, prints every one. Errors always print. */
+void spt_warn_repeats(int show);
+
 /* Prints e as an error line and returns its code. */
 int spt_report(const SptError *e);
 
