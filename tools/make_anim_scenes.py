@@ -26,6 +26,9 @@ Files:
                       a lit floor and a box posed by --at 0.25 (LINEAR, exact in
                       float) and the same written at that pose: the images must
                       be equal
+  turntable.gltf      scenes/cornell_box.gltf with its spheres and block turning
+                      once a second ("turn") and a camera "orbit" swinging
+                      about the box ("orbit"), for frame sequences
   bad_*.gltf          one fault each, with the error text expected
 Plain Python (json, struct, base64, math).
 """
@@ -421,6 +424,49 @@ def render_pair(out):
         d.write(os.path.join(out, "render_posed.gltf" if posed_file else "render_static.gltf"))
 
 
+# ---- turntable.gltf: the Cornell box with its contents turning ----
+
+def turntable(out):
+    """scenes/cornell_box.gltf with the spheres and the block on a node that
+    turns once a second about the vertical through the floor's centre
+    ("turn": rotation LINEAR, a key every quarter turn), and a second camera
+    "orbit" on a node swinging from -20 to +20 degrees about that vertical in
+    the same second ("orbit"): a 24-frame turntable at 24 frames per second
+    (tests/test_frames.c)."""
+    with open(os.path.join(ROOT, "scenes", "cornell_box.gltf")) as f:
+        src = json.load(f)
+    d = Doc()
+    d.bin += base64.b64decode(src["buffers"][0]["uri"].split(",", 1)[1])
+    for key in ("nodes", "meshes", "materials", "accessors", "bufferViews", "cameras"):
+        d.doc[key] = src[key]
+    d.doc["extensionsUsed"] = src.get("extensionsUsed", [])
+    names = [n.get("name") for n in d.doc["nodes"]]
+    roots = [i for i in range(len(names)) if names[i] not in ("glass_sphere", "gold_sphere",
+                                                               "tall_block")]
+    turning = [names.index(k) for k in ("glass_sphere", "gold_sphere", "tall_block")]
+    centre = [0.278, 0.0, 0.28]
+    nodes = d.doc["nodes"]
+    table = len(nodes)
+    nodes.append({"name": "turntable", "translation": centre, "children": [table + 1]})
+    nodes.append({"name": "turntable_origin", "translation": [-c for c in centre],
+                  "children": turning})
+    d.doc["cameras"].append({"name": "orbit", "type": "perspective",
+                             "perspective": dict(d.doc["cameras"][0]["perspective"])})
+    pivot = len(nodes)
+    nodes.append({"name": "orbit_pivot", "translation": centre, "children": [pivot + 1]})
+    nodes.append({"name": "orbit_camera", "camera": 1, "translation": [0.0, 0.273, -1.08],
+                  "rotation": [0.0, 1.0, 0.0, 0.0]})
+    d.doc["scenes"][0]["nodes"] = roots + [table, pivot]
+    turn = Anim(d, "turn")
+    keys = [0, 0.25, 0.5, 0.75, 1.0]
+    turn.channel(table, "rotation", keys,
+                 sum((axis_angle((0, 1, 0), 360 * k) for k in keys), []), atype="VEC4")
+    orbit = Anim(d, "orbit")
+    orbit.channel(pivot, "rotation", [0, 1],
+                  axis_angle((0, 1, 0), -20) + axis_angle((0, 1, 0), 20), atype="VEC4")
+    d.write(os.path.join(out, "turntable.gltf"))
+
+
 # ---- bad files: (name, change to anim_triangle's JSON, pose, expected text) ----
 
 def bad_files(out, exp, base):
@@ -510,6 +556,7 @@ def main():
     skin_strip(out, exp)
     morph_quad(out, exp)
     render_pair(out)
+    turntable(out)
     bad_files(out, exp, base)
     bad_skin(out, exp)
     with open(os.path.join(out, "expected.txt"), "w") as f:

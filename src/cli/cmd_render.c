@@ -50,6 +50,17 @@ typedef struct RenderJob {
     Denoiser den;        /* --denoise: Open Image Denoise, loaded before rendering */
     float *noisy;        /* --denoise: the image before denoising */
     double denoise_seconds;
+    int sky_loaded;      /* the sky is read once, for every frame */
+    /* --frames (render_frames): the programs kept for every frame; the last
+     * frame's BVH and the triangles it indexes (count, vertex indices,
+     * materials), which the next frame refits when only their positions
+     * moved; how long this frame's scene load and BVH took. */
+    RenderPrograms programs;
+    Bvh last_bvh;
+    uint32_t last_tri_count;
+    uint32_t *last_vidx, *last_mat;
+    int refitted;
+    double load_seconds, bvh_seconds;
 } RenderJob;
 
 static volatile sig_atomic_t stop_requested;
@@ -254,21 +265,26 @@ static int load_scene(RenderJob *j, SptError *e)
 {
     RenderSettings *rs = &j->a.rs;
     int rc;
-    input_seen_reset();
-    if ((rc = sky_from_args(&j->sky, j->a.env, j->a.background, e)) ||
-        (rc = scene_load_gltf_posed(&j->scene, j->a.scene,
-                                    &(ScenePose){rs->at ? strtod(rs->at, NULL) : NAN,
-                                                  rs->animation, rs->camera},
-                                    e)) ||
-        (rc = check_outputs_are_not_inputs(j, e)))
+    if (!j->sky_loaded) {
+        input_seen_reset();
+        if ((rc = sky_from_args(&j->sky, j->a.env, j->a.background, e)))
+            return rc;
+        j->sky_loaded = 1;
+    }
+    double t0 = spt_now();
+    rc = scene_load_gltf_posed(&j->scene, j->a.scene,
+                               &(ScenePose){rs->at ? strtod(rs->at, NULL) : NAN, rs->animation,
+                                            rs->camera},
+                               e);
+    j->load_seconds = spt_now() - t0;
+    if (rc || (rc = check_outputs_are_not_inputs(j, e)))
         return rc;
     render_image_size(rs, &j->scene.camera);
     return SPT_EXIT_OK;
 }
 
-/* The devices of --device (named on stderr unless quiet) and the scene as their
- * arrays. */
-static int open_devices(RenderJob *j, SptError *e)
+/* The devices of --device (named on stderr unless quiet). */
+static int select_devices(RenderJob *j, SptError *e)
 {
     int sel[MAX_DEVICES], rc;
     if ((rc = cl_device_list(&j->devices, e)) ||
@@ -280,7 +296,37 @@ static int open_devices(RenderJob *j, SptError *e)
             fprintf(stderr, "device %d: %s (%s, %s)\n", sel[i], j->devs[i]->name,
                     j->devs[i]->platform_name, j->devs[i]->driver_version);
     }
-    return gpu_scene_build(&j->gpu, &j->scene, e);
+    return SPT_EXIT_OK;
+}
+
+/* Whether the scene has the last frame's triangles (count, vertices and
+ * materials), which only their positions may have moved since. */
+static int same_triangles(const RenderJob *j)
+{
+    const Scene *s = &j->scene;
+    return j->last_bvh.nodes && s->tri_count == j->last_tri_count &&
+           !memcmp(s->tri_vidx, j->last_vidx, (size_t)s->tri_count * 3 * sizeof(uint32_t)) &&
+           !memcmp(s->tri_mat, j->last_mat, (size_t)s->tri_count * sizeof(uint32_t));
+}
+
+/* The scene as the devices' arrays: in a frame sequence, the last frame's BVH
+ * refitted when only the triangles' positions moved (docs/gltf.md, "Frame
+ * sequences"), else (or when the refit cannot index them) built. */
+static int build_device_scene(RenderJob *j, SptError *e)
+{
+    double t0 = spt_now();
+    j->refitted = 0;
+    int rc;
+    if (same_triangles(j) && !j->a.rs.test.bvh_rebuild &&
+        bvh_refit(&j->last_bvh, j->scene.tri_pos, j->scene.tri_count, j->last_tri_count)) {
+        j->refitted = 1;
+        rc = gpu_scene_build_with(&j->gpu, &j->scene, &j->last_bvh, e);
+    } else {
+        bvh_free(&j->last_bvh);
+        rc = gpu_scene_build(&j->gpu, &j->scene, e);
+    }
+    j->bvh_seconds = spt_now() - t0;
+    return rc;
 }
 
 /* The host memory write_outputs takes (after the render's own is freed): the
@@ -591,36 +637,60 @@ static int write_outputs(RenderJob *j, SptError *e)
     return SPT_EXIT_OK;
 }
 
-static void job_free(RenderJob *j)
+/* What one image holds (the posed scene, its device arrays, the film and the
+ * outputs' memory), freed after each frame; the BVH and the triangles it
+ * indexes are kept for the next frame's refit. */
+static void image_free(RenderJob *j)
 {
     checkpoint_run_free(&j->ckpt);
     free(j->rgb);
     free(j->noisy);
     film_layers_free(&j->layers);
-    denoiser_close(&j->den);
+    j->rgb = j->noisy = NULL;
     film_free(&j->film);
+    if (j->gpu.bvh.nodes && j->programs.w) {
+        bvh_free(&j->last_bvh);
+        j->last_bvh = j->gpu.bvh;
+        memset(&j->gpu.bvh, 0, sizeof j->gpu.bvh);
+        size_t n = (size_t)j->scene.tri_count;
+        j->last_tri_count = j->scene.tri_count;
+        j->last_vidx = spt_realloc(j->last_vidx, (n ? n : 1) * 3 * sizeof(uint32_t));
+        j->last_mat = spt_realloc(j->last_mat, (n ? n : 1) * sizeof(uint32_t));
+        memcpy(j->last_vidx, j->scene.tri_vidx, n * 3 * sizeof(uint32_t));
+        memcpy(j->last_mat, j->scene.tri_mat, n * sizeof(uint32_t));
+    }
     gpu_scene_free(&j->gpu);
-    cl_device_list_free(&j->devices);
     scene_free(&j->scene);
+    memset(&j->st, 0, sizeof j->st);
+    memset(j->per_dev, 0, sizeof j->per_dev);
+    /* What checkpoint_run_begin hooked in pointed into this image's run. */
+    j->a.rs.done_in = NULL;
+    j->a.rs.on_chunk = NULL;
+    j->a.rs.on_chunk_ctx = NULL;
+}
+
+static void job_free(RenderJob *j)
+{
+    image_free(j);
+    bvh_free(&j->last_bvh);
+    free(j->last_vidx);
+    free(j->last_mat);
+    if (j->programs.w)
+        render_programs_free(&j->programs);
+    denoiser_close(&j->den);
+    cl_device_list_free(&j->devices);
     sky_free(&j->sky);
 }
 
-int cmd_render(int argc, char **argv)
+/* One image: the scene posed as asked, the devices (chosen for the first
+ * image), the render and the outputs. Every failure is reported here; returns
+ * the exit code. */
+static int render_image(RenderJob *j)
 {
-    RenderJob *j = spt_calloc(1, sizeof *j);
     SptError e = {0};
-    int rc = render_args_parse(&j->a, argc, argv);
-    if (rc || j->a.help) {
-        free(j);
-        return rc;
-    }
-    /* Signals are caught from the start: one during loading ends the run once
-     * the step in progress is over (exit 130, nothing written). */
-    stop_requested = 0;
-    signal_quiet = j->a.quiet;
-    signals_catch();
-    if ((rc = check_outputs(j, &e)) || (rc = load_scene(j, &e)) || (rc = open_devices(j, &e)) ||
-        (rc = check_host_memory(j, &e))) {
+    int rc;
+    if ((rc = load_scene(j, &e)) || (!j->nsel && (rc = select_devices(j, &e))) ||
+        (rc = build_device_scene(j, &e)) || (rc = check_host_memory(j, &e))) {
         spt_report(&e);
     } else if (stop_requested) {
         spt_error("render: stopped by a signal before rendering; nothing written");
@@ -642,6 +712,160 @@ int cmd_render(int argc, char **argv)
             }
         }
     }
+    return rc;
+}
+
+/* --frames: name (an -o or --checkpoint name) for frame f: its last run of
+ * '#' replaced by f with as many digits, zeros in front (Blender's rule), or
+ * without '#' f in four digits before the file name's extension (at its end
+ * when it has none). */
+static void frame_name(const char *name, long f, char *out, size_t cap)
+{
+    const char *end = strrchr(name, '#');
+    if (end) {
+        const char *run = end;
+        while (run > name && run[-1] == '#')
+            run--;
+        snprintf(out, cap, "%.*s%0*ld%s", (int)(run - name), name, (int)(end + 1 - run), f,
+                 end + 1);
+        return;
+    }
+    const char *base = strrchr(name, '/');
+    base = base ? base + 1 : name;
+    const char *dot = strrchr(base, '.');
+    if (!dot || dot == base)
+        dot = name + strlen(name);
+    snprintf(out, cap, "%.*s%04ld%s", (int)(dot - name), name, f, dot);
+}
+
+#define FRAME_NAME_MAX 4096
+
+/* The names of frame f (outputs, checkpoint, resume) from the patterns into
+ * names, pointed to by a. --resume's frame without its file starts afresh,
+ * checkpointing to that name. */
+static void frame_names(RenderArgs *a, const char *const *pat, int npat, const char *ckpt,
+                        const char *resume, long f, char (*names)[FRAME_NAME_MAX])
+{
+    for (int i = 0; i < npat; i++) {
+        frame_name(pat[i], f, names[i], FRAME_NAME_MAX);
+        a->outputs[i] = names[i];
+    }
+    a->checkpoint = a->resume = NULL;
+    if (ckpt) {
+        frame_name(ckpt, f, names[npat], FRAME_NAME_MAX);
+        a->checkpoint = names[npat];
+    }
+    if (resume) {
+        frame_name(resume, f, names[npat + 1], FRAME_NAME_MAX);
+        if (access(names[npat + 1], F_OK) == 0)
+            a->resume = names[npat + 1];
+        else if (!a->checkpoint)
+            a->checkpoint = names[npat + 1];
+    }
+}
+
+/* --frames A:B[:STEP]: each frame posed at its time F / --fps (as `--at`
+ * would pose it, the time written with 17 digits so that it reads back the
+ * same), rendered and written under its own names with the programs built
+ * once; a frame that fails is reported and the others go on. One line per
+ * frame unless quiet. Returns 0, the exit code of the first frame that
+ * failed, or SPT_EXIT_INTERRUPTED when a signal left frames unrendered
+ * (README.md, "Frame sequences"). */
+static int render_frames(RenderJob *j)
+{
+    RenderArgs *a = &j->a;
+    int quiet = a->quiet, npat = a->outputs_count, rc = SPT_EXIT_OK, failed = 0;
+    long done = 0, last = a->frame_first;
+    const char *pat[SPT_MAX_OUTPUTS], *ckpt = a->checkpoint, *resume = a->resume;
+    char (*names)[FRAME_NAME_MAX] = spt_malloc((size_t)(npat + 2) * FRAME_NAME_MAX);
+    char at[64], failed_list[256] = "";
+    memcpy(pat, a->outputs, sizeof pat);
+    /* Every frame's names before any work: a run that cannot write them fails
+     * at once. */
+    SptError e = {0};
+    for (long f = a->frame_first; f <= a->frame_last && !rc; f += a->frame_step) {
+        frame_names(a, pat, npat, ckpt, resume, f, names);
+        for (int i = 0; i < npat && !rc; i++)
+            rc = image_output_check(a->outputs[i], &e);
+    }
+    if (rc || (rc = select_devices(j, &e))) {
+        spt_report(&e);
+        free(names);
+        return rc;
+    }
+    render_programs_init(&j->programs, j->nsel);
+    a->rs.programs = &j->programs;
+    a->quiet = 1; /* one line per frame instead of the render's own */
+    spt_warn_repeats(0);
+    double t0 = spt_now();
+    long total = (a->frame_last - a->frame_first) / a->frame_step + 1;
+    for (long f = a->frame_first; f <= a->frame_last && !stop_requested; f += a->frame_step) {
+        frame_names(a, pat, npat, ckpt, resume, f, names);
+        snprintf(at, sizeof at, "%.17g", (double)f / a->fps);
+        a->rs.at = at;
+        double tf = spt_now();
+        int frc = render_image(j);
+        if (!frc && !quiet) {
+            fprintf(stderr, "frame %ld (%.4g s): %u spp in %.2f s (scene %.2f s, BVH %s in %.4f s)",
+                    f, (double)f / a->fps, j->st.spp_done, spt_now() - tf, j->load_seconds,
+                    j->refitted ? "refitted" : "built", j->gpu.bvh.stats.build_seconds);
+            for (int i = 0; i < npat; i++)
+                fprintf(stderr, "%s%s", i ? ", " : ": ", a->outputs[i]);
+            fputc('\n', stderr);
+        }
+        if (frc && frc != SPT_EXIT_INTERRUPTED) {
+            if (!failed++)
+                rc = frc;
+            size_t len = strlen(failed_list);
+            if (len < sizeof failed_list - 16)
+                snprintf(failed_list + len, sizeof failed_list - len, "%s%ld", len ? ", " : "", f);
+            else if (!strstr(failed_list, "..."))
+                strcat(failed_list, ", ...");
+            if (!quiet)
+                fprintf(stderr, "frame %ld (%.4g s): failed (exit %d)\n", f, (double)f / a->fps, frc);
+        }
+        done++;
+        last = f;
+        image_free(j);
+    }
+    a->rs.at = NULL;
+    spt_warn_repeats(1);
+    if (!quiet)
+        fprintf(stderr, "rendered %ld of %ld frames in %.2f s (%d program build%s)\n",
+                done - failed, total, spt_now() - t0, j->programs.builds,
+                j->programs.builds == 1 ? "" : "s");
+    if (failed)
+        spt_error("render: %d of %ld frames failed (frame%s %s); %s", failed, total,
+                  failed == 1 ? "" : "s", failed_list,
+                  failed < done ? "the others were written" : "nothing written");
+    if (!rc && stop_requested && done < total) {
+        spt_error("render: stopped by a signal at frame %ld; the %ld frames after it were not "
+                  "rendered", last, total - done);
+        rc = SPT_EXIT_INTERRUPTED;
+    }
+    a->quiet = quiet;
+    free(names);
+    return rc;
+}
+
+int cmd_render(int argc, char **argv)
+{
+    RenderJob *j = spt_calloc(1, sizeof *j);
+    SptError e = {0};
+    int rc = render_args_parse(&j->a, argc, argv);
+    if (rc || j->a.help) {
+        free(j);
+        return rc;
+    }
+    /* Signals are caught from the start: one during loading ends the run once
+     * the step in progress is over (exit 130, nothing written). */
+    stop_requested = 0;
+    signal_quiet = j->a.quiet;
+    signals_catch();
+    if ((rc = check_outputs(j, &e)))
+        spt_report(&e);
+    else
+        rc = j->a.frame_step ? render_frames(j) : render_image(j);
     signals_restore();
     /* A kernel build given up at a second signal still runs in its thread:
      * exit's clean-up of the OpenCL implementation could meet it, so the

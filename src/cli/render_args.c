@@ -184,6 +184,36 @@ static int store(RenderArgs *a, const OptRow *r, const char *arg, SptError *e)
     return SPT_EXIT_OK;
 }
 
+/* --frames "A:B" or "A:B:STEP": whole numbers 0 <= A <= B <= SPT_FRAME_MAX and
+ * STEP >= 1, nothing else. Returns 0, or -1 for any other text. */
+#define SPT_FRAME_MAX 9999999L
+static int parse_frames(const char *text, long *first, long *last, long *step)
+{
+    long v[3] = {0, 0, 1};
+    int n = 0;
+    const char *p = text;
+    for (;;) {
+        if (*p < '0' || *p > '9' || n == 3)
+            return -1;
+        char *end;
+        v[n++] = strtol(p, &end, 10);
+        if (v[n - 1] > SPT_FRAME_MAX)
+            return -1;
+        if (*end == 0)
+            break;
+        if (*end != ':')
+            return -1;
+        p = end + 1;
+    }
+    if (n < 2 || v[0] > v[1] || v[2] < 1)
+        return -1;
+    *first = v[0];
+    *last = v[1];
+    *step = v[2];
+    return 0;
+}
+
+/* Every option at its default. */
 void render_args_defaults(RenderArgs *a)
 {
     memset(a, 0, sizeof *a);
@@ -271,6 +301,15 @@ int render_args_parse(RenderArgs *a, int argc, char **argv)
     double at;
     if (a->rs.at && (parse_double(a->rs.at, &at) || !isfinite(at))) {
         spt_error("render: --at '%s': %s", a->rs.at, rows[SPT_ARG_at].expect);
+        return SPT_EXIT_USAGE;
+    }
+    if (a->frames && parse_frames(a->frames, &a->frame_first, &a->frame_last, &a->frame_step)) {
+        spt_error("render: --frames '%s': %s", a->frames, rows[SPT_ARG_frames].expect);
+        return SPT_EXIT_USAGE;
+    }
+    if (a->frames && a->rs.at) {
+        spt_error("render: --frames poses each frame at its own time; it cannot be combined with "
+                  "--at");
         return SPT_EXIT_USAGE;
     }
     if (a->given[SPT_ARG_time_limit] && !a->given[SPT_ARG_spp])

@@ -37,6 +37,7 @@ typedef struct RenderArgs {
     RenderSettings rs;              /* the RS rows (the rest of rs zero) */
     SPT_RENDER_OPTIONS(SPT_ARGS_CLI_FIELD)
     const char *scene;              /* SCENE */
+    long frame_first, frame_last, frame_step; /* --frames A:B[:STEP]; step 0: no --frames */
     unsigned char given[SPT_ARG_COUNT]; /* per option: given on the command line */
 } RenderArgs;
 

@@ -168,6 +168,15 @@ enum { SPT_SWITCH_AUTO = 0, SPT_SWITCH_OFF = 1, SPT_SWITCH_ON = 2 };
     X(RS, STR, const char *, camera, "camera", 0, "N|NAME", NULL, 0, 0, SPT_OPT_IMAGE, "",       \
       "the file's camera (index or name; default the first in\n"                             \
       "scene order), placed by the first node that uses it")                                  \
+    X(CLI, STR, const char *, frames, "frames", 0, "A:B[:STEP]", NULL, 0, 0, 0,                 \
+      "expected A:B or A:B:STEP, frame numbers 0 <= A <= B <= 9999999 and STEP >= 1",        \
+      "render frames A to B (every STEP-th) of the animations,\n"                           \
+      "frame F posed at time F / --fps; each -o (and --checkpoint)\n"                      \
+      "name takes the frame number in place of its last run of\n"                          \
+      "#s (out_####.png: out_0007.png), else before its extension")                          \
+    X(CLI, DBL, double, fps, "fps", 0, "F", 24, 0, HUGE_VAL, SPT_OPT_POSITIVE | SPT_OPT_FINITE, \
+      "expected a positive number of frames per second",                                       \
+      "frames per second of --frames (default 24)")                                            \
     X(RS, FLAG, int, profile, "profile", 0, "", 0, 0, 0, SPT_OPT_MPI, "",                       \
       "time the kernel stages and print where the time went")                                   \
     X(CLI, FLAG, int, quiet, "quiet", 'q', "", 0, 0, 0, 0, "", "no progress display")           \

@@ -32,6 +32,8 @@ void render_test_hooks_env(RenderSettings *rs)
     rs->test.ranks_first = first && *first && strcmp(first, "0") != 0;
     const char *film_nan = getenv("SPECTRACE_TEST_FILM_NAN");
     rs->test.film_nan = film_nan ? atol(film_nan) : 0;
+    const char *rebuild = getenv("SPECTRACE_TEST_BVH_REBUILD");
+    rs->test.bvh_rebuild = rebuild && *rebuild && strcmp(rebuild, "0") != 0;
     const char *pool = getenv("SPECTRACE_POOL");
     if (pool && atoi(pool) > 0)
         rs->pool_size = (uint32_t)atoi(pool);

@@ -15,7 +15,9 @@
  * NaN), SPECTRACE_TEST_POISON = WORD (buffers start filled with WORD),
  * SPECTRACE_TEST_FILM_NAN = N (the first N film pixels become NaN),
  * SPECTRACE_TEST_RANKS_FIRST = 1 (spectrace-mpi: every rank takes a chunk
- * before rank 0's devices do); and the path pool size SPECTRACE_POOL into
+ * before rank 0's devices do), SPECTRACE_TEST_BVH_REBUILD = 1 (spectrace render
+ * --frames builds every frame's BVH anew instead of refitting it); and the
+ * path pool size SPECTRACE_POOL into
  * rs.pool_size. (SPECTRACE_KERNEL_PATH, the kernel code path, is read where
  * the wavefront is made: src/render/wavefront.c.) Only tests, tools and
  * benchmarks set them. */
