@@ -160,6 +160,35 @@ TEST(test_failing_rank)
     }
 }
 
+/* --frames on two ranks (a rank's share of each frame, every rank refitting
+ * the BVH as rank 0 does): each frame the image of the one-process sequence,
+ * with one program build on rank 0. */
+TEST(test_frames_on_two_ranks)
+{
+    if (mpi_unavailable())
+        skip();
+    char cmd[4096], out[8192], args[512];
+    const char *frames = "render tests/data/anim/turntable.gltf --frames 0:6:3 --width 32 "
+                         "--height 32 --spp 16 --seed 5 --device 0 -o";
+    snprintf(cmd, sizeof cmd, "'%s' %s %s -q", exe, frames, test_path("seq_#.exr"));
+    run_ok(cmd, out, sizeof out);
+    snprintf(args, sizeof args, "%s %s", frames, test_path("mpi_#.exr"));
+    snprintf(cmd, sizeof cmd, MPIRUN " " RANKS_FIRST " -n 1 '%s' %s : -n 1 '%s' %s", mpi_exe, args,
+             mpi_exe, args);
+    run_ok(cmd, out, sizeof out);
+    printf("%s", out);
+    assert_non_null(strstr(out, "rendered 3 of 3 frames"));
+    assert_non_null(strstr(out, "(1 program build)"));
+    assert_non_null(strstr(out, "BVH refitted"));
+    for (int f = 0; f <= 6; f += 3) {
+        char a[64], b[64], pa[512];
+        snprintf(a, sizeof a, "seq_%d.exr", f);
+        snprintf(b, sizeof b, "mpi_%d.exr", f);
+        snprintf(pa, sizeof pa, "%s", test_path(a));
+        assert_same_exr(pa, test_path(b));
+    }
+}
+
 /* What rank 1 gets: a scene with textures and spectral extras survives
  * scene_pack/scene_unpack with every array equal (and packs to the same bytes). */
 TEST(test_scene_pack_round_trip)

@@ -503,6 +503,8 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
     free(bd.refs);
     bvh_finish_stats(bvh);
     bvh->stats.build_seconds = spt_now() - t0;
+    static uint32_t builds;
+    bvh->build = __atomic_add_fetch(&builds, 1, __ATOMIC_RELAXED);
     return SPT_EXIT_OK;
 }
 

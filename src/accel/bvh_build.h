@@ -40,6 +40,9 @@ typedef struct Bvh {
     uint32_t *prim_index;    /* prim_index[i] = input index of packed triangle i */
     uint32_t prim_count;     /* triangles kept */
     BvhStats stats;
+    uint32_t build;          /* which bvh_build of this process made the tree (1, 2, ...);
+                                refits keep it */
+    int refitted;            /* 1: bvh_refit last moved it; 0: as bvh_build made it */
 } Bvh;
 
 /* Build settings; bvh_build uses bvh_default_options_for(tri_count). */

@@ -67,8 +67,10 @@ int bvh_refit(Bvh *bvh, const float *tri_pos, uint32_t tri_count, uint32_t built
     for (uint32_t i = 0; i < tri_count && ok; i++)
         ok = tri_kept(tri_pos + (size_t)i * 9) == kept[i];
     free(kept);
-    if (!ok || bvh->prim_count == 0)
+    if (!ok || bvh->prim_count == 0) {
+        bvh->refitted = ok;
         return ok;
+    }
     /* A child's node index is above its parent's (bvh_build.c), so from the
      * last node to the root every child's box is final before its parent
      * reads it. */
@@ -99,5 +101,6 @@ int bvh_refit(Bvh *bvh, const float *tri_pos, uint32_t tri_count, uint32_t built
         }
     }
     bvh->stats.build_seconds = spt_now() - t0;
+    bvh->refitted = 1;
     return 1;
 }

@@ -50,6 +50,12 @@ typedef struct JobSettings {
     SPT_RENDER_OPTIONS(SPT_OPT_RS_FIELD)
     uint32_t sample_begin;
     SceneCamera cam;
+    /* Rank 0's BVH: the build that made it, and whether it was refitted to
+     * this scene (a frame sequence); a rank refits the tree it built for that
+     * build, so every rank traces the same tree and the image does not
+     * depend on which rank rendered which samples. */
+    uint32_t bvh_build;
+    int32_t bvh_refitted;
     uint64_t scene_bytes;
 } JobSettings;
 
@@ -67,7 +73,7 @@ typedef struct FinishMsg {
     char msg[1024];
 } FinishMsg;
 
-static int g_rank, g_size, g_job_sent;
+static int g_rank, g_size;
 
 /* A request to stop after the current chunks, then write what is done (as
  * Ctrl-C does for build/spectrace): SIGUSR2 on every rank (mpirun passes SIGUSR1
@@ -378,7 +384,8 @@ static void *server_main(void *arg)
 }
 
 /* Sends the job (settings and packed scene) to every other rank. */
-static void send_job(const RenderSettings *rs, const Scene *scene, const SceneCamera *cam)
+static void send_job(const RenderSettings *rs, const Scene *scene, const SceneCamera *cam,
+                     const GpuScene *g)
 {
     JobSettings js;
     memset(&js, 0, sizeof js);
@@ -389,6 +396,8 @@ static void send_job(const RenderSettings *rs, const Scene *scene, const SceneCa
 #undef JOB_FROM
     js.sample_begin = rs->sample_begin;
     js.cam = *cam;
+    js.bvh_build = g->bvh.build;
+    js.bvh_refitted = g->bvh.refitted;
     size_t n, nsky;
     Sky none;
     memset(&none, 0, sizeof none);
@@ -404,14 +413,13 @@ static void send_job(const RenderSettings *rs, const Scene *scene, const SceneCa
     for (int r = 1; r < g_size; r++)
         MPI_Send(msg, (int)(sizeof js + n + nsky), MPI_BYTE, r, TAG_JOB, MPI_COMM_WORLD);
     free(msg);
-    g_job_sent = 1;
 }
 
 static int mpi_render(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
                       const Scene *scene, const SceneCamera *cam, const RenderSettings *rs,
                       Film *film, RenderStats *stats, RenderDeviceStats *per_device, SptError *e)
 {
-    send_job(rs, scene, cam);
+    send_job(rs, scene, cam, g);
     Global G;
     memset(&G, 0, sizeof G);
     pthread_mutex_init(&G.lock, NULL);
@@ -556,8 +564,50 @@ static const char *device_arg(int argc, char **argv)
     return sel;
 }
 
+/* This rank's devices, chosen for its first job, and the programs kept for
+ * the later ones (a frame sequence sends a job per frame). */
+typedef struct RankDevices {
+    ClDeviceList list;
+    const ClDeviceInfo *devs[64];
+    int nsel;
+    RenderPrograms programs;
+    /* The last job's BVH, built for rank 0's build bvh_for over tris
+     * triangles (JobSettings). */
+    Bvh bvh;
+    uint32_t bvh_for, bvh_tris;
+} RankDevices;
+
+/* The job's scene as the devices' arrays, its BVH as rank 0's: refitted from
+ * the tree built for the same build of rank 0 when rank 0 refitted, else
+ * built. */
+static int rank_scene(RankDevices *rd, const JobSettings *js, const Scene *scene, GpuScene *gpu,
+                      SptError *e)
+{
+    if (js->bvh_refitted && rd->bvh.nodes && rd->bvh_for == js->bvh_build &&
+        bvh_refit(&rd->bvh, scene->tri_pos, scene->tri_count, rd->bvh_tris))
+        return gpu_scene_build_with(gpu, scene, &rd->bvh, e);
+    bvh_free(&rd->bvh);
+    rd->bvh_for = js->bvh_refitted ? 0 : js->bvh_build; /* 0: no build of rank 0's */
+    return gpu_scene_build(gpu, scene, e);
+}
+
+static int rank_devices(RankDevices *d, const char *device_sel, SptError *e)
+{
+    if (d->nsel)
+        return 0;
+    int sel[64], n = 0, rc;
+    if ((rc = cl_device_list(&d->list, e)) || (rc = cl_device_select(&d->list, device_sel, sel, &n, e)))
+        return rc;
+    for (int i = 0; i < n && i < 64; i++)
+        d->devs[i] = &d->list.devices[sel[i]];
+    d->nsel = n < 64 ? n : 64;
+    render_programs_init(&d->programs, d->nsel);
+    return 0;
+}
+
 /* Renders one job for rank 0; every failure goes to rank 0 in the finish message. */
-static int worker_run(const unsigned char *job, size_t len, const char *device_sel, FinishMsg *fin)
+static int worker_run(const unsigned char *job, size_t len, RankDevices *rd, const char *device_sel,
+                      FinishMsg *fin)
 {
     SptError e = {0};
     JobSettings js;
@@ -565,7 +615,6 @@ static int worker_run(const unsigned char *job, size_t len, const char *device_s
     memset(&scene, 0, sizeof scene);
     Sky sky;
     memset(&sky, 0, sizeof sky);
-    ClDeviceList devices = {0};
     GpuScene gpu;
     memset(&gpu, 0, sizeof gpu);
     Worker w;
@@ -585,14 +634,8 @@ static int worker_run(const unsigned char *job, size_t len, const char *device_s
         (rc = sky_unpack(&sky, job + sizeof js + js.scene_bytes,
                          len - sizeof js - (size_t)js.scene_bytes, "the sky from rank 0", &e)))
         goto out;
-    int sel[64], nsel = 0;
-    if ((rc = cl_device_list(&devices, &e)) ||
-        (rc = cl_device_select(&devices, device_sel, sel, &nsel, &e)) ||
-        (rc = gpu_scene_build(&gpu, &scene, &e)))
+    if ((rc = rank_devices(rd, device_sel, &e)) || (rc = rank_scene(rd, &js, &scene, &gpu, &e)))
         goto out;
-    const ClDeviceInfo *devs[64];
-    for (int i = 0; i < nsel && i < 64; i++)
-        devs[i] = &devices.devices[sel[i]];
     RenderSettings rs;
     memset(&rs, 0, sizeof rs);
 #define JOB_TO rs
@@ -609,10 +652,11 @@ static int worker_run(const unsigned char *job, size_t len, const char *device_s
     rs.chunk_ctx = &w;
     rs.on_chunk = remote_done;
     rs.on_chunk_ctx = &w;
+    rs.programs = &rd->programs;
     film_init_full(&w.film, rs.width, rs.height, render_keeps_aov(&rs), rs.spectral);
     w.buf = spt_malloc(film_doubles(&w.film) * sizeof(double));
     RenderStats st;
-    rc = render_devices(devs, nsel, &gpu, &js.cam, &rs, &w.film, &st, NULL, &e);
+    rc = render_devices(rd->devs, rd->nsel, &gpu, &js.cam, &rs, &w.film, &st, NULL, &e);
     fin->paths = st.paths;
     fin->rays_extend = st.rays_extend;
     fin->rays_shadow = st.rays_shadow;
@@ -625,29 +669,44 @@ out:
     free(w.inflight.begin);
     free(w.inflight.n);
     film_free(&w.film);
+    /* The tree kept for the next job's refit. */
+    bvh_free(&rd->bvh);
+    rd->bvh = gpu.bvh;
+    rd->bvh_tris = scene.tri_count;
+    memset(&gpu.bvh, 0, sizeof gpu.bvh);
     gpu_scene_free(&gpu);
-    cl_device_list_free(&devices);
     sky_free(&sky);
     scene_free(&scene);
     return rc;
 }
 
-/* Waits for rank 0's job (or its word that there is none) and runs it. */
+/* Runs rank 0's jobs (one, or one per frame of --frames) until its word that
+ * there are no more (an empty job). */
 static void worker_main(int argc, char **argv)
 {
-    MPI_Status st;
-    wait_message(0, TAG_JOB, &st);
-    int len = 0;
-    MPI_Get_count(&st, MPI_BYTE, &len);
-    unsigned char *job = spt_malloc(len > 0 ? (size_t)len : 1);
-    MPI_Recv(job, len, MPI_BYTE, 0, TAG_JOB, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-    if (len > 0) {
-        FinishMsg fin;
-        memset(&fin, 0, sizeof fin);
-        worker_run(job, (size_t)len, device_arg(argc, argv), &fin);
-        MPI_Send(&fin, (int)sizeof fin, MPI_BYTE, 0, TAG_FINISH, MPI_COMM_WORLD);
+    RankDevices rd;
+    memset(&rd, 0, sizeof rd);
+    for (;;) {
+        MPI_Status st;
+        wait_message(0, TAG_JOB, &st);
+        int len = 0;
+        MPI_Get_count(&st, MPI_BYTE, &len);
+        unsigned char *job = spt_malloc(len > 0 ? (size_t)len : 1);
+        MPI_Recv(job, len, MPI_BYTE, 0, TAG_JOB, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        if (len > 0) {
+            FinishMsg fin;
+            memset(&fin, 0, sizeof fin);
+            worker_run(job, (size_t)len, &rd, device_arg(argc, argv), &fin);
+            MPI_Send(&fin, (int)sizeof fin, MPI_BYTE, 0, TAG_FINISH, MPI_COMM_WORLD);
+        }
+        free(job);
+        if (len <= 0)
+            break;
     }
-    free(job);
+    if (rd.programs.w)
+        render_programs_free(&rd.programs);
+    bvh_free(&rd.bvh);
+    cl_device_list_free(&rd.list);
 }
 
 int main(int argc, char **argv)
@@ -674,11 +733,10 @@ int main(int argc, char **argv)
         if (g_size > 1)
             spt_dist_render = mpi_render;
         rc = spectrace_main(argc, argv);
-        /* The command ended without a render (another command, or a failure
-         * before it): the other ranks are told there is no job. */
-        if (!g_job_sent)
-            for (int r = 1; r < g_size; r++)
-                MPI_Send(NULL, 0, MPI_BYTE, r, TAG_JOB, MPI_COMM_WORLD);
+        /* The command ended (after its renders, or without one): the other
+         * ranks are told there are no more jobs. */
+        for (int r = 1; r < g_size; r++)
+            MPI_Send(NULL, 0, MPI_BYTE, r, TAG_JOB, MPI_COMM_WORLD);
     } else {
         sigaction(SIGINT, &sa, NULL);
         sigaction(SIGTERM, &sa, NULL);
