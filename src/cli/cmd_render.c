@@ -775,7 +775,7 @@ static int render_frames(RenderJob *j)
 {
     RenderArgs *a = &j->a;
     int quiet = a->quiet, npat = a->outputs_count, rc = SPT_EXIT_OK, failed = 0;
-    long done = 0, last = a->frame_first;
+    long written = 0, last = a->frame_first;
     const char *pat[SPT_MAX_OUTPUTS], *ckpt = a->checkpoint, *resume = a->resume;
     char (*names)[FRAME_NAME_MAX] = spt_malloc((size_t)(npat + 2) * FRAME_NAME_MAX);
     char at[64], failed_list[256] = "";
@@ -824,7 +824,7 @@ static int render_frames(RenderJob *j)
             if (!quiet)
                 fprintf(stderr, "frame %ld (%.4g s): failed (exit %d)\n", f, (double)f / a->fps, frc);
         }
-        done++;
+        written += !frc;
         last = f;
         image_free(j);
     }
@@ -832,15 +832,15 @@ static int render_frames(RenderJob *j)
     spt_warn_repeats(1);
     if (!quiet)
         fprintf(stderr, "rendered %ld of %ld frames in %.2f s (%d program build%s)\n",
-                done - failed, total, spt_now() - t0, j->programs.builds,
+                written, total, spt_now() - t0, j->programs.builds,
                 j->programs.builds == 1 ? "" : "s");
     if (failed)
         spt_error("render: %d of %ld frames failed (frame%s %s); %s", failed, total,
                   failed == 1 ? "" : "s", failed_list,
-                  failed < done ? "the others were written" : "nothing written");
-    if (!rc && stop_requested && done < total) {
-        spt_error("render: stopped by a signal at frame %ld; the %ld frames after it were not "
-                  "rendered", last, total - done);
+                  written ? "the others were written" : "nothing written");
+    if (!rc && stop_requested && written + failed < total) {
+        spt_error("render: stopped by a signal at frame %ld; %ld of %ld frames not written", last,
+                  total - written - failed, total);
         rc = SPT_EXIT_INTERRUPTED;
     }
     a->quiet = quiet;
