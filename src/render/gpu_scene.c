@@ -409,7 +409,6 @@ int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
 
 int gpu_scene_build_with(GpuScene *g, const Scene *s, Bvh *bvh, SptError *e)
 {
-    int rc;
     memset(g, 0, sizeof *g);
     g->bvh = *bvh;
     memset(bvh, 0, sizeof *bvh);
