@@ -41,7 +41,8 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 device_tests=(test_bsdf test_bvh test_lights test_materials test_render test_render_sky test_shading test_caustics test_caustics_ref test_prism
               test_caustics_sky test_hostile_spot test_hostile_spectra test_hostile_radiance
               test_rng test_sampling test_textures test_multidevice test_checkpoint test_sweep test_aov
-              test_spectral test_adaptive test_wavelength test_kernel_headers test_api test_frames)
+              test_spectral test_adaptive test_wavelength test_kernel_headers test_api test_frames
+              test_iridescence)
 
 if [ $# -gt 0 ]; then
   names=("$@")

@@ -613,7 +613,7 @@ static const BadCase bad_cases[] = {
     {"bad_node_loop.gltf", "nodes[", "loop"},
     {"bad_node_self.gltf", "nodes[0]", "own child"},
     {"bad_two_parents.gltf", "nodes[1]", "two parents"},
-    {"bad_ext_required.gltf", "KHR_materials_iridescence", "EXT_spectrace_nope"},
+    {"bad_ext_required.gltf", "KHR_texture_basisu", "EXT_spectrace_nope"},
     {"bad_camera_yfov.gltf", "cameras[0].perspective.yfov", NULL},
     {"bad_camera_zfar.gltf", "cameras[0].perspective.zfar", NULL},
     {"bad_buffer_missing.gltf", "buffers[0]", "not found"},

@@ -124,7 +124,14 @@ TEST(test_spec_gloss_and_ignored)
     assert_int_equal(count_warnings(err, "KHR_materials_clearcoat", NULL), 0);
     /* One warning per ignored extension, naming its materials; one for the
      * unknown extensions, naming both. */
-    assert_int_equal(count_warnings(err, "KHR_materials_iridescence", "soap, brushed"), 1);
+    /* KHR_materials_iridescence is rendered: its values are read (the
+     * extension's defaults where absent), no warning. */
+    assert_close(s.materials[5].iridescence, 1, 1e-6);
+    assert_close(s.materials[5].iridescence_ior, 1.3, 1e-6);
+    assert_close(s.materials[5].iridescence_min_nm, 100, 1e-6);
+    assert_close(s.materials[5].iridescence_max_nm, 400, 1e-6);
+    assert_close(s.materials[6].iridescence, 0, 0);
+    assert_int_equal(count_warnings(err, "KHR_materials_iridescence", NULL), 0);
     assert_int_equal(count_warnings(err, "KHR_materials_anisotropy", "brushed"), 1);
     /* KHR_materials_specular is rendered: its factor is read, no warning. */
     assert_close(s.materials[4].specular, 0.5, 1e-6);

@@ -211,6 +211,14 @@ TEST(test_gltf_out_of_range_values)
          "sheenColorFactor[2]: -1 is outside"},
         {"{\"extensions\":{\"KHR_materials_sheen\":{\"sheenRoughnessFactor\":7}}}",
          "sheenRoughnessFactor: 7 is outside"},
+        {"{\"extensions\":{\"KHR_materials_iridescence\":{\"iridescenceFactor\":1.5}}}",
+         "KHR_materials_iridescence.iridescenceFactor: 1.5 is outside [0, 1]"},
+        {"{\"extensions\":{\"KHR_materials_iridescence\":{\"iridescenceIor\":0.5}}}",
+         "KHR_materials_iridescence.iridescenceIor: 0.5 is below 1"},
+        {"{\"extensions\":{\"KHR_materials_iridescence\":{\"iridescenceThicknessMinimum\":-1}}}",
+         "KHR_materials_iridescence.iridescenceThicknessMinimum: -1 is negative"},
+        {"{\"extensions\":{\"KHR_materials_iridescence\":{\"iridescenceThicknessMaximum\":-2}}}",
+         "KHR_materials_iridescence.iridescenceThicknessMaximum: -2 is negative"},
         {"{\"extensions\":{\"KHR_materials_pbrSpecularGlossiness\":{\"glossinessFactor\":-1}}}",
          "glossinessFactor: -1 is outside"},
         {"{\"extensions\":{\"KHR_materials_pbrSpecularGlossiness\":{\"diffuseFactor\":[1,1,1,"
@@ -248,13 +256,18 @@ TEST(test_gltf_out_of_range_values)
         "\"KHR_materials_volume\":{\"attenuationColor\":[0,1,0.5]},"
         "\"KHR_materials_specular\":{\"specularFactor\":0},"
         "\"KHR_materials_sheen\":{\"sheenColorFactor\":[1,1,0],\"sheenRoughnessFactor\":1},"
-        "\"KHR_materials_transmission\":{\"transmissionFactor\":1}}}",
+        "\"KHR_materials_transmission\":{\"transmissionFactor\":1},"
+        "\"KHR_materials_iridescence\":{\"iridescenceFactor\":1,\"iridescenceIor\":1,"
+        "\"iridescenceThicknessMinimum\":0,\"iridescenceThicknessMaximum\":0}}}",
     };
     snprintf(json, sizeof json, TRIANGLE_GLTF("%s", ""), ends[0]);
     if (load_text(&s, json, &e)) fail_msg("the range's ends refused: %s", e.msg);
     assert_int_equal(s.material_count, 1);
     assert_close(s.materials[0].clearcoat, 1, 0);
     assert_close(s.materials[0].attenuation_color[2], 0.5, 0);
+    assert_close(s.materials[0].iridescence, 1, 0);
+    assert_close(s.materials[0].iridescence_ior, 1, 0);
+    assert_close(s.materials[0].iridescence_max_nm, 0, 0);
     scene_free(&s);
 }
 

@@ -352,9 +352,9 @@ def bad_files():
     g.gltf("bad_two_parents.gltf")
     # Extensions.
     bad("bad_ext_required.gltf", lambda d: d.update(
-        extensionsUsed=["KHR_materials_iridescence", "EXT_spectrace_nope", "KHR_materials_ior",
+        extensionsUsed=["KHR_texture_basisu", "EXT_spectrace_nope", "KHR_materials_ior",
                         "KHR_draco_mesh_compression"],
-        extensionsRequired=["KHR_materials_iridescence", "KHR_materials_ior", "EXT_spectrace_nope",
+        extensionsRequired=["KHR_texture_basisu", "KHR_materials_ior", "EXT_spectrace_nope",
                             "KHR_draco_mesh_compression"]))
     # Cameras.
     def cam(persp):

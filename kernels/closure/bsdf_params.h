@@ -10,6 +10,7 @@
 #include "util/portable.h"
 #include "util/vecmath.h"
 #include "closure/delta.h"
+#include "closure/thin_film.h"
 
 /* Smallest alpha used by a rough lobe. */
 #define BSDF_MIN_ALPHA 1e-3f
@@ -35,6 +36,11 @@ typedef struct BsdfParams {
     vec4 sheen;         /* sheen colour per wavelength */
     float sheen_max;    /* max3 of the sheen colour's linear RGB (the albedo scaling) */
     float sheen_roughness; /* perceptual; alpha = r^2, r raised to SPT_SHEEN_R_MIN */
+    /* KHR_materials_iridescence (iridescence 0: no film). */
+    vec4 lambda;        /* the path's wavelengths in nm (the film's phase) */
+    float iridescence;  /* iridescenceFactor x texture R, 0..1: the film's share of the Fresnel */
+    float film_ior;     /* iridescenceIor */
+    float film_nm;      /* the film's thickness in nm */
 } BsdfParams;
 
 /* Outcome of bsdf_sample. */
@@ -66,9 +72,24 @@ SPT_FN int bsdf_base_smooth(const BsdfParams *p) { return bsdf_roughness_is_delt
 SPT_FN int bsdf_has_coat(const BsdfParams *p) { return p->clearcoat > 0.0f; }
 SPT_FN int bsdf_has_sheen(const BsdfParams *p) { return p->sheen_max > 0.0f; }
 
+/* KHR_materials_iridescence: the base's Fresnel f at cosine c mixed with the
+ * reflectance of the film over a base of index n_base + i k_base per
+ * wavelength (kernels/closure/thin_film.h), by the iridescence factor, as the
+ * extension mixes F_schlick and F_iridescence; scale multiplies the film's
+ * reflectance (the specular factor). The film's outside is the clear coat
+ * (index 1.5, bsdf_coat_fresnel's) where there is one, as the extension
+ * layers them, else air. */
+SPT_FN vec4 bsdf_film_mix(const BsdfParams *p, vec4 f, float c, vec4 n_base, vec4 k_base, float scale)
+{
+    float n0 = p->clearcoat > 0.0f ? 1.5f : 1.0f;
+    vec4 film = spt_thin_film_reflectance4(c, p->lambda, n0, p->film_ior, p->film_nm, n_base, k_base);
+    return v4_add(f, v4_scale(v4_sub(v4_scale(film, scale), f), p->iridescence));
+}
+
 /* Fresnel weight of the dielectric's specular layer per wavelength at cosine c, as
  * KHR_materials_specular extends glTF's fresnel_mix: f0 = min(((ior - 1)/(ior + 1))^2
- * tint, 1) s, f90 = s, F = f0 + (f90 - f0)(1 - c)^5 (s = specular factor); the
+ * tint, 1) s, f90 = s, F = f0 + (f90 - f0)(1 - c)^5 (s = specular factor), mixed
+ * with the iridescence film's reflectance times s (bsdf_film_mix); the
  * diffuse base gets 1 - F. With s = 1 and tint 1 this is the core glTF model. */
 SPT_FN vec4 bsdf_dielectric_fresnel(const BsdfParams *p, float c)
 {
@@ -81,10 +102,17 @@ SPT_FN vec4 bsdf_dielectric_fresnel(const BsdfParams *p, float c)
     vec4 f0 = v4(r.x / q.x, r.y / q.y, r.z / q.z, r.w / q.w);
     f0 = v4_mul(v4_mul(f0, f0), p->spec_tint);
     f0 = v4(fminf(f0.x, 1.0f), fminf(f0.y, 1.0f), fminf(f0.z, 1.0f), fminf(f0.w, 1.0f));
-    f0 = v4_scale(f0, p->specular);
+    vec4 f0s = v4_scale(f0, p->specular);
     float m = fminf(fmaxf(1.0f - c, 0.0f), 1.0f);
     float m5 = m * m * m * m * m;
-    return v4_add(f0, v4_scale(v4_sub(v4_splat(p->specular), f0), m5));
+    vec4 f = v4_add(f0s, v4_scale(v4_sub(v4_splat(p->specular), f0s), m5));
+    if (!(p->iridescence > 0.0f))
+        return f;
+    /* The film over the base of the (tinted) F0, its index from F0 as the
+     * extension derives it: the ior itself when the tint is 1. */
+    vec4 n = v4(spt_film_ior_from_f0(f0.x, 1.0f), spt_film_ior_from_f0(f0.y, 1.0f), spt_film_ior_from_f0(f0.z, 1.0f),
+                spt_film_ior_from_f0(f0.w, 1.0f));
+    return bsdf_film_mix(p, f, c, n, v4_splat(0.0f), p->specular);
 }
 
 /* The mean over the path's wavelengths of bsdf_dielectric_fresnel at wo's

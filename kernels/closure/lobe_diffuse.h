@@ -35,13 +35,17 @@ SPT_FN float bsdf_diffuse_weight(const BsdfParams *p, vec3 wo)
 }
 
 /* Adds f |cos theta_i| to *f: the factor at the half vector's cosine to wo,
- * times cos / pi; both directions outside. */
+ * times cos / pi; both directions outside. Under an iridescence film the
+ * factor is taken at wo's own cosine (as the Khronos sample viewer evaluates
+ * the film, at N.V): the film's reflectance oscillates with the angle, and
+ * 1 - F at other cosines than the mirror's would return more light than
+ * arrives where F peaks at wo (docs/gltf.md). */
 SPT_FN void bsdf_diffuse_eval(const BsdfParams *p, vec3 wo, vec3 wi, vec4 *f)
 {
     if (!(wo.z > 0.0f && wi.z > 0.0f))
         return;
     vec3 h = v3_normalize(v3_add(wo, wi));
-    float c = fabsf(v3_dot(wo, h));
+    float c = p->iridescence > 0.0f ? wo.z : fabsf(v3_dot(wo, h));
     *f = v4_add(*f, v4_scale(bsdf_diffuse_factor(p, c), SPT_INV_PI * wi.z));
 }
 

@@ -14,13 +14,25 @@
 #include "closure/bsdf_microfacet.h"
 
 /* Fresnel of the metal part at cosine c between wo and h, per wavelength: Schlick
- * with F0 = base (glTF conductor_fresnel), or exact with eta + i k. */
+ * with F0 = base (glTF conductor_fresnel), or exact with eta + i k; mixed with
+ * the iridescence film's reflectance over the metal (bsdf_film_mix), whose
+ * index is eta + i k where measured, else the real index of F0 = base (the
+ * extension's rule). */
 SPT_FN vec4 bsdf_metal_fresnel(const BsdfParams *p, float c)
 {
+    vec4 f;
     if (p->conductor)
-        return v4(bsdf_fresnel_conductor(c, p->eta.x, p->k.x), bsdf_fresnel_conductor(c, p->eta.y, p->k.y),
-                  bsdf_fresnel_conductor(c, p->eta.z, p->k.z), bsdf_fresnel_conductor(c, p->eta.w, p->k.w));
-    return bsdf_schlick(p->base, c);
+        f = v4(bsdf_fresnel_conductor(c, p->eta.x, p->k.x), bsdf_fresnel_conductor(c, p->eta.y, p->k.y),
+               bsdf_fresnel_conductor(c, p->eta.z, p->k.z), bsdf_fresnel_conductor(c, p->eta.w, p->k.w));
+    else
+        f = bsdf_schlick(p->base, c);
+    if (!(p->iridescence > 0.0f))
+        return f;
+    if (p->conductor)
+        return bsdf_film_mix(p, f, c, p->eta, p->k, 1.0f);
+    vec4 n = v4(spt_film_ior_from_f0(p->base.x, 1.0f), spt_film_ior_from_f0(p->base.y, 1.0f),
+                spt_film_ior_from_f0(p->base.z, 1.0f), spt_film_ior_from_f0(p->base.w, 1.0f));
+    return bsdf_film_mix(p, f, c, n, v4_splat(0.0f), 1.0f);
 }
 
 /* The reflection Fresnel weight of the specular layer per wavelength at cosine c

@@ -298,7 +298,9 @@ static float3 material_albedo(const __global GpuMaterial *m, const TexCtx *c, ui
  * prim at (bu, bv)) for the wavelengths lam. Texture channels, as glTF 2.0 and its
  * extensions define them: base colour RGB (sRGB) and A; metallic B, roughness G;
  * transmission R; specular A, specular colour RGB (sRGB); clearcoat R, clearcoat
- * roughness G; sheen colour RGB (sRGB), sheen roughness A. COLOR_0 multiplies the
+ * roughness G; sheen colour RGB (sRGB), sheen roughness A; iridescence R,
+ * iridescence thickness G (between the minimum and maximum; the maximum
+ * without a texture, as KHR_materials_iridescence says). COLOR_0 multiplies the
  * base colour. The coat normal is left to the caller (it needs the frame). */
 static BsdfParams material_bsdf(const __global GpuMaterial *m, const TexCtx *c, uint prim, float bu, float bv,
                                 float4 lam, const __global TriShade *tri_shade,
@@ -359,6 +361,18 @@ static BsdfParams material_bsdf(const __global GpuMaterial *m, const TexCtx *c, 
         if (m->slot[SPT_TS_SHEEN_ROUGHNESS].tex >= 0)
             bp.sheen_roughness *= slot_value(m, SPT_TS_SHEEN_ROUGHNESS, c, textures, texels).w;
     }
+    bp.lambda = lam;
+    bp.iridescence = m->iridescence;
+    bp.film_ior = m->irid_ior;
+    bp.film_nm = m->irid_max_nm;
+    if (bp.iridescence > 0.0f) {
+        if (m->slot[SPT_TS_IRIDESCENCE].tex >= 0)
+            bp.iridescence *= slot_value(m, SPT_TS_IRIDESCENCE, c, textures, texels).x;
+        if (m->slot[SPT_TS_IRIDESCENCE_THICKNESS].tex >= 0)
+            bp.film_nm = mix(m->irid_min_nm, m->irid_max_nm,
+                             slot_value(m, SPT_TS_IRIDESCENCE_THICKNESS, c, textures, texels).y);
+    }
+    bp.iridescence = clamp(bp.iridescence, 0.0f, 1.0f);
     return bp;
 }
 

@@ -53,7 +53,9 @@ typedef struct SpecRef {
 #define SPT_TS_CLEARCOAT_NORMAL 9
 #define SPT_TS_SHEEN_COLOR 10
 #define SPT_TS_SHEEN_ROUGHNESS 11
-#define SPT_TS_COUNT 12
+#define SPT_TS_IRIDESCENCE 12
+#define SPT_TS_IRIDESCENCE_THICKNESS 13
+#define SPT_TS_COUNT 14
 
 /* A material's use of a texture: which one (-1: none), read at which texture
  * coordinates (0: TEXCOORD_0, 1: TEXCOORD_1), through which KHR_texture_transform
@@ -88,8 +90,12 @@ typedef struct GpuMaterial {
     float cc_roughness;    /* clearcoatRoughnessFactor */
     float cc_normal_scale; /* clearcoatNormalTexture.scale */
     float sheen_roughness; /* sheenRoughnessFactor */
+    float iridescence;     /* KHR_materials_iridescence factor; 0 = no film */
+    float irid_ior;        /* iridescenceIor */
+    float irid_min_nm;     /* iridescenceThicknessMinimum (nm) */
+    float irid_max_nm;     /* iridescenceThicknessMaximum (nm): the thickness without a texture */
     GpuTexSlot slot[SPT_TS_COUNT];
-} GpuMaterial; /* 608 bytes */
+} GpuMaterial; /* 688 bytes */
 
 /* Texture kinds: how a texel's four floats read. COLOR: sigmoid coefficients
  * (c0, c1, c2) of the texel's linear RGB, alpha in w (base colour, emissive,

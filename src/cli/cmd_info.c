@@ -51,7 +51,7 @@ static const char *wrap_name(int w)
 static const char *const slot_names[SPT_SLOT_COUNT] = {
     "baseColor", "metallicRoughness", "normal", "emissive", "transmission", "specular",
     "specularColor", "clearcoat", "clearcoatRoughness", "clearcoatNormal", "sheenColor",
-    "sheenRoughness", "occlusion",
+    "sheenRoughness", "iridescence", "iridescenceThickness", "occlusion",
 };
 
 static void print_materials(const Scene *s)
@@ -78,6 +78,9 @@ static void print_materials(const Scene *s)
         if (m->sheen_color[0] > 0 || m->sheen_color[1] > 0 || m->sheen_color[2] > 0)
             printf(" sheen %.3g %.3g %.3g roughness %.3g", m->sheen_color[0], m->sheen_color[1],
                    m->sheen_color[2], m->sheen_roughness);
+        if (m->iridescence > 0)
+            printf(" iridescence %.3g ior %.3g thickness %.4g-%.4g nm", m->iridescence, m->iridescence_ior,
+                   m->iridescence_min_nm, m->iridescence_max_nm);
         printf("\n");
         /* The texture slots: the file's texture, the uv set, the loaded texture
          * (-: its image was unusable, the factor is used). */

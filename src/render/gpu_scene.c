@@ -87,6 +87,8 @@ static const uint32_t k_slot_kind[SPT_TS_COUNT] = {
     [SPT_TS_CLEARCOAT_NORMAL] = SPT_TEXKIND_DATA,
     [SPT_TS_SHEEN_COLOR] = SPT_TEXKIND_SCALED,
     [SPT_TS_SHEEN_ROUGHNESS] = SPT_TEXKIND_DATA,
+    [SPT_TS_IRIDESCENCE] = SPT_TEXKIND_DATA,
+    [SPT_TS_IRIDESCENCE_THICKNESS] = SPT_TEXKIND_DATA,
 };
 
 /* The scene's slots are the device's, with occlusion last and not uploaded. */
@@ -268,6 +270,15 @@ static void material_upload(GpuMaterial *gm, const SceneMaterial *m, GpuScene *g
         gm->sheen_roughness = m->sheen_roughness;
     } else {
         gm->slot[SPT_TS_SHEEN_COLOR].tex = gm->slot[SPT_TS_SHEEN_ROUGHNESS].tex = -1;
+    }
+    /* KHR_materials_iridescence: off with a zero factor, whatever its textures. */
+    if (m->iridescence > 0.0f) {
+        gm->iridescence = m->iridescence;
+        gm->irid_ior = m->iridescence_ior;
+        gm->irid_min_nm = m->iridescence_min_nm;
+        gm->irid_max_nm = m->iridescence_max_nm;
+    } else {
+        gm->slot[SPT_TS_IRIDESCENCE].tex = gm->slot[SPT_TS_IRIDESCENCE_THICKNESS].tex = -1;
     }
 }
 

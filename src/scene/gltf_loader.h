@@ -38,7 +38,7 @@ using tinygltf::Value;
 // Material extensions we know and deliberately ignore (one warning each, listing
 // the materials): a file that requires one is refused like an unknown one.
 inline const char *const k_ignored_material_ext[] = {
-    "KHR_materials_iridescence", "KHR_materials_anisotropy",
+    "KHR_materials_anisotropy",
 };
 
 // Largest scene we flatten (triangles and vertices are indexed by uint32 and the
@@ -264,6 +264,7 @@ struct Loader {
     int material_ext_specular(const Value *x, SceneMaterial *sm, const std::string &so);
     int material_ext_clearcoat(const Value *x, SceneMaterial *sm, const std::string &co);
     int material_ext_sheen(const Value *x, SceneMaterial *sm, const std::string &sho);
+    int material_ext_iridescence(const Value *x, SceneMaterial *sm, const std::string &io);
     int texture_ref(int tex, int texcoord, bool srgb, const std::string &obj, SceneTexRef *out,
                     const tinygltf::ExtensionMap *ext, bool load = true);
     int ext_texture(const Value &x, const char *key, bool srgb, const std::string &obj,

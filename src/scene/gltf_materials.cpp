@@ -618,8 +618,37 @@ int Loader::material_ext_sheen(const Value *x, SceneMaterial *sm, const std::str
     return 0;
 }
 
+// KHR_materials_iridescence: the factor, the film's index, its thickness range
+// (nm) and the two textures, bounded as the extension's schema bounds them.
+int Loader::material_ext_iridescence(const Value *x, SceneMaterial *sm, const std::string &io)
+{
+    double f = 0, n = 1.3, lo = 100, hi = 400;
+    int rc;
+    if ((rc = ext_number(this, *x, "iridescenceFactor", &f, io)) ||
+        (rc = ext_number(this, *x, "iridescenceIor", &n, io)) ||
+        (rc = ext_number(this, *x, "iridescenceThicknessMinimum", &lo, io)) ||
+        (rc = ext_number(this, *x, "iridescenceThicknessMaximum", &hi, io)))
+        return rc;
+    if ((rc = in_range(this, io, "iridescenceFactor", f, 0, 1))) return rc;
+    if (!(n >= 1)) return bad("%s.iridescenceIor: %g is below 1", io.c_str(), n);
+    if (!(lo >= 0)) return bad("%s.iridescenceThicknessMinimum: %g is negative", io.c_str(), lo);
+    if (!(hi >= 0)) return bad("%s.iridescenceThicknessMaximum: %g is negative", io.c_str(), hi);
+    if (n > SPT_MAX_INPUT_VALUE || lo > SPT_MAX_INPUT_VALUE || hi > SPT_MAX_INPUT_VALUE)
+        return bad("%s: a value above 1e30, more than the renderer's float arithmetic can carry", io.c_str());
+    sm->iridescence = (float)f;
+    sm->iridescence_ior = (float)n;
+    sm->iridescence_min_nm = (float)lo;
+    sm->iridescence_max_nm = (float)hi;
+    if ((rc = ext_texture(*x, "iridescenceTexture", false, io, &sm->tex[SPT_SLOT_IRIDESCENCE])) ||
+        (rc = ext_texture(*x, "iridescenceThicknessTexture", false, io,
+                          &sm->tex[SPT_SLOT_IRIDESCENCE_THICKNESS])))
+        return rc;
+    return 0;
+}
+
 // Every extension of a material, in this order: the scalar ones, volume,
-// specular, clearcoat, sheen, unlit, spec-gloss; the ones we ignore are noted.
+// specular, clearcoat, sheen, iridescence, unlit, spec-gloss; the ones we
+// ignore are noted.
 int Loader::material_extensions(const tinygltf::Material &mat, SceneMaterial *sm, const std::string &obj)
 {
     auto ext = [&](const char *name) -> const Value * {
@@ -637,6 +666,8 @@ int Loader::material_extensions(const tinygltf::Material &mat, SceneMaterial *sm
         if ((rc = material_ext_clearcoat(x, sm, eo + "KHR_materials_clearcoat"))) return rc;
     if (const Value *x = ext("KHR_materials_sheen"))
         if ((rc = material_ext_sheen(x, sm, eo + "KHR_materials_sheen"))) return rc;
+    if (const Value *x = ext("KHR_materials_iridescence"))
+        if ((rc = material_ext_iridescence(x, sm, eo + "KHR_materials_iridescence"))) return rc;
     if (ext("KHR_materials_unlit")) sm->unlit = 1;
     if (const Value *x = ext("KHR_materials_pbrSpecularGlossiness"))
         if ((rc = spec_gloss(*x, sm, eo + "KHR_materials_pbrSpecularGlossiness"))) return rc;

@@ -21,6 +21,9 @@ void scene_material_default(SceneMaterial *m)
     for (int i = 0; i < 3; i++) m->attenuation_color[i] = 1.0f;
     m->specular = 1.0f;
     for (int i = 0; i < 3; i++) m->specular_color[i] = 1.0f;
+    m->iridescence_ior = 1.3f;
+    m->iridescence_min_nm = 100.0f;
+    m->iridescence_max_nm = 400.0f;
     m->alpha_mode = SPT_ALPHA_OPAQUE;
     m->alpha_cutoff = 0.5f;
     for (int k = 0; k < SPT_SLOT_COUNT; k++) {

@@ -42,6 +42,8 @@ enum {
     SPT_SLOT_CLEARCOAT_NORMAL,      /* ... clearcoatNormalTexture (with its scale) */
     SPT_SLOT_SHEEN_COLOR,           /* KHR_materials_sheen sheenColorTexture: RGB (sRGB) */
     SPT_SLOT_SHEEN_ROUGHNESS,       /* ... sheenRoughnessTexture: A */
+    SPT_SLOT_IRIDESCENCE,           /* KHR_materials_iridescence iridescenceTexture: R */
+    SPT_SLOT_IRIDESCENCE_THICKNESS, /* ... iridescenceThicknessTexture: G */
     SPT_SLOT_OCCLUSION,             /* occlusionTexture: read, not rendered */
     SPT_SLOT_COUNT
 };
@@ -77,6 +79,10 @@ typedef struct SceneMaterial {
     float clearcoat_normal_scale; /* clearcoatNormalTexture.scale, default 1 */
     float sheen_color[3];       /* KHR_materials_sheen sheenColorFactor, default 0,0,0 */
     float sheen_roughness;      /* sheenRoughnessFactor, default 0 */
+    float iridescence;          /* KHR_materials_iridescence iridescenceFactor, default 0 */
+    float iridescence_ior;      /* iridescenceIor, default 1.3 */
+    float iridescence_min_nm;   /* iridescenceThicknessMinimum, default 100 */
+    float iridescence_max_nm;   /* iridescenceThicknessMaximum, default 400 */
     int double_sided;
     int alpha_mode;             /* SPT_ALPHA_* */
     float alpha_cutoff;         /* default 0.5 */
