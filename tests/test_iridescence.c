@@ -313,6 +313,40 @@ TEST(test_film_furnace)
     }
 }
 
+/* A film on a smooth transmissive dielectric (KHR_materials_transmission 1,
+ * ior 1.5, white): from either side, per wavelength, what it reflects is the
+ * film's reflectance (from outside: air | film | glass; from inside: glass |
+ * film | air, total past the critical angle of 41.8 degrees) by the matrix
+ * method, and what it reflects and transmits adds up to 1 (the lossless film,
+ * R + T = 1; the refracted weight's 1 / eta'^2 radiance scaling undone). The
+ * interface's two events, each weight times its chance (the sample's pdf). */
+TEST(test_film_on_transmission)
+{
+    const double thetas[6] = {0, 30, 41, 42, 60, 85};
+    for (int side = 0; side < 2; side++)
+        for (int t = 0; t < 6; t++) {
+            BsdfParams p = film_params(0.0f, 0.0f, 1.0f, 1.0f, 1.33f, 380.0f);
+            p.transmission = 1.0f;
+            double th = thetas[t] * M_PI / 180;
+            vec3 wo = v3((float)sin(th), 0.0f, (float)(side ? -cos(th) : cos(th)));
+            /* u0 below every chance reflects; just under 1 refracts. */
+            BsdfSample r = bsdf_sample(&p, wo, 0.0f, 0.5f, 0.5f);
+            BsdfSample tr = bsdf_sample(&p, wo, 0.99999f, 0.5f, 0.5f);
+            assert_true(r.valid && r.wi.z * wo.z > 0.0f);
+            int refracts = tr.valid && tr.wi.z * wo.z < 0.0f;
+            double q = r.pdf, e2 = side ? 1.0 / (1.5 * 1.5) : 1.5 * 1.5;
+            for (int k = 0; k < 4; k++) {
+                double lam = v4_at(p.lambda, k);
+                double want = side ? tmm_reflectance(th, lam, 1.5, 1.33, 380, 1.0, 0)
+                                   : tmm_reflectance(th, lam, 1.0, 1.33, 380, 1.5, 0);
+                double R = v4_at(r.weight, k) * q;
+                double T = refracts ? v4_at(tr.weight, k) * tr.pdf * e2 : 0.0;
+                assert_close(R, want, 2e-5);
+                assert_close(R + T, 1.0, 2e-5);
+            }
+        }
+}
+
 /* ---- A rendered film -------------------------------------------------------- */
 
 #define FILM_SIZE 12
@@ -446,6 +480,58 @@ TEST(test_film_colour_rendered)
             if (fabs(got[c] - want[c]) > 0.004 + 0.02 * fabs(want[c]))
                 fail_msg("%s: channel %d rendered %.5f, computed %.5f", cases[k].what, c, got[c], want[c]);
     }
+}
+
+/* The two textures: a 1 x 1 texture of R 0.6, G 0.25 as both iridescenceTexture
+ * and iridescenceThicknessTexture of a film of index 1.8 between 200 and 600
+ * nm over black glass, seen at normal incidence: the film is 0.6 of the
+ * Fresnel term (the rest Schlick's, 0.04 there) and 200 + 0.25 x 400 = 300 nm
+ * thick. */
+TEST(test_film_textures_rendered)
+{
+    SceneMaterial m;
+    scene_material_default(&m);
+    m.roughness = 0.0f;
+    m.metallic = 0.0f;
+    for (int c = 0; c < 3; c++)
+        m.base_color[c] = 0.0f;
+    m.iridescence = 1.0f;
+    m.iridescence_ior = 1.8f;
+    m.iridescence_min_nm = 200.0f;
+    m.iridescence_max_nm = 600.0f;
+    m.tex[SPT_SLOT_IRIDESCENCE].tex = 0;
+    m.tex[SPT_SLOT_IRIDESCENCE_THICKNESS].tex = 0;
+    Scene s;
+    film_square_scene(&s, &m, 0.0);
+    s.texture_count = 1;
+    s.textures = calloc(1, sizeof(SceneTexture));
+    s.textures[0].width = s.textures[0].height = 1;
+    s.textures[0].channels = 4;
+    s.textures[0].wrap_s = s.textures[0].wrap_t = SPT_WRAP_REPEAT;
+    s.textures[0].texels = malloc(4 * sizeof(float));
+    const float texel[4] = {0.6f, 0.25f, 0.9f, 1.0f};
+    memcpy(s.textures[0].texels, texel, sizeof texel);
+    Film f;
+    RenderStats st;
+    assert_int_equal(render_scene(&s, FILM_SIZE, FILM_SIZE, test_quick() ? 256 : 1024, -1, 7, NULL, &f, &st), 0);
+    float *px = malloc((size_t)FILM_SIZE * FILM_SIZE * 3 * sizeof(float));
+    film_to_linear_srgb(&f, px);
+    double got[3] = {0, 0, 0}, film[3], want[3];
+    for (int c = 0; c < 3; c++)
+        for (int i = 0; i < FILM_SIZE * FILM_SIZE; i++)
+            got[c] += px[3 * i + c] / (FILM_SIZE * FILM_SIZE);
+    film_expected_rgb(0.0, 1.0, 1.8, 300.0, -1, 1.5, film);
+    /* Colour is linear in the reflectance: 0.4 x 0.04 (grey) + 0.6 x film. */
+    for (int c = 0; c < 3; c++)
+        want[c] = 0.4 * 0.04 + 0.6 * film[c];
+    print_message("  textured film: rendered (%.4f %.4f %.4f), computed (%.4f %.4f %.4f)\n", got[0], got[1], got[2],
+                  want[0], want[1], want[2]);
+    for (int c = 0; c < 3; c++)
+        if (fabs(got[c] - want[c]) > 0.004 + 0.02 * fabs(want[c]))
+            fail_msg("textured film: channel %d rendered %.5f, computed %.5f", c, got[c], want[c]);
+    free(px);
+    film_free(&f);
+    scene_free(&s);
 }
 
 TEST_MAIN("iridescence", setup_cpu_device, teardown_cpu_device)

@@ -5,8 +5,10 @@
  * refraction, delta lobes; rough: GGX microfacet reflection and transmission
  * (Walter et al. 2007, "Microfacet Models for Refraction through Rough
  * Surfaces"). Refracted radiance is scaled by 1/eta^2 (radiance transport, as
- * pbrt-v4 does). The only lobe that responds from inside. Weight, f |cos|, pdf
- * and sampling side by side; kernels/closure/bsdf.h composes the lobes. */
+ * pbrt-v4 does). Under a KHR_materials_iridescence film the Fresnel
+ * reflectance is the film's mix (bsdf_interface_film). The only lobe that
+ * responds from inside. Weight, f |cos|, pdf and sampling side by side;
+ * kernels/closure/bsdf.h composes the lobes. */
 #ifndef SPT_LOBE_TRANSMISSION_H
 #define SPT_LOBE_TRANSMISSION_H
 
@@ -24,14 +26,41 @@ SPT_FN vec3 bsdf_half_refract(vec3 wo, vec3 wi, float eta)
     return h.z < 0.0f ? v3_scale(h, -1.0f) : h;
 }
 
+/* The interface's reflectance at cosine cos_h (signed as
+ * bsdf_fresnel_dielectric takes it) per wavelength under a KHR_materials_iridescence
+ * film (p->iridescence > 0): the exact Fresnel mixed with the film's
+ * reflectance (kernels/closure/thin_film.h) by the iridescence factor, as
+ * bsdf_film_mix mixes the layer's. The film lies on the outside face: from
+ * inside, light meets the base first (the film between the base's index and
+ * the outside's; past the critical angle the film's field is evanescent and
+ * the reflection total). A lossless film transmits the rest, 1 - F. */
+SPT_FN vec4 bsdf_interface_film(const BsdfParams *p, float cos_h)
+{
+    vec4 f = v4(bsdf_fresnel_dielectric(cos_h, p->ior.x), bsdf_fresnel_dielectric(cos_h, p->ior.y),
+                bsdf_fresnel_dielectric(cos_h, p->ior.z), bsdf_fresnel_dielectric(cos_h, p->ior.w));
+    if (cos_h >= 0.0f)
+        return bsdf_film_mix(p, f, cos_h, p->ior, v4_splat(0.0f), 1.0f);
+    float n0 = p->clearcoat > 0.0f ? 1.5f : 1.0f, c = -cos_h, n = p->film_ior, d = p->film_nm;
+    vec4 film = v4(spt_thin_film_reflectance(c, p->lambda.x, p->ior.x, n, d, n0, 0.0f),
+                   spt_thin_film_reflectance(c, p->lambda.y, p->ior.y, n, d, n0, 0.0f),
+                   spt_thin_film_reflectance(c, p->lambda.z, p->ior.z, n, d, n0, 0.0f),
+                   spt_thin_film_reflectance(c, p->lambda.w, p->ior.w, n, d, n0, 0.0f));
+    return v4_add(f, v4_scale(v4_sub(film, f), p->iridescence));
+}
+
 /* The chance that the interface reflects at cosine cos_h (signed as
  * bsdf_fresnel_dielectric takes it): the mean of the path's wavelengths'
- * Fresnel reflectances, the hero's alone without dispersion. With a dispersive
- * index the hero's may be near 0 (n near 1) where another's is not, and
- * reflection's weight F_i / F_hero would be huge or, at F_hero = 0, that light
- * lost (docs/gltf.md, KHR_materials_dispersion). */
+ * Fresnel reflectances, the hero's alone without dispersion or film. With a
+ * dispersive index the hero's may be near 0 (n near 1) where another's is not,
+ * and reflection's weight F_i / F_hero would be huge or, at F_hero = 0, that
+ * light lost (docs/gltf.md, KHR_materials_dispersion); a film's reflectance
+ * differs between wavelengths too. */
 SPT_FN float bsdf_interface_q(const BsdfParams *p, float cos_h)
 {
+    if (p->iridescence > 0.0f) {
+        vec4 f = bsdf_interface_film(p, cos_h);
+        return 0.25f * (f.x + f.y + f.z + f.w);
+    }
     float f = bsdf_fresnel_dielectric(cos_h, p->ior.x);
     if (p->ior.x == p->ior.y && p->ior.x == p->ior.z && p->ior.x == p->ior.w)
         return f;
@@ -42,10 +71,12 @@ SPT_FN float bsdf_interface_q(const BsdfParams *p, float cos_h)
 /* The rough dielectric interface's f |cos i| contribution and its pdf for the
  * given wo, wi (Walter et al. 2007 eqs. 20-21 with VNDF sampling; pdf per
  * steradian of wi), for index eta (hero wavelength's value) and alpha. Fresnel is
- * the exact dielectric one; transmission is divided by eta'^2 (radiance). The
- * pdf reflects with the chance bsdf_interface_q(pq) or, pq 0, with eta's own
- * Fresnel. */
-SPT_FN float bsdf_interface_eval_q(vec3 wo, vec3 wi, float eta, float alpha, const BsdfParams *pq, float *pdf)
+ * the exact dielectric one, or under pf's film (pf non-zero with iridescence)
+ * its wavelength wl's bsdf_interface_film; transmission is divided by eta'^2
+ * (radiance). The pdf reflects with the chance bsdf_interface_q(pq) or, pq 0,
+ * with the F used. */
+SPT_FN float bsdf_interface_eval_q(vec3 wo, vec3 wi, float eta, float alpha, const BsdfParams *pq, float *pdf,
+                                   const BsdfParams *pf, int wl)
 {
     *pdf = 0.0f;
     if (wo.z == 0.0f || wi.z == 0.0f)
@@ -67,6 +98,10 @@ SPT_FN float bsdf_interface_eval_q(vec3 wo, vec3 wi, float eta, float alpha, con
     if (!(dwo * wo.z > 0.0f) || !(dwi * wi.z > 0.0f))
         return 0.0f;
     float F = bsdf_fresnel_dielectric(dwo, eta);
+    if (pf && pf->iridescence > 0.0f) {
+        vec4 ff = bsdf_interface_film(pf, dwo);
+        F = wl == 0 ? ff.x : wl == 1 ? ff.y : wl == 2 ? ff.z : ff.w;
+    }
     float D = bsdf_ggx_d(h, alpha);
     /* VNDF in the frame where wo is above: flip both when wo is inside. */
     vec3 wo_up = wo.z > 0.0f ? wo : v3_scale(wo, -1.0f);
@@ -101,10 +136,10 @@ SPT_FN void bsdf_transmission_eval(const BsdfParams *p, vec3 wo, vec3 wi, vec4 *
         return;
     float alpha = bsdf_alpha(p->roughness);
     float pd;
-    vec4 fi = v4(bsdf_interface_eval_q(wo, wi, p->ior.x, alpha, 0, &pd),
-                 bsdf_interface_eval_q(wo, wi, p->ior.y, alpha, 0, &pd),
-                 bsdf_interface_eval_q(wo, wi, p->ior.z, alpha, 0, &pd),
-                 bsdf_interface_eval_q(wo, wi, p->ior.w, alpha, 0, &pd));
+    vec4 fi = v4(bsdf_interface_eval_q(wo, wi, p->ior.x, alpha, 0, &pd, p, 0),
+                 bsdf_interface_eval_q(wo, wi, p->ior.y, alpha, 0, &pd, p, 1),
+                 bsdf_interface_eval_q(wo, wi, p->ior.z, alpha, 0, &pd, p, 2),
+                 bsdf_interface_eval_q(wo, wi, p->ior.w, alpha, 0, &pd, p, 3));
     /* KHR_materials_transmission tints the transmitted light by the base colour. */
     if (wo.z * wi.z < 0.0f)
         fi = v4_mul(fi, p->base);
@@ -118,7 +153,7 @@ SPT_FN float bsdf_transmission_pdf(const BsdfParams *p, vec3 wo, vec3 wi, float 
     if (!(prob > 0.0f) || bsdf_base_smooth(p))
         return 0.0f;
     float pi_;
-    bsdf_interface_eval_q(wo, wi, p->ior.x, bsdf_alpha(p->roughness), p, &pi_);
+    bsdf_interface_eval_q(wo, wi, p->ior.x, bsdf_alpha(p->roughness), p, &pi_, 0, 0);
     return prob * pi_;
 }
 
@@ -151,7 +186,9 @@ SPT_FN int bsdf_transmission_sample(const BsdfParams *p, vec3 wo, float ur, floa
         s->is_delta = 1;
         s->valid = 1;
         s->pdf = prob * (1.0f - q);
-        s->weight = v4_scale(p->base, wt / s->pdf);
+        /* A film there still reflects: the rest, 1 - F, passes. */
+        vec4 t = p->iridescence > 0.0f ? v4_sub(v4_splat(1.0f), bsdf_interface_film(p, cos_h)) : v4_splat(1.0f);
+        s->weight = v4_scale(v4_mul(p->base, t), wt / s->pdf);
         return BSDF_SAMPLED_DELTA;
     }
     if (reflect) {
@@ -172,7 +209,13 @@ SPT_FN int bsdf_transmission_sample(const BsdfParams *p, vec3 wo, float ur, floa
     s->is_delta = 1;
     s->valid = 1;
     s->pdf = prob * (reflect ? q : 1.0f - q);
-    if (reflect) {
+    if (p->iridescence > 0.0f) {
+        /* Each wavelength's film: F or 1 - F over the chance of the event. */
+        vec4 fr = bsdf_interface_film(p, cos_h);
+        float etap = reflect ? 1.0f : wo.z > 0.0f ? eta : 1.0f / eta;
+        vec4 e = reflect ? fr : v4_mul(p->base, v4_sub(v4_splat(1.0f), fr));
+        s->weight = v4_scale(e, wt / (s->pdf * etap * etap));
+    } else if (reflect) {
         /* Each wavelength's F over the chance q of reflecting. */
         vec4 fr = v4_splat(F);
         if (dispersive_ior)
