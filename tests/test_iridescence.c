@@ -534,4 +534,38 @@ TEST(test_film_textures_rendered)
     scene_free(&s);
 }
 
+/* `spectrace color --film IOR,NM[,DEGREES] BASE` prints the film's colour under
+ * D65: its linear sRGB within 1e-4 of the matrix method's (the six decimals
+ * printed, and D65 from the colour library's table rather than the kernels');
+ * a bad film or base is a usage error (exit code 2). */
+TEST(test_color_film_command)
+{
+    static const struct {
+        const char *args;
+        double nf, d, theta;
+        int conductor;
+    } cases[] = {
+        {"color --film 1.8,320 1.5", 1.8, 320, 0, -1},
+        {"color --film 2.3,540,60 1.5", 2.3, 540, 60, -1},
+        {"color --film 1.45,250,30 ag", 1.45, 250, 30, SPT_CONDUCTOR_AG},
+    };
+    char out[1024];
+    for (size_t k = 0; k < sizeof cases / sizeof *cases; k++) {
+        assert_int_equal(test_spectrace("", 60, cases[k].args, TEST_STDOUT, out, sizeof out), 0);
+        const char *line = strstr(out, "linear-sRGB ");
+        double got[3], want[3];
+        assert_non_null(line);
+        assert_int_equal(sscanf(line, "linear-sRGB %lf %lf %lf", &got[0], &got[1], &got[2]), 3);
+        film_expected_rgb(cases[k].theta, 1.0, cases[k].nf, cases[k].d, cases[k].conductor, 1.5, want);
+        for (int c = 0; c < 3; c++)
+            assert_close(got[c], want[c], 1e-4);
+    }
+    static const char *const bad[] = {"color --film 0.5,100 1.5", "color --film 1.5,-1 1.5",
+                                      "color --film 1.5,100,90 1.5", "color --film 1.5 1.5",
+                                      "color --film 1.5,100 Xx", "color --film 1.5,100 0.9",
+                                      "color --film 1.5,100 --reflectance D65"};
+    for (size_t k = 0; k < sizeof bad / sizeof *bad; k++)
+        assert_int_equal(test_spectrace("", 60, bad[k], TEST_BOTH, out, sizeof out), 2);
+}
+
 TEST_MAIN("iridescence", setup_cpu_device, teardown_cpu_device)

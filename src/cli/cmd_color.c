@@ -1,12 +1,17 @@
 /* `spectrace color [--reflectance] SPD`: the colour of an SPD, normalised to Y = 1;
- * `spectrace color --pixel X,Y FILE.exr`: the colour of a pixel of a spectral EXR. */
+ * `spectrace color --pixel X,Y FILE.exr`: the colour of a pixel of a spectral EXR;
+ * `spectrace color --film IOR,NM[,DEG] BASE`: the colour of a thin film's
+ * reflectance under D65. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "cli/commands.h"
 #include "color/spd.h"
+#include "closure/conductors.h"
+#include "closure/thin_film.h"
 #include "core/util.h"
 #include "io/exr.h"
 #include "spectrum/cie_data.h"
@@ -14,6 +19,7 @@
 static const char color_usage[] =
     "usage: spectrace color [--reflectance] [--] SPD\n"
     "       spectrace color --pixel X,Y FILE.exr\n"
+    "       spectrace color --film IOR,NM[,DEGREES] BASE\n"
     "\n"
     "Prints the colour of SPD as three lines: CIE 1931 XYZ normalised so Y = 1, the\n"
     "linear sRGB of that XYZ (unclamped), and 8-bit sRGB (linear values clamped to\n"
@@ -35,10 +41,17 @@ static const char color_usage[] =
     "                  channels' wavelengths; one channel covers 360-830 nm), in\n"
     "                  the film's units as the renderer integrates them: XYZ = sum\n"
     "                  of L(l) cmf(l) over the sum of ybar (1 nm), not renormalised\n"
+    "  --film IOR,NM[,DEGREES]\n"
+    "                  the reflectance under D65 (as --reflectance) of a thin film\n"
+    "                  of index IOR (>= 1) and thickness NM nanometres in air over\n"
+    "                  BASE, a dielectric's index (>= 1) or a measured conductor\n"
+    "                  (Au, Ag, Cu, Al), seen at DEGREES (0 <= DEGREES < 90, default\n"
+    "                  0) from the normal: KHR_materials_iridescence's film as the\n"
+    "                  renderer evaluates it (docs/gltf.md), per 1 nm\n"
     "\n"
-    "Exit codes: 0 ok, 2 usage, 3 unknown SPD name, unreadable or invalid CSV, an\n"
-    "SPD without luminance, or an EXR without spectral channels or with a band\n"
-    "value that is negative or not finite.\n";
+    "Exit codes: 0 ok, 2 usage (a bad --film or its BASE too), 3 unknown SPD name,\n"
+    "unreadable or invalid CSV, an SPD without luminance, or an EXR without\n"
+    "spectral channels or with a band value that is negative or not finite.\n";
 
 /* Prints v with six decimals, never as -0.000000. */
 static void print_value(double v)
@@ -148,12 +161,41 @@ done:
     return rc;
 }
 
+/* The film of `--film` (IOR, NM, DEGREES in f[0..2]) over base (an index or a
+ * conductor's name) as a reflectance spectrum at the CIE tables' 1 nm
+ * samples, the renderer's own evaluation (kernels/closure/thin_film.h).
+ * Returns SPT_EXIT_USAGE, with the message, for a base that is neither. */
+static int film_spd(const double f[3], const char *base, Spd *out, SptError *e)
+{
+    static const char *const metals[SPT_CONDUCTOR_COUNT] = {"Au", "Ag", "Cu", "Al"};
+    int metal = -1;
+    for (int m = 0; m < SPT_CONDUCTOR_COUNT; m++)
+        if (!strcasecmp(base, metals[m]))
+            metal = m;
+    char *end;
+    double n = metal >= 0 ? 0.0 : strtod(base, &end);
+    if (metal < 0 && (end == base || *end || !(n >= 1.0) || !(n <= 1e4)))
+        return spt_fail(e, SPT_EXIT_USAGE, "color: --film base '%s' is neither an index in [1, 1e4] nor "
+                        "Au, Ag, Cu or Al", base);
+    double nm[SPT_CIE_SAMPLES], r[SPT_CIE_SAMPLES];
+    float c = (float)cos(f[2] * (double)SPT_PI / 180.0);
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        float l = (float)(SPT_CIE_LAMBDA_MIN + i);
+        float eta = metal >= 0 ? spt_conductor_lookup(metal, 0, l) : (float)n;
+        float k = metal >= 0 ? spt_conductor_lookup(metal, 1, l) : 0.0f;
+        nm[i] = l;
+        r[i] = spt_thin_film_reflectance(c, l, 1.0f, (float)f[0], (float)f[1], eta, k);
+    }
+    return spd_from_samples(out, nm, r, SPT_CIE_SAMPLES, e);
+}
+
 /* Parses the arguments, evaluates the SPD and prints the three lines; returns an
  * exit code (SPT_EXIT_USAGE for bad arguments, SPT_EXIT_INPUT for a bad SPD). */
 int cmd_color(int argc, char **argv)
 {
-    int reflectance = 0, options = 1, pixel = 0;
+    int reflectance = 0, options = 1, pixel = 0, film = 0;
     long px = 0, py = 0;
+    double fv[3] = {0, 0, 0};
     const char *spd_text = NULL;
     for (int i = 1; i < argc; i++) {
         if (options && !strcmp(argv[i], "--")) {
@@ -170,6 +212,20 @@ int cmd_color(int argc, char **argv)
                 return SPT_EXIT_USAGE;
             }
             pixel = 1;
+            i++;
+        } else if (options && !strcmp(argv[i], "--film")) {
+            char tail;
+            int got = i + 1 < argc ? sscanf(argv[i + 1], "%lf,%lf,%lf%c", &fv[0], &fv[1], &fv[2], &tail) : 0;
+            if (got != 2 && got != 3) {
+                spt_error("color: --film expects IOR,NM[,DEGREES] (e.g. --film 1.8,320 or --film 1.3,400,45)");
+                return SPT_EXIT_USAGE;
+            }
+            if (!(fv[0] >= 1.0 && fv[0] <= 1e4) || !(fv[1] >= 0.0 && fv[1] <= 1e6) || !(fv[2] >= 0.0 && fv[2] < 90.0)) {
+                spt_error("color: --film %s: the index must be in [1, 1e4], the thickness in [0, 1e6] nm and "
+                          "the angle in [0, 90) degrees", argv[i + 1]);
+                return SPT_EXIT_USAGE;
+            }
+            film = 1;
             i++;
         } else if (options && argv[i][0] == '-' && argv[i][1] != 0) {
             spt_error("color: unknown option '%s' (see spectrace color --help)", argv[i]);
@@ -190,11 +246,17 @@ int cmd_color(int argc, char **argv)
         spt_error("color: --pixel and --reflectance do not go together (a pixel holds radiance)");
         return SPT_EXIT_USAGE;
     }
+    if (film && (pixel || reflectance)) {
+        spt_error("color: --film goes with neither --pixel nor --reflectance (a film is a reflectance)");
+        return SPT_EXIT_USAGE;
+    }
     Spd spd = {0};
     SptError e = {0};
     double xyz[3];
-    if (pixel ? pixel_xyz(spd_text, px, py, xyz, &e) : spd_parse(&spd, spd_text, &e))
+    if (pixel ? pixel_xyz(spd_text, px, py, xyz, &e)
+              : film ? film_spd(fv, spd_text, &spd, &e) : spd_parse(&spd, spd_text, &e))
         return spt_report(&e);
+    reflectance |= film;
     /* With --pixel, xyz holds pixel_xyz's sums already. */
     if (!pixel && reflectance) {
         spd_reflectance_to_xyz(&spd, xyz);
