@@ -630,6 +630,8 @@ static const char *k_device_src =
     "    p.cc_n = normalize((float3)(0.2f * q[5], -0.1f, 1.0f));\n"
     "    p.sheen_max = (i % 7 == 3) ? q[6] : 0.0f; p.sheen = (float4)(p.sheen_max, 0.5f * p.sheen_max, 0.1f, 0.0f);\n"
     "    p.sheen_roughness = q[5];\n"
+    "    p.aniso = (i % 5 == 2) ? q[7] : 0.0f; p.aniso_t = normalize((float3)(q[4] - 0.5f, q[5] - 0.5f, 0.0f));\n"
+    "    p.diffuse_transmission = (i % 3 == 1) ? q[4] : 0.0f; p.dt_color = (float4)(0.9f, q[6], 0.3f, 1.0f);\n"
     "    if (i % 4 == 1) bsdf_set_conductor(&p, i % 3, 400.0f + q[3] * 400.0f, 500.0f, 600.0f, 700.0f);\n"
     "    float3 wo = normalize((float3)(q[0], q[1], q[2]));\n"
     "    BsdfSample s = bsdf_sample(&p, wo, q[3], q[4], q[5]);\n"
@@ -678,6 +680,10 @@ TEST(test_device_matches_host)
         p.sheen_max = (i % 7 == 3) ? q[6] : 0.0f;
         p.sheen = v4(p.sheen_max, 0.5f * p.sheen_max, 0.1f, 0.0f);
         p.sheen_roughness = q[5];
+        p.aniso = (i % 5 == 2) ? q[7] : 0.0f;
+        p.aniso_t = v3_normalize(v3(q[4] - 0.5f, q[5] - 0.5f, 0.0f));
+        p.diffuse_transmission = (i % 3 == 1) ? q[4] : 0.0f;
+        p.dt_color = v4(0.9f, q[6], 0.3f, 1.0f);
         if (i % 4 == 1)
             bsdf_set_conductor(&p, i % 3, 400.0f + q[3] * 400.0f, 500.0f, 600.0f, 700.0f);
         vec3 wo = v3_normalize(v3(q[0], q[1], q[2]));

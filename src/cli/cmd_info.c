@@ -51,7 +51,7 @@ static const char *wrap_name(int w)
 static const char *const slot_names[SPT_SLOT_COUNT] = {
     "baseColor", "metallicRoughness", "normal", "emissive", "transmission", "specular",
     "specularColor", "clearcoat", "clearcoatRoughness", "clearcoatNormal", "sheenColor",
-    "sheenRoughness", "occlusion",
+    "sheenRoughness", "anisotropy", "diffuseTransmission", "diffuseTransmissionColor", "occlusion",
 };
 
 static void print_materials(const Scene *s)
@@ -78,6 +78,12 @@ static void print_materials(const Scene *s)
         if (m->sheen_color[0] > 0 || m->sheen_color[1] > 0 || m->sheen_color[2] > 0)
             printf(" sheen %.3g %.3g %.3g roughness %.3g", m->sheen_color[0], m->sheen_color[1],
                    m->sheen_color[2], m->sheen_roughness);
+        if (m->anisotropy > 0)
+            printf(" anisotropy %.3g rotation %.3g", m->anisotropy, m->anisotropy_rotation);
+        if (m->diffuse_transmission > 0)
+            printf(" diffuse-transmission %.3g colour %.3g %.3g %.3g", m->diffuse_transmission,
+                   m->diffuse_transmission_color[0], m->diffuse_transmission_color[1],
+                   m->diffuse_transmission_color[2]);
         printf("\n");
         /* The texture slots: the file's texture, the uv set, the loaded texture
          * (-: its image was unusable, the factor is used). */

@@ -87,11 +87,17 @@ static const uint32_t k_slot_kind[SPT_TS_COUNT] = {
     [SPT_TS_CLEARCOAT_NORMAL] = SPT_TEXKIND_DATA,
     [SPT_TS_SHEEN_COLOR] = SPT_TEXKIND_SCALED,
     [SPT_TS_SHEEN_ROUGHNESS] = SPT_TEXKIND_DATA,
+    [SPT_TS_ANISOTROPY] = SPT_TEXKIND_DATA,
+    [SPT_TS_DIFFUSE_TRANSMISSION] = SPT_TEXKIND_DATA,
+    [SPT_TS_DIFFUSE_TRANSMISSION_COLOR] = SPT_TEXKIND_COLOR,
 };
 
 /* The scene's slots are the device's, with occlusion last and not uploaded. */
 SPT_STATIC_ASSERT(SPT_SLOT_BASE == SPT_TS_BASE && SPT_SLOT_EMISSIVE == SPT_TS_EMISSIVE &&
-                      SPT_SLOT_SHEEN_ROUGHNESS == SPT_TS_SHEEN_ROUGHNESS && SPT_SLOT_OCCLUSION == SPT_TS_COUNT,
+                      SPT_SLOT_SHEEN_ROUGHNESS == SPT_TS_SHEEN_ROUGHNESS &&
+                      SPT_SLOT_ANISOTROPY == SPT_TS_ANISOTROPY &&
+                      SPT_SLOT_DIFFUSE_TRANSMISSION_COLOR == SPT_TS_DIFFUSE_TRANSMISSION_COLOR &&
+                      SPT_SLOT_OCCLUSION == SPT_TS_COUNT,
                   "scene.h SPT_SLOT_* and render_types.h SPT_TS_* differ");
 
 /* The device textures made so far: scene texture, kind and the linear RGB factor
@@ -155,6 +161,32 @@ static SpecRef spec_white(void)
     return r;
 }
 
+/* KHR_materials_anisotropy and KHR_materials_diffuse_transmission of m into gm
+ * (its slots already set): each off, its textures dropped, with a zero factor;
+ * the rotation as its cosine and sine; the colour white when its texture holds
+ * it (set_slot folded the factor in). SPT_MAT_VOLUME: KHR_materials_volume's
+ * thickness, which makes a diffuse transmitter a volume's boundary. */
+static void material_upload_ext(GpuMaterial *gm, const SceneMaterial *m)
+{
+    if (m->anisotropy > 0.0f) {
+        gm->aniso = m->anisotropy;
+        gm->aniso_cos = cosf(m->anisotropy_rotation);
+        gm->aniso_sin = sinf(m->anisotropy_rotation);
+    } else {
+        gm->slot[SPT_TS_ANISOTROPY].tex = -1;
+    }
+    if (m->diffuse_transmission > 0.0f) {
+        gm->diffuse_transmission = m->diffuse_transmission;
+        gm->dt_color = gm->slot[SPT_TS_DIFFUSE_TRANSMISSION_COLOR].tex >= 0
+                           ? spec_white()
+                           : spec_from_rgb_scaled(m->diffuse_transmission_color);
+    } else {
+        gm->slot[SPT_TS_DIFFUSE_TRANSMISSION].tex = gm->slot[SPT_TS_DIFFUSE_TRANSMISSION_COLOR].tex = -1;
+    }
+    if (m->thickness > 0.0f)
+        gm->flags |= SPT_MAT_VOLUME;
+}
+
 /* A material's device form, its textures uploaded through u. Colour factors
  * with a texture are folded into the texture (the factor's spectrum becomes
  * white), so that factor x texture is their RGB product, as glTF defines it,
@@ -176,6 +208,8 @@ static void material_upload(GpuMaterial *gm, const SceneMaterial *m, GpuScene *g
             factor = m->specular_color;
         else if (k == SPT_TS_SHEEN_COLOR)
             factor = m->sheen_color;
+        else if (k == SPT_TS_DIFFUSE_TRANSMISSION_COLOR)
+            factor = m->diffuse_transmission_color;
         set_slot(&gm->slot[k], k, &m->tex[k], factor, g, s, u);
     }
     if (m->reflectance_spd.count > 0 || m->reflectance_spd.line_count > 0) {
@@ -269,6 +303,7 @@ static void material_upload(GpuMaterial *gm, const SceneMaterial *m, GpuScene *g
     } else {
         gm->slot[SPT_TS_SHEEN_COLOR].tex = gm->slot[SPT_TS_SHEEN_ROUGHNESS].tex = -1;
     }
+    material_upload_ext(gm, m);
 }
 
 /* The luminance of a colour factor folded into an emissive texture (which the

@@ -37,8 +37,22 @@ using tinygltf::Value;
 
 // Material extensions we know and deliberately ignore (one warning each, listing
 // the materials): a file that requires one is refused like an unknown one.
+// KHR_materials_volume_scatter would need a participating medium (scattering
+// inside the volume, with a phase function) where the renderer has only
+// Beer-Lambert absorption (docs/gltf.md).
 inline const char *const k_ignored_material_ext[] = {
-    "KHR_materials_iridescence", "KHR_materials_anisotropy",
+    "KHR_materials_iridescence", "KHR_materials_volume_scatter",
+};
+
+// Other extensions we know and do not render, each with what rendering it would
+// need (one warning each when extensionsUsed lists it; refused when required).
+struct UnrenderedExt {
+    const char *name, *needs;
+};
+inline const UnrenderedExt k_unrendered_ext[] = {
+    {"KHR_texture_basisu",
+     "its KTX2 images need a Basis Universal transcoder (libktx or basis_universal) to RGBA; a "
+     "texture's fallback source is used where it has one, else the texture's factor"},
 };
 
 // Largest scene we flatten (triangles and vertices are indexed by uint32 and the
@@ -264,6 +278,8 @@ struct Loader {
     int material_ext_specular(const Value *x, SceneMaterial *sm, const std::string &so);
     int material_ext_clearcoat(const Value *x, SceneMaterial *sm, const std::string &co);
     int material_ext_sheen(const Value *x, SceneMaterial *sm, const std::string &sho);
+    int material_ext_anisotropy(const Value *x, SceneMaterial *sm, const std::string &ao);
+    int material_ext_diffuse_transmission(const Value *x, SceneMaterial *sm, const std::string &dto);
     int texture_ref(int tex, int texcoord, bool srgb, const std::string &obj, SceneTexRef *out,
                     const tinygltf::ExtensionMap *ext, bool load = true);
     int ext_texture(const Value &x, const char *key, bool srgb, const std::string &obj,

@@ -21,6 +21,7 @@ void scene_material_default(SceneMaterial *m)
     for (int i = 0; i < 3; i++) m->attenuation_color[i] = 1.0f;
     m->specular = 1.0f;
     for (int i = 0; i < 3; i++) m->specular_color[i] = 1.0f;
+    for (int i = 0; i < 3; i++) m->diffuse_transmission_color[i] = 1.0f;
     m->alpha_mode = SPT_ALPHA_OPAQUE;
     m->alpha_cutoff = 0.5f;
     for (int k = 0; k < SPT_SLOT_COUNT; k++) {

@@ -42,6 +42,9 @@ enum {
     SPT_SLOT_CLEARCOAT_NORMAL,      /* ... clearcoatNormalTexture (with its scale) */
     SPT_SLOT_SHEEN_COLOR,           /* KHR_materials_sheen sheenColorTexture: RGB (sRGB) */
     SPT_SLOT_SHEEN_ROUGHNESS,       /* ... sheenRoughnessTexture: A */
+    SPT_SLOT_ANISOTROPY,            /* KHR_materials_anisotropy anisotropyTexture: RG direction, B strength */
+    SPT_SLOT_DIFFUSE_TRANSMISSION,  /* KHR_materials_diffuse_transmission diffuseTransmissionTexture: A */
+    SPT_SLOT_DIFFUSE_TRANSMISSION_COLOR, /* ... diffuseTransmissionColorTexture: RGB (sRGB) */
     SPT_SLOT_OCCLUSION,             /* occlusionTexture: read, not rendered */
     SPT_SLOT_COUNT
 };
@@ -77,6 +80,10 @@ typedef struct SceneMaterial {
     float clearcoat_normal_scale; /* clearcoatNormalTexture.scale, default 1 */
     float sheen_color[3];       /* KHR_materials_sheen sheenColorFactor, default 0,0,0 */
     float sheen_roughness;      /* sheenRoughnessFactor, default 0 */
+    float anisotropy;           /* KHR_materials_anisotropy anisotropyStrength, default 0 */
+    float anisotropy_rotation;  /* anisotropyRotation (radians), default 0 */
+    float diffuse_transmission; /* KHR_materials_diffuse_transmission diffuseTransmissionFactor, default 0 */
+    float diffuse_transmission_color[3]; /* diffuseTransmissionColorFactor, default 1,1,1 */
     int double_sided;
     int alpha_mode;             /* SPT_ALPHA_* */
     float alpha_cutoff;         /* default 0.5 */
