@@ -16,7 +16,7 @@
 #include <string.h>
 
 #include "chi2.h"
-#include "closure/bsdf.h"
+#include "bsdf_test.h"
 #include "render/film.h"
 #include "scene/scene.h"
 
@@ -29,22 +29,6 @@ static vec3 dir_deg2(double theta, double phi)
 {
     double t = theta * M_PI / 180.0, p = phi * M_PI / 180.0;
     return v3((float)(sin(t) * cos(p)), (float)(sin(t) * sin(p)), (float)cos(t));
-}
-
-/* A material with the given parts; ior 1.5 at every wavelength. */
-static BsdfParams make_params(float base, float metallic, float roughness, float transmission)
-{
-    BsdfParams p;
-    memset(&p, 0, sizeof p);
-    p.base = v4_splat(base);
-    p.ior = v4_splat(1.5f);
-    p.metallic = metallic;
-    p.roughness = roughness;
-    p.transmission = transmission;
-    p.spec_tint = v4_splat(1.0f);
-    p.specular = 1.0f;
-    p.aniso_t = v3(1.0f, 0.0f, 0.0f);
-    return p;
 }
 
 static BsdfParams with_aniso(BsdfParams p, float strength, double rot_deg)
@@ -207,31 +191,6 @@ static double vndf_pdf(void *ctx, const double p[3])
     return bsdf_ggx_vndf_pdf_aniso(c->wo, v3((float)p[0], (float)p[1], (float)p[2]), c->ax, c->ay);
 }
 
-typedef struct MatCtx {
-    BsdfParams p;
-    vec3 wo;
-    uint32_t stream;
-} MatCtx;
-
-static int mat_sample(void *ctx, uint32_t i, double p[3])
-{
-    MatCtx *c = ctx;
-    uint64_t b = ((uint64_t)c->stream << 40) + 3u * (uint64_t)i;
-    BsdfSample s = bsdf_sample(&c->p, c->wo, test_uniform(b), test_uniform(b + 1), test_uniform(b + 2));
-    if (!s.valid)
-        return 0;
-    p[0] = s.wi.x;
-    p[1] = s.wi.y;
-    p[2] = s.wi.z;
-    return 1;
-}
-
-static double mat_pdf(void *ctx, const double p[3])
-{
-    MatCtx *c = ctx;
-    return bsdf_pdf(&c->p, c->wo, v3((float)p[0], (float)p[1], (float)p[2]));
-}
-
 static void run_mat_chi2(const char *what, BsdfParams p, vec3 wo, uint32_t stream)
 {
     MatCtx c = {p, wo, stream};
@@ -272,23 +231,6 @@ TEST(test_aniso_dt_chi2)
 }
 
 /* ---- White furnaces ------------------------------------------------------------- */
-
-/* Monte Carlo directional albedo of p at wo (hero wavelength), its standard
- * error in *err. */
-static double albedo_err(const BsdfParams *p, vec3 wo, uint32_t n, uint32_t stream, double *err)
-{
-    double sum = 0.0, sum2 = 0.0;
-    for (uint32_t i = 0; i < n; i++) {
-        uint64_t b = ((uint64_t)stream << 40) + 3u * (uint64_t)i;
-        BsdfSample s = bsdf_sample(p, wo, test_uniform(b), test_uniform(b + 1), test_uniform(b + 2));
-        double w = s.valid ? s.weight.x : 0.0;
-        sum += w;
-        sum2 += w * w;
-    }
-    double m = sum / n;
-    *err = sqrt(fmax(sum2 / n - m * m, 0.0) / n);
-    return m;
-}
 
 /* The albedo of p at wo by quadrature of bsdf_eval over the sphere (midpoint
  * rule in cos theta and phi): an integral that does not use the sampler. */
@@ -482,11 +424,11 @@ TEST(test_dt_furnace_sphere)
 }
 
 /* Film Y's second moments about the image centre: the highlight's extent
- * along the image's x and y. */
-static void highlight_moments(const Film *f, double *ixx, double *iyy)
+ * along the image's x and y (pixels, y down) and their covariance. */
+static void highlight_moments(const Film *f, double *ixx, double *iyy, double *ixy)
 {
     int w = f->width;
-    double sx = 0, sy = 0, s = 0;
+    double sx = 0, sy = 0, sxy = 0, s = 0;
     for (int y = 0; y < w; y++)
         for (int x = 0; x < w; x++) {
             size_t i = (size_t)y * w + x;
@@ -494,40 +436,46 @@ static void highlight_moments(const Film *f, double *ixx, double *iyy)
             double dx = x + 0.5 - 0.5 * w, dy = y + 0.5 - 0.5 * w;
             sx += l * dx * dx;
             sy += l * dy * dy;
+            sxy += l * dx * dy;
             s += l;
         }
     *ixx = sx / s;
     *iyy = sy / s;
+    *ixy = sxy / s;
 }
 
 /* An anisotropic white metal plane under a point light next to the camera: the
  * highlight stretches along the texture's u (the tangent, image x) at
- * rotation 0 and along v (image y) at rotation pi/2; with strength 0 the
- * rotation changes no bit of the image. */
+ * rotation 0, along v (image y) at rotation pi/2, and at pi/4 counter-clockwise
+ * from the tangent toward the bitangent (decreasing v: glTF's tangent space,
+ * +Y up in the texture; here image right and up, so x and y, y down,
+ * anticorrelated); with strength 0 the rotation changes no bit of the image. */
 TEST(test_aniso_render_rotation)
 {
-    double ixx[2], iyy[2];
-    for (int k = 0; k < 2; k++) {
+    const double rot[3] = {0.0, 0.5 * M_PI, 0.25 * M_PI};
+    double ixx[3], iyy[3], ixy[3];
+    for (int k = 0; k < 3; k++) {
         Scene s;
         SceneMaterial *m = dt_plane_scene(&s);
         m->metallic = 1.0f;
         m->base_color[0] = m->base_color[1] = m->base_color[2] = 1.0f;
         m->roughness = 0.25f;
         m->anisotropy = 0.9f;
-        m->anisotropy_rotation = k ? (float)(0.5 * M_PI) : 0.0f;
+        m->anisotropy_rotation = (float)rot[k];
         add_point_light(&s, 1.0f, 10.0f);
         RenderSettings rs = square_settings(32, 16, 2, 3);
         rs.env_intensity = 0.0f;
         Film f;
         render_film_ok(&s, &rs, &f);
-        highlight_moments(&f, &ixx[k], &iyy[k]);
-        print_message("  rotation %s: highlight extent x %.2f, y %.2f pixels^2\n", k ? "pi/2" : "0", ixx[k],
-                      iyy[k]);
+        highlight_moments(&f, &ixx[k], &iyy[k], &ixy[k]);
+        print_message("  rotation %.3f: highlight extent x %.2f, y %.2f, xy %.2f pixels^2\n", rot[k], ixx[k],
+                      iyy[k], ixy[k]);
         film_free(&f);
         scene_free(&s);
     }
     assert_true(ixx[0] > 2.0 * iyy[0]);
     assert_true(iyy[1] > 2.0 * ixx[1]);
+    assert_true(ixy[2] < -0.5 * sqrt(ixx[2] * iyy[2]));
     /* Strength 0: the rotation (and the extension) change nothing. */
     Film g[2];
     for (int k = 0; k < 2; k++) {
