@@ -494,4 +494,95 @@ TEST(test_aniso_render_rotation)
     film_free(&g[1]);
 }
 
+/* ---- TANGENT ------------------------------------------------------------------- */
+
+/* A triangle with TANGENT (w -1 on its third vertex) and a morph target moving
+ * the tangents by (0, 1, 0) at mesh weight 0.5, on a node mirrored in x and
+ * turned 90 degrees about z: each tangent is (1, 0.5, 0) by the morph, (-1,
+ * 0.5, 0) by the mirror, (-0.5, -1, 0) by the turn, normalised; w changes sign
+ * (the mirror flips the bitangent cross(n, t) w must give). */
+TEST(test_tangent_loaded)
+{
+    float data[30] = {0, 0, 0, 1, 0, 0, 0, 1, 0,           /* POSITION */
+                      1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, -1, /* TANGENT */
+                      0, 1, 0, 0, 1, 0, 0, 1, 0};          /* target TANGENT */
+    char uri[30 * 4 * 3 + 1];
+    const unsigned char *b = (const unsigned char *)data;
+    for (size_t i = 0; i < sizeof data; i++)
+        snprintf(uri + 3 * i, 4, "%%%02X", b[i]);
+    char json[4096];
+    snprintf(json, sizeof json,
+             "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+             "\"nodes\":[{\"mesh\":0,\"scale\":[-1,1,1],\"rotation\":[0,0,0.7071067811865476,0.7071067811865476]}],"
+             "\"buffers\":[{\"byteLength\":120,\"uri\":\"data:application/octet-stream,%s\"}],"
+             "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36},{\"buffer\":0,\"byteOffset\":36,"
+             "\"byteLength\":48},{\"buffer\":0,\"byteOffset\":84,\"byteLength\":36}],"
+             "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\","
+             "\"min\":[0,0,0],\"max\":[1,1,0]},{\"bufferView\":1,\"componentType\":5126,\"count\":3,"
+             "\"type\":\"VEC4\"},{\"bufferView\":2,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}],"
+             "\"meshes\":[{\"weights\":[0.5],\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TANGENT\":1},"
+             "\"targets\":[{\"TANGENT\":2}]}]}]}",
+             uri);
+    Scene sc;
+    SptError e = {0};
+    int rc = scene_load_gltf_memory(&sc, json, strlen(json), "tangent.gltf", &e);
+    if (rc)
+        fail_msg("load: %s", e.msg);
+    assert_non_null(sc.vtx_tangent);
+    assert_int_equal(sc.vertex_count, 3);
+    const double x = -0.5 / sqrt(1.25), y = -1.0 / sqrt(1.25);
+    for (uint32_t v = 0; v < 3; v++) {
+        const float *t = sc.vtx_tangent + 4 * v;
+        assert_close(t[0], x, 1e-6);
+        assert_close(t[1], y, 1e-6);
+        assert_close(t[2], 0.0, 1e-6);
+    }
+    /* Two vertices of w 1 become -1, the one of w -1 becomes 1. */
+    int neg = 0, pos = 0;
+    for (uint32_t v = 0; v < 3; v++) {
+        neg += sc.vtx_tangent[4 * v + 3] == -1.0f;
+        pos += sc.vtx_tangent[4 * v + 3] == 1.0f;
+    }
+    assert_int_equal(neg, 2);
+    assert_int_equal(pos, 1);
+    scene_free(&sc);
+}
+
+/* TANGENT decides the anisotropy direction over the texture coordinates: the
+ * plane of test_aniso_render_rotation (u along x) with tangents along z
+ * stretches the highlight along z (image y) at rotation 0; the same tangents
+ * with w -1 (the bitangent reversed) turn a rotation of pi/4 to the other
+ * diagonal. */
+TEST(test_tangent_render)
+{
+    double ixx[3], iyy[3], ixy[3];
+    for (int k = 0; k < 3; k++) {
+        Scene s;
+        SceneMaterial *m = dt_plane_scene(&s);
+        m->metallic = 1.0f;
+        m->base_color[0] = m->base_color[1] = m->base_color[2] = 1.0f;
+        m->roughness = 0.25f;
+        m->anisotropy = 0.9f;
+        m->anisotropy_rotation = k == 0 ? 0.0f : (float)(0.25 * M_PI);
+        s.vtx_tangent = calloc((size_t)s.vertex_count * 4, sizeof(float));
+        for (uint32_t v = 0; v < s.vertex_count; v++) {
+            s.vtx_tangent[4 * v + 2] = 1.0f;
+            s.vtx_tangent[4 * v + 3] = k == 2 ? -1.0f : 1.0f;
+        }
+        add_point_light(&s, 1.0f, 10.0f);
+        RenderSettings rs = square_settings(32, 16, 2, 3);
+        rs.env_intensity = 0.0f;
+        Film f;
+        render_film_ok(&s, &rs, &f);
+        highlight_moments(&f, &ixx[k], &iyy[k], &ixy[k]);
+        print_message("  TANGENT +z, w %+.0f, rotation %s: extent x %.2f, y %.2f, xy %.2f pixels^2\n",
+                      k == 2 ? -1.0 : 1.0, k ? "pi/4" : "0", ixx[k], iyy[k], ixy[k]);
+        film_free(&f);
+        scene_free(&s);
+    }
+    assert_true(iyy[0] > 2.0 * ixx[0]);
+    assert_true(fabs(ixy[1]) > 0.5 * sqrt(ixx[1] * iyy[1]));
+    assert_true(ixy[1] * ixy[2] < 0.0);
+}
+
 TEST_MAIN("anisotropy", setup_cpu_device, teardown_cpu_device)

@@ -226,7 +226,7 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
     float3 ngf = h->ng, n_coat;
     float3 ns = shading_normal(prim, h->bu, h->bv, &ngf, f->two_sided_bsdf, h->v0, h->v1, h->v2, m, tc,
                                &n_coat, kg->tri_shade, kg->vtx_normal, kg->vtx_uv, kg->vtx_uv1,
-                               kg->textures, kg->texels);
+                               kg->vtx_tangent, kg->textures, kg->texels);
     if (!f->two_sided_bsdf && !h->front) {
         ns = -ns;
         n_coat = -n_coat;
@@ -242,8 +242,8 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
     f->wo_l = (float3)(dot(wo, tg), dot(wo, bt), dot(wo, ns));
     f->both_sides = f->two_sided_bsdf || (bsdf_has_dt(bp) && bp->metallic < 1.0f);
     if (bsdf_has_aniso(bp))
-        bp->aniso_t = aniso_direction(m, bp->aniso_t, ns, tg, bt, prim, h->v0, h->v1, h->v2, kg->tri_shade,
-                                      kg->vtx_uv, kg->vtx_uv1);
+        bp->aniso_t = aniso_direction(m, bp->aniso_t, ns, h->ng, tg, bt, prim, h->bu, h->bv, h->v0, h->v1, h->v2,
+                                      kg->tri_shade, kg->vtx_normal, kg->vtx_uv, kg->vtx_uv1, kg->vtx_tangent);
     if (bp->clearcoat > 0.0f) {
         if (dot(wo, n_coat) * dot(wo, ngf) <= 0.0f)
             n_coat = ngf;

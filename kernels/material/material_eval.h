@@ -198,19 +198,51 @@ static int uv_tangent_frame(float2 t0, float2 t1, float2 t2, float3 n, float3 v0
     return 1;
 }
 
-/* Normal n bent by the tangent-space normal map of slot k (scale: the
- * normalTextureInfo's), in the frame uv_tangent_frame derives from the slot's
- * (transformed) texture coordinates. n itself when they are degenerate. */
-static float3 normal_map(const __global GpuMaterial *m, int k, float scale, float3 n, uint prim, float3 v0,
-                         float3 v1, float3 v2, const TexCtx *c, const __global TriShade *tri_shade,
-                         const __global float *vtx_uv, const __global float *vtx_uv1,
+/* The mesh's tangent frame at (bu, bv) of packed triangle prim, for material m
+ * with SPT_MAT_TANGENTS: TANGENT interpolated and orthogonalised at the unit
+ * normal n, the bitangent cross(nv, t) w (glTF 2.0 3.7.2.1, nv the vertex
+ * normal; its sign is what the frame takes from it) made orthogonal to both.
+ * Returns 0 where a vertex of the triangle has no tangent (w 0) or the
+ * tangent is parallel to n. */
+static int mesh_tangent_frame(const __global GpuMaterial *m, uint prim, float bu, float bv, float3 n, float3 nv,
+                              const __global TriShade *tri_shade, const __global float4 *vtx_tangent,
+                              float3 *tg, float3 *bt)
+{
+    if (!(m->flags & SPT_MAT_TANGENTS))
+        return 0;
+    TriShade ts = tri_shade[prim];
+    float4 a = vtx_tangent[ts.v[0]], b = vtx_tangent[ts.v[1]], c = vtx_tangent[ts.v[2]];
+    if (a.w == 0.0f || b.w == 0.0f || c.w == 0.0f)
+        return 0;
+    float3 t = (1.0f - bu - bv) * a.xyz + bu * b.xyz + bv * c.xyz;
+    t -= n * dot(n, t);
+    float tl = length(t);
+    if (!(tl > 1e-6f))
+        return 0;
+    t /= tl;
+    float3 b0 = cross(n, t);
+    *tg = t;
+    *bt = dot(b0, cross(nv, t) * a.w) < 0.0f ? -b0 : b0;
+    return 1;
+}
+
+/* Normal n (the interpolated vertex normal) bent by the tangent-space normal
+ * map of slot k (scale: the normalTextureInfo's), in the mesh's tangent frame
+ * (mesh_tangent_frame) or, without TANGENT, the frame uv_tangent_frame derives
+ * from the slot's (transformed) texture coordinates. n itself when they are
+ * degenerate. */
+static float3 normal_map(const __global GpuMaterial *m, int k, float scale, float3 n, uint prim, float bu,
+                         float bv, float3 v0, float3 v1, float3 v2, const TexCtx *c,
+                         const __global TriShade *tri_shade, const __global float *vtx_uv,
+                         const __global float *vtx_uv1, const __global float4 *vtx_tangent,
                          const __global GpuTexture *textures, const __global float4 *texels)
 {
     const __global GpuTexSlot *s = m->slot + k;
     TriShade ts = tri_shade[prim];
     const __global float *uvs = s->uv_set ? vtx_uv1 : vtx_uv;
     float3 tg, bt;
-    if (!uv_tangent_frame(uv_apply(s->m, vload2(ts.v[0], uvs)), uv_apply(s->m, vload2(ts.v[1], uvs)),
+    if (!mesh_tangent_frame(m, prim, bu, bv, n, n, tri_shade, vtx_tangent, &tg, &bt) &&
+        !uv_tangent_frame(uv_apply(s->m, vload2(ts.v[0], uvs)), uv_apply(s->m, vload2(ts.v[1], uvs)),
                           uv_apply(s->m, vload2(ts.v[2], uvs)), n, v0, v1, v2, &tg, &bt))
         return n;
     float4 tx = slot_value(m, k, c, textures, texels);
@@ -220,20 +252,29 @@ static float3 normal_map(const __global GpuMaterial *m, int k, float scale, floa
     return nl > 1e-6f ? nb / nl : n;
 }
 
-/* KHR_materials_anisotropy's direction at a hit, in the local frame (tg, bt,
- * n) of the BSDF: the material's direction in tangent space (dir, from
- * material_bsdf) mapped through the tangent frame of the anisotropy slot's
- * untransformed texture coordinates (uv_tangent_frame: tangents of the mesh
- * as MikkTSpace would generate them), projected on the shading plane. The
- * local x axis when the texture coordinates are degenerate. */
-static float3 aniso_direction(const __global GpuMaterial *m, float3 dir, float3 n, float3 tg, float3 bt,
-                              uint prim, float3 v0, float3 v1, float3 v2, const __global TriShade *tri_shade,
-                              const __global float *vtx_uv, const __global float *vtx_uv1)
+/* KHR_materials_anisotropy's direction at a hit (packed triangle prim at (bu,
+ * bv), shading normal n, face normal ng on the winding's front), in the local
+ * frame (tg, bt, n) of the BSDF: the material's direction in tangent space
+ * (dir, from material_bsdf) mapped through the mesh's tangent frame
+ * (mesh_tangent_frame) or, without TANGENT, the one of the anisotropy slot's
+ * untransformed texture coordinates (uv_tangent_frame: the frame MikkTSpace
+ * would generate, docs/gltf.md "Tangents"), projected on the shading plane.
+ * The local x axis when neither exists. */
+static float3 aniso_direction(const __global GpuMaterial *m, float3 dir, float3 n, float3 ng, float3 tg,
+                              float3 bt, uint prim, float bu, float bv, float3 v0, float3 v1, float3 v2,
+                              const __global TriShade *tri_shade, const __global float *vtx_normal,
+                              const __global float *vtx_uv, const __global float *vtx_uv1,
+                              const __global float4 *vtx_tangent)
 {
     TriShade ts = tri_shade[prim];
     const __global float *uvs = m->slot[SPT_TS_ANISOTROPY].uv_set ? vtx_uv1 : vtx_uv;
+    float3 nv = (1.0f - bu - bv) * vload3(ts.v[0], vtx_normal) + bu * vload3(ts.v[1], vtx_normal) +
+                bv * vload3(ts.v[2], vtx_normal);
+    if (!(length(nv) > 1e-6f))
+        nv = ng;
     float3 ut, ub;
-    if (!uv_tangent_frame(vload2(ts.v[0], uvs), vload2(ts.v[1], uvs), vload2(ts.v[2], uvs), n, v0, v1, v2,
+    if (!mesh_tangent_frame(m, prim, bu, bv, n, nv, tri_shade, vtx_tangent, &ut, &ub) &&
+        !uv_tangent_frame(vload2(ts.v[0], uvs), vload2(ts.v[1], uvs), vload2(ts.v[2], uvs), n, v0, v1, v2,
                           &ut, &ub))
         return (float3)(1.0f, 0.0f, 0.0f);
     float3 a = dir.x * ut + dir.y * ub;
@@ -253,8 +294,8 @@ static float3 shading_normal(uint prim, float bu, float bv, float3 *ng, int foll
                              float3 v1, float3 v2, const __global GpuMaterial *m, const TexCtx *c,
                              float3 *n_coat, const __global TriShade *tri_shade,
                              const __global float *vtx_normal, const __global float *vtx_uv,
-                             const __global float *vtx_uv1, const __global GpuTexture *textures,
-                             const __global float4 *texels)
+                             const __global float *vtx_uv1, const __global float4 *vtx_tangent,
+                             const __global GpuTexture *textures, const __global float4 *texels)
 {
     TriShade ts = tri_shade[prim];
     float3 ns = *ng;
@@ -274,11 +315,11 @@ static float3 shading_normal(uint prim, float bu, float bv, float3 *ng, int foll
     }
     *n_coat = ns;
     if (m->clearcoat > 0.0f && m->slot[SPT_TS_CLEARCOAT_NORMAL].tex >= 0)
-        *n_coat = normal_map(m, SPT_TS_CLEARCOAT_NORMAL, m->cc_normal_scale, ns, prim, v0, v1, v2, c,
-                             tri_shade, vtx_uv, vtx_uv1, textures, texels);
+        *n_coat = normal_map(m, SPT_TS_CLEARCOAT_NORMAL, m->cc_normal_scale, ns, prim, bu, bv, v0, v1, v2, c,
+                             tri_shade, vtx_uv, vtx_uv1, vtx_tangent, textures, texels);
     if (m->slot[SPT_TS_NORMAL].tex >= 0)
-        ns = normal_map(m, SPT_TS_NORMAL, m->normal_scale, ns, prim, v0, v1, v2, c, tri_shade, vtx_uv,
-                        vtx_uv1, textures, texels);
+        ns = normal_map(m, SPT_TS_NORMAL, m->normal_scale, ns, prim, bu, bv, v0, v1, v2, c, tri_shade, vtx_uv,
+                        vtx_uv1, vtx_tangent, textures, texels);
     return ns;
 }
 

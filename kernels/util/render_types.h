@@ -39,6 +39,7 @@ typedef struct SpecRef {
 #define SPT_MAT_TEXTURED 64u     /* some slot has a texture */
 #define SPT_MAT_UV1 128u         /* some slot reads TEXCOORD_1 (vtx_uv1) */
 #define SPT_MAT_VOLUME 256u      /* KHR_materials_volume thicknessFactor > 0: not thin-walled */
+#define SPT_MAT_TANGENTS 512u    /* some of its triangles have TANGENT (vtx_tangent) */
 
 /* The texture slots of a material (the same numbers as scene.h's SPT_SLOT_*):
  * which channels each reads is in kernels/integrator/wavefront.cl (material_bsdf). */
@@ -319,6 +320,7 @@ typedef struct RenderParams {
     X(const float, vtx_uv)            \
     X(const float, vtx_uv1)           \
     X(const float4, vtx_color)        \
+    X(const float4, vtx_tangent)      \
     X(const GpuMaterial, materials)   \
     X(const float, spectra)           \
     X(const GpuTexture, textures)     \

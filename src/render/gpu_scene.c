@@ -448,6 +448,7 @@ int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
     g->vtx_normal = s->vtx_normal;
     g->vtx_uv = s->vtx_uv;
     g->vtx_uv1 = s->vtx_uv1;
+    g->vtx_tangent = s->vtx_tangent;
     g->vertex_count = s->vertex_count;
     /* Vertex positions for shading: a vertex shared by triangles has one
      * position, the one every kept triangle using it carries. */
@@ -492,6 +493,17 @@ int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
                     g->materials[ts->material].flags |= SPT_MAT_ALPHA_BLEND;
             }
         }
+    }
+
+    /* Materials some of whose triangles have TANGENT at all three vertices
+     * (kernels/material/material_eval.h then reads vtx_tangent). */
+    for (uint32_t i = 0; i < n && s->vtx_tangent; i++) {
+        const TriShade *ts = &g->tri_shade[i];
+        int all = 1;
+        for (int k = 0; k < 3; k++)
+            all &= s->vtx_tangent[4 * (size_t)ts->v[k] + 3] != 0.0f;
+        if (all && ts->material < g->material_count)
+            g->materials[ts->material].flags |= SPT_MAT_TANGENTS;
     }
 
     /* Emitters: every packed triangle whose material emits, weighted by its
@@ -578,6 +590,8 @@ static size_t buffer_bytes(const GpuScene *g, const RenderLights *L, const char 
     if (!strcmp(name, "vtx_uv")) return NZ((size_t)g->vertex_count * 2 * sizeof(float));
     if (!strcmp(name, "vtx_uv1")) return NZ(g->vtx_uv1 ? (size_t)g->vertex_count * 2 * sizeof(float) : 0);
     if (!strcmp(name, "vtx_color")) return NZ(g->vtx_color ? (size_t)g->vertex_count * 4 * sizeof(float) : 0);
+    if (!strcmp(name, "vtx_tangent"))
+        return NZ(g->vtx_tangent ? (size_t)g->vertex_count * 4 * sizeof(float) : 0);
     if (!strcmp(name, "materials")) return NZ((size_t)g->material_count * sizeof(GpuMaterial));
     if (!strcmp(name, "spectra")) return NZ((size_t)g->spectra_count * sizeof(float));
     if (!strcmp(name, "textures")) return NZ((size_t)g->texture_count * sizeof(GpuTexture));
@@ -613,6 +627,7 @@ const void *gpu_scene_buffer_data(const GpuScene *g, const RenderLights *L, cons
     if (!strcmp(name, "vtx_uv")) return g->vtx_uv;
     if (!strcmp(name, "vtx_uv1")) return g->vtx_uv1;
     if (!strcmp(name, "vtx_color")) return g->vtx_color;
+    if (!strcmp(name, "vtx_tangent")) return g->vtx_tangent;
     if (!strcmp(name, "materials")) return g->materials;
     if (!strcmp(name, "spectra")) return g->spectra;
     if (!strcmp(name, "textures")) return g->textures;

@@ -88,6 +88,7 @@ void scene_free(Scene *s)
     free(s->vtx_uv);
     free(s->vtx_uv1);
     free(s->vtx_color);
+    free(s->vtx_tangent);
     for (uint32_t i = 0; i < s->material_count; i++) {
         spd_free(&s->materials[i].reflectance_spd);
         spd_free(&s->materials[i].emission_spd);
