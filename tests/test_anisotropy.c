@@ -468,6 +468,38 @@ static void highlight_moments(const Film *f, double *ixx, double *iyy, double *i
     *ixy = sxy / s;
 }
 
+/* The highlight of an anisotropic white metal plane (dt_plane_scene, roughness
+ * 0.25, strength 0.9, anisotropyRotation rot) under a point light next to the
+ * camera: its moments (highlight_moments). tangent_w 0: no TANGENT (the
+ * texture coordinates' frame); else TANGENT along +z with that w. */
+static void aniso_highlight(double rot, float tangent_w, double *ixx, double *iyy, double *ixy)
+{
+    Scene s;
+    SceneMaterial *m = dt_plane_scene(&s);
+    m->metallic = 1.0f;
+    m->base_color[0] = m->base_color[1] = m->base_color[2] = 1.0f;
+    m->roughness = 0.25f;
+    m->anisotropy = 0.9f;
+    m->anisotropy_rotation = (float)rot;
+    if (tangent_w != 0.0f) {
+        s.vtx_tangent = calloc((size_t)s.vertex_count * 4, sizeof(float));
+        for (uint32_t v = 0; v < s.vertex_count; v++) {
+            s.vtx_tangent[4 * v + 2] = 1.0f;
+            s.vtx_tangent[4 * v + 3] = tangent_w;
+        }
+    }
+    add_point_light(&s, 1.0f, 10.0f);
+    RenderSettings rs = square_settings(32, 16, 2, 3);
+    rs.env_intensity = 0.0f;
+    Film f;
+    render_film_ok(&s, &rs, &f);
+    highlight_moments(&f, ixx, iyy, ixy);
+    print_message("  rotation %.3f, TANGENT w %+.0f: highlight extent x %.2f, y %.2f, xy %.2f pixels^2\n", rot,
+                  tangent_w, *ixx, *iyy, *ixy);
+    film_free(&f);
+    scene_free(&s);
+}
+
 /* An anisotropic white metal plane under a point light next to the camera: the
  * highlight stretches along the texture's u (the tangent, image x) at
  * rotation 0, along v (image y) at rotation pi/2, and at pi/4 counter-clockwise
@@ -478,25 +510,8 @@ TEST(test_aniso_render_rotation)
 {
     const double rot[3] = {0.0, 0.5 * M_PI, 0.25 * M_PI};
     double ixx[3], iyy[3], ixy[3];
-    for (int k = 0; k < 3; k++) {
-        Scene s;
-        SceneMaterial *m = dt_plane_scene(&s);
-        m->metallic = 1.0f;
-        m->base_color[0] = m->base_color[1] = m->base_color[2] = 1.0f;
-        m->roughness = 0.25f;
-        m->anisotropy = 0.9f;
-        m->anisotropy_rotation = (float)rot[k];
-        add_point_light(&s, 1.0f, 10.0f);
-        RenderSettings rs = square_settings(32, 16, 2, 3);
-        rs.env_intensity = 0.0f;
-        Film f;
-        render_film_ok(&s, &rs, &f);
-        highlight_moments(&f, &ixx[k], &iyy[k], &ixy[k]);
-        print_message("  rotation %.3f: highlight extent x %.2f, y %.2f, xy %.2f pixels^2\n", rot[k], ixx[k],
-                      iyy[k], ixy[k]);
-        film_free(&f);
-        scene_free(&s);
-    }
+    for (int k = 0; k < 3; k++)
+        aniso_highlight(rot[k], 0.0f, &ixx[k], &iyy[k], &ixy[k]);
     assert_true(ixx[0] > 2.0 * iyy[0]);
     assert_true(iyy[1] > 2.0 * ixx[1]);
     assert_true(ixy[2] < -0.5 * sqrt(ixx[2] * iyy[2]));
@@ -580,30 +595,8 @@ TEST(test_tangent_loaded)
 TEST(test_tangent_render)
 {
     double ixx[3], iyy[3], ixy[3];
-    for (int k = 0; k < 3; k++) {
-        Scene s;
-        SceneMaterial *m = dt_plane_scene(&s);
-        m->metallic = 1.0f;
-        m->base_color[0] = m->base_color[1] = m->base_color[2] = 1.0f;
-        m->roughness = 0.25f;
-        m->anisotropy = 0.9f;
-        m->anisotropy_rotation = k == 0 ? 0.0f : (float)(0.25 * M_PI);
-        s.vtx_tangent = calloc((size_t)s.vertex_count * 4, sizeof(float));
-        for (uint32_t v = 0; v < s.vertex_count; v++) {
-            s.vtx_tangent[4 * v + 2] = 1.0f;
-            s.vtx_tangent[4 * v + 3] = k == 2 ? -1.0f : 1.0f;
-        }
-        add_point_light(&s, 1.0f, 10.0f);
-        RenderSettings rs = square_settings(32, 16, 2, 3);
-        rs.env_intensity = 0.0f;
-        Film f;
-        render_film_ok(&s, &rs, &f);
-        highlight_moments(&f, &ixx[k], &iyy[k], &ixy[k]);
-        print_message("  TANGENT +z, w %+.0f, rotation %s: extent x %.2f, y %.2f, xy %.2f pixels^2\n",
-                      k == 2 ? -1.0 : 1.0, k ? "pi/4" : "0", ixx[k], iyy[k], ixy[k]);
-        film_free(&f);
-        scene_free(&s);
-    }
+    for (int k = 0; k < 3; k++)
+        aniso_highlight(k == 0 ? 0.0 : 0.25 * M_PI, k == 2 ? -1.0f : 1.0f, &ixx[k], &iyy[k], &ixy[k]);
     assert_true(iyy[0] > 2.0 * ixx[0]);
     assert_true(fabs(ixy[1]) > 0.5 * sqrt(ixx[1] * iyy[1]));
     assert_true(ixy[1] * ixy[2] < 0.0);

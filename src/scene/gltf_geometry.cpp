@@ -50,25 +50,23 @@ int Loader::read_primitive(int mi, int pi)
             return rc;
         size_t nv = m.accessors[pit->second].count;
         if (nv > UINT32_MAX) return bad("%s: more than 2^32 vertices", o);
-        auto nit = p.attributes.find("NORMAL");
-        if (nit != p.attributes.end()) {
-            if ((rc = check_accessor(nit->second, obj + ".attributes.NORMAL", 3, nrm_types,
-                                     quantization ? 1 : 0, &zeros)))
+        // NORMAL (VEC3) and TANGENT (VEC4, glTF 2.0 3.7.2.1): floats, or with
+        // KHR_mesh_quantization normalised signed bytes or shorts.
+        auto nit = p.attributes.find("NORMAL"), tit = p.attributes.find("TANGENT");
+        const struct {
+            decltype(nit) it;
+            const char *name;
+            int ncomp;
+        } dirs[2] = {{nit, "NORMAL", 3}, {tit, "TANGENT", 4}};
+        for (const auto &d : dirs) {
+            if (d.it == p.attributes.end()) continue;
+            int a = d.it->second;
+            if ((rc = check_accessor(a, obj + ".attributes." + d.name, d.ncomp, nrm_types, quantization ? 1 : 0,
+                                     &zeros)))
                 return rc;
-            if (m.accessors[nit->second].count != nv)
-                return bad("%s.attributes.NORMAL (accessors[%d]): count %zu differs from POSITION's %zu",
-                           o, nit->second, m.accessors[nit->second].count, nv);
-        }
-        // TANGENT: VEC4 of floats (or, with KHR_mesh_quantization, normalised
-        // signed bytes or shorts), glTF 2.0 3.7.2.1.
-        auto tit = p.attributes.find("TANGENT");
-        if (tit != p.attributes.end()) {
-            if ((rc = check_accessor(tit->second, obj + ".attributes.TANGENT", 4, nrm_types,
-                                     quantization ? 1 : 0, &zeros)))
-                return rc;
-            if (m.accessors[tit->second].count != nv)
-                return bad("%s.attributes.TANGENT (accessors[%d]): count %zu differs from POSITION's %zu",
-                           o, tit->second, m.accessors[tit->second].count, nv);
+            if (m.accessors[a].count != nv)
+                return bad("%s.attributes.%s (accessors[%d]): count %zu differs from POSITION's %zu", o, d.name,
+                           a, m.accessors[a].count, nv);
         }
         // TEXCOORD_0, TEXCOORD_1 and COLOR_0 (VEC3 or VEC4 of floats or normalised
         // unsigned bytes or shorts, glTF 2.0 3.7.2.1).
