@@ -10,7 +10,7 @@
 
 #include "chi2.h"
 #include "sheen_spec.h"
-#include "closure/bsdf.h"
+#include "bsdf_test.h"
 
 /* Chi-square tests expected to pass in this binary, for the Sidak correction. */
 #define BSDF_CHI2_TESTS 15
@@ -21,21 +21,6 @@ static vec3 dir_deg(double theta)
 {
     double t = theta * M_PI / 180.0;
     return v3((float)sin(t), 0.0f, (float)cos(t));
-}
-
-/* A material with the given parts; ior 1.5 at every wavelength. */
-static BsdfParams make_params(float base, float metallic, float roughness, float transmission)
-{
-    BsdfParams p;
-    memset(&p, 0, sizeof p);
-    p.base = v4_splat(base);
-    p.ior = v4_splat(1.5f);
-    p.metallic = metallic;
-    p.roughness = roughness;
-    p.transmission = transmission;
-    p.spec_tint = v4_splat(1.0f);
-    p.specular = 1.0f;
-    return p;
 }
 
 /* ---- Fresnel ------------------------------------------------------------------ */
@@ -229,31 +214,6 @@ TEST(test_vndf_chi2)
         }
 }
 
-typedef struct MatCtx {
-    BsdfParams p;
-    vec3 wo;
-    uint32_t stream;
-} MatCtx;
-
-static int mat_sample(void *ctx, uint32_t i, double p[3])
-{
-    MatCtx *c = ctx;
-    uint64_t b = ((uint64_t)c->stream << 40) + 3u * (uint64_t)i;
-    BsdfSample s = bsdf_sample(&c->p, c->wo, test_uniform(b), test_uniform(b + 1), test_uniform(b + 2));
-    if (!s.valid)
-        return 0;
-    p[0] = s.wi.x;
-    p[1] = s.wi.y;
-    p[2] = s.wi.z;
-    return 1;
-}
-
-static double mat_pdf(void *ctx, const double p[3])
-{
-    MatCtx *c = ctx;
-    return bsdf_pdf(&c->p, c->wo, v3((float)p[0], (float)p[1], (float)p[2]));
-}
-
 static void run_mat_chi2(const char *what, BsdfParams p, vec3 wo, uint32_t stream)
 {
     MatCtx c = {p, wo, stream};
@@ -375,23 +335,6 @@ TEST(test_sheen_table)
             print_message("  E(mu %.2f, r %.2f): table %.4f, integrated %.4f\n", mus[i], rs[j], got, want);
             assert_close(got, want, 0.02 * want + 0.003);
         }
-}
-
-/* Monte Carlo directional albedo of p at wo and its standard error (hero
- * wavelength). */
-static double albedo_err(const BsdfParams *p, vec3 wo, uint32_t n, uint32_t stream, double *err)
-{
-    double sum = 0.0, sum2 = 0.0;
-    for (uint32_t i = 0; i < n; i++) {
-        uint64_t b = ((uint64_t)stream << 40) + 3u * (uint64_t)i;
-        BsdfSample s = bsdf_sample(p, wo, test_uniform(b), test_uniform(b + 1), test_uniform(b + 2));
-        double w = s.valid ? s.weight.x : 0.0;
-        sum += w;
-        sum2 += w * w;
-    }
-    double m = sum / n;
-    *err = sqrt(fmax(sum2 / n - m * m, 0.0) / n);
-    return m;
 }
 
 /* White furnaces of each layer: what a layer and what is under it reflect never
@@ -630,6 +573,10 @@ static const char *k_device_src =
     "    p.cc_n = normalize((float3)(0.2f * q[5], -0.1f, 1.0f));\n"
     "    p.sheen_max = (i % 7 == 3) ? q[6] : 0.0f; p.sheen = (float4)(p.sheen_max, 0.5f * p.sheen_max, 0.1f, 0.0f);\n"
     "    p.sheen_roughness = q[5];\n"
+    "    p.aniso = (i % 5 == 2) ? q[7] : 0.0f; p.aniso_t = normalize((float3)(q[4] - 0.5f, q[5] - 0.5f, 0.0f));\n"
+    "    p.diffuse_transmission = (i % 3 == 1) ? q[4] : 0.0f; p.dt_color = (float4)(0.9f, q[6], 0.3f, 1.0f);\n"
+    "    p.iridescence = (i % 11 == 4) ? q[5] : 0.0f; p.film_ior = 1.3f; p.film_nm = 100.0f + 400.0f * q[6];\n"
+    "    p.lambda = (float4)(400.0f + q[3] * 400.0f, 500.0f, 600.0f, 700.0f);\n"
     "    if (i % 4 == 1) bsdf_set_conductor(&p, i % 3, 400.0f + q[3] * 400.0f, 500.0f, 600.0f, 700.0f);\n"
     "    float3 wo = normalize((float3)(q[0], q[1], q[2]));\n"
     "    BsdfSample s = bsdf_sample(&p, wo, q[3], q[4], q[5]);\n"
@@ -678,6 +625,14 @@ TEST(test_device_matches_host)
         p.sheen_max = (i % 7 == 3) ? q[6] : 0.0f;
         p.sheen = v4(p.sheen_max, 0.5f * p.sheen_max, 0.1f, 0.0f);
         p.sheen_roughness = q[5];
+        p.aniso = (i % 5 == 2) ? q[7] : 0.0f;
+        p.aniso_t = v3_normalize(v3(q[4] - 0.5f, q[5] - 0.5f, 0.0f));
+        p.diffuse_transmission = (i % 3 == 1) ? q[4] : 0.0f;
+        p.dt_color = v4(0.9f, q[6], 0.3f, 1.0f);
+        p.iridescence = (i % 11 == 4) ? q[5] : 0.0f;
+        p.film_ior = 1.3f;
+        p.film_nm = 100.0f + 400.0f * q[6];
+        p.lambda = v4(400.0f + q[3] * 400.0f, 500.0f, 600.0f, 700.0f);
         if (i % 4 == 1)
             bsdf_set_conductor(&p, i % 3, 400.0f + q[3] * 400.0f, 500.0f, 600.0f, 700.0f);
         vec3 wo = v3_normalize(v3(q[0], q[1], q[2]));

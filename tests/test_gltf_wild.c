@@ -132,7 +132,9 @@ TEST(test_spec_gloss_and_ignored)
     assert_close(s.materials[5].iridescence_max_nm, 400, 1e-6);
     assert_close(s.materials[6].iridescence, 0, 0);
     assert_int_equal(count_warnings(err, "KHR_materials_iridescence", NULL), 0);
-    assert_int_equal(count_warnings(err, "KHR_materials_anisotropy", "brushed"), 1);
+    /* KHR_materials_anisotropy is rendered: its strength is read, no warning. */
+    assert_close(s.materials[6].anisotropy, 0.5, 1e-6);
+    assert_int_equal(count_warnings(err, "KHR_materials_anisotropy", NULL), 0);
     /* KHR_materials_specular is rendered: its factor is read, no warning. */
     assert_close(s.materials[4].specular, 0.5, 1e-6);
     for (int k = 0; k < 3; k++) assert_close(s.materials[4].specular_color[k], 1, 1e-6);
@@ -142,21 +144,35 @@ TEST(test_spec_gloss_and_ignored)
     scene_free(&s);
 }
 
+/* KHR_texture_basisu in extensionsUsed: one warning naming it and what
+ * rendering it would need, and it is not among the unknown extensions. */
+TEST(test_basisu_named)
+{
+    const char *json = "{\"asset\":{\"version\":\"2.0\"},\"extensionsUsed\":[\"KHR_texture_basisu\","
+                       "\"EXT_foo\"]}";
+    Scene s;
+    const char *err = load_capture(&s, "tests/data/gltf/basisu.gltf", json);
+    assert_int_equal(count_warnings(err, "KHR_texture_basisu is not rendered", "transcoder"), 1);
+    assert_int_equal(count_warnings(err, "not supported", "EXT_foo"), 1);
+    assert_int_equal(count_warnings(err, "not supported", "KHR_texture_basisu"), 0);
+    scene_free(&s);
+}
+
 /* A file that requires an ignored or unknown extension: one error line naming
  * all of them and none of the supported ones. */
 TEST(test_required_refused)
 {
     const char *json =
-        "{\"asset\":{\"version\":\"2.0\"},\"extensionsUsed\":[\"KHR_materials_anisotropy\","
+        "{\"asset\":{\"version\":\"2.0\"},\"extensionsUsed\":[\"KHR_materials_volume_scatter\","
         "\"KHR_texture_transform\",\"EXT_foo\",\"EXT_meshopt_compression\"],"
-        "\"extensionsRequired\":[\"KHR_materials_anisotropy\",\"KHR_texture_transform\","
+        "\"extensionsRequired\":[\"KHR_materials_volume_scatter\",\"KHR_texture_transform\","
         "\"EXT_foo\",\"EXT_meshopt_compression\"]}";
     Scene s;
     SptError e = {0};
     int rc = scene_load_gltf_memory(&s, json, strlen(json), "tests/data/gltf/req.gltf", &e);
     assert_int_equal(rc, SPT_EXIT_INPUT);
     assert_non_null(strstr(e.msg, "extensionsRequired"));
-    assert_non_null(strstr(e.msg, "KHR_materials_anisotropy"));
+    assert_non_null(strstr(e.msg, "KHR_materials_volume_scatter"));
     assert_non_null(strstr(e.msg, "EXT_foo"));
     assert_null(strstr(e.msg, "KHR_texture_transform"));
     assert_null(strstr(e.msg, "EXT_meshopt"));
@@ -168,7 +184,8 @@ TEST(test_required_refused)
         "\"KHR_materials_volume\",\"KHR_materials_unlit\",\"KHR_lights_punctual\","
         "\"KHR_texture_transform\",\"KHR_materials_pbrSpecularGlossiness\",\"KHR_mesh_quantization\","
         "\"EXT_meshopt_compression\",\"KHR_draco_mesh_compression\",\"EXT_texture_webp\","
-        "\"KHR_materials_specular\",\"KHR_materials_clearcoat\",\"KHR_materials_sheen\"]}";
+        "\"KHR_materials_specular\",\"KHR_materials_clearcoat\",\"KHR_materials_sheen\","
+        "\"KHR_materials_anisotropy\",\"KHR_materials_diffuse_transmission\"]}";
     /* A file requiring only handled extensions loads, none called not supported. */
     assert_null(strstr(load_capture(&s, "tests/data/gltf/all.gltf", all), "not supported"));
     scene_free(&s);

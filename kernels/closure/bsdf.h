@@ -27,6 +27,11 @@
  *  - KHR_materials_sheen over that base (closure/lobe_sheen.h): the "Charlie"
  *    lobe in the sheen colour, the base scaled by 1 - max3(sheen colour)
  *    max(E(mu_o), E(mu_i)), E the lobe's directional albedo.
+ *  - KHR_materials_anisotropy: the specular lobe is the anisotropic GGX
+ *    (closure/lobe_specular.h) about the anisotropy direction.
+ *  - KHR_materials_diffuse_transmission: 1 - factor of the Lambertian base
+ *    stays diffuse reflection, factor of it is Lambertian transmission in the
+ *    transmission colour (closure/lobe_diffuse_transmission.h).
  *  - KHR_materials_clearcoat on top (closure/lobe_coat.h): a second GGX lobe about
  *    the coat's own normal, weighted clearcoat Fc, the layers under it
  *    1 - clearcoat Fc. Light crossing the layers into a transmissive base is
@@ -35,7 +40,8 @@
  * One file per lobe, each with its selection weight, f |cos|, pdf and sampling
  * side by side: closure/lobe_diffuse.h, lobe_specular.h (metal and the
  * dielectric's specular layer), lobe_transmission.h (the dielectric interface,
- * smooth and rough), lobe_coat.h, lobe_sheen.h; their building blocks (Fresnel,
+ * smooth and rough), lobe_coat.h, lobe_sheen.h,
+ * lobe_diffuse_transmission.h; their building blocks (Fresnel,
  * refraction, GGX) in closure/bsdf_microfacet.h. This file composes them into
  * the glTF material: the lobes' selection probabilities, the layering (coat
  * over sheen over the base) and the one-sample MIS over the lobes
@@ -53,6 +59,7 @@
 #include "closure/lobe_transmission.h"
 #include "closure/lobe_coat.h"
 #include "closure/lobe_sheen.h"
+#include "closure/lobe_diffuse_transmission.h"
 
 /* The lobes, in the order bsdf_sample's u0 walks their probabilities (the
  * order is part of the images: a sample's lobe depends on it). */
@@ -61,6 +68,7 @@ enum {
     BSDF_LOBE_SPECULAR,
     BSDF_LOBE_COAT,
     BSDF_LOBE_SHEEN,
+    BSDF_LOBE_DIFFUSE_TRANSMISSION,
     BSDF_LOBE_DIFFUSE,
     BSDF_LOBES
 };
@@ -77,6 +85,7 @@ SPT_FN void bsdf_lobe_probs(const BsdfParams *p, vec3 wo, float pr[BSDF_LOBES])
     pr[BSDF_LOBE_TRANSMISSION] = bsdf_transmission_weight(p);
     pr[BSDF_LOBE_COAT] = 0.0f;
     pr[BSDF_LOBE_SHEEN] = 0.0f;
+    pr[BSDF_LOBE_DIFFUSE_TRANSMISSION] = bsdf_dt_weight(p, wo);
     if (wo.z > 0.0f && (bsdf_has_coat(p) || bsdf_has_sheen(p))) {
         float wc = bsdf_coat_weight(p, wo);
         float e = bsdf_sheen_e(p, wo);
@@ -86,10 +95,11 @@ SPT_FN void bsdf_lobe_probs(const BsdfParams *p, vec3 wo, float pr[BSDF_LOBES])
         pr[BSDF_LOBE_SPECULAR] *= under;
         pr[BSDF_LOBE_DIFFUSE] *= under;
         pr[BSDF_LOBE_TRANSMISSION] *= under;
+        pr[BSDF_LOBE_DIFFUSE_TRANSMISSION] *= under;
     }
     /* Summed in this order (its rounding is part of the images). */
     float sum = pr[BSDF_LOBE_SPECULAR] + pr[BSDF_LOBE_DIFFUSE] + pr[BSDF_LOBE_TRANSMISSION] + pr[BSDF_LOBE_COAT] +
-                pr[BSDF_LOBE_SHEEN];
+                pr[BSDF_LOBE_SHEEN] + pr[BSDF_LOBE_DIFFUSE_TRANSMISSION];
     for (int i = 0; i < BSDF_LOBES; i++)
         pr[i] = sum <= 0.0f ? (i == BSDF_LOBE_DIFFUSE ? 1.0f : 0.0f) : pr[i] / sum;
 }
@@ -117,31 +127,33 @@ SPT_FN int bsdf_pick_lobe(const float pr[BSDF_LOBES], float u0, float *ur)
  * base is smooth, the coat when it is. */
 SPT_FN int bsdf_lobe_is_delta(const BsdfParams *p, int i)
 {
-    if (i == BSDF_LOBE_TRANSMISSION || i == BSDF_LOBE_SPECULAR)
+    if (i == BSDF_LOBE_TRANSMISSION)
         return bsdf_base_smooth(p);
+    if (i == BSDF_LOBE_SPECULAR)
+        return bsdf_specular_smooth(p);
     return i == BSDF_LOBE_COAT && bsdf_has_coat(p) && bsdf_coat_smooth(p);
 }
 
-/* Whether every lobe of the material is a delta (smooth, no diffuse, no sheen,
- * no rough coat): light sampling is then useless and MIS must not be applied. */
+/* Whether every lobe of the material is a delta (smooth, no anisotropy, no
+ * diffuse, no sheen, no rough coat): light sampling is then useless and MIS must not be applied. */
 SPT_FN int bsdf_is_delta(const BsdfParams *p)
 {
     float m = bsdf_metallic(p);
     float t = bsdf_transmission(p);
     int no_diffuse = m >= 1.0f || t >= 1.0f;
-    return bsdf_roughness_is_delta(p->roughness) && no_diffuse && !bsdf_has_sheen(p) &&
+    return bsdf_roughness_is_delta(p->roughness) && !bsdf_has_aniso(p) && no_diffuse && !bsdf_has_sheen(p) &&
            (!bsdf_has_coat(p) || bsdf_coat_smooth(p));
 }
 
-/* Whether the material is Lambert's alone: no metal, no transmission and no
- * specular layer, so every other lobe has weight 0 and bsdf_eval, bsdf_pdf and
+/* Whether the material is Lambert's alone: no metal, no transmission, no
+ * diffuse transmission and no specular layer, so every other lobe has weight 0 and bsdf_eval, bsdf_pdf and
  * bsdf_sample reduce to base cos / pi, cos / pi and a cosine sample. They take
  * that shortcut, which gives the same floats as the general arithmetic: the
  * diffuse factor is base * 1 * 1 and the diffuse lobe's probability wd / wd = 1. */
 SPT_FN int bsdf_is_lambert(const BsdfParams *p)
 {
     return p->specular == 0.0f && !(p->metallic > 0.0f) && !(p->transmission > 0.0f) &&
-           !bsdf_has_coat(p) && !bsdf_has_sheen(p);
+           !bsdf_has_coat(p) && !bsdf_has_sheen(p) && !bsdf_has_dt(p);
 }
 
 SPT_FN int bsdf_is_layered(const BsdfParams *p) { return bsdf_has_coat(p) || bsdf_has_sheen(p); }
@@ -193,6 +205,7 @@ SPT_FN vec4 bsdf_eval(const BsdfParams *p, vec3 wo, vec3 wi)
     bsdf_diffuse_eval(p, wo, wi, &f);
     bsdf_specular_eval(p, wo, wi, &f);
     bsdf_transmission_eval(p, wo, wi, &f);
+    bsdf_dt_eval(p, wo, wi, &f);
     if (!bsdf_is_layered(p))
         return f;
     f = v4_mul(f, bsdf_layer_scale(p, wo, wi));
@@ -217,6 +230,7 @@ SPT_FN float bsdf_pdf(const BsdfParams *p, vec3 wo, vec3 wi)
     pdf += bsdf_sheen_pdf(wo, wi, pr[BSDF_LOBE_SHEEN]);
     pdf += bsdf_transmission_pdf(p, wo, wi, pr[BSDF_LOBE_TRANSMISSION]);
     pdf += bsdf_coat_pdf(p, wo, wi, pr[BSDF_LOBE_COAT]);
+    pdf += bsdf_dt_pdf(wo, wi, pr[BSDF_LOBE_DIFFUSE_TRANSMISSION]);
     return pdf;
 }
 
@@ -265,6 +279,9 @@ SPT_FN BsdfSample bsdf_sample(const BsdfParams *p, vec3 wo, float u0, float u1, 
         break;
     case BSDF_LOBE_SHEEN:
         got = bsdf_sheen_sample(wo, u1, u2, &s);
+        break;
+    case BSDF_LOBE_DIFFUSE_TRANSMISSION:
+        got = bsdf_dt_sample(wo, u1, u2, &s);
         break;
     default:
         got = bsdf_diffuse_sample(wo, u1, u2, &s);

@@ -1,8 +1,9 @@
 /* The building blocks of the lobes of kernels/closure/: small helpers (alpha,
  * reflection, refraction, the dielectric and conductor Fresnel equations,
- * Schlick, the dispersion law, measured conductors) and the isotropic GGX
- * microfacet distribution with visible-normal sampling (Heitz 2018, "Sampling
- * the GGX Distribution of Visible Normals", JCGT 7(4)). */
+ * Schlick, the dispersion law, measured conductors) and the GGX microfacet
+ * distribution, isotropic and anisotropic (Heitz 2014, "Understanding the
+ * Masking-Shadowing Function", section 5.2), with visible-normal sampling
+ * (Heitz 2018, "Sampling the GGX Distribution of Visible Normals", JCGT 7(4)). */
 #ifndef SPT_BSDF_MICROFACET_H
 #define SPT_BSDF_MICROFACET_H
 
@@ -175,11 +176,64 @@ SPT_FN float bsdf_ggx_vndf_pdf(vec3 wo, vec3 h, float alpha)
     return bsdf_ggx_g1(wo, alpha) * c * bsdf_ggx_d(h, alpha) / wo.z;
 }
 
-/* A microfacet normal distributed as the visible normals of wo (wo.z > 0), from two
- * uniforms in [0, 1) (Heitz 2018, Listing 1, isotropic alpha). */
-SPT_FN vec3 bsdf_ggx_sample_vndf(vec3 wo, float alpha, float u1, float u2)
+/* ---- GGX microfacet distribution (anisotropic) ---------------------------------- */
+
+/* KHR_materials_anisotropy's roughnesses for perceptual roughness r and
+ * anisotropy strength s: alpha_t = mix(r^2, 1, s^2) along the anisotropy
+ * direction (the local x axis of these functions), alpha_b = r^2 across it,
+ * both clamped to BSDF_MIN_ALPHA from below. */
+SPT_FN void bsdf_aniso_alphas(float roughness, float s, float *at, float *ab)
 {
-    vec3 vh = v3_normalize(v3(alpha * wo.x, alpha * wo.y, wo.z));
+    float a = roughness * roughness;
+    *at = fmaxf(a + (1.0f - a) * (s * s), BSDF_MIN_ALPHA);
+    *ab = fmaxf(a, BSDF_MIN_ALPHA);
+}
+
+/* Anisotropic GGX D(h) = 1 / (pi ax ay ((h.x/ax)^2 + (h.y/ay)^2 + h.z^2)^2)
+ * (Heitz 2014, eq. 85), for unit h with h.z > 0; ax along x, ay along y. */
+SPT_FN float bsdf_ggx_d_aniso(vec3 h, float ax, float ay)
+{
+    if (h.z <= 0.0f)
+        return 0.0f;
+    float x = h.x / ax, y = h.y / ay;
+    float t = x * x + y * y + h.z * h.z;
+    return 1.0f / (SPT_PI * ax * ay * t * t);
+}
+
+/* Smith Lambda of the anisotropic GGX (Heitz 2014, eq. 86):
+ * (-1 + sqrt(1 + (ax^2 w.x^2 + ay^2 w.y^2) / w.z^2)) / 2. */
+SPT_FN float bsdf_ggx_lambda_aniso(vec3 w, float ax, float ay)
+{
+    float c2 = w.z * w.z;
+    if (c2 <= 0.0f)
+        return 1e30f;
+    float t = (ax * ax * w.x * w.x + ay * ay * w.y * w.y) / c2;
+    return 0.5f * (-1.0f + sqrtf(1.0f + t));
+}
+
+/* Height-correlated G2 of the anisotropic GGX (Heitz 2014, eq. 99). */
+SPT_FN float bsdf_ggx_g2_aniso(vec3 wo, vec3 wi, float ax, float ay)
+{
+    return 1.0f / (1.0f + bsdf_ggx_lambda_aniso(wo, ax, ay) + bsdf_ggx_lambda_aniso(wi, ax, ay));
+}
+
+/* Density of visible normals of the anisotropic GGX (Heitz 2018, eq. 3), per
+ * steradian of h, for wo.z > 0. */
+SPT_FN float bsdf_ggx_vndf_pdf_aniso(vec3 wo, vec3 h, float ax, float ay)
+{
+    float c = v3_dot(wo, h);
+    if (wo.z <= 0.0f || c <= 0.0f)
+        return 0.0f;
+    float g1 = 1.0f / (1.0f + bsdf_ggx_lambda_aniso(wo, ax, ay));
+    return g1 * c * bsdf_ggx_d_aniso(h, ax, ay) / wo.z;
+}
+
+/* A microfacet normal distributed as the visible normals of wo (wo.z > 0) of
+ * the GGX with roughnesses ax along x and ay along y, from two uniforms in
+ * [0, 1) (Heitz 2018, Listing 1). */
+SPT_FN vec3 bsdf_ggx_sample_vndf_aniso(vec3 wo, float ax, float ay, float u1, float u2)
+{
+    vec3 vh = v3_normalize(v3(ax * wo.x, ay * wo.y, wo.z));
     float lensq = vh.x * vh.x + vh.y * vh.y;
     vec3 t1 = lensq > 0.0f ? v3_scale(v3(-vh.y, vh.x, 0.0f), 1.0f / sqrtf(lensq)) : v3(1.0f, 0.0f, 0.0f);
     vec3 t2 = v3_cross(vh, t1);
@@ -189,7 +243,13 @@ SPT_FN vec3 bsdf_ggx_sample_vndf(vec3 wo, float alpha, float u1, float u2)
     p2 = (1.0f - s) * sqrtf(fmaxf(0.0f, 1.0f - p1 * p1)) + s * p2;
     vec3 nh = v3_add(v3_add(v3_scale(t1, p1), v3_scale(t2, p2)),
                      v3_scale(vh, sqrtf(fmaxf(0.0f, 1.0f - p1 * p1 - p2 * p2))));
-    return v3_normalize(v3(alpha * nh.x, alpha * nh.y, fmaxf(1e-7f, nh.z)));
+    return v3_normalize(v3(ax * nh.x, ay * nh.y, fmaxf(1e-7f, nh.z)));
+}
+
+/* The isotropic case of bsdf_ggx_sample_vndf_aniso (the same floats). */
+SPT_FN vec3 bsdf_ggx_sample_vndf(vec3 wo, float alpha, float u1, float u2)
+{
+    return bsdf_ggx_sample_vndf_aniso(wo, alpha, alpha, u1, u2);
 }
 
 #endif

@@ -41,6 +41,13 @@ typedef struct BsdfParams {
     float iridescence;  /* iridescenceFactor x texture R, 0..1: the film's share of the Fresnel */
     float film_ior;     /* iridescenceIor */
     float film_nm;      /* the film's thickness in nm */
+    /* KHR_materials_anisotropy (aniso 0: the isotropic GGX). */
+    float aniso;        /* anisotropy strength x texture B, 0..1 */
+    vec3 aniso_t;       /* the anisotropy direction: unit, in this local frame (z 0);
+                           material_bsdf leaves it in texture tangent space */
+    /* KHR_materials_diffuse_transmission (diffuse_transmission 0: none). */
+    float diffuse_transmission; /* factor x texture A, 0..1 */
+    vec4 dt_color;      /* diffuseTransmissionColor per wavelength */
 } BsdfParams;
 
 /* Outcome of bsdf_sample. */
@@ -70,6 +77,15 @@ SPT_FN float bsdf_transmission(const BsdfParams *p) { return fminf(fmaxf(p->tran
 SPT_FN int bsdf_base_smooth(const BsdfParams *p) { return bsdf_roughness_is_delta(p->roughness); }
 
 SPT_FN int bsdf_has_coat(const BsdfParams *p) { return p->clearcoat > 0.0f; }
+SPT_FN int bsdf_has_aniso(const BsdfParams *p) { return p->aniso > 0.0f; }
+SPT_FN int bsdf_has_dt(const BsdfParams *p) { return p->diffuse_transmission > 0.0f; }
+
+/* Whether the specular reflection lobe is a mirror: a smooth base without
+ * anisotropy (which widens the lobe along its direction, docs/gltf.md). */
+SPT_FN int bsdf_specular_smooth(const BsdfParams *p) { return bsdf_base_smooth(p) && !bsdf_has_aniso(p); }
+
+/* The diffuse transmission factor, clamped to [0, 1]. */
+SPT_FN float bsdf_dt(const BsdfParams *p) { return fminf(fmaxf(p->diffuse_transmission, 0.0f), 1.0f); }
 SPT_FN int bsdf_has_sheen(const BsdfParams *p) { return p->sheen_max > 0.0f; }
 
 /* KHR_materials_iridescence: the base's Fresnel f at cosine c mixed with the

@@ -12,16 +12,18 @@
 #include "sample/sampling.h"
 
 /* The diffuse lobe's factor per wavelength, without 1/pi: (1-m)(1-t)(1 - F_dielectric)
- * base (glTF fresnel_mix). */
+ * base (glTF fresnel_mix), times 1 - the diffuse transmission factor (which
+ * closure/lobe_diffuse_transmission.h takes; 1 - 0 is exact, so the floats of a
+ * material without it are unchanged). */
 SPT_FN vec4 bsdf_diffuse_factor(const BsdfParams *p, float c)
 {
     float m = bsdf_metallic(p);
     float t = bsdf_transmission(p);
     vec4 one_minus = v4_sub(v4_splat(1.0f), bsdf_dielectric_fresnel(p, c));
-    return v4_scale(v4_mul(one_minus, p->base), (1.0f - m) * (1.0f - t));
+    return v4_scale(v4_mul(one_minus, p->base), (1.0f - m) * (1.0f - t) * (1.0f - bsdf_dt(p)));
 }
 
-/* The lobe's unnormalised selection weight at wo: (1-m)(1-t)(1 - F) times the
+/* The lobe's unnormalised selection weight at wo: (1-m)(1-t)(1 - F)(1 - dt) times the
  * base's mean, F estimated at wo (bsdf_dielectric_fresnel_mean); 0 from inside. */
 SPT_FN float bsdf_diffuse_weight(const BsdfParams *p, vec3 wo)
 {
@@ -31,7 +33,7 @@ SPT_FN float bsdf_diffuse_weight(const BsdfParams *p, vec3 wo)
     float t = bsdf_transmission(p);
     float fd = bsdf_dielectric_fresnel_mean(p, wo);
     float mean_base = 0.25f * (p->base.x + p->base.y + p->base.z + p->base.w);
-    return (1.0f - m) * (1.0f - t) * (1.0f - fd) * fmaxf(mean_base, 0.0f);
+    return (1.0f - m) * (1.0f - t) * (1.0f - fd) * fmaxf(mean_base, 0.0f) * (1.0f - bsdf_dt(p));
 }
 
 /* Adds f |cos theta_i| to *f: the factor at the half vector's cosine to wo,

@@ -3,7 +3,9 @@
  * Fresnel mixes the metal's (Schlick with F0 = base, or a measured conductor's
  * exact complex Fresnel) and the dielectric's specular layer
  * (bsdf_dielectric_fresnel) by metallic; a mirror (delta lobe) below
- * BSDF_DELTA_ALPHA. Weight, f |cos|, pdf and sampling side by side;
+ * BSDF_DELTA_ALPHA. With KHR_materials_anisotropy the lobe is the anisotropic
+ * GGX (bsdf_aniso_alphas) about the anisotropy direction p->aniso_t, and never
+ * a mirror. Weight, f |cos|, pdf and sampling side by side;
  * kernels/closure/bsdf.h composes the lobes. */
 #ifndef SPT_LOBE_SPECULAR_H
 #define SPT_LOBE_SPECULAR_H
@@ -57,6 +59,30 @@ SPT_FN float bsdf_specular_weight(const BsdfParams *p, vec3 wo)
     return m + (1.0f - m) * (1.0f - t) * fd;
 }
 
+/* w in the anisotropy's frame (x along p->aniso_t, z the normal), and back. */
+SPT_FN vec3 bsdf_to_aniso(const BsdfParams *p, vec3 w)
+{
+    float c = p->aniso_t.x, s = p->aniso_t.y;
+    return v3(c * w.x + s * w.y, c * w.y - s * w.x, w.z);
+}
+
+SPT_FN vec3 bsdf_from_aniso(const BsdfParams *p, vec3 w)
+{
+    float c = p->aniso_t.x, s = p->aniso_t.y;
+    return v3(c * w.x - s * w.y, s * w.x + c * w.y, w.z);
+}
+
+/* The anisotropic lobe's D G2 / (4 wo.z) (f |cos| without Fresnel) and, in
+ * *pdf, its visible-normal density of h over 4 wo.h, h the unit half vector. */
+SPT_FN float bsdf_specular_aniso(const BsdfParams *p, vec3 wo, vec3 wi, vec3 h, float *pdf)
+{
+    float ax, ay;
+    bsdf_aniso_alphas(p->roughness, p->aniso, &ax, &ay);
+    vec3 wo_a = bsdf_to_aniso(p, wo), wi_a = bsdf_to_aniso(p, wi), h_a = bsdf_to_aniso(p, h);
+    *pdf = bsdf_ggx_vndf_pdf_aniso(wo_a, h_a, ax, ay) / (4.0f * v3_dot(wo, h));
+    return bsdf_ggx_d_aniso(h_a, ax, ay) * bsdf_ggx_g2_aniso(wo_a, wi_a, ax, ay) / (4.0f * wo.z);
+}
+
 /* Adds the rough lobe's f |cos theta_i| = F D G2 / (4 wo.z) to *f, both
  * directions outside; nothing when the lobe is a mirror or has no weight (a
  * pure Lambertian). */
@@ -64,12 +90,18 @@ SPT_FN void bsdf_specular_eval(const BsdfParams *p, vec3 wo, vec3 wi, vec4 *f)
 {
     float m = bsdf_metallic(p);
     float t = bsdf_transmission(p);
-    if (!(wo.z > 0.0f && wi.z > 0.0f) || bsdf_base_smooth(p) || !(m > 0.0f || (p->specular > 0.0f && t < 1.0f)))
+    if (!(wo.z > 0.0f && wi.z > 0.0f) || bsdf_specular_smooth(p) ||
+        !(m > 0.0f || (p->specular > 0.0f && t < 1.0f)))
         return;
-    float alpha = bsdf_alpha(p->roughness);
     vec3 h = v3_normalize(v3_add(wo, wi));
     float c = fabsf(v3_dot(wo, h));
-    float spec = bsdf_ggx_d(h, alpha) * bsdf_ggx_g2(wo, wi, alpha) / (4.0f * wo.z);
+    float spec, pd;
+    if (bsdf_has_aniso(p)) {
+        spec = bsdf_specular_aniso(p, wo, wi, h, &pd);
+    } else {
+        float alpha = bsdf_alpha(p->roughness);
+        spec = bsdf_ggx_d(h, alpha) * bsdf_ggx_g2(wo, wi, alpha) / (4.0f * wo.z);
+    }
     *f = v4_add(*f, v4_scale(bsdf_spec_fresnel(p, c), spec));
 }
 
@@ -77,10 +109,15 @@ SPT_FN void bsdf_specular_eval(const BsdfParams *p, vec3 wo, vec3 wi, vec4 *f)
  * density of h over 4 wo.h (the reflection's Jacobian). */
 SPT_FN float bsdf_specular_pdf(const BsdfParams *p, vec3 wo, vec3 wi, float prob)
 {
-    if (!(wo.z > 0.0f && wi.z > 0.0f) || !(prob > 0.0f) || bsdf_base_smooth(p))
+    if (!(wo.z > 0.0f && wi.z > 0.0f) || !(prob > 0.0f) || bsdf_specular_smooth(p))
         return 0.0f;
-    float alpha = bsdf_alpha(p->roughness);
     vec3 h = v3_normalize(v3_add(wo, wi));
+    if (bsdf_has_aniso(p)) {
+        float pd;
+        bsdf_specular_aniso(p, wo, wi, h, &pd);
+        return prob * pd;
+    }
+    float alpha = bsdf_alpha(p->roughness);
     return prob * bsdf_ggx_vndf_pdf(wo, h, alpha) / (4.0f * v3_dot(wo, h));
 }
 
@@ -92,7 +129,7 @@ SPT_FN int bsdf_specular_sample(const BsdfParams *p, vec3 wo, float u1, float u2
 {
     if (wo.z <= 0.0f)
         return BSDF_SAMPLED_NONE;
-    if (bsdf_base_smooth(p)) {
+    if (bsdf_specular_smooth(p)) {
         s->wi = v3(-wo.x, -wo.y, wo.z);
         s->is_delta = 1;
         s->valid = 1;
@@ -100,7 +137,14 @@ SPT_FN int bsdf_specular_sample(const BsdfParams *p, vec3 wo, float u1, float u2
         s->weight = v4_scale(bsdf_spec_fresnel(p, wo.z), 1.0f / prob);
         return BSDF_SAMPLED_DELTA;
     }
-    vec3 h = bsdf_ggx_sample_vndf(wo, bsdf_alpha(p->roughness), u1, u2);
+    vec3 h;
+    if (bsdf_has_aniso(p)) {
+        float ax, ay;
+        bsdf_aniso_alphas(p->roughness, p->aniso, &ax, &ay);
+        h = bsdf_from_aniso(p, bsdf_ggx_sample_vndf_aniso(bsdf_to_aniso(p, wo), ax, ay, u1, u2));
+    } else {
+        h = bsdf_ggx_sample_vndf(wo, bsdf_alpha(p->roughness), u1, u2);
+    }
     s->wi = bsdf_reflect(wo, h);
     return s->wi.z > 0.0f ? BSDF_SAMPLED_WI : BSDF_SAMPLED_NONE;
 }

@@ -374,7 +374,7 @@ SPT_FN_INLINE int lt_connect(const ShadeHit *h, const BsdfParams *bp, const Shad
     float3 wc_l = (float3)(dot(wc, f->tg), dot(wc, f->bt), dot(wc, f->ns));
     /* The geometric and shading sides must agree; an opaque surface is seen
      * only from the side the light arrived on. */
-    if (!(wc_side * wc_l.z > 0.0f) || (!f->two_sided_bsdf && !(wc_side > 0.0f)))
+    if (!(wc_side * wc_l.z > 0.0f) || (!f->both_sides && !(wc_side > 0.0f)))
         return 0;
     /* f(to camera, to light) |cos at the light's side (shading)|, as a camera
      * path sees it. */
@@ -466,9 +466,9 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Kern
     if (alive) {
         /* The adjoint: refraction (delta or not) scales importance by eta'^2
          * relative to radiance (bsdf_sample divided by it, eta' taken on wo's
-         * side); shading normals by
+         * side; a diffuse transmission does not refract); shading normals by
          * |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|). */
-        if (!reflect) {
+        if (!reflect && f.two_sided_bsdf) {
             float etap = f.wo_l.z > 0.0f ? bp.ior.x : 1.0f / bp.ior.x;
             h.beta *= etap * etap;
         }
@@ -479,8 +479,8 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Kern
     alive = shade_roulette(&h, &f, alive, kg);
     if (!alive)
         return shadow;
-    if (!reflect && f.two_sided_bsdf)
-        kg->ps_medium[i] = wn_side < 0.0f && h.m->attenuation.kind != SPT_SPEC_NONE ? h.ts.material + 1u : 0u;
+    if (!reflect && f.both_sides)
+        kg->ps_medium[i] = shade_medium_after(&h, &f, wn, wn_side);
     kg->ps_flags[i] = SPT_PATH_ALIVE;
     kg->ps_lt[i] = SPT_LT_LIGHT | SPT_LT_SPEC;
     kg->ps_throughput[i] = h.beta;

@@ -51,6 +51,8 @@ typedef struct ShadeHit {
  * inlined, and only they should then live in memory.) */
 typedef struct ShadeFrame {
     int two_sided_bsdf; /* transmissive: +z is the outside whichever side the path is on */
+    int both_sides;     /* the BSDF sends light to both sides (two_sided_bsdf, or
+                           KHR_materials_diffuse_transmission) */
     float3 ngf;         /* the face normal on the side the BSDF's +z is on */
     float3 ns, tg, bt;  /* the shading normal and its tangent basis */
     float3 wo_l;        /* the direction to the previous vertex, local */
@@ -224,7 +226,7 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
     float3 ngf = h->ng, n_coat;
     float3 ns = shading_normal(prim, h->bu, h->bv, &ngf, f->two_sided_bsdf, h->v0, h->v1, h->v2, m, tc,
                                &n_coat, kg->tri_shade, kg->vtx_normal, kg->vtx_uv, kg->vtx_uv1,
-                               kg->textures, kg->texels);
+                               kg->vtx_tangent, kg->textures, kg->texels);
     if (!f->two_sided_bsdf && !h->front) {
         ns = -ns;
         n_coat = -n_coat;
@@ -238,6 +240,10 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
     vec3 tg, bt;
     v3_basis(ns, &tg, &bt);
     f->wo_l = (float3)(dot(wo, tg), dot(wo, bt), dot(wo, ns));
+    f->both_sides = f->two_sided_bsdf || (bsdf_has_dt(bp) && bp->metallic < 1.0f);
+    if (bsdf_has_aniso(bp))
+        bp->aniso_t = aniso_direction(m, bp->aniso_t, ns, h->ng, tg, bt, prim, h->bu, h->bv, h->v0, h->v1, h->v2,
+                                      kg->tri_shade, kg->vtx_normal, kg->vtx_uv, kg->vtx_uv1, kg->vtx_tangent);
     if (bp->clearcoat > 0.0f) {
         if (dot(wo, n_coat) * dot(wo, ngf) <= 0.0f)
             n_coat = ngf;
@@ -312,7 +318,7 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
         delta = 1;
     } else if (e >= 0) {
         float epdf;
-        wi = env_sample_at(&kg->p->env, kg->env_data, ns, tg, bt, f->two_sided_bsdf, ul, vl, &epdf);
+        wi = env_sample_at(&kg->p->env, kg->env_data, ns, tg, bt, f->both_sides, ul, vl, &epdf);
         dist = SPT_LIGHT_FAR;
         light_pdf = prob * epdf;
         if (light_pdf > 0.0f) {
@@ -326,7 +332,7 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
     float3 wi_l = (float3)(dot(wi, tg), dot(wi, bt), dot(wi, ns));
     /* The geometric and shading sides of wi must agree. */
     if (light_pdf > 0.0f && dist > 0.0f && wi_side * wi_l.z > 0.0f && max4(le) > 0.0f &&
-        (f->two_sided_bsdf || wi_side > 0.0f)) {
+        (f->both_sides || wi_side > 0.0f)) {
         float4 fv = bsdf_eval(bp, wo_l, wi_l);
         float wgt = delta ? 1.0f : spt_power_heuristic(light_pdf, bsdf_pdf(bp, wo_l, wi_l));
         float4 cn = h->beta * fv * le * (wgt / light_pdf);
@@ -371,6 +377,20 @@ SPT_FN_INLINE int shade_bsdf_bounce(ShadeHit *h, const BsdfParams *bp, const Sha
         alive = max4(h->beta) > 0.0f;
     }
     return alive;
+}
+
+/* The medium a path is in after crossing the surface of hit h toward wn (wn_side:
+ * its side of f->ngf): entering or leaving a volume. A transmissive surface's
+ * outside is +z (f->ngf); a diffuse transmitter's the winding's front, and it
+ * bounds a volume only with KHR_materials_volume's thickness (docs/gltf.md:
+ * thin-walled otherwise). */
+SPT_FN_INLINE uint shade_medium_after(const ShadeHit *h, const ShadeFrame *f, float3 wn, float wn_side)
+{
+    const __global GpuMaterial *m = h->m;
+    int absorbs = m->attenuation.kind != SPT_SPEC_NONE;
+    if (f->two_sided_bsdf)
+        return wn_side < 0.0f && absorbs ? h->ts.material + 1u : 0u;
+    return dot(wn, h->ng) < 0.0f && absorbs && (m->flags & SPT_MAT_VOLUME) ? h->ts.material + 1u : 0u;
 }
 
 /* Russian roulette on the largest wavelength throughput, surviving with at
@@ -491,16 +511,15 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Ke
     }
     if (kg->p->light_paths > 0u)
         kg->ps_lt[i] = lt_camera_next(kg->ps_lt[i], h.depth, bs.is_delta);
-    /* Entering or leaving a volume (refraction through a transmissive surface). */
-    if (!reflect && f.two_sided_bsdf)
-        kg->ps_medium[i] = wn_side < 0.0f && h.m->attenuation.kind != SPT_SPEC_NONE ? h.ts.material + 1u : 0u;
+    if (!reflect && f.both_sides)
+        kg->ps_medium[i] = shade_medium_after(&h, &f, wn, wn_side);
     kg->ps_throughput[i] = h.beta;
     kg->ps_ray_o[i] = (float4)(offset_origin(h.p, wn_side > 0.0f ? f.ngf : -f.ngf), 0.0f);
     kg->ps_ray_d[i] = (float4)(wn, h.cone_w);
     kg->ps_bsdf_pdf[i] = bs.is_delta ? 0.0f : bs.pdf;
     if (kg->p->env.kind == SPT_ENV_UNIFORM && !bs.is_delta)
         kg->ps_env_pdf[i] =
-            kg->p->env_prob * env_pdf_at(&kg->p->env, kg->env_data, f.ns, f.two_sided_bsdf, wn);
+            kg->p->env_prob * env_pdf_at(&kg->p->env, kg->env_data, f.ns, f.both_sides, wn);
     kg->ps_depth[i] = h.depth;
     return shadow;
 }

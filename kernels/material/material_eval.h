@@ -170,43 +170,117 @@ static float4 volume_transmittance(const __global GpuMaterial *m, float t, float
     return exp(log(c) * (t / m->attenuation_distance));
 }
 
-/* Normal n bent by the tangent-space normal map of slot k (scale: the
- * normalTextureInfo's), with the tangent frame derived from the slot's
- * (transformed) texture coordinates over the triangle as MikkTSpace would for a
- * mesh without tangents: tangent along increasing u, bitangent toward decreasing v
- * (the image's +Y, glTF 2.0 "normalTexture"), its sign following the texture's
- * handedness on the triangle (mirrored coordinates). n itself when the texture
- * coordinates are degenerate. */
-static float3 normal_map(const __global GpuMaterial *m, int k, float scale, float3 n, uint prim, float3 v0,
-                         float3 v1, float3 v2, const TexCtx *c, const __global TriShade *tri_shade,
-                         const __global float *vtx_uv, const __global float *vtx_uv1,
+/* The tangent frame at unit normal n of a triangle (v0, v1, v2) with texture
+ * coordinates t0, t1, t2, as MikkTSpace would derive it for a mesh without
+ * tangents (docs/gltf.md, "Tangents"): tangent along increasing u, bitangent
+ * toward decreasing v (the image's +Y, glTF 2.0 "normalTexture"), its sign
+ * following the texture's handedness on the triangle (mirrored coordinates).
+ * Returns 0 when the texture coordinates are degenerate. */
+static int uv_tangent_frame(float2 t0, float2 t1, float2 t2, float3 n, float3 v0, float3 v1, float3 v2,
+                            float3 *tg, float3 *bt)
+{
+    float2 d1 = t1 - t0, d2 = t2 - t0;
+    float det = d1.x * d2.y - d2.x * d1.y;
+    if (!(fabs(det) > 1e-12f))
+        return 0;
+    float3 dpdu = ((v1 - v0) * d2.y - (v2 - v0) * d1.y) / det;
+    float3 dpdv = ((v2 - v0) * d1.x - (v1 - v0) * d2.x) / det;
+    float3 t = dpdu - n * dot(n, dpdu);
+    float tl = length(t);
+    if (!(tl > 1e-12f))
+        return 0;
+    t /= tl;
+    float3 b = cross(n, t);
+    if (dot(b, dpdv) > 0.0f)
+        b = -b;
+    *tg = t;
+    *bt = b;
+    return 1;
+}
+
+/* The mesh's tangent frame at (bu, bv) of packed triangle prim, for material m
+ * with SPT_MAT_TANGENTS: TANGENT interpolated and orthogonalised at the unit
+ * normal n, the bitangent cross(nv, t) w (glTF 2.0 3.7.2.1, nv the vertex
+ * normal; its sign is what the frame takes from it) made orthogonal to both.
+ * Returns 0 where a vertex of the triangle has no tangent (w 0) or the
+ * tangent is parallel to n. */
+static int mesh_tangent_frame(const __global GpuMaterial *m, uint prim, float bu, float bv, float3 n, float3 nv,
+                              const __global TriShade *tri_shade, const __global float4 *vtx_tangent,
+                              float3 *tg, float3 *bt)
+{
+    if (!(m->flags & SPT_MAT_TANGENTS))
+        return 0;
+    TriShade ts = tri_shade[prim];
+    float4 a = vtx_tangent[ts.v[0]], b = vtx_tangent[ts.v[1]], c = vtx_tangent[ts.v[2]];
+    if (a.w == 0.0f || b.w == 0.0f || c.w == 0.0f)
+        return 0;
+    float3 t = (1.0f - bu - bv) * a.xyz + bu * b.xyz + bv * c.xyz;
+    t -= n * dot(n, t);
+    float tl = length(t);
+    if (!(tl > 1e-6f))
+        return 0;
+    t /= tl;
+    float3 b0 = cross(n, t);
+    *tg = t;
+    *bt = dot(b0, cross(nv, t) * a.w) < 0.0f ? -b0 : b0;
+    return 1;
+}
+
+/* Normal n (the interpolated vertex normal) bent by the tangent-space normal
+ * map of slot k (scale: the normalTextureInfo's), in the mesh's tangent frame
+ * (mesh_tangent_frame) or, without TANGENT, the frame uv_tangent_frame derives
+ * from the slot's (transformed) texture coordinates. n itself when they are
+ * degenerate. */
+static float3 normal_map(const __global GpuMaterial *m, int k, float scale, float3 n, uint prim, float bu,
+                         float bv, float3 v0, float3 v1, float3 v2, const TexCtx *c,
+                         const __global TriShade *tri_shade, const __global float *vtx_uv,
+                         const __global float *vtx_uv1, const __global float4 *vtx_tangent,
                          const __global GpuTexture *textures, const __global float4 *texels)
 {
     const __global GpuTexSlot *s = m->slot + k;
     TriShade ts = tri_shade[prim];
     const __global float *uvs = s->uv_set ? vtx_uv1 : vtx_uv;
-    float2 t0 = uv_apply(s->m, vload2(ts.v[0], uvs));
-    float2 t1 = uv_apply(s->m, vload2(ts.v[1], uvs));
-    float2 t2 = uv_apply(s->m, vload2(ts.v[2], uvs));
-    float2 d1 = t1 - t0, d2 = t2 - t0;
-    float det = d1.x * d2.y - d2.x * d1.y;
-    if (!(fabs(det) > 1e-12f))
+    float3 tg, bt;
+    if (!mesh_tangent_frame(m, prim, bu, bv, n, n, tri_shade, vtx_tangent, &tg, &bt) &&
+        !uv_tangent_frame(uv_apply(s->m, vload2(ts.v[0], uvs)), uv_apply(s->m, vload2(ts.v[1], uvs)),
+                          uv_apply(s->m, vload2(ts.v[2], uvs)), n, v0, v1, v2, &tg, &bt))
         return n;
-    float3 dpdu = ((v1 - v0) * d2.y - (v2 - v0) * d1.y) / det;
-    float3 dpdv = ((v2 - v0) * d1.x - (v1 - v0) * d2.x) / det;
-    float3 tg = dpdu - n * dot(n, dpdu);
-    float tl = length(tg);
-    if (!(tl > 1e-12f))
-        return n;
-    tg /= tl;
-    float3 bt = cross(n, tg);
-    if (dot(bt, dpdv) > 0.0f)
-        bt = -bt;
     float4 tx = slot_value(m, k, c, textures, texels);
     float3 nt = (float3)((2.0f * tx.x - 1.0f) * scale, (2.0f * tx.y - 1.0f) * scale, 2.0f * tx.z - 1.0f);
     float3 nb = nt.x * tg + nt.y * bt + nt.z * n;
     float nl = length(nb);
     return nl > 1e-6f ? nb / nl : n;
+}
+
+/* KHR_materials_anisotropy's direction at a hit (packed triangle prim at (bu,
+ * bv), shading normal n, face normal ng on the winding's front), in the local
+ * frame (tg, bt, n) of the BSDF: the material's direction in tangent space
+ * (dir, from material_bsdf) mapped through the mesh's tangent frame
+ * (mesh_tangent_frame) or, without TANGENT, the one of the anisotropy slot's
+ * untransformed texture coordinates (uv_tangent_frame: the frame MikkTSpace
+ * would generate, docs/gltf.md "Tangents"), projected on the shading plane.
+ * The local x axis when neither exists. */
+static float3 aniso_direction(const __global GpuMaterial *m, float3 dir, float3 n, float3 ng, float3 tg,
+                              float3 bt, uint prim, float bu, float bv, float3 v0, float3 v1, float3 v2,
+                              const __global TriShade *tri_shade, const __global float *vtx_normal,
+                              const __global float *vtx_uv, const __global float *vtx_uv1,
+                              const __global float4 *vtx_tangent)
+{
+    TriShade ts = tri_shade[prim];
+    const __global float *uvs = m->slot[SPT_TS_ANISOTROPY].uv_set ? vtx_uv1 : vtx_uv;
+    float3 nv = (1.0f - bu - bv) * vload3(ts.v[0], vtx_normal) + bu * vload3(ts.v[1], vtx_normal) +
+                bv * vload3(ts.v[2], vtx_normal);
+    if (!(length(nv) > 1e-6f))
+        nv = ng;
+    float3 ut, ub;
+    if (!mesh_tangent_frame(m, prim, bu, bv, n, nv, tri_shade, vtx_tangent, &ut, &ub) &&
+        !uv_tangent_frame(vload2(ts.v[0], uvs), vload2(ts.v[1], uvs), vload2(ts.v[2], uvs), n, v0, v1, v2,
+                          &ut, &ub))
+        return (float3)(1.0f, 0.0f, 0.0f);
+    float3 a = dir.x * ut + dir.y * ub;
+    float2 l = (float2)(dot(a, tg), dot(a, bt));
+    float ll = length(l);
+    return ll > 1e-6f ? (float3)(l / ll, 0.0f) : (float3)(1.0f, 0.0f, 0.0f);
 }
 
 /* The shading normal of packed triangle prim at (bu, bv), on the side of the
@@ -220,8 +294,8 @@ static float3 shading_normal(uint prim, float bu, float bv, float3 *ng, int foll
                              float3 v1, float3 v2, const __global GpuMaterial *m, const TexCtx *c,
                              float3 *n_coat, const __global TriShade *tri_shade,
                              const __global float *vtx_normal, const __global float *vtx_uv,
-                             const __global float *vtx_uv1, const __global GpuTexture *textures,
-                             const __global float4 *texels)
+                             const __global float *vtx_uv1, const __global float4 *vtx_tangent,
+                             const __global GpuTexture *textures, const __global float4 *texels)
 {
     TriShade ts = tri_shade[prim];
     float3 ns = *ng;
@@ -241,11 +315,11 @@ static float3 shading_normal(uint prim, float bu, float bv, float3 *ng, int foll
     }
     *n_coat = ns;
     if (m->clearcoat > 0.0f && m->slot[SPT_TS_CLEARCOAT_NORMAL].tex >= 0)
-        *n_coat = normal_map(m, SPT_TS_CLEARCOAT_NORMAL, m->cc_normal_scale, ns, prim, v0, v1, v2, c,
-                             tri_shade, vtx_uv, vtx_uv1, textures, texels);
+        *n_coat = normal_map(m, SPT_TS_CLEARCOAT_NORMAL, m->cc_normal_scale, ns, prim, bu, bv, v0, v1, v2, c,
+                             tri_shade, vtx_uv, vtx_uv1, vtx_tangent, textures, texels);
     if (m->slot[SPT_TS_NORMAL].tex >= 0)
-        ns = normal_map(m, SPT_TS_NORMAL, m->normal_scale, ns, prim, v0, v1, v2, c, tri_shade, vtx_uv,
-                        vtx_uv1, textures, texels);
+        ns = normal_map(m, SPT_TS_NORMAL, m->normal_scale, ns, prim, bu, bv, v0, v1, v2, c, tri_shade, vtx_uv,
+                        vtx_uv1, vtx_tangent, textures, texels);
     return ns;
 }
 
@@ -294,13 +368,48 @@ static float3 material_albedo(const __global GpuMaterial *m, const TexCtx *c, ui
 }
 #endif
 
+/* KHR_materials_anisotropy and KHR_materials_diffuse_transmission of material m
+ * at a hit into bp: the strength times the anisotropy texture's B, the
+ * direction (R, G) * 2 - 1 (else (1, 0)) rotated by anisotropyRotation, in
+ * tangent space (shade_frame maps it to the local frame); the diffuse
+ * transmission factor times its texture's A, the colour times its texture's
+ * RGB (sRGB). */
+static void material_bsdf_ext(const __global GpuMaterial *m, const TexCtx *c, float4 lam,
+                              const __global float *spectra, const __global GpuTexture *textures,
+                              const __global float4 *texels, BsdfParams *bp)
+{
+    float w;
+    bp->aniso = m->aniso;
+    float2 d = (float2)(1.0f, 0.0f);
+    if (m->aniso > 0.0f && m->slot[SPT_TS_ANISOTROPY].tex >= 0) {
+        float4 t = slot_value(m, SPT_TS_ANISOTROPY, c, textures, texels);
+        d = (float2)(2.0f * t.x - 1.0f, 2.0f * t.y - 1.0f);
+        bp->aniso *= t.z;
+    }
+    bp->aniso = clamp(bp->aniso, 0.0f, 1.0f);
+    bp->aniso_t = (float3)(m->aniso_cos * d.x - m->aniso_sin * d.y, m->aniso_sin * d.x + m->aniso_cos * d.y, 0.0f);
+    bp->diffuse_transmission = m->diffuse_transmission;
+    bp->dt_color = (float4)(0.0f);
+    if (m->diffuse_transmission > 0.0f) {
+        if (m->slot[SPT_TS_DIFFUSE_TRANSMISSION].tex >= 0)
+            bp->diffuse_transmission *= slot_value(m, SPT_TS_DIFFUSE_TRANSMISSION, c, textures, texels).w;
+        bp->dt_color = spec_eval(&m->dt_color, lam, spectra);
+        if (m->slot[SPT_TS_DIFFUSE_TRANSMISSION_COLOR].tex >= 0)
+            bp->dt_color *= slot_spectrum(m, SPT_TS_DIFFUSE_TRANSMISSION_COLOR, c, lam, textures, texels, &w);
+        bp->dt_color = clamp(bp->dt_color, 0.0f, 1.0f);
+    }
+    bp->diffuse_transmission = clamp(bp->diffuse_transmission, 0.0f, 1.0f);
+}
+
 /* The BSDF parameters of material m at a hit (texture context c, packed triangle
  * prim at (bu, bv)) for the wavelengths lam. Texture channels, as glTF 2.0 and its
  * extensions define them: base colour RGB (sRGB) and A; metallic B, roughness G;
  * transmission R; specular A, specular colour RGB (sRGB); clearcoat R, clearcoat
  * roughness G; sheen colour RGB (sRGB), sheen roughness A; iridescence R,
  * iridescence thickness G (between the minimum and maximum; the maximum
- * without a texture, as KHR_materials_iridescence says). COLOR_0 multiplies the
+ * without a texture, as KHR_materials_iridescence says); anisotropy RG
+ * direction, B strength; diffuse transmission A, its colour RGB (sRGB)
+ * (material_bsdf_ext). COLOR_0 multiplies the
  * base colour. The coat normal is left to the caller (it needs the frame). */
 static BsdfParams material_bsdf(const __global GpuMaterial *m, const TexCtx *c, uint prim, float bu, float bv,
                                 float4 lam, const __global TriShade *tri_shade,
@@ -373,6 +482,7 @@ static BsdfParams material_bsdf(const __global GpuMaterial *m, const TexCtx *c, 
                              slot_value(m, SPT_TS_IRIDESCENCE_THICKNESS, c, textures, texels).y);
     }
     bp.iridescence = clamp(bp.iridescence, 0.0f, 1.0f);
+    material_bsdf_ext(m, c, lam, spectra, textures, texels, &bp);
     return bp;
 }
 

@@ -49,6 +49,8 @@ typedef struct LayoutProbe {
     X(GpuMaterial, attenuation)   \
     X(GpuMaterial, conductor)     \
     X(GpuMaterial, sheen_roughness) \
+    X(GpuMaterial, dt_color)      \
+    X(GpuMaterial, diffuse_transmission) \
     X(GpuMaterial, slot)          \
     X(GpuTexSlot, m)              \
     X(GpuTexture, flags)          \

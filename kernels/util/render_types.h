@@ -38,6 +38,8 @@ typedef struct SpecRef {
 #define SPT_MAT_VERTEX_COLOR 32u /* some of its triangles have COLOR_0 (vtx_color) */
 #define SPT_MAT_TEXTURED 64u     /* some slot has a texture */
 #define SPT_MAT_UV1 128u         /* some slot reads TEXCOORD_1 (vtx_uv1) */
+#define SPT_MAT_VOLUME 256u      /* KHR_materials_volume thicknessFactor > 0: not thin-walled */
+#define SPT_MAT_TANGENTS 512u    /* some of its triangles have TANGENT (vtx_tangent) */
 
 /* The texture slots of a material (the same numbers as scene.h's SPT_SLOT_*):
  * which channels each reads is in kernels/integrator/wavefront.cl (material_bsdf). */
@@ -55,7 +57,10 @@ typedef struct SpecRef {
 #define SPT_TS_SHEEN_ROUGHNESS 11
 #define SPT_TS_IRIDESCENCE 12
 #define SPT_TS_IRIDESCENCE_THICKNESS 13
-#define SPT_TS_COUNT 14
+#define SPT_TS_ANISOTROPY 14
+#define SPT_TS_DIFFUSE_TRANSMISSION 15
+#define SPT_TS_DIFFUSE_TRANSMISSION_COLOR 16
+#define SPT_TS_COUNT 17
 
 /* A material's use of a texture: which one (-1: none), read at which texture
  * coordinates (0: TEXCOORD_0, 1: TEXCOORD_1), through which KHR_texture_transform
@@ -74,6 +79,7 @@ typedef struct GpuMaterial {
     SpecRef spec_tint;     /* KHR_materials_specular colour (SIGMOID, scale = its max) */
     SpecRef attenuation;   /* KHR_materials_volume attenuationColor; NONE = clear */
     SpecRef sheen;         /* KHR_materials_sheen colour (SIGMOID, scale = its max3); NONE = no sheen */
+    SpecRef dt_color;      /* KHR_materials_diffuse_transmission colour; with diffuse_transmission */
     spt_u32 flags;
     float alpha_cutoff;    /* SPT_MAT_ALPHA_MASK: opaque where alpha >= cutoff */
     float alpha;           /* base colour alpha factor */
@@ -94,8 +100,11 @@ typedef struct GpuMaterial {
     float irid_ior;        /* iridescenceIor */
     float irid_min_nm;     /* iridescenceThicknessMinimum (nm) */
     float irid_max_nm;     /* iridescenceThicknessMaximum (nm): the thickness without a texture */
+    float aniso;           /* KHR_materials_anisotropy anisotropyStrength; 0 = isotropic */
+    float aniso_cos, aniso_sin; /* anisotropyRotation's cosine and sine */
+    float diffuse_transmission; /* diffuseTransmissionFactor; 0 = none */
     GpuTexSlot slot[SPT_TS_COUNT];
-} GpuMaterial; /* 688 bytes */
+} GpuMaterial; /* 832 bytes */
 
 /* Texture kinds: how a texel's four floats read. COLOR: sigmoid coefficients
  * (c0, c1, c2) of the texel's linear RGB, alpha in w (base colour, emissive,
@@ -317,6 +326,7 @@ typedef struct RenderParams {
     X(const float, vtx_uv)            \
     X(const float, vtx_uv1)           \
     X(const float4, vtx_color)        \
+    X(const float4, vtx_tangent)      \
     X(const GpuMaterial, materials)   \
     X(const float, spectra)           \
     X(const GpuTexture, textures)     \

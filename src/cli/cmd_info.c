@@ -51,7 +51,8 @@ static const char *wrap_name(int w)
 static const char *const slot_names[SPT_SLOT_COUNT] = {
     "baseColor", "metallicRoughness", "normal", "emissive", "transmission", "specular",
     "specularColor", "clearcoat", "clearcoatRoughness", "clearcoatNormal", "sheenColor",
-    "sheenRoughness", "iridescence", "iridescenceThickness", "occlusion",
+    "sheenRoughness", "iridescence", "iridescenceThickness", "anisotropy", "diffuseTransmission",
+    "diffuseTransmissionColor", "occlusion",
 };
 
 static void print_materials(const Scene *s)
@@ -81,6 +82,12 @@ static void print_materials(const Scene *s)
         if (m->iridescence > 0)
             printf(" iridescence %.3g ior %.3g thickness %.4g-%.4g nm", m->iridescence, m->iridescence_ior,
                    m->iridescence_min_nm, m->iridescence_max_nm);
+        if (m->anisotropy > 0)
+            printf(" anisotropy %.3g rotation %.3g", m->anisotropy, m->anisotropy_rotation);
+        if (m->diffuse_transmission > 0)
+            printf(" diffuse-transmission %.3g colour %.3g %.3g %.3g", m->diffuse_transmission,
+                   m->diffuse_transmission_color[0], m->diffuse_transmission_color[1],
+                   m->diffuse_transmission_color[2]);
         printf("\n");
         /* The texture slots: the file's texture, the uv set, the loaded texture
          * (-: its image was unusable, the factor is used). */

@@ -89,11 +89,17 @@ static const uint32_t k_slot_kind[SPT_TS_COUNT] = {
     [SPT_TS_SHEEN_ROUGHNESS] = SPT_TEXKIND_DATA,
     [SPT_TS_IRIDESCENCE] = SPT_TEXKIND_DATA,
     [SPT_TS_IRIDESCENCE_THICKNESS] = SPT_TEXKIND_DATA,
+    [SPT_TS_ANISOTROPY] = SPT_TEXKIND_DATA,
+    [SPT_TS_DIFFUSE_TRANSMISSION] = SPT_TEXKIND_DATA,
+    [SPT_TS_DIFFUSE_TRANSMISSION_COLOR] = SPT_TEXKIND_COLOR,
 };
 
 /* The scene's slots are the device's, with occlusion last and not uploaded. */
 SPT_STATIC_ASSERT(SPT_SLOT_BASE == SPT_TS_BASE && SPT_SLOT_EMISSIVE == SPT_TS_EMISSIVE &&
-                      SPT_SLOT_SHEEN_ROUGHNESS == SPT_TS_SHEEN_ROUGHNESS && SPT_SLOT_OCCLUSION == SPT_TS_COUNT,
+                      SPT_SLOT_SHEEN_ROUGHNESS == SPT_TS_SHEEN_ROUGHNESS &&
+                      SPT_SLOT_ANISOTROPY == SPT_TS_ANISOTROPY &&
+                      SPT_SLOT_DIFFUSE_TRANSMISSION_COLOR == SPT_TS_DIFFUSE_TRANSMISSION_COLOR &&
+                      SPT_SLOT_OCCLUSION == SPT_TS_COUNT,
                   "scene.h SPT_SLOT_* and render_types.h SPT_TS_* differ");
 
 /* The device textures made so far: scene texture, kind and the linear RGB factor
@@ -157,6 +163,32 @@ static SpecRef spec_white(void)
     return r;
 }
 
+/* KHR_materials_anisotropy and KHR_materials_diffuse_transmission of m into gm
+ * (its slots already set): each off, its textures dropped, with a zero factor;
+ * the rotation as its cosine and sine; the colour white when its texture holds
+ * it (set_slot folded the factor in). SPT_MAT_VOLUME: KHR_materials_volume's
+ * thickness, which makes a diffuse transmitter a volume's boundary. */
+static void material_upload_ext(GpuMaterial *gm, const SceneMaterial *m)
+{
+    if (m->anisotropy > 0.0f) {
+        gm->aniso = m->anisotropy;
+        gm->aniso_cos = cosf(m->anisotropy_rotation);
+        gm->aniso_sin = sinf(m->anisotropy_rotation);
+    } else {
+        gm->slot[SPT_TS_ANISOTROPY].tex = -1;
+    }
+    if (m->diffuse_transmission > 0.0f) {
+        gm->diffuse_transmission = m->diffuse_transmission;
+        gm->dt_color = gm->slot[SPT_TS_DIFFUSE_TRANSMISSION_COLOR].tex >= 0
+                           ? spec_white()
+                           : spec_from_rgb_scaled(m->diffuse_transmission_color);
+    } else {
+        gm->slot[SPT_TS_DIFFUSE_TRANSMISSION].tex = gm->slot[SPT_TS_DIFFUSE_TRANSMISSION_COLOR].tex = -1;
+    }
+    if (m->thickness > 0.0f)
+        gm->flags |= SPT_MAT_VOLUME;
+}
+
 /* A material's device form, its textures uploaded through u. Colour factors
  * with a texture are folded into the texture (the factor's spectrum becomes
  * white), so that factor x texture is their RGB product, as glTF defines it,
@@ -178,6 +210,8 @@ static void material_upload(GpuMaterial *gm, const SceneMaterial *m, GpuScene *g
             factor = m->specular_color;
         else if (k == SPT_TS_SHEEN_COLOR)
             factor = m->sheen_color;
+        else if (k == SPT_TS_DIFFUSE_TRANSMISSION_COLOR)
+            factor = m->diffuse_transmission_color;
         set_slot(&gm->slot[k], k, &m->tex[k], factor, g, s, u);
     }
     if (m->reflectance_spd.count > 0 || m->reflectance_spd.line_count > 0) {
@@ -280,6 +314,7 @@ static void material_upload(GpuMaterial *gm, const SceneMaterial *m, GpuScene *g
     } else {
         gm->slot[SPT_TS_IRIDESCENCE].tex = gm->slot[SPT_TS_IRIDESCENCE_THICKNESS].tex = -1;
     }
+    material_upload_ext(gm, m);
 }
 
 /* The luminance of a colour factor folded into an emissive texture (which the
@@ -434,6 +469,7 @@ int gpu_scene_build_with(GpuScene *g, const Scene *s, Bvh *bvh, SptError *e)
     g->vtx_normal = s->vtx_normal;
     g->vtx_uv = s->vtx_uv;
     g->vtx_uv1 = s->vtx_uv1;
+    g->vtx_tangent = s->vtx_tangent;
     g->vertex_count = s->vertex_count;
     /* Vertex positions for shading: a vertex shared by triangles has one
      * position, the one every kept triangle using it carries. */
@@ -509,6 +545,17 @@ int gpu_scene_build_shading(GpuScene *g, const Scene *s, SptError *e)
                     g->materials[ts->material].flags |= SPT_MAT_ALPHA_BLEND;
             }
         }
+    }
+
+    /* Materials some of whose triangles have TANGENT at all three vertices
+     * (kernels/material/material_eval.h then reads vtx_tangent). */
+    for (uint32_t i = 0; i < n && s->vtx_tangent; i++) {
+        const TriShade *ts = &g->tri_shade[i];
+        int all = 1;
+        for (int k = 0; k < 3; k++)
+            all &= s->vtx_tangent[4 * (size_t)ts->v[k] + 3] != 0.0f;
+        if (all && ts->material < g->material_count)
+            g->materials[ts->material].flags |= SPT_MAT_TANGENTS;
     }
 
     /* Emitters: every packed triangle whose material emits, weighted by its
@@ -588,6 +635,8 @@ static size_t buffer_bytes(const GpuScene *g, const RenderLights *L, const char 
     if (!strcmp(name, "vtx_uv")) return NZ((size_t)g->vertex_count * 2 * sizeof(float));
     if (!strcmp(name, "vtx_uv1")) return NZ(g->vtx_uv1 ? (size_t)g->vertex_count * 2 * sizeof(float) : 0);
     if (!strcmp(name, "vtx_color")) return NZ(g->vtx_color ? (size_t)g->vertex_count * 4 * sizeof(float) : 0);
+    if (!strcmp(name, "vtx_tangent"))
+        return NZ(g->vtx_tangent ? (size_t)g->vertex_count * 4 * sizeof(float) : 0);
     if (!strcmp(name, "materials")) return NZ((size_t)g->material_count * sizeof(GpuMaterial));
     if (!strcmp(name, "spectra")) return NZ((size_t)g->spectra_count * sizeof(float));
     if (!strcmp(name, "textures")) return NZ((size_t)g->texture_count * sizeof(GpuTexture));
@@ -623,6 +672,7 @@ const void *gpu_scene_buffer_data(const GpuScene *g, const RenderLights *L, cons
     if (!strcmp(name, "vtx_uv")) return g->vtx_uv;
     if (!strcmp(name, "vtx_uv1")) return g->vtx_uv1;
     if (!strcmp(name, "vtx_color")) return g->vtx_color;
+    if (!strcmp(name, "vtx_tangent")) return g->vtx_tangent;
     if (!strcmp(name, "materials")) return g->materials;
     if (!strcmp(name, "spectra")) return g->spectra;
     if (!strcmp(name, "textures")) return g->textures;

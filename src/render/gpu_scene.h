@@ -22,6 +22,7 @@ typedef struct GpuScene {
     float *vtx_uv1;          /* borrowed from the Scene; NULL without TEXCOORD_1 */
     float *vtx_color;        /* 4 per vertex: COLOR_0's sigmoid coefficients and alpha;
                                 NULL without COLOR_0 */
+    float *vtx_tangent;      /* borrowed from the Scene; NULL without TANGENT */
     uint32_t vertex_count;
     GpuMaterial *materials;
     uint32_t material_count;

@@ -50,14 +50,23 @@ int Loader::read_primitive(int mi, int pi)
             return rc;
         size_t nv = m.accessors[pit->second].count;
         if (nv > UINT32_MAX) return bad("%s: more than 2^32 vertices", o);
-        auto nit = p.attributes.find("NORMAL");
-        if (nit != p.attributes.end()) {
-            if ((rc = check_accessor(nit->second, obj + ".attributes.NORMAL", 3, nrm_types,
-                                     quantization ? 1 : 0, &zeros)))
+        // NORMAL (VEC3) and TANGENT (VEC4, glTF 2.0 3.7.2.1): floats, or with
+        // KHR_mesh_quantization normalised signed bytes or shorts.
+        auto nit = p.attributes.find("NORMAL"), tit = p.attributes.find("TANGENT");
+        const struct {
+            decltype(nit) it;
+            const char *name;
+            int ncomp;
+        } dirs[2] = {{nit, "NORMAL", 3}, {tit, "TANGENT", 4}};
+        for (const auto &d : dirs) {
+            if (d.it == p.attributes.end()) continue;
+            int a = d.it->second;
+            if ((rc = check_accessor(a, obj + ".attributes." + d.name, d.ncomp, nrm_types, quantization ? 1 : 0,
+                                     &zeros)))
                 return rc;
-            if (m.accessors[nit->second].count != nv)
-                return bad("%s.attributes.NORMAL (accessors[%d]): count %zu differs from POSITION's %zu",
-                           o, nit->second, m.accessors[nit->second].count, nv);
+            if (m.accessors[a].count != nv)
+                return bad("%s.attributes.%s (accessors[%d]): count %zu differs from POSITION's %zu", o, d.name,
+                           a, m.accessors[a].count, nv);
         }
         // TEXCOORD_0, TEXCOORD_1 and COLOR_0 (VEC3 or VEC4 of floats or normalised
         // unsigned bytes or shorts, glTF 2.0 3.7.2.1).
@@ -86,7 +95,7 @@ int Loader::read_primitive(int mi, int pi)
                 break;
             }
         auto vkey = std::make_tuple(pit->second, nit != p.attributes.end() ? nit->second : -1, acc[0],
-                                    acc[1], acc[2]);
+                                    acc[1], acc[2], tit != p.attributes.end() ? tit->second : -1);
         pd.deformable = !p.targets.empty() || p.attributes.count("JOINTS_0") ||
                         p.attributes.count("WEIGHTS_0") || p.attributes.count("JOINTS_1") ||
                         p.attributes.count("WEIGHTS_1");
@@ -98,6 +107,7 @@ int Loader::read_primitive(int mi, int pi)
             else if ((rc = read_deform(mi, pi, nv))) return rc;
             read_floats(pit->second, 3, pd.pos);
             if (nit != p.attributes.end()) read_floats(nit->second, 3, pd.nrm);
+            if (tit != p.attributes.end()) read_floats(tit->second, 4, pd.tan);
             if (acc[0] >= 0) read_floats(acc[0], 2, pd.uv);
             if (acc[1] >= 0) read_floats(acc[1], 2, pd.uv1);
             if (acc[2] >= 0) {
@@ -288,8 +298,8 @@ int Loader::read_draco(int mi, int pi, const Value &x, std::vector<uint32_t> &id
         const char *name;
         int ncomp;
         std::vector<float> *out;
-    } want[5] = {{"POSITION", 3, &pd.pos}, {"NORMAL", 3, &pd.nrm}, {"TEXCOORD_0", 2, &pd.uv},
-                 {"TEXCOORD_1", 2, &pd.uv1}, {"COLOR_0", ncol, &col}};
+    } want[6] = {{"POSITION", 3, &pd.pos}, {"NORMAL", 3, &pd.nrm}, {"TEXCOORD_0", 2, &pd.uv},
+                 {"TEXCOORD_1", 2, &pd.uv1}, {"COLOR_0", ncol, &col}, {"TANGENT", 4, &pd.tan}};
     for (const auto &w : want) {
         const Value &id = attrs.Get(w.name);
         if (!id.IsInt()) continue;
@@ -348,9 +358,10 @@ int Loader::emit_instance(int mi, const Mat4 &world, int node)
             for (size_t v = 0; v < nv; v++) {
                 double p[3] = {vd.pos[v * 3], vd.pos[v * 3 + 1], vd.pos[v * 3 + 2]};
                 double nw[3] = {0, 0, 0};
+                float tw[4] = {0, 0, 0, 0};
                 bool flip = false;
                 if (vd.deformable) {
-                    if ((rc = deform_vertex(vd, mi, (int)pi, v, deform, world, &wp[v * 3], nw, &flip)))
+                    if ((rc = deform_vertex(vd, mi, (int)pi, v, deform, world, &wp[v * 3], nw, tw, &flip)))
                         return rc;
                     vflip[&vd][v] = flip;
                 } else {
@@ -363,7 +374,12 @@ int Loader::emit_instance(int mi, const Mat4 &world, int node)
                                 (mirrored ? -1.0 : 1.0);
                     if (!normalize3(nw)) nw[0] = nw[1] = nw[2] = 0;
                 }
+                if (!vd.tan.empty() && !vd.deformable) {
+                    const double t[3] = {vd.tan[v * 4], vd.tan[v * 4 + 1], vd.tan[v * 4 + 2]};
+                    mat_tangent(world, t, vd.tan[v * 4 + 3], mirrored, tw);
+                }
                 for (int r = 0; r < 3; r++) vtx_normal.push_back((float)nw[r]);
+                for (int r = 0; r < 4; r++) vtx_tangent.push_back(tw[r]);
                 vtx_uv.push_back(vd.uv.empty() ? 0.0f : vd.uv[v * 2]);
                 vtx_uv.push_back(vd.uv.empty() ? 0.0f : vd.uv[v * 2 + 1]);
                 // TEXCOORD_1 where the primitive has none: its TEXCOORD_0, so a
@@ -379,6 +395,7 @@ int Loader::emit_instance(int mi, const Mat4 &world, int node)
             vertex_count += nv;
             any_uv1 |= !vd.uv1.empty();
             any_color |= !vd.col.empty();
+            any_tangent |= !vd.tan.empty();
         }
         uint64_t base = done->second.first;
         const std::vector<double> &wp = done->second.second;

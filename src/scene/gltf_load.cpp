@@ -70,6 +70,7 @@ int Loader::finish(Scene *s)
     s->vtx_uv = copy_out(vtx_uv);
     s->vtx_uv1 = any_uv1 ? copy_out(vtx_uv1) : nullptr;
     s->vtx_color = any_color ? copy_out(vtx_color) : nullptr;
+    s->vtx_tangent = any_tangent ? copy_out(vtx_tangent) : nullptr;
     s->material_count = (uint32_t)mats.size();
     s->materials = copy_out(mats);
     mats.clear(); // the SPDs now belong to s

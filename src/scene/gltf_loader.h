@@ -37,8 +37,22 @@ using tinygltf::Value;
 
 // Material extensions we know and deliberately ignore (one warning each, listing
 // the materials): a file that requires one is refused like an unknown one.
+// KHR_materials_volume_scatter would need a participating medium (scattering
+// inside the volume, with a phase function) where the renderer has only
+// Beer-Lambert absorption (docs/gltf.md).
 inline const char *const k_ignored_material_ext[] = {
-    "KHR_materials_anisotropy",
+    "KHR_materials_volume_scatter",
+};
+
+// Other extensions we know and do not render, each with what rendering it would
+// need (one warning each when extensionsUsed lists it; refused when required).
+struct UnrenderedExt {
+    const char *name, *needs;
+};
+inline const UnrenderedExt k_unrendered_ext[] = {
+    {"KHR_texture_basisu",
+     "its KTX2 images need a Basis Universal transcoder (libktx or basis_universal) to RGBA; a "
+     "texture's fallback source is used where it has one, else the texture's factor"},
 };
 
 // Largest scene we flatten (triangles and vertices are indexed by uint32 and the
@@ -75,6 +89,19 @@ inline void mat_point(const Mat4 &m, const double p[3], double out[3])
 {
     for (int r = 0; r < 3; r++)
         out[r] = m.m[r] * p[0] + m.m[4 + r] * p[1] + m.m[8 + r] * p[2] + m.m[12 + r];
+}
+
+// A TANGENT (xyz, w the bitangent's sign) transformed by the upper 3x3 of m
+// into out, normalised; w negated where m mirrors (the bitangent cross(n, t) w
+// must follow m as t and the normal do); 0, 0, 0, 0 when degenerate (no tangent).
+inline void mat_tangent(const Mat4 &m, const double t[3], float w, bool mirrored, float out[4])
+{
+    double d[3];
+    for (int r = 0; r < 3; r++) d[r] = m.m[r] * t[0] + m.m[4 + r] * t[1] + m.m[8 + r] * t[2];
+    double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    bool ok = l > 0 && std::isfinite(l) && w != 0;
+    for (int r = 0; r < 3; r++) out[r] = ok ? (float)(d[r] / l) : 0.0f;
+    out[3] = ok ? ((w < 0) != mirrored ? -1.0f : 1.0f) : 0.0f;
 }
 
 // Direction d transformed by the upper 3x3 of m.
@@ -135,7 +162,8 @@ struct PrimData {
     bool read = false, skip = false;
     std::vector<float> pos, nrm, uv, uv1; // per vertex, in the mesh's space
     std::vector<float> col;               // COLOR_0: 4 per vertex (alpha 1 for VEC3)
-    // Primitives with the same POSITION, NORMAL, TEXCOORD_0, TEXCOORD_1 and COLOR_0
+    std::vector<float> tan;               // TANGENT: 4 per vertex (w: the bitangent's sign)
+    // Primitives with the same POSITION, NORMAL, TEXCOORD_0, TEXCOORD_1, COLOR_0 and TANGENT
     // accessors (as exporters write multi-material meshes) share one copy of the
     // vertices: vsrc is the primitive holding them (nullptr: this one).
     const PrimData *vsrc = nullptr;
@@ -144,7 +172,7 @@ struct PrimData {
     // Morph targets and skin weights (src/scene/gltf_pose.cpp): a primitive with
     // either keeps its own vertices (vsrc stays null), as they move per instance.
     bool deformable = false;
-    std::vector<std::vector<float>> tpos, tnrm; // per target: POSITION, NORMAL deltas (or empty)
+    std::vector<std::vector<float>> tpos, tnrm, ttan; // per target: POSITION, NORMAL, TANGENT deltas (or empty)
     std::vector<float> joints, weights;         // 8 per vertex (JOINTS_0/1, WEIGHTS_0/1); empty: none
 };
 
@@ -173,8 +201,9 @@ struct Loader {
     std::vector<std::string> refused; // external files outside the folder
 
     // Output under construction.
-    std::vector<float> tri_pos, vtx_normal, vtx_uv, vtx_uv1, vtx_color;
+    std::vector<float> tri_pos, vtx_normal, vtx_uv, vtx_uv1, vtx_color, vtx_tangent;
     bool any_uv1 = false, any_color = false; // some primitive has TEXCOORD_1 / COLOR_0
+    bool any_tangent = false;                // some primitive has TANGENT
     std::vector<uint32_t> tri_vidx, tri_mat;
     uint64_t vertex_count = 0;
     std::vector<SceneMaterial> mats;
@@ -208,7 +237,7 @@ struct Loader {
     std::map<std::string, std::vector<std::string>> ignored_ext; // extension -> materials
 
     std::vector<std::vector<PrimData>> prim; // [mesh][primitive]
-    std::map<std::tuple<int, int, int, int, int>, const PrimData *> vertex_owner; // accessors -> data
+    std::map<std::tuple<int, int, int, int, int, int>, const PrimData *> vertex_owner; // accessors -> data
     std::vector<uint32_t> mesh_emitted;      // instances emitted so far, per mesh
     std::vector<int> decoded_state;          // per image: 0 untried, 1 ok, -1 failed
     std::vector<TextureImage> decoded;
@@ -265,6 +294,8 @@ struct Loader {
     int material_ext_clearcoat(const Value *x, SceneMaterial *sm, const std::string &co);
     int material_ext_sheen(const Value *x, SceneMaterial *sm, const std::string &sho);
     int material_ext_iridescence(const Value *x, SceneMaterial *sm, const std::string &io);
+    int material_ext_anisotropy(const Value *x, SceneMaterial *sm, const std::string &ao);
+    int material_ext_diffuse_transmission(const Value *x, SceneMaterial *sm, const std::string &dto);
     int texture_ref(int tex, int texcoord, bool srgb, const std::string &obj, SceneTexRef *out,
                     const tinygltf::ExtensionMap *ext, bool load = true);
     int ext_texture(const Value &x, const char *key, bool srgb, const std::string &obj,
@@ -286,7 +317,7 @@ struct Loader {
     int read_deform(int mesh, int p, size_t nv);
     int deform_for(int node, int mesh, Deform *d);
     int deform_vertex(const PrimData &pd, int mesh, int p, size_t v, const Deform &d,
-                      const Mat4 &world, double wp[3], double nw[3], bool *flip);
+                      const Mat4 &world, double wp[3], double nw[3], float tw[4], bool *flip);
     int camera_from(int cam, const Mat4 &world, int node);
     int light_from(int light, const Mat4 &world, int node);
     int finish(Scene *s);

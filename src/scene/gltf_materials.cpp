@@ -646,9 +646,43 @@ int Loader::material_ext_iridescence(const Value *x, SceneMaterial *sm, const st
     return 0;
 }
 
+// KHR_materials_anisotropy: the strength, the rotation (radians, any number) and the texture (RG direction, B strength; linear).
+int Loader::material_ext_anisotropy(const Value *x, SceneMaterial *sm, const std::string &ao)
+{
+    double st = 0, rot = 0;
+    int rc;
+    if ((rc = ext_number(this, *x, "anisotropyStrength", &st, ao)) ||
+        (rc = in_range(this, ao, "anisotropyStrength", st, 0, 1)) ||
+        (rc = ext_number(this, *x, "anisotropyRotation", &rot, ao)))
+        return rc;
+    sm->anisotropy = (float)st;
+    sm->anisotropy_rotation = (float)rot;
+    return ext_texture(*x, "anisotropyTexture", false, ao, &sm->tex[SPT_SLOT_ANISOTROPY]);
+}
+
+// KHR_materials_diffuse_transmission: the factor, the colour and their textures.
+int Loader::material_ext_diffuse_transmission(const Value *x, SceneMaterial *sm, const std::string &dto)
+{
+    double f = 0, c[3];
+    int rc;
+    if ((rc = ext_number(this, *x, "diffuseTransmissionFactor", &f, dto)) ||
+        (rc = in_range(this, dto, "diffuseTransmissionFactor", f, 0, 1)) ||
+        (rc = ranged_array(this, *x, "diffuseTransmissionColorFactor", 3, 0, 1, dto, c)))
+        return rc;
+    sm->diffuse_transmission = (float)f;
+    if (x->Has("diffuseTransmissionColorFactor"))
+        for (int k = 0; k < 3; k++) sm->diffuse_transmission_color[k] = (float)c[k];
+    if ((rc = ext_texture(*x, "diffuseTransmissionTexture", false, dto,
+                          &sm->tex[SPT_SLOT_DIFFUSE_TRANSMISSION])) ||
+        (rc = ext_texture(*x, "diffuseTransmissionColorTexture", true, dto,
+                          &sm->tex[SPT_SLOT_DIFFUSE_TRANSMISSION_COLOR])))
+        return rc;
+    return 0;
+}
+
 // Every extension of a material, in this order: the scalar ones, volume,
-// specular, clearcoat, sheen, iridescence, unlit, spec-gloss; the ones we
-// ignore are noted.
+// specular, clearcoat, sheen, iridescence, anisotropy, diffuse transmission,
+// unlit, spec-gloss; the ones we ignore are noted.
 int Loader::material_extensions(const tinygltf::Material &mat, SceneMaterial *sm, const std::string &obj)
 {
     auto ext = [&](const char *name) -> const Value * {
@@ -668,6 +702,11 @@ int Loader::material_extensions(const tinygltf::Material &mat, SceneMaterial *sm
         if ((rc = material_ext_sheen(x, sm, eo + "KHR_materials_sheen"))) return rc;
     if (const Value *x = ext("KHR_materials_iridescence"))
         if ((rc = material_ext_iridescence(x, sm, eo + "KHR_materials_iridescence"))) return rc;
+    if (const Value *x = ext("KHR_materials_anisotropy"))
+        if ((rc = material_ext_anisotropy(x, sm, eo + "KHR_materials_anisotropy"))) return rc;
+    if (const Value *x = ext("KHR_materials_diffuse_transmission"))
+        if ((rc = material_ext_diffuse_transmission(x, sm, eo + "KHR_materials_diffuse_transmission")))
+            return rc;
     if (ext("KHR_materials_unlit")) sm->unlit = 1;
     if (const Value *x = ext("KHR_materials_pbrSpecularGlossiness"))
         if ((rc = spec_gloss(*x, sm, eo + "KHR_materials_pbrSpecularGlossiness"))) return rc;

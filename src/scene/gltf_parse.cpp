@@ -1,6 +1,7 @@
 // The glTF loader's parsing and validation: the JSON and GLB container, the
 // version and required extensions, buffer views and accessors, read into arrays.
 #include "scene/gltf_loader.h"
+#include <algorithm>
 
 namespace spt_gltf {
 
@@ -13,6 +14,7 @@ const char *const k_supported_ext[] = {
     "KHR_mesh_quantization", "EXT_meshopt_compression", "KHR_draco_mesh_compression",
     "EXT_texture_webp", "KHR_materials_specular", "KHR_materials_clearcoat", "KHR_materials_sheen",
     "KHR_materials_iridescence",
+    "KHR_materials_anisotropy", "KHR_materials_diffuse_transmission",
 };
 
 
@@ -446,7 +448,7 @@ int Loader::check_version_and_extensions()
     const std::string &mv = m.asset.minVersion;
     if (!mv.empty() && mv != "2.0")
         return bad("asset.minVersion: '%s' is newer than the supported 2.0", mv.c_str());
-    std::vector<std::string> missing, unknown;
+    std::vector<std::string> missing, unknown, unknown_reported;
     auto supported = [](const std::string &name) {
         for (const char *s : k_supported_ext)
             if (name == s) return true;
@@ -461,8 +463,16 @@ int Loader::check_version_and_extensions()
             if (name == s) return true;
         return false;
     };
+    for (const auto &x : m.extensionsUsed)
+        for (const UnrenderedExt &u : k_unrendered_ext)
+            if (x == u.name) {
+                spt_warn("%s: %s is not rendered: %s", file, u.name, u.needs);
+                unknown_reported.push_back(x);
+            }
     for (const auto &x : m.extensionsUsed) {
-        if (!supported(x) && !ignored(x)) unknown.push_back(x);
+        if (!supported(x) && !ignored(x) &&
+            std::find(unknown_reported.begin(), unknown_reported.end(), x) == unknown_reported.end())
+            unknown.push_back(x);
         if (x == "KHR_mesh_quantization") quantization = true;
     }
     if (!unknown.empty())

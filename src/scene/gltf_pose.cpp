@@ -277,19 +277,22 @@ int Loader::read_deform(int mi, int pi, size_t nv)
               u16 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
     bool zeros;
     int rc;
-    // Morph targets: POSITION and NORMAL deltas (float, or normalised integers
-    // with KHR_mesh_quantization), sparse ones included.
+    // Morph targets: POSITION, NORMAL and TANGENT deltas (VEC3: a TANGENT delta
+    // moves xyz, w stays; float, or normalised integers with
+    // KHR_mesh_quantization), sparse ones included.
     std::vector<int> dtypes = {f};
     if (quantization)
         dtypes = {f, TINYGLTF_COMPONENT_TYPE_BYTE, TINYGLTF_COMPONENT_TYPE_SHORT};
     pd.tpos.resize(p.targets.size());
     pd.tnrm.resize(p.targets.size());
+    pd.ttan.resize(p.targets.size());
     for (size_t t = 0; t < p.targets.size(); t++)
         for (const auto &a : p.targets[t]) {
-            std::vector<float> *dst = a.first == "POSITION" ? &pd.tpos[t]
-                                      : a.first == "NORMAL" ? &pd.tnrm[t]
-                                                            : nullptr;
-            if (!dst) continue; // TANGENT and others: the loader reads no tangents
+            std::vector<float> *dst = a.first == "POSITION"  ? &pd.tpos[t]
+                                      : a.first == "NORMAL"  ? &pd.tnrm[t]
+                                      : a.first == "TANGENT" ? &pd.ttan[t]
+                                                             : nullptr;
+            if (!dst) continue; // TEXCOORD_n and COLOR_n deltas: not read
             std::string to = obj + ".targets[" + std::to_string(t) + "]." + a.first;
             if ((rc = check_accessor(a.second, to, 3, dtypes, quantization ? 2 : 0, &zeros)))
                 return rc;
@@ -410,19 +413,22 @@ int Loader::deform_for(int node, int mi, Deform *d)
 }
 
 int Loader::deform_vertex(const PrimData &pd, int mi, int pi, size_t v, const Deform &d,
-                          const Mat4 &world, double wp[3], double nw[3], bool *flip)
+                          const Mat4 &world, double wp[3], double nw[3], float tw[4], bool *flip)
 {
-    double p[3], n[3] = {0, 0, 0};
+    double p[3], n[3] = {0, 0, 0}, tg[3] = {0, 0, 0};
     for (int r = 0; r < 3; r++) p[r] = pd.pos[v * 3 + r];
-    bool has_n = !pd.nrm.empty();
+    bool has_n = !pd.nrm.empty(), has_t = !pd.tan.empty();
     if (has_n)
         for (int r = 0; r < 3; r++) n[r] = pd.nrm[v * 3 + r];
+    if (has_t)
+        for (int r = 0; r < 3; r++) tg[r] = pd.tan[v * 4 + r];
     for (size_t t = 0; t < d.weights.size() && t < pd.tpos.size(); t++) {
         double w = d.weights[t];
         if (w == 0) continue;
         for (int r = 0; r < 3; r++) {
             if (!pd.tpos[t].empty()) p[r] += w * pd.tpos[t][v * 3 + r];
             if (has_n && !pd.tnrm[t].empty()) n[r] += w * pd.tnrm[t][v * 3 + r];
+            if (has_t && !pd.ttan[t].empty()) tg[r] += w * pd.ttan[t][v * 3 + r];
         }
     }
     Mat4 M = world;
@@ -450,6 +456,8 @@ int Loader::deform_vertex(const PrimData &pd, int mi, int pi, size_t v, const De
                     (*flip ? -1.0 : 1.0);
         if (!normalize3(nw)) nw[0] = nw[1] = nw[2] = 0;
     }
+    tw[0] = tw[1] = tw[2] = tw[3] = 0;
+    if (has_t) mat_tangent(M, tg, pd.tan[v * 4 + 3], *flip, tw);
     return 0;
 }
 

@@ -24,6 +24,7 @@ void scene_material_default(SceneMaterial *m)
     m->iridescence_ior = 1.3f;
     m->iridescence_min_nm = 100.0f;
     m->iridescence_max_nm = 400.0f;
+    for (int i = 0; i < 3; i++) m->diffuse_transmission_color[i] = 1.0f;
     m->alpha_mode = SPT_ALPHA_OPAQUE;
     m->alpha_cutoff = 0.5f;
     for (int k = 0; k < SPT_SLOT_COUNT; k++) {
@@ -90,6 +91,7 @@ void scene_free(Scene *s)
     free(s->vtx_uv);
     free(s->vtx_uv1);
     free(s->vtx_color);
+    free(s->vtx_tangent);
     for (uint32_t i = 0; i < s->material_count; i++) {
         spd_free(&s->materials[i].reflectance_spd);
         spd_free(&s->materials[i].emission_spd);

@@ -44,6 +44,9 @@ enum {
     SPT_SLOT_SHEEN_ROUGHNESS,       /* ... sheenRoughnessTexture: A */
     SPT_SLOT_IRIDESCENCE,           /* KHR_materials_iridescence iridescenceTexture: R */
     SPT_SLOT_IRIDESCENCE_THICKNESS, /* ... iridescenceThicknessTexture: G */
+    SPT_SLOT_ANISOTROPY,            /* KHR_materials_anisotropy anisotropyTexture: RG direction, B strength */
+    SPT_SLOT_DIFFUSE_TRANSMISSION,  /* KHR_materials_diffuse_transmission diffuseTransmissionTexture: A */
+    SPT_SLOT_DIFFUSE_TRANSMISSION_COLOR, /* ... diffuseTransmissionColorTexture: RGB (sRGB) */
     SPT_SLOT_OCCLUSION,             /* occlusionTexture: read, not rendered */
     SPT_SLOT_COUNT
 };
@@ -83,6 +86,10 @@ typedef struct SceneMaterial {
     float iridescence_ior;      /* iridescenceIor, default 1.3 */
     float iridescence_min_nm;   /* iridescenceThicknessMinimum, default 100 */
     float iridescence_max_nm;   /* iridescenceThicknessMaximum, default 400 */
+    float anisotropy;           /* KHR_materials_anisotropy anisotropyStrength, default 0 */
+    float anisotropy_rotation;  /* anisotropyRotation (radians), default 0 */
+    float diffuse_transmission; /* KHR_materials_diffuse_transmission diffuseTransmissionFactor, default 0 */
+    float diffuse_transmission_color[3]; /* diffuseTransmissionColorFactor, default 1,1,1 */
     int double_sided;
     int alpha_mode;             /* SPT_ALPHA_* */
     float alpha_cutoff;         /* default 0.5 */
@@ -180,6 +187,9 @@ typedef struct Scene {
                              none), NULL when no primitive has TEXCOORD_1 */
     float *vtx_color;     /* 4 per vertex (COLOR_0 as linear RGBA in [0, 1]; 1,1,1,1
                              where a primitive has none), NULL when none has COLOR_0 */
+    float *vtx_tangent;   /* 4 per vertex (TANGENT in world space: unit xyz, w +-1 the
+                             bitangent's sign; 0,0,0,0 where a primitive has none),
+                             NULL when none has TANGENT */
     SceneMaterial *materials;
     uint32_t material_count;
     SceneTexture *textures;

@@ -63,6 +63,7 @@ void *scene_pack(const Scene *s, size_t *size)
     put_array(&b, s->vtx_uv, s->vtx_uv ? (size_t)s->vertex_count * 2 * sizeof(float) : 0);
     put_array(&b, s->vtx_uv1, s->vtx_uv1 ? (size_t)s->vertex_count * 2 * sizeof(float) : 0);
     put_array(&b, s->vtx_color, s->vtx_color ? (size_t)s->vertex_count * 4 * sizeof(float) : 0);
+    put_array(&b, s->vtx_tangent, s->vtx_tangent ? (size_t)s->vertex_count * 4 * sizeof(float) : 0);
     put_array(&b, s->materials, (size_t)s->material_count * sizeof(SceneMaterial));
     for (uint32_t i = 0; i < s->material_count; i++) {
         put_spd(&b, &s->materials[i].reflectance_spd);
@@ -135,7 +136,7 @@ int scene_unpack(Scene *s, const void *bytes, size_t size, const char *what, Spt
     s->path = NULL;
     s->tri_pos = NULL;
     s->tri_vidx = s->tri_mat = NULL;
-    s->vtx_normal = s->vtx_uv = s->vtx_uv1 = s->vtx_color = NULL;
+    s->vtx_normal = s->vtx_uv = s->vtx_uv1 = s->vtx_color = s->vtx_tangent = NULL;
     s->materials = NULL;
     s->textures = NULL;
     /* `info`'s lists are not packed: the ranks render, they do not list. */
@@ -155,9 +156,9 @@ int scene_unpack(Scene *s, const void *bytes, size_t size, const char *what, Spt
     s->tri_vidx = get_array(&r, (size_t)s->tri_count * 3 * sizeof(uint32_t));
     s->tri_mat = get_array(&r, (size_t)s->tri_count * sizeof(uint32_t));
     /* Vertex arrays may be absent (an empty array) or complete. */
-    float **arrays[4] = {&s->vtx_normal, &s->vtx_uv, &s->vtx_uv1, &s->vtx_color};
-    const size_t per_vertex[4] = {3, 2, 2, 4};
-    for (int k = 0; k < 4 && !r.bad; k++) {
+    float **arrays[5] = {&s->vtx_normal, &s->vtx_uv, &s->vtx_uv1, &s->vtx_color, &s->vtx_tangent};
+    const size_t per_vertex[5] = {3, 2, 2, 4, 4};
+    for (int k = 0; k < 5 && !r.bad; k++) {
         uint64_t n = 0;
         size_t pos = r.at;
         get(&r, &n, sizeof n);
