@@ -7,6 +7,7 @@
 #include "test_util.h"
 #include "chi2.h"
 #include "test_main.h"
+#include "test_render_util.h"
 
 #include <math.h>
 
@@ -334,4 +335,113 @@ TEST(test_light_tree_single_light)
     light_tree_free(&t);
 }
 
-TEST_MAIN("light_tree", NULL, NULL)
+/* A lamp-lit yard built in code: a grey floor, a rough metal box (whose
+ * glossy reflections of the lamps weigh light sampling against BSDF sampling
+ * by MIS), 24 small lamps facing down at several heights and strengths, an
+ * unlit (double-sided) quad standing up, 3 spot lights, a point light, a
+ * dim directional light and a dim uniform sky (the last two outside the
+ * tree). */
+static void yard_scene(Scene *s)
+{
+    grey_quad_scene(s);
+    const float lo[3] = {-1.0f, 0.0f, -1.0f}, hi[3] = {0.5f, 0.8f, 0.2f};
+    SceneMaterial *box = append_box(s, lo, hi);
+    box->metallic = 1.0f;
+    box->roughness = 0.3f;
+    for (int i = 0; i < 24; i++) {
+        float x = -4.5f + 1.8f * (float)(i % 6) + 0.3f * (float)(i / 6), z = -4.0f + 2.4f * (float)(i / 6);
+        float y = 1.0f + 0.25f * (float)(i % 4), h = 0.1f + 0.02f * (float)(i % 3);
+        /* Counter-clockwise seen from below: the front faces down. */
+        const float c[4][3] = {{x - h, y, z - h}, {x + h, y, z - h}, {x + h, y, z + h}, {x - h, y, z + h}};
+        SceneMaterial *m = append_rect(s, c);
+        for (int k = 0; k < 3; k++) {
+            m->base_color[k] = 0.0f;
+            m->emissive[k] = k == i % 3 ? 1.0f : 0.6f;
+        }
+        m->emissive_strength = 20.0f + 15.0f * (float)(i % 5);
+    }
+    const float u[4][3] = {{2.0f, 0.0f, 1.0f}, {3.0f, 0.0f, 1.0f}, {3.0f, 0.6f, 1.0f}, {2.0f, 0.6f, 1.0f}};
+    SceneMaterial *un = append_rect(s, u);
+    un->unlit = 1;
+    un->base_color[0] = 2.0f;
+    un->base_color[1] = 1.0f;
+    un->base_color[2] = 0.5f;
+    s->light_count = 5;
+    s->lights = calloc(5, sizeof(SceneLight));
+    for (int j = 0; j < 5; j++) {
+        SceneLight *l = &s->lights[j];
+        l->type = j < 3 ? SPT_LIGHT_SPOT : (j == 3 ? SPT_LIGHT_POINT : SPT_LIGHT_DIRECTIONAL);
+        l->position[0] = -3.0f + 2.5f * (float)j;
+        l->position[1] = 2.0f;
+        l->position[2] = j == 3 ? 3.0f : -1.0f;
+        l->direction[0] = j == 4 ? 0.3f : 0.0f;
+        l->direction[1] = j == 4 ? -0.954f : -1.0f;
+        l->intensity = j < 3 ? 8.0f + 4.0f * (float)j : (j == 3 ? 3.0f : 0.05f);
+        l->inner_cone = 0.3f;
+        l->outer_cone = 0.5f;
+        for (int k = 0; k < 3; k++)
+            l->color[k] = 1.0f;
+    }
+    aim_camera(s, 5.0, 7.0, 5.0, 7.0, 0.9f);
+}
+
+/* The yard with and without the tree: the means of the image's 4 x 4 blocks
+ * over R independent renders (seeds) agree by Welch's test, and so does the
+ * whole image's. */
+TEST(test_light_tree_images_agree)
+{
+    enum { W = 32, B = 4, R = 8 };
+    const int spp = test_quick() ? 64 : 256;
+    Scene s;
+    yard_scene(&s);
+    double m[2][B * B], m2[2][B * B], all[2] = {0}, all2[2] = {0};
+    memset(m, 0, sizeof m);
+    memset(m2, 0, sizeof m2);
+    for (int r = 0; r < R; r++)
+        for (int mode = 0; mode < 2; mode++) {
+            RenderSettings rs = square_settings(W, spp, -1, (uint32_t)(11 + r));
+            rs.light_tree = mode ? SPT_SWITCH_ON : SPT_SWITCH_OFF;
+            Sky sky;
+            SptError e = {0};
+            assert_int_equal(sky_from_args(&sky, NULL, "0.05,0.05,0.05", &e), 0);
+            rs.sky = &sky;
+            float *rgb = malloc(sizeof(float) * 3 * W * W);
+            if (render_scene_rgb(&s, &rs, rgb, &e))
+                fail_msg("render: %s", e.msg);
+            sky_free(&sky);
+            double bm[48], img = 0.0;
+            block_means_4x4(rgb, W, bm);
+            for (int b = 0; b < B * B; b++) {
+                double y = 0.2126 * bm[3 * b] + 0.7152 * bm[3 * b + 1] + 0.0722 * bm[3 * b + 2];
+                m[mode][b] += y;
+                m2[mode][b] += y * y;
+                img += y / (B * B);
+            }
+            all[mode] += img;
+            all2[mode] += img * img;
+            free(rgb);
+        }
+    double worst = 0.0;
+    for (int b = 0; b < B * B; b++) {
+        double mean[2], var = 0.0;
+        for (int k = 0; k < 2; k++) {
+            mean[k] = m[k][b] / R;
+            var += fmax(m2[k][b] / R - mean[k] * mean[k], 0.0) / (R - 1);
+        }
+        if (var > 0.0)
+            worst = fmax(worst, fabs(mean[0] - mean[1]) / sqrt(var));
+    }
+    double mo = all[0] / R, mn = all[1] / R;
+    double se = sqrt((fmax(all2[0] / R - mo * mo, 0.0) + fmax(all2[1] / R - mn * mn, 0.0)) / (R - 1));
+    print_message("yard, %d runs of %d spp: mean Y off %.5g, on %.5g (%.2f standard errors); "
+                  "largest block difference %.2f standard errors\n",
+                  R, spp, mo, mn, fabs(mo - mn) / se, worst);
+    /* 16 blocks and the image: Sidak's 0.01 over 17 tests of t with 14
+     * degrees of freedom is about 4.2; 5 leaves room for the blocks' heavy
+     * tails (the lamps seen in the metal). */
+    assert_true(fabs(mo - mn) / se < 5.0);
+    assert_true(worst < 5.0);
+    scene_free(&s);
+}
+
+TEST_MAIN("light_tree", setup_cpu_device, teardown_cpu_device)

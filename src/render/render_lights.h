@@ -30,9 +30,10 @@ typedef struct RenderLights {
     uint32_t *tri_leaf;
 } RenderLights;
 
-/* Whether the render picks lights with the tree (--light-tree): off, or on
- * or auto with at least two lights the tree would hold (emitters, point and
- * spot lights). */
+/* Whether the render picks lights with the tree (--light-tree): never off
+ * or with fewer than two lights the tree would hold (emitters, point and
+ * spot lights); always on; under auto, when those lights spread over a
+ * quarter of the scene's diameter or more. */
 int render_lights_use_tree(const GpuScene *g, const RenderSettings *rs);
 
 /* Builds L for g and the sky of rs. Returns 0 or an exit code (a bad --env or
