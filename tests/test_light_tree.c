@@ -444,4 +444,40 @@ TEST(test_light_tree_images_agree)
     scene_free(&s);
 }
 
+/* Split invariance with the tree: samples [0, 3) and [3, 8) of the yard add
+ * up to [0, 8), and a small path pool (another schedule of the same
+ * samples) gives the same film bit for bit. */
+TEST(test_light_tree_split)
+{
+    enum { W = 24 };
+    Scene s;
+    yard_scene(&s);
+    const uint32_t begin[4] = {0, 0, 3, 0}, count[4] = {8, 3, 5, 8}, pool[4] = {0, 0, 0, 1000};
+    Film f[4];
+    for (int k = 0; k < 4; k++) {
+        RenderSettings rs = square_settings(W, (int)count[k], -1, 5);
+        rs.light_tree = SPT_SWITCH_ON;
+        rs.sample_begin = begin[k];
+        rs.pool_size = pool[k];
+        RenderStats st;
+        SptError e = {0};
+        if (render_film(&s, &rs, &f[k], &st, &e))
+            fail_msg("render: %s", e.msg);
+    }
+    film_add(&f[1], &f[2]);
+    size_t n = (size_t)W * W;
+    double worst = 0, sum = 0;
+    for (size_t i = 0; i < 3 * n; i++) {
+        worst = fmax(worst, fabs(f[1].xyz[i] - f[0].xyz[i]) / fmax(fabs(f[0].xyz[i]), 1e-6));
+        sum += f[0].xyz[i];
+    }
+    print_message("yard with the tree: [0,8) vs [0,3) + [3,8): largest relative difference %.3g\n", worst);
+    assert_true(sum > 0.0);
+    assert_true(worst < 1e-5);
+    assert_memory_equal(f[0].xyz, f[3].xyz, 3 * n * sizeof(double));
+    for (int k = 0; k < 4; k++)
+        film_free(&f[k]);
+    scene_free(&s);
+}
+
 TEST_MAIN("light_tree", setup_cpu_device, teardown_cpu_device)

@@ -14,17 +14,19 @@
  * importance is
  *   power * cos(theta') * cos(theta'_i) / d^2,
  * theta' the smallest angle between a direction of the cone of normals and a
- * direction from the box toward p (0 when the node emits toward p at all,
- * and the node is skipped when theta' >= theta_e + something, which is where
- * none of its lights can reach p), theta'_i the smallest angle between n and
- * a direction from p into the box (the node is skipped when every direction
- * to it lies below p's horizon), and d the distance to the box's centre, at
- * least the box's half diagonal (so a point inside a box does not make it
- * infinite). The angular terms bound the cosines of every light of the node
- * from above; the distance term is the paper's stand-in for the distance.
+ * direction from the box toward p (importance 0 when theta' exceeds
+ * theta_e, where none of the node's lights emits toward p; a spot's
+ * theta_e 0 passes only directions inside its cone, theta' 0),
+ * theta'_i the smallest angle between n and a direction from p into the box
+ * (importance 0 when every direction to the box lies below p's horizon,
+ * both horizons for a transmissive BSDF), and d the distance to the box's
+ * centre, at least the box's half diagonal (so a point inside a box does
+ * not make it infinite). The angular terms bound the cosines of every light
+ * of the node from above; the distance term is the paper's stand-in for the
+ * distance, not a bound.
  *
  * Picking descends from the root, at each node choosing a child in proportion
- * to its importance; the probability of a given light at p is the product of
+ * to its importance (light_tree_split); the probability of a given light at p is the product of
  * those choices on its way down, which light_tree_pmf recomputes from its leaf
  * up (the MIS weight of a BSDF-sampled hit on an emitter needs it). */
 #ifndef SPT_LIGHT_TREE_H
