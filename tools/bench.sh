@@ -47,4 +47,11 @@ echo "== against Mitsuba 3 (tools/bench_mitsuba.py)"
 python3 tools/bench_mitsuba.py --spectrace "$build/spectrace" || status=1
 # ---- end against Mitsuba 3 ----
 
+# ---- light tree: relMSE at equal time with and without it on the street of
+# 1,000 lamps and the field of 200 quads (tools/bench_lights.py; T seconds:
+# SPECTRACE_BENCH_TIME, default 10) ----
+echo "== light tree (tools/bench_lights.py)"
+python3 tools/bench_lights.py --spectrace "$build/spectrace" || status=1
+# ---- end light tree ----
+
 exit $status

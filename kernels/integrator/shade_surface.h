@@ -13,6 +13,7 @@
 #include "sample/sampling.h"
 #include "closure/bsdf.h"
 #include "light/lights.h"
+#include "light/light_tree.h"
 #include "integrator/path.h"
 #include "integrator/kernel_globals.h"
 #include "material/material_eval.h"
@@ -207,6 +208,14 @@ SPT_FN_INLINE void shade_emission(ShadeHit *h, const TexCtx *tc, const KernelGlo
         float cos_l = fabs(dot(h->ng, h->rd));
         float dist = h->hit.x + kg->ps_ray_o[i].w; /* w: distance passed through alpha */
         float light_pdf = kg->tri_light_pdf[h->prim] * dist * dist / fmax(cos_l, 1e-8f);
+        /* With the light tree, the pick's probability at the vertex the ray
+         * left (its point and normal kept in ps_light_ctx). */
+        if (kg->p->tree_nodes > 0u) {
+            float4 c = kg->ps_light_ctx[i];
+            spt_i32 ts;
+            vec3 n = light_ctx_normal(c.w, &ts);
+            light_pdf *= light_tree_pmf(kg->light_tree, kg->tri_light_leaf[h->prim], c.xyz, n, ts);
+        }
         w = spt_power_heuristic(prev_pdf, light_pdf);
     }
     h->L += h->beta * le * w;
@@ -261,7 +270,9 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
 
 /* Next-event estimation: one light chosen (by usel, the bounce's
  * SPT_DIM_LIGHT_SELECT) in proportion to power among the
- * emissive triangles, the punctual lights and the environment. Returns 1 and
+ * emissive triangles, the punctual lights and the environment, or with the
+ * light tree (kernels/light/light_tree.h) by importance at p among the first
+ * two, beside the others by power. Returns 1 and
  * fills the shadow ray (origin, direction with tmax in w, contribution) when the
  * light's contribution is not zero. */
 SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const BsdfParams *bp,
@@ -276,7 +287,19 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
         return 0;
     float prob, ul, vl;
     spt_sampler_pair(f->smp, spt_dim_bounce(bounce, SPT_DIM_LIGHT_U), &ul, &vl);
-    int e = spt_discrete_sample(kg->light_cdf, kg->p->select_count, usel, &prob, 0);
+    /* tree_prob: the light tree's share of prob for an emitter it picked
+     * (tri_light_pdf holds the rest of its pdf), 1 otherwise. */
+    float tree_prob = 1.0f;
+    int e;
+    if (kg->p->tree_nodes > 0u) {
+        spt_i32 ts;
+        float pk = light_ctx_pack(ngf, f->two_sided_bsdf);
+        vec3 n = light_ctx_normal(pk, &ts);
+        e = light_tree_pick(kg->light_cdf + kg->p->aside_offset, kg->p->aside_count, kg->light_tree,
+                            kg->p->emitter_count, p, n, ts, usel, &prob, &tree_prob);
+    } else {
+        e = spt_discrete_sample(kg->light_cdf, kg->p->select_count, usel, &prob, 0);
+    }
     float3 wi = (float3)(0.0f, 0.0f, 1.0f);
     float dist = 0.0f, light_pdf = 0.0f;
     float4 le = (float4)(0.0f);
@@ -297,7 +320,7 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
         if (lm->flags & SPT_MAT_DOUBLE_SIDED_EMISSION)
             cos_l = fabs(cos_l);
         if (cos_l > 0.0f && dist > 0.0f) {
-            light_pdf = kg->tri_light_pdf[lt] * dist2 / cos_l;
+            light_pdf = kg->tri_light_pdf[lt] * tree_prob * dist2 / cos_l;
             /* The emitter's textures at their finest level (no footprint). */
             TexCtx ltc = *tc;
             if (material_uses_uv(lm))
@@ -517,6 +540,8 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Ke
     kg->ps_ray_o[i] = (float4)(offset_origin(h.p, wn_side > 0.0f ? f.ngf : -f.ngf), 0.0f);
     kg->ps_ray_d[i] = (float4)(wn, h.cone_w);
     kg->ps_bsdf_pdf[i] = bs.is_delta ? 0.0f : bs.pdf;
+    if (kg->p->tree_nodes > 0u && !bs.is_delta)
+        kg->ps_light_ctx[i] = (float4)(h.p, light_ctx_pack(f.ngf, f.two_sided_bsdf));
     if (kg->p->env.kind == SPT_ENV_UNIFORM && !bs.is_delta)
         kg->ps_env_pdf[i] =
             kg->p->env_prob * env_pdf_at(&kg->p->env, kg->env_data, f.ns, f.both_sides, wn);

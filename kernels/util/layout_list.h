@@ -36,7 +36,8 @@ typedef struct LayoutProbe {
     X(BvhNode)                    \
     X(BvhHit)                     \
     X(GpuLight)                   \
-    X(GpuEnvMap)
+    X(GpuEnvMap)                  \
+    X(LightTreeNode)
 
 /* X(Type, field) for each field whose offset is checked. */
 #define SPT_LAYOUT_FIELDS(X)      \
@@ -59,6 +60,8 @@ typedef struct LayoutProbe {
     X(RenderParams, rr_depth)     \
     X(RenderParams, env_prob)     \
     X(RenderParams, env)          \
+    X(RenderParams, tree_nodes)   \
+    X(LightTreeNode, child)       \
     X(BvhNode, child)             \
     X(BvhNode, count)             \
     X(BvhHit, prim)               \

@@ -165,6 +165,26 @@ typedef struct GpuLight {
     SpecRef spectrum;
 } GpuLight; /* 80 bytes */
 
+/* A node of the light tree (kernels/light/light_tree.h). Children are adjacent: an interior node's
+ * are `child` and `child + 1`; a leaf holds one light, `child` its index in
+ * the light selection ([emitters | punctual lights], kernels/light/lights.h).
+ * The root is node 0; `parent` of the root is SPT_TREE_NONE. power is
+ * relative (the root's is 1). */
+typedef struct LightTreeNode {
+    float lo[3];
+    float power;
+    float hi[3];
+    float cos_o;       /* cos theta_o: the spread of the normals about axis */
+    float axis[3];
+    float cos_e;       /* cos theta_e: emission beyond a normal */
+    spt_u32 child;
+    spt_u32 parent;
+    spt_u32 leaf;      /* 1: a leaf */
+    spt_u32 two_sided; /* emits on both sides of its normals */
+} LightTreeNode; /* 64 bytes */
+
+#define SPT_TREE_NONE 0xffffffffu
+
 /* Environment kinds. */
 #define SPT_ENV_NONE 0u
 #define SPT_ENV_UNIFORM 1u
@@ -255,6 +275,14 @@ typedef struct RenderParams {
     /* What rays that leave the scene see (kernels/light/lights.h): a map, a uniform sky
      * or nothing; its data (texels, CDFs or a table) in the env_data buffer. */
     GpuEnvMap env;
+    /* The light tree (kernels/light/light_tree.h): its nodes (0: next-event
+     * estimation picks by power from the light_cdf's first select_count
+     * entries), and the aside distribution's entries in light_cdf from
+     * aside_offset. */
+    spt_u32 tree_nodes;
+    spt_u32 aside_offset;
+    spt_u32 aside_count;
+    spt_u32 pad_tree;
 } RenderParams;
 
 /* Counters, one uint each in the counters buffer; the host reads them back. */
@@ -307,7 +335,8 @@ typedef struct RenderParams {
     X(uint, medium)         \
     X(float, bsdf_pdf)      \
     X(float, env_pdf)       \
-    X(uint, lt)
+    X(uint, lt)             \
+    X(float4, light_ctx)
 
 /* Shadow-ray queue entries, one buffer per field. */
 #define SPT_SHADOW_STATE(X) \
@@ -335,7 +364,9 @@ typedef struct RenderParams {
     X(const float, light_cdf)         \
     X(const float, tri_light_pdf)     \
     X(const GpuLight, lights)         \
-    X(const float, env_data)
+    X(const float, env_data)          \
+    X(const LightTreeNode, light_tree) \
+    X(const uint, tri_light_leaf)
 
 /* With AOVs (kernels built with SPT_AOV): aov_sample holds 3 float4 per
  * sample of the chunk, (albedo RGB, recorded flag), (N, Z), (P, 0), and

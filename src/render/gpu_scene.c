@@ -643,8 +643,14 @@ static size_t buffer_bytes(const GpuScene *g, const RenderLights *L, const char 
     if (!strcmp(name, "texels")) return NZ(g->texel_count * 4 * sizeof(float));
     if (!strcmp(name, "emitters")) return NZ((size_t)g->emitter_count * sizeof(uint32_t));
     if (!strcmp(name, "light_cdf"))
-        return L ? (L->select.n ? ((size_t)L->select.n + 1) * sizeof(float) : 16)
-                 : ((size_t)g->emitter_count + g->light_count + 2) * sizeof(float);
+        return L ? (L->select.n ? ((size_t)L->select.n + 1 + (L->tree.count ? L->aside.n + 1 : 0)) * sizeof(float)
+                                : 16)
+                 : ((size_t)g->emitter_count + 2 * g->light_count + 5) * sizeof(float);
+    /* Without L (the estimate of gpu_scene_bytes), the tree's largest size. */
+    if (!strcmp(name, "light_tree"))
+        return NZ((L ? (size_t)L->tree.count : 2 * ((size_t)g->emitter_count + g->light_count)) *
+                  sizeof(LightTreeNode));
+    if (!strcmp(name, "tri_light_leaf")) return NZ(!L || L->tree.count ? (size_t)n * sizeof(uint32_t) : 0);
     if (!strcmp(name, "tri_light_pdf")) return NZ((size_t)n * sizeof(float));
     if (!strcmp(name, "lights")) return NZ((size_t)g->light_count * sizeof(GpuLight));
     if (!strcmp(name, "env_data")) return NZ(L ? (size_t)L->env.data_count * sizeof(float) : 0);
@@ -678,7 +684,9 @@ const void *gpu_scene_buffer_data(const GpuScene *g, const RenderLights *L, cons
     if (!strcmp(name, "textures")) return g->textures;
     if (!strcmp(name, "texels")) return g->texels;
     if (!strcmp(name, "emitters")) return g->emitters;
-    if (!strcmp(name, "light_cdf")) return L && L->select.n ? L->select.cdf : NULL;
+    if (!strcmp(name, "light_cdf")) return L && L->select.n ? (L->tree.count ? L->cdf_all : L->select.cdf) : NULL;
+    if (!strcmp(name, "light_tree")) return L ? L->tree.nodes : NULL;
+    if (!strcmp(name, "tri_light_leaf")) return L ? L->tri_leaf : NULL;
     if (!strcmp(name, "tri_light_pdf")) return L ? L->tri_light_pdf : NULL;
     if (!strcmp(name, "lights")) return g->lights;
     if (!strcmp(name, "env_data")) return L ? L->env.data : NULL;

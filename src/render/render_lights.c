@@ -13,6 +13,10 @@ void render_lights_free(RenderLights *L)
     env_free(&L->env);
     distrib_free(&L->select);
     free(L->tri_light_pdf);
+    light_tree_free(&L->tree);
+    distrib_free(&L->aside);
+    free(L->cdf_all);
+    free(L->tri_leaf);
     memset(L, 0, sizeof *L);
 }
 
@@ -60,6 +64,164 @@ static int env_setup(const RenderSettings *rs, const GpuScene *g, EnvLight *env,
     return 0; /* SPT_SKY_BLACK */
 }
 
+/* --light-tree auto: the tree when the box of its lights spans at least
+ * this share of the scene's bounding sphere's diameter. Lights that crowd
+ * one spot (the Cornell box's ceiling light, 0.17 of it) look alike from
+ * every point, and there the tree's picks cost time (10% fewer samples in
+ * the same seconds) for no lower error (docs/performance.md, "Light
+ * tree"). */
+#define TREE_AUTO_SPREAD 0.25
+
+int render_lights_use_tree(const GpuScene *g, const RenderSettings *rs)
+{
+    if (rs->light_tree == SPT_SWITCH_OFF)
+        return 0;
+    uint32_t n = g->emitter_count;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t k = 0; k < g->emitter_count; k++) {
+        vec3 v[3];
+        bvh_vertices(&g->bvh, g->emitters[k], &v[0], &v[1], &v[2]);
+        for (int q = 0; q < 3; q++) {
+            const float c[3] = {v[q].x, v[q].y, v[q].z};
+            for (int a = 0; a < 3; a++) {
+                lo[a] = fmin(lo[a], c[a]);
+                hi[a] = fmax(hi[a], c[a]);
+            }
+        }
+    }
+    for (uint32_t j = 0; j < g->light_count; j++) {
+        if (g->lights[j].type == SPT_PUNCTUAL_DIRECTIONAL)
+            continue;
+        n++;
+        for (int a = 0; a < 3; a++) {
+            lo[a] = fmin(lo[a], g->lights[j].pos[a]);
+            hi[a] = fmax(hi[a], g->lights[j].pos[a]);
+        }
+    }
+    if (n < 2)
+        return 0;
+    if (rs->light_tree == SPT_SWITCH_ON)
+        return 1;
+    double d2 = 0.0;
+    for (int a = 0; a < 3; a++)
+        d2 += (hi[a] - lo[a]) * (hi[a] - lo[a]);
+    return sqrt(d2) >= TREE_AUTO_SPREAD * 2.0 * (double)g->scene_radius;
+}
+
+/* The tree's bounds of every light it holds: the emitters (a triangle's
+ * box, its normal, theta_e pi/2: Lambertian; two-sided when its material
+ * emits on both sides) and the point and spot lights (a point; a point
+ * light emits everywhere, a spot within its outer cone). ids: their indices
+ * in the light selection. Returns how many. */
+static uint32_t tree_lights(const GpuScene *g, const RenderLights *L, LightBound *out, uint32_t *ids)
+{
+    uint32_t n = 0;
+    for (uint32_t k = 0; k < g->emitter_count; k++) {
+        double w = distrib_prob(&L->select, k);
+        if (!(w > 0.0))
+            continue;
+        vec3 a, b, c;
+        bvh_vertices(&g->bvh, g->emitters[k], &a, &b, &c);
+        LightBound *l = &out[n];
+        memset(l, 0, sizeof *l);
+        const float *v[3] = {&a.x, &b.x, &c.x};
+        for (int q = 0; q < 3; q++) {
+            l->lo[q] = fmin(fmin(v[0][q], v[1][q]), v[2][q]);
+            l->hi[q] = fmax(fmax(v[0][q], v[1][q]), v[2][q]);
+        }
+        double e1[3] = {b.x - a.x, b.y - a.y, b.z - a.z}, e2[3] = {c.x - a.x, c.y - a.y, c.z - a.z};
+        double nx = e1[1] * e2[2] - e1[2] * e2[1], ny = e1[2] * e2[0] - e1[0] * e2[2],
+               nz = e1[0] * e2[1] - e1[1] * e2[0];
+        double len = sqrt(nx * nx + ny * ny + nz * nz);
+        if (len > 0.0) {
+            l->axis[0] = nx / len;
+            l->axis[1] = ny / len;
+            l->axis[2] = nz / len;
+            l->theta_o = 0.0;
+        } else {
+            l->axis[2] = 1.0;
+            l->theta_o = M_PI;
+        }
+        l->theta_e = 0.5 * M_PI;
+        l->power = w;
+        const GpuMaterial *m = &g->materials[g->tri_shade[g->emitters[k]].material];
+        l->two_sided = (m->flags & SPT_MAT_DOUBLE_SIDED_EMISSION) != 0;
+        ids[n++] = k;
+    }
+    for (uint32_t j = 0; j < g->light_count; j++) {
+        const GpuLight *gl = &g->lights[j];
+        double w = distrib_prob(&L->select, g->emitter_count + j);
+        if (gl->type == SPT_PUNCTUAL_DIRECTIONAL || !(w > 0.0))
+            continue;
+        LightBound *l = &out[n];
+        memset(l, 0, sizeof *l);
+        for (int q = 0; q < 3; q++)
+            l->lo[q] = l->hi[q] = gl->pos[q];
+        if (gl->type == SPT_PUNCTUAL_SPOT) {
+            for (int q = 0; q < 3; q++)
+                l->axis[q] = gl->dir[q];
+            l->theta_o = acos(fmax(-1.0, 1.0 - (double)gl->spot_span));
+            l->theta_e = 0.0;
+        } else {
+            l->axis[2] = 1.0;
+            l->theta_o = M_PI;
+            l->theta_e = 0.5 * M_PI;
+        }
+        l->power = w;
+        ids[n++] = g->emitter_count + j;
+    }
+    return n;
+}
+
+/* The tree and the aside distribution of L (render_lights_use_tree). */
+static void tree_setup(RenderLights *L, const GpuScene *g)
+{
+    uint32_t cap = g->emitter_count + g->light_count;
+    LightBound *lb = spt_malloc(sizeof(LightBound) * (cap ? cap : 1));
+    uint32_t *ids = spt_malloc(sizeof(uint32_t) * (cap ? cap : 1));
+    uint32_t n = tree_lights(g, L, lb, ids);
+    double tree_p = 0.0;
+    for (uint32_t i = 0; i < n; i++)
+        tree_p += lb[i].power;
+    if (n == 0) {
+        free(lb);
+        free(ids);
+        return;
+    }
+    light_tree_build(&L->tree, lb, ids, n);
+    /* The aside distribution: the tree's share, then the punctual lights
+     * outside it (directional), then the environment, by the same powers. */
+    uint32_t m = 1 + g->light_count + (L->select.n > cap ? 1u : 0u);
+    float *w = spt_calloc(m, sizeof(float));
+    w[0] = (float)tree_p;
+    for (uint32_t j = 0; j < g->light_count; j++)
+        if (g->lights[j].type == SPT_PUNCTUAL_DIRECTIONAL)
+            w[1 + j] = distrib_prob(&L->select, g->emitter_count + j);
+    if (m > 1 + g->light_count)
+        w[m - 1] = distrib_prob(&L->select, L->select.n - 1);
+    distrib_build(&L->aside, w, m);
+    free(w);
+    L->aside_offset = L->select.n + 1;
+    L->cdf_all = spt_malloc(sizeof(float) * ((size_t)L->select.n + 1 + m + 1));
+    memcpy(L->cdf_all, L->select.cdf, sizeof(float) * (L->select.n + 1));
+    memcpy(L->cdf_all + L->aside_offset, L->aside.cdf, sizeof(float) * (m + 1));
+    float pt = distrib_prob(&L->aside, 0);
+    uint32_t np = g->bvh.prim_count;
+    L->tri_leaf = spt_calloc(np ? np : 1, sizeof(uint32_t));
+    for (uint32_t k = 0; k < g->emitter_count; k++)
+        L->tri_light_pdf[g->emitters[k]] = 0.0f;
+    for (uint32_t i = 0; i < n; i++)
+        if (ids[i] < g->emitter_count) {
+            uint32_t prim = g->emitters[ids[i]];
+            L->tri_light_pdf[prim] = pt / g->emitter_area[ids[i]];
+            L->tri_leaf[prim] = L->tree.leaf_of[i];
+        }
+    if (L->env.env.kind != SPT_ENV_NONE)
+        L->env_prob = distrib_prob(&L->aside, m - 1);
+    free(lb);
+    free(ids);
+}
+
 /* The lights of a render and the selection among them. */
 int render_lights_setup(RenderLights *L, const GpuScene *g, const RenderSettings *rs,
                                SptError *e)
@@ -76,5 +238,7 @@ int render_lights_setup(RenderLights *L, const GpuScene *g, const RenderSettings
         L->tri_light_pdf[g->emitters[k]] = distrib_prob(&L->select, k) / g->emitter_area[k];
     if (L->env.env.kind != SPT_ENV_NONE && L->select.n > 0)
         L->env_prob = distrib_prob(&L->select, L->select.n - 1);
+    if (render_lights_use_tree(g, rs))
+        tree_setup(L, g);
     return 0;
 }

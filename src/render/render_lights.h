@@ -6,6 +6,7 @@
 #include "core/distribution.h"
 #include "render/gpu_scene.h"
 #include "render/host_lights.h"
+#include "render/light_tree.h"
 #include "render/render.h"
 
 /* The lights of one render: the scene's emitters and punctual lights plus the
@@ -14,9 +15,26 @@
 typedef struct RenderLights {
     EnvLight env;
     Distrib select;          /* [emitters | punctual lights | environment] */
-    float *tri_light_pdf;    /* per packed triangle: P(select) / area, 0 if not emitting */
+    float *tri_light_pdf;    /* per packed triangle: P(select) / area, 0 if not emitting;
+                                with the tree, P(the tree) / area */
     float env_prob;
+    /* The light tree (kernels/light/light_tree.h) when next-event estimation
+     * uses it (tree.count > 0): the aside distribution (the tree, each
+     * punctual light, weight 0 unless directional, the environment), the
+     * CDFs of select and aside end to end as the kernels' light_cdf (aside
+     * from aside_offset), and per packed triangle its leaf node. */
+    LightTree tree;
+    Distrib aside;
+    float *cdf_all;
+    uint32_t aside_offset;
+    uint32_t *tri_leaf;
 } RenderLights;
+
+/* Whether the render picks lights with the tree (--light-tree): never off
+ * or with fewer than two lights the tree would hold (emitters, point and
+ * spot lights); always on; under auto, when those lights spread over a
+ * quarter of the scene's diameter or more. */
+int render_lights_use_tree(const GpuScene *g, const RenderSettings *rs);
 
 /* Builds L for g and the sky of rs. Returns 0 or an exit code (a bad --env or
  * --background). */

@@ -149,6 +149,12 @@ enum { SPT_SWITCH_AUTO = 0, SPT_SWITCH_OFF = 1, SPT_SWITCH_ON = 2 };
       "2), counted as if sent from the lights unaimed: the pass aims\n"                       \
       "them at the glass and mirrors, so it traces fewer; lower it\n"                         \
       "where caustics are a small part of the image")                                           \
+    X(RS, SWITCH, int, light_tree, "light-tree", 0, "MODE", SPT_SWITCH_AUTO, 0, 0,              \
+      SPT_OPT_IMAGE | SPT_OPT_MPI, "expected auto, off or on",                                  \
+      "next-event estimation picks lights with a light tree, by\n"                            \
+      "their bounds' importance at the shading point: auto\n"                                 \
+      "(default: when it holds two lights or more), on or off\n"                              \
+      "(by power alone)")                                                                       \
     X(CLI, STR, const char *, checkpoint, "checkpoint", 0, "FILE", NULL, 0, 0, 0, "",           \
       "write the resumable film (an EXR) every --checkpoint-every\n"                           \
       "seconds, at the end and when stopped by a signal")                                      \

@@ -69,6 +69,9 @@ void render_params(RenderParams *p, const RenderLights *L, const GpuScene *g,
     p->emitter_total = (float)L->select.total;
     p->env = L->env.env;
     p->env_prob = L->env_prob;
+    p->tree_nodes = L->tree.count;
+    p->aside_offset = L->aside_offset;
+    p->aside_count = L->aside.n;
     p->node_count = g->bvh.node_count;
     /* Russian roulette from the fifth segment on (Mitsuba 3's default): on
      * the 1M-triangle mesh scene of tools/bench_mitsuba.py (256x256, 64 spp)
