@@ -88,6 +88,18 @@ SPT_FN int bsdf_specular_smooth(const BsdfParams *p) { return bsdf_base_smooth(p
 SPT_FN float bsdf_dt(const BsdfParams *p) { return fminf(fmaxf(p->diffuse_transmission, 0.0f), 1.0f); }
 SPT_FN int bsdf_has_sheen(const BsdfParams *p) { return p->sheen_max > 0.0f; }
 
+/* Whether the film code is compiled in: the path kernels are built with
+ * SPT_IRIDESCENCE 0 when no material of the scene has a film
+ * (src/render/wavefront.c), since its complex arithmetic, inlined at every
+ * Fresnel evaluation, multiplies the program's size (docs/architecture.md,
+ * "Portability rules"); host code and the tests' kernels have it. */
+#ifndef SPT_IRIDESCENCE
+#define SPT_IRIDESCENCE 1
+#endif
+
+/* Whether p has a film (KHR_materials_iridescence) that the program renders. */
+SPT_FN int bsdf_has_film(const BsdfParams *p) { return SPT_IRIDESCENCE && p->iridescence > 0.0f; }
+
 /* KHR_materials_iridescence: the base's Fresnel f at cosine c mixed with the
  * reflectance of the film over a base of index n_base + i k_base per
  * wavelength (kernels/closure/thin_film.h), by the iridescence factor, as the
@@ -97,9 +109,16 @@ SPT_FN int bsdf_has_sheen(const BsdfParams *p) { return p->sheen_max > 0.0f; }
  * layers them, else air. */
 SPT_FN vec4 bsdf_film_mix(const BsdfParams *p, vec4 f, float c, vec4 n_base, vec4 k_base, float scale)
 {
+#if SPT_IRIDESCENCE
+    if (!bsdf_has_film(p))
+        return f;
     float n0 = p->clearcoat > 0.0f ? 1.5f : 1.0f;
     vec4 film = spt_thin_film_reflectance4(c, p->lambda, n0, p->film_ior, p->film_nm, n_base, k_base);
     return v4_add(f, v4_scale(v4_sub(v4_scale(film, scale), f), p->iridescence));
+#else
+    (void)p, (void)c, (void)n_base, (void)k_base, (void)scale;
+    return f;
+#endif
 }
 
 /* Fresnel weight of the dielectric's specular layer per wavelength at cosine c, as

@@ -38,14 +38,18 @@ SPT_FN vec4 bsdf_interface_film(const BsdfParams *p, float cos_h)
 {
     vec4 f = v4(bsdf_fresnel_dielectric(cos_h, p->ior.x), bsdf_fresnel_dielectric(cos_h, p->ior.y),
                 bsdf_fresnel_dielectric(cos_h, p->ior.z), bsdf_fresnel_dielectric(cos_h, p->ior.w));
-    if (cos_h >= 0.0f)
+    if (cos_h >= 0.0f || !bsdf_has_film(p))
         return bsdf_film_mix(p, f, cos_h, p->ior, v4_splat(0.0f), 1.0f);
+#if SPT_IRIDESCENCE
     float n0 = p->clearcoat > 0.0f ? 1.5f : 1.0f, c = -cos_h, n = p->film_ior, d = p->film_nm;
     vec4 film = v4(spt_thin_film_reflectance(c, p->lambda.x, p->ior.x, n, d, n0, 0.0f),
                    spt_thin_film_reflectance(c, p->lambda.y, p->ior.y, n, d, n0, 0.0f),
                    spt_thin_film_reflectance(c, p->lambda.z, p->ior.z, n, d, n0, 0.0f),
                    spt_thin_film_reflectance(c, p->lambda.w, p->ior.w, n, d, n0, 0.0f));
     return v4_add(f, v4_scale(v4_sub(film, f), p->iridescence));
+#else
+    return f;
+#endif
 }
 
 /* The chance that the interface reflects at cosine cos_h (signed as
@@ -57,7 +61,7 @@ SPT_FN vec4 bsdf_interface_film(const BsdfParams *p, float cos_h)
  * differs between wavelengths too. */
 SPT_FN float bsdf_interface_q(const BsdfParams *p, float cos_h)
 {
-    if (p->iridescence > 0.0f) {
+    if (bsdf_has_film(p)) {
         vec4 f = bsdf_interface_film(p, cos_h);
         return 0.25f * (f.x + f.y + f.z + f.w);
     }
@@ -187,7 +191,7 @@ SPT_FN int bsdf_transmission_sample(const BsdfParams *p, vec3 wo, float ur, floa
         s->valid = 1;
         s->pdf = prob * (1.0f - q);
         /* A film there still reflects: the rest, 1 - F, passes. */
-        vec4 t = p->iridescence > 0.0f ? v4_sub(v4_splat(1.0f), bsdf_interface_film(p, cos_h)) : v4_splat(1.0f);
+        vec4 t = bsdf_has_film(p) ? v4_sub(v4_splat(1.0f), bsdf_interface_film(p, cos_h)) : v4_splat(1.0f);
         s->weight = v4_scale(v4_mul(p->base, t), wt / s->pdf);
         return BSDF_SAMPLED_DELTA;
     }
@@ -209,7 +213,7 @@ SPT_FN int bsdf_transmission_sample(const BsdfParams *p, vec3 wo, float ur, floa
     s->is_delta = 1;
     s->valid = 1;
     s->pdf = prob * (reflect ? q : 1.0f - q);
-    if (p->iridescence > 0.0f) {
+    if (bsdf_has_film(p)) {
         /* Each wavelength's film: F or 1 - F over the chance of the event. */
         vec4 fr = bsdf_interface_film(p, cos_h);
         float etap = reflect ? 1.0f : wo.z > 0.0f ? eta : 1.0f / eta;

@@ -309,12 +309,17 @@ int wavefront_open(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
      * scene those requests only cost time. */
     double bvh_bytes = (double)g->bvh.node_count * sizeof(BvhNode) + (double)g->bvh.tri_data_bytes;
     int step_prefetch = w->ray_pairs && bvh_bytes > 0.25 * (double)cache;
+    /* The thin film's code only where a material has one (kernels/closure/
+     * bsdf_params.h, SPT_IRIDESCENCE). */
+    int film = 0;
+    for (uint32_t i = 0; i < g->material_count; i++)
+        film |= g->materials[i].iridescence > 0.0f;
     char options[256], bands_def[32] = "";
     if (w->bands)
         snprintf(bands_def, sizeof bands_def, "-DSPT_BANDS=%d ", w->bands);
-    snprintf(options, sizeof options, "%s%s%s%s%s",
+    snprintf(options, sizeof options, "%s%s%s%s%s%s",
              w->ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "-DSPT_BVH_SHORT_STACK=1 ",
-             step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "",
+             step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "", film ? "" : "-DSPT_IRIDESCENCE=0 ",
              w->aov ? "-DSPT_AOV=1 " : "", bands_def,
              rs->test.inject_nan ? "-DSPT_TEST_INJECT_NAN=1" : "");
     w->dev.stop = rs->stop;
