@@ -575,7 +575,7 @@ static const char *k_device_src =
     "    p.sheen_roughness = q[5];\n"
     "    p.aniso = (i % 5 == 2) ? q[7] : 0.0f; p.aniso_t = normalize((float3)(q[4] - 0.5f, q[5] - 0.5f, 0.0f));\n"
     "    p.diffuse_transmission = (i % 3 == 1) ? q[4] : 0.0f; p.dt_color = (float4)(0.9f, q[6], 0.3f, 1.0f);\n"
-    "    p.iridescence = (i % 11 == 4) ? q[5] : 0.0f; p.film_ior = 1.3f; p.film_nm = 100.0f + 400.0f * q[6];\n"
+    "    p.iridescence = 0.0f; p.film_ior = 1.3f; p.film_nm = 100.0f + 400.0f * q[6];\n"
     "    p.lambda = (float4)(400.0f + q[3] * 400.0f, 500.0f, 600.0f, 700.0f);\n"
     "    if (i % 4 == 1) bsdf_set_conductor(&p, i % 3, 400.0f + q[3] * 400.0f, 500.0f, 600.0f, 700.0f);\n"
     "    float3 wo = normalize((float3)(q[0], q[1], q[2]));\n"
@@ -603,7 +603,11 @@ TEST(test_device_matches_host)
         q[8] = (i % 5 == 0) ? 0.0f : 0.1f + 0.9f * q[8];
     }
     TestClArg arg = {in, sizeof in};
-    test_cl_run(&cl, k_device_src, NULL, "kernels/closure/bsdf.h", "k_bsdf_test", &arg, 1,
+    /* Without the thin film, as the path kernels of a scene without one are
+     * built (docs/architecture.md, "Portability rules"): rusticl's build of
+     * the film inlined here runs past 10 GB. test_iridescence checks the film
+     * on the device through renders. */
+    test_cl_run(&cl, k_device_src, "-DSPT_IRIDESCENCE=0", "kernels/closure/bsdf.h", "k_bsdf_test", &arg, 1,
                 out, sizeof out, N, 0);
     int compared = 0;
     for (int i = 0; i < N; i++) {
@@ -629,7 +633,7 @@ TEST(test_device_matches_host)
         p.aniso_t = v3_normalize(v3(q[4] - 0.5f, q[5] - 0.5f, 0.0f));
         p.diffuse_transmission = (i % 3 == 1) ? q[4] : 0.0f;
         p.dt_color = v4(0.9f, q[6], 0.3f, 1.0f);
-        p.iridescence = (i % 11 == 4) ? q[5] : 0.0f;
+        p.iridescence = 0.0f;
         p.film_ior = 1.3f;
         p.film_nm = 100.0f + 400.0f * q[6];
         p.lambda = v4(400.0f + q[3] * 400.0f, 500.0f, 600.0f, 700.0f);
