@@ -43,6 +43,7 @@ SRC_C := $(filter-out src/cli/main.c src/mpi/mpi_main.c,$(wildcard src/*/*.c))
 OIIO_SRCS := src/io/image_io.cpp src/io/texture_io.cpp
 SRC_CXX := $(filter-out $(OIIO_SRCS),$(wildcard src/*/*.cpp))
 OIIO_LIB := $(BUILD)/libspectrace-oiio.so
+SHLIB := $(BUILD)/libspectrace.so
 KERNEL_FILES := $(sort $(wildcard kernels/*/*.h kernels/*/*.cl))
 GEN_C := $(BUILD)/gen/kernel_sources.c \
          $(if $(wildcard tools/rgb2spec/rgb2spec_opt.c),$(BUILD)/gen/rgb2spec_data.c)
@@ -134,8 +135,8 @@ bench: deps
 
 # The library for other programs (src/api/spectrace.h, docs/api.md): the
 # objects of libspectrace.a (PICFLAGS), exporting only spectrace_* and what
-# libspectrace-oiio.so calls back (the version script).
-SHLIB := $(BUILD)/libspectrace.so
+# libspectrace-oiio.so calls back (the version script). SHLIB is set above,
+# beside OIIO_LIB, since the targets that need it are read first.
 $(SHLIB): $(LIB_OBJS) src/api/spectrace.map | $(OIIO_LIB)
 	@echo "LINK $@"
 	$(Q)$(CXX) -shared $(LDFLAGS) -Wl,--version-script=src/api/spectrace.map \
