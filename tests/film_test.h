@@ -72,4 +72,24 @@ static inline void assert_same_film(const Film *a, const Film *b)
     assert_same_film_tol(a, b, 1e-4);
 }
 
+/* Split invariance of four films of one render: f[0] the samples [0, N), f[1]
+ * and f[2] two parts of them, f[3] the same samples with another path pool.
+ * The parts' sum equals the whole within 1e-5 relative (float sums in another
+ * order), the pool changes nothing, and the image is not black. f[1] is
+ * replaced by the sum. */
+static inline void assert_split_films(Film f[4], const char *what)
+{
+    film_add(&f[1], &f[2]);
+    size_t n = (size_t)f[0].width * f[0].height;
+    double worst = 0, sum = 0;
+    for (size_t i = 0; i < 3 * n; i++) {
+        worst = fmax(worst, fabs(f[1].xyz[i] - f[0].xyz[i]) / fmax(fabs(f[0].xyz[i]), 1e-6));
+        sum += f[0].xyz[i];
+    }
+    print_message("%s: whole vs parts: largest relative difference %.3g\n", what, worst);
+    assert_true(sum > 0.0);
+    assert_true(worst < 1e-5);
+    assert_memory_equal(f[0].xyz, f[3].xyz, 3 * n * sizeof(double));
+}
+
 #endif

@@ -23,6 +23,7 @@
  * Also: with another number of light paths per camera path than the default
  * (--light-paths), the image still does not depend on how the samples are
  * split. */
+#include "film_test.h"
 #include "test_util.h"
 #include "test_render_util.h"
 
@@ -200,17 +201,7 @@ TEST(test_light_paths_split)
         film_init(&f[k], W, W);
         assert_int_equal(render_device(device, &g, &s.camera, &rs, &f[k], &st, &e), 0);
     }
-    film_add(&f[1], &f[2]);
-    size_t n = (size_t)W * W;
-    double worst = 0, sum = 0;
-    for (size_t i = 0; i < 3 * n; i++) {
-        worst = fmax(worst, fabs(f[1].xyz[i] - f[0].xyz[i]) / fmax(fabs(f[0].xyz[i]), 1e-6));
-        sum += f[0].xyz[i];
-    }
-    printf("--light-paths 0.37: [0,8) vs [0,3) + [3,8): largest relative difference %.3g\n", worst);
-    assert_true(sum > 0.0);
-    assert_true(worst < 1e-5);
-    assert_memory_equal(f[0].xyz, f[3].xyz, 3 * n * sizeof(double));
+    assert_split_films(f, "--light-paths 0.37, [0,8) vs [0,3) + [3,8)");
     for (int k = 0; k < 4; k++)
         film_free(&f[k]);
     gpu_scene_free(&g);

@@ -4,6 +4,7 @@
  * point (checked by brute force over the light's surface), its nodes bound
  * their children, and the packed normal of a path's light context comes
  * back within the slack the importance allows for it. */
+#include "film_test.h"
 #include "test_util.h"
 #include "chi2.h"
 #include "test_main.h"
@@ -464,17 +465,7 @@ TEST(test_light_tree_split)
         if (render_film(&s, &rs, &f[k], &st, &e))
             fail_msg("render: %s", e.msg);
     }
-    film_add(&f[1], &f[2]);
-    size_t n = (size_t)W * W;
-    double worst = 0, sum = 0;
-    for (size_t i = 0; i < 3 * n; i++) {
-        worst = fmax(worst, fabs(f[1].xyz[i] - f[0].xyz[i]) / fmax(fabs(f[0].xyz[i]), 1e-6));
-        sum += f[0].xyz[i];
-    }
-    print_message("yard with the tree: [0,8) vs [0,3) + [3,8): largest relative difference %.3g\n", worst);
-    assert_true(sum > 0.0);
-    assert_true(worst < 1e-5);
-    assert_memory_equal(f[0].xyz, f[3].xyz, 3 * n * sizeof(double));
+    assert_split_films(f, "yard with the tree, [0,8) vs [0,3) + [3,8)");
     for (int k = 0; k < 4; k++)
         film_free(&f[k]);
     scene_free(&s);
