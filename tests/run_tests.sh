@@ -41,7 +41,7 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 device_tests=(test_bsdf test_bvh test_lights test_materials test_render test_render_sky test_shading test_caustics test_caustics_ref test_prism
               test_caustics_sky test_hostile_spot test_hostile_spectra test_hostile_radiance
               test_rng test_sampling test_textures test_multidevice test_checkpoint test_sweep test_aov
-              test_spectral test_adaptive test_wavelength test_kernel_headers)
+              test_spectral test_adaptive test_wavelength test_kernel_headers test_instancing)
 
 if [ $# -gt 0 ]; then
   names=("$@")
@@ -61,7 +61,7 @@ IFS=, read -r -a impl_list <<<"$impls"
 # these, while pocl-gpu runs every device test on that path. The full form adds
 # the two that render most there (quick form, 2 cores: test_textures 342 s and
 # test_multidevice 173 s of CPU time, the other six 67 s together).
-rusticl_subset=(test_bsdf test_bvh test_lights test_rng test_sampling test_sweep test_wavelength)
+rusticl_subset=(test_bsdf test_bvh test_instancing test_lights test_rng test_sampling test_sweep test_wavelength)
 [ "$form" = full ] && rusticl_subset+=(test_textures test_multidevice)
 # test_multidevice and test_sweep split one render across PoCL and another
 # implementation; pocl-gpu is PoCL itself.
