@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "accel/tlas_build.h"
+#include "scene/scene.h"
 #include "ref_triangle.h"
 
 static uint64_t rng_state = 1;
@@ -421,6 +422,102 @@ TEST(test_faces_on_instance_boxes)
     free(which);
 }
 
+/* Writes a glTF of one triangle, (0,0,0) (1,0,0) (0,1,0), on node 0 with
+ * EXT_mesh_gpu_instancing (scale_count SCALE elements; rotation_normalized 0
+ * makes ROTATION's shorts unnormalised, which the extension forbids) under
+ * node 1 (scale 2), and on node 2 plainly; loads it into s. */
+static int load_gpu_instances(Scene *s, int scale_count, int rotation_normalized, SptError *e)
+{
+    unsigned char bin[132];
+    const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const float tr[9] = {10, 0, 0, 0, 5, 0, 0, 0, -3};
+    /* 90 degrees about z; the identity; 180 degrees about x */
+    const int16_t rot[12] = {0, 0, 23170, 23170, 0, 0, 0, 32767, 32767, 0, 0, 0};
+    const float sc[9] = {2, 1, 1, 1, 1, 1, 1, -1, 1};
+    memcpy(bin, pos, 36);
+    memcpy(bin + 36, tr, 36);
+    memcpy(bin + 72, rot, 24);
+    memcpy(bin + 96, sc, 36);
+    char path[160], json[4096];
+    snprintf(path, sizeof path, "%s/inst.bin", test_dir());
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(bin, 1, sizeof bin, f), sizeof bin);
+    fclose(f);
+    snprintf(json, sizeof json,
+             "{\"asset\":{\"version\":\"2.0\"},\"extensionsUsed\":[\"EXT_mesh_gpu_instancing\"],"
+             "\"extensionsRequired\":[\"EXT_mesh_gpu_instancing\"],"
+             "\"scene\":0,\"scenes\":[{\"nodes\":[1,2]}],"
+             "\"nodes\":[{\"mesh\":0,\"translation\":[0,0,1],\"extensions\":{\"EXT_mesh_gpu_instancing\":"
+             "{\"attributes\":{\"TRANSLATION\":1,\"ROTATION\":2,\"SCALE\":3}}}},"
+             "{\"scale\":[2,2,2],\"children\":[0]},{\"mesh\":0,\"translation\":[0,0,40]}],"
+             "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}],"
+             "\"buffers\":[{\"byteLength\":132,\"uri\":\"inst.bin\"}],"
+             "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":36},"
+             "{\"buffer\":0,\"byteOffset\":36,\"byteLength\":36},"
+             "{\"buffer\":0,\"byteOffset\":72,\"byteLength\":24},"
+             "{\"buffer\":0,\"byteOffset\":96,\"byteLength\":36}],"
+             "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\","
+             "\"min\":[0,0,0],\"max\":[1,1,0]},"
+             "{\"bufferView\":1,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
+             "{\"bufferView\":2,\"componentType\":5122,\"normalized\":%s,\"count\":3,\"type\":\"VEC4\"},"
+             "{\"bufferView\":3,\"componentType\":5126,\"count\":%d,\"type\":\"VEC3\"}]}",
+             rotation_normalized ? "true" : "false", scale_count);
+    snprintf(path, sizeof path, "%s/inst.gltf", test_dir());
+    f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(json, f);
+    fclose(f);
+    return scene_load_gltf(s, path, e);
+}
+
+/* Vertex k of triangle t is (x, y, z) within 1e-4 (the rotation's shorts). */
+static void assert_vertex_near(const Scene *s, uint32_t t, int k, double x, double y, double z)
+{
+    const float *p = &s->tri_pos[t * 9 + k * 3];
+    if (fabs(p[0] - x) > 1e-4 || fabs(p[1] - y) > 1e-4 || fabs(p[2] - z) > 1e-4)
+        fail_msg("triangle %u vertex %d is (%g, %g, %g), expected (%g, %g, %g)", t, k, p[0], p[1],
+                 p[2], x, y, z);
+}
+
+/* EXT_mesh_gpu_instancing: each element's T R S (rotations as normalised
+ * shorts) in the node's space, under its parent's transform; a mirrored
+ * instance keeps counter-clockwise front faces; a plain node sharing the
+ * mesh adds its own copy. Vertices computed by hand: world = S2 T(0,0,1)
+ * T_i R_i S_i. */
+TEST(test_gltf_gpu_instancing)
+{
+    Scene s;
+    SptError e = {0};
+    if (load_gpu_instances(&s, 3, 1, &e))
+        fail_msg("%s", e.msg);
+    assert_int_equal(s.tri_count, 4);
+    assert_int_equal(s.stats.instances, 4);
+    /* 0: scale x 2, 90 degrees about z, (10, 0, 0): (x, y) -> (10 - y, 2 x) */
+    assert_vertex_near(&s, 0, 0, 20, 0, 2);
+    assert_vertex_near(&s, 0, 1, 20, 4, 2);
+    assert_vertex_near(&s, 0, 2, 18, 0, 2);
+    /* 1: (0, 5, 0) */
+    assert_vertex_near(&s, 1, 0, 0, 10, 2);
+    assert_vertex_near(&s, 1, 1, 2, 10, 2);
+    assert_vertex_near(&s, 1, 2, 0, 12, 2);
+    /* 2: scale y -1 then 180 degrees about x: z mirrored, at z -3: the
+     * winding swapped (vertices 1 and 2) */
+    assert_vertex_near(&s, 2, 0, 0, 0, -4);
+    assert_vertex_near(&s, 2, 1, 0, 2, -4);
+    assert_vertex_near(&s, 2, 2, 2, 0, -4);
+    /* node 2, the same mesh plainly */
+    assert_vertex_near(&s, 3, 0, 0, 0, 40);
+    assert_vertex_near(&s, 3, 1, 1, 0, 40);
+    scene_free(&s);
+    /* attributes of different counts, unnormalised short rotations: refused,
+     * naming the node and the attribute */
+    assert_int_equal(load_gpu_instances(&s, 2, 1, &e), SPT_EXIT_INPUT);
+    assert_non_null(strstr(e.msg, "nodes[0].extensions.EXT_mesh_gpu_instancing.attributes.SCALE"));
+    assert_int_equal(load_gpu_instances(&s, 3, 0, &e), SPT_EXIT_INPUT);
+    assert_non_null(strstr(e.msg, "attributes.ROTATION"));
+}
+
 /* The two-level queries compiled by the OpenCL device from kernels/, on the
  * CPU path (with the x86 leaf tests where the device has them) and the GPU
  * path (SPT_BVH_SHORT_STACK; with 2 entries too, which restarts at both
@@ -494,4 +591,4 @@ TEST(test_tlas_device_matches_host)
     test_cl_close(&cl);
 }
 
-TEST_MAIN("instancing", NULL, NULL)
+TEST_MAIN("instancing", test_dir_setup, test_dir_teardown)

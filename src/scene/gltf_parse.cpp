@@ -12,6 +12,7 @@ const char *const k_supported_ext[] = {
     "KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_pbrSpecularGlossiness",
     "KHR_mesh_quantization", "EXT_meshopt_compression", "KHR_draco_mesh_compression",
     "EXT_texture_webp", "KHR_materials_specular", "KHR_materials_clearcoat", "KHR_materials_sheen",
+    "EXT_mesh_gpu_instancing",
 };
 
 
