@@ -422,6 +422,50 @@ TEST(test_faces_on_instance_boxes)
     free(which);
 }
 
+/* The light selection's per-instance power: each instance's emitting
+ * triangles' world areas times their weights, against the flattened scene's
+ * triangles summed per instance (their placed float vertices, in double). */
+TEST(test_emitter_power_per_instance)
+{
+    rng_state = 42;
+    InstScene s;
+    iscene_make(&s, 80, 8.0);
+    /* mesh 0: every third triangle emits with weight 1 + t % 5; mesh 1: none */
+    float *w0 = malloc(s.mesh_n[0] * sizeof *w0);
+    for (uint32_t t = 0; t < s.mesh_n[0]; t++)
+        w0[t] = t % 3 ? 0.0f : (float)(1 + t % 5);
+    const float *weight[2] = {w0, NULL};
+    double *power = malloc(s.tlas.inst_count * sizeof *power);
+    tlas_emitter_power(&s.tlas, s.mesh, weight, power);
+    double *want = calloc(s.ninst, sizeof *want);
+    for (uint32_t k = 0; k < s.flat_n; k++) {
+        uint32_t i = s.flat_inst[k], t = s.flat_prim[k];
+        if (s.inst_mesh[i] != 0 || w0[t] == 0.0f)
+            continue;
+        const float *p = s.flat_tris + 9 * (size_t)k;
+        double e1[3], e2[3];
+        for (int r = 0; r < 3; r++) {
+            e1[r] = (double)p[3 + r] - p[r];
+            e2[r] = (double)p[6 + r] - p[r];
+        }
+        double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
+               cz = e1[0] * e2[1] - e1[1] * e2[0];
+        want[i] += w0[t] * 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
+    }
+    int emitting = 0;
+    for (uint32_t k = 0; k < s.tlas.inst_count; k++) {
+        uint32_t i = s.tlas.inst_index[k];
+        assert_int_equal(s.tlas.inst_mesh[k], s.inst_mesh[i]);
+        assert_close_rel(power[k], want[i], 1e-5);
+        emitting += power[k] > 0.0;
+    }
+    assert_true(emitting > 20 && emitting < 80);
+    free(want);
+    free(power);
+    free(w0);
+    iscene_free(&s);
+}
+
 /* Writes a glTF of one triangle, (0,0,0) (1,0,0) (0,1,0), on node 0 with
  * EXT_mesh_gpu_instancing (scale_count SCALE elements; rotation_normalized 0
  * makes ROTATION's shorts unnormalised, which the extension forbids) under

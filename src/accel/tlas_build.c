@@ -141,9 +141,11 @@ int tlas_build(Tlas *tlas, const Bvh *meshes, const uint32_t *mesh_prim_base, ui
     /* The instances in the tree's order: a leaf's child is its position. */
     tlas->inst = spt_malloc((n ? n : 1) * sizeof *tlas->inst);
     tlas->inst_index = spt_malloc((n ? n : 1) * sizeof *tlas->inst_index);
+    tlas->inst_mesh = spt_malloc((n ? n : 1) * sizeof *tlas->inst_mesh);
     for (uint32_t k = 0; k < n; k++) {
         tlas->inst[k] = kept[order[k]];
         tlas->inst_index[k] = kept_index[order[k]];
+        tlas->inst_mesh[k] = inst_mesh[tlas->inst_index[k]];
     }
     if (n == 0)
         memset(tlas->inst, 0, sizeof *tlas->inst);
@@ -158,6 +160,39 @@ int tlas_build(Tlas *tlas, const Bvh *meshes, const uint32_t *mesh_prim_base, ui
     return SPT_EXIT_OK;
 }
 
+void tlas_emitter_power(const Tlas *tl, const Bvh *meshes, const float *const *weight, double *power)
+{
+    for (uint32_t k = 0; k < tl->inst_count; k++) {
+        const BvhInstance *in = &tl->inst[k];
+        uint32_t m = tl->inst_mesh[k];
+        double sum = 0.0;
+        if (weight[m]) {
+            const Bvh *b = &meshes[m];
+            for (uint32_t i = 0; i < b->prim_count; i++) {
+                float w = weight[m][b->prim_index[i]];
+                if (!(w > 0.0f))
+                    continue;
+                vec3 v[3];
+                bvh_vertices(b, i, &v[0], &v[1], &v[2]);
+                double p[3][3];
+                for (int c = 0; c < 3; c++)
+                    for (int r = 0; r < 3; r++)
+                        p[c][r] = (double)in->xf[4 * r] * v[c].x + (double)in->xf[4 * r + 1] * v[c].y +
+                                  (double)in->xf[4 * r + 2] * v[c].z + in->xf[4 * r + 3];
+                double e1[3], e2[3];
+                for (int r = 0; r < 3; r++) {
+                    e1[r] = p[1][r] - p[0][r];
+                    e2[r] = p[2][r] - p[0][r];
+                }
+                double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
+                       cz = e1[0] * e2[1] - e1[1] * e2[0];
+                sum += (double)w * 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
+            }
+        }
+        power[k] = sum;
+    }
+}
+
 void tlas_free(Tlas *tlas)
 {
     if (!tlas)
@@ -165,6 +200,7 @@ void tlas_free(Tlas *tlas)
     free(tlas->top);
     free(tlas->inst);
     free(tlas->inst_index);
+    free(tlas->inst_mesh);
     free(tlas->nodes);
     free(tlas->tris);
     memset(tlas, 0, sizeof *tlas);

@@ -30,6 +30,7 @@ typedef struct Tlas {
     BvhInstance *inst;         /* inst_count, in the top level's order (device-ready) */
     uint32_t inst_count;
     uint32_t *inst_index;      /* inst_index[k] = input index of instance k */
+    uint32_t *inst_mesh;       /* inst_mesh[k] = the mesh instance k places */
     BvhNode *nodes;            /* the meshes' nodes, one after another (device-ready) */
     size_t node_count;
     float *tris;               /* the meshes' leaf blocks, one after another (device-ready) */
@@ -46,6 +47,15 @@ typedef struct Tlas {
  * empty, e filled) for a mesh index out of range or a scene too large. */
 int tlas_build(Tlas *tlas, const Bvh *meshes, const uint32_t *mesh_prim_base, uint32_t mesh_count,
                const float *xf, const uint32_t *inst_mesh, uint32_t inst_count, SptError *e);
+
+/* The light selection's per-instance term (docs/architecture.md,
+ * "Instances"): for each instance k of tl, the sum over its mesh's triangles
+ * of weight[m][t] (per input triangle of mesh m, 0 for one that does not
+ * emit; NULL for a mesh with no emitter) times the triangle's world-space
+ * area under the instance's transform, into power[k]. Triangles of weight 0
+ * cost nothing, so a scene's work is its instances times their meshes'
+ * emitting triangles, and its storage one number per instance. */
+void tlas_emitter_power(const Tlas *tl, const Bvh *meshes, const float *const *weight, double *power);
 
 /* Frees what tlas_build allocated and zeroes tlas; safe on a zeroed Tlas. */
 void tlas_free(Tlas *tlas);
