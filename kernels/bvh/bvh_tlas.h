@@ -26,7 +26,8 @@
  * kernels/bvh/bvh_short_stack.h on every path (its trail bounds its levels
  * as it does a mesh's), and the bottom level what bvh_traverse runs there
  * (the full stack on CPUs, the short one with SPT_BVH_SHORT_STACK), so a
- * GPU-shaped query holds two short stacks, about 500 bytes. */
+ * GPU-shaped query holds two short stacks' state, 2 x 312 bytes (one full
+ * stack's state is 5.5 KB). */
 #ifndef SPT_KERNELS_BVH_TLAS_H
 #define SPT_KERNELS_BVH_TLAS_H
 
