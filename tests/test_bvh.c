@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "accel/bvh_build.h"
+#include "ref_triangle.h"
 
 /* The test data's random numbers (bvh_gen_uniform), reseeded by each test. */
 static uint64_t rng_state = 1;
@@ -21,38 +22,14 @@ static void rnd_dir(double d[3])
     d[2] = z;
 }
 
-/* Moller-Trumbore in double: 1 when the ray hits triangle p with t > 0 and all
- * barycentrics >= -eps; *t and *margin (smallest barycentric) filled. */
+/* ref_tri_d on the float triangle p (9 floats). */
 static int ref_tri(const float *p, const double o[3], const double d[3], double eps, double *t,
                    double *margin)
 {
-    double v0[3], e1[3], e2[3], pv[3], tv[3], qv[3];
-    for (int a = 0; a < 3; a++) {
-        v0[a] = p[a];
-        e1[a] = (double)p[3 + a] - p[a];
-        e2[a] = (double)p[6 + a] - p[a];
-    }
-    pv[0] = d[1] * e2[2] - d[2] * e2[1];
-    pv[1] = d[2] * e2[0] - d[0] * e2[2];
-    pv[2] = d[0] * e2[1] - d[1] * e2[0];
-    double det = e1[0] * pv[0] + e1[1] * pv[1] + e1[2] * pv[2];
-    if (det == 0.0)
-        return 0;
-    double inv = 1.0 / det;
-    for (int a = 0; a < 3; a++)
-        tv[a] = o[a] - v0[a];
-    double u = (tv[0] * pv[0] + tv[1] * pv[1] + tv[2] * pv[2]) * inv;
-    qv[0] = tv[1] * e1[2] - tv[2] * e1[1];
-    qv[1] = tv[2] * e1[0] - tv[0] * e1[2];
-    qv[2] = tv[0] * e1[1] - tv[1] * e1[0];
-    double v = (d[0] * qv[0] + d[1] * qv[1] + d[2] * qv[2]) * inv;
-    double tt = (e2[0] * qv[0] + e2[1] * qv[1] + e2[2] * qv[2]) * inv;
-    double m = fmin(fmin(u, v), 1.0 - u - v);
-    if (m < -eps || !(tt > 0.0))
-        return 0;
-    *t = tt;
-    *margin = m;
-    return 1;
+    double v[9];
+    for (int k = 0; k < 9; k++)
+        v[k] = p[k];
+    return ref_tri_d(v, o, d, eps, t, margin);
 }
 
 typedef struct RefHit {

@@ -339,6 +339,8 @@ TEST(test_shared_vertices_and_instances)
     if (!strstr(out, "instancing   1 mesh(es) on several nodes, flattened: 4 triangles and 8 "
                      "vertices are copies"))
         fail_msg("no instancing line in:\n%s", out);
+    if (!strstr(out, "2 unique triangle(s), 6 placed by the instances"))
+        fail_msg("no unique and placed triangles in:\n%s", out);
 }
 
 static double srgb_to_linear(double x)

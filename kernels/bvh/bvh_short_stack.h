@@ -63,6 +63,90 @@ SPT_FN_INLINE int bvh_short_resume(BvhShort *s)
     return 0;
 }
 
+/* The current item, node s->cur, visited: moves to its nearest entered
+ * child (returns 1), or finishes the traversal or restarts it (returns what
+ * bvh_short_resume does), or returns -1 when the ray enters none of its
+ * children (the caller then pops: bvh_short_pop). cap as bvh_short_step. The
+ * top level of kernels/bvh/bvh_tlas.h runs its nodes through this too. */
+SPT_FN_INLINE int bvh_short_node(const SPT_GLOBAL BvhNode *nodes, BvhShort *s, int cap)
+{
+    const SPT_GLOBAL BvhNode *n = &nodes[s->cur];
+    int level = s->depth;
+    spt_u32 mask;
+    BvhEnter d = bvh_node_enter(n, &s->r, s->best, &mask);
+    float kd[BVH_WIDTH];
+    spt_u32 ks[BVH_WIDTH];
+    int k = 0, r = 0;
+    if (mask && !(mask & (mask - 1u))) {
+        ks[0] = bvh_lowest_bit(mask);
+        k = 1;
+    } else if (mask) {
+        k = bvh_sort_entered(d, mask, kd, ks);
+    }
+    if (s->restart >= 0) {
+        r = (int)(s->trail[level] & 7u);
+        if (r >= k) {
+            /* What is left of this node is beyond the best hit. */
+            s->restart = -1;
+            return bvh_short_resume(s);
+        }
+        if (level < s->restart) {
+            spt_u32 c = ks[k - 1 - r];
+            s->cur = n->child[c];
+            s->count = n->count[c];
+            s->depth = level + 1;
+            return 1;
+        }
+        s->restart = -1;
+    }
+    if (k) {
+        s->trail[level] = (spt_u8)((spt_u32)r | (r == k - 1 ? BVH_TRAIL_LAST : 0u));
+        for (int j = 0; j < k - 1 - r; j++) {
+            if (s->sp == cap) {
+                for (int i = 0; i + 1 < cap; i++) {
+                    s->st_child[i] = s->st_child[i + 1];
+                    s->st_count[i] = s->st_count[i + 1];
+                    s->st_tag[i] = s->st_tag[i + 1];
+                    s->st_t[i] = s->st_t[i + 1];
+                }
+                s->sp = cap - 1;
+                s->dropped = 1;
+            }
+            int sp = s->sp++;
+            s->st_child[sp] = n->child[ks[j]];
+            s->st_count[sp] = n->count[ks[j]];
+            s->st_t[sp] = kd[j];
+            s->st_tag[sp] = (spt_u32)level | (spt_u32)(k - 1 - j) << 8 |
+                            (j == 0 ? BVH_TRAIL_LAST << 8 : 0u);
+        }
+        spt_u32 c = ks[k - 1 - r];
+        s->cur = n->child[c];
+        s->count = n->count[c];
+        s->depth = level + 1;
+        return 1;
+    }
+    return -1;
+}
+
+/* After the current item is done: moves to the nearest deferred item the best
+ * hit does not rule out (a skipped one counts as visited) and returns 1, or
+ * restarts (bvh_short_resume), or returns 0 when the traversal is finished. */
+SPT_FN_INLINE int bvh_short_pop(BvhShort *s)
+{
+    while (s->sp > 0) {
+        int sp = --s->sp;
+        spt_u32 tag = s->st_tag[sp], l = tag & 255u;
+        s->trail[l] = (spt_u8)(tag >> 8);
+        s->depth = (int)l + 1;
+        if (s->st_t[sp] <= s->best) {
+            s->cur = s->st_child[sp];
+            s->count = s->st_count[sp];
+            return 1;
+        }
+    }
+    return s->dropped ? bvh_short_resume(s) : 0;
+}
+
 /* One step: tests the current item and moves to the next; 0 when finished.
  * cap (<= BVH_SHORT_STACK_SIZE) is the stack size used (tests force restarts
  * with small ones). */
@@ -76,76 +160,11 @@ SPT_FN_INLINE int bvh_short_step(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOB
                 return 0;
         }
     } else {
-        const SPT_GLOBAL BvhNode *n = &nodes[s->cur];
-        int level = s->depth;
-        spt_u32 mask;
-        BvhEnter d = bvh_node_enter(n, &s->r, s->best, &mask);
-        float kd[BVH_WIDTH];
-        spt_u32 ks[BVH_WIDTH];
-        int k = 0, r = 0;
-        if (mask && !(mask & (mask - 1u))) {
-            ks[0] = bvh_lowest_bit(mask);
-            k = 1;
-        } else if (mask) {
-            k = bvh_sort_entered(d, mask, kd, ks);
-        }
-        if (s->restart >= 0) {
-            r = (int)(s->trail[level] & 7u);
-            if (r >= k) {
-                /* What is left of this node is beyond the best hit. */
-                s->restart = -1;
-                return bvh_short_resume(s);
-            }
-            if (level < s->restart) {
-                spt_u32 c = ks[k - 1 - r];
-                s->cur = n->child[c];
-                s->count = n->count[c];
-                s->depth = level + 1;
-                return 1;
-            }
-            s->restart = -1;
-        }
-        if (k) {
-            s->trail[level] = (spt_u8)((spt_u32)r | (r == k - 1 ? BVH_TRAIL_LAST : 0u));
-            for (int j = 0; j < k - 1 - r; j++) {
-                if (s->sp == cap) {
-                    for (int i = 0; i + 1 < cap; i++) {
-                        s->st_child[i] = s->st_child[i + 1];
-                        s->st_count[i] = s->st_count[i + 1];
-                        s->st_tag[i] = s->st_tag[i + 1];
-                        s->st_t[i] = s->st_t[i + 1];
-                    }
-                    s->sp = cap - 1;
-                    s->dropped = 1;
-                }
-                int sp = s->sp++;
-                s->st_child[sp] = n->child[ks[j]];
-                s->st_count[sp] = n->count[ks[j]];
-                s->st_t[sp] = kd[j];
-                s->st_tag[sp] = (spt_u32)level | (spt_u32)(k - 1 - j) << 8 |
-                                (j == 0 ? BVH_TRAIL_LAST << 8 : 0u);
-            }
-            spt_u32 c = ks[k - 1 - r];
-            s->cur = n->child[c];
-            s->count = n->count[c];
-            s->depth = level + 1;
-            return 1;
-        }
+        int next = bvh_short_node(nodes, s, cap);
+        if (next >= 0)
+            return next;
     }
-    /* Next: the nearest deferred item the best hit does not rule out; a
-     * skipped one counts as visited. */
-    while (s->sp > 0) {
-        int sp = --s->sp;
-        spt_u32 tag = s->st_tag[sp], l = tag & 255u;
-        s->trail[l] = (spt_u8)(tag >> 8);
-        s->depth = (int)l + 1;
-        if (s->st_t[sp] <= s->best) {
-            s->cur = s->st_child[sp];
-            s->count = s->st_count[sp];
-            return 1;
-        }
-    }
-    return s->dropped ? bvh_short_resume(s) : 0;
+    return bvh_short_pop(s);
 }
 
 /* Starts s at the root for the ray org + t dir, t in (0, tmax). */

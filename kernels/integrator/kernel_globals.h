@@ -17,6 +17,7 @@
 #include "util/portable.h"
 #include "util/render_types.h"
 #include "bvh/bvh_node.h" /* BvhNode */
+#include "bvh/bvh_tlas.h" /* BvhInstance */
 
 SPT_DEVICE_ONLY
 

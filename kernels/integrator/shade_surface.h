@@ -30,6 +30,7 @@ SPT_DEVICE_ONLY
 typedef struct ShadeHit {
     uint i;           /* the path */
     uint prim;        /* the hit triangle (packed index) */
+    uint inst;        /* its instance (ps_inst), or SPT_NO_INST */
     uint depth;       /* segments including the one just traced */
     float4 hit;       /* ps_hit: t, barycentrics, prim */
     float4 lam;       /* the path's wavelengths */
@@ -127,11 +128,13 @@ SPT_FN_INLINE void shade_hit_geometry(ShadeHit *h, TexCtx *tc, const KernelGloba
     uint i = h->i;
     h->L = kg->ps_radiance[i];
     h->rd = kg->ps_ray_d[i].xyz;
-    tri_positions(kg->tri_shade, kg->vtx_pos, h->prim, &h->v0, &h->v1, &h->v2);
+    tri_world(kg->tri_shade, kg->vtx_pos, kg->tlas_inst, h->inst, h->prim, &h->v0, &h->v1, &h->v2);
     h->bu = h->hit.y;
     h->bv = h->hit.z;
     h->p = (1.0f - h->bu - h->bv) * h->v0 + h->bu * h->v1 + h->bv * h->v2;
     h->ng = normalize(cross(h->v1 - h->v0, h->v2 - h->v0));
+    if (h->inst != SPT_NO_INST && (kg->tlas_inst[h->inst].flags & BVH_INSTANCE_MIRRORED))
+        h->ng = -h->ng;
     h->front = dot(h->ng, h->rd) < 0.0f;
     h->ts = kg->tri_shade[h->prim];
     h->m = kg->materials + h->ts.material;
@@ -235,7 +238,7 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
     float3 ngf = h->ng, n_coat;
     float3 ns = shading_normal(prim, h->bu, h->bv, &ngf, f->two_sided_bsdf, h->v0, h->v1, h->v2, m, tc,
                                &n_coat, kg->tri_shade, kg->vtx_normal, kg->vtx_uv, kg->vtx_uv1,
-                               kg->vtx_tangent, kg->textures, kg->texels);
+                               kg->vtx_tangent, kg->textures, kg->texels, kg->tlas_inst, h->inst);
     if (!f->two_sided_bsdf && !h->front) {
         ns = -ns;
         n_coat = -n_coat;
@@ -469,6 +472,7 @@ SPT_FN_INLINE void shade_hit_begin(uint i, ShadeHit *h, const KernelGlobals *kg)
     h->i = i;
     h->hit = kg->ps_hit[i];
     h->prim = as_uint(h->hit.w);
+    h->inst = kg->p->inst_count > 0u && h->prim != NO_HIT ? kg->ps_inst[i] : SPT_NO_INST;
     h->depth = kg->ps_depth[i] + 1u;
     h->lam = kg->ps_lambda[i];
     h->beta = kg->ps_throughput[i];

@@ -220,11 +220,50 @@ static float4 extend_result(int found, const BvhHit *h)
                  : (float4)(0.0f, 0.0f, 0.0f, as_float(NO_HIT));
 }
 
+/* The closest hit of the ray org + t dir, t in (0, tmax): through the two
+ * levels when the scene has instances (docs/architecture.md, "Instances (two
+ * levels)"; *inst gets the hit's), else the one BVH (*inst untouched). */
+static int scene_intersect(float3 org, float3 dir, float tmax, BvhHit *h, uint *inst,
+                           const KernelGlobals *kg)
+{
+    if (kg->p->inst_count == 0u)
+        return kg->p->node_count > 0u && bvh_intersect(kg->nodes, kg->tris, org, dir, tmax, h);
+    BvhInstHit ih;
+    if (!bvh_tlas_intersect(kg->tlas_top, kg->tlas_inst, kg->nodes, kg->tris, org, dir, tmax, &ih))
+        return 0;
+    *h = ih.h;
+    *inst = ih.inst;
+    return 1;
+}
+
+/* Path i's closest hit as ps_hit holds it, its instance into ps_inst. */
+static float4 extend_path(uint i, const KernelGlobals *kg)
+{
+    BvhHit h;
+    uint inst = 0u;
+    int found = scene_intersect(kg->ps_ray_o[i].xyz, kg->ps_ray_d[i].xyz, 1e30f, &h, &inst, kg);
+    if (kg->p->inst_count > 0u)
+        kg->ps_inst[i] = inst;
+    return extend_result(found, &h);
+}
+
 /* Closest hits of the queued rays: on CPUs (SPT_BVH_PAIRS) work-item g traces
- * queue entries 2 g and 2 g + 1 together (bvh_intersect2), elsewhere entry g. */
+ * queue entries 2 g and 2 g + 1 together (bvh_intersect2; one after the other
+ * through the two levels of an instanced scene), elsewhere entry g. */
 __kernel void k_extend(KERNEL_ARGS)
 {
     uint n = counters[SPT_CNT_EXTEND];
+    if (params.inst_count > 0u) {
+        KERNEL_GLOBALS;
+#if defined(SPT_BVH_PAIRS)
+        for (uint g = 2u * get_global_id(0); g < n && g < 2u * get_global_id(0) + 2u; g++)
+#else
+        uint g = get_global_id(0);
+        if (g < n)
+#endif
+            ps_hit[queue_extend[g]] = extend_path(queue_extend[g], kg);
+        return;
+    }
 #if defined(SPT_BVH_PAIRS)
     uint g = 2u * get_global_id(0);
     if (g >= n)
@@ -309,7 +348,10 @@ __kernel void k_shade(KERNEL_ARGS)
 static void connect_shadow(float4 so, float4 d, float4 sc, uint i, const KernelGlobals *kg)
 {
     float transmit = 1.0f;
-    if (kg->p->node_count > 0u && !kg->p->has_alpha) {
+    if (kg->p->inst_count > 0u && !kg->p->has_alpha) {
+        if (bvh_tlas_occluded(kg->tlas_top, kg->tlas_inst, kg->nodes, kg->tris, so.xyz, d.xyz, d.w))
+            return;
+    } else if (kg->p->node_count > 0u && !kg->p->has_alpha) {
         if (bvh_occluded(kg->nodes, kg->tris, so.xyz, d.xyz, d.w))
             return;
     } else if (kg->p->node_count > 0u) {
@@ -320,11 +362,12 @@ static void connect_shadow(float4 so, float4 d, float4 sc, uint i, const KernelG
         float tmax = d.w;
         for (int k = 0; k < 16; k++) {
             BvhHit h;
-            if (!bvh_intersect(kg->nodes, kg->tris, o, d.xyz, tmax, &h))
+            uint inst = SPT_NO_INST;
+            if (!scene_intersect(o, d.xyz, tmax, &h, &inst, kg))
                 break;
             const __global GpuMaterial *m = kg->materials + kg->tri_shade[h.prim].material;
             vec3 a, b, c;
-            tri_positions(kg->tri_shade, kg->vtx_pos, h.prim, &a, &b, &c);
+            tri_world(kg->tri_shade, kg->vtx_pos, kg->tlas_inst, inst, h.prim, &a, &b, &c);
             float3 ng = normalize(cross(b - a, c - a));
             float op = 1.0f;
             if (m->flags & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND)) {
@@ -428,7 +471,13 @@ __kernel void k_paths(KERNEL_ARGS)
     int a0 = s0 < params.pool_size && mega_next(s0, kg);
     int a1 = a0 && s1 < params.pool_size && mega_next(s1, kg);
     while (a0 | a1) {
-        if (a0 && a1 && params.node_count > 0u) {
+        if (params.inst_count > 0u) {
+            /* Two levels (docs/architecture.md, "Instances (two levels)"): one ray at a time. */
+            if (a0)
+                ps_hit[s0] = extend_path(s0, kg);
+            if (a1)
+                ps_hit[s1] = extend_path(s1, kg);
+        } else if (a0 && a1 && params.node_count > 0u) {
             int found[2];
             BvhHit hit[2];
             bvh_intersect2(nodes, tris, ps_ray_o[s0].xyz, ps_ray_d[s0].xyz, ps_ray_o[s1].xyz,

@@ -11,6 +11,7 @@
 #include "spectrum/spectrum.h"
 #include "closure/bsdf.h"
 #include "integrator/path.h"
+#include "bvh/bvh_tlas.h"
 
 SPT_DEVICE_ONLY
 
@@ -24,6 +25,37 @@ static void tri_positions(const __global TriShade *ts, const __global float *vtx
     *a = vload3(s.v[0], vtx_pos);
     *b = vload3(s.v[1], vtx_pos);
     *c = vload3(s.v[2], vtx_pos);
+}
+
+/* A hit's instance (docs/architecture.md, "Instances (two levels)"):
+ * SPT_NO_INST for a scene without instances, whose vertices are in world space. */
+#define SPT_NO_INST 0xffffffffu
+
+/* The vertices of packed triangle prim in world space: through instance k of
+ * inst (its mesh's space to the world) unless k is SPT_NO_INST. The winding
+ * stays the mesh's: a mirrored instance's face normal is to be negated
+ * (BVH_INSTANCE_MIRRORED). */
+static void tri_world(const __global TriShade *ts, const __global float *vtx_pos,
+                      const __global BvhInstance *inst, uint k, uint prim, float3 *a, float3 *b,
+                      float3 *c)
+{
+    tri_positions(ts, vtx_pos, prim, a, b, c);
+    if (k != SPT_NO_INST) {
+        *a = bvh_xf_apply(inst[k].xf, *a, 1.0f);
+        *b = bvh_xf_apply(inst[k].xf, *b, 1.0f);
+        *c = bvh_xf_apply(inst[k].xf, *c, 1.0f);
+    }
+}
+
+/* A vertex normal of instance k (SPT_NO_INST: in world space already) in world
+ * space, unit as the loader makes a flattened copy's (0 stays 0: none given). */
+static float3 vertex_normal_world(const __global BvhInstance *inst, uint k, float3 n)
+{
+    if (k == SPT_NO_INST)
+        return n;
+    float3 w = bvh_xf_normal(&inst[k], n);
+    float l = length(w);
+    return l > 0.0f ? w / l : (float3)(0.0f);
 }
 
 /* The texture context of packed triangle prim (vertices v0, v1, v2, unit face
@@ -289,18 +321,21 @@ static float3 aniso_direction(const __global GpuMaterial *m, float3 dir, float3 
  * normal bent by the clearcoat normal texture only (KHR_materials_clearcoat: the
  * base's normal map does not reach the coat). With follow_normals (a transmissive
  * surface, whose outside matters), a vertex normal that disagrees with the winding
- * wins: *ng is flipped instead. */
+ * wins: *ng is flipped instead. The vertex normals are instance k's of inst
+ * (tri_world). */
 static float3 shading_normal(uint prim, float bu, float bv, float3 *ng, int follow_normals, float3 v0,
                              float3 v1, float3 v2, const __global GpuMaterial *m, const TexCtx *c,
                              float3 *n_coat, const __global TriShade *tri_shade,
                              const __global float *vtx_normal, const __global float *vtx_uv,
                              const __global float *vtx_uv1, const __global float4 *vtx_tangent,
-                             const __global GpuTexture *textures, const __global float4 *texels)
+                             const __global GpuTexture *textures, const __global float4 *texels,
+                             const __global BvhInstance *inst, uint k)
 {
     TriShade ts = tri_shade[prim];
     float3 ns = *ng;
-    float3 a = vload3(ts.v[0], vtx_normal), b = vload3(ts.v[1], vtx_normal),
-           cc = vload3(ts.v[2], vtx_normal);
+    float3 a = vertex_normal_world(inst, k, vload3(ts.v[0], vtx_normal)),
+           b = vertex_normal_world(inst, k, vload3(ts.v[1], vtx_normal)),
+           cc = vertex_normal_world(inst, k, vload3(ts.v[2], vtx_normal));
     float3 si = (1.0f - bu - bv) * a + bu * b + bv * cc;
     float len = length(si);
     if (len > 1e-6f) {

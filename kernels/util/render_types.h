@@ -240,6 +240,8 @@ typedef struct RenderParams {
     spt_u32 emitter_count;  /* emissive triangles: the first entries of light_cdf */
     float emitter_total;    /* sum of the selection weights, for pdfs */
     spt_u32 node_count;
+    spt_u32 inst_count;     /* instances (docs/architecture.md, "Instances (two levels)"):
+                               0 traces nodes alone, else tlas_top over tlas_inst */
     spt_u32 rr_depth;       /* Russian roulette from this many segments on */
     spt_u32 has_alpha;      /* some material is MASK or BLEND: shadow rays test alpha */
     spt_u32 orthographic;   /* 1: parallel rays along cam_fwd from the image plane */
@@ -336,7 +338,8 @@ typedef struct RenderParams {
     X(float, bsdf_pdf)      \
     X(float, env_pdf)       \
     X(uint, lt)             \
-    X(float4, light_ctx)
+    X(float4, light_ctx)    \
+    X(uint, inst)
 
 /* Shadow-ray queue entries, one buffer per field. */
 #define SPT_SHADOW_STATE(X) \
@@ -349,6 +352,8 @@ typedef struct RenderParams {
 #define SPT_SCENE_BUFFERS(X)          \
     X(const BvhNode, nodes)           \
     X(const float, tris)              \
+    X(const BvhNode, tlas_top)        \
+    X(const BvhInstance, tlas_inst)   \
     X(const TriShade, tri_shade)      \
     X(const float, vtx_pos)           \
     X(const float, vtx_normal)        \

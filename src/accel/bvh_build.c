@@ -508,6 +508,57 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
     return SPT_EXIT_OK;
 }
 
+int bvh_build_boxes(const float *boxes, uint32_t count, BvhNode **nodes, uint32_t *node_count,
+                    uint32_t *order, SptError *e)
+{
+    if (count > BVH_MAX_TRIS)
+        return spt_fail(e, SPT_EXIT_INPUT, "bvh: %u boxes, more than the %u supported", count,
+                        BVH_MAX_TRIS);
+    Builder bd;
+    memset(&bd, 0, sizeof bd);
+    BvhStats st;
+    memset(&st, 0, sizeof st);
+    /* One box per leaf: a leaf's test is a whole lower-level traversal, so
+     * the SAH weighs a node visit as one such test. */
+    bd.opt = bvh_default_options();
+    bd.opt.max_leaf = 1;
+    bd.opt.cost_node = 1.0f;
+    bd.opt.cost_tri = 1.0f;
+    bd.st = &st;
+    bd.refs = spt_malloc((count ? count : 1) * sizeof *bd.refs);
+    for (uint32_t i = 0; i < count; i++) {
+        PrimRef *r = &bd.refs[i];
+        memcpy(r->lo, boxes + 6 * (size_t)i, 3 * sizeof(float));
+        memcpy(r->hi, boxes + 6 * (size_t)i + 3, 3 * sizeof(float));
+        r->id = i;
+        r->pad = 0.0f;
+    }
+    bd.wide_cap = count / 4 + 16;
+    bd.wide = spt_malloc((size_t)bd.wide_cap * sizeof *bd.wide);
+    bd.leaf_slot = spt_calloc(count ? count : 1, sizeof *bd.leaf_slot);
+    uint32_t w = wide_new(&bd);
+    if (count == 0) {
+        for (int i = 0; i < BVH_WIDTH; i++)
+            wide_slot(&bd, w, i, NULL);
+    } else {
+        Item root;
+        decide(&bd, 0, count, 0, &root);
+        if (root.leaf) {
+            for (int i = 0; i < BVH_WIDTH; i++)
+                wide_slot(&bd, w, i, i == 0 ? &root : NULL);
+        } else {
+            build_wide(&bd, w, &root, 0);
+        }
+    }
+    for (uint32_t i = 0; i < count; i++)
+        order[i] = bd.refs[i].id;
+    free(bd.refs);
+    free(bd.leaf_slot);
+    *nodes = bd.wide;
+    *node_count = bd.wide_count;
+    return SPT_EXIT_OK;
+}
+
 void bvh_bounds(const Bvh *bvh, float lo[3], float hi[3])
 {
     for (int a = 0; a < 3; a++) {

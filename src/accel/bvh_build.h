@@ -88,6 +88,16 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
  * time goes to bvh->stats.build_seconds. */
 int bvh_refit(Bvh *bvh, const float *tri_pos, uint32_t tri_count, uint32_t built_count);
 
+/* An 8-wide tree over count boxes (6 floats each: low x y z, high x y z),
+ * for a top level over instances (src/accel/tlas_build.c): the layout of
+ * BvhNode with one box per leaf, a leaf slot having count 1 and child its
+ * position p in the tree's order, order[p] (count entries, filled) the input
+ * index of that box. *nodes (malloc'd; *node_count of them, at least the
+ * root, which has no children when count is 0) is the caller's to free.
+ * Returns 0, or SPT_EXIT_INPUT (nothing allocated) for too many boxes. */
+int bvh_build_boxes(const float *boxes, uint32_t count, BvhNode **nodes, uint32_t *node_count,
+                    uint32_t *order, SptError *e);
+
 /* Frees what bvh_build allocated and zeroes bvh; safe on a zeroed or freed Bvh. */
 void bvh_free(Bvh *bvh);
 

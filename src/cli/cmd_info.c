@@ -305,6 +305,10 @@ int cmd_info(int argc, char **argv)
             print_bytes((double)st->flattened_triangles * (4 * 4 + bvh_bytes_per_tri) +
                         (double)st->flattened_vertices * 5 * sizeof(float));
             printf(" of the device memory\n");
+            /* of those placed, each mesh's own once (what two levels would keep:
+             * docs/architecture.md, "Instances (two levels)") */
+            printf("             %u unique triangle(s), %u placed by the instances\n",
+                   s.tri_count - st->flattened_triangles, s.tri_count);
         }
     }
     scene_free(&s);

@@ -648,7 +648,7 @@ static void image_free(RenderJob *j)
     film_layers_free(&j->layers);
     j->rgb = j->noisy = NULL;
     film_free(&j->film);
-    if (j->gpu.bvh.nodes && j->programs.w) {
+    if (j->gpu.bvh.nodes && j->programs.w && !j->scene.mesh_count) {
         bvh_free(&j->last_bvh);
         j->last_bvh = j->gpu.bvh;
         memset(&j->gpu.bvh, 0, sizeof j->gpu.bvh);

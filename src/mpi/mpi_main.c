@@ -671,9 +671,11 @@ out:
     film_free(&w.film);
     /* The tree kept for the next job's refit. */
     bvh_free(&rd->bvh);
-    rd->bvh = gpu.bvh;
-    rd->bvh_tris = scene.tri_count;
-    memset(&gpu.bvh, 0, sizeof gpu.bvh);
+    if (!scene.mesh_count) { /* a two-level scene's world tree is not the whole scene's */
+        rd->bvh = gpu.bvh;
+        rd->bvh_tris = scene.tri_count;
+        memset(&gpu.bvh, 0, sizeof gpu.bvh);
+    }
     gpu_scene_free(&gpu);
     sky_free(&sky);
     scene_free(&scene);

@@ -442,26 +442,115 @@ static int in_scene_file(const Scene *s, int rc, SptError *e)
     return rc;
 }
 
+/* The BVHs of s (docs/architecture.md, "Instances (two levels)"): g->bvh over
+ * its world-space triangles and, with instances, each mesh's and the top
+ * level (g->tlas, mesh 0 being g->bvh under the identity). *src (allocated)
+ * gets each packed triangle's index in s. Returns 0 or an exit code (e
+ * filled); an instanced mesh's triangle that emits is refused, as the light
+ * selection counts triangles in world space only. */
+static int build_levels(GpuScene *g, const Scene *s, uint32_t **src, SptError *e)
+{
+    uint64_t mesh_tris = 0;
+    for (uint32_t m = 0; m < s->mesh_count; m++)
+        mesh_tris += s->mesh_tri_count[m];
+    if (mesh_tris > s->tri_count)
+        return spt_fail(e, SPT_EXIT_INPUT, "instances: the meshes hold %llu triangles of %u",
+                        (unsigned long long)mesh_tris, s->tri_count);
+    uint32_t world = s->tri_count - (uint32_t)mesh_tris;
+    int rc = bvh_build(&g->bvh, s->tri_pos, world, e);
+    if (rc)
+        return rc;
+    if (!s->mesh_count) {
+        g->prim_total = g->bvh.prim_count;
+        *src = spt_malloc((g->prim_total ? g->prim_total : 1) * sizeof(uint32_t));
+        memcpy(*src, g->bvh.prim_index, g->prim_total * sizeof(uint32_t));
+        return 0;
+    }
+    uint32_t nm = s->mesh_count + 1;
+    Bvh *mesh = spt_calloc(nm, sizeof(Bvh));
+    uint32_t *prim_base = spt_calloc(nm, sizeof(uint32_t)), *first = spt_calloc(nm, sizeof(uint32_t));
+    mesh[0] = g->bvh;
+    uint64_t total = g->bvh.prim_count;
+    for (uint32_t m = 1; m < nm && !rc; m++) {
+        first[m] = m == 1 ? world : first[m - 1] + s->mesh_tri_count[m - 2];
+        for (uint32_t t = first[m]; t < first[m] + s->mesh_tri_count[m - 1] && !rc; t++) {
+            uint32_t mat = s->tri_mat[t];
+            const SceneMaterial *sm = mat < s->material_count ? &s->materials[mat] : NULL;
+            if (sm && (sm->emissive[0] > 0.0f || sm->emissive[1] > 0.0f || sm->emissive[2] > 0.0f ||
+                       sm->emission_spd.count || sm->emission_spd.line_count || sm->unlit))
+                rc = spt_fail(e, SPT_EXIT_INPUT, "instances: mesh %u: material %u emits", m - 1, mat);
+        }
+        if (!rc)
+            rc = bvh_build(&mesh[m], s->tri_pos + 9 * (size_t)first[m], s->mesh_tri_count[m - 1], e);
+        prim_base[m] = (uint32_t)total;
+        total += mesh[m].prim_count;
+    }
+    /* Instance 0 places the world-space triangles by the identity; the
+     * Scene's follow, their meshes counted from 1. */
+    uint32_t ni = s->inst_count + 1;
+    float *xf = spt_calloc((size_t)ni * 12, sizeof(float));
+    uint32_t *im = spt_calloc(ni, sizeof(uint32_t));
+    xf[0] = xf[5] = xf[10] = 1.0f;
+    for (uint32_t k = 0; k < s->inst_count; k++) {
+        memcpy(xf + 12 * (size_t)(k + 1), s->inst_xf + 12 * (size_t)k, 12 * sizeof(float));
+        im[k + 1] = s->inst_mesh[k] < s->mesh_count ? s->inst_mesh[k] + 1 : nm;
+    }
+    if (!rc && total > UINT32_MAX - 1)
+        rc = spt_fail(e, SPT_EXIT_INPUT, "instances: %llu triangles in the meshes",
+                      (unsigned long long)total);
+    if (!rc)
+        rc = tlas_build(&g->tlas, mesh, prim_base, nm, xf, im, ni, e);
+    if (!rc) {
+        g->prim_total = (uint32_t)total;
+        g->mesh_prims = spt_malloc((nm + 1) * sizeof(uint32_t));
+        memcpy(g->mesh_prims, prim_base, nm * sizeof(uint32_t));
+        g->mesh_prims[nm] = g->prim_total;
+        *src = spt_malloc((total ? total : 1) * sizeof(uint32_t));
+        for (uint32_t m = 0; m < nm; m++)
+            for (uint32_t i = 0; i < mesh[m].prim_count; i++)
+                (*src)[prim_base[m] + i] = first[m] + mesh[m].prim_index[i];
+    }
+    for (uint32_t m = 1; m < nm; m++)
+        bvh_free(&mesh[m]);
+    free(mesh);
+    free(prim_base);
+    free(first);
+    free(xf);
+    free(im);
+    return rc;
+}
+
 int gpu_scene_build(GpuScene *g, const Scene *s, SptError *e)
 {
-    Bvh bvh;
-    int rc = bvh_build(&bvh, s->tri_pos, s->tri_count, e);
-    if (rc) {
-        memset(g, 0, sizeof *g);
-        return in_scene_file(s, rc, e);
-    }
-    return gpu_scene_build_with(g, s, &bvh, e);
+    return gpu_scene_build_with(g, s, NULL, e);
 }
 
 int gpu_scene_build_with(GpuScene *g, const Scene *s, Bvh *bvh, SptError *e)
 {
     memset(g, 0, sizeof *g);
-    g->bvh = *bvh;
-    memset(bvh, 0, sizeof *bvh);
-    uint32_t n = g->bvh.prim_count;
+    uint32_t *src = NULL;
+    int rc = 0;
+    if (bvh && bvh->nodes && !s->mesh_count) {
+        /* One level: the given tree is the whole scene's. */
+        g->bvh = *bvh;
+        memset(bvh, 0, sizeof *bvh);
+        g->prim_total = g->bvh.prim_count;
+        src = spt_malloc((g->prim_total ? g->prim_total : 1) * sizeof(uint32_t));
+        memcpy(src, g->bvh.prim_index, g->prim_total * sizeof(uint32_t));
+    } else {
+        if (bvh)
+            bvh_free(bvh);
+        rc = build_levels(g, s, &src, e);
+    }
+    if (rc) {
+        free(src);
+        gpu_scene_free(g);
+        return in_scene_file(s, rc, e);
+    }
+    uint32_t n = g->prim_total;
     g->tri_shade = spt_calloc(n ? n : 1, sizeof(TriShade));
     for (uint32_t i = 0; i < n; i++) {
-        uint32_t t = g->bvh.prim_index[i];
+        uint32_t t = src[i];
         for (int k = 0; k < 3; k++)
             g->tri_shade[i].v[k] = s->tri_vidx[3 * (size_t)t + k];
         g->tri_shade[i].material = s->tri_mat[t];
@@ -475,7 +564,7 @@ int gpu_scene_build_with(GpuScene *g, const Scene *s, Bvh *bvh, SptError *e)
      * position, the one every kept triangle using it carries. */
     g->vtx_pos = spt_calloc(s->vertex_count ? (size_t)s->vertex_count * 3 : 1, sizeof(float));
     for (uint32_t i = 0; i < n; i++) {
-        uint32_t t = g->bvh.prim_index[i];
+        uint32_t t = src[i];
         for (int k = 0; k < 3; k++)
             memcpy(g->vtx_pos + 3 * (size_t)s->tri_vidx[3 * (size_t)t + k],
                    s->tri_pos + 9 * (size_t)t + 3 * k, 3 * sizeof(float));
@@ -490,6 +579,7 @@ int gpu_scene_build_with(GpuScene *g, const Scene *s, Bvh *bvh, SptError *e)
             g->vtx_color[4 * (size_t)v + 3] = c[3];
         }
     }
+    free(src);
 
     return gpu_scene_build_shading(g, s, e);
 }
@@ -520,7 +610,7 @@ static void shading_free(GpuScene *g)
 int gpu_scene_build_shading(GpuScene *g, const Scene *s, SptError *e)
 {
     shading_free(g);
-    uint32_t n = g->bvh.prim_count;
+    uint32_t n = g->prim_total;
     int rc;
     /* Materials, their textures uploaded on first use (once per kind and factor). */
     TexUploads uploads = {0, NULL};
@@ -564,7 +654,7 @@ int gpu_scene_build_shading(GpuScene *g, const Scene *s, SptError *e)
     for (uint32_t i = 0; i < g->material_count; i++)
         if (g->materials[i].flags & SPT_MAT_EMISSIVE)
             mat_y[i] = emission_luminance(&g->materials[i], g->spectra) * textured_emission_y(&s->materials[i]);
-    for (uint32_t i = 0; i < n; i++) {
+    for (uint32_t i = 0; i < g->bvh.prim_count; i++) {
         uint32_t m = g->tri_shade[i].material;
         if (!(m < g->material_count && (g->materials[m].flags & SPT_MAT_EMISSIVE)))
             continue;
@@ -611,6 +701,8 @@ int gpu_scene_build_shading(GpuScene *g, const Scene *s, SptError *e)
 void gpu_scene_free(GpuScene *g)
 {
     bvh_free(&g->bvh);
+    tlas_free(&g->tlas);
+    free(g->mesh_prims);
     free(g->tri_shade);
     free(g->vtx_pos);
     free(g->vtx_color);
@@ -626,9 +718,14 @@ static size_t nz(size_t x) { return x ? x : 16; }
 /* The buffer's size, padded (pad) as the device gets it or as its data holds. */
 static size_t buffer_bytes(const GpuScene *g, const RenderLights *L, const char *name, int pad)
 {
-    uint32_t n = g->bvh.prim_count;
-    if (!strcmp(name, "nodes")) return NZ((size_t)g->bvh.node_count * sizeof(BvhNode));
-    if (!strcmp(name, "tris")) return NZ(g->bvh.tri_data_bytes);
+    uint32_t n = g->prim_total;
+    const Tlas *tl = &g->tlas;
+    if (!strcmp(name, "nodes"))
+        return NZ((tl->inst_count ? tl->node_count : g->bvh.node_count) * sizeof(BvhNode));
+    if (!strcmp(name, "tris"))
+        return NZ(tl->inst_count ? tl->tri_words * sizeof(float) : g->bvh.tri_data_bytes);
+    if (!strcmp(name, "tlas_top")) return NZ((size_t)tl->top_count * sizeof(BvhNode));
+    if (!strcmp(name, "tlas_inst")) return NZ((size_t)tl->inst_count * sizeof(BvhInstance));
     if (!strcmp(name, "tri_shade")) return NZ((size_t)n * sizeof(TriShade));
     if (!strcmp(name, "vtx_pos")) return NZ((size_t)g->vertex_count * 3 * sizeof(float));
     if (!strcmp(name, "vtx_normal")) return NZ((size_t)g->vertex_count * 3 * sizeof(float));
@@ -670,8 +767,10 @@ const void *gpu_scene_buffer_data(const GpuScene *g, const RenderLights *L, cons
 {
     if (buffer_bytes(g, L, name, 0) < buffer_bytes(g, L, name, 1))
         return NULL;
-    if (!strcmp(name, "nodes")) return g->bvh.nodes;
-    if (!strcmp(name, "tris")) return g->bvh.tri_data;
+    if (!strcmp(name, "nodes")) return g->tlas.inst_count ? g->tlas.nodes : g->bvh.nodes;
+    if (!strcmp(name, "tris")) return g->tlas.inst_count ? g->tlas.tris : g->bvh.tri_data;
+    if (!strcmp(name, "tlas_top")) return g->tlas.top;
+    if (!strcmp(name, "tlas_inst")) return g->tlas.inst;
     if (!strcmp(name, "tri_shade")) return g->tri_shade;
     if (!strcmp(name, "vtx_pos")) return g->vtx_pos;
     if (!strcmp(name, "vtx_normal")) return g->vtx_normal;

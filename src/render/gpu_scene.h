@@ -6,6 +6,7 @@
 #include <stdint.h>
 
 #include "accel/bvh_build.h"
+#include "accel/tlas_build.h"
 #include "core/util.h"
 #include "render/host_lights.h"
 #include "scene/scene.h"
@@ -14,7 +15,15 @@
 /* The scene as the kernels read it: packed triangles in BVH order and their
  * shading data, materials with spectra, coefficient textures, emitters. */
 typedef struct GpuScene {
-    Bvh bvh;
+    Bvh bvh;                 /* the triangles in world space (all of them without instances) */
+    /* With instances (Scene.mesh_count > 0; docs/architecture.md, "Instances
+     * (two levels)"): the two levels, whose mesh 0 is bvh placed by the
+     * identity and whose meshes 1 .. are the Scene's. The packed triangles
+     * are bvh's, then each mesh's in turn (BvhInstance.prim_base); the
+     * kernels' nodes and tris are tlas's. inst_count 0: no instances. */
+    Tlas tlas;
+    uint32_t *mesh_prims;    /* tlas's mesh m: packed triangles [mesh_prims[m], mesh_prims[m + 1]) */
+    uint32_t prim_total;     /* packed triangles: bvh's and the meshes' */
     TriShade *tri_shade;     /* per packed triangle */
     float *vtx_pos;          /* 3 per vertex: positions, from the Scene's triangles */
     float *vtx_normal;       /* borrowed from the Scene */

@@ -23,6 +23,62 @@ static int material_may_be_delta(const GpuMaterial *m)
                                    m->slot[SPT_TS_CLEARCOAT_ROUGHNESS].tex >= 0);
 }
 
+/* What caustic_bounds gathers per group: the box of its vertices (pass 0),
+ * then their farthest squared distance from the box's centre (pass 1). */
+typedef struct CausticFit {
+    RenderParams *p;
+    int pass;
+    float lo[SPT_CAUSTIC_MAX][3], hi[SPT_CAUSTIC_MAX][3];
+    double m_abs[SPT_CAUSTIC_MAX], r2[SPT_CAUSTIC_MAX];
+} CausticFit;
+
+static void fit_vertex(CausticFit *f, int k, const float x[3])
+{
+    if (f->pass == 0) {
+        for (int c = 0; c < 3; c++) {
+            f->lo[k][c] = fminf(f->lo[k][c], x[c]);
+            f->hi[k][c] = fmaxf(f->hi[k][c], x[c]);
+        }
+        return;
+    }
+    double d2 = 0;
+    for (int c = 0; c < 3; c++) {
+        double d = (double)x[c] - f->p->caustic[4 * k + c];
+        d2 += d * d;
+    }
+    f->r2[k] = fmax(f->r2[k], d2);
+}
+
+/* fit_vertex on each world-space vertex of each placed triangle whose
+ * material is in a group (group[m] >= 0): the world-space triangles as they
+ * are, then each instance's mesh through its transform in double, rounded
+ * as a flattened copy's (docs/architecture.md, "Instances (two levels)"). */
+static void group_vertices(const GpuScene *g, const int32_t *group, CausticFit *f)
+{
+    const Tlas *tl = &g->tlas;
+    for (uint32_t k = 0; k <= tl->inst_count; k++) {
+        const BvhInstance *in = k ? &tl->inst[k - 1] : NULL;
+        uint32_t mesh = k ? tl->inst_mesh[k - 1] : 0;
+        if (in && mesh == 0)
+            continue; /* the world's triangles under the identity: done at k 0 */
+        uint32_t begin = in ? g->mesh_prims[mesh] : 0;
+        uint32_t end = in ? g->mesh_prims[mesh + 1] : g->bvh.prim_count;
+        for (uint32_t i = begin; i < end; i++) {
+            const TriShade *ts = &g->tri_shade[i];
+            if (ts->material >= g->material_count || group[ts->material] < 0)
+                continue;
+            for (int v = 0; v < 3; v++) {
+                const float *x = g->vtx_pos + 3 * (size_t)ts->v[v];
+                float w[3];
+                for (int r = 0; r < 3 && in; r++)
+                    w[r] = (float)((double)in->xf[4 * r] * x[0] + (double)in->xf[4 * r + 1] * x[1] +
+                                   (double)in->xf[4 * r + 2] * x[2] + in->xf[4 * r + 3]);
+                fit_vertex(f, group[ts->material], in ? w : x);
+            }
+        }
+    }
+}
+
 /* The caustic spheres (p->caustic, p->caustic_count; none when no triangle's
  * material may take a delta lobe): one per such material, or one for all of
  * them when there are more than SPT_CAUSTIC_MAX; each about the centre of the
@@ -37,7 +93,7 @@ static void caustic_bounds(RenderParams *p, const GpuScene *g)
     uint32_t n = 0;
     for (uint32_t m = 0; m < g->material_count; m++)
         group[m] = -1;
-    for (uint32_t i = 0; i < g->bvh.prim_count; i++) {
+    for (uint32_t i = 0; i < g->prim_total; i++) {
         uint32_t m = g->tri_shade[i].material;
         if (m < g->material_count && group[m] < 0 && material_may_be_delta(&g->materials[m]))
             group[m] = (int32_t)n++;
@@ -48,46 +104,27 @@ static void caustic_bounds(RenderParams *p, const GpuScene *g)
                 group[m] = 0;
         n = 1;
     }
-    float lo[SPT_CAUSTIC_MAX][3], hi[SPT_CAUSTIC_MAX][3];
-    double m_abs[SPT_CAUSTIC_MAX] = {0}, r2[SPT_CAUSTIC_MAX] = {0};
-    for (uint32_t k = 0; k < n; k++)
+    CausticFit fit;
+    fit.p = p;
+    fit.pass = 0;
+    for (uint32_t k = 0; k < n; k++) {
+        fit.m_abs[k] = fit.r2[k] = 0.0;
         for (int c = 0; c < 3; c++) {
-            lo[k][c] = INFINITY;
-            hi[k][c] = -INFINITY;
+            fit.lo[k][c] = INFINITY;
+            fit.hi[k][c] = -INFINITY;
         }
-    for (uint32_t i = 0; i < g->bvh.prim_count; i++) {
-        const TriShade *ts = &g->tri_shade[i];
-        if (ts->material >= g->material_count || group[ts->material] < 0)
-            continue;
-        int k = group[ts->material];
-        for (int v = 0; v < 3; v++)
-            for (int c = 0; c < 3; c++) {
-                float x = g->vtx_pos[3 * (size_t)ts->v[v] + c];
-                lo[k][c] = fminf(lo[k][c], x);
-                hi[k][c] = fmaxf(hi[k][c], x);
-            }
     }
+    group_vertices(g, group, &fit);
     for (uint32_t k = 0; k < n; k++)
         for (int c = 0; c < 3; c++) {
-            p->caustic[4 * k + c] = 0.5f * (lo[k][c] + hi[k][c]);
-            m_abs[k] = fmax(m_abs[k], fmax(fabs((double)lo[k][c]), fabs((double)hi[k][c])));
+            p->caustic[4 * k + c] = 0.5f * (fit.lo[k][c] + fit.hi[k][c]);
+            fit.m_abs[k] = fmax(fit.m_abs[k], fmax(fabs((double)fit.lo[k][c]), fabs((double)fit.hi[k][c])));
         }
     /* The farthest vertex from the box's centre (a sphere's mesh gets its own
      * radius, not the box's half diagonal, sqrt(3) times as long). */
-    for (uint32_t i = 0; i < g->bvh.prim_count; i++) {
-        const TriShade *ts = &g->tri_shade[i];
-        if (ts->material >= g->material_count || group[ts->material] < 0)
-            continue;
-        int k = group[ts->material];
-        for (int v = 0; v < 3; v++) {
-            double d2 = 0;
-            for (int c = 0; c < 3; c++) {
-                double x = (double)g->vtx_pos[3 * (size_t)ts->v[v] + c] - p->caustic[4 * k + c];
-                d2 += x * x;
-            }
-            r2[k] = fmax(r2[k], d2);
-        }
-    }
+    fit.pass = 1;
+    group_vertices(g, group, &fit);
+    double *m_abs = fit.m_abs, *r2 = fit.r2;
     for (uint32_t k = 0; k < n; k++)
         p->caustic[4 * k + 3] = (float)(sqrt(r2[k]) * (1.0 + 1e-5) + 1e-5 * m_abs[k] + 1e-6);
     p->caustic_count = n;
@@ -210,7 +247,7 @@ static int scene_turns_light(const GpuScene *g)
 {
     unsigned char *used = spt_calloc(g->material_count ? g->material_count : 1, 1);
     int any = 0;
-    for (uint32_t i = 0; i < g->bvh.prim_count; i++)
+    for (uint32_t i = 0; i < g->prim_total; i++)
         if (g->tri_shade[i].material < g->material_count)
             used[g->tri_shade[i].material] = 1;
     for (uint32_t i = 0; i < g->material_count && !any; i++)

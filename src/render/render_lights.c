@@ -232,7 +232,7 @@ int render_lights_setup(RenderLights *L, const GpuScene *g, const RenderSettings
         return rc;
     lights_build_selection(&L->select, g->emitter_power, g->emitter_count, g->lights, g->light_count,
                            g->spectra, &L->env, g->scene_radius);
-    uint32_t n = g->bvh.prim_count;
+    uint32_t n = g->prim_total;
     L->tri_light_pdf = spt_calloc(n ? n : 1, sizeof(float));
     for (uint32_t k = 0; k < g->emitter_count; k++)
         L->tri_light_pdf[g->emitters[k]] = distrib_prob(&L->select, k) / g->emitter_area[k];

@@ -284,6 +284,7 @@ struct Loader {
     int read_floats(int index, int ncomp, std::vector<float> &out);
     int read_indices(int index, std::vector<uint32_t> &out);
     int node_local(int n, Mat4 *out);
+    int gpu_instances(int n, const Value &ext, const Mat4 &world);
     int traverse();
     int material(int index);
     int material_core(const tinygltf::Material &mat, SceneMaterial *sm, const std::string &obj);

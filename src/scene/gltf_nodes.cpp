@@ -4,6 +4,24 @@
 
 namespace spt_gltf {
 
+// M = T R S of a translation, a rotation quaternion (x, y, z, w; normalised
+// here) and a scale; false when the quaternion has no direction.
+static bool trs_matrix(const double t[3], const double q_in[4], const double s[3], Mat4 *out)
+{
+    double ql = sqrt(q_in[0] * q_in[0] + q_in[1] * q_in[1] + q_in[2] * q_in[2] + q_in[3] * q_in[3]);
+    if (!(ql > 0) || !std::isfinite(ql)) return false;
+    double x = q_in[0] / ql, y = q_in[1] / ql, z = q_in[2] / ql, w = q_in[3] / ql;
+    // Rotation matrix of the unit quaternion (row r, column c), then M = T R S.
+    double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                      {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                      {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+    *out = mat_identity();
+    for (int c = 0; c < 3; c++)
+        for (int r = 0; r < 3; r++) out->m[c * 4 + r] = R[r][c] * s[c];
+    for (int r = 0; r < 3; r++) out->m[12 + r] = t[r];
+    return true;
+}
+
 int Loader::node_local(int n, Mat4 *out)
 {
     const auto &node = m.nodes[n];
@@ -29,19 +47,68 @@ int Loader::node_local(int n, Mat4 *out)
         if (np.r) std::copy(np.R, np.R + 4, q);
         if (np.s) std::copy(np.S, np.S + 3, s);
     }
-    double ql = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    if (!(ql > 0) || !std::isfinite(ql))
-        return bad("nodes[%d].rotation: not a unit quaternion", n);
-    for (double &c : q) c /= ql;
-    double x = q[0], y = q[1], z = q[2], w = q[3];
-    // Rotation matrix of the unit quaternion (row r, column c), then M = T R S.
-    double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
-                      {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
-                      {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
-    *out = mat_identity();
-    for (int c = 0; c < 3; c++)
-        for (int r = 0; r < 3; r++) out->m[c * 4 + r] = R[r][c] * s[c];
-    for (int r = 0; r < 3; r++) out->m[12 + r] = t[r];
+    if (!trs_matrix(t, q, s, out)) return bad("nodes[%d].rotation: not a unit quaternion", n);
+    return 0;
+}
+
+// EXT_mesh_gpu_instancing on node n (ext: its object), placed at world: one
+// instance of the node's mesh per element of the TRANSLATION, ROTATION and
+// SCALE accessors (each optional, all of one count), at world times the
+// element's T R S, in the node's space as the extension defines. Instances
+// are flattened as a mesh on several nodes is (docs/gltf.md).
+int Loader::gpu_instances(int n, const Value &ext, const Mat4 &world)
+{
+    std::string eo = "nodes[" + std::to_string(n) + "].extensions.EXT_mesh_gpu_instancing";
+    const Value &attrs = ext.IsObject() ? ext.Get("attributes") : Value();
+    if (!attrs.IsObject()) return bad("%s.attributes: missing or not an object", eo.c_str());
+    const int f = TINYGLTF_COMPONENT_TYPE_FLOAT, i8 = TINYGLTF_COMPONENT_TYPE_BYTE,
+              u8 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, i16 = TINYGLTF_COMPONENT_TYPE_SHORT,
+              u16 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    // The extension's types: floats; rotations also normalised signed bytes
+    // and shorts; translations and scales also (normalised or not) integers
+    // with KHR_mesh_quantization.
+    const char *names[3] = {"TRANSLATION", "ROTATION", "SCALE"};
+    std::vector<float> vals[3];
+    size_t count = 0;
+    bool any = false;
+    for (int k = 0; k < 3; k++) {
+        const Value &a = attrs.Get(names[k]);
+        if (!attrs.Has(names[k])) continue;
+        std::string ao = eo + ".attributes." + names[k];
+        if (!a.IsNumber()) return bad("%s: not an accessor index", ao.c_str());
+        int index = a.GetNumberAsInt();
+        std::vector<int> types = {f};
+        int norm = 0;
+        if (k == 1)
+            types = {f, i8, i16}, norm = 1;
+        else if (quantization)
+            types = {f, i8, u8, i16, u16}, norm = 2;
+        bool zeros;
+        int rc;
+        if ((rc = check_accessor(index, ao, k == 1 ? 4 : 3, types, norm, &zeros))) return rc;
+        size_t c = m.accessors[index].count;
+        if (any && c != count)
+            return bad("%s (accessors[%d]): %zu elements, where the other attributes have %zu",
+                       ao.c_str(), index, c, count);
+        count = c;
+        any = true;
+        read_floats(index, k == 1 ? 4 : 3, vals[k]);
+        for (size_t i = 0; i < vals[k].size(); i++)
+            if (!std::isfinite(vals[k][i]))
+                return bad("%s (accessors[%d]): value %zu is not finite", ao.c_str(), index, i);
+    }
+    if (!any) return bad("%s.attributes: none of TRANSLATION, ROTATION and SCALE", eo.c_str());
+    for (size_t i = 0; i < count; i++) {
+        double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+        for (int c = 0; c < 3 && !vals[0].empty(); c++) t[c] = vals[0][3 * i + c];
+        for (int c = 0; c < 4 && !vals[1].empty(); c++) q[c] = vals[1][4 * i + c];
+        for (int c = 0; c < 3 && !vals[2].empty(); c++) s[c] = vals[2][3 * i + c];
+        Mat4 local;
+        if (!trs_matrix(t, q, s, &local))
+            return bad("%s.attributes.ROTATION: element %zu is not a unit quaternion", eo.c_str(), i);
+        int rc;
+        if ((rc = emit_instance(m.nodes[n].mesh, mat_mul(world, local), n))) return rc;
+    }
     return 0;
 }
 
@@ -147,7 +214,12 @@ int Loader::traverse()
             world_state[n] = 1;
         }
         const auto &node = m.nodes[n];
-        if (node.mesh >= 0 && (rc = emit_instance(node.mesh, world, n))) return rc;
+        auto git = node.extensions.find("EXT_mesh_gpu_instancing");
+        if (node.mesh >= 0 && git != node.extensions.end()) {
+            if ((rc = gpu_instances(n, git->second, world))) return rc;
+        } else if (node.mesh >= 0 && (rc = emit_instance(node.mesh, world, n))) {
+            return rc;
+        }
         // The camera: --camera's on the first node placing it, else the first
         // placed (docs/gltf.md, "Animation, skins and morph targets").
         if (node.camera >= 0 && cam_info[node.camera].node < 0) cam_info[node.camera].node = n;

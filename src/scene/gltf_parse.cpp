@@ -15,6 +15,7 @@ const char *const k_supported_ext[] = {
     "EXT_texture_webp", "KHR_materials_specular", "KHR_materials_clearcoat", "KHR_materials_sheen",
     "KHR_materials_iridescence",
     "KHR_materials_anisotropy", "KHR_materials_diffuse_transmission",
+    "EXT_mesh_gpu_instancing",
 };
 
 

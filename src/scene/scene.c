@@ -103,5 +103,8 @@ void scene_free(Scene *s)
     free(s->lights);
     free(s->camera_info);
     free(s->animation_info);
+    free(s->mesh_tri_count);
+    free(s->inst_mesh);
+    free(s->inst_xf);
     memset(s, 0, sizeof *s);
 }

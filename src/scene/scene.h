@@ -204,6 +204,19 @@ typedef struct Scene {
     uint32_t animation_info_count;
     float bounds_min[3], bounds_max[3]; /* of the kept triangles; min > max when empty */
     SceneStats stats;
+    /* Meshes placed by reference (docs/architecture.md, "Instances (two
+     * levels)"); mesh_count 0: every triangle is in world space. Otherwise the
+     * last triangles of the arrays are the meshes' in their own space, mesh m's
+     * mesh_tri_count[m] after mesh m - 1's (those before them are in world
+     * space), and instance k places mesh inst_mesh[k] by the rows
+     * inst_xf[12 k .. 12 k + 12) of a 3x4 matrix (column 3 the translation).
+     * Only scenes built in code have them: the glTF loader flattens. Their
+     * meshes must not emit (gpu_scene_build refuses them). */
+    uint32_t mesh_count;
+    uint32_t *mesh_tri_count;
+    uint32_t inst_count;
+    uint32_t *inst_mesh;
+    float *inst_xf;
 } Scene;
 
 /* glTF defaults for a material (the glTF default material when used as is). */

@@ -77,6 +77,10 @@ void *scene_pack(const Scene *s, size_t *size)
     put_array(&b, s->lights, (size_t)s->light_count * sizeof(SceneLight));
     for (uint32_t i = 0; i < s->light_count; i++)
         put_spd(&b, &s->lights[i].spd);
+    /* The instances (docs/architecture.md, "Instances (two levels)"). */
+    put_array(&b, s->mesh_tri_count, (size_t)s->mesh_count * sizeof(uint32_t));
+    put_array(&b, s->inst_mesh, (size_t)s->inst_count * sizeof(uint32_t));
+    put_array(&b, s->inst_xf, (size_t)s->inst_count * 12 * sizeof(float));
     *size = b.len;
     return b.p;
 }
@@ -144,6 +148,10 @@ int scene_unpack(Scene *s, const void *bytes, size_t size, const char *what, Spt
     s->animation_info = NULL;
     s->camera_info_count = s->animation_info_count = 0;
     s->lights = NULL;
+    s->mesh_tri_count = s->inst_mesh = NULL;
+    s->inst_xf = NULL;
+    uint32_t nmesh = s->mesh_count, ninst = s->inst_count;
+    s->mesh_count = s->inst_count = 0;
     uint64_t plen = 0;
     size_t at = r.at;
     if (!get(&r, &plen, sizeof plen)) {
@@ -206,8 +214,15 @@ int scene_unpack(Scene *s, const void *bytes, size_t size, const char *what, Spt
         s->light_count = nl;
     for (uint32_t i = 0; i < s->light_count; i++)
         get_spd(&r, &s->lights[i].spd);
+    s->mesh_tri_count = get_array(&r, (size_t)nmesh * sizeof(uint32_t));
+    s->inst_mesh = get_array(&r, (size_t)ninst * sizeof(uint32_t));
+    s->inst_xf = get_array(&r, (size_t)ninst * 12 * sizeof(float));
+    if (!r.bad) {
+        s->mesh_count = nmesh;
+        s->inst_count = ninst;
+    }
     if (r.bad || r.at != r.len || (nl && !s->lights) || (nmat && !s->materials) ||
-        (ntex && !s->textures)) {
+        (ntex && !s->textures) || (nmesh && !s->mesh_tri_count) || (ninst && !s->inst_xf)) {
         scene_free(s);
         return spt_fail(e, SPT_EXIT_INPUT, "%s: packed scene is truncated or inconsistent", what);
     }
