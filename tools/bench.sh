@@ -61,4 +61,14 @@ echo "== light tree (tools/bench_lights.py)"
 python3 tools/bench_lights.py --spectrace "$build/spectrace" || status=1
 # ---- end light tree ----
 
+# ---- against Blender Cycles: the equal-time race (T seconds:
+# SPECTRACE_BENCH_TIME, default 20) on the street, the field, the Cornell box,
+# a glass sphere on a table and a room lit through a window, each renderer's
+# relMSE against its own reference, ratios Cycles / spectrace
+# (tools/bench_cycles.py; it finds bpy in SPECTRACE_BPY_PYTHON or a venv-bpy
+# beside the checkout, else prints a "skip:" line) ----
+echo "== against Blender Cycles (tools/bench_cycles.py)"
+python3 tools/bench_cycles.py --spectrace "$build/spectrace" || status=1
+# ---- end against Blender Cycles ----
+
 exit $status

@@ -13,6 +13,11 @@ docs/performance.md "Light tree"):
   field.gltf   a 10 m x 10 m floor lit by 200 small emissive quads
                (0.15 m x 0.15 m, facing down, 0.3-1.2 m up, of random
                colours), seen obliquely.
+  street_coloured.gltf, field_coloured.gltf  the same with saturated lights:
+               each lamp, spot and quad red, green or blue (one primary at 1,
+               the others at 0.03; in turn along the street, at random in the
+               field), to measure what weighting the tree's power by the
+               path's wavelengths instead of luminance does.
 Every surface is Lambertian (albedo 0.5 ground, 0.6 buildings). Plain Python,
 deterministic (a fixed seed).
 """
@@ -60,12 +65,18 @@ def box_quads(x0, x1, y0, y1, z0, z1):
     ]
 
 
-def street(path):
+PRIMARIES = ((1.0, 0.03, 0.03), (0.03, 1.0, 0.03), (0.03, 0.03, 1.0))
+
+
+def street(path, coloured=False):
     rng = random.Random(40)
     g = GltfBuilder("spectrace tools/make_light_scenes.py")
     ground = g.material("ground", (0.5, 0.5, 0.5), pure_diffuse=True)
     wall = g.material("building", (0.6, 0.55, 0.5), pure_diffuse=True)
-    lamp = g.material("lamp", (0.0, 0.0, 0.0), emissive=(1.0, 0.8, 0.55), strength=3000.0)
+    lamps = [g.material("lamp", (0.0, 0.0, 0.0), emissive=(1.0, 0.8, 0.55), strength=3000.0)]
+    if coloured:
+        lamps = [g.material("lamp%d" % k, (0.0, 0.0, 0.0), emissive=c, strength=3000.0)
+                 for k, c in enumerate(PRIMARIES)]
     g.quads_mesh("ground", [[(-20.0, 0.0, -40.0), (-20.0, 0.0, 40.0), (2020.0, 0.0, 40.0),
                              (2020.0, 0.0, -40.0)]], ground)
     walls = []
@@ -78,27 +89,31 @@ def street(path):
             walls += box_quads(x, x + length, 0.0, height, z0, z1)
             x += length + rng.uniform(2.0, 6.0)
     g.quads_mesh("buildings", walls, wall)
-    quads = []
+    quads = [[] for _ in lamps]
     for row, z in enumerate((-6.0, 6.0)):
         for i in range(500):
             x = 4.0 * i + 2.0 * row
             if (i + row) % 2 == 0:
-                quads.append(down_quad(x, 5.0, z, 0.2))
+                quads[(i // 2) % len(lamps)].append(down_quad(x, 5.0, z, 0.2))
             else:
                 g.spot_light("spot%d_%d" % (row, i), 400.0, (x, 4.95, z), math.radians(40.0),
-                             math.radians(60.0), rotation=DOWN, color=(1.0, 0.9, 0.8))
-    g.quads_mesh("lamps", quads, lamp)
+                             math.radians(60.0), rotation=DOWN,
+                             color=PRIMARIES[(i // 2 + 1) % 3] if coloured else (1.0, 0.9, 0.8))
+    for k, m in enumerate(lamps):
+        g.quads_mesh("lamps%d" % k if coloured else "lamps", quads[k], m)
     g.camera("camera", math.radians(40.0), (-20.0, 25.0, 0.0), rotation=look(-90.0, -35.0), aspect=1.5)
     g.write(path)
 
 
-def field(path):
+def field(path, coloured=False):
     rng = random.Random(200)
     g = GltfBuilder("spectrace tools/make_light_scenes.py")
     floor = g.material("floor", (0.5, 0.5, 0.5), pure_diffuse=True)
     g.quads_mesh("floor", [[(-5.0, 0.0, -5.0), (-5.0, 0.0, 5.0), (5.0, 0.0, 5.0), (5.0, 0.0, -5.0)]], floor)
     for i in range(200):
         c = [rng.uniform(0.2, 1.0) for _ in range(3)]
+        if coloured:
+            c = PRIMARIES[rng.randrange(3)]
         m = max(c)
         mat = g.material("quad%d" % i, (0.0, 0.0, 0.0), emissive=[v / m for v in c], strength=200.0)
         g.quads_mesh("quad%d" % i, [down_quad(rng.uniform(-4.5, 4.5), rng.uniform(0.3, 1.2),
@@ -111,6 +126,8 @@ def main(argv):
     out = argv[1] if len(argv) > 1 else "."
     street(os.path.join(out, "street.gltf"))
     field(os.path.join(out, "field.gltf"))
+    street(os.path.join(out, "street_coloured.gltf"), coloured=True)
+    field(os.path.join(out, "field_coloured.gltf"), coloured=True)
     print("wrote %s and %s" % (os.path.join(out, "street.gltf"), os.path.join(out, "field.gltf")))
 
 

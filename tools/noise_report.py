@@ -5,6 +5,7 @@ under the default sky, and the relMSE of a scene against a reference render.
     python3 tools/noise_report.py grey [--spectrace BIN] [--size 128] [--spp 256]
         [--seeds 4] [--sampler sobol|zsobol|independent]
     python3 tools/noise_report.py relmse REF.exr A.exr [B.exr ...]
+        [--sphere X,Y,Z,R --scene FILE.gltf]
 
 grey: renders tests/data/scenes/grey_box_sky.gltf (a Lambertian cube of albedo
 0.5 under the uniform D65 sky of radiance 1: every face pixel's expected value
@@ -25,6 +26,11 @@ may vary over the image and fireflies do not inflate it (pixels within 4 of
 the border are left out). Gaussian noise puts about 1e-6 of the pixels there;
 a window across an edge between differently noisy regions flags some too, so
 compare renders of one scene, not the figure with zero.
+
+--sphere X,Y,Z,R --scene FILE: the figures over the pixels whose camera ray
+(through the pixel's centre, from the scene's camera as spectrace picks it)
+hits that sphere alone, e.g. the default Cornell box's glass sphere:
+--sphere 0.186,0.1,0.169,0.1 --scene scenes/cornell_box.gltf.
 
 Reads EXRs with Mitsuba 3's Bitmap: exits 0 with a "skip:" line when mitsuba
 or numpy is missing; 2 for a usage error or a failed render.
@@ -93,9 +99,33 @@ def grey(a):
               % " ".join("%.5f" % v for v in np.sqrt(px.var(axis=0, ddof=1).mean(axis=0))))
 
 
+def sphere_mask(np, scene, sphere, h, w):
+    """HxW booleans: the pixels whose ray through their centre from the
+    scene's camera (tools/blender_compare.py's spectrace_camera; the image's
+    aspect ratio, the camera's vertical field of view) hits the sphere."""
+    sys.path.insert(0, os.path.join(ROOT, "tools"))
+    import blender_compare
+    blender_compare.s2m.np = np
+    cam = blender_compare.spectrace_camera(scene, np)
+    fwd, up = cam["forward"], cam["up"]
+    right = np.cross(fwd, up)
+    t = np.tan(cam["yfov"] / 2)
+    y = (1.0 - 2.0 * (np.arange(h) + 0.5) / h) * t
+    x = (2.0 * (np.arange(w) + 0.5) / w - 1.0) * t * w / h
+    d = fwd[None, None, :] + x[None, :, None] * right[None, None, :] + y[:, None, None] * up[None, None, :]
+    d /= np.linalg.norm(d, axis=2, keepdims=True)
+    oc = cam["origin"] - np.array(sphere[:3])
+    b = d @ oc
+    return b * b - (oc @ oc - sphere[3] ** 2) > 0.0
+
+
 def relmse(a):
     np, mi = modules()
     r = read_rgb(np, mi, a.ref)
+    mask = None
+    if a.sphere:
+        mask = sphere_mask(np, a.scene, a.sphere, r.shape[0], r.shape[1])
+        print("%d pixels inside the sphere" % mask.sum())
     for p in a.images:
         c = read_rgb(np, mi, p)
         if c.shape != r.shape:
@@ -108,7 +138,9 @@ def relmse(a):
         med = np.median(win, axis=(3, 4))
         sigma = 1.4826 * np.median(np.abs(win - med[..., None, None]), axis=(3, 4))
         far = np.abs(z[4:-4, 4:-4] - med) > 5.0 * np.maximum(sigma, 1e-12)
-        speckle = far.any(axis=2).mean()
+        if mask is not None:
+            e, far = e[mask], far[mask[4:-4, 4:-4]]
+        speckle = far.any(axis=-1).mean()
         print("%s: relMSE %.5g (median %.3g, 99th percentile %.3g); pixels beyond 5 sigma %.4f%%"
               % (p, e.mean(), np.median(e), np.percentile(e, 99), 100.0 * speckle))
 
@@ -125,7 +157,12 @@ def main():
     r = sub.add_parser("relmse", help="relMSE of images against a reference")
     r.add_argument("ref")
     r.add_argument("images", nargs="+")
+    r.add_argument("--sphere", type=lambda v: [float(x) for x in v.split(",")], metavar="X,Y,Z,R",
+                   help="only the pixels whose camera ray hits this sphere (needs --scene)")
+    r.add_argument("--scene", help="the glTF whose camera --sphere uses")
     a = ap.parse_args()
+    if a.cmd == "relmse" and a.sphere and (len(a.sphere) != 4 or not a.scene):
+        ap.error("--sphere takes X,Y,Z,R and needs --scene")
     if a.cmd == "grey":
         if a.size < 8 or a.spp < 1 or a.seeds < 1:
             ap.error("--size must be >= 8, --spp and --seeds >= 1")
