@@ -377,12 +377,16 @@ static void closed_box_scene(Scene *s, int light_patch)
     aim_camera(s, 0.3, 0.95, 0.35, 1.0, 1.2f);
 }
 
+/* Photon merging (--merge) in render_closed_box's renders. */
+static int closed_box_merge = SPT_SWITCH_OFF;
+
 static void render_closed_box(int light_patch, int caustics, int w, int spp, Film *film)
 {
     Scene s;
     closed_box_scene(&s, light_patch);
     RenderSettings rs = square_settings(w, spp, -1, 5);
     rs.caustics = caustics;
+    rs.merge = closed_box_merge;
     render_caustic_scene(&s, &rs, film);
     scene_free(&s);
 }
@@ -390,9 +394,8 @@ static void render_closed_box(int light_patch, int caustics, int w, int spp, Fil
 /* The furnace of closed_box_scene with the pass on: the mean of each quarter
  * of the image (the glass cube fills much of the lower half) and of the
  * whole, against BOX_LE / (1 - BOX_ALBEDO). */
-TEST(test_closed_box_furnace)
+static void check_closed_box_furnace(const char *what)
 {
-    skip_if_quick();
     Film f;
     enum { W = 32 };
     render_closed_box(0, SPT_SWITCH_ON, W, 64, &f);
@@ -404,14 +407,30 @@ TEST(test_closed_box_furnace)
             q[2 * (py >= W / 2) + (px >= W / 2)] += y / (W * W / 4);
             all += y / (W * W);
         }
-    printf("closed furnace box with a glass cube, --caustics on: mean Y %.4f (%+.2f%%), quarters %+.2f%% "
+    printf("closed furnace box with a glass cube, %s: mean Y %.4f (%+.2f%%), quarters %+.2f%% "
            "%+.2f%% %+.2f%% %+.2f%%, expected %.4f\n",
-           all, 100.0 * (all / want - 1.0), 100.0 * (q[0] / want - 1.0), 100.0 * (q[1] / want - 1.0),
+           what, all, 100.0 * (all / want - 1.0), 100.0 * (q[0] / want - 1.0), 100.0 * (q[1] / want - 1.0),
            100.0 * (q[2] / want - 1.0), 100.0 * (q[3] / want - 1.0), want);
     assert_close_rel(all, want, 0.01);
     for (int k = 0; k < 4; k++)
         assert_close_rel(q[k], want, 0.03);
     film_free(&f);
+}
+
+TEST(test_closed_box_furnace)
+{
+    skip_if_quick();
+    check_closed_box_furnace("--caustics on");
+}
+
+/* The same with photon merging, which takes the paths camera - glass -
+ * wall - glass - emitting wall from the camera paths: counted twice or by
+ * neither, the quarters that see the walls through the cube would show it. */
+TEST(test_closed_box_furnace_merge)
+{
+    closed_box_merge = SPT_SWITCH_ON;
+    check_closed_box_furnace("--caustics on --merge on");
+    closed_box_merge = SPT_SWITCH_OFF;
 }
 
 /* One light in the closed box (closed_box_scene's light_patch): the caustic

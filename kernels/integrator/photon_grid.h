@@ -36,7 +36,7 @@
 
 /* The initial radius in pixel footprints at the distance of the caustic
  * spheres (src/render/light_plan.c). */
-#define SPT_PM_R0_PIXELS 2.0
+#define SPT_PM_R0_PIXELS 0.5
 
 /* The bucket of cell (x, y, z) of sample slot k (Teschner et al. 2003's
  * primes), before the table's mask. */

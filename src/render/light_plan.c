@@ -327,6 +327,11 @@ void light_plan(RenderParams *p, const RenderLights *L, const GpuScene *g, const
                 const RenderSettings *rs)
 {
     caustic_bounds(p, g);
+    if (rs->merge == SPT_SWITCH_ON && rs->adaptive == SPT_SWITCH_ON)
+        spt_warn("--merge on: photon merging does not run under adaptive sampling; rendering without it");
+    else if (rs->merge == SPT_SWITCH_ON && !light_plan_runs(rs, L, g, cam, 0))
+        spt_warn("--merge on: photon merging needs the light-tracing pass (--caustics), which does not run "
+                 "here; rendering without it");
     /* rs->light_paths (0: the default) light paths per camera path, times
      * caustic_share: that many times the pixels per sample index, rounded, at
      * least one. */
