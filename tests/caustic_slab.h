@@ -133,4 +133,40 @@ static inline double expected_y(int light, double x, double z)
     return FLOOR_ALBEDO / M_PI * E;
 }
 
+/* The floor's film Y against the analytic one over pixels within r_max of
+ * the axis, in all and in three rings. */
+typedef struct SlabRings {
+    double got, want, ring_got[3], ring_want[3];
+    int n, ring_n[3];
+} SlabRings;
+
+/* Adds a pixel whose floor point lies at r (< r_max): film Y y, analytic e. */
+static inline void slab_rings_add(SlabRings *g, double r, double r_max, double y, double e)
+{
+    int ring = (int)(3.0 * r / r_max);
+    g->got += y;
+    g->want += e;
+    g->ring_got[ring] += y;
+    g->ring_want[ring] += e;
+    g->ring_n[ring]++;
+    g->n++;
+}
+
+/* Prints the means against the analytic ones and, with rel > 0, checks the
+ * whole within rel and each ring that has pixels within 3 rel. */
+static inline void slab_rings_check(const SlabRings *g, double rel, const char *what, const char *where)
+{
+    printf("%s: %s, %d pixels: mean Y %.5g, predicted %.5g (%+.2f%%); rings", what, where, g->n, g->got / g->n,
+           g->want / g->n, 100.0 * (g->got / g->want - 1.0));
+    for (int k = 0; k < 3; k++)
+        printf(" %+.2f%% (%d)", 100.0 * (g->ring_got[k] / g->ring_want[k] - 1.0), g->ring_n[k]);
+    printf("\n");
+    if (rel > 0.0) {
+        assert_close_rel(g->got, g->want, rel);
+        for (int k = 0; k < 3; k++)
+            if (g->ring_n[k])
+                assert_close_rel(g->ring_got[k], g->ring_want[k], 3.0 * rel);
+    }
+}
+
 #endif

@@ -72,8 +72,7 @@ static int check_floor(const Film *f, int light, double r_max, double rel, const
     Scene s;
     slab_scene(&s, light, 1);
     int w = f->width;
-    double got = 0, want = 0, ring_got[3] = {0}, ring_want[3] = {0};
-    int n = 0;
+    SlabRings g = {0};
     for (int py = 0; py < w; py++)
         for (int px = 0; px < w; px++) {
             double x, z;
@@ -83,25 +82,14 @@ static int check_floor(const Film *f, int light, double r_max, double rel, const
             if (r >= r_max)
                 continue;
             size_t i = (size_t)py * w + px;
-            double y = f->xyz[3 * i + 1] / f->count[i], e = expected_y(light, x, z);
-            got += y;
-            want += e;
-            int ring = (int)(3.0 * r / r_max);
-            ring_got[ring] += y;
-            ring_want[ring] += e;
-            n++;
+            slab_rings_add(&g, r, r_max, f->xyz[3 * i + 1] / f->count[i], expected_y(light, x, z));
         }
     scene_free(&s);
-    printf("%s: floor under the slab, %d pixels: mean Y %.5g, predicted %.5g (%+.2f%%); rings",
-           what, n, got / n, want / n, 100.0 * (got / want - 1.0));
+    slab_rings_check(&g, rel, what, "floor under the slab");
+    assert_true(g.n > 100);
     for (int k = 0; k < 3; k++)
-        printf(" %+.2f%%", 100.0 * (ring_got[k] / ring_want[k] - 1.0));
-    printf("\n");
-    assert_true(n > 100);
-    assert_close_rel(got, want, rel);
-    for (int k = 0; k < 3; k++)
-        assert_close_rel(ring_got[k], ring_want[k], 3.0 * rel);
-    return n;
+        assert_true(g.ring_n[k] > 0);
+    return g.n;
 }
 
 /* render_slab through the glass (depth 4) checked by check_floor. */

@@ -173,13 +173,8 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, const KernelGlobals *kg)
     lt_item(w, &lp, &sample, kg->p);
     uint key = spt_rng_key(kg->p->seed ^ SPT_LT_SALT, lp, sample);
     float4 lam, lpdf;
-    float ulam = spt_rand_key(key, SPT_DIM_WAVELENGTH);
-#ifdef SPT_MERGE
-    /* The camera paths' wavelengths of this sample index (photon_merge.h). */
-    if (kg->p->merge)
-        ulam = pm_lambda_u(kg->p->seed, sample);
-#endif
-    spt_sample_wavelengths(ulam, &lam, &lpdf);
+    /* With merging, the camera paths' wavelengths of this sample index. */
+    spt_sample_wavelengths(pm_wavelength_u(spt_rand_key(key, SPT_DIM_WAVELENGTH), sample, kg), &lam, &lpdf);
     float prob = 0.0f;
     int e = -1;
     if (kg->p->select_count > 0u)

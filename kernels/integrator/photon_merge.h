@@ -43,6 +43,20 @@ SPT_FN_INLINE float pm_lambda_u(uint seed, uint s)
     return spt_u32_to_unit(spt_hash_u32(seed ^ 0x3c6ef372u) + s * 0x9e3779b9u);
 }
 
+/* The hero wavelength's CDF value of a path of sample index `sample` whose
+ * own would be u: pm_lambda_u with merging (in kernels built with
+ * SPT_MERGE), else u. */
+SPT_FN_INLINE float pm_wavelength_u(float u, uint sample, const KernelGlobals *kg)
+{
+#ifdef SPT_MERGE
+    if (kg->p->merge)
+        return pm_lambda_u(kg->p->seed, sample);
+#endif
+    (void)sample;
+    (void)kg;
+    return u;
+}
+
 /* The camera path's state after its vertex at depth `depth` (segments from
  * the camera) sampled a lobe, delta or not (SPT_PM_* of render_types.h). */
 SPT_FN_INLINE uint pm_camera_next(uint lt, uint depth, int is_delta)

@@ -166,14 +166,9 @@ static uint path_start(uint i, uint w, const KernelGlobals *kg)
     kg->ps_ray_o[i] = (float4)(org, 0.0f);
     kg->ps_ray_d[i] = (float4)(normalize(d), kg->p->cam_pos[3]); /* w: the ray cone's width */
     float4 lam, pdf;
-    float ulam = spt_sampler_1d(smp, SPT_DIM_WAVELENGTH);
-#ifdef SPT_MERGE
-    /* The light paths' wavelengths of this sample index
+    /* With merging, the light paths' wavelengths of this sample index
      * (kernels/integrator/photon_merge.h). */
-    if (kg->p->merge)
-        ulam = pm_lambda_u(kg->p->seed, sample);
-#endif
-    spt_sample_wavelengths(ulam, &lam, &pdf);
+    spt_sample_wavelengths(pm_wavelength_u(spt_sampler_1d(smp, SPT_DIM_WAVELENGTH), sample, kg), &lam, &pdf);
     kg->ps_lambda[i] = lam;
     kg->ps_lambda_pdf[i] = pdf;
     kg->ps_throughput[i] = (float4)(1.0f);

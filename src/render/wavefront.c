@@ -517,6 +517,13 @@ static int chunk_sums(Wavefront *w, const RenderParams *p, double *acc, float *s
  * stop request is seen between launches as between the stage kernels' waves. */
 #define SPT_MEGA_LAUNCH_ITEMS(w) ((uint64_t)(w)->pool)
 
+/* Whether a stop request ends the chunk: a second one, or a first one in a
+ * long chunk (render_chunk). */
+static int stop_asked(const Wavefront *w, int long_chunk)
+{
+    return w->stop && (*w->stop >= 2 || (*w->stop == 1 && long_chunk));
+}
+
 /* Runs work items [p->work_begin, p->work_end) to their end on the CPU path:
  * k_paths over them, a launch per SPT_MEGA_LAUNCH_ITEMS, each launch's work
  * counter from zero. Work-items: four work-groups per compute unit, two slots
@@ -550,7 +557,7 @@ static int run_paths_mega(Wavefront *w, const RenderParams *p, int long_chunk, d
         if (lp.work_end == end)
             break;
         SPT_CL_CHECK(e, clFinish(w->dev.queue));
-        if (w->stop && (*w->stop >= 2 || (*w->stop == 1 && long_chunk)))
+        if (stop_asked(w, long_chunk))
             return spt_fail(e, SPT_EXIT_INTERRUPTED, "interrupted");
     }
     SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0,
@@ -584,7 +591,7 @@ static int run_paths_stages(Wavefront *w, const RenderParams *p, int long_chunk,
         st->rays_shadow += counters[SPT_CNT_SHADOW];
         if (counters[SPT_CNT_DONE] >= p->work_end - p->work_begin)
             break;
-        if (w->stop && (*w->stop >= 2 || (*w->stop == 1 && long_chunk)))
+        if (stop_asked(w, long_chunk))
             return spt_fail(e, SPT_EXIT_INTERRUPTED, "interrupted");
     }
     st->nan_dropped += counters[SPT_CNT_NAN];
