@@ -42,6 +42,10 @@
  *   vertex y with throughput beta adds beta f(to camera, to light) |cos_y| /
  *   r^2 W_e, and the N = light_paths light paths of each sample index are
  *   averaged: the film's sum over spp samples gains that over light_paths.
+ * - With photon merging (kernels/integrator/photon_merge.h), a light path also
+ *   leaves a photon at each vertex with a non-delta lobe that it reaches
+ *   through delta vertices only, for camera paths that see that surface
+ *   through glass or in a mirror.
  * - Determinism: light path k of sample index s (k < light_paths) takes its
  *   random numbers from (seed ^ SPT_LT_SALT, k, s), and its splats go to the
  *   light film as 64-bit fixed-point sums by integer atomics (rounded up or

@@ -538,8 +538,8 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Ke
     spt_sampler_pair(f.smp, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_SELECT), &usel, &ulobe);
     int shadow = shade_direct_light(&h, &tc, &bp, &f, usel, sh_o, sh_d, sh_c, kg);
 #ifdef SPT_MERGE
-    /* The first surface with a non-delta lobe after delta vertices only:
-     * the photons there (kernels/integrator/photon_merge.h). */
+    /* A surface with a non-delta lobe reached through delta vertices only
+     * (one or more): the photons there (kernels/integrator/photon_merge.h). */
     if (kg->p->merge && h.depth >= 2u && !(kg->ps_lt[i] & SPT_PM_SEEN_D) && !bsdf_is_delta(&bp))
         h.L += h.beta * pm_gather(i, h.depth, h.p, f.ngf, f.tg, f.bt, f.ns, f.wo_l, f.both_sides, &bp, kg);
 #endif
