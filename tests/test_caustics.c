@@ -21,100 +21,7 @@
 #include "test_util.h"
 #include "test_render_util.h"
 
-#define SLAB_TOP 1.2
-#define SLAB_BOTTOM 1.0
-#define SLAB_IOR 1.5
-#define FLOOR_ALBEDO 0.5
-
-enum { LIGHT_SPOT, LIGHT_AREA, LIGHT_DIRECTIONAL };
-
-/* The area light: a square of half-size AREA_HALF at height AREA_Y facing down,
- * emitting white of film radiance AREA_LE. */
-#define AREA_HALF 0.2
-#define AREA_Y 2.0
-#define AREA_LE 20.0
-/* The spot: 100 cd at (0, 2, 0) pointing down, cones 0.3 and 0.35 rad. */
-#define SPOT_Y 2.0
-#define SPOT_I 100.0
-#define SPOT_INNER 0.3
-/* The directional light: 1000 lux straight down. */
-#define DIR_E 1000.0
-
-/* The floor (albedo 0.5, 4 x 4 m), the slab (3 x 3 m, clear smooth glass),
- * one light, and a camera under the slab's level looking at the floor's
- * centre from the side (so its rays never meet the glass). glass = 0 makes the
- * slab a Lambertian (a scene without delta surfaces). */
-static void slab_scene(Scene *s, int light, int glass)
-{
-    memset(s, 0, sizeof *s);
-    const float floor_c[4][3] = {{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}};
-    SceneMaterial *fl = append_rect(s, floor_c);
-    for (int k = 0; k < 3; k++)
-        fl->base_color[k] = FLOOR_ALBEDO;
-    const float lo[3] = {-1.5f, (float)SLAB_BOTTOM, -1.5f}, hi[3] = {1.5f, (float)SLAB_TOP, 1.5f};
-    SceneMaterial *g = append_box(s, lo, hi);
-    g->metallic = 0.0f;
-    if (glass) {
-        set_clear_glass(g, (float)SLAB_IOR);
-    } else {
-        g->specular = 0.0f;
-        for (int k = 0; k < 3; k++)
-            g->base_color[k] = 0.5f;
-    }
-    if (light == LIGHT_AREA) {
-        const float h = (float)AREA_HALF, y = (float)AREA_Y;
-        /* Counter-clockwise seen from below: the front faces down. */
-        const float lc[4][3] = {{-h, y, -h}, {h, y, -h}, {h, y, h}, {-h, y, h}};
-        SceneMaterial *lm = append_rect(s, lc);
-        for (int k = 0; k < 3; k++) {
-            lm->base_color[k] = 0.0f;
-            lm->emissive[k] = 1.0f;
-        }
-        lm->emissive_strength = (float)AREA_LE;
-    } else {
-        s->light_count = 1;
-        s->lights = calloc(1, sizeof(SceneLight));
-        SceneLight *l = &s->lights[0];
-        l->type = light == LIGHT_SPOT ? SPT_LIGHT_SPOT : SPT_LIGHT_DIRECTIONAL;
-        l->position[1] = (float)SPOT_Y;
-        l->direction[1] = -1.0f;
-        l->intensity = light == LIGHT_SPOT ? (float)SPOT_I : (float)DIR_E;
-        l->inner_cone = (float)SPOT_INNER;
-        l->outer_cone = 0.35f;
-        for (int k = 0; k < 3; k++)
-            l->color[k] = 1.0f;
-    }
-    /* Camera at (0, 0.9, 2.5) toward the origin. */
-    aim_camera(s, 0.9, 2.5, 0.9, 2.5, 0.55f);
-}
-
-/* The floor's irradiance at horizontal distance r from a point source of
- * intensity I(theta) = i0 cos(theta)^cos_pow whose rays cross air of total
- * height a and the slab; 0 beyond theta_max. */
-static double slab_irradiance(double r, double a, double i0, int cos_pow, double theta_max)
-{
-    const double t = SLAB_TOP - SLAB_BOTTOM, n = SLAB_IOR;
-    if (r < 1e-9) {
-        double T = 1.0 - fresnel(1.0, n);
-        return i0 * T * T / ((a + t / n) * (a + t / n));
-    }
-    double lo = 0.0, hi = 0.5 * M_PI - 1e-9;
-    for (int k = 0; k < 100; k++) {
-        double th = 0.5 * (lo + hi), st = sin(th) / n;
-        double rr = a * tan(th) + t * st / sqrt(1.0 - st * st);
-        if (rr < r)
-            lo = th;
-        else
-            hi = th;
-    }
-    double th = 0.5 * (lo + hi);
-    if (th > theta_max)
-        return 0.0;
-    double st = sin(th) / n, ct = sqrt(1.0 - st * st);
-    double drdth = a / (cos(th) * cos(th)) + t * cos(th) / (n * ct * ct * ct);
-    double T = 1.0 - fresnel(cos(th), n);
-    return i0 * pow(cos(th), cos_pow) * T * T * sin(th) / (r * drdth);
-}
+#include "caustic_slab.h"
 
 /* Where the ray of pixel (px, py)'s centre meets the floor (x, z); 0 when it
  * does not. Mirrors the camera of slab_scene and k_generate's rays. */
@@ -131,30 +38,6 @@ static int pixel_floor(const Scene *s, int w, int px, int py, double *x, double 
     *x = s->camera.position[0] + u * d[0];
     *z = s->camera.position[2] + u * d[2];
     return fabs(*x) < 2.0 && fabs(*z) < 2.0;
-}
-
-/* The floor's expected film Y at (x, z) under light. */
-static double expected_y(int light, double x, double z)
-{
-    double E = 0.0;
-    const double air = SLAB_BOTTOM + (SPOT_Y - SLAB_TOP);
-    if (light == LIGHT_SPOT) {
-        E = slab_irradiance(sqrt(x * x + z * z), air, SPOT_I, 0, SPOT_INNER);
-    } else if (light == LIGHT_DIRECTIONAL) {
-        double T = 1.0 - fresnel(1.0, SLAB_IOR);
-        E = DIR_E * T * T;
-    } else {
-        /* The square as a 48 x 48 grid of Lambertian sources. */
-        enum { G = 48 };
-        double cell = 2.0 * AREA_HALF / G;
-        for (int i = 0; i < G; i++)
-            for (int j = 0; j < G; j++) {
-                double lx = -AREA_HALF + (i + 0.5) * cell, lz = -AREA_HALF + (j + 0.5) * cell;
-                double r = sqrt((x - lx) * (x - lx) + (z - lz) * (z - lz));
-                E += slab_irradiance(r, SLAB_BOTTOM + (AREA_Y - SLAB_TOP), AREA_LE * cell * cell, 1, M_PI);
-            }
-    }
-    return FLOOR_ALBEDO / M_PI * E;
 }
 
 /* The thin lens of render_slab's camera: radius (0: pinhole) and focus distance. */
@@ -189,8 +72,7 @@ static int check_floor(const Film *f, int light, double r_max, double rel, const
     Scene s;
     slab_scene(&s, light, 1);
     int w = f->width;
-    double got = 0, want = 0, ring_got[3] = {0}, ring_want[3] = {0};
-    int n = 0;
+    SlabRings g = {0};
     for (int py = 0; py < w; py++)
         for (int px = 0; px < w; px++) {
             double x, z;
@@ -200,25 +82,14 @@ static int check_floor(const Film *f, int light, double r_max, double rel, const
             if (r >= r_max)
                 continue;
             size_t i = (size_t)py * w + px;
-            double y = f->xyz[3 * i + 1] / f->count[i], e = expected_y(light, x, z);
-            got += y;
-            want += e;
-            int ring = (int)(3.0 * r / r_max);
-            ring_got[ring] += y;
-            ring_want[ring] += e;
-            n++;
+            slab_rings_add(&g, r, r_max, f->xyz[3 * i + 1] / f->count[i], expected_y(light, x, z));
         }
     scene_free(&s);
-    printf("%s: floor under the slab, %d pixels: mean Y %.5g, predicted %.5g (%+.2f%%); rings",
-           what, n, got / n, want / n, 100.0 * (got / want - 1.0));
+    slab_rings_check(&g, rel, what, "floor under the slab");
+    assert_true(g.n > 100);
     for (int k = 0; k < 3; k++)
-        printf(" %+.2f%%", 100.0 * (ring_got[k] / ring_want[k] - 1.0));
-    printf("\n");
-    assert_true(n > 100);
-    assert_close_rel(got, want, rel);
-    for (int k = 0; k < 3; k++)
-        assert_close_rel(ring_got[k], ring_want[k], 3.0 * rel);
-    return n;
+        assert_true(g.ring_n[k] > 0);
+    return g.n;
 }
 
 /* render_slab through the glass (depth 4) checked by check_floor. */
@@ -494,12 +365,16 @@ static void closed_box_scene(Scene *s, int light_patch)
     aim_camera(s, 0.3, 0.95, 0.35, 1.0, 1.2f);
 }
 
+/* Photon merging (--merge) in render_closed_box's renders. */
+static int closed_box_merge = SPT_SWITCH_OFF;
+
 static void render_closed_box(int light_patch, int caustics, int w, int spp, Film *film)
 {
     Scene s;
     closed_box_scene(&s, light_patch);
     RenderSettings rs = square_settings(w, spp, -1, 5);
     rs.caustics = caustics;
+    rs.merge = closed_box_merge;
     render_caustic_scene(&s, &rs, film);
     scene_free(&s);
 }
@@ -507,9 +382,8 @@ static void render_closed_box(int light_patch, int caustics, int w, int spp, Fil
 /* The furnace of closed_box_scene with the pass on: the mean of each quarter
  * of the image (the glass cube fills much of the lower half) and of the
  * whole, against BOX_LE / (1 - BOX_ALBEDO). */
-TEST(test_closed_box_furnace)
+static void check_closed_box_furnace(const char *what)
 {
-    skip_if_quick();
     Film f;
     enum { W = 32 };
     render_closed_box(0, SPT_SWITCH_ON, W, 64, &f);
@@ -521,14 +395,30 @@ TEST(test_closed_box_furnace)
             q[2 * (py >= W / 2) + (px >= W / 2)] += y / (W * W / 4);
             all += y / (W * W);
         }
-    printf("closed furnace box with a glass cube, --caustics on: mean Y %.4f (%+.2f%%), quarters %+.2f%% "
+    printf("closed furnace box with a glass cube, %s: mean Y %.4f (%+.2f%%), quarters %+.2f%% "
            "%+.2f%% %+.2f%% %+.2f%%, expected %.4f\n",
-           all, 100.0 * (all / want - 1.0), 100.0 * (q[0] / want - 1.0), 100.0 * (q[1] / want - 1.0),
+           what, all, 100.0 * (all / want - 1.0), 100.0 * (q[0] / want - 1.0), 100.0 * (q[1] / want - 1.0),
            100.0 * (q[2] / want - 1.0), 100.0 * (q[3] / want - 1.0), want);
     assert_close_rel(all, want, 0.01);
     for (int k = 0; k < 4; k++)
         assert_close_rel(q[k], want, 0.03);
     film_free(&f);
+}
+
+TEST(test_closed_box_furnace)
+{
+    skip_if_quick();
+    check_closed_box_furnace("--caustics on");
+}
+
+/* The same with photon merging, which takes the paths camera - glass -
+ * wall - glass - emitting wall from the camera paths: counted twice or by
+ * neither, the quarters that see the walls through the cube would show it. */
+TEST(test_closed_box_furnace_merge)
+{
+    closed_box_merge = SPT_SWITCH_ON;
+    check_closed_box_furnace("--caustics on --merge on");
+    closed_box_merge = SPT_SWITCH_OFF;
 }
 
 /* One light in the closed box (closed_box_scene's light_patch): the caustic

@@ -41,6 +41,9 @@ static int teardown(void **state)
     return 0;
 }
 
+/* Photon merging (--merge) in render_on_aov's renders. */
+static int multi_merge = SPT_SWITCH_OFF;
+
 /* Renders the Cornell box at 24x24, 32 spp on the devices listed in `which`
  * with the test hooks hooks. */
 static int render_on_aov(const int *which, int n, RenderTestHooks hooks, unsigned aov, Film *film,
@@ -57,6 +60,7 @@ static int render_on_aov(const int *which, int n, RenderTestHooks hooks, unsigne
     rs.seed = 11;
     rs.pool_size = 512; /* small chunks: the work splits into many */
     rs.test = hooks;
+    rs.merge = multi_merge;
     rs.aov = aov;
     rs.spectral = aov ? 47 : 0; /* the AOV test covers the spectral bands too */
     rs.sampler = aov ? SPT_SAMPLER_ZSOBOL : SPT_SAMPLER_SOBOL; /* and ZSobol */
@@ -93,6 +97,23 @@ TEST(test_split_invariance)
      * threads are scheduled. */
     render_one_and_two(turns, 0, &one, &two, per);
     printf("two devices: %u and %u spp\n", per[0].samples, per[1].samples);
+    assert_int_equal(per[0].samples, 16);
+    assert_int_equal(per[1].samples, 16);
+    assert_same_film(&one, &two);
+    film_free(&one);
+    film_free(&two);
+}
+
+/* The same with photon merging: each device sorts the photons of its own
+ * chunks, and a gather's sum does not depend on the chunk. */
+TEST(test_split_invariance_merge)
+{
+    Film one, two;
+    RenderDeviceStats per[2];
+    multi_merge = SPT_SWITCH_ON;
+    render_one_and_two(turns, 0, &one, &two, per);
+    multi_merge = SPT_SWITCH_OFF;
+    printf("two devices, --merge on: %u and %u spp\n", per[0].samples, per[1].samples);
     assert_int_equal(per[0].samples, 16);
     assert_int_equal(per[1].samples, 16);
     assert_same_film(&one, &two);

@@ -37,7 +37,7 @@ static const struct {
     {"checkpoint", "ck.exr"},   {"checkpoint-every", "5"},
     {"resume", "ck.exr"},       {"caustics", "on"},
     {"aov", "albedo,N"},        {"spectral", "47"},
-    {"light-paths", "0.5"},     {"light-tree", "off"},
+    {"light-paths", "0.5"},     {"light-tree", "off"},      {"merge", "on"},
     {"adaptive", "on"},
     {"at", "1.25"},             {"animation", "walk"},
     {"camera", "1"},            {"frames", "0:23"},

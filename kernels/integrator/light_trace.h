@@ -42,6 +42,10 @@
  *   vertex y with throughput beta adds beta f(to camera, to light) |cos_y| /
  *   r^2 W_e, and the N = light_paths light paths of each sample index are
  *   averaged: the film's sum over spp samples gains that over light_paths.
+ * - With photon merging (kernels/integrator/photon_merge.h), a light path also
+ *   leaves a photon at each vertex with a non-delta lobe that it reaches
+ *   through delta vertices only, for camera paths that see that surface
+ *   through glass or in a mirror.
  * - Determinism: light path k of sample index s (k < light_paths) takes its
  *   random numbers from (seed ^ SPT_LT_SALT, k, s), and its splats go to the
  *   light film as 64-bit fixed-point sums by integer atomics (rounded up or
@@ -62,6 +66,7 @@
 #include "integrator/kernel_globals.h"
 #include "material/material_eval.h"
 #include "integrator/shade_surface.h"
+#include "integrator/photon_merge.h"
 
 SPT_DEVICE_ONLY
 
@@ -172,7 +177,8 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, const KernelGlobals *kg)
     lt_item(w, &lp, &sample, kg->p);
     uint key = spt_rng_key(kg->p->seed ^ SPT_LT_SALT, lp, sample);
     float4 lam, lpdf;
-    spt_sample_wavelengths(spt_rand_key(key, SPT_DIM_WAVELENGTH), &lam, &lpdf);
+    /* With merging, the camera paths' wavelengths of this sample index. */
+    spt_sample_wavelengths(pm_wavelength_u(spt_rand_key(key, SPT_DIM_WAVELENGTH), sample, kg), &lam, &lpdf);
     float prob = 0.0f;
     int e = -1;
     if (kg->p->select_count > 0u)
@@ -446,11 +452,15 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Kern
     if (past_delta) {
         /* Every vertex after the first delta one connects: the path camera -
          * here - ... - light has x1 non-delta and its last vertex delta. */
-        if (!bsdf_is_delta(&bp))
+        if (!bsdf_is_delta(&bp)) {
+#ifdef SPT_MERGE
+            pm_deposit(i, h.p, -h.rd, h.beta, h.depth, kg);
+#endif
             shadow = lt_connect(&h, &bp, &f, spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_U)),
                                 spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_V)),
                                 spt_rand_key(f.key, spt_dim_bounce(f.bounce, SPT_DIM_SPARE)), sh_o, sh_d, sh_c,
                                 kg);
+        }
     } else {
         /* The first vertex: a non-delta lobe makes every path through here
          * the camera paths' (its last vertex is non-delta). */
@@ -482,7 +492,12 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Kern
     if (!reflect && f.both_sides)
         kg->ps_medium[i] = shade_medium_after(&h, &f, wn, wn_side);
     kg->ps_flags[i] = SPT_PATH_ALIVE;
-    kg->ps_lt[i] = SPT_LT_LIGHT | SPT_LT_SPEC;
+    uint lt_next = SPT_LT_LIGHT | SPT_LT_SPEC;
+#ifdef SPT_MERGE
+    /* Its photons so far, and whether a vertex took a non-delta lobe. */
+    lt_next |= (kg->ps_lt[i] & SPT_PM_BITS) | (bs.is_delta ? 0u : SPT_PM_SEEN_D);
+#endif
+    kg->ps_lt[i] = lt_next;
     kg->ps_throughput[i] = h.beta;
     kg->ps_ray_o[i] = (float4)(offset_origin(h.p, wn_side > 0.0f ? f.ngf : -f.ngf), 0.0f);
     kg->ps_ray_d[i] = (float4)(wn, 0.0f);

@@ -17,6 +17,7 @@
 #include "integrator/path.h"
 #include "integrator/kernel_globals.h"
 #include "material/material_eval.h"
+#include "integrator/photon_merge.h"
 
 SPT_DEVICE_ONLY
 
@@ -86,13 +87,14 @@ SPT_FN_INLINE uint lt_camera_next(uint lt, uint depth, int is_delta)
 
 SPT_FN_INLINE int lt_camera_drops(uint lt, uint prim, const KernelGlobals *kg)
 {
-    return kg->p->light_paths > 0u && lt == (SPT_LT_CHAIN | SPT_LT_SPEC) && kg->tri_light_pdf[prim] > 0.0f;
+    return kg->p->light_paths > 0u && (lt & (SPT_LT_CHAIN | SPT_LT_SPEC)) == (SPT_LT_CHAIN | SPT_LT_SPEC) &&
+           kg->tri_light_pdf[prim] > 0.0f;
 }
 
 SPT_FN_INLINE int lt_camera_drops_env(uint lt, const KernelGlobals *kg)
 {
-    return kg->p->light_paths > 0u && lt == (SPT_LT_CHAIN | SPT_LT_SPEC) && kg->p->env_prob > 0.0f &&
-           kg->p->env.kind == SPT_ENV_MAP;
+    return kg->p->light_paths > 0u && (lt & (SPT_LT_CHAIN | SPT_LT_SPEC)) == (SPT_LT_CHAIN | SPT_LT_SPEC) &&
+           kg->p->env_prob > 0.0f && kg->p->env.kind == SPT_ENV_MAP;
 }
 
 /* A path that left the scene sees the environment, weighted against light
@@ -102,7 +104,12 @@ SPT_FN_INLINE int lt_camera_drops_env(uint lt, const KernelGlobals *kg)
  * all of it is the pass's). */
 SPT_FN_INLINE void shade_miss(uint i, float4 lam, float4 beta, const KernelGlobals *kg)
 {
-    if (kg->p->env.kind != SPT_ENV_NONE && !lt_camera_drops_env(kg->ps_lt[i], kg)) {
+    int drop = lt_camera_drops_env(kg->ps_lt[i], kg);
+#ifdef SPT_MERGE
+    /* camera - S+ - D - S+ - map: photon merging's (photon_merge.h). */
+    drop = drop || pm_camera_drops(kg->ps_lt[i], 1, 0u, kg);
+#endif
+    if (kg->p->env.kind != SPT_ENV_NONE && !drop) {
         float3 d = kg->ps_ray_d[i].xyz;
         float la[4], le[4];
         lambda_array(lam, la);
@@ -203,6 +210,11 @@ SPT_FN_INLINE void shade_emission(ShadeHit *h, const TexCtx *tc, const KernelGlo
      * (kernels/integrator/light_trace.h). */
     if (lt_camera_drops(kg->ps_lt[i], h->prim, kg))
         return;
+#ifdef SPT_MERGE
+    /* camera - S+ - D - S+ - light: photon merging's (photon_merge.h). */
+    if (pm_camera_drops(kg->ps_lt[i], 0, h->prim, kg))
+        return;
+#endif
     float4 le = material_emission(m, tc, h->lam, fabs(dot(h->ng, h->rd)), h->prim, h->bu, h->bv,
                                   kg->tri_shade, kg->vtx_color, kg->spectra, kg->textures, kg->texels);
     float w = 1.0f;
@@ -525,6 +537,12 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Ke
     float usel, ulobe;
     spt_sampler_pair(f.smp, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_SELECT), &usel, &ulobe);
     int shadow = shade_direct_light(&h, &tc, &bp, &f, usel, sh_o, sh_d, sh_c, kg);
+#ifdef SPT_MERGE
+    /* A surface with a non-delta lobe reached through delta vertices only
+     * (one or more): the photons there (kernels/integrator/photon_merge.h). */
+    if (kg->p->merge && h.depth >= 2u && !(kg->ps_lt[i] & SPT_PM_SEEN_D) && !bsdf_is_delta(&bp))
+        h.L += h.beta * pm_gather(i, h.depth, h.p, f.ngf, f.tg, f.bt, f.ns, f.wo_l, f.both_sides, &bp, kg);
+#endif
     BsdfSample bs;
     float3 wn;
     float wn_side;
@@ -536,8 +554,13 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Ke
         kg->ps_flags[i] = SPT_PATH_FINISHED;
         return shadow;
     }
-    if (kg->p->light_paths > 0u)
-        kg->ps_lt[i] = lt_camera_next(kg->ps_lt[i], h.depth, bs.is_delta);
+    if (kg->p->light_paths > 0u) {
+        uint lt = kg->ps_lt[i], lt_next = lt_camera_next(lt, h.depth, bs.is_delta);
+#ifdef SPT_MERGE
+        lt_next |= pm_camera_next(lt, h.depth, bs.is_delta) & SPT_PM_BITS;
+#endif
+        kg->ps_lt[i] = lt_next;
+    }
     if (!reflect && f.both_sides)
         kg->ps_medium[i] = shade_medium_after(&h, &f, wn, wn_side);
     kg->ps_throughput[i] = h.beta;

@@ -166,7 +166,9 @@ static uint path_start(uint i, uint w, const KernelGlobals *kg)
     kg->ps_ray_o[i] = (float4)(org, 0.0f);
     kg->ps_ray_d[i] = (float4)(normalize(d), kg->p->cam_pos[3]); /* w: the ray cone's width */
     float4 lam, pdf;
-    spt_sample_wavelengths(spt_sampler_1d(smp, SPT_DIM_WAVELENGTH), &lam, &pdf);
+    /* With merging, the light paths' wavelengths of this sample index
+     * (kernels/integrator/photon_merge.h). */
+    spt_sample_wavelengths(pm_wavelength_u(spt_sampler_1d(smp, SPT_DIM_WAVELENGTH), sample, kg), &lam, &pdf);
     kg->ps_lambda[i] = lam;
     kg->ps_lambda_pdf[i] = pdf;
     kg->ps_throughput[i] = (float4)(1.0f);
@@ -203,7 +205,7 @@ __kernel void k_generate(KERNEL_ARGS)
                               &counters[SPT_CNT_DONE], l_slot, &l_base);
     if (wants && w < total) {
         KERNEL_GLOBALS;
-        flags = path_start(i, w, kg);
+        flags = path_start(i, params.work_begin + w, kg);
         ps_flags[i] = flags;
     }
     uint q = group_queue_slot(flags == SPT_PATH_ALIVE, &counters[SPT_CNT_EXTEND], 0xffffffffu, 0,

@@ -285,6 +285,13 @@ typedef struct RenderParams {
     spt_u32 aside_offset;
     spt_u32 aside_count;
     spt_u32 pad_tree;
+    /* Photon merging (kernels/integrator/photon_merge.h): on (1) or off; the
+     * photon grid's bucket mask (buckets - 1) and photons; the initial
+     * radius (kernels/integrator/photon_grid.h). */
+    spt_u32 merge;
+    spt_u32 pm_mask;
+    spt_u32 pm_count;
+    float pm_r0;
 } RenderParams;
 
 /* Counters, one uint each in the counters buffer; the host reads them back. */
@@ -293,6 +300,7 @@ typedef struct RenderParams {
 #define SPT_CNT_WORK 2     /* next work index handed out (relative to work_begin) */
 #define SPT_CNT_DONE 3     /* paths finished in this chunk */
 #define SPT_CNT_NAN 4      /* paths whose radiance was NaN/Inf and was dropped */
+#define SPT_CNT_PM_LOST 5  /* photons past SPT_PM_PER_PATH on a light path, dropped */
 #define SPT_CNT_COUNT 8
 
 /* Light-tracing state of a path (ps_lt), kernels/integrator/light_trace.h. A camera
@@ -307,6 +315,17 @@ typedef struct RenderParams {
  * dropped. */
 #define SPT_LT_SKIP 8u
 #define SPT_PIXEL_SKIP 0xffffffffu
+/* Photon merging's state (kernels/integrator/photon_merge.h). A camera path:
+ * SPT_PM_SEEN_D once a vertex sampled a non-delta lobe; SPT_PM_ONE when
+ * exactly one has, after one or more delta vertices from the camera (the
+ * merge's vertex), and SPT_PM_ONE_S once a delta vertex followed it. A light
+ * path: SPT_PM_SEEN_D once a vertex sampled a non-delta lobe, and its
+ * photons so far in the two bits from SPT_PM_COUNT_SHIFT. */
+#define SPT_PM_SEEN_D 16u
+#define SPT_PM_ONE 32u
+#define SPT_PM_ONE_S 64u
+#define SPT_PM_COUNT_SHIFT 7
+#define SPT_PM_BITS 0x1f0u
 
 /* The light film (light_film): per pixel, X, Y and Z of the light paths'
  * splats as 64-bit fixed-point sums (two words each, low first) in units of
@@ -386,7 +405,13 @@ typedef struct RenderParams {
  * first of its sequence), or SPT_PIXEL_SKIP: the pixel takes none of the
  * chunk's samples; 0 without adaptive sampling. chunk_sq: per pixel,
  * the sums of the squares of its kept samples' linear sRGB over 2^(2 w) in
- * xyz, and w (the variance that adaptive sampling weighs). */
+ * xyz, and w (the variance that adaptive sampling weighs). With photon
+ * merging (RenderParams.merge; kernels/integrator/photon_grid.h): pm_photon
+ * holds the chunk's photons (SPT_PM_PER_PATH slots of SPT_PM_PHOTON_FLOAT4
+ * per light path while they are left, then sorted by bucket), pm_cell the
+ * first photon of each bucket (pm_mask + 2 words), pm_radius per sample slot
+ * of the chunk its radius and its cells' inverse edge; without, one unused
+ * element each. */
 #define SPT_WORK_BUFFERS(X)           \
     X(uint, counters)                 \
     X(uint, queue_extend)             \
@@ -398,6 +423,9 @@ typedef struct RenderParams {
     X(float4, aov_sample)             \
     X(float4, aov_sum)                \
     X(float4, spec_sample)            \
-    X(float, spec_sum)
+    X(float, spec_sum)                \
+    X(float4, pm_photon)              \
+    X(const uint, pm_cell)            \
+    X(const float, pm_radius)
 
 #endif

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 
 #include "closure/delta.h"
+#include "integrator/photon_grid.h"
 #include "light/lights.h"
 #include "sample/sampling.h"
 
@@ -291,10 +292,46 @@ int light_plan_runs(const RenderSettings *rs, const RenderLights *L, const GpuSc
     return scene_turns_light(g);
 }
 
+int light_plan_merges(const RenderSettings *rs)
+{
+    return rs->merge == SPT_SWITCH_ON && rs->adaptive != SPT_SWITCH_ON;
+}
+
+uint32_t light_plan_max_paths(const RenderSettings *rs)
+{
+    double r = rs->light_paths > 0.0f ? (double)rs->light_paths : SPT_LIGHT_PATHS_DEFAULT;
+    double n = floor(fmin(r, SPT_LIGHT_PATHS_MAX) * (double)rs->width * (double)rs->height + 0.5);
+    return n < 1.0 ? 1u : (uint32_t)n;
+}
+
+/* Photon merging's initial radius (kernels/integrator/photon_grid.h):
+ * SPT_PM_R0_PIXELS pixel footprints (p->cam_fwd[3], a pixel's angle) at the
+ * distance of the nearest caustic sphere, where the surfaces seen through
+ * glass or in a mirror are. */
+static float merge_radius(const RenderParams *p)
+{
+    const float *c = p->cam_pos;
+    double dist = 0.0;
+    for (uint32_t k = 0; k < p->caustic_count; k++) {
+        const float *s = p->caustic + 4 * k;
+        double dx = s[0] - c[0], dy = s[1] - c[1], dz = s[2] - c[2];
+        double d = fmax(sqrt(dx * dx + dy * dy + dz * dz), (double)s[3]);
+        dist = k == 0 || d < dist ? d : dist;
+    }
+    if (!(dist > 0.0))
+        dist = p->scene_radius;
+    return (float)(SPT_PM_R0_PIXELS * (double)p->cam_fwd[3] * dist);
+}
+
 void light_plan(RenderParams *p, const RenderLights *L, const GpuScene *g, const SceneCamera *cam,
                 const RenderSettings *rs)
 {
     caustic_bounds(p, g);
+    if (rs->merge == SPT_SWITCH_ON && rs->adaptive == SPT_SWITCH_ON)
+        spt_warn("--merge on: photon merging does not run under adaptive sampling; rendering without it");
+    else if (rs->merge == SPT_SWITCH_ON && !light_plan_runs(rs, L, g, cam, 0))
+        spt_warn("--merge on: photon merging needs the light-tracing pass (--caustics), which does not run "
+                 "here; rendering without it");
     /* rs->light_paths (0: the default) light paths per camera path, times
      * caustic_share: that many times the pixels per sample index, rounded, at
      * least one. */
@@ -304,5 +341,12 @@ void light_plan(RenderParams *p, const RenderLights *L, const GpuScene *g, const
                              (double)rs->height +
                          0.5);
         p->light_paths = n < 1.0 ? 1u : (uint32_t)n;
+        /* Photon merging: its buffers hold light_plan_max_paths. */
+        if (light_plan_merges(rs)) {
+            if (p->light_paths > light_plan_max_paths(rs))
+                p->light_paths = light_plan_max_paths(rs);
+            p->merge = 1;
+            p->pm_r0 = merge_radius(p);
+        }
     }
 }

@@ -22,8 +22,19 @@
 int light_plan_runs(const RenderSettings *rs, const RenderLights *L, const GpuScene *g,
                     const SceneCamera *cam, int warn);
 
+/* Whether photon merging is asked for (--merge on) where it can run: not
+ * under adaptive sampling (a pixel's samples there are not the chunk's
+ * sample indices, whose wavelengths a merge shares). It runs when the
+ * light-tracing pass does too. */
+int light_plan_merges(const RenderSettings *rs);
+
+/* Light paths per sample index of the light-tracing pass for rs at most,
+ * with photon merging (its buffers are sized from this). */
+uint32_t light_plan_max_paths(const RenderSettings *rs);
+
 /* Fills p's caustic spheres (p->caustic, p->caustic_count) and, when the pass
- * runs, p->light_paths; needs p's scene centre and radius set. */
+ * runs, p->light_paths, and photon merging's p->merge and p->pm_r0 (the
+ * initial radius); needs p's scene centre and radius and camera set. */
 void light_plan(RenderParams *p, const RenderLights *L, const GpuScene *g, const SceneCamera *cam,
                 const RenderSettings *rs);
 

@@ -288,7 +288,7 @@ static int worker_wavefront(Worker *wk, Wavefront *own, Wavefront **out)
 {
     const RenderSettings *rs = wk->s->rs;
     RenderPrograms *keep = rs->programs;
-    int light_film = wk->base->light_paths > 0;
+    uint32_t light_film = wk->base->light_paths;
     if (!keep) {
         *out = own;
         return wavefront_create(own, wk->info, wk->g, rs, wk->lights, light_film, &wk->e);
@@ -420,7 +420,7 @@ static int sched_adaptive(const RenderSettings *rs)
 void render_memory(const ClDeviceInfo *const *infos, int count, const GpuScene *g,
                    const SceneCamera *cam, const RenderSettings *rs, RenderMemory *m)
 {
-    int light_film = light_plan_runs(rs, NULL, g, cam, 0);
+    uint32_t light_film = light_plan_runs(rs, NULL, g, cam, 0) ? light_plan_max_paths(rs) : 0;
     memset(m, 0, sizeof *m);
     size_t npix = (size_t)rs->width * (size_t)rs->height;
     if (sched_adaptive(rs))
@@ -431,7 +431,7 @@ void render_memory(const ClDeviceInfo *const *infos, int count, const GpuScene *
     for (int i = 0; i < count; i++) {
         WavefrontPlan p;
         wavefront_plan(&p, infos[i], g, rs, NULL, env_floats, light_film);
-        m->devices += p.host_sums + p.host_aov + p.host_spec + p.host_sq;
+        m->devices += p.host_sums + p.host_aov + p.host_spec + p.host_sq + p.host_pm;
         if (infos[i]->type & CL_DEVICE_TYPE_CPU)
             m->devices += p.device;
     }

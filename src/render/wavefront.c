@@ -8,7 +8,10 @@
 #include <string.h>
 #include <sys/mman.h>
 
+#include "render/light_plan.h"
+#include "render/photon_grid.h"
 #include "render/render_lights.h"
+#include "integrator/photon_grid.h"
 
 /* Host spellings of the kernel types named in the buffer lists. */
 typedef cl_float4 float4;
@@ -36,6 +39,12 @@ void wavefront_release_buffers(Wavefront *w)
     for (int i = 0; i < w->host_mem_count; i++)
         free(w->host_mem[i]);
     w->host_mem_count = 0;
+    free(w->pm_raw);
+    free(w->pm_sorted);
+    free(w->pm_radius);
+    free(w->pm_cells);
+    w->pm_raw = w->pm_sorted = w->pm_radius = NULL;
+    w->pm_cells = NULL;
 }
 
 void wavefront_free(Wavefront *w)
@@ -193,9 +202,28 @@ static int group_size_for(cl_kernel k, cl_device_id dev, size_t *out, SptError *
     return 0;
 }
 
+/* Photon slots per sample index with photon merging (light_paths per sample
+ * index; 0: no merging). */
+static uint64_t merge_slots(const RenderSettings *rs, uint32_t light_paths)
+{
+    if (!light_paths || !light_plan_merges(rs))
+        return 0;
+    return (uint64_t)light_plan_max_paths(rs) * SPT_PM_PER_PATH;
+}
+
+/* The hash grid's most buckets for photon slots: the power of two at or
+ * above them. */
+static uint64_t merge_buckets(uint64_t slots)
+{
+    uint64_t b = 1;
+    while (b < slots)
+        b *= 2;
+    return b;
+}
+
 void wavefront_plan(WavefrontPlan *p, const ClDeviceInfo *info, const GpuScene *g,
                     const RenderSettings *rs, const RenderLights *L, size_t env_floats,
-                    int light_film)
+                    uint32_t light_film)
 {
     memset(p, 0, sizeof *p);
     uint64_t npix = (uint64_t)rs->width * (uint64_t)rs->height;
@@ -218,6 +246,11 @@ void wavefront_plan(WavefrontPlan *p, const ClDeviceInfo *info, const GpuScene *
     uint64_t cap = (64ull << 20) / (npix * sample_bytes);
     if (spp > cap)
         spp = cap;
+    /* Photon merging keeps each sample index's photons: at most 128 MiB of
+     * them per chunk. */
+    uint64_t pm_slots = merge_slots(rs, light_film);
+    if (pm_slots && spp > (128ull << 20) / (pm_slots * 16ull * SPT_PM_PHOTON_FLOAT4))
+        spp = (128ull << 20) / (pm_slots * 16ull * SPT_PM_PHOTON_FLOAT4);
     if (spp < 1)
         spp = 1;
     if (rs->spp > 0 && spp > (uint64_t)rs->spp)
@@ -236,6 +269,9 @@ void wavefront_plan(WavefrontPlan *p, const ClDeviceInfo *info, const GpuScene *
     p->aov_sum = p->aov ? (size_t)npix * 64 : 16;
     p->spec_sample = p->bands ? (size_t)(npix * spp * 32ull) : 16;
     p->spec_sum = p->bands ? (size_t)npix * 4 * (size_t)p->bands : 16;
+    p->pm_photon = pm_slots ? (size_t)(pm_slots * spp * 16ull * SPT_PM_PHOTON_FLOAT4) : 16;
+    p->pm_cell = pm_slots ? (size_t)((merge_buckets(pm_slots * spp) + 1) * 4ull) : 16;
+    p->pm_radius = pm_slots ? (size_t)(spp * 8ull) : 16;
 #define PS_BYTES(type, name) p->path_state += (size_t)p->pool * sizeof(type);
 #define SH_BYTES(type, name) p->shadow_state += (size_t)p->pool * sizeof(type);
     SPT_PATH_STATE(PS_BYTES)
@@ -247,6 +283,8 @@ void wavefront_plan(WavefrontPlan *p, const ClDeviceInfo *info, const GpuScene *
     p->host_aov = p->aov ? (size_t)npix * SPT_AOV_CHUNK_FLOATS * sizeof(float) : 0;
     p->host_spec = p->bands ? (size_t)npix * (size_t)p->bands * sizeof(float) : 0;
     p->host_sq = rs->adaptive == SPT_SWITCH_ON && !rs->take_chunk ? (size_t)npix * 4 * sizeof(float) : 0;
+    /* Photon merging's: the photons read back, sorted, and the grid. */
+    p->host_pm = pm_slots ? 2 * p->pm_photon + p->pm_cell + p->pm_radius : 0;
 
     ClAlloc *al = p->allocs;
     int na = 0;
@@ -317,10 +355,12 @@ int wavefront_open(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
     char options[256], bands_def[32] = "";
     if (w->bands)
         snprintf(bands_def, sizeof bands_def, "-DSPT_BANDS=%d ", w->bands);
-    snprintf(options, sizeof options, "%s%s%s%s%s%s",
+    /* Photon merging's code only where it is asked for
+     * (kernels/integrator/photon_merge.h). */
+    snprintf(options, sizeof options, "%s%s%s%s%s%s%s",
              w->ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "-DSPT_BVH_SHORT_STACK=1 ",
              step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "", film ? "" : "-DSPT_IRIDESCENCE=0 ",
-             w->aov ? "-DSPT_AOV=1 " : "", bands_def,
+             w->aov ? "-DSPT_AOV=1 " : "", bands_def, light_plan_merges(rs) ? "-DSPT_MERGE=1 " : "",
              rs->test.inject_nan ? "-DSPT_TEST_INJECT_NAN=1" : "");
     w->dev.stop = rs->stop;
     w->dev.announce = rs->progress;
@@ -338,7 +378,7 @@ int wavefront_open(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
 }
 
 int wavefront_buffers(Wavefront *w, const GpuScene *g, const RenderSettings *rs,
-                      const RenderLights *L, int light_film, SptError *e)
+                      const RenderLights *L, uint32_t light_film, SptError *e)
 {
     int rc;
     const ClDeviceInfo *info = &w->dev.info;
@@ -369,7 +409,7 @@ int wavefront_buffers(Wavefront *w, const GpuScene *g, const RenderSettings *rs,
 #undef MAKE_SH
 #define MAKE_WORK(type, name)                                                            \
     if ((rc = cl_buffer_create(&w->dev, #name,                                           \
-                               !strcmp(#name, "pixel_lag") ? CL_MEM_READ_ONLY : CL_MEM_READ_WRITE, \
+                               !strcmp(#name, "pixel_lag") || !strcmp(#name, "pm_cell") || !strcmp(#name, "pm_radius") ? CL_MEM_READ_ONLY : CL_MEM_READ_WRITE, \
                                pl->name, NULL, &w->b.name, e)))                          \
         return rc;
     SPT_WORK_BUFFERS(MAKE_WORK)
@@ -402,7 +442,7 @@ int wavefront_buffers(Wavefront *w, const GpuScene *g, const RenderSettings *rs,
 }
 
 int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
-                     const RenderSettings *rs, const RenderLights *L, int light_film, SptError *e)
+                     const RenderSettings *rs, const RenderLights *L, uint32_t light_film, SptError *e)
 {
     int rc;
     memset(w, 0, sizeof *w);
@@ -477,13 +517,20 @@ static int chunk_sums(Wavefront *w, const RenderParams *p, double *acc, float *s
  * stop request is seen between launches as between the stage kernels' waves. */
 #define SPT_MEGA_LAUNCH_ITEMS(w) ((uint64_t)(w)->pool)
 
-/* render_chunk on the CPU path: k_paths over the chunk's work items, a
- * launch per SPT_MEGA_LAUNCH_ITEMS of them, each launch's work counter from
- * zero. Work-items: four work-groups per compute unit, two slots of the pool
- * each (each CPU thread keeps one work-item's paths in flight at a time). */
-static int render_chunk_mega(Wavefront *w, RenderParams *p, int long_chunk, double *acc,
-                             float *sums, float *aov_sums, float *spec_sums, float *sq_sums,
-                             RenderStats *st, SptError *e)
+/* Whether a stop request ends the chunk: a second one, or a first one in a
+ * long chunk (render_chunk). */
+static int stop_asked(const Wavefront *w, int long_chunk)
+{
+    return w->stop && (*w->stop >= 2 || (*w->stop == 1 && long_chunk));
+}
+
+/* Runs work items [p->work_begin, p->work_end) to their end on the CPU path:
+ * k_paths over them, a launch per SPT_MEGA_LAUNCH_ITEMS, each launch's work
+ * counter from zero. Work-items: four work-groups per compute unit, two slots
+ * of the pool each (each CPU thread keeps one work-item's paths in flight at
+ * a time). */
+static int run_paths_mega(Wavefront *w, const RenderParams *p, int long_chunk, double *acc, RenderStats *st,
+                          SptError *e)
 {
     size_t local = w->local[K_PATHS];
     size_t items = (size_t)4 * (w->dev.info.compute_units ? w->dev.info.compute_units : 1) * local;
@@ -493,7 +540,7 @@ static int render_chunk_mega(Wavefront *w, RenderParams *p, int long_chunk, doub
         items = 1;
     uint32_t end = p->work_end;
     cl_uint counters[SPT_CNT_COUNT];
-    for (uint64_t begin = 0; begin < end; begin += SPT_MEGA_LAUNCH_ITEMS(w)) {
+    for (uint64_t begin = p->work_begin; begin < end; begin += SPT_MEGA_LAUNCH_ITEMS(w)) {
         static const cl_uint zero = 0;
         RenderParams lp = *p;
         lp.work_begin = (uint32_t)begin;
@@ -510,7 +557,7 @@ static int render_chunk_mega(Wavefront *w, RenderParams *p, int long_chunk, doub
         if (lp.work_end == end)
             break;
         SPT_CL_CHECK(e, clFinish(w->dev.queue));
-        if (w->stop && (*w->stop >= 2 || (*w->stop == 1 && long_chunk)))
+        if (stop_asked(w, long_chunk))
             return spt_fail(e, SPT_EXIT_INTERRUPTED, "interrupted");
     }
     SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0,
@@ -518,7 +565,96 @@ static int render_chunk_mega(Wavefront *w, RenderParams *p, int long_chunk, doub
     st->rays_extend += counters[SPT_CNT_EXTEND];
     st->rays_shadow += counters[SPT_CNT_SHADOW];
     st->nan_dropped += counters[SPT_CNT_NAN];
-    return chunk_sums(w, p, acc, sums, aov_sums, spec_sums, sq_sums, st, e);
+    return 0;
+}
+
+/* The same with the stage kernels: waves of generate, extend, shade and
+ * connect until every work item is done. */
+static int run_paths_stages(Wavefront *w, const RenderParams *p, int long_chunk, double *acc, RenderStats *st,
+                            SptError *e)
+{
+    int rc;
+    cl_uint counters[SPT_CNT_COUNT] = {0};
+    for (;;) {
+        static const cl_uint two_zeros[2] = {0, 0};
+        SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_FALSE, 0,
+                                             sizeof two_zeros, two_zeros, 0, NULL, NULL));
+        if ((rc = run_kernel(w, K_GENERATE, w->pool, acc ? acc + 0 : NULL, e)) ||
+            (rc = run_kernel(w, K_EXTEND, w->ray_pairs ? (w->pool + 1) / 2 : w->pool,
+                             acc ? acc + 1 : NULL, e)) ||
+            (rc = run_kernel(w, K_SHADE, w->pool, acc ? acc + 2 : NULL, e)) ||
+            (rc = run_kernel(w, K_CONNECT, w->pool, acc ? acc + 3 : NULL, e)))
+            return rc;
+        SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0,
+                                            sizeof counters, counters, 0, NULL, NULL));
+        st->rays_extend += counters[SPT_CNT_EXTEND];
+        st->rays_shadow += counters[SPT_CNT_SHADOW];
+        if (counters[SPT_CNT_DONE] >= p->work_end - p->work_begin)
+            break;
+        if (stop_asked(w, long_chunk))
+            return spt_fail(e, SPT_EXIT_INTERRUPTED, "interrupted");
+    }
+    st->nan_dropped += counters[SPT_CNT_NAN];
+    return 0;
+}
+
+/* Runs p's work items with every kernel's arguments set to p, the counters
+ * zeroed first. */
+static int run_paths(Wavefront *w, const RenderParams *p, int long_chunk, double *acc, RenderStats *st,
+                     SptError *e)
+{
+    int rc;
+    cl_uint counters[SPT_CNT_COUNT] = {0};
+    SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0, sizeof counters,
+                                         counters, 0, NULL, NULL));
+    for (int k = 0; k < K_COUNT; k++)
+        if (w->k[k] && (rc = set_args(w->k[k], &w->b, p, e)))
+            return rc;
+    return w->mega ? run_paths_mega(w, p, long_chunk, acc, st, e) : run_paths_stages(w, p, long_chunk, acc, st, e);
+}
+
+/* Photon merging's chunk (docs/architecture.md, "Caustics seen through
+ * specular surfaces"): the light paths first, which leave their photons in
+ * pm_photon (and splat as always); the hash grid sorted from them on the host
+ * and uploaded (p's pm_mask and pm_count); then the camera paths, which
+ * gather from it. */
+static int run_merge_chunk(Wavefront *w, RenderParams *p, uint32_t n, int long_chunk, double *acc,
+                           RenderStats *st, SptError *e)
+{
+    int rc;
+    const WavefrontPlan *pl = &w->plan;
+    if (!w->pm_raw) {
+        w->pm_raw = spt_malloc(pl->pm_photon);
+        w->pm_sorted = spt_malloc(pl->pm_photon);
+        w->pm_cells = spt_malloc(pl->pm_cell);
+        w->pm_radius = spt_malloc(pl->pm_radius);
+    }
+    size_t slots = (size_t)n * p->light_paths * SPT_PM_PER_PATH;
+    size_t bytes = slots * 16u * SPT_PM_PHOTON_FLOAT4;
+    if (bytes > pl->pm_photon || (size_t)n * 8u > pl->pm_radius)
+        return spt_fail(e, SPT_EXIT_FAILURE, "photon buffers smaller than the chunk's photons");
+    static const cl_uint zero = 0;
+    SPT_CL_CHECK(e, clEnqueueFillBuffer(w->dev.queue, w->b.pm_photon, &zero, sizeof zero, 0, bytes, 0, NULL, NULL));
+    photon_radius_table(p->pm_r0, p->sample_begin, n, w->pm_radius);
+    SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.pm_radius, CL_FALSE, 0, (size_t)n * 8u, w->pm_radius,
+                                         0, NULL, NULL));
+    RenderParams lp = *p;
+    lp.work_begin = p->light_begin;
+    if ((rc = run_paths(w, &lp, long_chunk, acc, st, e)))
+        return rc;
+    SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.pm_photon, CL_TRUE, 0, bytes, w->pm_raw, 0, NULL,
+                                        NULL));
+    p->pm_count = photon_grid_build(w->pm_raw, slots, w->pm_radius, pl->pm_cell / 4u - 1u, w->pm_sorted,
+                                    w->pm_cells, &p->pm_mask);
+    if (p->pm_count)
+        SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.pm_photon, CL_FALSE, 0,
+                                             (size_t)p->pm_count * 16u * SPT_PM_PHOTON_FLOAT4, w->pm_sorted, 0,
+                                             NULL, NULL));
+    SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.pm_cell, CL_TRUE, 0,
+                                         ((size_t)p->pm_mask + 2u) * 4u, w->pm_cells, 0, NULL, NULL));
+    RenderParams cp = *p;
+    cp.work_end = p->light_begin;
+    return run_paths(w, &cp, long_chunk, acc, st, e);
 }
 
 /* Renders samples [sample_begin, sample_begin + n) of every pixel on w and adds
@@ -535,45 +671,28 @@ int render_chunk(Wavefront *w, const RenderParams *base, uint32_t sample_begin, 
      * sample index). */
     p.light_begin = n * npix;
     p.work_end = p.light_begin + n * p.light_paths;
-    cl_uint counters[SPT_CNT_COUNT] = {0};
     if (p.light_paths > 0) {
         cl_uint zero = 0;
         SPT_CL_CHECK(e, clEnqueueFillBuffer(w->dev.queue, w->b.light_film, &zero, sizeof zero, 0,
                                             (size_t)npix * SPT_SPLAT_WORDS * 4u, 0, NULL, NULL));
     }
-    SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0, sizeof counters,
-                                         counters, 0, NULL, NULL));
     int rc;
-    for (int k = 0; k < K_COUNT; k++)
-        if (w->k[k] && (rc = set_args(w->k[k], &w->b, &p, e)))
-            return rc;
     double *acc = profile ? st->stage_seconds : NULL;
     /* A first stop request waits for a regular chunk (at most about 32 pools of
      * camera paths, well under a second), but drops a longer one: one sample of
      * an image larger than 32 pools (a chunk is never less), which can take a
      * minute. The film only ever receives whole chunks. */
     int long_chunk = (uint64_t)n * npix > SPT_LONG_CHUNK_POOLS * (uint64_t)w->pool;
-    if (w->mega)
-        return render_chunk_mega(w, &p, long_chunk, acc, sums, aov_sums, spec_sums, sq_sums, st, e);
-    for (;;) {
-        static const cl_uint two_zeros[2] = {0, 0};
-        SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_FALSE, 0,
-                                             sizeof two_zeros, two_zeros, 0, NULL, NULL));
-        if ((rc = run_kernel(w, K_GENERATE, w->pool, acc ? acc + 0 : NULL, e)) ||
-            (rc = run_kernel(w, K_EXTEND, w->ray_pairs ? (w->pool + 1) / 2 : w->pool,
-                             acc ? acc + 1 : NULL, e)) ||
-            (rc = run_kernel(w, K_SHADE, w->pool, acc ? acc + 2 : NULL, e)) ||
-            (rc = run_kernel(w, K_CONNECT, w->pool, acc ? acc + 3 : NULL, e)))
-            return rc;
-        SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0,
-                                            sizeof counters, counters, 0, NULL, NULL));
-        st->rays_extend += counters[SPT_CNT_EXTEND];
-        st->rays_shadow += counters[SPT_CNT_SHADOW];
-        if (counters[SPT_CNT_DONE] >= p.work_end)
-            break;
-        if (w->stop && (*w->stop >= 2 || (*w->stop == 1 && long_chunk)))
-            return spt_fail(e, SPT_EXIT_INTERRUPTED, "interrupted");
-    }
-    st->nan_dropped += counters[SPT_CNT_NAN];
+    if (p.merge && p.light_paths > 0)
+        rc = run_merge_chunk(w, &p, n, long_chunk, acc, st, e);
+    else
+        rc = run_paths(w, &p, long_chunk, acc, st, e);
+    if (rc)
+        return rc;
+    /* k_accumulate's arguments: the whole chunk's. */
+    p.work_begin = 0;
+    p.work_end = p.light_begin + n * p.light_paths;
+    if (w->k[K_ACCUMULATE] && (rc = set_args(w->k[K_ACCUMULATE], &w->b, &p, e)))
+        return rc;
     return chunk_sums(w, &p, acc, sums, aov_sums, spec_sums, sq_sums, st, e);
 }

@@ -43,17 +43,20 @@ typedef struct WavefrontPlan {
     size_t scene;          /* the scene buffers (env_data included) */
     size_t device;         /* all of the above: every buffer on the device */
     size_t host_sums, host_aov, host_spec, host_sq; /* the worker's host arrays */
+    size_t host_pm;        /* photon merging's host arrays (Wavefront pm_*) */
     ClAlloc allocs[64];    /* every buffer, for cl_device_check_memory */
     int count;
 } WavefrontPlan;
 
 /* The plan of rendering g at rs's size on info's device. L may be NULL before
  * the lights are set up: env_floats then gives the environment map's data
- * (sky_map_data_floats; 0 without a map). light_film: the render has light paths
- * (--caustics), which splat into the light film; else it is a placeholder. */
+ * (sky_map_data_floats; 0 without a map). light_film: the render's light paths
+ * per sample index (--caustics; at most, where not yet known), which splat
+ * into the light film (and leave photons, with --merge); 0: none, the light
+ * film is a placeholder. */
 void wavefront_plan(WavefrontPlan *p, const ClDeviceInfo *info, const GpuScene *g,
                     const RenderSettings *rs, const RenderLights *L, size_t env_floats,
-                    int light_film);
+                    uint32_t light_film);
 
 typedef struct Wavefront {
     ClDevice dev;
@@ -70,6 +73,10 @@ typedef struct Wavefront {
     WavefrontPlan plan;    /* the sizes of every buffer */
     void *host_mem[16];    /* memory of the scene buffers used in place (CPU devices) */
     int host_mem_count;
+    /* Photon merging's host arrays (run_merge_chunk): the photons read back,
+     * sorted into the grid, its buckets, the chunk's radii; NULL until used. */
+    float *pm_raw, *pm_sorted, *pm_radius;
+    uint32_t *pm_cells;
     volatile sig_atomic_t *stop; /* RenderSettings.stop: at 2 (1 for a long chunk),
                                     render_chunk stops */
 } Wavefront;
@@ -78,7 +85,7 @@ typedef struct Wavefront {
  * rendering g with the lights L at rs's size, after checking the device's
  * memory. Returns 0 or an exit code; wavefront_free cleans up either way. */
 int wavefront_create(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
-                     const RenderSettings *rs, const RenderLights *L, int light_film, SptError *e);
+                     const RenderSettings *rs, const RenderLights *L, uint32_t light_film, SptError *e);
 void wavefront_free(Wavefront *w);
 
 /* The two halves of wavefront_create, for a program kept from one render to
@@ -90,7 +97,7 @@ void wavefront_free(Wavefront *w);
 int wavefront_open(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
                    const RenderSettings *rs, SptError *e);
 int wavefront_buffers(Wavefront *w, const GpuScene *g, const RenderSettings *rs,
-                      const RenderLights *L, int light_film, SptError *e);
+                      const RenderLights *L, uint32_t light_film, SptError *e);
 void wavefront_release_buffers(Wavefront *w);
 
 /* A chunk of more camera paths than this many pools is long: a first stop

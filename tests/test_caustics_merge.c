@@ -1,0 +1,253 @@
+/* Photon merging (--merge, kernels/integrator/photon_merge.h): caustics seen
+ * through glass. The slab of tests/caustic_slab.h over its floor, seen from
+ * above through the slab: the floor under the slab is lit only through the
+ * glass (shadow rays do not pass it), and the camera sees it through the
+ * glass again, so every path that lights those pixels is camera - S - S -
+ * D - S - S - light, which the merge owns. The floor point a pixel sees
+ * follows from Snell's law, and its radiance is the floor's analytic
+ * radiance times (1 - R(theta_view))^2 (the two interfaces; the n^2 of
+ * entering the glass cancels on leaving it). With max_depth 6 nothing else
+ * reaches those pixels: the internal reflections need 8 segments or more.
+ * Without merging, a spot light's caustic seen through the glass is black
+ * (no path of the camera's reaches a punctual light), and the area light's
+ * the camera paths find alone: the two agree (the partition counts every
+ * path once). */
+#include "test_util.h"
+#include "test_render_util.h"
+
+#include "caustic_slab.h"
+
+/* The camera over the slab: at (0, CAM_Y, CAM_Z) toward the floor's centre. */
+#define CAM_Y 1.7
+#define CAM_Z 1.2
+#define CAM_FOV 0.6f
+#define W 48
+
+static void merge_scene(Scene *s, int light)
+{
+    slab_scene(s, light, 1);
+    aim_camera(s, CAM_Y, CAM_Z, CAM_Y, CAM_Z, CAM_FOV);
+}
+
+/* Whether a ray that rises from the slab's top reaches the light's height
+ * at (x, z) within the area light (and a margin for the pixel's spread). */
+static int sees_light(double x, double z)
+{
+    return fabs(x) < AREA_HALF + 0.05 && fabs(z) < AREA_HALF + 0.05;
+}
+
+/* Where pixel (px, py)'s centre ray meets the floor through the slab (x, z),
+ * and the slab's transmittance along it (*t); 0 when it does not, or when its
+ * reflection off the slab's top or bottom reaches the area light (that pixel
+ * then sees the light too: right above the floor's centre, so the area
+ * light's rings leave out the centre). */
+static int pixel_floor_through(const Scene *s, int light, int px, int py, double *x, double *z, double *t)
+{
+    double tf = tan(0.5 * s->camera.yfov), d[3], o[3];
+    double sx = (2.0 * (px + 0.5) / W - 1.0) * tf, sy = (1.0 - 2.0 * (py + 0.5) / W) * tf;
+    for (int k = 0; k < 3; k++) {
+        d[k] = s->camera.forward[k] + sx * s->camera.right[k] + sy * s->camera.up[k];
+        o[k] = s->camera.position[k];
+    }
+    double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int k = 0; k < 3; k++)
+        d[k] /= len;
+    if (!(d[1] < 0.0))
+        return 0;
+    double cos_i = -d[1];
+    /* On the slab's top; its reflection rises to the light's height. */
+    double u = (SLAB_TOP - o[1]) / d[1];
+    double p[3] = {o[0] + u * d[0], SLAB_TOP, o[2] + u * d[2]};
+    double ur = (AREA_Y - SLAB_TOP) / cos_i;
+    if (light == LIGHT_AREA && sees_light(p[0] + ur * d[0], p[2] + ur * d[2]))
+        return 0;
+    /* Through the glass: the horizontal components over n; its reflection
+     * off the bottom leaves the top 2 ut further on. */
+    double hx = d[0] / SLAB_IOR, hz = d[2] / SLAB_IOR, cos_t = sqrt(1.0 - hx * hx - hz * hz);
+    double ut = (SLAB_TOP - SLAB_BOTTOM) / cos_t;
+    if (light == LIGHT_AREA && sees_light(p[0] + 2.0 * ut * hx + ur * d[0], p[2] + 2.0 * ut * hz + ur * d[2]))
+        return 0;
+    p[0] += ut * hx;
+    p[2] += ut * hz;
+    double uf = SLAB_BOTTOM / cos_i;
+    *x = p[0] + uf * d[0];
+    *z = p[2] + uf * d[2];
+    double tr = 1.0 - fresnel(cos_i, SLAB_IOR);
+    *t = tr * tr;
+    return fabs(p[0]) < 1.4 && fabs(p[2]) < 1.4;
+}
+
+static void render_merge(int light, int merge, int spp, uint32_t seed, uint32_t sample_begin, uint32_t pool,
+                         Film *f)
+{
+    Scene s;
+    merge_scene(&s, light);
+    RenderSettings rs = square_settings(W, spp, 6, seed);
+    rs.caustics = SPT_SWITCH_ON;
+    rs.merge = merge;
+    rs.sample_begin = sample_begin;
+    rs.pool_size = pool;
+    render_caustic_scene(&s, &rs, f);
+    scene_free(&s);
+}
+
+/* The mean film Y of the pixels that see the floor within r_max of the axis
+ * through the slab, against the analytic one (within rel), and of three
+ * rings (within 3 rel); returns the mean's ratio to the analytic one. */
+static double check_through(const Film *f, int light, double r_max, double rel, const char *what)
+{
+    Scene s;
+    merge_scene(&s, light);
+    SlabRings g = {0};
+    for (int py = 0; py < W; py++)
+        for (int px = 0; px < W; px++) {
+            double x, z, t;
+            if (!pixel_floor_through(&s, light, px, py, &x, &z, &t))
+                continue;
+            double r = sqrt(x * x + z * z);
+            if (r >= r_max)
+                continue;
+            size_t i = (size_t)py * W + px;
+            slab_rings_add(&g, r, r_max, f->xyz[3 * i + 1] / f->count[i], t * expected_y(light, x, z));
+        }
+    scene_free(&s);
+    slab_rings_check(&g, rel, what, "floor seen through the slab");
+    assert_true(g.n > 200);
+    for (int k = light == LIGHT_AREA ? 1 : 0; k < 3; k++)
+        assert_true(g.ring_n[k] > 20);
+    return g.got / g.want;
+}
+
+/* A spot light's caustic seen through the slab: the analytic one with
+ * merging, black without. */
+TEST(test_merge_spot_through_glass)
+{
+    Film f;
+    render_merge(LIGHT_SPOT, SPT_SWITCH_ON, 64, 3, 0, 0, &f);
+    check_through(&f, LIGHT_SPOT, 0.5, 0.02, "spot, --merge on");
+    film_free(&f);
+    render_merge(LIGHT_SPOT, SPT_SWITCH_OFF, 4, 3, 0, 0, &f);
+    double ratio = check_through(&f, LIGHT_SPOT, 0.5, 0.0, "spot, --merge off");
+    assert_true(ratio == 0.0);
+    film_free(&f);
+}
+
+/* An area light's: merging and the camera paths alone both find the analytic
+ * one. */
+TEST(test_merge_area_through_glass)
+{
+    Film f;
+    render_merge(LIGHT_AREA, SPT_SWITCH_ON, 256, 3, 0, 0, &f);
+    check_through(&f, LIGHT_AREA, 0.5, 0.02, "area light, --merge on");
+    film_free(&f);
+    skip_if_quick();
+    render_merge(LIGHT_AREA, SPT_SWITCH_OFF, 1024, 3, 0, 0, &f);
+    check_through(&f, LIGHT_AREA, 0.5, 0.03, "area light, --merge off");
+    film_free(&f);
+}
+
+/* A pure function of the samples: a small path pool (other orders of the
+ * light paths' photons and of the atomics) gives the same film bit for bit,
+ * and renders of samples [0, 4) and [4, 8) add up to the render of [0, 8)
+ * (other chunks, so other grids, whose buckets a gather walks cell by cell
+ * in slot order). */
+TEST(test_merge_split_invariance)
+{
+    Film a, b, c, d;
+    render_merge(LIGHT_SPOT, SPT_SWITCH_ON, 8, 5, 0, 0, &a);
+    render_merge(LIGHT_SPOT, SPT_SWITCH_ON, 8, 5, 0, 1000, &b);
+    size_t n = (size_t)a.width * a.height;
+    assert_memory_equal(a.xyz, b.xyz, 3 * n * sizeof(double));
+    render_merge(LIGHT_SPOT, SPT_SWITCH_ON, 4, 5, 0, 0, &c);
+    render_merge(LIGHT_SPOT, SPT_SWITCH_ON, 4, 5, 4, 0, &d);
+    film_add(&c, &d);
+    double worst = 0, sum = 0;
+    for (size_t i = 0; i < 3 * n; i++) {
+        worst = fmax(worst, fabs(c.xyz[i] - a.xyz[i]) / fmax(fabs(a.xyz[i]), 1e-6));
+        sum += a.xyz[i];
+    }
+    printf("--merge on, split [0,8) vs [0,4) + [4,8): largest relative difference %.3g\n", worst);
+    assert_true(sum > 0.0);
+    assert_true(worst < 1e-5);
+    film_free(&a);
+    film_free(&b);
+    film_free(&c);
+    film_free(&d);
+}
+
+/* The glass sphere on its floor under the square light of
+ * tests/data/scenes/caustic_sphere_area.gltf, seen from above through the
+ * sphere (every pixel: camera - S - S - floor - S - S - light, where the
+ * sphere focuses the light around its contact point, or the sphere's
+ * shadow): merging at SPHERE_SPP and 4 times that against the camera paths
+ * alone at SPHERE_REF_SPP (two seeds, whose difference measures the
+ * reference's own noise), by the 4 x 4 blocks' means per channel. Each
+ * block agrees with the reference within 5 standard errors (of the
+ * difference, from the pixels' spread in the block and the reference's),
+ * and the squared error at 4 times the samples is under 0.75 of the first
+ * (the estimate converges as the radius shrinks, not to a blurred image). */
+#define SPHERE_W 32
+#define SPHERE_SPP 64
+#define SPHERE_REF_SPP 2048
+
+static void render_sphere(int merge, int spp, uint32_t seed, double means[48], double se[48])
+{
+    Scene s;
+    SptError e = {0};
+    assert_int_equal(scene_load_gltf(&s, "tests/data/scenes/caustic_sphere_area.gltf", &e), 0);
+    camera_down(&s, 0.0f, 2.2f, 0.5f, 1.0f);
+    scene_update_bounds(&s);
+    RenderSettings rs = square_settings(SPHERE_W, spp, 8, seed);
+    rs.caustics = SPT_SWITCH_ON;
+    rs.merge = merge;
+    Film f;
+    render_caustic_scene(&s, &rs, &f);
+    float *rgb = malloc(sizeof(float) * 3 * SPHERE_W * SPHERE_W);
+    film_to_linear_srgb(&f, rgb);
+    block_means_4x4(rgb, SPHERE_W, means);
+    /* The standard error of each block's mean from its pixels' spread (which
+     * their differing expected values inflate: a loose bound). */
+    const int bs = SPHERE_W / 4;
+    for (int b = 0; b < 16; b++)
+        for (int c = 0; c < 3; c++) {
+            double m2 = 0;
+            for (int y = (b / 4) * bs; y < (b / 4 + 1) * bs; y++)
+                for (int x = (b % 4) * bs; x < (b % 4 + 1) * bs; x++) {
+                    double d = rgb[3 * (y * SPHERE_W + x) + c] - means[3 * b + c];
+                    m2 += d * d;
+                }
+            se[3 * b + c] = sqrt(m2 / (bs * bs - 1) / (bs * bs));
+        }
+    free(rgb);
+    film_free(&f);
+    scene_free(&s);
+}
+
+TEST(test_merge_sphere_converges)
+{
+    skip_if_quick();
+    double ra[48], rb[48], sa[48], sb[48], m1[48], s1[48], m4[48], s4[48];
+    render_sphere(SPT_SWITCH_OFF, SPHERE_REF_SPP, 11, ra, sa);
+    render_sphere(SPT_SWITCH_OFF, SPHERE_REF_SPP, 12, rb, sb);
+    render_sphere(SPT_SWITCH_ON, SPHERE_SPP, 5, m1, s1);
+    render_sphere(SPT_SWITCH_ON, 4 * SPHERE_SPP, 6, m4, s4);
+    double e1 = 0, e4 = 0, eref = 0, worst = 0, level = 0;
+    for (int k = 0; k < 48; k++) {
+        double r = 0.5 * (ra[k] + rb[k]), se_r = 0.5 * sqrt(sa[k] * sa[k] + sb[k] * sb[k]);
+        e1 += (m1[k] - r) * (m1[k] - r);
+        e4 += (m4[k] - r) * (m4[k] - r);
+        eref += 0.25 * (ra[k] - rb[k]) * (ra[k] - rb[k]);
+        worst = fmax(worst, fabs(m4[k] - r) / sqrt(s4[k] * s4[k] + se_r * se_r));
+        level += r / 48.0;
+    }
+    printf("sphere seen through, blocks' rms error against camera paths alone (%d spp x 2, their own "
+           "%.3g): --merge on %d spp %.3g, %d spp %.3g (ratio of squares %.2f); largest block difference "
+           "%.2f standard errors; mean level %.3g\n",
+           SPHERE_REF_SPP, sqrt(eref / 48), SPHERE_SPP, sqrt(e1 / 48), 4 * SPHERE_SPP, sqrt(e4 / 48), e4 / e1,
+           worst, level);
+    assert_true(level > 0.0);
+    assert_true(e4 < 0.75 * e1);
+    assert_true(worst < 5.0);
+}
+
+TEST_MAIN("tests", setup_cpu_device, teardown_cpu_device)
