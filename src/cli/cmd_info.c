@@ -366,8 +366,9 @@ int cmd_info(int argc, char **argv)
             printf(" of the device memory\n");
             /* of those placed, each mesh's own once (what two levels would keep:
              * docs/architecture.md, "Instances (two levels)") */
-            printf("             %u unique triangle(s), %u placed by the instances\n",
-                   s.tri_count - st->flattened_triangles, s.tri_count);
+            if (!s.mesh_count)
+                printf("             %u unique triangle(s), %u placed by the instances\n",
+                       s.tri_count - st->flattened_triangles, s.tri_count);
         }
         if (s.mesh_count)
             print_instancing(&s);
