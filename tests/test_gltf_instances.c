@@ -120,50 +120,14 @@ TEST(test_instances_loaded)
 
 #define W 48
 
-/* The image of s on kernel path `path` (stages: the CPU path without the
- * megakernel). */
-static void render_path(const Scene *s, int path, int stages, float *rgb)
-{
-    RenderSettings rs = square_settings(W, 8, 5, 7u);
-    rs.test.kernel_path = path;
-    rs.test.stages = stages;
-    SptError e = {0};
-    if (render_scene_rgb(s, &rs, rgb, &e))
-        fail_msg("render: %s", e.msg);
-}
-
-/* The block test of tests/test_instance_render.c: mean |difference| below
- * 0.5% of the image's mean, every 4x4 block's mean within 2%. */
+/* The two loads render alike on every kernel path (assert_renders_agree,
+ * tests/test_render_util.h). */
 TEST(test_instanced_gltf_matches_flattened)
 {
     Scene si, sf;
     load(&si, SCENE_INSTANCING_AUTO);
     load(&sf, SCENE_INSTANCING_OFF);
-    static const int paths[3][2] = {{SPT_KERNEL_PATH_CPU, 0}, {SPT_KERNEL_PATH_CPU, 1},
-                                    {SPT_KERNEL_PATH_GPU, 0}};
-    float *a = malloc(sizeof(float) * 3 * W * W), *b = malloc(sizeof(float) * 3 * W * W);
-    for (int k = 0; k < 3; k++) {
-        render_path(&si, paths[k][0], paths[k][1], a);
-        render_path(&sf, paths[k][0], paths[k][1], b);
-        double sum = 0, diff = 0;
-        for (int i = 0; i < 3 * W * W; i++) {
-            sum += b[i];
-            diff += fabs((double)a[i] - b[i]);
-        }
-        double ba[48], bb[48], worst = 0;
-        block_means_4x4(a, W, ba);
-        block_means_4x4(b, W, bb);
-        for (int i = 0; i < 48; i++)
-            worst = fmax(worst, fabs(ba[i] - bb[i]) / fmax(bb[i], 1e-3));
-        printf("path %d stages %d: mean %.6f, mean |diff| %.3g (%.3g%%), worst block %.3g%%\n",
-               paths[k][0], paths[k][1], sum / (3 * W * W), diff / (3 * W * W), 100 * diff / sum,
-               100 * worst);
-        assert_true(sum > 0);
-        assert_true(diff < 0.005 * sum);
-        assert_true(worst < 0.02);
-    }
-    free(a);
-    free(b);
+    assert_renders_agree(&si, &sf, W);
     scene_free(&si);
     scene_free(&sf);
 }
