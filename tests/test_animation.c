@@ -22,6 +22,8 @@ static void read_pose(FILE *f, ScenePose *p, char *anim, char *cam)
     p->at = strcmp(at, "rest") ? strtod(at, NULL) : NAN;
     p->animation = strcmp(anim, "-") ? anim : NULL;
     p->camera = strcmp(cam, "-") ? cam : NULL;
+    /* The expected triangles are the flattened world-space ones. */
+    p->instancing = SCENE_INSTANCING_OFF;
 }
 
 static int load_posed(Scene *s, const char *file, const ScenePose *p, SptError *e)
@@ -122,7 +124,8 @@ TEST(test_bad_inputs)
         snprintf(want, sizeof want, "%s", line + 4 + used);
         want[strcspn(want, "\n")] = 0;
         ScenePose p = {strcmp(at, "rest") ? strtod(at, NULL) : NAN,
-                       strcmp(anim, "-") ? anim : NULL, strcmp(cam, "-") ? cam : NULL};
+                       strcmp(anim, "-") ? anim : NULL, strcmp(cam, "-") ? cam : NULL,
+                       SCENE_INSTANCING_AUTO};
         Scene s;
         SptError e = {0};
         int rc = load_posed(&s, file, &p, &e);
@@ -163,7 +166,7 @@ TEST(test_rest_state)
     Scene a, b, c;
     SptError e = {0};
     assert_int_equal(scene_load_gltf(&a, ANIM("anim_triangle.gltf"), &e), 0);
-    ScenePose rest = {NAN, NULL, NULL}, start = {NAN, "move", NULL}, zero = {0, "move", NULL};
+    ScenePose rest = {NAN, NULL, NULL, 0}, start = {NAN, "move", NULL, 0}, zero = {0, "move", NULL, 0};
     assert_int_equal(scene_load_gltf_posed(&b, ANIM("anim_triangle.gltf"), &rest, &e), 0);
     assert_int_equal(a.tri_count, b.tri_count);
     assert_memory_equal(a.tri_pos, b.tri_pos, a.tri_count * 9 * sizeof(float));
@@ -188,7 +191,7 @@ TEST(test_posed_renders_as_static)
 {
     Scene a, b;
     SptError e = {0};
-    ScenePose p = {0.25, NULL, NULL};
+    ScenePose p = {0.25, NULL, NULL, SCENE_INSTANCING_AUTO};
     assert_int_equal(scene_load_gltf_posed(&a, ANIM("render_posed.gltf"), &p, &e), 0);
     assert_int_equal(scene_load_gltf(&b, ANIM("render_static.gltf"), &e), 0);
     assert_int_equal(a.tri_count, b.tri_count);

@@ -523,14 +523,15 @@ TEST(test_memory_budget)
     setenv("SPECTRACE_MAX_MEMORY_MB", "1", 1);
     int rc = scene_load_gltf_memory(&s, j, len, "many.gltf", &e);
     unsetenv("SPECTRACE_MAX_MEMORY_MB");
-    /* Each instance adds a triangle (160 bytes) and 3 vertices (64 each): 352
-     * bytes, so 1 MiB is passed by instance ceil(1048576 / 352 + 1e-9) = 2979. */
-    if (rc != SPT_EXIT_INPUT || !strstr(e.msg, "by meshes[0] (instance 2979)") ||
+    /* The mesh is placed by reference (docs/gltf.md, "Instancing"): each
+     * placement costs 256 bytes, so 1 MiB is passed by the 4097th, nodes[4096]. */
+    if (rc != SPT_EXIT_INPUT || !strstr(e.msg, "by nodes[4096]") ||
         !strstr(e.msg, "SPECTRACE_MAX_MEMORY_MB"))
         fail_msg("instances: returned %d: %s", rc, e.msg);
     /* Without the limit they load. */
     if ((rc = scene_load_gltf_memory(&s, j, len, "many.gltf", &e))) fail_msg("%s", e.msg);
-    assert_int_equal(s.tri_count, (uint32_t)n);
+    assert_int_equal(s.tri_count, 1);
+    assert_int_equal(s.inst_count, (uint32_t)n);
     scene_free(&s);
     free(j);
     /* A 16x16 texture (3 or 4 KiB of floats) against 0.001 MiB (1048 bytes). */

@@ -310,11 +310,14 @@ TEST(test_meshopt_damaged)
 }
 
 /* Primitives sharing vertex accessors share one copy of the vertices per
- * instance; the flattened instances are counted. */
+ * instance; the flattened instances (--instancing off) are counted. */
 TEST(test_shared_vertices_and_instances)
 {
     Scene s;
-    test_load_scene(&s, DATA("wild_instanced.gltf"));
+    SptError e = {0};
+    if (scene_load_gltf_posed(&s, DATA("wild_instanced.gltf"),
+                              &(ScenePose){NAN, NULL, NULL, SCENE_INSTANCING_OFF}, &e))
+        fail_msg("%s", e.msg);
     assert_int_equal(s.tri_count, 6);
     assert_int_equal(s.vertex_count, 12); /* 4 per instance, not 6 */
     assert_int_equal(s.stats.instances, 3);
@@ -334,13 +337,21 @@ TEST(test_shared_vertices_and_instances)
     /* `spectrace info` states the cost of the flattening. */
     static char out[16384];
     char args[512];
-    snprintf(args, sizeof args, "info --no-bvh %s", DATA("wild_instanced.gltf"));
+    snprintf(args, sizeof args, "info --no-bvh --instancing off %s", DATA("wild_instanced.gltf"));
     assert_int_equal(test_spectrace("", 0, args, TEST_BOTH, out, sizeof out), 0);
-    if (!strstr(out, "instancing   1 mesh(es) on several nodes, flattened: 4 triangles and 8 "
+    if (!strstr(out, "flattened    1 mesh(es) placed several times, flattened: 4 triangles and 8 "
                      "vertices are copies"))
-        fail_msg("no instancing line in:\n%s", out);
+        fail_msg("no flattening line in:\n%s", out);
     if (!strstr(out, "2 unique triangle(s), 6 placed by the instances"))
         fail_msg("no unique and placed triangles in:\n%s", out);
+    /* By reference (the default): the mesh once, its three instances, and
+     * the two levels' device memory. */
+    snprintf(args, sizeof args, "info %s", DATA("wild_instanced.gltf"));
+    assert_int_equal(test_spectrace("", 0, args, TEST_BOTH, out, sizeof out), 0);
+    if (!strstr(out, "instancing   1 mesh(es) placed by reference, 3 instance(s): 2 unique "
+                     "triangle(s) (2 in the meshes), 6 placed (6 by the instances)") ||
+        !strstr(out, "bvh          two levels built in") || !strstr(out, "; top 3 instance(s)"))
+        fail_msg("no instancing lines in:\n%s", out);
 }
 
 static double srgb_to_linear(double x)

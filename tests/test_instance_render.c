@@ -227,21 +227,8 @@ static void instanced_scene(Scene *s, int instanced)
 
 #define W 48
 
-/* Renders s on kernel path `path` (stages: the CPU path without the megakernel). */
-static void render_path(const Scene *s, int path, int stages, float *rgb)
-{
-    RenderSettings rs = square_settings(W, 8, 5, 7u);
-    rs.test.kernel_path = path;
-    rs.test.stages = stages;
-    SptError e = {0};
-    int rc = render_scene_rgb(s, &rs, rgb, &e);
-    if (rc)
-        fail_msg("render: %s", e.msg);
-}
-
-/* The two scenes' images agree on every kernel path: mean of |difference|
- * below 0.5% of the image's mean, and every 4x4 block's mean within 2%
- * (rounding moves a few silhouette pixels' paths, nothing else). */
+/* The two scenes' images agree on every kernel path (assert_renders_agree,
+ * tests/test_render_util.h). */
 TEST(test_instanced_matches_flattened)
 {
     Scene si, sf;
@@ -255,31 +242,7 @@ TEST(test_instanced_matches_flattened)
     /* Each mesh stored once: the world's 4 triangles and one ball and one card. */
     assert_int_equal(g.prim_total, 4 + (sf.tri_count - 4 - 2 * 2) / 3 + 2);
     gpu_scene_free(&g);
-    static const int paths[3][2] = {{SPT_KERNEL_PATH_CPU, 0}, {SPT_KERNEL_PATH_CPU, 1},
-                                    {SPT_KERNEL_PATH_GPU, 0}};
-    float *a = malloc(sizeof(float) * 3 * W * W), *b = malloc(sizeof(float) * 3 * W * W);
-    for (int k = 0; k < 3; k++) {
-        render_path(&si, paths[k][0], paths[k][1], a);
-        render_path(&sf, paths[k][0], paths[k][1], b);
-        double sum = 0, diff = 0;
-        for (int i = 0; i < 3 * W * W; i++) {
-            sum += b[i];
-            diff += fabs((double)a[i] - b[i]);
-        }
-        double ba[48], bb[48], worst = 0;
-        block_means_4x4(a, W, ba);
-        block_means_4x4(b, W, bb);
-        for (int i = 0; i < 48; i++)
-            worst = fmax(worst, fabs(ba[i] - bb[i]) / fmax(bb[i], 1e-3));
-        printf("path %d stages %d: mean %.6f, mean |diff| %.3g (%.3g%%), worst block %.3g%%\n",
-               paths[k][0], paths[k][1], sum / (3 * W * W), diff / (3 * W * W), 100 * diff / sum,
-               100 * worst);
-        assert_true(sum > 0);
-        assert_true(diff < 0.005 * sum);
-        assert_true(worst < 0.02);
-    }
-    free(a);
-    free(b);
+    assert_renders_agree(&si, &sf, W);
     scene_free(&si);
     scene_free(&sf);
 }

@@ -469,8 +469,10 @@ TEST(test_emitter_power_per_instance)
 /* Writes a glTF of one triangle, (0,0,0) (1,0,0) (0,1,0), on node 0 with
  * EXT_mesh_gpu_instancing (scale_count SCALE elements; rotation_normalized 0
  * makes ROTATION's shorts unnormalised, which the extension forbids) under
- * node 1 (scale 2), and on node 2 plainly; loads it into s. */
-static int load_gpu_instances(Scene *s, int scale_count, int rotation_normalized, SptError *e)
+ * node 1 (scale 2), and on node 2 plainly; loads it into s (instancing:
+ * ScenePose.instancing). */
+static int load_gpu_instances(Scene *s, int scale_count, int rotation_normalized, int instancing,
+                              SptError *e)
 {
     unsigned char bin[132];
     const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
@@ -512,7 +514,7 @@ static int load_gpu_instances(Scene *s, int scale_count, int rotation_normalized
     assert_non_null(f);
     fputs(json, f);
     fclose(f);
-    return scene_load_gltf(s, path, e);
+    return scene_load_gltf_posed(s, path, &(ScenePose){NAN, NULL, NULL, instancing}, e);
 }
 
 /* Vertex k of triangle t is (x, y, z) within 1e-4 (the rotation's shorts). */
@@ -533,7 +535,7 @@ TEST(test_gltf_gpu_instancing)
 {
     Scene s;
     SptError e = {0};
-    if (load_gpu_instances(&s, 3, 1, &e))
+    if (load_gpu_instances(&s, 3, 1, SCENE_INSTANCING_OFF, &e))
         fail_msg("%s", e.msg);
     assert_int_equal(s.tri_count, 4);
     assert_int_equal(s.stats.instances, 4);
@@ -553,12 +555,36 @@ TEST(test_gltf_gpu_instancing)
     /* node 2, the same mesh plainly */
     assert_vertex_near(&s, 3, 0, 0, 0, 40);
     assert_vertex_near(&s, 3, 1, 1, 0, 40);
+    /* By reference (the default): the triangle once, and instance k's
+     * transform places it where the flattened triangle k lies (the
+     * triangle's vertices in the flattened winding: mirrored ones swapped). */
+    Scene r;
+    if (load_gpu_instances(&r, 3, 1, SCENE_INSTANCING_AUTO, &e))
+        fail_msg("%s", e.msg);
+    assert_int_equal(r.tri_count, 1);
+    assert_int_equal(r.mesh_count, 1);
+    assert_int_equal(r.inst_count, 4);
+    assert_int_equal(r.stats.instances, 4);
+    for (uint32_t k = 0; k < 4; k++) {
+        const float *x = r.inst_xf + 12 * k;
+        double det = x[0] * (x[5] * x[10] - x[6] * x[9]) - x[1] * (x[4] * x[10] - x[6] * x[8]) +
+                     x[2] * (x[4] * x[9] - x[5] * x[8]);
+        for (int v = 0; v < 3; v++) {
+            int src = det < 0 && v ? 3 - v : v;
+            const float *p = r.tri_pos + 3 * src;
+            double w[3];
+            for (int i = 0; i < 3; i++)
+                w[i] = x[4 * i] * p[0] + x[4 * i + 1] * p[1] + x[4 * i + 2] * p[2] + x[4 * i + 3];
+            assert_vertex_near(&s, k, v, w[0], w[1], w[2]);
+        }
+    }
+    scene_free(&r);
     scene_free(&s);
     /* attributes of different counts, unnormalised short rotations: refused,
      * naming the node and the attribute */
-    assert_int_equal(load_gpu_instances(&s, 2, 1, &e), SPT_EXIT_INPUT);
+    assert_int_equal(load_gpu_instances(&s, 2, 1, SCENE_INSTANCING_AUTO, &e), SPT_EXIT_INPUT);
     assert_non_null(strstr(e.msg, "nodes[0].extensions.EXT_mesh_gpu_instancing.attributes.SCALE"));
-    assert_int_equal(load_gpu_instances(&s, 3, 0, &e), SPT_EXIT_INPUT);
+    assert_int_equal(load_gpu_instances(&s, 3, 0, SCENE_INSTANCING_AUTO, &e), SPT_EXIT_INPUT);
     assert_non_null(strstr(e.msg, "attributes.ROTATION"));
 }
 

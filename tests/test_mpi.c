@@ -114,6 +114,30 @@ TEST(test_two_ranks_same_image)
                        test_path("two.exr"));
 }
 
+/* A glTF scene whose meshes are placed by reference (docs/gltf.md,
+ * "Instancing"): rank 1, where the file does not exist, gets the meshes and
+ * instances packed by rank 0, and the two ranks give the one-process image. */
+TEST(test_two_ranks_instanced)
+{
+    if (mpi_unavailable())
+        skip();
+    char cmd[4096], out[8192], args[512];
+    snprintf(cmd, sizeof cmd,
+             "'%s' render tests/data/scenes/instancing.gltf " COMMON " -q --spp 16 -o %s", exe,
+             test_path("inst_one.exr"));
+    run_ok(cmd, out, sizeof out);
+    snprintf(args, sizeof args,
+             "render tests/data/scenes/instancing.gltf " COMMON " --spp 16 -o %s",
+             test_path("inst_two.exr"));
+    snprintf(cmd, sizeof cmd, MPIRUN " " RANKS_FIRST " -n 1 '%s' %s : -wdir %s -n 1 '%s' %s", mpi_exe,
+             args, test_dir(), mpi_exe, args);
+    int rc = run(cmd, out, sizeof out);
+    printf("%s", out);
+    assert_int_equal(rc, 0);
+    assert_non_null(strstr(out, "ranks: 0: "));
+    assert_same_exr(test_path("inst_one.exr"), test_path("inst_two.exr"));
+}
+
 /* A one-process checkpoint of 32 spp resumed to 64 on two ranks. */
 TEST(test_resume_on_two_ranks)
 {

@@ -40,8 +40,8 @@ static const struct {
     {"light-paths", "0.5"},     {"light-tree", "off"},      {"merge", "on"},
     {"adaptive", "on"},
     {"at", "1.25"},             {"animation", "walk"},
-    {"camera", "1"},            {"frames", "0:23"},
-    {"fps", "30"},
+    {"camera", "1"},            {"instancing", "off"},
+    {"frames", "0:23"},         {"fps", "30"},
 };
 
 /* What the list says of each option. */

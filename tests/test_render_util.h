@@ -184,6 +184,30 @@ static inline void block_means_4x4(const float *rgb, int w, double out[48])
             }
 }
 
+/* The block test of two w x w renders (interleaved RGB, w a multiple of 4)
+ * that differ only by float rounding, such as a scene traced by reference
+ * and flattened: mean |difference| below 0.5% of b's mean and every 4x4
+ * block's mean within 2% (rounding moves a few silhouette pixels' paths,
+ * nothing else). what names the pair in the printed figures. */
+static inline void assert_images_agree(const float *a, const float *b, int w, const char *what)
+{
+    double sum = 0, diff = 0;
+    for (int i = 0; i < 3 * w * w; i++) {
+        sum += b[i];
+        diff += fabs((double)a[i] - b[i]);
+    }
+    double ba[48], bb[48], worst = 0;
+    block_means_4x4(a, w, ba);
+    block_means_4x4(b, w, bb);
+    for (int i = 0; i < 48; i++)
+        worst = fmax(worst, fabs(ba[i] - bb[i]) / fmax(bb[i], 1e-3));
+    printf("%s: mean %.6f, mean |diff| %.3g (%.3g%%), worst block %.3g%%\n", what,
+           sum / (3 * w * w), diff / (3 * w * w), 100 * diff / sum, 100 * worst);
+    assert_true(sum > 0);
+    assert_true(diff < 0.005 * sum);
+    assert_true(worst < 0.02);
+}
+
 /* Mean linear sRGB of a film. */
 static inline void film_mean(const Film *f, double mean[3])
 {
@@ -281,6 +305,29 @@ static inline int render_scene_rgb(const Scene *s, const RenderSettings *rs, flo
         film_to_linear_srgb(&f, rgb);
     film_free(&f);
     return rc;
+}
+
+/* Scenes a and b (the same scene traced two ways: by reference and
+ * flattened) render alike (assert_images_agree) at w x w, 8 samples, depth 5,
+ * on the CPU path (megakernel and stages) and the GPU-shaped path. */
+static inline void assert_renders_agree(const Scene *a, const Scene *b, int w)
+{
+    static const int paths[3][2] = {{SPT_KERNEL_PATH_CPU, 0}, {SPT_KERNEL_PATH_CPU, 1},
+                                    {SPT_KERNEL_PATH_GPU, 0}};
+    float *ia = malloc(sizeof(float) * 3 * w * w), *ib = malloc(sizeof(float) * 3 * w * w);
+    for (int k = 0; k < 3; k++) {
+        RenderSettings rs = square_settings(w, 8, 5, 7u);
+        rs.test.kernel_path = paths[k][0];
+        rs.test.stages = paths[k][1];
+        SptError e = {0};
+        if (render_scene_rgb(a, &rs, ia, &e) || render_scene_rgb(b, &rs, ib, &e))
+            fail_msg("render: %s", e.msg);
+        char what[64];
+        snprintf(what, sizeof what, "path %d stages %d", paths[k][0], paths[k][1]);
+        assert_images_agree(ia, ib, w, what);
+    }
+    free(ia);
+    free(ib);
 }
 
 /* Grows s by n triangles of their own 3 vertices each (tri_vidx numbers them

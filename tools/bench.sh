@@ -23,7 +23,8 @@ echo "== bvh (tools/bench_bvh.c)"
 
 # ---- instances: a 20,000-triangle mesh placed 1,000 and 50,000 times (20 M and
 # 1 billion triangles) as two levels, against 250 flattened: build seconds,
-# bytes per level, peak memory, host rays/s (tools/bench_instances.c) ----
+# bytes per level, peak memory, host rays/s, and the renderer's upload, device
+# bytes and paths/s at 512x512 (tools/bench_instances.c) ----
 echo "== instances (tools/bench_instances.c)"
 "$build/tools/bench_instances" || status=1
 # ---- end instances ----

@@ -6,10 +6,13 @@
  * build seconds, the bytes of each level, the process's peak memory, and
  * single-thread host traversal speed: camera rays of a 512 x 512 pinhole over
  * the field, and from each camera hit a diffuse-like bounce ray (incoherent).
- * The renderer does not trace two levels yet: these are the BVH's figures,
- * not paths per second.
+ * Then the renderer's figures: each field as a Scene (the mesh once, its
+ * instances, a world-space emitter above) uploaded (gpu_scene_build: both
+ * levels) and rendered at 512 x 512 on the default OpenCL device: build
+ * seconds, the scene's device bytes, peak host memory and paths per second.
  * Usage: bench_instances [N ...]  (default 1000 50000; F from
- * SPECTRACE_BENCH_FLAT, 0 to skip) */
+ * SPECTRACE_BENCH_FLAT, 0 to skip; SPECTRACE_BENCH_RENDER_SPP samples per
+ * pixel of the renders, default 2, 0 to skip them) */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -17,6 +20,11 @@
 #include <sys/resource.h>
 
 #include "accel/tlas_build.h"
+#include "cl/cl_device.h"
+#include "render/gpu_scene.h"
+#include "render/render.h"
+/* Not on the tools' include path: named from this folder. */
+#include "../tests/render_fixture.h"
 
 #define WIDTH 512
 #define SPACING 4.0 /* metres between neighbouring instances on the field's grid */
@@ -122,6 +130,112 @@ static void trace(const Tlas *tl, const Bvh *flat, uint32_t n, double *cam_mrays
     free(bd);
 }
 
+/* The field of n instances (transforms xf) of the nt-triangle mesh tris as
+ * a Scene: the mesh (diffuse grey) placed by reference, under a world-space
+ * emitting square over the whole field, seen by camera_ray's camera. */
+static void field_scene(Scene *s, const float *tris, uint32_t nt, const float *xf, uint32_t n)
+{
+    memset(s, 0, sizeof *s);
+    double half = 0.5 * ceil(sqrt((double)n)) * SPACING + SPACING;
+    uint32_t tc = nt + 2;
+    s->tri_count = tc;
+    s->vertex_count = 3 * tc;
+    s->tri_pos = malloc((size_t)tc * 9 * sizeof(float));
+    s->tri_vidx = malloc((size_t)tc * 3 * sizeof(uint32_t));
+    s->tri_mat = calloc(tc, sizeof(uint32_t));
+    s->vtx_normal = calloc((size_t)tc * 9, sizeof(float));
+    s->vtx_uv = calloc((size_t)tc * 6, sizeof(float));
+    for (uint32_t i = 0; i < 3 * tc; i++)
+        s->tri_vidx[i] = i;
+    /* The emitter at y = 40, facing down (its two triangles first: the
+     * world's, before the mesh's). */
+    const float h = (float)half, y = 40.0f;
+    const float quad[18] = {-h, y, -h, h, y, h, h, y, -h, -h, y, -h, -h, y, h, h, y, h};
+    memcpy(s->tri_pos, quad, sizeof quad);
+    s->tri_mat[0] = s->tri_mat[1] = 1;
+    memcpy(s->tri_pos + 18, tris, (size_t)nt * 9 * sizeof(float));
+    s->material_count = 2;
+    s->materials = malloc(2 * sizeof(SceneMaterial));
+    scene_material_default(&s->materials[0]);
+    scene_material_default(&s->materials[1]);
+    for (int k = 0; k < 3; k++) {
+        s->materials[0].base_color[k] = 0.6f;
+        s->materials[0].metallic = 0.0f;
+        s->materials[1].base_color[k] = 0.0f;
+        s->materials[1].emissive[k] = 1.0f;
+    }
+    s->mesh_count = 1;
+    s->mesh_tri_count = malloc(sizeof(uint32_t));
+    s->mesh_tri_count[0] = nt;
+    s->inst_count = n;
+    s->inst_mesh = calloc(n, sizeof(uint32_t));
+    s->inst_xf = malloc((size_t)n * 12 * sizeof(float));
+    memcpy(s->inst_xf, xf, (size_t)n * 12 * sizeof(float));
+    /* The bounds from the field (placing every vertex would cost n x nt). */
+    const float lo[3] = {-h, 0.0f, -h}, hi[3] = {h, y, h};
+    memcpy(s->bounds_min, lo, sizeof lo);
+    memcpy(s->bounds_max, hi, sizeof hi);
+    /* camera_ray's camera: its centre ray as forward, its image's x axis as
+     * right, up square to both (camera_ray's up is nearly so). */
+    vec3 o, d;
+    camera_ray(n, WIDTH / 2, WIDTH / 2, &o, &d);
+    const double f[3] = {0.70710678, -0.2, 0.70710678}, r[3] = {0.70710678, 0.0, -0.70710678};
+    double lf = sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
+    const double u[3] = {r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0]};
+    double lu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    SceneCamera *c = &s->camera;
+    c->position[0] = o.x;
+    c->position[1] = o.y;
+    c->position[2] = o.z;
+    for (int k = 0; k < 3; k++) {
+        c->forward[k] = (float)(f[k] / lf);
+        c->right[k] = (float)r[k];
+        c->up[k] = (float)(u[k] / lu);
+    }
+    c->yfov = (float)(2.0 * atan(0.6 / lf));
+    c->aspect = 1.0f;
+}
+
+/* Renders the field of n instances at WIDTH x WIDTH, spp samples per pixel,
+ * on dev; prints the upload's build seconds and device bytes, the peak
+ * host memory and paths per second. Returns 0 or 1. */
+static int render_field(const ClDeviceInfo *dev, const float *tris, uint32_t nt, const float *xf,
+                        uint32_t n, int spp)
+{
+    Scene s;
+    field_scene(&s, tris, nt, xf, n);
+    GpuScene g;
+    SptError e = {0};
+    double t0 = spt_now();
+    int rc = gpu_scene_build(&g, &s, &e);
+    double build = spt_now() - t0;
+    RenderStats st;
+    if (!rc) {
+        RenderSettings rs = test_settings(WIDTH, WIDTH, spp, 8, 0);
+        Film f;
+        film_init(&f, WIDTH, WIDTH);
+        /* The second of two runs: the first compiles the kernels. */
+        for (int run = 0; run < 2 && !rc; run++) {
+            film_clear(&f);
+            rc = render_device(dev, &g, &s.camera, &rs, &f, &st, &e);
+        }
+        film_free(&f);
+        if (!rc)
+            printf("render, %u instances (%.3g triangles): upload built in %.3f s, %.2f MiB of "
+                   "scene on the device; %dx%d %d spp max depth 8: %.3f Mpaths/s (%.2f s, %.2f "
+                   "extend rays per path, %.3f Mrays/s); peak memory %.2f GiB\n",
+                   n, (double)g.tlas.stats.instanced_tris, build, gpu_scene_bytes(&g) / 1048576.0,
+                   WIDTH, WIDTH, spp, st.paths / st.seconds * 1e-6, st.seconds,
+                   (double)st.rays_extend / st.paths, st.rays_extend / st.seconds * 1e-6,
+                   peak_rss_gib());
+        gpu_scene_free(&g);
+    }
+    scene_free(&s);
+    if (rc)
+        fprintf(stderr, "bench_instances: %s\n", e.msg);
+    return rc ? 1 : 0;
+}
+
 int main(int argc, char **argv)
 {
     uint32_t counts[8] = {1000, 50000};
@@ -133,6 +247,21 @@ int main(int argc, char **argv)
     }
     const char *fe = getenv("SPECTRACE_BENCH_FLAT");
     uint32_t flat_n = fe ? (uint32_t)strtod(fe, NULL) : 250;
+
+    const char *se = getenv("SPECTRACE_BENCH_RENDER_SPP");
+    int spp = se ? atoi(se) : 2;
+    ClDeviceList devices;
+    const ClDeviceInfo *dev = NULL;
+    if (spp > 0) {
+        SptError de = {0};
+        int sel[64], nsel;
+        if (cl_device_list(&devices, &de) || cl_device_select(&devices, NULL, sel, &nsel, &de)) {
+            fprintf(stderr, "bench_instances: %s\n", de.msg);
+            return 1;
+        }
+        dev = &devices.devices[sel[0]];
+        printf("device: %s (%s)\n", dev->name, dev->platform_name);
+    }
 
     uint32_t nt;
     const float c[3] = {0, 1, 0};
@@ -170,9 +299,13 @@ int main(int argc, char **argv)
                tl.stats.top_bytes / 1048576.0, tl.top_count, tl.inst_count,
                tl.stats.bottom_bytes / 1048576.0, cam, 100.0 * share, bounce, peak_rss_gib());
         tlas_free(&tl);
+        if (dev && render_field(dev, mesh_tris, nt, xf, n, spp))
+            return 1;
         free(xf);
         free(which);
     }
+    if (dev)
+        cl_device_list_free(&devices);
 
     if (flat_n) {
         rng_state = 11;

@@ -54,29 +54,12 @@ class Doc(GltfDoc):
 
     def acc(self, values, atype, ctype=5126, normalized=False, minmax=False):
         """values: flat list. Returns (accessor index, the values as read back)."""
-        n = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}[atype]
+        index, data = self.accessor(values, atype, ctype, normalized, minmax)
         fmt = {5126: "f", 5121: "B", 5123: "H"}[ctype]
-        data = struct.pack("<%d%s" % (len(values), fmt), *values)
-        a = {"bufferView": self.view(data), "componentType": ctype,
-             "count": len(values) // n, "type": atype}
-        if normalized:
-            a["normalized"] = True
-        if minmax:
-            a["min"] = [min(values[k::n]) for k in range(n)]
-            a["max"] = [max(values[k::n]) for k in range(n)]
-        self.doc["accessors"].append(a)
         back = list(struct.unpack("<%d%s" % (len(values), fmt), data))
         if ctype != 5126:
             back = [v / {5121: 255.0, 5123: 65535.0}[ctype] for v in back] if normalized else back
-        return len(self.doc["accessors"]) - 1, back
-
-    def write(self, path):
-        self.doc["buffers"] = [{"byteLength": len(self.bin), "uri":
-                              "data:application/octet-stream;base64," +
-                              base64.b64encode(bytes(self.bin)).decode()}]
-        with open(path, "w") as f:
-            json.dump(self.doc, f, indent=1)
-            f.write("\n")
+        return index, back
 
 
 # ---- the reference arithmetic (glTF 2.0), in double ----

@@ -276,7 +276,8 @@ static spectrace_scene *load(const char *path, const void *data, size_t size, co
         s->pose_animation = dup_or_null(rs->animation);
         s->pose_camera = dup_or_null(rs->camera);
     }
-    ScenePose pose = {s->pose_at ? strtod(s->pose_at, NULL) : NAN, s->pose_animation, s->pose_camera};
+    ScenePose pose = {s->pose_at ? strtod(s->pose_at, NULL) : NAN, s->pose_animation, s->pose_camera,
+                      SCENE_INSTANCING_AUTO};
     SptError e = {0};
     pthread_mutex_lock(&io_lock);
     input_seen_reset();

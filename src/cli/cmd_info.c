@@ -6,12 +6,13 @@
 
 #include "accel/bvh_build.h"
 #include "cli/commands.h"
+#include "render/gpu_scene.h"
 #include "render/host_lights.h"
 #include "scene/scene.h"
 #include "core/util.h"
 
 static const char info_usage[] =
-    "usage: spectrace info SCENE [--no-bvh]\n"
+    "usage: spectrace info SCENE [--no-bvh] [--instancing auto|off|on]\n"
     "\n"
     "Loads a glTF 2.0 scene (.gltf or .glb) and prints: triangles kept and dropped\n"
     "(NaN/Inf/huge coordinates, degenerate), skipped primitives, meshes, instances,\n"
@@ -21,6 +22,8 @@ static const char info_usage[] =
     "estimate of the device memory for the scene (film and path state excluded).\n"
     "\n"
     "  --no-bvh   skip the BVH build\n"
+    "  --instancing MODE  which meshes are placed by reference, as render's option\n"
+    "             (auto, off, on); with instances the BVH line gives each level\n"
     "\n"
     "Exit codes: 0 ok, 2 usage, 3 the scene file is unreadable or invalid.\n";
 
@@ -205,16 +208,68 @@ static void print_cameras_and_animations(const Scene *s)
     }
 }
 
+/* The meshes placed by reference (docs/gltf.md, "Instancing"): the
+ * triangles stored once against those their instances place. */
+static void print_instancing(const Scene *s)
+{
+    uint64_t mesh_tris = 0, placed = 0;
+    for (uint32_t m = 0; m < s->mesh_count; m++)
+        mesh_tris += s->mesh_tri_count[m];
+    for (uint32_t k = 0; k < s->inst_count; k++)
+        placed += s->mesh_tri_count[s->inst_mesh[k]];
+    printf("instancing   %u mesh(es) placed by reference, %u instance(s): %llu unique "
+           "triangle(s) (%llu in the meshes), %llu placed (%llu by the instances)\n",
+           s->mesh_count, s->inst_count, (unsigned long long)s->tri_count,
+           (unsigned long long)mesh_tris,
+           (unsigned long long)(s->tri_count - mesh_tris + placed), (unsigned long long)placed);
+}
+
+/* The two levels of an instanced scene as the renderer builds them
+ * (docs/architecture.md, "Instances (two levels)"): their device memory
+ * added to *bytes, the bottom level's bytes per stored triangle into
+ * *per_tri. Returns 0 or the build's exit code (reported). */
+static int print_levels(const Scene *s, double *bytes, double *per_tri)
+{
+    GpuScene g;
+    SptError e = {0};
+    double t0 = spt_now();
+    if (gpu_scene_build(&g, s, &e))
+        return spt_report(&e);
+    const TlasStats *t = &g.tlas.stats;
+    printf("bvh          two levels built in %.1f ms: bottom %u mesh(es) with the world's "
+           "triangles, %llu triangles, ",
+           (spt_now() - t0) * 1e3, s->mesh_count, (unsigned long long)t->unique_tris);
+    print_bytes((double)t->bottom_bytes);
+    printf("; top %u instance(s) placing %llu triangles (%u dropped as singular), ",
+           t->instances, (unsigned long long)t->instanced_tris, t->dropped);
+    print_bytes((double)t->top_bytes);
+    printf("\n");
+    *bytes += (double)t->bottom_bytes + (double)t->top_bytes;
+    *per_tri = t->unique_tris ? (double)t->bottom_bytes / (double)t->unique_tris : 0;
+    gpu_scene_free(&g);
+    return SPT_EXIT_OK;
+}
+
 int cmd_info(int argc, char **argv)
 {
     const char *path = NULL;
-    int want_bvh = 1;
+    int want_bvh = 1, instancing = SCENE_INSTANCING_AUTO;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
             fputs(info_usage, stdout);
             return SPT_EXIT_OK;
         } else if (!strcmp(argv[i], "--no-bvh")) {
             want_bvh = 0;
+        } else if (!strcmp(argv[i], "--instancing")) {
+            const char *v = i + 1 < argc ? argv[++i] : "";
+            instancing = !strcmp(v, "auto") ? SCENE_INSTANCING_AUTO
+                         : !strcmp(v, "off") ? SCENE_INSTANCING_OFF
+                         : !strcmp(v, "on")  ? SCENE_INSTANCING_ON
+                                             : -1;
+            if (instancing < 0) {
+                spt_error("info: --instancing '%s': expected auto, off or on", v);
+                return SPT_EXIT_USAGE;
+            }
         } else if (argv[i][0] == '-' && argv[i][1]) {
             spt_error("info: unknown option '%s' (try: spectrace info --help)", argv[i]);
             return SPT_EXIT_USAGE;
@@ -233,7 +288,8 @@ int cmd_info(int argc, char **argv)
     SptError e = {0};
     Scene s;
     double t0 = spt_now();
-    if (scene_load_gltf(&s, path, &e)) return spt_report(&e);
+    if (scene_load_gltf_posed(&s, path, &(ScenePose){NAN, NULL, NULL, instancing}, &e))
+        return spt_report(&e);
     double load_s = spt_now() - t0;
     const SceneStats *st = &s.stats;
 
@@ -274,7 +330,9 @@ int cmd_info(int argc, char **argv)
                    tex_bytes + (double)(s.material_count + s.light_count) * 512;
     int rc = SPT_EXIT_OK;
     double bvh_bytes_per_tri = 9 * sizeof(float); /* without the BVH: the positions */
-    if (want_bvh) {
+    if (want_bvh && s.mesh_count) {
+        rc = print_levels(&s, &bytes, &bvh_bytes_per_tri);
+    } else if (want_bvh) {
         Bvh bvh = {0};
         if (bvh_build(&bvh, s.tri_pos, s.tri_count, &e)) {
             rc = spt_report(&e);
@@ -297,9 +355,10 @@ int cmd_info(int argc, char **argv)
         print_bytes(bytes);
         printf(" for the scene%s (film and path state come on top)\n",
                want_bvh ? "" : " without the BVH");
-        /* Instancing is flattened (one copy of the triangles per node): its cost. */
+        /* Meshes placed several times and flattened (one copy of the triangles
+         * per placement): their cost. */
         if (st->instanced_meshes) {
-            printf("instancing   %u mesh(es) on several nodes, flattened: %u triangles and %u "
+            printf("flattened    %u mesh(es) placed several times, flattened: %u triangles and %u "
                    "vertices are copies, ~",
                    st->instanced_meshes, st->flattened_triangles, st->flattened_vertices);
             print_bytes((double)st->flattened_triangles * (4 * 4 + bvh_bytes_per_tri) +
@@ -307,9 +366,12 @@ int cmd_info(int argc, char **argv)
             printf(" of the device memory\n");
             /* of those placed, each mesh's own once (what two levels would keep:
              * docs/architecture.md, "Instances (two levels)") */
-            printf("             %u unique triangle(s), %u placed by the instances\n",
-                   s.tri_count - st->flattened_triangles, s.tri_count);
+            if (!s.mesh_count)
+                printf("             %u unique triangle(s), %u placed by the instances\n",
+                       s.tri_count - st->flattened_triangles, s.tri_count);
         }
+        if (s.mesh_count)
+            print_instancing(&s);
     }
     scene_free(&s);
     return rc ? rc : light_rc;

@@ -258,6 +258,12 @@ static int check_outputs_are_not_inputs(const RenderJob *j, SptError *e)
     return rc;
 }
 
+/* --instancing's values are the loader's (src/scene/scene.h). */
+_Static_assert((int)SCENE_INSTANCING_AUTO == (int)SPT_SWITCH_AUTO &&
+                   (int)SCENE_INSTANCING_OFF == (int)SPT_SWITCH_OFF &&
+                   (int)SCENE_INSTANCING_ON == (int)SPT_SWITCH_ON,
+               "ScenePose.instancing takes --instancing's value");
+
 /* The sky of --env/--background, the scene, the check that no output replaces an
  * input, and the image size (--width 512 by default, the other side from the
  * camera's aspect ratio). */
@@ -274,7 +280,7 @@ static int load_scene(RenderJob *j, SptError *e)
     double t0 = spt_now();
     rc = scene_load_gltf_posed(&j->scene, j->a.scene,
                                &(ScenePose){rs->at ? strtod(rs->at, NULL) : NAN, rs->animation,
-                                            rs->camera},
+                                            rs->camera, rs->instancing},
                                e);
     j->load_seconds = spt_now() - t0;
     if (rc || (rc = check_outputs_are_not_inputs(j, e)))

@@ -180,6 +180,13 @@ enum { SPT_SWITCH_AUTO = 0, SPT_SWITCH_OFF = 1, SPT_SWITCH_ON = 2 };
     X(RS, STR, const char *, camera, "camera", 0, "N|NAME", NULL, 0, 0, SPT_OPT_IMAGE, "",       \
       "the file's camera (index or name; default the first in\n"                             \
       "scene order), placed by the first node that uses it")                                  \
+    X(RS, SWITCH, int, instancing, "instancing", 0, "MODE", SPT_SWITCH_AUTO, 0, 0,              \
+      SPT_OPT_IMAGE, "expected auto, off or on",                                                \
+      "glTF meshes placed by reference (one copy, a two-level\n"                              \
+      "BVH): auto (default) those placed two or more times, off\n"                           \
+      "none (every placement flattened), on also those placed\n"                            \
+      "once; skinned, morphed, emitting and TANGENT meshes are\n"                           \
+      "always flattened")                                                                       \
     X(CLI, STR, const char *, frames, "frames", 0, "A:B[:STEP]", NULL, 0, 0, 0,                 \
       "expected A:B or A:B:STEP, frame numbers 0 <= A <= B <= 9999999 and STEP >= 1",        \
       "render frames A to B (every STEP-th) of the animations,\n"                           \

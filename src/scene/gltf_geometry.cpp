@@ -323,16 +323,31 @@ int Loader::read_draco(int mi, int pi, const Value &x, std::vector<uint32_t> &id
 
 bool coordinate_ok(double x) { return std::isfinite(x) && fabs(x) < 1e18; }
 
+// One placement of mesh mi flattened into world-space triangles, counted.
 int Loader::emit_instance(int mi, const Mat4 &world, int node)
+{
+    stats.instances++;
+    bool repeat = mesh_emitted[mi]++ > 0; // a further instance: flattened copy
+    if (mesh_emitted[mi] == 2) stats.instanced_meshes++;
+    uint64_t tris_before = tri_mat.size(), verts_before = vertex_count;
+    int rc;
+    if ((rc = emit_triangles(mi, world, node))) return rc;
+    if (repeat) {
+        stats.flattened_triangles += (uint32_t)(tri_mat.size() - tris_before);
+        stats.flattened_vertices += (uint32_t)(vertex_count - verts_before);
+    }
+    return charge_memory("meshes[" + std::to_string(mi) + "] (instance " +
+                         std::to_string(mesh_emitted[mi]) + ")");
+}
+
+// Mesh mi's triangles and vertices through world (posed as node's) appended
+// to the scene's arrays; the primitives counted in stats.
+int Loader::emit_triangles(int mi, const Mat4 &world, int node)
 {
     Deform deform;
     int rc;
     if ((rc = deform_for(node, mi, &deform))) return rc;
     const auto &mesh = m.meshes[mi];
-    stats.instances++;
-    bool repeat = mesh_emitted[mi]++ > 0; // a further instance: flattened copy
-    if (mesh_emitted[mi] == 2) stats.instanced_meshes++;
-    uint64_t tris_before = tri_mat.size(), verts_before = vertex_count;
     double det = det3(world), cof[9];
     cofactor3(world, cof);
     bool mirrored = det < 0;
@@ -453,18 +468,14 @@ int Loader::emit_instance(int mi, const Mat4 &world, int node)
             if (emissive) stats.emissive_triangles++;
         }
     }
-    if (repeat) {
-        stats.flattened_triangles += (uint32_t)(tri_mat.size() - tris_before);
-        stats.flattened_vertices += (uint32_t)(vertex_count - verts_before);
-    }
-    return charge_memory("meshes[" + std::to_string(mi) + "] (instance " +
-                         std::to_string(mesh_emitted[mi]) + ")");
+    return 0;
 }
 
 int Loader::charge_memory(const std::string &what)
 {
     double used = (double)tri_mat.size() * k_bytes_per_triangle +
-                  (double)vertex_count * k_bytes_per_vertex + mem_used_textures;
+                  (double)vertex_count * k_bytes_per_vertex + mem_used_textures +
+                  (double)(inst_mesh.size() + placements.size()) * k_bytes_per_instance;
     if (mem_limit <= 0 || used <= mem_limit) return 0;
     return bad("the scene needs more than %.1f MiB of memory by %s (%zu triangles, %.1f MiB of "
                "textures so far): more than the %.1f MiB available (SPECTRACE_MAX_MEMORY_MB sets "

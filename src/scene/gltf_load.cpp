@@ -85,6 +85,13 @@ int Loader::finish(Scene *s)
     s->camera_info = copy_out(cam_info);
     s->animation_info_count = (uint32_t)anim_info.size();
     s->animation_info = copy_out(anim_info);
+    if (!inst_mesh.empty()) { // the meshes placed by reference (gltf_instances.cpp)
+        s->mesh_count = (uint32_t)ref_tri_count.size();
+        s->mesh_tri_count = copy_out(ref_tri_count);
+        s->inst_count = (uint32_t)inst_mesh.size();
+        s->inst_mesh = copy_out(inst_mesh);
+        s->inst_xf = copy_out(inst_xf);
+    }
     if (unplayed_channels)
         spt_warn("%s: %u animation channel(s) without target.node (an extension's, such as "
                  "KHR_animation_pointer) not played",

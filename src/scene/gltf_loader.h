@@ -213,7 +213,7 @@ struct Loader {
     bool have_camera = false;
     // The pose (src/scene/gltf_pose.cpp): what was asked, each node's animated
     // properties, parents and world transforms (computed on demand for joints).
-    ScenePose pose_opts = {NAN, nullptr, nullptr};
+    ScenePose pose_opts = {NAN, nullptr, nullptr, SCENE_INSTANCING_AUTO};
     std::vector<NodePose> pose;
     std::vector<int> parent;
     std::vector<Mat4> world;
@@ -239,6 +239,19 @@ struct Loader {
     std::vector<std::vector<PrimData>> prim; // [mesh][primitive]
     std::map<std::tuple<int, int, int, int, int, int>, const PrimData *> vertex_owner; // accessors -> data
     std::vector<uint32_t> mesh_emitted;      // instances emitted so far, per mesh
+    // The traversal's placements of meshes (node or EXT_mesh_gpu_instancing
+    // instance), in scene order; place_meshes then flattens each or keeps it
+    // as an instance (src/scene/gltf_instances.cpp).
+    struct Placement {
+        int mesh, node;
+        Mat4 world;
+    };
+    std::vector<Placement> placements;
+    // The meshes placed by reference: their instances (index into
+    // ref_meshes, 3x4 rows) and the file's mesh of each.
+    std::vector<int> ref_meshes;
+    std::vector<uint32_t> ref_tri_count, inst_mesh;
+    std::vector<float> inst_xf;
     std::vector<int> decoded_state;          // per image: 0 untried, 1 ok, -1 failed
     std::vector<TextureImage> decoded;
     std::map<std::tuple<int, int, int, int, int>, int> texture_of; // (image,srgb,ws,wt,nearest)
@@ -272,6 +285,9 @@ struct Loader {
     double mem_limit = 0, mem_used_textures = 0;
     int over_budget_rc = 0;
     static constexpr double k_bytes_per_triangle = 160, k_bytes_per_vertex = 64;
+    // A placement of a mesh, and an instance: the transforms here and on the
+    // device (BvhInstance, 112 bytes) and a share of the top level's nodes.
+    static constexpr double k_bytes_per_instance = 256;
     int charge_memory(const std::string &what);
     int check_sparse(int index, const char *obj);
     int check_view_has_data(int view, const char *obj, int index);
@@ -312,6 +328,10 @@ struct Loader {
     int read_draco(int mesh, int p, const Value &ext, std::vector<uint32_t> &idx);
     int decode_meshopt_views();
     int emit_instance(int mesh, const Mat4 &world, int node);
+    int emit_triangles(int mesh, const Mat4 &world, int node);
+    int place(int mesh, const Mat4 &world, int node);
+    bool by_reference_ok(int mesh, const std::vector<int> &nodes);
+    int place_meshes();
     int select_camera();
     int animations();
     int node_world(int n, Mat4 *out);

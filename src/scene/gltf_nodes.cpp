@@ -54,8 +54,8 @@ int Loader::node_local(int n, Mat4 *out)
 // EXT_mesh_gpu_instancing on node n (ext: its object), placed at world: one
 // instance of the node's mesh per element of the TRANSLATION, ROTATION and
 // SCALE accessors (each optional, all of one count), at world times the
-// element's T R S, in the node's space as the extension defines. Instances
-// are flattened as a mesh on several nodes is (docs/gltf.md).
+// element's T R S, in the node's space as the extension defines; each is a
+// placement of the mesh as a node's is (docs/gltf.md, "Instancing").
 int Loader::gpu_instances(int n, const Value &ext, const Mat4 &world)
 {
     std::string eo = "nodes[" + std::to_string(n) + "].extensions.EXT_mesh_gpu_instancing";
@@ -107,7 +107,7 @@ int Loader::gpu_instances(int n, const Value &ext, const Mat4 &world)
         if (!trs_matrix(t, q, s, &local))
             return bad("%s.attributes.ROTATION: element %zu is not a unit quaternion", eo.c_str(), i);
         int rc;
-        if ((rc = emit_instance(m.nodes[n].mesh, mat_mul(world, local), n))) return rc;
+        if ((rc = place(m.nodes[n].mesh, mat_mul(world, local), n))) return rc;
     }
     return 0;
 }
@@ -217,7 +217,7 @@ int Loader::traverse()
         auto git = node.extensions.find("EXT_mesh_gpu_instancing");
         if (node.mesh >= 0 && git != node.extensions.end()) {
             if ((rc = gpu_instances(n, git->second, world))) return rc;
-        } else if (node.mesh >= 0 && (rc = emit_instance(node.mesh, world, n))) {
+        } else if (node.mesh >= 0 && (rc = place(node.mesh, world, n))) {
             return rc;
         }
         // The camera: --camera's on the first node placing it, else the first
@@ -233,6 +233,7 @@ int Loader::traverse()
             return rc;
         for (size_t k = node.children.size(); k-- > 0;) stack.push_back({node.children[k], world});
     }
+    if ((rc = place_meshes())) return rc;
     if (chosen_camera >= 0 && !have_camera)
         return bad("--camera '%s': cameras[%d]%s is placed on no node of the scene",
                    pose_opts.camera, chosen_camera,

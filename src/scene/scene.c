@@ -35,18 +35,74 @@ void scene_material_default(SceneMaterial *m)
     }
 }
 
+static void grow_bounds(Scene *s, const double p[3])
+{
+    for (int k = 0; k < 3; k++) {
+        float v = (float)p[k];
+        if (v < s->bounds_min[k]) s->bounds_min[k] = v;
+        if (v > s->bounds_max[k]) s->bounds_max[k] = v;
+    }
+}
+
 void scene_update_bounds(Scene *s)
 {
     for (int k = 0; k < 3; k++) {
         s->bounds_min[k] = FLT_MAX;
         s->bounds_max[k] = -FLT_MAX;
     }
-    for (uint64_t i = 0; i < (uint64_t)s->tri_count * 9; i++) {
-        float v = s->tri_pos[i];
-        int k = (int)(i % 3);
-        if (v < s->bounds_min[k]) s->bounds_min[k] = v;
-        if (v > s->bounds_max[k]) s->bounds_max[k] = v;
+    uint64_t mesh_tris = 0;
+    for (uint32_t m = 0; m < s->mesh_count; m++)
+        mesh_tris += s->mesh_tri_count[m];
+    if (mesh_tris > s->tri_count)
+        return; /* inconsistent: gpu_scene_build refuses it */
+    uint32_t world = s->tri_count - (uint32_t)mesh_tris;
+    for (uint64_t i = 0; i < (uint64_t)world * 3; i++) {
+        const float *v = s->tri_pos + 3 * i;
+        const double p[3] = {v[0], v[1], v[2]};
+        grow_bounds(s, p);
     }
+    if (!s->mesh_count || !s->inst_count)
+        return;
+    /* Each mesh's vertices once (a vertex shared by triangles is one point),
+     * placed by every instance: instances x vertices, not x triangles. */
+    uint32_t *first = malloc(((size_t)s->mesh_count + 1) * sizeof *first);
+    first[0] = world;
+    for (uint32_t m = 0; m < s->mesh_count; m++)
+        first[m + 1] = first[m] + s->mesh_tri_count[m];
+    uint8_t *seen = calloc(s->vertex_count ? s->vertex_count : 1, 1);
+    float **pts = calloc(s->mesh_count, sizeof *pts);
+    size_t *npts = calloc(s->mesh_count, sizeof *npts);
+    for (uint32_t m = 0; m < s->mesh_count; m++) {
+        pts[m] = malloc((size_t)s->mesh_tri_count[m] * 9 * sizeof(float) + 1);
+        for (uint64_t c = (uint64_t)first[m] * 3; c < (uint64_t)first[m + 1] * 3; c++) {
+            uint32_t v = s->tri_vidx[c];
+            if (v < s->vertex_count && seen[v])
+                continue;
+            if (v < s->vertex_count)
+                seen[v] = 1;
+            memcpy(pts[m] + 3 * npts[m]++, s->tri_pos + 3 * c, 3 * sizeof(float));
+        }
+    }
+    for (uint32_t k = 0; k < s->inst_count; k++) {
+        uint32_t m = s->inst_mesh[k];
+        if (m >= s->mesh_count)
+            continue;
+        const float *x = s->inst_xf + 12 * (size_t)k;
+        for (size_t i = 0; i < npts[m]; i++) {
+            const float *v = pts[m] + 3 * i;
+            double p[3];
+            for (int r = 0; r < 3; r++)
+                p[r] = (double)x[4 * r] * v[0] + (double)x[4 * r + 1] * v[1] +
+                       (double)x[4 * r + 2] * v[2] + x[4 * r + 3];
+            grow_bounds(s, p);
+        }
+    }
+    for (uint32_t m = 0; m < s->mesh_count; m++)
+        free(pts[m]);
+    free(pts);
+    free(npts);
+    free(seen);
+    free(first);
 }
 
 /* The bounding sphere of the bounds is placed inside a 45 degree cone around -Z,

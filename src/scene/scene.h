@@ -141,8 +141,9 @@ typedef struct SceneStats {
     uint32_t emissive_triangles;
     uint32_t unusable_images;     /* missing, corrupt or outside the scene folder:
                                      the material factors are used instead */
-    /* Instancing is flattened: meshes placed on more than one node, and the
-     * triangles and vertices their second and later instances added. */
+    /* Meshes placed more than once and flattened (--instancing off, or a mesh
+     * that must be: docs/gltf.md, "Instancing"), and the triangles and
+     * vertices their second and later placements added. */
     uint32_t instanced_meshes;
     uint32_t flattened_triangles, flattened_vertices;
 } SceneStats;
@@ -169,7 +170,17 @@ typedef struct ScenePose {
     const char *animation; /* index or name of the one animation played; NULL: all */
     const char *camera;    /* index or name into the file's cameras; NULL: the first
                               camera in scene order */
+    int instancing;        /* SCENE_INSTANCING_*: which meshes are placed by reference
+                              (docs/gltf.md, "Instancing") */
 } ScenePose;
+
+/* ScenePose.instancing (--instancing; the values of SPT_SWITCH_* in
+ * src/render/render_options.h): AUTO places a mesh by reference when two or
+ * more nodes or EXT_mesh_gpu_instancing instances place it, OFF flattens every
+ * placement into world-space triangles, ON places by reference also the
+ * meshes used once. Skinned, morphed, emitting and TANGENT meshes are always
+ * flattened (docs/gltf.md, "Instancing"). */
+enum { SCENE_INSTANCING_AUTO = 0, SCENE_INSTANCING_OFF = 1, SCENE_INSTANCING_ON = 2 };
 
 typedef struct Scene {
     char *path;
@@ -210,8 +221,9 @@ typedef struct Scene {
      * mesh_tri_count[m] after mesh m - 1's (those before them are in world
      * space), and instance k places mesh inst_mesh[k] by the rows
      * inst_xf[12 k .. 12 k + 12) of a 3x4 matrix (column 3 the translation).
-     * Only scenes built in code have them: the glTF loader flattens. Their
-     * meshes must not emit (gpu_scene_build refuses them). */
+     * The glTF loader fills them for meshes placed several times (docs/gltf.md,
+     * "Instancing"). Their meshes must not emit (gpu_scene_build refuses
+     * them). */
     uint32_t mesh_count;
     uint32_t *mesh_tri_count;
     uint32_t inst_count;
@@ -241,7 +253,8 @@ int scene_load_gltf_memory(Scene *s, const void *data, size_t size, const char *
  * yfov 45 degrees. */
 void scene_default_camera(Scene *s);
 
-/* Recomputes bounds_min/max from the triangles. */
+/* Recomputes bounds_min/max from the triangles: the world-space ones and
+ * each instance's mesh through its transform (in double, rounded to float). */
 void scene_update_bounds(Scene *s);
 
 void scene_free(Scene *s);

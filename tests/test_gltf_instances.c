@@ -1,0 +1,135 @@
+/* The glTF loader's instancing (docs/gltf.md, "Instancing") on
+ * tests/data/scenes/instancing.gltf (tools/make_instancing_scene.py): a mesh
+ * placed by several nodes (rotated, non-uniformly scaled, mirrored, nested)
+ * and by EXT_mesh_gpu_instancing nodes (float and normalised byte rotations)
+ * loads as one mesh and its instances, whose transforms are numpy's
+ * composition of the file's (instancing_expected.txt); a mesh placed once
+ * and an emitting mesh placed twice stay flattened; and the scene renders
+ * the image of its flattened load (--instancing off) up to the float
+ * rounding of the transforms, on the CPU path (megakernel and stages) and
+ * the GPU-shaped path. */
+#include "test_util.h"
+#include "test_render_util.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SCENE SPT_TEST_DATA("scenes/instancing.gltf")
+#define BALL_TRIS 224 /* 8 rings of 16 segments, the poles' one triangle each */
+
+static void load(Scene *s, int instancing)
+{
+    SptError e = {0};
+    if (scene_load_gltf_posed(s, SCENE, &(ScenePose){NAN, NULL, NULL, instancing}, &e))
+        fail_msg("%s", e.msg);
+}
+
+/* The expected instances: mesh and 3x4 rows each; returns their count. */
+static int read_expected(uint32_t mesh[32], double xf[32][12])
+{
+    FILE *f = fopen(SPT_TEST_DATA("scenes/instancing_expected.txt"), "r");
+    assert_non_null(f);
+    char line[1024];
+    int n = 0;
+    while (fgets(line, sizeof line, f)) {
+        if (line[0] == '#')
+            continue;
+        assert_true(n < 32);
+        char *p = line;
+        mesh[n] = (uint32_t)strtoul(p, &p, 10);
+        for (int k = 0; k < 12; k++)
+            xf[n][k] = strtod(p, &p);
+        n++;
+    }
+    fclose(f);
+    return n;
+}
+
+TEST(test_instances_loaded)
+{
+    Scene s;
+    load(&s, SCENE_INSTANCING_AUTO);
+    /* The ball and the card by reference; the floor (placed once) and the
+     * emitting quad (placed twice) flattened: 2 + 2 x 2 world triangles. */
+    assert_int_equal(s.mesh_count, 2);
+    assert_int_equal(s.mesh_tri_count[0], BALL_TRIS);
+    assert_int_equal(s.mesh_tri_count[1], 2);
+    assert_int_equal(s.tri_count, 6 + BALL_TRIS + 2);
+    assert_int_equal(s.stats.instances, 1 + 2 + 5 + 6);
+    assert_int_equal(s.stats.instanced_meshes, 1);
+    assert_int_equal(s.stats.emissive_triangles, 4);
+    uint32_t mesh[32];
+    double xf[32][12];
+    int n = read_expected(mesh, xf);
+    assert_int_equal(n, 11);
+    assert_int_equal(s.inst_count, (uint32_t)n);
+    /* Each expected instance matches one loaded instance (in any order). */
+    int used[32] = {0}, mirrored = 0;
+    for (int i = 0; i < n; i++) {
+        int found = -1;
+        for (int k = 0; k < n && found < 0; k++) {
+            if (used[k] || s.inst_mesh[k] != mesh[i])
+                continue;
+            double worst = 0;
+            for (int j = 0; j < 12; j++)
+                worst = fmax(worst, fabs(s.inst_xf[12 * k + j] - xf[i][j]));
+            if (worst < 1e-6)
+                found = k;
+        }
+        if (found < 0)
+            fail_msg("expected instance %d (mesh %u) not loaded", i, mesh[i]);
+        used[found] = 1;
+        const double *x = xf[i];
+        double det = x[0] * (x[5] * x[10] - x[6] * x[9]) - x[1] * (x[4] * x[10] - x[6] * x[8]) +
+                     x[2] * (x[4] * x[9] - x[5] * x[8]);
+        mirrored += det < 0;
+    }
+    assert_int_equal(mirrored, 2); /* the ball's scale -1 and the card's -0.7 */
+    /* A mesh's vertex normals stay in its own space: the ball's are its
+     * positions over its radius. */
+    uint32_t t = 6; /* the ball's first triangle */
+    for (int k = 0; k < 3; k++) {
+        uint32_t v = s.tri_vidx[3 * t + k];
+        for (int r = 0; r < 3; r++)
+            assert_close(s.vtx_normal[3 * v + r], s.tri_pos[9 * t + 3 * k + r] / 0.6, 1e-6);
+    }
+    /* The bounds are the flattened scene's, up to the rounding of the
+     * transforms to float. */
+    Scene f;
+    load(&f, SCENE_INSTANCING_OFF);
+    assert_int_equal(f.mesh_count, 0);
+    assert_int_equal(f.inst_count, 0);
+    assert_int_equal(f.tri_count, 6 + 5 * BALL_TRIS + 6 * 2);
+    assert_int_equal(f.stats.instances, s.stats.instances);
+    assert_int_equal(f.stats.primitives, s.stats.primitives);
+    for (int k = 0; k < 3; k++) {
+        assert_close(s.bounds_min[k], f.bounds_min[k], 1e-5);
+        assert_close(s.bounds_max[k], f.bounds_max[k], 1e-5);
+    }
+    scene_free(&f);
+    /* on: the floor by reference too; the emitter still flattened. */
+    load(&f, SCENE_INSTANCING_ON);
+    assert_int_equal(f.mesh_count, 3);
+    assert_int_equal(f.inst_count, 12);
+    assert_int_equal(f.tri_count, 4 + 2 + BALL_TRIS + 2);
+    scene_free(&f);
+    scene_free(&s);
+}
+
+#define W 48
+
+/* The two loads render alike on every kernel path (assert_renders_agree,
+ * tests/test_render_util.h). */
+TEST(test_instanced_gltf_matches_flattened)
+{
+    Scene si, sf;
+    load(&si, SCENE_INSTANCING_AUTO);
+    load(&sf, SCENE_INSTANCING_OFF);
+    assert_renders_agree(&si, &sf, W);
+    scene_free(&si);
+    scene_free(&sf);
+}
+
+TEST_MAIN("gltf_instances", setup_cpu_device, teardown_cpu_device)
