@@ -31,13 +31,21 @@
 #define BVH_SHORT_STACK_SIZE 8
 #endif
 #define BVH_TRAIL_LAST 8u
+/* The short stack is a ring (below): its slots are numbered modulo its size. */
+SPT_STATIC_ASSERT((BVH_SHORT_STACK_SIZE & (BVH_SHORT_STACK_SIZE - 1)) == 0,
+                  "BVH_SHORT_STACK_SIZE must be a power of two");
+#define BVH_SHORT_SLOT(s, j) (((spt_u32)(s)->bot + (spt_u32)(j)) & (BVH_SHORT_STACK_SIZE - 1u))
 
 typedef struct BvhShort {
     BvhRay r;
     float best;
-    int found, sp, depth, restart, dropped;
+    int found, sp, bot, depth, restart, dropped;
     spt_u32 cur, count; /* the current item, at level depth */
     BvhHit hit;
+    /* sp entries, the j-th from the bottom in slot BVH_SHORT_SLOT(s, j): a
+     * drop advances bot instead of moving the entries down, a loop that Intel's
+     * CPU runtime's vectoriser compiles wrong (docs/performance.md, "Vector
+     * width: AVX-512 against AVX2") */
     spt_u32 st_child[BVH_SHORT_STACK_SIZE], st_count[BVH_SHORT_STACK_SIZE];
     spt_u32 st_tag[BVH_SHORT_STACK_SIZE]; /* parent level | rank << 8 | BVH_TRAIL_LAST << 8 */
     float st_t[BVH_SHORT_STACK_SIZE];
@@ -103,16 +111,11 @@ SPT_FN_INLINE int bvh_short_node(const SPT_GLOBAL BvhNode *nodes, BvhShort *s, i
         s->trail[level] = (spt_u8)((spt_u32)r | (r == k - 1 ? BVH_TRAIL_LAST : 0u));
         for (int j = 0; j < k - 1 - r; j++) {
             if (s->sp == cap) {
-                for (int i = 0; i + 1 < cap; i++) {
-                    s->st_child[i] = s->st_child[i + 1];
-                    s->st_count[i] = s->st_count[i + 1];
-                    s->st_tag[i] = s->st_tag[i + 1];
-                    s->st_t[i] = s->st_t[i + 1];
-                }
+                s->bot = (int)BVH_SHORT_SLOT(s, 1);
                 s->sp = cap - 1;
                 s->dropped = 1;
             }
-            int sp = s->sp++;
+            spt_u32 sp = BVH_SHORT_SLOT(s, s->sp++);
             s->st_child[sp] = n->child[ks[j]];
             s->st_count[sp] = n->count[ks[j]];
             s->st_t[sp] = kd[j];
@@ -134,7 +137,7 @@ SPT_FN_INLINE int bvh_short_node(const SPT_GLOBAL BvhNode *nodes, BvhShort *s, i
 SPT_FN_INLINE int bvh_short_pop(BvhShort *s)
 {
     while (s->sp > 0) {
-        int sp = --s->sp;
+        spt_u32 sp = BVH_SHORT_SLOT(s, --s->sp);
         spt_u32 tag = s->st_tag[sp], l = tag & 255u;
         s->trail[l] = (spt_u8)(tag >> 8);
         s->depth = (int)l + 1;
@@ -174,6 +177,7 @@ SPT_FN_INLINE void bvh_short_init(BvhShort *s, vec3 org, vec3 dir, float tmax)
     s->best = tmax;
     s->found = 0;
     s->sp = 0;
+    s->bot = 0;
     s->depth = 0;
     s->restart = -1;
     s->dropped = 0;
