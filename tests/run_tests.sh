@@ -42,7 +42,7 @@ device_tests=(test_bsdf test_anisotropy test_bvh test_lights test_materials test
               test_caustics_sky test_hostile_spot test_hostile_spectra test_hostile_radiance
               test_rng test_sampling test_textures test_multidevice test_checkpoint test_sweep test_aov
               test_spectral test_adaptive test_wavelength test_kernel_headers test_api test_frames
-              test_iridescence test_light_tree test_instancing)
+              test_iridescence test_light_tree test_instancing test_instance_render)
 
 if [ $# -gt 0 ]; then
   names=("$@")

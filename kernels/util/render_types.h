@@ -237,7 +237,7 @@ typedef struct RenderParams {
     spt_u32 work_begin;     /* first linear work index of this chunk */
     spt_u32 work_end;       /* one past the last */
     spt_u32 sample_begin;   /* sample index of work_begin (work = pixel + W*H*(sample - sample_begin)) */
-    spt_u32 emitter_count;  /* emissive triangles: the first entries of light_cdf */
+    spt_u32 emitter_count;  /* emitters (triangles, then instances): the first entries of light_cdf */
     float emitter_total;    /* sum of the selection weights, for pdfs */
     spt_u32 node_count;
     spt_u32 inst_count;     /* instances (docs/architecture.md, "Instances (two levels)"):
@@ -284,7 +284,9 @@ typedef struct RenderParams {
     spt_u32 tree_nodes;
     spt_u32 aside_offset;
     spt_u32 aside_count;
-    spt_u32 pad_tree;
+    /* The light selection's first tri_emitters entries are triangles, the
+     * rest of its emitter_count emitters instances (kernels/light/inst_lights.h). */
+    spt_u32 tri_emitters;
 } RenderParams;
 
 /* Counters, one uint each in the counters buffer; the host reads them back. */
@@ -371,7 +373,8 @@ typedef struct RenderParams {
     X(const GpuLight, lights)         \
     X(const float, env_data)          \
     X(const LightTreeNode, light_tree) \
-    X(const uint, tri_light_leaf)
+    X(const uint, tri_light_leaf)     \
+    X(const uint, inst_light)
 
 /* With AOVs (kernels built with SPT_AOV): aov_sample holds 3 float4 per
  * sample of the chunk, (albedo RGB, recorded flag), (N, Z), (P, 0), and
