@@ -116,6 +116,31 @@ static void inst_emitter_bound(const GpuScene *g, uint32_t k, LightBound *l)
     l->theta_e = 0.5 * M_PI;
 }
 
+/* Per tlas mesh, the box of its emitting triangles in its space (6
+ * doubles: low, high; empty for a mesh without). */
+static double *mesh_emitter_boxes(const GpuScene *g)
+{
+    double *box = spt_malloc(sizeof(double) * 6 * g->mesh_count);
+    for (uint32_t m = 0; m < g->mesh_count; m++) {
+        for (int a = 0; a < 3; a++) {
+            box[6 * m + a] = INFINITY;
+            box[6 * m + 3 + a] = -INFINITY;
+        }
+        for (uint32_t j = g->mesh_emitter_first[m]; j < g->mesh_emitter_first[m + 1]; j++) {
+            vec3 v[3];
+            gpu_scene_tri(g, g->mesh_emitter_prims[j], &v[0], &v[1], &v[2]);
+            for (int q = 0; q < 3; q++) {
+                const float c[3] = {v[q].x, v[q].y, v[q].z};
+                for (int a = 0; a < 3; a++) {
+                    box[6 * m + a] = fmin(box[6 * m + a], c[a]);
+                    box[6 * m + 3 + a] = fmax(box[6 * m + 3 + a], c[a]);
+                }
+            }
+        }
+    }
+    return box;
+}
+
 int render_lights_use_tree(const GpuScene *g, const RenderSettings *rs)
 {
     if (rs->light_tree == SPT_SWITCH_OFF)
@@ -133,14 +158,22 @@ int render_lights_use_tree(const GpuScene *g, const RenderSettings *rs)
             }
         }
     }
+    /* An instance's emitters: its mesh's emitters' box in the mesh's space
+     * (found once per mesh), its corners placed. */
+    double *mesh_box = g->emitter_count > g->tri_emitter_count ? mesh_emitter_boxes(g) : NULL;
     for (uint32_t k = g->tri_emitter_count; k < g->emitter_count; k++) {
-        LightBound b;
-        inst_emitter_bound(g, k, &b);
-        for (int a = 0; a < 3; a++) {
-            lo[a] = fmin(lo[a], b.lo[a]);
-            hi[a] = fmax(hi[a], b.hi[a]);
-        }
+        const BvhInstance *in = &g->tlas.inst[g->emitters[k]];
+        const double *mb = mesh_box + 6 * (size_t)g->tlas.inst_mesh[g->emitters[k]];
+        for (int corner = 0; corner < 8; corner++)
+            for (int r = 0; r < 3; r++) {
+                double w = in->xf[4 * r + 3];
+                for (int c = 0; c < 3; c++)
+                    w += (double)in->xf[4 * r + c] * mb[corner >> c & 1 ? 3 + c : c];
+                lo[r] = fmin(lo[r], w);
+                hi[r] = fmax(hi[r], w);
+            }
     }
+    free(mesh_box);
     for (uint32_t j = 0; j < g->light_count; j++) {
         if (g->lights[j].type == SPT_PUNCTUAL_DIRECTIONAL)
             continue;
