@@ -245,8 +245,8 @@ typedef struct RenderParams {
     spt_u32 rr_depth;       /* Russian roulette from this many segments on */
     spt_u32 has_alpha;      /* some material is MASK or BLEND: shadow rays test alpha */
     spt_u32 orthographic;   /* 1: parallel rays along cam_fwd from the image plane */
-    spt_u32 light_count;    /* punctual lights: light_cdf entries after the triangles */
-    spt_u32 select_count;   /* entries of light_cdf: triangles, punctual, environment */
+    spt_u32 light_count;    /* punctual lights: light_cdf entries after the emitters */
+    spt_u32 select_count;   /* entries of light_cdf: emitters, punctual, environment */
     /* Thin lens: radius (0 = pinhole) and focus distance along the view axis. */
     float lens_radius;
     float focus_distance;
