@@ -62,6 +62,7 @@
 #include "closure/bsdf.h"
 #include "closure/delta.h"
 #include "light/lights.h"
+#include "light/inst_lights.h"
 #include "integrator/path.h"
 #include "integrator/kernel_globals.h"
 #include "material/material_eval.h"
@@ -191,15 +192,33 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, const KernelGlobals *kg)
     float u5 = spt_rand_key(key, spt_dim_bounce(0u, SPT_DIM_BSDF_LOBE));
     float3 o = (float3)(0.0f), d = (float3)(0.0f, 0.0f, 1.0f);
     float4 power = (float4)(0.0f);
+    uint k = SPT_NO_INST, lt = 0u;
+    if (e >= 0 && (uint)e >= kg->p->tri_emitters && (uint)e < kg->p->emitter_count && prob > 0.0f) {
+        /* An instance: a triangle of its mesh (kernels/light/inst_lights.h),
+         * picked with probability pt, placed by the instance. */
+        float pt;
+        k = kg->emitters[e];
+        lt = inst_light_pick(kg->inst_light, kg->light_cdf, kg->p->inst_count, (uint)e - kg->p->tri_emitters,
+                             spt_rand_key(key, spt_dim_bounce(0u, SPT_DIM_LIGHT_SELECT) | SPT_DIM_INST_TRI), &pt);
+        if (lt == SPT_INST_LIGHT_NONE)
+            e = -1;
+        prob *= pt;
+    }
     if (e >= 0 && (uint)e < kg->p->emitter_count && prob > 0.0f) {
         /* An emissive triangle: a uniform point, a cosine-weighted direction
          * (either side, with probability 1/2 each, when both emit). */
-        uint lt = kg->emitters[e];
         vec3 a, b, c;
-        tri_positions(kg->tri_shade, kg->vtx_pos, lt, &a, &b, &c);
+        if (k == SPT_NO_INST) {
+            lt = kg->emitters[e];
+            tri_positions(kg->tri_shade, kg->vtx_pos, lt, &a, &b, &c);
+        } else {
+            tri_world(kg->tri_shade, kg->vtx_pos, kg->tlas_inst, k, lt, &a, &b, &c);
+        }
         vec3 bary = spt_sample_triangle_bary(u1, u2);
         float3 q = bary.x * a + bary.y * b + bary.z * c;
         float3 cr = cross(b - a, c - a);
+        if (k != SPT_NO_INST && (kg->tlas_inst[k].flags & BVH_INSTANCE_MIRRORED))
+            cr = -cr;
         float area2 = length(cr);
         const __global GpuMaterial *lm = kg->materials + kg->tri_shade[lt].material;
         float omega, cones;

@@ -14,6 +14,7 @@
 #include "closure/bsdf.h"
 #include "light/lights.h"
 #include "light/light_tree.h"
+#include "light/inst_lights.h"
 #include "integrator/path.h"
 #include "integrator/kernel_globals.h"
 #include "material/material_eval.h"
@@ -85,10 +86,38 @@ SPT_FN_INLINE uint lt_camera_next(uint lt, uint depth, int is_delta)
     return chain | (is_delta ? SPT_LT_SPEC : 0u);
 }
 
-SPT_FN_INLINE int lt_camera_drops(uint lt, uint prim, const KernelGlobals *kg)
+/* The light selection's entry of instance inst (kernels/light/inst_lights.h):
+ * SPT_INST_LIGHT_NONE unless its mesh emits (then its triangles' tri_light_pdf
+ * is their probability in the mesh's distribution). */
+SPT_FN_INLINE uint inst_emitter(uint inst, const KernelGlobals *kg)
 {
-    return kg->p->light_paths > 0u && (lt & (SPT_LT_CHAIN | SPT_LT_SPEC)) == (SPT_LT_CHAIN | SPT_LT_SPEC) &&
-           kg->tri_light_pdf[prim] > 0.0f;
+    return kg->p->emitter_count > kg->p->tri_emitters && inst != SPT_NO_INST ? kg->inst_light[inst]
+                                                                            : SPT_INST_LIGHT_NONE;
+}
+
+SPT_FN_INLINE int lt_camera_drops(uint lt, uint prim, uint inst, const KernelGlobals *kg)
+{
+    if (!(kg->p->light_paths > 0u && (lt & (SPT_LT_CHAIN | SPT_LT_SPEC)) == (SPT_LT_CHAIN | SPT_LT_SPEC) && kg->tri_light_pdf[prim] > 0.0f))
+        return 0;
+    /* An instance's triangle is in the selection when the instance is. */
+    uint e = inst_emitter(inst, kg);
+    return e == SPT_INST_LIGHT_NONE || spt_discrete_pdf(kg->light_cdf, e) > 0.0f;
+}
+
+/* The probability that next-event estimation at the vertex a ray left picks
+ * instance entry e (its point and normal in ctx, ps_light_ctx, with the
+ * tree): by power, or the tree's share times the tree's pick of its leaf. */
+SPT_FN_INLINE float inst_entry_prob(uint e, float4 ctx, const KernelGlobals *kg)
+{
+    if (kg->p->tree_nodes == 0u)
+        return spt_discrete_pdf(kg->light_cdf, e);
+    uint leaf = inst_light_leaf(kg->inst_light, kg->p->inst_count, e - kg->p->tri_emitters);
+    if (leaf == SPT_TREE_NONE)
+        return 0.0f;
+    spt_i32 ts;
+    vec3 n = light_ctx_normal(ctx.w, &ts);
+    return spt_discrete_pdf(kg->light_cdf + kg->p->aside_offset, 0u) *
+           light_tree_pmf(kg->light_tree, leaf, ctx.xyz, n, ts);
 }
 
 SPT_FN_INLINE int lt_camera_drops_env(uint lt, const KernelGlobals *kg)
@@ -208,7 +237,7 @@ SPT_FN_INLINE void shade_emission(ShadeHit *h, const TexCtx *tc, const KernelGlo
     /* Light reached through a delta vertex on a path whose first vertex was
      * non-delta: the light-tracing pass counts those paths
      * (kernels/integrator/light_trace.h). */
-    if (lt_camera_drops(kg->ps_lt[i], h->prim, kg))
+    if (lt_camera_drops(kg->ps_lt[i], h->prim, h->inst, kg))
         return;
 #ifdef SPT_MERGE
     /* camera - S+ - D - S+ - light: photon merging's (photon_merge.h). */
@@ -223,9 +252,14 @@ SPT_FN_INLINE void shade_emission(ShadeHit *h, const TexCtx *tc, const KernelGlo
         float cos_l = fabs(dot(h->ng, h->rd));
         float dist = h->hit.x + kg->ps_ray_o[i].w; /* w: distance passed through alpha */
         float light_pdf = kg->tri_light_pdf[h->prim] * dist * dist / fmax(cos_l, 1e-8f);
-        /* With the light tree, the pick's probability at the vertex the ray
-         * left (its point and normal kept in ps_light_ctx). */
-        if (kg->p->tree_nodes > 0u) {
+        uint e = inst_emitter(h->inst, kg);
+        if (e != SPT_INST_LIGHT_NONE) {
+            /* An instance's triangle: P(its entry) p(triangle) per placed area. */
+            float area = 0.5f * length(cross(h->v1 - h->v0, h->v2 - h->v0));
+            light_pdf = area > 0.0f ? inst_entry_prob(e, kg->ps_light_ctx[i], kg) * light_pdf / area : 0.0f;
+        } else if (kg->p->tree_nodes > 0u) {
+            /* With the light tree, the pick's probability at the vertex the ray
+             * left (its point and normal kept in ps_light_ctx). */
             float4 c = kg->ps_light_ctx[i];
             spt_i32 ts;
             vec3 n = light_ctx_normal(c.w, &ts);
@@ -319,13 +353,37 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
     float dist = 0.0f, light_pdf = 0.0f;
     float4 le = (float4)(0.0f);
     int delta = 0;
+    uint k = SPT_NO_INST, lt = 0u;
+    float pa = 0.0f;
+    if (e >= 0 && (uint)e >= kg->p->tri_emitters && (uint)e < kg->p->emitter_count) {
+        /* An instance: a triangle of its mesh (kernels/light/inst_lights.h),
+         * P(entry) p(triangle) per placed area. */
+        float pt;
+        k = kg->emitters[e];
+        lt = inst_light_pick(kg->inst_light, kg->light_cdf, kg->p->inst_count, (uint)e - kg->p->tri_emitters,
+                             spt_rand_key(f->key, spt_dim_bounce(bounce, SPT_DIM_LIGHT_SELECT) | SPT_DIM_INST_TRI),
+                             &pt);
+        if (lt == SPT_INST_LIGHT_NONE)
+            e = -1;
+        pa = prob * pt;
+    }
     if (e >= 0 && (uint)e < kg->p->emitter_count) {
-        uint lt = kg->emitters[e];
         vec3 a, b, c;
-        tri_positions(kg->tri_shade, kg->vtx_pos, lt, &a, &b, &c);
+        if (k == SPT_NO_INST) {
+            lt = kg->emitters[e];
+            tri_positions(kg->tri_shade, kg->vtx_pos, lt, &a, &b, &c);
+        } else {
+            tri_world(kg->tri_shade, kg->vtx_pos, kg->tlas_inst, k, lt, &a, &b, &c);
+        }
         vec3 bary = spt_sample_triangle_bary(ul, vl);
         float3 q = bary.x * a + bary.y * b + bary.z * c;
         float3 nl = normalize(cross(b - a, c - a));
+        if (k != SPT_NO_INST) {
+            float area = 0.5f * length(cross(b - a, c - a));
+            pa = area > 0.0f ? pa / area : 0.0f;
+            if (kg->tlas_inst[k].flags & BVH_INSTANCE_MIRRORED)
+                nl = -nl;
+        }
         float3 dq = q - p;
         float dist2 = dot(dq, dq);
         dist = sqrt(dist2);
@@ -334,8 +392,8 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
         const __global GpuMaterial *lm = kg->materials + kg->tri_shade[lt].material;
         if (lm->flags & SPT_MAT_DOUBLE_SIDED_EMISSION)
             cos_l = fabs(cos_l);
-        if (cos_l > 0.0f && dist > 0.0f) {
-            light_pdf = kg->tri_light_pdf[lt] * tree_prob * dist2 / cos_l;
+        if (cos_l > 0.0f && dist > 0.0f && (k == SPT_NO_INST || pa > 0.0f)) {
+            light_pdf = (k == SPT_NO_INST ? kg->tri_light_pdf[lt] * tree_prob : pa) * dist2 / cos_l;
             /* The emitter's textures at their finest level (no footprint). */
             TexCtx ltc = *tc;
             if (material_uses_uv(lm))

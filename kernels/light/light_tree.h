@@ -3,7 +3,8 @@
  * Conty Estevez and Kulla 2018, "Importance Sampling of Many Lights with
  * Adaptive Tree Splitting" (the tree of light bounds and its importance,
  * sections 4.1-4.3, without the adaptive splitting). src/render/light_tree.c
- * builds it over the emissive triangles and the point and spot lights;
+ * builds it over the emissive triangles (an instanced mesh's as one leaf per
+ * instance: kernels/light/inst_lights.h) and the point and spot lights;
  * directional lights and the environment stay outside it, chosen by power
  * beside it (docs/architecture.md, "Light selection").
  *

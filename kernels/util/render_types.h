@@ -237,7 +237,7 @@ typedef struct RenderParams {
     spt_u32 work_begin;     /* first linear work index of this chunk */
     spt_u32 work_end;       /* one past the last */
     spt_u32 sample_begin;   /* sample index of work_begin (work = pixel + W*H*(sample - sample_begin)) */
-    spt_u32 emitter_count;  /* emissive triangles: the first entries of light_cdf */
+    spt_u32 emitter_count;  /* emitters (triangles, then instances): the first entries of light_cdf */
     float emitter_total;    /* sum of the selection weights, for pdfs */
     spt_u32 node_count;
     spt_u32 inst_count;     /* instances (docs/architecture.md, "Instances (two levels)"):
@@ -245,8 +245,8 @@ typedef struct RenderParams {
     spt_u32 rr_depth;       /* Russian roulette from this many segments on */
     spt_u32 has_alpha;      /* some material is MASK or BLEND: shadow rays test alpha */
     spt_u32 orthographic;   /* 1: parallel rays along cam_fwd from the image plane */
-    spt_u32 light_count;    /* punctual lights: light_cdf entries after the triangles */
-    spt_u32 select_count;   /* entries of light_cdf: triangles, punctual, environment */
+    spt_u32 light_count;    /* punctual lights: light_cdf entries after the emitters */
+    spt_u32 select_count;   /* entries of light_cdf: emitters, punctual, environment */
     /* Thin lens: radius (0 = pinhole) and focus distance along the view axis. */
     float lens_radius;
     float focus_distance;
@@ -284,7 +284,9 @@ typedef struct RenderParams {
     spt_u32 tree_nodes;
     spt_u32 aside_offset;
     spt_u32 aside_count;
-    spt_u32 pad_tree;
+    /* The light selection's first tri_emitters entries are triangles, the
+     * rest of its emitter_count emitters instances (kernels/light/inst_lights.h). */
+    spt_u32 tri_emitters;
     /* Photon merging (kernels/integrator/photon_merge.h): on (1) or off; the
      * photon grid's bucket mask (buckets - 1) and photons; the initial
      * radius (kernels/integrator/photon_grid.h). */
@@ -390,7 +392,8 @@ typedef struct RenderParams {
     X(const GpuLight, lights)         \
     X(const float, env_data)          \
     X(const LightTreeNode, light_tree) \
-    X(const uint, tri_light_leaf)
+    X(const uint, tri_light_leaf)     \
+    X(const uint, inst_light)
 
 /* With AOVs (kernels built with SPT_AOV): aov_sample holds 3 float4 per
  * sample of the chunk, (albedo RGB, recorded flag), (N, Z), (P, 0), and

@@ -160,10 +160,37 @@ int tlas_build(Tlas *tlas, const Bvh *meshes, const uint32_t *mesh_prim_base, ui
     return SPT_EXIT_OK;
 }
 
+double tlas_placed_tri(const BvhInstance *in, vec3 a, vec3 b, vec3 c, double *lo, double *hi, double *n)
+{
+    const vec3 v[3] = {a, b, c};
+    double p[3][3];
+    for (int q = 0; q < 3; q++)
+        for (int r = 0; r < 3; r++) {
+            p[q][r] = (double)in->xf[4 * r] * v[q].x + (double)in->xf[4 * r + 1] * v[q].y +
+                      (double)in->xf[4 * r + 2] * v[q].z + in->xf[4 * r + 3];
+            if (lo) {
+                lo[r] = fmin(lo[r], p[q][r]);
+                hi[r] = fmax(hi[r], p[q][r]);
+            }
+        }
+    double e1[3], e2[3];
+    for (int r = 0; r < 3; r++) {
+        e1[r] = p[1][r] - p[0][r];
+        e2[r] = p[2][r] - p[0][r];
+    }
+    double cr[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                    e1[0] * e2[1] - e1[1] * e2[0]};
+    double len = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
+    /* The winding a mirrored instance reverses (BVH_INSTANCE_MIRRORED). */
+    double sign = in->flags & BVH_INSTANCE_MIRRORED ? -1.0 : 1.0;
+    for (int r = 0; n && r < 3; r++)
+        n[r] = len > 0.0 ? sign * cr[r] / len : 0.0;
+    return 0.5 * len;
+}
+
 void tlas_emitter_power(const Tlas *tl, const Bvh *meshes, const float *const *weight, double *power)
 {
     for (uint32_t k = 0; k < tl->inst_count; k++) {
-        const BvhInstance *in = &tl->inst[k];
         uint32_t m = tl->inst_mesh[k];
         double sum = 0.0;
         if (weight[m]) {
@@ -174,19 +201,7 @@ void tlas_emitter_power(const Tlas *tl, const Bvh *meshes, const float *const *w
                     continue;
                 vec3 v[3];
                 bvh_vertices(b, i, &v[0], &v[1], &v[2]);
-                double p[3][3];
-                for (int c = 0; c < 3; c++)
-                    for (int r = 0; r < 3; r++)
-                        p[c][r] = (double)in->xf[4 * r] * v[c].x + (double)in->xf[4 * r + 1] * v[c].y +
-                                  (double)in->xf[4 * r + 2] * v[c].z + in->xf[4 * r + 3];
-                double e1[3], e2[3];
-                for (int r = 0; r < 3; r++) {
-                    e1[r] = p[1][r] - p[0][r];
-                    e2[r] = p[2][r] - p[0][r];
-                }
-                double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
-                       cz = e1[0] * e2[1] - e1[1] * e2[0];
-                sum += (double)w * 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
+                sum += (double)w * tlas_placed_tri(&tl->inst[k], v[0], v[1], v[2], NULL, NULL, NULL);
             }
         }
         power[k] = sum;

@@ -57,6 +57,13 @@ int tlas_build(Tlas *tlas, const Bvh *meshes, const uint32_t *mesh_prim_base, ui
  * emitting triangles, and its storage one number per instance. */
 void tlas_emitter_power(const Tlas *tl, const Bvh *meshes, const float *const *weight, double *power);
 
+/* Triangle (a, b, c) of a mesh placed by instance in, computed in double:
+ * returns its world-space area; lo and hi (3 doubles each, NULL: not
+ * wanted) grow to hold its vertices; n (NULL: not wanted) gets its unit
+ * world-space face normal as the renderer faces it (the placed winding's,
+ * negated for a mirrored instance), 0 for a degenerate triangle. */
+double tlas_placed_tri(const BvhInstance *in, vec3 a, vec3 b, vec3 c, double *lo, double *hi, double *n);
+
 /* Frees what tlas_build allocated and zeroes tlas; safe on a zeroed Tlas. */
 void tlas_free(Tlas *tlas);
 

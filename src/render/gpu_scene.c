@@ -446,8 +446,7 @@ static int in_scene_file(const Scene *s, int rc, SptError *e)
  * its world-space triangles and, with instances, each mesh's and the top
  * level (g->tlas, mesh 0 being g->bvh under the identity). *src (allocated)
  * gets each packed triangle's index in s. Returns 0 or an exit code (e
- * filled); an instanced mesh's triangle that emits is refused, as the light
- * selection counts triangles in world space only. */
+ * filled). */
 static int build_levels(GpuScene *g, const Scene *s, uint32_t **src, SptError *e)
 {
     uint64_t mesh_tris = 0;
@@ -473,15 +472,7 @@ static int build_levels(GpuScene *g, const Scene *s, uint32_t **src, SptError *e
     uint64_t total = g->bvh.prim_count;
     for (uint32_t m = 1; m < nm && !rc; m++) {
         first[m] = m == 1 ? world : first[m - 1] + s->mesh_tri_count[m - 2];
-        for (uint32_t t = first[m]; t < first[m] + s->mesh_tri_count[m - 1] && !rc; t++) {
-            uint32_t mat = s->tri_mat[t];
-            const SceneMaterial *sm = mat < s->material_count ? &s->materials[mat] : NULL;
-            if (sm && (sm->emissive[0] > 0.0f || sm->emissive[1] > 0.0f || sm->emissive[2] > 0.0f ||
-                       sm->emission_spd.count || sm->emission_spd.line_count || sm->unlit))
-                rc = spt_fail(e, SPT_EXIT_INPUT, "instances: mesh %u: material %u emits", m - 1, mat);
-        }
-        if (!rc)
-            rc = bvh_build(&mesh[m], s->tri_pos + 9 * (size_t)first[m], s->mesh_tri_count[m - 1], e);
+        rc = bvh_build(&mesh[m], s->tri_pos + 9 * (size_t)first[m], s->mesh_tri_count[m - 1], e);
         prim_base[m] = (uint32_t)total;
         total += mesh[m].prim_count;
     }
@@ -584,6 +575,69 @@ int gpu_scene_build_with(GpuScene *g, const Scene *s, Bvh *bvh, SptError *e)
     return gpu_scene_build_shading(g, s, e);
 }
 
+void gpu_scene_tri(const GpuScene *g, uint32_t prim, vec3 *a, vec3 *b, vec3 *c)
+{
+    const TriShade *ts = &g->tri_shade[prim];
+    *a = v3_load(g->vtx_pos + 3 * (size_t)ts->v[0]);
+    *b = v3_load(g->vtx_pos + 3 * (size_t)ts->v[1]);
+    *c = v3_load(g->vtx_pos + 3 * (size_t)ts->v[2]);
+}
+
+/* The emitters of the instanced meshes (docs/architecture.md, "Instances
+ * (two levels)"): per mesh its emitting triangles once, weighted by their
+ * power in the mesh's space, and per instance of such a mesh one emitter
+ * after the triangles, weighted by the power of its triangles placed
+ * (pi * world area * Y(Le), mat_y the materials' Y(Le)). */
+static void instanced_emitters(GpuScene *g, const Scene *s, const double *mat_y)
+{
+    uint32_t nm = s->mesh_count + 1;
+    g->mesh_count = nm;
+    g->mesh_emitter_first = spt_calloc(nm + 1, sizeof(uint32_t));
+    uint32_t cap = 0, count = 0;
+    for (uint32_t m = 1; m < nm; m++) {
+        g->mesh_emitter_first[m] = count;
+        for (uint32_t i = g->mesh_prims[m]; i < g->mesh_prims[m + 1]; i++) {
+            uint32_t mat = g->tri_shade[i].material;
+            if (!(mat < g->material_count && (g->materials[mat].flags & SPT_MAT_EMISSIVE)))
+                continue;
+            vec3 a, b, c;
+            gpu_scene_tri(g, i, &a, &b, &c);
+            float w = (float)(M_PI * 0.5 * v3_length(v3_cross(v3_sub(b, a), v3_sub(c, a))) * mat_y[mat]);
+            if (!(w > 0.0f))
+                continue;
+            if (count == cap) {
+                cap = cap ? 2 * cap : 64;
+                g->mesh_emitter_prims = spt_realloc(g->mesh_emitter_prims, cap * sizeof(uint32_t));
+                g->mesh_emitter_power = spt_realloc(g->mesh_emitter_power, cap * sizeof(float));
+            }
+            g->mesh_emitter_prims[count] = i;
+            g->mesh_emitter_power[count++] = w;
+        }
+    }
+    g->mesh_emitter_first[nm] = count;
+    for (uint32_t k = 0; k < g->tlas.inst_count; k++) {
+        uint32_t m = g->tlas.inst_mesh[k];
+        if (m == 0 || m >= nm || g->mesh_emitter_first[m] == g->mesh_emitter_first[m + 1])
+            continue;
+        double power = 0.0;
+        for (uint32_t j = g->mesh_emitter_first[m]; j < g->mesh_emitter_first[m + 1]; j++) {
+            uint32_t i = g->mesh_emitter_prims[j];
+            vec3 a, b, c;
+            gpu_scene_tri(g, i, &a, &b, &c);
+            power += M_PI * mat_y[g->tri_shade[i].material] *
+                     tlas_placed_tri(&g->tlas.inst[k], a, b, c, NULL, NULL, NULL);
+        }
+        uint32_t n = g->emitter_count + 1;
+        g->emitters = spt_realloc(g->emitters, n * sizeof(uint32_t));
+        g->emitter_power = spt_realloc(g->emitter_power, n * sizeof(float));
+        g->emitter_area = spt_realloc(g->emitter_area, n * sizeof(float));
+        g->emitters[n - 1] = k;
+        g->emitter_power[n - 1] = (float)power;
+        g->emitter_area[n - 1] = 0.0f;
+        g->emitter_count = n;
+    }
+}
+
 /* Frees what gpu_scene_build_shading makes. */
 static void shading_free(GpuScene *g)
 {
@@ -594,6 +648,9 @@ static void shading_free(GpuScene *g)
     free(g->emitters);
     free(g->emitter_power);
     free(g->emitter_area);
+    free(g->mesh_emitter_first);
+    free(g->mesh_emitter_prims);
+    free(g->mesh_emitter_power);
     free(g->lights);
     g->materials = NULL;
     g->spectra = NULL;
@@ -601,10 +658,13 @@ static void shading_free(GpuScene *g)
     g->texels = NULL;
     g->emitters = NULL;
     g->emitter_power = g->emitter_area = NULL;
+    g->mesh_emitter_first = g->mesh_emitter_prims = NULL;
+    g->mesh_emitter_power = NULL;
+    g->mesh_count = 0;
     g->lights = NULL;
     g->material_count = g->spectra_count = g->texture_count = 0;
     g->texel_count = 0;
-    g->emitter_count = g->light_count = 0;
+    g->emitter_count = g->tri_emitter_count = g->light_count = 0;
 }
 
 int gpu_scene_build_shading(GpuScene *g, const Scene *s, SptError *e)
@@ -672,6 +732,9 @@ int gpu_scene_build_shading(GpuScene *g, const Scene *s, SptError *e)
         g->emitter_area[g->emitter_count] = area;
         g->emitter_count++;
     }
+    g->tri_emitter_count = g->emitter_count;
+    if (g->tlas.inst_count)
+        instanced_emitters(g, s, mat_y);
     free(mat_y);
 
     /* Punctual lights, their spectra appended to the spectra table. */
@@ -739,10 +802,17 @@ static size_t buffer_bytes(const GpuScene *g, const RenderLights *L, const char 
     if (!strcmp(name, "textures")) return NZ((size_t)g->texture_count * sizeof(GpuTexture));
     if (!strcmp(name, "texels")) return NZ(g->texel_count * 4 * sizeof(float));
     if (!strcmp(name, "emitters")) return NZ((size_t)g->emitter_count * sizeof(uint32_t));
+    /* Without L, the instanced meshes' lists and CDFs at their largest. */
+    size_t mesh_lists = g->mesh_count ? g->mesh_emitter_first[g->mesh_count] + 2 * (size_t)g->mesh_count : 0;
     if (!strcmp(name, "light_cdf"))
-        return L ? (L->select.n ? ((size_t)L->select.n + 1 + (L->tree.count ? L->aside.n + 1 : 0)) * sizeof(float)
-                                : 16)
-                 : ((size_t)g->emitter_count + 2 * g->light_count + 5) * sizeof(float);
+        return L ? (L->select.n ? (size_t)L->cdf_count * sizeof(float) : 16)
+                 : ((size_t)g->emitter_count + 2 * g->light_count + 5 + mesh_lists) * sizeof(float);
+    if (!strcmp(name, "inst_light"))
+        return NZ(L ? (size_t)L->inst_light_count * sizeof(uint32_t)
+                    : (g->emitter_count > g->tri_emitter_count
+                           ? (g->tlas.inst_count + 2 * (size_t)(g->emitter_count - g->tri_emitter_count) +
+                              mesh_lists) * sizeof(uint32_t)
+                           : 0));
     /* Without L (the estimate of gpu_scene_bytes), the tree's largest size. */
     if (!strcmp(name, "light_tree"))
         return NZ((L ? (size_t)L->tree.count : 2 * ((size_t)g->emitter_count + g->light_count)) *
@@ -783,7 +853,8 @@ const void *gpu_scene_buffer_data(const GpuScene *g, const RenderLights *L, cons
     if (!strcmp(name, "textures")) return g->textures;
     if (!strcmp(name, "texels")) return g->texels;
     if (!strcmp(name, "emitters")) return g->emitters;
-    if (!strcmp(name, "light_cdf")) return L && L->select.n ? (L->tree.count ? L->cdf_all : L->select.cdf) : NULL;
+    if (!strcmp(name, "light_cdf")) return L && L->select.n ? L->cdf_all : NULL;
+    if (!strcmp(name, "inst_light")) return L ? L->inst_light : NULL;
     if (!strcmp(name, "light_tree")) return L ? L->tree.nodes : NULL;
     if (!strcmp(name, "tri_light_leaf")) return L ? L->tri_leaf : NULL;
     if (!strcmp(name, "tri_light_pdf")) return L ? L->tri_light_pdf : NULL;

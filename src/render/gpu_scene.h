@@ -41,10 +41,24 @@ typedef struct GpuScene {
     uint32_t texture_count;
     float *texels;           /* 4 floats per texel (GpuTexture's kinds), mip pyramids */
     size_t texel_count;
-    uint32_t *emitters;      /* packed triangle index per emitter */
+    /* The light selection's emitters: tri_emitter_count triangles in world
+     * space, then one entry per instance whose mesh emits
+     * (docs/architecture.md, "Instances (two levels)"). */
+    uint32_t *emitters;      /* per emitter: its packed triangle, or its instance in tlas */
     uint32_t emitter_count;
-    float *emitter_power;    /* per emitter: pi * area * Y(Le), its selection weight */
-    float *emitter_area;
+    uint32_t tri_emitter_count;
+    float *emitter_power;    /* per emitter: pi * area * Y(Le) (an instance's: of its emitting
+                                triangles placed), its selection weight */
+    float *emitter_area;     /* per triangle emitter; 0 for an instance */
+    /* Per tlas mesh m (the world's, 0, has none: its emitters are
+     * triangles), its emitting triangles, stored once for all its
+     * instances: packed triangles mesh_emitter_prims[mesh_emitter_first[m]
+     * .. mesh_emitter_first[m + 1]), each weighted by pi * area * Y(Le) in
+     * the mesh's space (mesh_emitter_power). NULL without instances. */
+    uint32_t mesh_count;     /* tlas meshes, the world's included */
+    uint32_t *mesh_emitter_first;
+    uint32_t *mesh_emitter_prims;
+    float *mesh_emitter_power;
     GpuLight *lights;        /* punctual lights (spectra tables in spectra) */
     uint32_t light_count;
     float scene_radius;      /* of the bounding sphere, for light power estimates */
@@ -65,6 +79,10 @@ void gpu_scene_free(GpuScene *g);
  * parameters (src/api/spectrace.h). Returns 0 or an exit code; g is then
  * freed. */
 int gpu_scene_build_shading(GpuScene *g, const Scene *s, SptError *e);
+
+/* The vertices of packed triangle prim as the kernels read them (vtx_pos):
+ * in world space, or a mesh's triangle in its mesh's space. */
+void gpu_scene_tri(const GpuScene *g, uint32_t prim, vec3 *a, vec3 *b, vec3 *c);
 
 /* Bytes of device memory the scene arrays need (for `info` and limit checks). */
 size_t gpu_scene_bytes(const GpuScene *g);

@@ -8,6 +8,7 @@
 
 #include "closure/delta.h"
 #include "integrator/photon_grid.h"
+#include "light/inst_lights.h"
 #include "light/lights.h"
 #include "sample/sampling.h"
 
@@ -184,11 +185,28 @@ static double caustic_share(const RenderParams *p, const RenderLights *L, const 
         if (e < 0 || !(prob > 0.0f))
             continue;
         if ((uint32_t)e < g->emitter_count) {
-            const TriShade *ts = &g->tri_shade[g->emitters[e]];
-            vec3 a = v3_load(g->vtx_pos + 3 * (size_t)ts->v[0]);
-            vec3 b = v3_load(g->vtx_pos + 3 * (size_t)ts->v[1]);
-            vec3 c = v3_load(g->vtx_pos + 3 * (size_t)ts->v[2]);
+            uint32_t prim = g->emitters[e];
+            const BvhInstance *in = NULL;
+            if ((uint32_t)e >= g->tri_emitter_count) {
+                /* An instance's triangle, as lt_start picks it. */
+                float pt;
+                in = &g->tlas.inst[prim];
+                prim = inst_light_pick(L->inst_light, L->cdf_all, g->tlas.inst_count,
+                                       (uint32_t)e - g->tri_emitter_count, share_u(&st), &pt);
+                if (prim == SPT_INST_LIGHT_NONE)
+                    continue;
+            }
+            const TriShade *ts = &g->tri_shade[prim];
+            vec3 a, b, c;
+            gpu_scene_tri(g, prim, &a, &b, &c);
+            if (in) {
+                a = bvh_xf_apply(in->xf, a, 1.0f);
+                b = bvh_xf_apply(in->xf, b, 1.0f);
+                c = bvh_xf_apply(in->xf, c, 1.0f);
+            }
             vec3 cr = v3_cross(v3_sub(b, a), v3_sub(c, a));
+            if (in && (in->flags & BVH_INSTANCE_MIRRORED))
+                cr = v3_scale(cr, -1.0f);
             float area2 = v3_length(cr);
             if (!(area2 > 0.0f))
                 continue;

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "light/inst_lights.h"
 #include "spectrum/cie_data.h"
 
 void render_lights_free(RenderLights *L)
@@ -17,6 +18,7 @@ void render_lights_free(RenderLights *L)
     distrib_free(&L->aside);
     free(L->cdf_all);
     free(L->tri_leaf);
+    free(L->inst_light);
     memset(L, 0, sizeof *L);
 }
 
@@ -72,13 +74,80 @@ static int env_setup(const RenderSettings *rs, const GpuScene *g, EnvLight *env,
  * tree"). */
 #define TREE_AUTO_SPREAD 0.25
 
+/* The tree's bounds of instance emitter k (an entry from
+ * g->tri_emitter_count on): the box of its mesh's emitting triangles
+ * placed, the cone of their world-space normals about their area-weighted
+ * mean (every direction when that mean is 0), theta_e pi/2 (Lambertian),
+ * two-sided when one of their materials emits on both sides; power 0.
+ * Its work is the mesh's emitting triangles; it stores nothing. */
+static void inst_emitter_bound(const GpuScene *g, uint32_t k, LightBound *l)
+{
+    const BvhInstance *in = &g->tlas.inst[g->emitters[k]];
+    uint32_t m = g->tlas.inst_mesh[g->emitters[k]];
+    memset(l, 0, sizeof *l);
+    for (int a = 0; a < 3; a++) {
+        l->lo[a] = INFINITY;
+        l->hi[a] = -INFINITY;
+    }
+    double sum[3] = {0.0, 0.0, 0.0};
+    for (int pass = 0; pass < 2; pass++)
+        for (uint32_t j = g->mesh_emitter_first[m]; j < g->mesh_emitter_first[m + 1]; j++) {
+            uint32_t prim = g->mesh_emitter_prims[j];
+            vec3 a, b, c;
+            double n[3];
+            gpu_scene_tri(g, prim, &a, &b, &c);
+            double area = tlas_placed_tri(in, a, b, c, pass ? NULL : l->lo, pass ? NULL : l->hi, n);
+            if (pass == 0) {
+                for (int q = 0; q < 3; q++)
+                    sum[q] += area * n[q];
+                const GpuMaterial *mt = &g->materials[g->tri_shade[prim].material];
+                l->two_sided |= (mt->flags & SPT_MAT_DOUBLE_SIDED_EMISSION) != 0;
+            } else if (l->theta_o < M_PI && n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 0.0) {
+                double d = n[0] * l->axis[0] + n[1] * l->axis[1] + n[2] * l->axis[2];
+                l->theta_o = fmax(l->theta_o, acos(fmax(-1.0, fmin(1.0, d))));
+            }
+            if (pass == 0 && j + 1 == g->mesh_emitter_first[m + 1]) {
+                double len = sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
+                for (int q = 0; q < 3; q++)
+                    l->axis[q] = len > 0.0 ? sum[q] / len : (q == 2);
+                l->theta_o = len > 0.0 ? 0.0 : M_PI;
+            }
+        }
+    l->theta_e = 0.5 * M_PI;
+}
+
+/* Per tlas mesh, the box of its emitting triangles in its space (6
+ * doubles: low, high; empty for a mesh without). */
+static double *mesh_emitter_boxes(const GpuScene *g)
+{
+    double *box = spt_malloc(sizeof(double) * 6 * g->mesh_count);
+    for (uint32_t m = 0; m < g->mesh_count; m++) {
+        for (int a = 0; a < 3; a++) {
+            box[6 * m + a] = INFINITY;
+            box[6 * m + 3 + a] = -INFINITY;
+        }
+        for (uint32_t j = g->mesh_emitter_first[m]; j < g->mesh_emitter_first[m + 1]; j++) {
+            vec3 v[3];
+            gpu_scene_tri(g, g->mesh_emitter_prims[j], &v[0], &v[1], &v[2]);
+            for (int q = 0; q < 3; q++) {
+                const float c[3] = {v[q].x, v[q].y, v[q].z};
+                for (int a = 0; a < 3; a++) {
+                    box[6 * m + a] = fmin(box[6 * m + a], c[a]);
+                    box[6 * m + 3 + a] = fmax(box[6 * m + 3 + a], c[a]);
+                }
+            }
+        }
+    }
+    return box;
+}
+
 int render_lights_use_tree(const GpuScene *g, const RenderSettings *rs)
 {
     if (rs->light_tree == SPT_SWITCH_OFF)
         return 0;
     uint32_t n = g->emitter_count;
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (uint32_t k = 0; k < g->emitter_count; k++) {
+    for (uint32_t k = 0; k < g->tri_emitter_count; k++) {
         vec3 v[3];
         bvh_vertices(&g->bvh, g->emitters[k], &v[0], &v[1], &v[2]);
         for (int q = 0; q < 3; q++) {
@@ -89,6 +158,22 @@ int render_lights_use_tree(const GpuScene *g, const RenderSettings *rs)
             }
         }
     }
+    /* An instance's emitters: its mesh's emitters' box in the mesh's space
+     * (found once per mesh), its corners placed. */
+    double *mesh_box = g->emitter_count > g->tri_emitter_count ? mesh_emitter_boxes(g) : NULL;
+    for (uint32_t k = g->tri_emitter_count; k < g->emitter_count; k++) {
+        const BvhInstance *in = &g->tlas.inst[g->emitters[k]];
+        const double *mb = mesh_box + 6 * (size_t)g->tlas.inst_mesh[g->emitters[k]];
+        for (int corner = 0; corner < 8; corner++)
+            for (int r = 0; r < 3; r++) {
+                double w = in->xf[4 * r + 3];
+                for (int c = 0; c < 3; c++)
+                    w += (double)in->xf[4 * r + c] * mb[corner >> c & 1 ? 3 + c : c];
+                lo[r] = fmin(lo[r], w);
+                hi[r] = fmax(hi[r], w);
+            }
+    }
+    free(mesh_box);
     for (uint32_t j = 0; j < g->light_count; j++) {
         if (g->lights[j].type == SPT_PUNCTUAL_DIRECTIONAL)
             continue;
@@ -110,7 +195,7 @@ int render_lights_use_tree(const GpuScene *g, const RenderSettings *rs)
 
 /* The tree's bounds of every light it holds: the emitters (a triangle's
  * box, its normal, theta_e pi/2: Lambertian; two-sided when its material
- * emits on both sides) and the point and spot lights (a point; a point
+ * emits on both sides; an instance's, inst_emitter_bound) and the point and spot lights (a point; a point
  * light emits everywhere, a spot within its outer cone). ids: their indices
  * in the light selection. Returns how many. */
 static uint32_t tree_lights(const GpuScene *g, const RenderLights *L, LightBound *out, uint32_t *ids)
@@ -120,6 +205,12 @@ static uint32_t tree_lights(const GpuScene *g, const RenderLights *L, LightBound
         double w = distrib_prob(&L->select, k);
         if (!(w > 0.0))
             continue;
+        if (k >= g->tri_emitter_count) {
+            inst_emitter_bound(g, k, &out[n]);
+            out[n].power = w;
+            ids[n++] = k;
+            continue;
+        }
         vec3 a, b, c;
         bvh_vertices(&g->bvh, g->emitters[k], &a, &b, &c);
         LightBound *l = &out[n];
@@ -173,8 +264,9 @@ static uint32_t tree_lights(const GpuScene *g, const RenderLights *L, LightBound
     return n;
 }
 
-/* The tree and the aside distribution of L (render_lights_use_tree). */
-static void tree_setup(RenderLights *L, const GpuScene *g)
+/* The tree and the aside distribution of L (render_lights_use_tree), and
+ * per instance emitter (entry tri_emitter_count + j) its leaf in inst_leaf[j]. */
+static void tree_setup(RenderLights *L, const GpuScene *g, uint32_t *inst_leaf)
 {
     uint32_t cap = g->emitter_count + g->light_count;
     LightBound *lb = spt_malloc(sizeof(LightBound) * (cap ? cap : 1));
@@ -202,24 +294,85 @@ static void tree_setup(RenderLights *L, const GpuScene *g)
     distrib_build(&L->aside, w, m);
     free(w);
     L->aside_offset = L->select.n + 1;
-    L->cdf_all = spt_malloc(sizeof(float) * ((size_t)L->select.n + 1 + m + 1));
-    memcpy(L->cdf_all, L->select.cdf, sizeof(float) * (L->select.n + 1));
-    memcpy(L->cdf_all + L->aside_offset, L->aside.cdf, sizeof(float) * (m + 1));
     float pt = distrib_prob(&L->aside, 0);
     uint32_t np = g->bvh.prim_count;
     L->tri_leaf = spt_calloc(np ? np : 1, sizeof(uint32_t));
-    for (uint32_t k = 0; k < g->emitter_count; k++)
+    for (uint32_t k = 0; k < g->tri_emitter_count; k++)
         L->tri_light_pdf[g->emitters[k]] = 0.0f;
     for (uint32_t i = 0; i < n; i++)
-        if (ids[i] < g->emitter_count) {
+        if (ids[i] < g->tri_emitter_count) {
             uint32_t prim = g->emitters[ids[i]];
             L->tri_light_pdf[prim] = pt / g->emitter_area[ids[i]];
             L->tri_leaf[prim] = L->tree.leaf_of[i];
+        } else if (ids[i] < g->emitter_count) {
+            inst_leaf[ids[i] - g->tri_emitter_count] = L->tree.leaf_of[i];
         }
     if (L->env.env.kind != SPT_ENV_NONE)
         L->env_prob = distrib_prob(&L->aside, m - 1);
     free(lb);
     free(ids);
+}
+
+/* The kernels' light_cdf (select's CDF, then aside's with the tree, then
+ * the instanced meshes' CDFs) and, with instance emitters, inst_light
+ * (kernels/light/inst_lights.h; inst_leaf: their tree leaves): each
+ * emitting mesh's distribution over its emitting triangles by their power
+ * in its space, once however many instances place it, whose probabilities
+ * go to those triangles' tri_light_pdf. */
+static void cdf_setup(RenderLights *L, const GpuScene *g, const uint32_t *inst_leaf)
+{
+    uint32_t ni = g->emitter_count - g->tri_emitter_count, nk = g->tlas.inst_count;
+    size_t cdfs = (size_t)L->select.n + 1 + (L->tree.count ? L->aside.n + 1 : 0);
+    size_t words = 0;
+    uint32_t *list = NULL;
+    if (ni) {
+        /* A list per emitting mesh: n, CDF offset, n triangles. */
+        list = spt_malloc(sizeof(uint32_t) * g->mesh_count);
+        words = nk + 2 * (size_t)ni;
+        for (uint32_t m = 0; m < g->mesh_count; m++) {
+            uint32_t c = g->mesh_emitter_first[m + 1] - g->mesh_emitter_first[m];
+            list[m] = c ? (uint32_t)words : SPT_INST_LIGHT_NONE;
+            words += c ? 2 + (size_t)c : 0;
+            cdfs += c ? c + 1 : 0;
+        }
+    }
+    L->cdf_count = (uint32_t)cdfs;
+    L->cdf_all = spt_malloc(sizeof(float) * cdfs);
+    memcpy(L->cdf_all, L->select.cdf, sizeof(float) * (L->select.n + 1));
+    size_t at = (size_t)L->select.n + 1;
+    if (L->tree.count) {
+        memcpy(L->cdf_all + at, L->aside.cdf, sizeof(float) * (L->aside.n + 1));
+        at += L->aside.n + 1;
+    }
+    if (!ni)
+        return;
+    L->inst_light_count = (uint32_t)words;
+    uint32_t *il = L->inst_light = spt_malloc(sizeof(uint32_t) * words);
+    for (uint32_t k = 0; k < nk; k++)
+        il[k] = SPT_INST_LIGHT_NONE;
+    for (uint32_t j = 0; j < ni; j++) {
+        uint32_t k = g->emitters[g->tri_emitter_count + j];
+        il[k] = g->tri_emitter_count + j;
+        il[nk + 2 * j] = list[g->tlas.inst_mesh[k]];
+        il[nk + 2 * j + 1] = inst_leaf[j];
+    }
+    for (uint32_t m = 0; m < g->mesh_count; m++) {
+        if (list[m] == SPT_INST_LIGHT_NONE)
+            continue;
+        uint32_t f = g->mesh_emitter_first[m], c = g->mesh_emitter_first[m + 1] - f;
+        Distrib d;
+        distrib_build(&d, g->mesh_emitter_power + f, c);
+        il[list[m]] = c;
+        il[list[m] + 1] = (uint32_t)at;
+        memcpy(L->cdf_all + at, d.cdf, sizeof(float) * (c + 1));
+        at += c + 1;
+        for (uint32_t t = 0; t < c; t++) {
+            il[list[m] + 2 + t] = g->mesh_emitter_prims[f + t];
+            L->tri_light_pdf[g->mesh_emitter_prims[f + t]] = distrib_prob(&d, t);
+        }
+        distrib_free(&d);
+    }
+    free(list);
 }
 
 /* The lights of a render and the selection among them. */
@@ -234,11 +387,17 @@ int render_lights_setup(RenderLights *L, const GpuScene *g, const RenderSettings
                            g->spectra, &L->env, g->scene_radius);
     uint32_t n = g->prim_total;
     L->tri_light_pdf = spt_calloc(n ? n : 1, sizeof(float));
-    for (uint32_t k = 0; k < g->emitter_count; k++)
+    for (uint32_t k = 0; k < g->tri_emitter_count; k++)
         L->tri_light_pdf[g->emitters[k]] = distrib_prob(&L->select, k) / g->emitter_area[k];
     if (L->env.env.kind != SPT_ENV_NONE && L->select.n > 0)
         L->env_prob = distrib_prob(&L->select, L->select.n - 1);
+    uint32_t ni = g->emitter_count - g->tri_emitter_count;
+    uint32_t *inst_leaf = spt_malloc(sizeof(uint32_t) * (ni ? ni : 1));
+    for (uint32_t j = 0; j < ni; j++)
+        inst_leaf[j] = SPT_TREE_NONE;
     if (render_lights_use_tree(g, rs))
-        tree_setup(L, g);
+        tree_setup(L, g, inst_leaf);
+    cdf_setup(L, g, inst_leaf);
+    free(inst_leaf);
     return 0;
 }

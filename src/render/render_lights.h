@@ -16,7 +16,9 @@ typedef struct RenderLights {
     EnvLight env;
     Distrib select;          /* [emitters | punctual lights | environment] */
     float *tri_light_pdf;    /* per packed triangle: P(select) / area, 0 if not emitting;
-                                with the tree, P(the tree) / area */
+                                with the tree, P(the tree) / area; an instanced mesh's
+                                emitting triangle: its probability in its mesh's
+                                distribution (kernels/light/inst_lights.h) */
     float env_prob;
     /* The light tree (kernels/light/light_tree.h) when next-event estimation
      * uses it (tree.count > 0): the aside distribution (the tree, each
@@ -28,6 +30,12 @@ typedef struct RenderLights {
     float *cdf_all;
     uint32_t aside_offset;
     uint32_t *tri_leaf;
+    /* Emitters on instanced meshes: the kernels' inst_light
+     * (kernels/light/inst_lights.h; NULL without them), whose meshes' CDFs
+     * follow select's and aside's in cdf_all; cdf_count: cdf_all's floats. */
+    uint32_t *inst_light;
+    uint32_t inst_light_count;
+    uint32_t cdf_count;
 } RenderLights;
 
 /* Whether the render picks lights with the tree (--light-tree): never off

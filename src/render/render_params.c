@@ -65,6 +65,7 @@ void render_params(RenderParams *p, const RenderLights *L, const GpuScene *g,
     }
     p->max_depth = rs->max_depth;
     p->emitter_count = g->emitter_count;
+    p->tri_emitters = g->tri_emitter_count;
     p->light_count = g->light_count;
     p->select_count = L->select.n;
     p->emitter_total = (float)L->select.total;

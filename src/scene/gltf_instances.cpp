@@ -7,17 +7,6 @@
 
 namespace spt_gltf {
 
-// Whether a mesh with material sm stays flattened because it emits: the
-// renderer refuses emitters on instanced meshes (src/render/gpu_scene.c,
-// build_levels, the same test) until the light selection counts them once
-// per instance (docs/architecture.md, "Instances (two levels)"). Once it
-// does, this returns false and emitting meshes are placed by reference too.
-static bool emitter_keeps_mesh_flat(const SceneMaterial &sm)
-{
-    return sm.emissive[0] > 0.0f || sm.emissive[1] > 0.0f || sm.emissive[2] > 0.0f ||
-           sm.emission_spd.count || sm.emission_spd.line_count || sm.unlit;
-}
-
 // A placement of mesh mi at world by node, resolved by place_meshes once the
 // traversal has counted every mesh's placements.
 int Loader::place(int mi, const Mat4 &world, int node)
@@ -29,8 +18,9 @@ int Loader::place(int mi, const Mat4 &world, int node)
 
 // Whether mesh mi (its primitives read), placed by nodes, can be traced by
 // reference: not skinned or morphed (posed per node: src/scene/gltf_pose.cpp),
-// without TANGENT (the renderer takes tangents as world-space) and not
-// emitting (emitter_keeps_mesh_flat).
+// and without TANGENT (the renderer takes tangents as world-space). Emitting
+// meshes are lights once per instance (docs/architecture.md, "Instances (two
+// levels)").
 bool Loader::by_reference_ok(int mi, const std::vector<int> &nodes)
 {
     for (int n : nodes)
@@ -38,8 +28,7 @@ bool Loader::by_reference_ok(int mi, const std::vector<int> &nodes)
     for (const PrimData &pd : prim[mi]) {
         if (pd.skip) continue;
         const PrimData &vd = pd.vsrc ? *pd.vsrc : pd;
-        if (pd.deformable || vd.deformable || !vd.tan.empty() ||
-            emitter_keeps_mesh_flat(mats[pd.material]))
+        if (pd.deformable || vd.deformable || !vd.tan.empty())
             return false;
     }
     return true;
