@@ -68,19 +68,25 @@ int Loader::place_meshes()
         }
     }
     // Each mesh once in its own space, after the world-space triangles.
-    std::vector<uint32_t> kept(ref_meshes.size());
+    std::vector<uint32_t> kept(ref_meshes.size()), kept_emissive(ref_meshes.size());
     for (size_t k = 0; k < ref_meshes.size(); k++) {
         int mi = ref_meshes[k];
         size_t tris_before = tri_mat.size();
-        uint32_t prims_before = stats.primitives;
+        uint32_t prims_before = stats.primitives, emissive_before = stats.emissive_triangles;
         if ((rc = emit_triangles(mi, mat_identity(), nodes[mi][0]))) return rc;
         ref_tri_count.push_back((uint32_t)(tri_mat.size() - tris_before));
-        // The primitives count per placement, as flattened ones do.
+        // The primitives and emitting triangles count per placement, as
+        // flattened ones do.
         kept[k] = stats.primitives - prims_before;
+        kept_emissive[k] = stats.emissive_triangles - emissive_before;
         stats.primitives = prims_before;
+        stats.emissive_triangles = emissive_before;
         mesh_emitted[mi] = (uint32_t)nodes[mi].size();
     }
-    for (uint32_t r : inst_mesh) stats.primitives += kept[r];
+    for (uint32_t r : inst_mesh) {
+        stats.primitives += kept[r];
+        stats.emissive_triangles += kept_emissive[r];
+    }
     // A mesh whose triangles were all dropped places nothing.
     std::vector<uint32_t> renum(ref_meshes.size());
     std::vector<char> empty(ref_meshes.size());
