@@ -307,6 +307,90 @@ TEST(test_api_material_changes)
     spectrace_settings_free(st);
 }
 
+/* The sweep of the issue (docs/api.md, "Speed: a sweep in one process"): 20
+ * roughness values of one material rendered from one scene load build the
+ * program once and upload the geometry once per device, and the materials at
+ * every change; each image equals that of a scene loaded fresh with its
+ * roughness (so no stale buffer is kept). Another kernel specialisation (AOVs)
+ * builds the program again but keeps the geometry on the device; another size
+ * builds and uploads nothing. */
+static void render_fresh_at(float rough, const spectrace_settings *st, const float *want)
+{
+    spectrace_error err;
+    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
+    if (!s)
+        fail_msg("%s", err.message);
+    int glass = spectrace_scene_material_find(s, "dispersive_glass");
+    assert_int_equal(spectrace_scene_material_set(s, glass, "roughness", &rough, 1, &err), 0);
+    spectrace_image *img = render_or_fail(R, s, st);
+    float *rgb = rgb_of(img);
+    size_t n = (size_t)spectrace_image_width(img) * spectrace_image_height(img) * 3;
+    assert_memory_equal(rgb, want, n * sizeof(float));
+    free(rgb);
+    spectrace_image_free(img);
+    spectrace_scene_free(s);
+}
+
+TEST(test_api_sweep_keeps_device_state)
+{
+    spectrace_settings *st = settings(base_kv);
+    spectrace_error err;
+    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
+    if (!s)
+        fail_msg("%s", err.message);
+    int glass = spectrace_scene_material_find(s, "dispersive_glass");
+    int ndev = spectrace_renderer_device_count(R);
+    float *kept[20];
+    for (int k = 0; k < 20; k++) {
+        float rough = (float)k / 19.0f;
+        assert_int_equal(spectrace_scene_material_set(s, glass, "roughness", &rough, 1, &err), 0);
+        spectrace_image *img = render_or_fail(R, s, st);
+        kept[k] = rgb_of(img);
+        spectrace_image_free(img);
+    }
+    spectrace_scene_stats sst;
+    spectrace_scene_stats_get(s, &sst);
+    assert_int_equal(sst.renders, 20);
+    assert_int_equal(sst.bvh_builds, 1);
+    assert_int_equal(sst.program_builds, ndev);
+    assert_int_equal(sst.geometry_uploads, ndev);
+    assert_int_equal(sst.material_uploads, 20 * ndev);
+    /* Neighbouring roughness values give other images, each that of a fresh
+     * scene. */
+    assert_memory_not_equal(kept[6], kept[7], W * W * 3 * sizeof(float));
+    render_fresh_at(7.0f / 19.0f, st, kept[7]);
+    render_fresh_at(1.0f, st, kept[19]);
+
+    /* AOVs: another program, the same geometry on the device. */
+    spectrace_settings *aov = spectrace_settings_copy(st);
+    assert_int_equal(spectrace_settings_set(aov, "aov", "albedo", &err), 0);
+    spectrace_image *img = render_or_fail(R, s, aov);
+    float *with_aov = rgb_of(img);
+    spectrace_image_free(img);
+    spectrace_scene_stats_get(s, &sst);
+    assert_int_equal(sst.program_builds, 2 * ndev);
+    assert_int_equal(sst.geometry_uploads, ndev);
+    assert_int_equal(sst.material_uploads, 20 * ndev);
+    render_fresh_at(1.0f, aov, with_aov);
+
+    /* Another size: nothing built or uploaded. */
+    assert_int_equal(spectrace_settings_set(aov, "width", "24", &err), 0);
+    img = render_or_fail(R, s, aov);
+    assert_int_equal(spectrace_image_width(img), 24);
+    spectrace_image_free(img);
+    spectrace_scene_stats_get(s, &sst);
+    assert_int_equal(sst.renders, 22);
+    assert_int_equal(sst.program_builds, 2 * ndev);
+    assert_int_equal(sst.geometry_uploads, ndev);
+    assert_int_equal(sst.material_uploads, 20 * ndev);
+    free(with_aov);
+    for (int k = 0; k < 20; k++)
+        free(kept[k]);
+    spectrace_settings_free(aov);
+    spectrace_scene_free(s);
+    spectrace_settings_free(st);
+}
+
 /* A spectrum as (nm, value) pairs replaces the file's: the light's emission
  * set to the file's own samples renders the same image, and to twice them
  * twice the image (one emitter: the light choice and every path stay, each

@@ -68,6 +68,7 @@ int spectrace_version(void)
 /* ---- Devices ---------------------------------------------------------- */
 
 struct spectrace_renderer {
+    unsigned serial; /* which renderer a scene's kept programs belong to */
     ClDeviceList list;
     const ClDeviceInfo *devs[MAX_DEVICES];
     char names[MAX_DEVICES][520];
@@ -76,7 +77,9 @@ struct spectrace_renderer {
 
 spectrace_renderer *spectrace_renderer_open(const char *selector, spectrace_error *err)
 {
+    static unsigned serials;
     spectrace_renderer *r = spt_calloc(1, sizeof *r);
+    r->serial = __atomic_add_fetch(&serials, 1, __ATOMIC_SEQ_CST);
     SptError e = {0};
     int sel[MAX_DEVICES], rc;
     if ((rc = cl_device_list(&r->list, &e)) ||
@@ -252,6 +255,11 @@ struct spectrace_scene {
     Sky sky;           /* the last render's, kept while its env and background stay */
     char *sky_env, *sky_background;
     int sky_loaded;
+    /* The programs and scene buffers kept on the devices of the renderer
+     * programs_of (its serial; 0: none) between renders. */
+    RenderPrograms programs;
+    unsigned programs_of;
+    spectrace_scene_stats stats;
 };
 
 static char *dup_or_null(const char *s)
@@ -319,6 +327,8 @@ void spectrace_scene_free(spectrace_scene *s)
 {
     if (!s)
         return;
+    if (s->programs_of)
+        render_programs_free(&s->programs);
     if (s->gpu_built)
         gpu_scene_free(&s->gpu);
     if (s->sky_loaded)
@@ -575,6 +585,7 @@ static int prepare_scene(spectrace_scene *s, const RenderArgs *a, SptError *e)
         if ((rc = gpu_scene_build(&s->gpu, &s->scene, e)))
             return rc;
         s->gpu_built = 1;
+        s->stats.bvh_builds++;
         s->shading_dirty = 0;
     } else if (s->shading_dirty) {
         if ((rc = gpu_scene_build_shading(&s->gpu, &s->scene, e))) {
@@ -668,6 +679,18 @@ int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
     rs.stop = &prog.stop;
     rs.on_chunk = on_chunk;
     rs.on_chunk_ctx = &prog;
+    /* The programs and buffers kept from the scene's last render on these
+     * devices; another renderer's are closed first. */
+    if (scene->programs_of != r->serial) {
+        if (scene->programs_of) {
+            spectrace_scene_stats_get(scene, &scene->stats);
+            render_programs_free(&scene->programs);
+        }
+        render_programs_init(&scene->programs, r->count);
+        scene->programs.keep_scene = 1;
+        scene->programs_of = r->serial;
+    }
+    rs.programs = &scene->programs;
     spectrace_image *img = spt_calloc(1, sizeof *img);
     film_init_full(&img->film, rs.width, rs.height, render_keeps_aov(&rs), rs.spectral);
     RenderDeviceStats per_dev[MAX_DEVICES];
@@ -697,9 +720,20 @@ int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
     size_t len = 0;
     for (int i = 0; i < r->count && len < sizeof img->device; i++)
         len += (size_t)snprintf(img->device + len, sizeof img->device - len, "%s%s", i ? "; " : "", r->names[i]);
+    scene->stats.renders++;
     *out = img;
     spectrace_settings_free(defaults);
     return SPECTRACE_OK;
+}
+
+void spectrace_scene_stats_get(const spectrace_scene *s, spectrace_scene_stats *out)
+{
+    const RenderPrograms *p = &s->programs;
+    *out = s->stats; /* with the counts of the renderers it had before */
+    out->program_builds += p->builds;
+    out->geometry_uploads += p->w ? p->uploads[SPT_SB_nodes] : 0;
+    out->material_uploads += p->w ? p->uploads[SPT_SB_materials] : 0;
+    out->bytes_uploaded += (double)p->upload_bytes;
 }
 
 void spectrace_image_free(spectrace_image *img)

@@ -32,7 +32,7 @@ extern "C" {
 #endif
 
 #define SPECTRACE_API_VERSION_MAJOR 1
-#define SPECTRACE_API_VERSION_MINOR 0
+#define SPECTRACE_API_VERSION_MINOR 1
 /* major * 10000 + minor * 100 */
 #define SPECTRACE_API_VERSION (SPECTRACE_API_VERSION_MAJOR * 10000 + SPECTRACE_API_VERSION_MINOR * 100)
 
@@ -166,11 +166,35 @@ typedef int (*spectrace_progress_fn)(void *user, uint32_t done, uint32_t total);
 
 /* Renders scene with settings (NULL: the defaults) on r's devices, blocking,
  * into *out (free with spectrace_image_free). A scene's BVH is built once;
- * changed materials and lights are rebuilt before the render. The image is the
- * command line's for the same scene and settings, bit for bit. */
+ * changed materials and lights are rebuilt before the render. The scene keeps
+ * its programs and its device buffers on r's devices from one render to the
+ * next: a render uploads only the buffers whose contents changed (the
+ * materials after a material's change), and builds a program again only when
+ * its kernel options change (AOVs, spectral bands, a material's thin film) or
+ * the scene is rendered with another renderer (whose devices then take over).
+ * The image is the command line's for the same scene and settings, bit for
+ * bit. */
 int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
                      const spectrace_settings *settings, spectrace_progress_fn progress,
                      void *user, spectrace_image **out, spectrace_error *err);
+
+/* What a scene's renders have cost so far (since version 1.1): the renders
+ * that completed; the BVH builds (one per load, again only when a material
+ * change could not be applied to the kept one); the programs built or loaded
+ * from the program cache (one per device, again when the kernel options
+ * change); the uploads of the geometry (BVH, triangles and vertex arrays) and
+ * of the materials array to the devices (one per device each time it
+ * changed); and every byte uploaded of the scene's buffers. */
+typedef struct spectrace_scene_stats {
+    int renders;
+    int bvh_builds;
+    int program_builds;
+    int geometry_uploads;
+    int material_uploads;
+    double bytes_uploaded;
+} spectrace_scene_stats;
+
+void spectrace_scene_stats_get(const spectrace_scene *s, spectrace_scene_stats *out);
 
 void spectrace_image_free(spectrace_image *img);
 int spectrace_image_width(const spectrace_image *img);

@@ -54,6 +54,12 @@ class _ColorInfo(ctypes.Structure):
                 ("srgb8", ctypes.c_int * 3), ("x", ctypes.c_double), ("y", ctypes.c_double)]
 
 
+class _SceneStats(ctypes.Structure):
+    _fields_ = [("renders", ctypes.c_int), ("bvh_builds", ctypes.c_int),
+                ("program_builds", ctypes.c_int), ("geometry_uploads", ctypes.c_int),
+                ("material_uploads", ctypes.c_int), ("bytes_uploaded", ctypes.c_double)]
+
+
 _PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_uint32, ctypes.c_uint32)
 
 
@@ -91,7 +97,7 @@ def _load():
         "settings_count": (I, []), "settings_name": (C, [I]), "settings_kind": (C, [I]),
         "settings_help": (C, [I]),
         "scene_load": (P, [C, P, E]), "scene_load_memory": (P, [C, ctypes.c_size_t, C, E]),
-        "scene_free": (None, [P]),
+        "scene_free": (None, [P]), "scene_stats_get": (None, [P, ctypes.POINTER(_SceneStats)]),
         "scene_material_count": (I, [P]), "scene_material_name": (C, [P, I]),
         "scene_material_find": (I, [P, C]),
         "scene_material_get": (I, [P, I, C, FP, E]), "scene_material_set": (I, [P, I, C, FP, I, E]),
@@ -497,6 +503,15 @@ class Scene:
         if getattr(self, "_h", None):
             _lib.spectrace_scene_free(self._h)
             self._h = None
+
+    @property
+    def stats(self):
+        """What the scene's renders have cost so far, as a dict: renders, bvh_builds,
+        program_builds (per device), geometry_uploads and material_uploads (per device)
+        and bytes_uploaded (spectrace_scene_stats in spectrace.h)."""
+        st = _SceneStats()
+        _lib.spectrace_scene_stats_get(self._h, ctypes.byref(st))
+        return {name: getattr(st, name) for name, _ in _SceneStats._fields_}
 
     def render(self, settings=None, device=None, progress=None, **kw):
         """Renders with settings (a Settings, and/or keyword settings) on device's renderer

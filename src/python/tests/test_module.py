@@ -23,7 +23,7 @@ def box():
 
 
 def test_version():
-    assert spectrace.version() == (1, 0)
+    assert spectrace.version() == (1, 1)
 
 
 def test_only_the_api_is_exported():
@@ -81,16 +81,25 @@ def test_settings():
     assert names["spp"][0] == "int" and "output" not in names and "width" in names
 
 
-def test_roughness_and_back(box):
+def test_roughness_and_back():
+    box = spectrace.Scene(BOX)
     glass = box.materials["dispersive_glass"]
     assert glass.roughness == 0.0 and glass.name == "dispersive_glass"
     first = box.render(**SMALL).rgb
+    first_bytes = box.stats["bytes_uploaded"]
     glass.roughness = 0.4
     rough = box.render(**SMALL).rgb
     glass.roughness = 0.0
     again = box.render(**SMALL).rgb
     assert not np.array_equal(first, rough)
     np.testing.assert_array_equal(first, again)
+    # The first render uploaded the whole scene; the two changes only the
+    # materials, a small part of it.
+    ndev = len(spectrace._renderer(None).devices)
+    st = box.stats
+    assert st["renders"] == 3 and st["bvh_builds"] == 1 and st["program_builds"] == ndev
+    assert st["geometry_uploads"] == ndev and st["material_uploads"] == 3 * ndev
+    assert 0 < st["bytes_uploaded"] - first_bytes < 0.1 * first_bytes
     with pytest.raises(spectrace.SpectraceError) as e:
         glass.roughness = 1.5
     assert e.value.code == 2 and "outside [0, 1]" in e.value.message
