@@ -50,6 +50,15 @@ static spectrace_settings *settings(const char *const *kv)
 
 static const char *const base_kv[] = {"width=32", "spp=4", "seed=7", "caustics=off", NULL};
 
+static spectrace_scene *load_or_fail(const char *path, const spectrace_settings *st)
+{
+    spectrace_error err;
+    spectrace_scene *s = spectrace_scene_load(path, st, &err);
+    if (!s)
+        fail_msg("%s: %s", path, err.message);
+    return s;
+}
+
 static spectrace_image *render_or_fail(spectrace_renderer *r, spectrace_scene *s, const spectrace_settings *st)
 {
     spectrace_image *img;
@@ -110,9 +119,7 @@ TEST(test_api_equals_command_line)
                                      "spectral=4", NULL};
     spectrace_settings *st = settings(kv);
     spectrace_error err;
-    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
-    if (!s)
-        fail_msg("%s", err.message);
+    spectrace_scene *s = load_or_fail(BOX, st);
     spectrace_image *img = render_or_fail(R, s, st);
     assert_int_equal(spectrace_image_width(img), W);
     assert_int_equal(spectrace_image_height(img), W); /* the box's camera is square */
@@ -147,6 +154,30 @@ TEST(test_api_equals_command_line)
     assert_int_equal(M.channel_count, L.channel_count);
     for (int c = 0; c < L.channel_count; c++)
         assert_channel_is(&M, L.channels[c].name, L.channels[c].data, 1);
+    /* And the command line's metadata (src/render/render_result.h): each key
+     * with the same value, the render's own seconds aside. */
+    size_t na, nc;
+    char *api = test_slurp(test_path("api.exr"), &na), *cli = test_slurp(test_path("cli.exr"), &nc);
+    static const char *const keys[] = {"spectrace:max_depth", "spectrace:nan_dropped", "spectrace:seed",
+                                       "spectrace:spp", "spectrace:device", "spectrace:scene"};
+    for (size_t k = 0; k < sizeof keys / sizeof keys[0]; k++) {
+        const char *a = memmem(api, na, keys[k], strlen(keys[k]) + 1);
+        const char *c = memmem(cli, nc, keys[k], strlen(keys[k]) + 1);
+        if (!a || !c)
+            fail_msg("%s: in the library's EXR %d, the command line's %d", keys[k], !!a, !!c);
+        /* name, type name, 4-byte size, value */
+        a += strlen(keys[k]) + 1;
+        c += strlen(keys[k]) + 1;
+        a += strlen(a) + 1;
+        c += strlen(c) + 1;
+        int32_t sa, sc;
+        memcpy(&sa, a, 4);
+        memcpy(&sc, c, 4);
+        assert_int_equal(sa, sc);
+        assert_memory_equal(a + 4, c + 4, (size_t)sa);
+    }
+    free(api);
+    free(cli);
     exr_layers_free(&L);
     exr_layers_free(&M);
     free(rgb);
@@ -257,9 +288,7 @@ TEST(test_api_material_changes)
 {
     spectrace_settings *st = settings(base_kv);
     spectrace_error err;
-    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
-    if (!s)
-        fail_msg("%s", err.message);
+    spectrace_scene *s = load_or_fail(BOX, st);
     int glass = spectrace_scene_material_find(s, "dispersive_glass"), light = spectrace_scene_material_find(s, "light");
     assert_true(glass >= 0 && light >= 0);
     assert_int_equal(spectrace_scene_material_find(s, "no such"), -1);
@@ -317,9 +346,7 @@ TEST(test_api_material_changes)
 static void render_fresh_at(float rough, const spectrace_settings *st, const float *want)
 {
     spectrace_error err;
-    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
-    if (!s)
-        fail_msg("%s", err.message);
+    spectrace_scene *s = load_or_fail(BOX, st);
     int glass = spectrace_scene_material_find(s, "dispersive_glass");
     assert_int_equal(spectrace_scene_material_set(s, glass, "roughness", &rough, 1, &err), 0);
     spectrace_image *img = render_or_fail(R, s, st);
@@ -335,9 +362,7 @@ TEST(test_api_sweep_keeps_device_state)
 {
     spectrace_settings *st = settings(base_kv);
     spectrace_error err;
-    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
-    if (!s)
-        fail_msg("%s", err.message);
+    spectrace_scene *s = load_or_fail(BOX, st);
     int glass = spectrace_scene_material_find(s, "dispersive_glass");
     int ndev = spectrace_renderer_device_count(R);
     float *kept[20];
@@ -399,9 +424,7 @@ TEST(test_api_spectrum_changes)
 {
     spectrace_settings *st = settings(base_kv);
     spectrace_error err;
-    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
-    if (!s)
-        fail_msg("%s", err.message);
+    spectrace_scene *s = load_or_fail(BOX, st);
     int light = spectrace_scene_material_find(s, "light");
     spectrace_image *img = render_or_fail(R, s, st);
     float *before = rgb_of(img);

@@ -23,6 +23,7 @@
 #include "render/film_layers.h"
 #include "render/gpu_scene.h"
 #include "render/render.h"
+#include "render/render_result.h"
 #include "scene/scene.h"
 #include "scene/sky.h"
 
@@ -550,8 +551,8 @@ int spectrace_scene_light_set_spectrum(spectrace_scene *s, int i, const double *
 struct spectrace_image {
     Film film;
     RenderStats st;
-    unsigned aov;
-    int seed, max_depth;
+    RenderSettings rs; /* as rendered; its pose (at, animation, camera) in pose */
+    char *pose[3];
     DisplayOptions disp;
     char *scene_path;
     char device[4096];
@@ -617,30 +618,7 @@ static int prepare_scene(spectrace_scene *s, const RenderArgs *a, SptError *e)
 static void complete(RenderSettings *rs, const SceneCamera *cam)
 {
     render_image_size(rs, cam);
-    /* auto: on for a render given seconds; off is kept as 0, the default. */
-    if (rs->adaptive == SPT_SWITCH_AUTO && rs->time_limit > 0)
-        rs->adaptive = SPT_SWITCH_ON;
-    if (rs->adaptive == SPT_SWITCH_OFF)
-        rs->adaptive = SPT_SWITCH_AUTO;
-}
-
-/* The host memory of the film and of the render against what is available,
- * as the command line checks it (docs/limits.md, "The memory estimate"):
- * too much is SPECTRACE_ERR_DEVICE, before an allocation could fail. */
-static int check_memory(const spectrace_renderer *r, const spectrace_scene *scene,
-                        const RenderSettings *rs, spectrace_error *err)
-{
-    RenderMemory m;
-    render_memory(r->devs, r->count, &scene->gpu, &scene->scene.camera, rs, &m);
-    double need = (double)film_bytes(rs->width, rs->height, render_keeps_aov(rs), rs->spectral) +
-                  (double)m.total,
-           limit = spt_memory_limit();
-    char a[32], b[32];
-    if (limit > 0 && need > limit)
-        return fail(err, SPECTRACE_ERR_DEVICE, "render: a %dx%d render needs about %s of host memory, "
-                    "more than the %s %s", rs->width, rs->height, spt_format_bytes(a, sizeof a, need),
-                    spt_format_bytes(b, sizeof b, limit), spt_memory_limit_why());
-    return SPECTRACE_OK;
+    render_adaptive_resolve(rs, 1);
 }
 
 int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
@@ -670,9 +648,13 @@ int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
     if (a->given[SPT_ARG_time_limit] && !a->given[SPT_ARG_spp])
         rs.spp = 1 << 24;
     rs.sky = &scene->sky;
-    if ((rc = check_memory(r, scene, &rs, err))) {
+    /* The host memory of the film, the render and the image's arrays, as the
+     * command line checks it (docs/limits.md, "The memory estimate"). */
+    RenderHostMemory hm;
+    if ((rc = render_host_memory(r->devs, r->count, &scene->gpu, &scene->scene.camera, &rs, NULL, 0,
+                                 &hm, &e))) {
         spectrace_settings_free(defaults);
-        return rc;
+        return pass(err, &e, rc);
     }
     Progress prog = {progress, user, 0, (uint32_t)rs.spp};
     rs.progress = 0;
@@ -703,23 +685,21 @@ int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
         pass(err, &e, rc);
     else if (img->st.spp_done == 0)
         rc = fail(err, SPECTRACE_ERR_CANCELLED, "render: stopped before any pass completed");
-    else if (film_nonfinite_except_squares(&img->film))
-        rc = fail(err, SPECTRACE_ERR_FAILURE, "render: %zu of %ld pixels came out NaN or infinite (an "
-                  "internal error)", film_nonfinite_except_squares(&img->film),
-                  (long)rs.width * rs.height);
+    else if ((rc = render_film_check(&img->film, &rs, scene->scene.path ? scene->scene.path
+                                                                        : "(memory)", &e)))
+        pass(err, &e, rc);
     if (rc) {
         spectrace_image_free(img);
         spectrace_settings_free(defaults);
         return rc;
     }
-    img->aov = rs.aov;
-    img->seed = (int)rs.seed;
-    img->max_depth = rs.max_depth;
+    img->rs = rs;
+    img->rs.at = img->pose[0] = dup_or_null(rs.at);
+    img->rs.animation = img->pose[1] = dup_or_null(rs.animation);
+    img->rs.camera = img->pose[2] = dup_or_null(rs.camera);
     img->disp = (DisplayOptions){(float)a->exposure, a->tonemap};
     img->scene_path = spt_strdup(scene->scene.path ? scene->scene.path : "(memory)");
-    size_t len = 0;
-    for (int i = 0; i < r->count && len < sizeof img->device; i++)
-        len += (size_t)snprintf(img->device + len, sizeof img->device - len, "%s%s", i ? "; " : "", r->names[i]);
+    render_device_description(r->devs, r->count, per_dev, img->device, sizeof img->device);
     scene->stats.renders++;
     *out = img;
     spectrace_settings_free(defaults);
@@ -742,6 +722,8 @@ void spectrace_image_free(spectrace_image *img)
         return;
     film_free(&img->film);
     free(img->scene_path);
+    for (int k = 0; k < 3; k++)
+        free(img->pose[k]);
     free(img);
 }
 
@@ -797,7 +779,7 @@ int spectrace_image_aov(const spectrace_image *img, const char *layer, float *ou
     if (!layer || film_aov_parse(layer, &bit) || (bit & (bit - 1)))
         return -fail(err, SPECTRACE_ERR_USAGE, "image: '%s' is not an AOV layer (albedo, N, Z, P, "
                      "variance, spp)", layer ? layer : "(null)");
-    if (!(img->aov & bit))
+    if (!(img->rs.aov & bit))
         return -fail(err, SPECTRACE_ERR_USAGE, "image: the render has no %s layer (add it to the "
                      "aov setting)", layer);
     return film_aov_layer(&img->film, bit, out);
@@ -824,26 +806,12 @@ int spectrace_image_write(const spectrace_image *img, const char *path, spectrac
         return pass(err, &e, rc);
     float *rgb = spt_malloc((size_t)f->width * f->height * 3 * sizeof(float));
     film_to_linear_srgb(f, rgb);
-    FilmLayers L;
-    film_layers_make(&L, f, img->aov, 0);
-    ImageMeta meta;
-    memset(&meta, 0, sizeof meta);
-    meta.spp = (int)img->st.spp_done;
-    meta.render_seconds = img->st.seconds;
-    meta.device = img->device;
-    meta.seed = (uint32_t)img->seed;
-    meta.scene = img->scene_path;
-    char depth_s[32];
-    snprintf(depth_s, sizeof depth_s, "%d", img->max_depth);
-    image_meta_add(&meta, "max_depth", depth_s);
-    meta.layers = L.channels;
-    meta.layer_count = L.count;
-    meta.exr_attrs = L.attrs;
-    meta.exr_attr_count = L.attr_count;
+    RenderImageMeta meta;
+    render_image_meta(&meta, f, &img->rs, &img->st, img->device, img->scene_path, 0);
     pthread_mutex_lock(&io_lock);
-    rc = image_write(path, rgb, f->width, f->height, &meta, &img->disp, &e);
+    rc = image_write(path, rgb, f->width, f->height, &meta.meta, &img->disp, &e);
     pthread_mutex_unlock(&io_lock);
-    film_layers_free(&L);
+    render_image_meta_free(&meta);
     free(rgb);
     return rc ? pass(err, &e, rc) : SPECTRACE_OK;
 }

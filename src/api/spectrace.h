@@ -170,7 +170,7 @@ typedef int (*spectrace_progress_fn)(void *user, uint32_t done, uint32_t total);
  * its programs and its device buffers on r's devices from one render to the
  * next: a render uploads only the buffers whose contents changed (the
  * materials after a material's change), and builds a program again only when
- * its kernel options change (AOVs, spectral bands, a material's thin film) or
+ * its kernel options change (AOVs, spectral bands) or
  * the scene is rendered with another renderer (whose devices then take over).
  * The image is the command line's for the same scene and settings, bit for
  * bit. */

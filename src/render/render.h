@@ -125,6 +125,13 @@ static inline int render_keeps_aov(const RenderSettings *rs)
  * camera's aspect ratio (1 when it has none). */
 void render_image_size(RenderSettings *rs, const SceneCamera *cam);
 
+/* --adaptive auto resolved (README.md, "--adaptive"): on for a render given
+ * seconds (--time), where the image is what counts, when may_adapt (not
+ * across MPI ranks nor with checkpoints, which keep no sums of squares); off
+ * otherwise, kept as SPT_SWITCH_AUTO (a RenderSettings' default, so a render
+ * without adaptive sampling has one checkpoint key however it was asked for). */
+void render_adaptive_resolve(RenderSettings *rs, int may_adapt);
+
 /* Kernel stages timed by --profile (src/render/wavefront.h, K_*). */
 #define SPT_STAGES 6
 
