@@ -587,6 +587,47 @@ TEST(test_api_scene_from_memory)
     assert_int_equal(err.code, SPECTRACE_ERR_INPUT);
 }
 
+/* A scene from bytes posed as asked: the turntable at 0.5 s from its bytes is
+ * the file loaded at 0.5 s, bit for bit, and not its rest pose; a render of
+ * it asking for another pose is refused. */
+TEST(test_api_scene_from_memory_posed)
+{
+    /* kv + 1: the same without the pose. */
+    static const char *const kv[] = {"at=0.5", "width=16", "spp=2", "seed=7", "caustics=off",
+                                     "max-depth=3", NULL};
+    const char *path = SPT_TEST_DATA("anim/turntable.gltf");
+    size_t n;
+    char *bytes = test_slurp(path, &n);
+    spectrace_settings *st = settings(kv), *rest = settings(kv + 1);
+    spectrace_error err;
+    spectrace_scene *a = spectrace_scene_load_memory_posed(bytes, n, SPT_TEST_DATA("anim"), st, &err);
+    if (!a)
+        fail_msg("%s", err.message);
+    spectrace_scene *b = load_or_fail(path, st);
+    spectrace_scene *c = spectrace_scene_load_memory(bytes, n, SPT_TEST_DATA("anim"), &err);
+    assert_non_null(c);
+    spectrace_image *ia = render_or_fail(R, a, st), *ib = render_or_fail(R, b, st), *ic = render_or_fail(R, c, rest);
+    float *ra = rgb_of(ia), *rb = rgb_of(ib), *rc = rgb_of(ic);
+    size_t bytes_rgb = (size_t)spectrace_image_width(ia) * spectrace_image_height(ia) * 3 * sizeof(float);
+    assert_memory_equal(ra, rb, bytes_rgb);
+    assert_memory_not_equal(ra, rc, bytes_rgb);
+    spectrace_image *none;
+    assert_int_equal(spectrace_render(R, a, rest, NULL, NULL, &none, &err), SPECTRACE_ERR_USAGE);
+    assert_non_null(strstr(err.message, "differ from the pose the scene was loaded in"));
+    free(ra);
+    free(rb);
+    free(rc);
+    free(bytes);
+    spectrace_image_free(ia);
+    spectrace_image_free(ib);
+    spectrace_image_free(ic);
+    spectrace_scene_free(a);
+    spectrace_scene_free(b);
+    spectrace_scene_free(c);
+    spectrace_settings_free(st);
+    spectrace_settings_free(rest);
+}
+
 typedef struct Calls {
     int n;
     uint32_t last, total;

@@ -249,7 +249,6 @@ const char *spectrace_settings_help(int i)
 struct spectrace_scene {
     Scene scene;
     char *pose_at, *pose_animation, *pose_camera; /* as loaded (NULL: not given) */
-    int from_memory;
     GpuScene gpu;
     int gpu_built;     /* the BVH and the device arrays exist */
     int shading_dirty; /* a material or light changed since */
@@ -279,7 +278,6 @@ static spectrace_scene *load(const char *path, const void *data, size_t size, co
                              const RenderSettings *rs, spectrace_error *err)
 {
     spectrace_scene *s = spt_calloc(1, sizeof *s);
-    s->from_memory = data != NULL;
     if (rs) {
         s->pose_at = dup_or_null(rs->at);
         s->pose_animation = dup_or_null(rs->animation);
@@ -289,7 +287,7 @@ static spectrace_scene *load(const char *path, const void *data, size_t size, co
     SptError e = {0};
     pthread_mutex_lock(&io_lock);
     input_seen_reset();
-    int rc = data ? scene_load_gltf_memory(&s->scene, data, size, name, &e)
+    int rc = data ? scene_load_gltf_memory_posed(&s->scene, data, size, name, &pose, &e)
                   : scene_load_gltf_posed(&s->scene, path, &pose, &e);
     input_seen_reset();
     pthread_mutex_unlock(&io_lock);
@@ -314,6 +312,14 @@ spectrace_scene *spectrace_scene_load(const char *path, const spectrace_settings
 spectrace_scene *spectrace_scene_load_memory(const void *data, size_t size, const char *base_dir,
                                              spectrace_error *err)
 {
+    return spectrace_scene_load_memory_posed(data, size, base_dir, NULL, err);
+}
+
+spectrace_scene *spectrace_scene_load_memory_posed(const void *data, size_t size,
+                                                   const char *base_dir,
+                                                   const spectrace_settings *settings,
+                                                   spectrace_error *err)
+{
     if (!data) {
         fail(err, SPECTRACE_ERR_USAGE, "scene: no data");
         return NULL;
@@ -321,7 +327,7 @@ spectrace_scene *spectrace_scene_load_memory(const void *data, size_t size, cons
     /* The loader looks up external files in the folder of the name. */
     char name[4096];
     snprintf(name, sizeof name, "%s/(memory)", base_dir && *base_dir ? base_dir : ".");
-    return load(NULL, data, size, name, NULL, err);
+    return load(NULL, data, size, name, settings ? &settings->a.rs : NULL, err);
 }
 
 void spectrace_scene_free(spectrace_scene *s)
@@ -634,8 +640,7 @@ int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
     if (!same_text(rs.at, scene->pose_at) || !same_text(rs.animation, scene->pose_animation) ||
         !same_text(rs.camera, scene->pose_camera)) {
         rc = fail(err, SPECTRACE_ERR_USAGE, "render: the settings' at, animation or camera differ "
-                  "from the pose the scene was loaded in (load it with these settings)%s",
-                  scene->from_memory ? "; a scene from memory has the rest pose" : "");
+                  "from the pose the scene was loaded in (load it with these settings)");
         spectrace_settings_free(defaults);
         return rc;
     }

@@ -114,10 +114,15 @@ typedef struct spectrace_scene spectrace_scene;
 spectrace_scene *spectrace_scene_load(const char *path, const spectrace_settings *settings,
                                       spectrace_error *err);
 /* The same from the file's bytes (.gltf or .glb); its external buffers and
- * images are read from folder base_dir (NULL: the current folder). The rest
- * pose and the first camera. */
+ * images are read from folder base_dir (NULL: the current folder). _memory
+ * loads the rest pose and the first camera; _memory_posed (since 1.1) the
+ * pose of settings (may be NULL), as spectrace_scene_load. */
 spectrace_scene *spectrace_scene_load_memory(const void *data, size_t size, const char *base_dir,
                                              spectrace_error *err);
+spectrace_scene *spectrace_scene_load_memory_posed(const void *data, size_t size,
+                                                   const char *base_dir,
+                                                   const spectrace_settings *settings,
+                                                   spectrace_error *err);
 void spectrace_scene_free(spectrace_scene *s);
 
 /* Materials: their count, index i's name, and the index of the first named

@@ -97,6 +97,7 @@ def _load():
         "settings_count": (I, []), "settings_name": (C, [I]), "settings_kind": (C, [I]),
         "settings_help": (C, [I]),
         "scene_load": (P, [C, P, E]), "scene_load_memory": (P, [C, ctypes.c_size_t, C, E]),
+        "scene_load_memory_posed": (P, [C, ctypes.c_size_t, C, P, E]),
         "scene_free": (None, [P]), "scene_stats_get": (None, [P, ctypes.POINTER(_SceneStats)]),
         "scene_material_count": (I, [P]), "scene_material_name": (C, [P, I]),
         "scene_material_find": (I, [P, C]),
@@ -478,13 +479,15 @@ class Scene:
         self._collections()
 
     @classmethod
-    def from_bytes(cls, data, base_dir=None):
-        """A scene from a .gltf or .glb file's bytes; external files from base_dir."""
+    def from_bytes(cls, data, base_dir=None, at=None, animation=None, camera=None):
+        """A scene from a .gltf or .glb file's bytes; external files from base_dir; posed
+        as Scene(path, at=..., animation=..., camera=...) is."""
         s = cls.__new__(cls)
-        s._pose = Settings()
+        s._pose = Settings(at=at, animation=animation, camera=camera)
         err = _Error()
-        s._h = _lib.spectrace_scene_load_memory(bytes(data), len(data),
-                                                _enc(None if base_dir is None else os.fspath(base_dir)), err)
+        s._h = _lib.spectrace_scene_load_memory_posed(
+            bytes(data), len(data), _enc(None if base_dir is None else os.fspath(base_dir)),
+            s._pose._h, err)
         if not s._h:
             _check(err.code or 1, err)
         s._collections()

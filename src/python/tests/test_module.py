@@ -128,6 +128,18 @@ def test_scene_from_bytes(box):
     np.testing.assert_array_equal(mem.render(**SMALL).rgb, fresh.render(**SMALL).rgb)
 
 
+def test_scene_from_bytes_posed():
+    # The turntable at 0.5 s from its bytes is the file loaded at 0.5 s, and not its
+    # rest pose.
+    path = "tests/data/anim/turntable.gltf"
+    data = Path(path).read_bytes()
+    small = dict(width=16, spp=2, seed=7, caustics="off", max_depth=3)
+    posed = spectrace.Scene.from_bytes(data, base_dir="tests/data/anim", at=0.5).render(**small).rgb
+    np.testing.assert_array_equal(posed, spectrace.Scene(path, at=0.5).render(**small).rgb)
+    rest = spectrace.Scene.from_bytes(data, base_dir="tests/data/anim").render(**small).rgb
+    assert not np.array_equal(posed, rest)
+
+
 def test_errors():
     with pytest.raises(spectrace.SpectraceError) as e:
         spectrace.Scene("no/such.gltf")
