@@ -177,6 +177,8 @@ typedef int (*spectrace_progress_fn)(void *user, uint32_t done, uint32_t total);
  * materials after a material's change), and builds a program again only when
  * its kernel options change (AOVs, spectral bands) or
  * the scene is rendered with another renderer (whose devices then take over).
+ * What it keeps (the buffers, and on a CPU device their host memory) is
+ * released by spectrace_scene_free.
  * The image is the command line's for the same scene and settings, bit for
  * bit. */
 int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
