@@ -386,32 +386,38 @@ TEST(test_api_sweep_keeps_device_state)
     render_fresh_at(7.0f / 19.0f, st, kept[7]);
     render_fresh_at(1.0f, st, kept[19]);
 
-    /* AOVs: another program, the same geometry on the device. */
-    spectrace_settings *aov = spectrace_settings_copy(st);
-    assert_int_equal(spectrace_settings_set(aov, "aov", "albedo", &err), 0);
-    spectrace_image *img = render_or_fail(R, s, aov);
-    float *with_aov = rgb_of(img);
-    spectrace_image_free(img);
-    spectrace_scene_stats_get(s, &sst);
-    assert_int_equal(sst.program_builds, 2 * ndev);
-    assert_int_equal(sst.geometry_uploads, ndev);
-    assert_int_equal(sst.material_uploads, 20 * ndev);
-    render_fresh_at(1.0f, aov, with_aov);
+    /* AOVs: another program, the same geometry on the device (not in the
+     * quick form: rusticl takes over 15 minutes to build the AOV kernels). */
+    spectrace_settings *next = spectrace_settings_copy(st);
+    int builds = ndev, renders = 20;
+    if (!test_quick()) {
+        assert_int_equal(spectrace_settings_set(next, "aov", "albedo", &err), 0);
+        spectrace_image *img = render_or_fail(R, s, next);
+        float *with_aov = rgb_of(img);
+        spectrace_image_free(img);
+        spectrace_scene_stats_get(s, &sst);
+        builds += ndev;
+        renders++;
+        assert_int_equal(sst.program_builds, builds);
+        assert_int_equal(sst.geometry_uploads, ndev);
+        assert_int_equal(sst.material_uploads, 20 * ndev);
+        render_fresh_at(1.0f, next, with_aov);
+        free(with_aov);
+    }
 
     /* Another size: nothing built or uploaded. */
-    assert_int_equal(spectrace_settings_set(aov, "width", "24", &err), 0);
-    img = render_or_fail(R, s, aov);
+    assert_int_equal(spectrace_settings_set(next, "width", "24", &err), 0);
+    spectrace_image *img = render_or_fail(R, s, next);
     assert_int_equal(spectrace_image_width(img), 24);
     spectrace_image_free(img);
     spectrace_scene_stats_get(s, &sst);
-    assert_int_equal(sst.renders, 22);
-    assert_int_equal(sst.program_builds, 2 * ndev);
+    assert_int_equal(sst.renders, renders + 1);
+    assert_int_equal(sst.program_builds, builds);
     assert_int_equal(sst.geometry_uploads, ndev);
     assert_int_equal(sst.material_uploads, 20 * ndev);
-    free(with_aov);
     for (int k = 0; k < 20; k++)
         free(kept[k]);
-    spectrace_settings_free(aov);
+    spectrace_settings_free(next);
     spectrace_scene_free(s);
     spectrace_settings_free(st);
 }
