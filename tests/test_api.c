@@ -10,6 +10,7 @@
 #include "test_main.h"
 
 #include "api/spectrace.h"
+#include "denoise_test.h"
 #include "io/exr.h"
 
 #define BOX "scenes/cornell_box.gltf"
@@ -591,6 +592,49 @@ TEST(test_api_scene_from_memory)
     spectrace_settings_free(st);
     assert_null(spectrace_scene_load_memory("{", 1, NULL, &err));
     assert_int_equal(err.code, SPECTRACE_ERR_INPUT);
+}
+
+/* denoise: the library's image is the command line's --denoise image bit for
+ * bit, denoised and noisy (noisy_rgb, the EXR's noisy layer), and its EXR
+ * holds the same channels. */
+TEST(test_api_denoise)
+{
+    Denoiser probe;
+    oidn_probe(&probe);
+    if (have_oidn)
+        denoiser_close(&probe);
+    need_oidn();
+    static const char *const kv[] = {"width=32", "spp=4", "seed=7", "caustics=off", "denoise=true", NULL};
+    spectrace_settings *st = settings(kv);
+    spectrace_error err;
+    spectrace_scene *s = load_or_fail(BOX, st);
+    spectrace_image *img = render_or_fail(R, s, st);
+    float *rgb = rgb_of(img), *noisy = malloc(W * W * 3 * sizeof(float));
+    assert_non_null(noisy);
+    spectrace_image_noisy_rgb(img, noisy);
+    assert_memory_not_equal(rgb, noisy, W * W * 3 * sizeof(float));
+    ExrLayers L, M;
+    cli_render(BOX, "--denoise", test_path("den-cli.exr"), &L);
+    static const char *const rgbn[] = {"R", "G", "B"}, *const noisyn[] = {"noisy.R", "noisy.G", "noisy.B"};
+    for (int c = 0; c < 3; c++) {
+        assert_channel_is(&L, rgbn[c], rgb + c, 3);
+        assert_channel_is(&L, noisyn[c], noisy + c, 3);
+    }
+    if (spectrace_image_write(img, test_path("den-api.exr"), &err))
+        fail_msg("%s", err.message);
+    SptError e = {0};
+    if (exr_read_layers(test_path("den-api.exr"), NULL, 0, &M, &e))
+        fail_msg("%s", e.msg);
+    assert_int_equal(M.channel_count, L.channel_count);
+    for (int c = 0; c < L.channel_count; c++)
+        assert_channel_is(&M, L.channels[c].name, L.channels[c].data, 1);
+    exr_layers_free(&L);
+    exr_layers_free(&M);
+    free(rgb);
+    free(noisy);
+    spectrace_image_free(img);
+    spectrace_scene_free(s);
+    spectrace_settings_free(st);
 }
 
 /* A scene from bytes posed as asked: the turntable at 0.5 s from its bytes is

@@ -74,6 +74,8 @@ struct spectrace_renderer {
     const ClDeviceInfo *devs[MAX_DEVICES];
     char names[MAX_DEVICES][520];
     int count;
+    Denoiser den;     /* Open Image Denoise, loaded by the first render asking for it */
+    int den_loaded;
 };
 
 spectrace_renderer *spectrace_renderer_open(const char *selector, spectrace_error *err)
@@ -101,6 +103,8 @@ void spectrace_renderer_close(spectrace_renderer *r)
     if (!r)
         return;
     cl_device_list_free(&r->list);
+    if (r->den_loaded)
+        denoiser_close(&r->den);
     free(r);
 }
 
@@ -154,7 +158,7 @@ static int not_a_setting(int i)
 {
     return i == SPT_ARG_outputs || i == SPT_ARG_device || i == SPT_ARG_checkpoint ||
            i == SPT_ARG_checkpoint_every || i == SPT_ARG_resume || i == SPT_ARG_quiet ||
-           i == SPT_ARG_help || i == SPT_ARG_denoise;
+           i == SPT_ARG_help;
 }
 
 static int find_option(const char *name, spectrace_error *err)
@@ -559,6 +563,7 @@ struct spectrace_image {
     RenderStats st;
     RenderSettings rs; /* as rendered; its pose (at, animation, camera) in pose */
     char *pose[3];
+    float *denoised;   /* with denoise: the image denoised (the film's is the noisy one) */
     DisplayOptions disp;
     char *scene_path;
     char device[4096];
@@ -657,10 +662,12 @@ int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
      * command line checks it (docs/limits.md, "The memory estimate"). */
     RenderHostMemory hm;
     if ((rc = render_host_memory(r->devs, r->count, &scene->gpu, &scene->scene.camera, &rs, NULL, 0,
-                                 &hm, &e))) {
+                                 &hm, &e)) ||
+        (rs.denoise && !r->den_loaded && (rc = denoiser_open(&r->den, &e)))) {
         spectrace_settings_free(defaults);
         return pass(err, &e, rc);
     }
+    r->den_loaded |= rs.denoise;
     Progress prog = {progress, user, 0, (uint32_t)rs.spp};
     rs.progress = 0;
     rs.stop = &prog.stop;
@@ -693,6 +700,15 @@ int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
     else if ((rc = render_film_check(&img->film, &rs, scene->scene.path ? scene->scene.path
                                                                         : "(memory)", &e)))
         pass(err, &e, rc);
+    else if (rs.denoise) {
+        size_t floats = (size_t)rs.width * rs.height * 3;
+        float *noisy = spt_malloc(floats * sizeof(float));
+        film_to_linear_srgb(&img->film, noisy);
+        img->denoised = spt_malloc(floats * sizeof(float));
+        if ((rc = render_denoise(&r->den, &img->film, &rs, noisy, img->denoised, &e)))
+            pass(err, &e, rc);
+        free(noisy);
+    }
     if (rc) {
         spectrace_image_free(img);
         spectrace_settings_free(defaults);
@@ -729,6 +745,7 @@ void spectrace_image_free(spectrace_image *img)
     free(img->scene_path);
     for (int k = 0; k < 3; k++)
         free(img->pose[k]);
+    free(img->denoised);
     free(img);
 }
 
@@ -753,6 +770,15 @@ double spectrace_image_seconds(const spectrace_image *img)
 }
 
 int spectrace_image_rgb(const spectrace_image *img, float *out)
+{
+    if (img->denoised)
+        memcpy(out, img->denoised, (size_t)img->film.width * img->film.height * 3 * sizeof(float));
+    else
+        film_to_linear_srgb(&img->film, out);
+    return SPECTRACE_OK;
+}
+
+int spectrace_image_noisy_rgb(const spectrace_image *img, float *out)
 {
     film_to_linear_srgb(&img->film, out);
     return SPECTRACE_OK;
@@ -809,15 +835,26 @@ int spectrace_image_write(const spectrace_image *img, const char *path, spectrac
     int rc = path ? image_output_check(path, &e) : spt_fail(&e, SPT_EXIT_USAGE, "image: no path");
     if (rc)
         return pass(err, &e, rc);
-    float *rgb = spt_malloc((size_t)f->width * f->height * 3 * sizeof(float));
-    film_to_linear_srgb(f, rgb);
+    float *linear = spt_malloc((size_t)f->width * f->height * 3 * sizeof(float));
+    film_to_linear_srgb(f, linear);
+    const float *rgb = linear;
     RenderImageMeta meta;
-    render_image_meta(&meta, f, &img->rs, &img->st, img->device, img->scene_path, 0);
+    render_image_meta(&meta, f, &img->rs, &img->st, img->device, img->scene_path, 3);
+    if (img->denoised) {
+        /* The denoised image, and the noisy one as its layer, as the command
+         * line writes them (docs/outputs.md, "Denoising"). */
+        static const char *names[3] = {"noisy.R", "noisy.G", "noisy.B"};
+        FilmLayers *L = &meta.layers;
+        for (int c = 0; c < 3; c++)
+            L->channels[L->count++] = (ExrChannel){names[c], SPT_EXR_FLOAT, linear + c, 3};
+        meta.meta.layer_count = L->count;
+        rgb = img->denoised;
+    }
     pthread_mutex_lock(&io_lock);
     rc = image_write(path, rgb, f->width, f->height, &meta.meta, &img->disp, &e);
     pthread_mutex_unlock(&io_lock);
     render_image_meta_free(&meta);
-    free(rgb);
+    free(linear);
     return rc ? pass(err, &e, rc) : SPECTRACE_OK;
 }
 

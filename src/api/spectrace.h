@@ -77,8 +77,10 @@ const char *spectrace_renderer_device_name(const spectrace_renderer *r, int i);
  * "--" ("spp", "width", "max-depth", "aov", ...), parsed and checked as the
  * command line does, so a new option is here without code of its own. Not
  * settings of a render here: output, device (spectrace_renderer_open),
- * checkpoint, checkpoint-every, resume, quiet, help and denoise, which are
- * refused; exposure and tonemap apply to spectrace_image_write. */
+ * checkpoint, checkpoint-every, resume, quiet and help, which are refused;
+ * exposure and tonemap apply to spectrace_image_write. denoise (since 1.1)
+ * denoises the image as the command line does (Open Image Denoise, loaded by
+ * the first render that asks for it: README.md, "--denoise"). */
 typedef struct spectrace_settings spectrace_settings;
 
 spectrace_settings *spectrace_settings_new(void); /* every option at its default */
@@ -211,7 +213,9 @@ int spectrace_image_spp(const spectrace_image *img);
 double spectrace_image_seconds(const spectrace_image *img);
 
 /* The arrays, rows top to bottom, into out (allocated by the caller):
- * - rgb: linear sRGB, 3 floats per pixel (the EXR's R, G, B);
+ * - rgb: linear sRGB, 3 floats per pixel (the EXR's R, G, B): with the
+ *   "denoise" setting the denoised image, whose noisy one noisy_rgb gives
+ *   (since 1.1; the EXR's noisy.R, G, B), the same as rgb without it;
  * - xyz: CIE XYZ, 3 floats per pixel (luminance Y in cd/m^2);
  * - counts: the samples kept per pixel, 1 float per pixel;
  * - aov: layer name ("albedo", "N", "Z", "P", "variance", "spp") of a render
@@ -221,6 +225,7 @@ double spectrace_image_seconds(const spectrace_image *img);
  *   spectral radiance (W m^-2 sr^-1 nm^-1) over N equal bands of 360-830 nm
  *   (band b's centre is 360 + (b + 0.5) * 470 / N nm). */
 int spectrace_image_rgb(const spectrace_image *img, float *out);
+int spectrace_image_noisy_rgb(const spectrace_image *img, float *out);
 int spectrace_image_xyz(const spectrace_image *img, float *out);
 int spectrace_image_counts(const spectrace_image *img, float *out);
 int spectrace_image_aov(const spectrace_image *img, const char *layer, float *out,

@@ -454,47 +454,19 @@ static void describe_devices(const RenderJob *j, char *out, size_t cap)
         fprintf(stderr, "devices: %s\n", out);
 }
 
-/* --denoise: the image (j->rgb) denoised by Open Image Denoise's RT filter,
- * guided by the albedo and normal layers; j->noisy keeps the image as it was.
- * The guides count as free of noise (cleanAux) for a pinhole camera; with a
- * lens, whose blur makes them noisy, they are denoised first. */
+/* --denoise: the image (j->rgb) denoised (render_denoise); j->noisy keeps the
+ * image as it was. */
 static int denoise(RenderJob *j, SptError *e)
 {
     const RenderSettings *rs = &j->a.rs;
-    size_t np = (size_t)rs->width * rs->height;
-    float *albedo = spt_malloc(3 * np * sizeof(float)), *normal = spt_malloc(3 * np * sizeof(float));
-    film_aov_layer(&j->film, SPT_AOV_ALBEDO, albedo);
-    film_aov_layer(&j->film, SPT_AOV_NORMAL, normal);
     j->noisy = j->rgb;
-    j->rgb = spt_malloc(3 * np * sizeof(float));
+    j->rgb = spt_malloc((size_t)rs->width * rs->height * 3 * sizeof(float));
     double t0 = spt_now();
-    int rc = denoiser_run(&j->den, j->noisy, albedo, normal, rs->width, rs->height, !(rs->aperture > 0),
-                          j->rgb, e);
+    int rc = render_denoise(&j->den, &j->film, rs, j->noisy, j->rgb, e);
     j->denoise_seconds = spt_now() - t0;
-    free(albedo);
-    free(normal);
-    if (rc)
-        return rc;
-    size_t bad = 0;
-    double sum_noisy = 0, sum_den = 0;
-    for (size_t i = 0; i < 3 * np; i++) {
-        bad += !isfinite(j->rgb[i]);
-        sum_noisy += j->noisy[i];
-        sum_den += j->rgb[i];
-    }
-    if (bad)
-        return spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: Open Image Denoise (%s) returned %zu NaN "
-                        "or infinite values; no output written", j->den.path, bad);
-    /* A denoiser moves light between neighbouring pixels, and removing
-     * fireflies lowers the mean by a few percent (docs/outputs.md,
-     * "Denoising"); half or twice the light is a denoiser gone wrong. */
-    if (sum_noisy > 0 && !(sum_den >= 0.5 * sum_noisy && sum_den <= 2 * sum_noisy))
-        return spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: Open Image Denoise (%s) returned an image "
-                        "whose mean is %.3g times the rendered image's (%.3g); no output written",
-                        j->den.path, sum_den / sum_noisy, sum_noisy / (3.0 * (double)np));
-    if (!j->a.quiet)
+    if (!rc && !j->a.quiet)
         fprintf(stderr, "denoised in %.2f s (Open Image Denoise, %s)\n", j->denoise_seconds, j->den.path);
-    return SPT_EXIT_OK;
+    return rc;
 }
 
 /* The film as every output image (with the render's metadata), then the final

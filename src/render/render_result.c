@@ -3,6 +3,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 
@@ -67,6 +68,38 @@ int render_film_check(const Film *f, const RenderSettings *rs, const char *scene
                  "radiance squared is below float's normal range, 1.2e-38: docs/limits.md); their "
                  "variance is inexact, or 0 on a device that flushes such values",
                  scene, bad, npix);
+    return SPT_EXIT_OK;
+}
+
+int render_denoise(Denoiser *den, const Film *f, const RenderSettings *rs, const float *noisy,
+                   float *out, SptError *e)
+{
+    size_t np = (size_t)rs->width * rs->height;
+    float *albedo = spt_malloc(3 * np * sizeof(float)), *normal = spt_malloc(3 * np * sizeof(float));
+    film_aov_layer(f, SPT_AOV_ALBEDO, albedo);
+    film_aov_layer(f, SPT_AOV_NORMAL, normal);
+    int rc = denoiser_run(den, noisy, albedo, normal, rs->width, rs->height, !(rs->aperture > 0), out, e);
+    free(albedo);
+    free(normal);
+    if (rc)
+        return rc;
+    size_t bad = 0;
+    double sum_noisy = 0, sum_den = 0;
+    for (size_t i = 0; i < 3 * np; i++) {
+        bad += !isfinite(out[i]);
+        sum_noisy += noisy[i];
+        sum_den += out[i];
+    }
+    if (bad)
+        return spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: Open Image Denoise (%s) returned %zu NaN "
+                        "or infinite values; no output written", den->path, bad);
+    /* A denoiser moves light between neighbouring pixels, and removing
+     * fireflies lowers the mean by a few percent (docs/outputs.md,
+     * "Denoising"); half or twice the light is a denoiser gone wrong. */
+    if (sum_noisy > 0 && !(sum_den >= 0.5 * sum_noisy && sum_den <= 2 * sum_noisy))
+        return spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: Open Image Denoise (%s) returned an image "
+                        "whose mean is %.3g times the rendered image's (%.3g); no output written",
+                        den->path, sum_den / sum_noisy, sum_noisy / (3.0 * (double)np));
     return SPT_EXIT_OK;
 }
 

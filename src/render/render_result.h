@@ -9,6 +9,7 @@
 
 #include "cl/cl_device.h"
 #include "core/util.h"
+#include "io/denoise.h"
 #include "io/image_out.h"
 #include "render/film.h"
 #include "render/film_layers.h"
@@ -44,6 +45,15 @@ int render_host_memory(const ClDeviceInfo *const *infos, int count, const GpuSce
  * bright for it is SPT_EXIT_INPUT (docs/limits.md), and pixels too dim for it
  * a warning. scene names the scene in the messages. */
 int render_film_check(const Film *f, const RenderSettings *rs, const char *scene, SptError *e);
+
+/* --denoise: noisy (the linear sRGB of film f, rendered with rs and its AOV
+ * sums) denoised by Open Image Denoise's RT filter into out, guided by f's
+ * albedo and normal layers. The guides count as free of noise (cleanAux) for
+ * a pinhole camera; with a lens, whose blur makes them noisy, they are
+ * denoised first. A result with NaN or infinite values, or whose mean is not
+ * within half and twice the noisy image's, is SPT_EXIT_FAILURE. */
+int render_denoise(Denoiser *den, const Film *f, const RenderSettings *rs, const float *noisy,
+                   float *out, SptError *e);
 
 /* The devices of a render as its images' metadata names them: the device
  * ("name (platform)"), or every device with the samples per pixel it

@@ -109,7 +109,7 @@ def _load():
         "render": (I, [P, P, P, _PROGRESS, P, ctypes.POINTER(P), E]),
         "image_free": (None, [P]), "image_width": (I, [P]), "image_height": (I, [P]),
         "image_spp": (I, [P]), "image_seconds": (D, [P]),
-        "image_rgb": (I, [P, FP]), "image_xyz": (I, [P, FP]), "image_counts": (I, [P, FP]),
+        "image_rgb": (I, [P, FP]), "image_noisy_rgb": (I, [P, FP]), "image_xyz": (I, [P, FP]), "image_counts": (I, [P, FP]),
         "image_aov": (I, [P, C, FP, E]), "image_band_count": (I, [P]), "image_bands": (I, [P, FP]),
         "image_write": (I, [P, C, E]), "write_rgb": (I, [C, FP, I, I, E]),
         "color": (I, [C, DP, DP, I, I, ctypes.POINTER(_ColorInfo), E]),
@@ -169,7 +169,7 @@ class Settings:
     """A render's settings: the options of `spectrace render` by name."""
 
     NOT_SETTINGS = {"output", "device", "checkpoint", "checkpoint-every", "resume", "quiet",
-                    "help", "denoise"}
+                    "help"}
 
     def __init__(self, **kw):
         self._h = _lib.spectrace_settings_new()
@@ -385,8 +385,13 @@ class Image:
 
     @property
     def rgb(self):
-        """Linear sRGB."""
+        """Linear sRGB (with denoise=True the denoised image)."""
         return self._array(_lib.spectrace_image_rgb, 3)
+
+    @property
+    def noisy_rgb(self):
+        """Linear sRGB before denoising (without denoise, rgb)."""
+        return self._array(_lib.spectrace_image_noisy_rgb, 3)
 
     @property
     def xyz(self):

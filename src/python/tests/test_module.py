@@ -128,6 +128,25 @@ def test_scene_from_bytes(box):
     np.testing.assert_array_equal(mem.render(**SMALL).rgb, fresh.render(**SMALL).rgb)
 
 
+def test_denoise(box):
+    # The noisy image is the render without denoising, bit for bit; the denoised one
+    # is smoother (less difference between neighbouring pixels) with about the same
+    # light (at 4 samples its fireflies take some 20% away; the command line's own
+    # guard is half to twice: docs/outputs.md, "Denoising"). test_api.c compares it
+    # with the command line's --denoise image bit for bit.
+    plain = box.render(**SMALL).rgb
+    try:
+        img = box.render(denoise=True, **SMALL)
+    except spectrace.SpectraceError as e:
+        if "not installed" in e.message:
+            pytest.skip("Open Image Denoise not installed (make denoise)")
+        raise
+    np.testing.assert_array_equal(img.noisy_rgb, plain)
+    assert 0.7 < img.rgb.mean() / plain.mean() < 1.05
+    rough = lambda a: np.abs(np.diff(a, axis=1)).mean()
+    assert rough(img.rgb) < 0.8 * rough(plain)
+
+
 def test_scene_from_bytes_posed():
     # The turntable at 0.5 s from its bytes is the file loaded at 0.5 s, and not its
     # rest pose.
