@@ -599,6 +599,9 @@ TEST(test_api_scene_from_memory)
  * holds the same channels. */
 TEST(test_api_denoise)
 {
+    /* The denoiser's guides are AOVs, whose kernels take rusticl over 15
+     * minutes to build (as in test_api_equals_command_line). */
+    skip_if_quick();
     Denoiser probe;
     oidn_probe(&probe);
     if (have_oidn)
