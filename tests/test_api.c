@@ -10,6 +10,7 @@
 #include "test_main.h"
 
 #include "api/spectrace.h"
+#include "denoise_test.h"
 #include "io/exr.h"
 
 #define BOX "scenes/cornell_box.gltf"
@@ -49,6 +50,15 @@ static spectrace_settings *settings(const char *const *kv)
 }
 
 static const char *const base_kv[] = {"width=32", "spp=4", "seed=7", "caustics=off", NULL};
+
+static spectrace_scene *load_or_fail(const char *path, const spectrace_settings *st)
+{
+    spectrace_error err;
+    spectrace_scene *s = spectrace_scene_load(path, st, &err);
+    if (!s)
+        fail_msg("%s: %s", path, err.message);
+    return s;
+}
 
 static spectrace_image *render_or_fail(spectrace_renderer *r, spectrace_scene *s, const spectrace_settings *st)
 {
@@ -110,9 +120,7 @@ TEST(test_api_equals_command_line)
                                      "spectral=4", NULL};
     spectrace_settings *st = settings(kv);
     spectrace_error err;
-    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
-    if (!s)
-        fail_msg("%s", err.message);
+    spectrace_scene *s = load_or_fail(BOX, st);
     spectrace_image *img = render_or_fail(R, s, st);
     assert_int_equal(spectrace_image_width(img), W);
     assert_int_equal(spectrace_image_height(img), W); /* the box's camera is square */
@@ -147,6 +155,30 @@ TEST(test_api_equals_command_line)
     assert_int_equal(M.channel_count, L.channel_count);
     for (int c = 0; c < L.channel_count; c++)
         assert_channel_is(&M, L.channels[c].name, L.channels[c].data, 1);
+    /* And the command line's metadata (src/render/render_result.h): each key
+     * with the same value, the render's own seconds aside. */
+    size_t na, nc;
+    char *api = test_slurp(test_path("api.exr"), &na), *cli = test_slurp(test_path("cli.exr"), &nc);
+    static const char *const keys[] = {"spectrace:max_depth", "spectrace:nan_dropped", "spectrace:seed",
+                                       "spectrace:spp", "spectrace:device", "spectrace:scene"};
+    for (size_t k = 0; k < sizeof keys / sizeof keys[0]; k++) {
+        const char *a = memmem(api, na, keys[k], strlen(keys[k]) + 1);
+        const char *c = memmem(cli, nc, keys[k], strlen(keys[k]) + 1);
+        if (!a || !c)
+            fail_msg("%s: in the library's EXR %d, the command line's %d", keys[k], !!a, !!c);
+        /* name, type name, 4-byte size, value */
+        a += strlen(keys[k]) + 1;
+        c += strlen(keys[k]) + 1;
+        a += strlen(a) + 1;
+        c += strlen(c) + 1;
+        int32_t sa, sc;
+        memcpy(&sa, a, 4);
+        memcpy(&sc, c, 4);
+        assert_int_equal(sa, sc);
+        assert_memory_equal(a + 4, c + 4, (size_t)sa);
+    }
+    free(api);
+    free(cli);
     exr_layers_free(&L);
     exr_layers_free(&M);
     free(rgb);
@@ -257,9 +289,7 @@ TEST(test_api_material_changes)
 {
     spectrace_settings *st = settings(base_kv);
     spectrace_error err;
-    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
-    if (!s)
-        fail_msg("%s", err.message);
+    spectrace_scene *s = load_or_fail(BOX, st);
     int glass = spectrace_scene_material_find(s, "dispersive_glass"), light = spectrace_scene_material_find(s, "light");
     assert_true(glass >= 0 && light >= 0);
     assert_int_equal(spectrace_scene_material_find(s, "no such"), -1);
@@ -307,6 +337,92 @@ TEST(test_api_material_changes)
     spectrace_settings_free(st);
 }
 
+/* The sweep of the issue (docs/api.md, "Speed: a sweep in one process"): 20
+ * roughness values of one material rendered from one scene load build the
+ * program once and upload the geometry once per device, and the materials at
+ * every change; each image equals that of a scene loaded fresh with its
+ * roughness (so no stale buffer is kept). Another kernel specialisation (AOVs)
+ * builds the program again but keeps the geometry on the device; another size
+ * builds and uploads nothing. */
+static void render_fresh_at(float rough, const spectrace_settings *st, const float *want)
+{
+    spectrace_error err;
+    spectrace_scene *s = load_or_fail(BOX, st);
+    int glass = spectrace_scene_material_find(s, "dispersive_glass");
+    assert_int_equal(spectrace_scene_material_set(s, glass, "roughness", &rough, 1, &err), 0);
+    spectrace_image *img = render_or_fail(R, s, st);
+    float *rgb = rgb_of(img);
+    size_t n = (size_t)spectrace_image_width(img) * spectrace_image_height(img) * 3;
+    assert_memory_equal(rgb, want, n * sizeof(float));
+    free(rgb);
+    spectrace_image_free(img);
+    spectrace_scene_free(s);
+}
+
+TEST(test_api_sweep_keeps_device_state)
+{
+    spectrace_settings *st = settings(base_kv);
+    spectrace_error err;
+    spectrace_scene *s = load_or_fail(BOX, st);
+    int glass = spectrace_scene_material_find(s, "dispersive_glass");
+    int ndev = spectrace_renderer_device_count(R);
+    float *kept[20];
+    for (int k = 0; k < 20; k++) {
+        float rough = (float)k / 19.0f;
+        assert_int_equal(spectrace_scene_material_set(s, glass, "roughness", &rough, 1, &err), 0);
+        spectrace_image *img = render_or_fail(R, s, st);
+        kept[k] = rgb_of(img);
+        spectrace_image_free(img);
+    }
+    spectrace_scene_stats sst;
+    spectrace_scene_stats_get(s, &sst);
+    assert_int_equal(sst.renders, 20);
+    assert_int_equal(sst.bvh_builds, 1);
+    assert_int_equal(sst.program_builds, ndev);
+    assert_int_equal(sst.geometry_uploads, ndev);
+    assert_int_equal(sst.material_uploads, 20 * ndev);
+    /* Neighbouring roughness values give other images, each that of a fresh
+     * scene. */
+    assert_memory_not_equal(kept[6], kept[7], W * W * 3 * sizeof(float));
+    render_fresh_at(7.0f / 19.0f, st, kept[7]);
+    render_fresh_at(1.0f, st, kept[19]);
+
+    /* AOVs: another program, the same geometry on the device (not in the
+     * quick form: rusticl takes over 15 minutes to build the AOV kernels). */
+    spectrace_settings *next = spectrace_settings_copy(st);
+    int builds = ndev, renders = 20;
+    if (!test_quick()) {
+        assert_int_equal(spectrace_settings_set(next, "aov", "albedo", &err), 0);
+        spectrace_image *img = render_or_fail(R, s, next);
+        float *with_aov = rgb_of(img);
+        spectrace_image_free(img);
+        spectrace_scene_stats_get(s, &sst);
+        builds += ndev;
+        renders++;
+        assert_int_equal(sst.program_builds, builds);
+        assert_int_equal(sst.geometry_uploads, ndev);
+        assert_int_equal(sst.material_uploads, 20 * ndev);
+        render_fresh_at(1.0f, next, with_aov);
+        free(with_aov);
+    }
+
+    /* Another size: nothing built or uploaded. */
+    assert_int_equal(spectrace_settings_set(next, "width", "24", &err), 0);
+    spectrace_image *img = render_or_fail(R, s, next);
+    assert_int_equal(spectrace_image_width(img), 24);
+    spectrace_image_free(img);
+    spectrace_scene_stats_get(s, &sst);
+    assert_int_equal(sst.renders, renders + 1);
+    assert_int_equal(sst.program_builds, builds);
+    assert_int_equal(sst.geometry_uploads, ndev);
+    assert_int_equal(sst.material_uploads, 20 * ndev);
+    for (int k = 0; k < 20; k++)
+        free(kept[k]);
+    spectrace_settings_free(next);
+    spectrace_scene_free(s);
+    spectrace_settings_free(st);
+}
+
 /* A spectrum as (nm, value) pairs replaces the file's: the light's emission
  * set to the file's own samples renders the same image, and to twice them
  * twice the image (one emitter: the light choice and every path stay, each
@@ -315,9 +431,7 @@ TEST(test_api_spectrum_changes)
 {
     spectrace_settings *st = settings(base_kv);
     spectrace_error err;
-    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
-    if (!s)
-        fail_msg("%s", err.message);
+    spectrace_scene *s = load_or_fail(BOX, st);
     int light = spectrace_scene_material_find(s, "light");
     spectrace_image *img = render_or_fail(R, s, st);
     float *before = rgb_of(img);
@@ -478,6 +592,93 @@ TEST(test_api_scene_from_memory)
     spectrace_settings_free(st);
     assert_null(spectrace_scene_load_memory("{", 1, NULL, &err));
     assert_int_equal(err.code, SPECTRACE_ERR_INPUT);
+}
+
+/* denoise: the library's image is the command line's --denoise image bit for
+ * bit, denoised and noisy (noisy_rgb, the EXR's noisy layer), and its EXR
+ * holds the same channels. */
+TEST(test_api_denoise)
+{
+    /* The denoiser's guides are AOVs, whose kernels take rusticl over 15
+     * minutes to build (as in test_api_equals_command_line). */
+    skip_if_quick();
+    Denoiser probe;
+    oidn_probe(&probe);
+    if (have_oidn)
+        denoiser_close(&probe);
+    need_oidn();
+    static const char *const kv[] = {"width=32", "spp=4", "seed=7", "caustics=off", "denoise=true", NULL};
+    spectrace_settings *st = settings(kv);
+    spectrace_error err;
+    spectrace_scene *s = load_or_fail(BOX, st);
+    spectrace_image *img = render_or_fail(R, s, st);
+    float *rgb = rgb_of(img), *noisy = malloc(W * W * 3 * sizeof(float));
+    assert_non_null(noisy);
+    spectrace_image_noisy_rgb(img, noisy);
+    assert_memory_not_equal(rgb, noisy, W * W * 3 * sizeof(float));
+    ExrLayers L, M;
+    cli_render(BOX, "--denoise", test_path("den-cli.exr"), &L);
+    static const char *const rgbn[] = {"R", "G", "B"}, *const noisyn[] = {"noisy.R", "noisy.G", "noisy.B"};
+    for (int c = 0; c < 3; c++) {
+        assert_channel_is(&L, rgbn[c], rgb + c, 3);
+        assert_channel_is(&L, noisyn[c], noisy + c, 3);
+    }
+    if (spectrace_image_write(img, test_path("den-api.exr"), &err))
+        fail_msg("%s", err.message);
+    SptError e = {0};
+    if (exr_read_layers(test_path("den-api.exr"), NULL, 0, &M, &e))
+        fail_msg("%s", e.msg);
+    assert_int_equal(M.channel_count, L.channel_count);
+    for (int c = 0; c < L.channel_count; c++)
+        assert_channel_is(&M, L.channels[c].name, L.channels[c].data, 1);
+    exr_layers_free(&L);
+    exr_layers_free(&M);
+    free(rgb);
+    free(noisy);
+    spectrace_image_free(img);
+    spectrace_scene_free(s);
+    spectrace_settings_free(st);
+}
+
+/* A scene from bytes posed as asked: the turntable at 0.5 s from its bytes is
+ * the file loaded at 0.5 s, bit for bit, and not its rest pose; a render of
+ * it asking for another pose is refused. */
+TEST(test_api_scene_from_memory_posed)
+{
+    /* kv + 1: the same without the pose. */
+    static const char *const kv[] = {"at=0.5", "width=16", "spp=2", "seed=7", "caustics=off",
+                                     "max-depth=3", NULL};
+    const char *path = SPT_TEST_DATA("anim/turntable.gltf");
+    size_t n;
+    char *bytes = test_slurp(path, &n);
+    spectrace_settings *st = settings(kv), *rest = settings(kv + 1);
+    spectrace_error err;
+    spectrace_scene *a = spectrace_scene_load_memory_posed(bytes, n, SPT_TEST_DATA("anim"), st, &err);
+    if (!a)
+        fail_msg("%s", err.message);
+    spectrace_scene *b = load_or_fail(path, st);
+    spectrace_scene *c = spectrace_scene_load_memory(bytes, n, SPT_TEST_DATA("anim"), &err);
+    assert_non_null(c);
+    spectrace_image *ia = render_or_fail(R, a, st), *ib = render_or_fail(R, b, st), *ic = render_or_fail(R, c, rest);
+    float *ra = rgb_of(ia), *rb = rgb_of(ib), *rc = rgb_of(ic);
+    size_t bytes_rgb = (size_t)spectrace_image_width(ia) * spectrace_image_height(ia) * 3 * sizeof(float);
+    assert_memory_equal(ra, rb, bytes_rgb);
+    assert_memory_not_equal(ra, rc, bytes_rgb);
+    spectrace_image *none;
+    assert_int_equal(spectrace_render(R, a, rest, NULL, NULL, &none, &err), SPECTRACE_ERR_USAGE);
+    assert_non_null(strstr(err.message, "differ from the pose the scene was loaded in"));
+    free(ra);
+    free(rb);
+    free(rc);
+    free(bytes);
+    spectrace_image_free(ia);
+    spectrace_image_free(ib);
+    spectrace_image_free(ic);
+    spectrace_scene_free(a);
+    spectrace_scene_free(b);
+    spectrace_scene_free(c);
+    spectrace_settings_free(st);
+    spectrace_settings_free(rest);
 }
 
 typedef struct Calls {

@@ -23,6 +23,7 @@
 #include "render/film_layers.h"
 #include "render/gpu_scene.h"
 #include "render/render.h"
+#include "render/render_result.h"
 #include "scene/scene.h"
 #include "scene/sky.h"
 
@@ -68,15 +69,20 @@ int spectrace_version(void)
 /* ---- Devices ---------------------------------------------------------- */
 
 struct spectrace_renderer {
+    unsigned serial; /* which renderer a scene's kept programs belong to */
     ClDeviceList list;
     const ClDeviceInfo *devs[MAX_DEVICES];
     char names[MAX_DEVICES][520];
     int count;
+    Denoiser den;     /* Open Image Denoise, loaded by the first render asking for it */
+    int den_loaded;
 };
 
 spectrace_renderer *spectrace_renderer_open(const char *selector, spectrace_error *err)
 {
+    static unsigned serials;
     spectrace_renderer *r = spt_calloc(1, sizeof *r);
+    r->serial = __atomic_add_fetch(&serials, 1, __ATOMIC_SEQ_CST);
     SptError e = {0};
     int sel[MAX_DEVICES], rc;
     if ((rc = cl_device_list(&r->list, &e)) ||
@@ -97,6 +103,8 @@ void spectrace_renderer_close(spectrace_renderer *r)
     if (!r)
         return;
     cl_device_list_free(&r->list);
+    if (r->den_loaded)
+        denoiser_close(&r->den);
     free(r);
 }
 
@@ -150,7 +158,7 @@ static int not_a_setting(int i)
 {
     return i == SPT_ARG_outputs || i == SPT_ARG_device || i == SPT_ARG_checkpoint ||
            i == SPT_ARG_checkpoint_every || i == SPT_ARG_resume || i == SPT_ARG_quiet ||
-           i == SPT_ARG_help || i == SPT_ARG_denoise;
+           i == SPT_ARG_help;
 }
 
 static int find_option(const char *name, spectrace_error *err)
@@ -245,13 +253,17 @@ const char *spectrace_settings_help(int i)
 struct spectrace_scene {
     Scene scene;
     char *pose_at, *pose_animation, *pose_camera; /* as loaded (NULL: not given) */
-    int from_memory;
     GpuScene gpu;
     int gpu_built;     /* the BVH and the device arrays exist */
     int shading_dirty; /* a material or light changed since */
     Sky sky;           /* the last render's, kept while its env and background stay */
     char *sky_env, *sky_background;
     int sky_loaded;
+    /* The programs and scene buffers kept on the devices of the renderer
+     * programs_of (its serial; 0: none) between renders. */
+    RenderPrograms programs;
+    unsigned programs_of;
+    spectrace_scene_stats stats;
 };
 
 static char *dup_or_null(const char *s)
@@ -270,7 +282,6 @@ static spectrace_scene *load(const char *path, const void *data, size_t size, co
                              const RenderSettings *rs, spectrace_error *err)
 {
     spectrace_scene *s = spt_calloc(1, sizeof *s);
-    s->from_memory = data != NULL;
     if (rs) {
         s->pose_at = dup_or_null(rs->at);
         s->pose_animation = dup_or_null(rs->animation);
@@ -281,7 +292,7 @@ static spectrace_scene *load(const char *path, const void *data, size_t size, co
     SptError e = {0};
     pthread_mutex_lock(&io_lock);
     input_seen_reset();
-    int rc = data ? scene_load_gltf_memory(&s->scene, data, size, name, &e)
+    int rc = data ? scene_load_gltf_memory_posed(&s->scene, data, size, name, &pose, &e)
                   : scene_load_gltf_posed(&s->scene, path, &pose, &e);
     input_seen_reset();
     pthread_mutex_unlock(&io_lock);
@@ -306,6 +317,14 @@ spectrace_scene *spectrace_scene_load(const char *path, const spectrace_settings
 spectrace_scene *spectrace_scene_load_memory(const void *data, size_t size, const char *base_dir,
                                              spectrace_error *err)
 {
+    return spectrace_scene_load_memory_posed(data, size, base_dir, NULL, err);
+}
+
+spectrace_scene *spectrace_scene_load_memory_posed(const void *data, size_t size,
+                                                   const char *base_dir,
+                                                   const spectrace_settings *settings,
+                                                   spectrace_error *err)
+{
     if (!data) {
         fail(err, SPECTRACE_ERR_USAGE, "scene: no data");
         return NULL;
@@ -313,13 +332,15 @@ spectrace_scene *spectrace_scene_load_memory(const void *data, size_t size, cons
     /* The loader looks up external files in the folder of the name. */
     char name[4096];
     snprintf(name, sizeof name, "%s/(memory)", base_dir && *base_dir ? base_dir : ".");
-    return load(NULL, data, size, name, NULL, err);
+    return load(NULL, data, size, name, settings ? &settings->a.rs : NULL, err);
 }
 
 void spectrace_scene_free(spectrace_scene *s)
 {
     if (!s)
         return;
+    if (s->programs_of)
+        render_programs_free(&s->programs);
     if (s->gpu_built)
         gpu_scene_free(&s->gpu);
     if (s->sky_loaded)
@@ -541,8 +562,9 @@ int spectrace_scene_light_set_spectrum(spectrace_scene *s, int i, const double *
 struct spectrace_image {
     Film film;
     RenderStats st;
-    unsigned aov;
-    int seed, max_depth;
+    RenderSettings rs; /* as rendered; its pose (at, animation, camera) in pose */
+    char *pose[3];
+    float *denoised;   /* with denoise: the image denoised (the film's is the noisy one) */
     DisplayOptions disp;
     char *scene_path;
     char device[4096];
@@ -576,6 +598,7 @@ static int prepare_scene(spectrace_scene *s, const RenderArgs *a, SptError *e)
         if ((rc = gpu_scene_build(&s->gpu, &s->scene, e)))
             return rc;
         s->gpu_built = 1;
+        s->stats.bvh_builds++;
         s->shading_dirty = 0;
     } else if (s->shading_dirty) {
         if ((rc = gpu_scene_build_shading(&s->gpu, &s->scene, e))) {
@@ -607,30 +630,7 @@ static int prepare_scene(spectrace_scene *s, const RenderArgs *a, SptError *e)
 static void complete(RenderSettings *rs, const SceneCamera *cam)
 {
     render_image_size(rs, cam);
-    /* auto: on for a render given seconds; off is kept as 0, the default. */
-    if (rs->adaptive == SPT_SWITCH_AUTO && rs->time_limit > 0)
-        rs->adaptive = SPT_SWITCH_ON;
-    if (rs->adaptive == SPT_SWITCH_OFF)
-        rs->adaptive = SPT_SWITCH_AUTO;
-}
-
-/* The host memory of the film and of the render against what is available,
- * as the command line checks it (docs/limits.md, "The memory estimate"):
- * too much is SPECTRACE_ERR_DEVICE, before an allocation could fail. */
-static int check_memory(const spectrace_renderer *r, const spectrace_scene *scene,
-                        const RenderSettings *rs, spectrace_error *err)
-{
-    RenderMemory m;
-    render_memory(r->devs, r->count, &scene->gpu, &scene->scene.camera, rs, &m);
-    double need = (double)film_bytes(rs->width, rs->height, render_keeps_aov(rs), rs->spectral) +
-                  (double)m.total,
-           limit = spt_memory_limit();
-    char a[32], b[32];
-    if (limit > 0 && need > limit)
-        return fail(err, SPECTRACE_ERR_DEVICE, "render: a %dx%d render needs about %s of host memory, "
-                    "more than the %s %s", rs->width, rs->height, spt_format_bytes(a, sizeof a, need),
-                    spt_format_bytes(b, sizeof b, limit), spt_memory_limit_why());
-    return SPECTRACE_OK;
+    render_adaptive_resolve(rs, 1);
 }
 
 int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
@@ -646,8 +646,7 @@ int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
     if (!same_text(rs.at, scene->pose_at) || !same_text(rs.animation, scene->pose_animation) ||
         !same_text(rs.camera, scene->pose_camera)) {
         rc = fail(err, SPECTRACE_ERR_USAGE, "render: the settings' at, animation or camera differ "
-                  "from the pose the scene was loaded in (load it with these settings)%s",
-                  scene->from_memory ? "; a scene from memory has the rest pose" : "");
+                  "from the pose the scene was loaded in (load it with these settings)");
         spectrace_settings_free(defaults);
         return rc;
     }
@@ -660,15 +659,33 @@ int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
     if (a->given[SPT_ARG_time_limit] && !a->given[SPT_ARG_spp])
         rs.spp = 1 << 24;
     rs.sky = &scene->sky;
-    if ((rc = check_memory(r, scene, &rs, err))) {
+    /* The host memory of the film, the render and the image's arrays, as the
+     * command line checks it (docs/limits.md, "The memory estimate"). */
+    RenderHostMemory hm;
+    if ((rc = render_host_memory(r->devs, r->count, &scene->gpu, &scene->scene.camera, &rs, NULL, 0,
+                                 &hm, &e)) ||
+        (rs.denoise && !r->den_loaded && (rc = denoiser_open(&r->den, &e)))) {
         spectrace_settings_free(defaults);
-        return rc;
+        return pass(err, &e, rc);
     }
+    r->den_loaded |= rs.denoise;
     Progress prog = {progress, user, 0, (uint32_t)rs.spp};
     rs.progress = 0;
     rs.stop = &prog.stop;
     rs.on_chunk = on_chunk;
     rs.on_chunk_ctx = &prog;
+    /* The programs and buffers kept from the scene's last render on these
+     * devices; another renderer's are closed first. */
+    if (scene->programs_of != r->serial) {
+        if (scene->programs_of) {
+            spectrace_scene_stats_get(scene, &scene->stats);
+            render_programs_free(&scene->programs);
+        }
+        render_programs_init(&scene->programs, r->count);
+        scene->programs.keep_scene = 1;
+        scene->programs_of = r->serial;
+    }
+    rs.programs = &scene->programs;
     spectrace_image *img = spt_calloc(1, sizeof *img);
     film_init_full(&img->film, rs.width, rs.height, render_keeps_aov(&rs), rs.spectral);
     RenderDeviceStats per_dev[MAX_DEVICES];
@@ -681,26 +698,44 @@ int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
         pass(err, &e, rc);
     else if (img->st.spp_done == 0)
         rc = fail(err, SPECTRACE_ERR_CANCELLED, "render: stopped before any pass completed");
-    else if (film_nonfinite_except_squares(&img->film))
-        rc = fail(err, SPECTRACE_ERR_FAILURE, "render: %zu of %ld pixels came out NaN or infinite (an "
-                  "internal error)", film_nonfinite_except_squares(&img->film),
-                  (long)rs.width * rs.height);
+    else if ((rc = render_film_check(&img->film, &rs, scene->scene.path ? scene->scene.path
+                                                                        : "(memory)", &e)))
+        pass(err, &e, rc);
+    else if (rs.denoise) {
+        size_t floats = (size_t)rs.width * rs.height * 3;
+        float *noisy = spt_malloc(floats * sizeof(float));
+        film_to_linear_srgb(&img->film, noisy);
+        img->denoised = spt_malloc(floats * sizeof(float));
+        if ((rc = render_denoise(&r->den, &img->film, &rs, noisy, img->denoised, &e)))
+            pass(err, &e, rc);
+        free(noisy);
+    }
     if (rc) {
         spectrace_image_free(img);
         spectrace_settings_free(defaults);
         return rc;
     }
-    img->aov = rs.aov;
-    img->seed = (int)rs.seed;
-    img->max_depth = rs.max_depth;
+    img->rs = rs;
+    img->rs.at = img->pose[0] = dup_or_null(rs.at);
+    img->rs.animation = img->pose[1] = dup_or_null(rs.animation);
+    img->rs.camera = img->pose[2] = dup_or_null(rs.camera);
     img->disp = (DisplayOptions){(float)a->exposure, a->tonemap};
     img->scene_path = spt_strdup(scene->scene.path ? scene->scene.path : "(memory)");
-    size_t len = 0;
-    for (int i = 0; i < r->count && len < sizeof img->device; i++)
-        len += (size_t)snprintf(img->device + len, sizeof img->device - len, "%s%s", i ? "; " : "", r->names[i]);
+    render_device_description(r->devs, r->count, per_dev, img->device, sizeof img->device);
+    scene->stats.renders++;
     *out = img;
     spectrace_settings_free(defaults);
     return SPECTRACE_OK;
+}
+
+void spectrace_scene_stats_get(const spectrace_scene *s, spectrace_scene_stats *out)
+{
+    const RenderPrograms *p = &s->programs;
+    *out = s->stats; /* with the counts of the renderers it had before */
+    out->program_builds += p->builds;
+    out->geometry_uploads += p->w ? p->uploads[SPT_SB_nodes] : 0;
+    out->material_uploads += p->w ? p->uploads[SPT_SB_materials] : 0;
+    out->bytes_uploaded += (double)p->upload_bytes;
 }
 
 void spectrace_image_free(spectrace_image *img)
@@ -709,6 +744,9 @@ void spectrace_image_free(spectrace_image *img)
         return;
     film_free(&img->film);
     free(img->scene_path);
+    for (int k = 0; k < 3; k++)
+        free(img->pose[k]);
+    free(img->denoised);
     free(img);
 }
 
@@ -733,6 +771,15 @@ double spectrace_image_seconds(const spectrace_image *img)
 }
 
 int spectrace_image_rgb(const spectrace_image *img, float *out)
+{
+    if (img->denoised)
+        memcpy(out, img->denoised, (size_t)img->film.width * img->film.height * 3 * sizeof(float));
+    else
+        film_to_linear_srgb(&img->film, out);
+    return SPECTRACE_OK;
+}
+
+int spectrace_image_noisy_rgb(const spectrace_image *img, float *out)
 {
     film_to_linear_srgb(&img->film, out);
     return SPECTRACE_OK;
@@ -764,7 +811,7 @@ int spectrace_image_aov(const spectrace_image *img, const char *layer, float *ou
     if (!layer || film_aov_parse(layer, &bit) || (bit & (bit - 1)))
         return -fail(err, SPECTRACE_ERR_USAGE, "image: '%s' is not an AOV layer (albedo, N, Z, P, "
                      "variance, spp)", layer ? layer : "(null)");
-    if (!(img->aov & bit))
+    if (!(img->rs.aov & bit))
         return -fail(err, SPECTRACE_ERR_USAGE, "image: the render has no %s layer (add it to the "
                      "aov setting)", layer);
     return film_aov_layer(&img->film, bit, out);
@@ -789,29 +836,26 @@ int spectrace_image_write(const spectrace_image *img, const char *path, spectrac
     int rc = path ? image_output_check(path, &e) : spt_fail(&e, SPT_EXIT_USAGE, "image: no path");
     if (rc)
         return pass(err, &e, rc);
-    float *rgb = spt_malloc((size_t)f->width * f->height * 3 * sizeof(float));
-    film_to_linear_srgb(f, rgb);
-    FilmLayers L;
-    film_layers_make(&L, f, img->aov, 0);
-    ImageMeta meta;
-    memset(&meta, 0, sizeof meta);
-    meta.spp = (int)img->st.spp_done;
-    meta.render_seconds = img->st.seconds;
-    meta.device = img->device;
-    meta.seed = (uint32_t)img->seed;
-    meta.scene = img->scene_path;
-    char depth_s[32];
-    snprintf(depth_s, sizeof depth_s, "%d", img->max_depth);
-    image_meta_add(&meta, "max_depth", depth_s);
-    meta.layers = L.channels;
-    meta.layer_count = L.count;
-    meta.exr_attrs = L.attrs;
-    meta.exr_attr_count = L.attr_count;
+    float *linear = spt_malloc((size_t)f->width * f->height * 3 * sizeof(float));
+    film_to_linear_srgb(f, linear);
+    const float *rgb = linear;
+    RenderImageMeta meta;
+    render_image_meta(&meta, f, &img->rs, &img->st, img->device, img->scene_path, 3);
+    if (img->denoised) {
+        /* The denoised image, and the noisy one as its layer, as the command
+         * line writes them (docs/outputs.md, "Denoising"). */
+        static const char *names[3] = {"noisy.R", "noisy.G", "noisy.B"};
+        FilmLayers *L = &meta.layers;
+        for (int c = 0; c < 3; c++)
+            L->channels[L->count++] = (ExrChannel){names[c], SPT_EXR_FLOAT, linear + c, 3};
+        meta.meta.layer_count = L->count;
+        rgb = img->denoised;
+    }
     pthread_mutex_lock(&io_lock);
-    rc = image_write(path, rgb, f->width, f->height, &meta, &img->disp, &e);
+    rc = image_write(path, rgb, f->width, f->height, &meta.meta, &img->disp, &e);
     pthread_mutex_unlock(&io_lock);
-    film_layers_free(&L);
-    free(rgb);
+    render_image_meta_free(&meta);
+    free(linear);
     return rc ? pass(err, &e, rc) : SPECTRACE_OK;
 }
 

@@ -32,7 +32,7 @@ extern "C" {
 #endif
 
 #define SPECTRACE_API_VERSION_MAJOR 1
-#define SPECTRACE_API_VERSION_MINOR 0
+#define SPECTRACE_API_VERSION_MINOR 1
 /* major * 10000 + minor * 100 */
 #define SPECTRACE_API_VERSION (SPECTRACE_API_VERSION_MAJOR * 10000 + SPECTRACE_API_VERSION_MINOR * 100)
 
@@ -77,8 +77,10 @@ const char *spectrace_renderer_device_name(const spectrace_renderer *r, int i);
  * "--" ("spp", "width", "max-depth", "aov", ...), parsed and checked as the
  * command line does, so a new option is here without code of its own. Not
  * settings of a render here: output, device (spectrace_renderer_open),
- * checkpoint, checkpoint-every, resume, quiet, help and denoise, which are
- * refused; exposure and tonemap apply to spectrace_image_write. */
+ * checkpoint, checkpoint-every, resume, quiet and help, which are refused;
+ * exposure and tonemap apply to spectrace_image_write. denoise (since 1.1)
+ * denoises the image as the command line does (Open Image Denoise, loaded by
+ * the first render that asks for it: README.md, "--denoise"). */
 typedef struct spectrace_settings spectrace_settings;
 
 spectrace_settings *spectrace_settings_new(void); /* every option at its default */
@@ -114,10 +116,15 @@ typedef struct spectrace_scene spectrace_scene;
 spectrace_scene *spectrace_scene_load(const char *path, const spectrace_settings *settings,
                                       spectrace_error *err);
 /* The same from the file's bytes (.gltf or .glb); its external buffers and
- * images are read from folder base_dir (NULL: the current folder). The rest
- * pose and the first camera. */
+ * images are read from folder base_dir (NULL: the current folder). _memory
+ * loads the rest pose and the first camera; _memory_posed (since 1.1) the
+ * pose of settings (may be NULL), as spectrace_scene_load. */
 spectrace_scene *spectrace_scene_load_memory(const void *data, size_t size, const char *base_dir,
                                              spectrace_error *err);
+spectrace_scene *spectrace_scene_load_memory_posed(const void *data, size_t size,
+                                                   const char *base_dir,
+                                                   const spectrace_settings *settings,
+                                                   spectrace_error *err);
 void spectrace_scene_free(spectrace_scene *s);
 
 /* Materials: their count, index i's name, and the index of the first named
@@ -166,11 +173,37 @@ typedef int (*spectrace_progress_fn)(void *user, uint32_t done, uint32_t total);
 
 /* Renders scene with settings (NULL: the defaults) on r's devices, blocking,
  * into *out (free with spectrace_image_free). A scene's BVH is built once;
- * changed materials and lights are rebuilt before the render. The image is the
- * command line's for the same scene and settings, bit for bit. */
+ * changed materials and lights are rebuilt before the render. The scene keeps
+ * its programs and its device buffers on r's devices from one render to the
+ * next: a render uploads only the buffers whose contents changed (the
+ * materials after a material's change), and builds a program again only when
+ * its kernel options change (AOVs, spectral bands) or
+ * the scene is rendered with another renderer (whose devices then take over).
+ * What it keeps (the buffers, and on a CPU device their host memory) is
+ * released by spectrace_scene_free.
+ * The image is the command line's for the same scene and settings, bit for
+ * bit. */
 int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
                      const spectrace_settings *settings, spectrace_progress_fn progress,
                      void *user, spectrace_image **out, spectrace_error *err);
+
+/* What a scene's renders have cost so far (since version 1.1): the renders
+ * that completed; the BVH builds (one per load, again only when a material
+ * change could not be applied to the kept one); the programs built or loaded
+ * from the program cache (one per device, again when the kernel options
+ * change); the uploads of the geometry (BVH, triangles and vertex arrays) and
+ * of the materials array to the devices (one per device each time it
+ * changed); and every byte uploaded of the scene's buffers. */
+typedef struct spectrace_scene_stats {
+    int renders;
+    int bvh_builds;
+    int program_builds;
+    int geometry_uploads;
+    int material_uploads;
+    double bytes_uploaded;
+} spectrace_scene_stats;
+
+void spectrace_scene_stats_get(const spectrace_scene *s, spectrace_scene_stats *out);
 
 void spectrace_image_free(spectrace_image *img);
 int spectrace_image_width(const spectrace_image *img);
@@ -180,7 +213,9 @@ int spectrace_image_spp(const spectrace_image *img);
 double spectrace_image_seconds(const spectrace_image *img);
 
 /* The arrays, rows top to bottom, into out (allocated by the caller):
- * - rgb: linear sRGB, 3 floats per pixel (the EXR's R, G, B);
+ * - rgb: linear sRGB, 3 floats per pixel (the EXR's R, G, B): with the
+ *   "denoise" setting the denoised image, whose noisy one noisy_rgb gives
+ *   (since 1.1; the EXR's noisy.R, G, B), the same as rgb without it;
  * - xyz: CIE XYZ, 3 floats per pixel (luminance Y in cd/m^2);
  * - counts: the samples kept per pixel, 1 float per pixel;
  * - aov: layer name ("albedo", "N", "Z", "P", "variance", "spp") of a render
@@ -190,6 +225,7 @@ double spectrace_image_seconds(const spectrace_image *img);
  *   spectral radiance (W m^-2 sr^-1 nm^-1) over N equal bands of 360-830 nm
  *   (band b's centre is 360 + (b + 0.5) * 470 / N nm). */
 int spectrace_image_rgb(const spectrace_image *img, float *out);
+int spectrace_image_noisy_rgb(const spectrace_image *img, float *out);
 int spectrace_image_xyz(const spectrace_image *img, float *out);
 int spectrace_image_counts(const spectrace_image *img, float *out);
 int spectrace_image_aov(const spectrace_image *img, const char *layer, float *out,

@@ -25,6 +25,7 @@
 #include "render/film.h"
 #include "render/film_layers.h"
 #include "render/render.h"
+#include "render/render_result.h"
 #include "render/test_hooks.h"
 #include "scene/scene.h"
 #include "scene/sky.h"
@@ -46,7 +47,7 @@ typedef struct RenderJob {
     RenderStats st;
     RenderDeviceStats per_dev[MAX_DEVICES];
     float *rgb;
-    FilmLayers layers;   /* AOV, spectral and noisy channels of an EXR output */
+    RenderImageMeta meta; /* the outputs' metadata; AOV, spectral and noisy channels */
     Denoiser den;        /* --denoise: Open Image Denoise, loaded before rendering */
     float *noisy;        /* --denoise: the image before denoising */
     double denoise_seconds;
@@ -171,15 +172,7 @@ static int check_outputs(RenderJob *j, SptError *e)
     if (a->rs.adaptive == SPT_SWITCH_ON && (a->checkpoint || a->resume))
         return spt_fail(e, SPT_EXIT_USAGE, "render: --adaptive on cannot be combined with --%s",
                         a->checkpoint ? "checkpoint" : "resume");
-    /* auto: on for a render given seconds, where the image is what counts.
-     * Off is kept as 0, a RenderSettings' default, so a render without
-     * adaptive sampling has one checkpoint key however it was asked for. */
-    if (a->rs.adaptive == SPT_SWITCH_AUTO)
-        a->rs.adaptive = a->rs.time_limit > 0 && !spt_dist_render && !a->checkpoint && !a->resume
-                             ? SPT_SWITCH_ON
-                             : SPT_SWITCH_OFF;
-    if (a->rs.adaptive == SPT_SWITCH_OFF)
-        a->rs.adaptive = SPT_SWITCH_AUTO;
+    render_adaptive_resolve(&a->rs, !spt_dist_render && !a->checkpoint && !a->resume);
     if (a->checkpoint || a->resume)
         return checkpoint_path_check(a->checkpoint ? a->checkpoint : a->resume, e);
     return SPT_EXIT_OK;
@@ -335,49 +328,17 @@ static int build_device_scene(RenderJob *j, SptError *e)
     return rc;
 }
 
-/* The host memory write_outputs takes (after the render's own is freed): the
- * linear sRGB image, the AOV layers and the bands (film_layers_make),
- * with --denoise the noisy image and the two guides (denoise), and for each
- * output not written as EXR (which is encoded a few rows at a time) its
- * encoding in memory, counted as 16 bytes per pixel (8-bit or float pixels
- * and the encoded file; src/io/image_out.c). */
-static size_t output_bytes(const RenderArgs *a)
-{
-    const RenderSettings *rs = &a->rs;
-    size_t np = (size_t)rs->width * (size_t)rs->height, floats = 3;
-    if (rs->aov)
-        floats += (size_t)SPT_FILM_AOV_LAYERS * 3;
-    if (rs->spectral > 0)
-        floats += (size_t)rs->spectral;
-    if (rs->denoise)
-        floats += 3 * 3;
-    size_t bytes = np * floats * sizeof(float);
-    for (int i = 0; i < a->outputs_count; i++) {
-        const char *dot = strrchr(a->outputs[i], '.');
-        if (!dot || strcasecmp(dot, ".exr"))
-            bytes += np * 16;
-    }
-    return bytes;
-}
-
 /* Before any device memory is taken: the host memory the render will take on
- * top of what is loaded (docs/limits.md, "The memory estimate"): the film, then
- * the larger of the render's own memory (render_memory: adaptive sampling, the
- * environment map's data, each device's host arrays and, on a CPU device, its
- * buffers) and the outputs' (output_bytes), which are made after it is freed;
- * against spt_memory_limit (the memory available, or the address space a
- * limit leaves). Too much is refused with the amounts (SPT_EXIT_DEVICE, as a
- * device's own limits are): the allocation would fail later, or the OpenCL
- * implementation would abort. --profile prints the estimate. */
+ * top of what is loaded, against what is available (render_host_memory,
+ * docs/limits.md "The memory estimate"). --profile prints the estimate. */
 static int check_host_memory(RenderJob *j, SptError *e)
 {
     RenderSettings *rs = &j->a.rs;
     rs->sky = &j->sky; /* render_memory reads the map's size */
-    RenderMemory m;
-    render_memory((const ClDeviceInfo *const *)j->devs, j->nsel, &j->gpu, &j->scene.camera, rs, &m);
-    double film = (double)film_bytes(rs->width, rs->height, render_keeps_aov(rs), rs->spectral);
-    double out = (double)output_bytes(&j->a);
-    double need = film + fmax((double)m.total, out), limit = spt_memory_limit();
+    RenderHostMemory m;
+    int rc = render_host_memory((const ClDeviceInfo *const *)j->devs, j->nsel, &j->gpu,
+                                &j->scene.camera, rs, (const char *const *)j->a.outputs,
+                                j->a.outputs_count, &m, e);
     char a[32], b[32], c[32], d[32], f[32], g[32];
     if (rs->profile && !j->a.quiet) {
         /* What is loaded already: the scene's arrays as the devices get them,
@@ -390,19 +351,11 @@ static int check_host_memory(RenderJob *j, SptError *e)
             loaded += 3.0 * sizeof(float) * (double)j->sky.map_width * (double)j->sky.map_height;
         fprintf(stderr, "memory: about %s of host memory: %s loaded, %s for the render (film %s, "
                 "then the larger of the render's %s and the outputs' %s)\n",
-                spt_format_bytes(a, sizeof a, loaded + need), spt_format_bytes(b, sizeof b, loaded),
-                spt_format_bytes(c, sizeof c, need), spt_format_bytes(d, sizeof d, film),
-                spt_format_bytes(f, sizeof f, (double)m.total), spt_format_bytes(g, sizeof g, out));
+                spt_format_bytes(a, sizeof a, loaded + m.need), spt_format_bytes(b, sizeof b, loaded),
+                spt_format_bytes(c, sizeof c, m.need), spt_format_bytes(d, sizeof d, m.film),
+                spt_format_bytes(f, sizeof f, m.render), spt_format_bytes(g, sizeof g, m.outputs));
     }
-    if (limit > 0 && need > limit)
-        return spt_fail(e, SPT_EXIT_DEVICE, "render: a %dx%d render needs about %s of host memory "
-                        "(film %s, then the larger of the render's %s and the outputs' %s), more "
-                        "than the %s %s",
-                        rs->width, rs->height, spt_format_bytes(a, sizeof a, need),
-                        spt_format_bytes(b, sizeof b, film), spt_format_bytes(c, sizeof c, (double)m.total),
-                        spt_format_bytes(d, sizeof d, out), spt_format_bytes(f, sizeof f, limit),
-                        spt_memory_limit_why());
-    return SPT_EXIT_OK;
+    return rc;
 }
 
 /* What the renderer needs beyond the options: the sky, progress, the stop flag,
@@ -456,36 +409,17 @@ static void report_notes(const RenderJob *j)
                  (unsigned long long)st->nan_dropped);
 }
 
-/* A film with a NaN or infinite pixel is never written (the kernels drop such
- * samples, so one is an internal error): SPT_EXIT_FAILURE with one error. The
- * test hook film_nan makes the first pixels NaN, as a render gone wrong would. */
+/* A film with a NaN or infinite pixel is never written (render_film_check).
+ * The test hook film_nan makes the first pixels NaN, as a render gone wrong
+ * would. */
 static int check_film(RenderJob *j)
 {
     long npix = (long)j->a.rs.width * j->a.rs.height;
     for (long i = 0; i < j->a.rs.test.film_nan && i < npix; i++)
         j->film.xyz[3 * i] = NAN;
-    /* The sums of squares count only for the variance layer (a checkpoint
-     * checks its own film, src/render/checkpoint.c). */
-    size_t bad = film_nonfinite_except_squares(&j->film);
-    if (bad) {
-        spt_error("render: %zu of %ld pixels came out NaN or infinite (an internal error); "
-                  "no output written",
-                  bad, npix);
-        return SPT_EXIT_FAILURE;
-    }
-    if ((j->a.rs.aov & SPT_AOV_VARIANCE) && (bad = film_nonfinite_pixels(&j->film))) {
-        spt_error("%s: --aov variance: %zu of %ld pixels are too bright for the variance layer (the "
-                  "sums of their radiance squared pass float's range, 3.4e38: "
-                  "docs/limits.md); no output written",
-                  j->a.scene, bad, npix);
-        return SPT_EXIT_INPUT;
-    }
-    if ((j->a.rs.aov & SPT_AOV_VARIANCE) && (bad = film_subnormal_square_pixels(&j->film)))
-        spt_warn("%s: --aov variance: %zu of %ld pixels are too dim for the variance layer (their "
-                 "radiance squared is below float's normal range, 1.2e-38: docs/limits.md); their "
-                 "variance is inexact, or 0 on a device that flushes such values",
-                 j->a.scene, bad, npix);
-    return SPT_EXIT_OK;
+    SptError e = {0};
+    int rc = render_film_check(&j->film, &j->a.rs, j->a.scene, &e);
+    return rc ? spt_report(&e) : SPT_EXIT_OK;
 }
 
 /* Speed and (with --profile) where the time went, unless quiet. */
@@ -517,66 +451,28 @@ static void report_speed(const RenderJob *j)
     }
 }
 
-/* The device description of the outputs' metadata: the device, or every device
- * with the samples it rendered and its speed (also printed unless quiet). */
+/* The device description of the outputs' metadata (render_device_description),
+ * printed unless quiet when the render had several devices. */
 static void describe_devices(const RenderJob *j, char *out, size_t cap)
 {
-    if (j->nsel == 1) {
-        snprintf(out, cap, "%s (%s)", j->devs[0]->name, j->devs[0]->platform_name);
-        return;
-    }
-    size_t len = 0;
-    out[0] = 0;
-    for (int i = 0; i < j->nsel && len < cap; i++)
-        len += (size_t)snprintf(out + len, cap - len, "%s%s (%s): %u spp, %.3f Mpaths/s%s",
-                                i ? "; " : "", j->devs[i]->name, j->devs[i]->platform_name,
-                                j->per_dev[i].samples, j->per_dev[i].paths_per_second * 1e-6,
-                                j->per_dev[i].failed ? ", failed" : "");
-    if (!j->a.quiet)
+    render_device_description(j->devs, j->nsel, j->per_dev, out, cap);
+    if (j->nsel > 1 && !j->a.quiet)
         fprintf(stderr, "devices: %s\n", out);
 }
 
-/* --denoise: the image (j->rgb) denoised by Open Image Denoise's RT filter,
- * guided by the albedo and normal layers; j->noisy keeps the image as it was.
- * The guides count as free of noise (cleanAux) for a pinhole camera; with a
- * lens, whose blur makes them noisy, they are denoised first. */
+/* --denoise: the image (j->rgb) denoised (render_denoise); j->noisy keeps the
+ * image as it was. */
 static int denoise(RenderJob *j, SptError *e)
 {
     const RenderSettings *rs = &j->a.rs;
-    size_t np = (size_t)rs->width * rs->height;
-    float *albedo = spt_malloc(3 * np * sizeof(float)), *normal = spt_malloc(3 * np * sizeof(float));
-    film_aov_layer(&j->film, SPT_AOV_ALBEDO, albedo);
-    film_aov_layer(&j->film, SPT_AOV_NORMAL, normal);
     j->noisy = j->rgb;
-    j->rgb = spt_malloc(3 * np * sizeof(float));
+    j->rgb = spt_malloc((size_t)rs->width * rs->height * 3 * sizeof(float));
     double t0 = spt_now();
-    int rc = denoiser_run(&j->den, j->noisy, albedo, normal, rs->width, rs->height, !(rs->aperture > 0),
-                          j->rgb, e);
+    int rc = render_denoise(&j->den, &j->film, rs, j->noisy, j->rgb, e);
     j->denoise_seconds = spt_now() - t0;
-    free(albedo);
-    free(normal);
-    if (rc)
-        return rc;
-    size_t bad = 0;
-    double sum_noisy = 0, sum_den = 0;
-    for (size_t i = 0; i < 3 * np; i++) {
-        bad += !isfinite(j->rgb[i]);
-        sum_noisy += j->noisy[i];
-        sum_den += j->rgb[i];
-    }
-    if (bad)
-        return spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: Open Image Denoise (%s) returned %zu NaN "
-                        "or infinite values; no output written", j->den.path, bad);
-    /* A denoiser moves light between neighbouring pixels, and removing
-     * fireflies lowers the mean by a few percent (docs/outputs.md,
-     * "Denoising"); half or twice the light is a denoiser gone wrong. */
-    if (sum_noisy > 0 && !(sum_den >= 0.5 * sum_noisy && sum_den <= 2 * sum_noisy))
-        return spt_fail(e, SPT_EXIT_FAILURE, "render: --denoise: Open Image Denoise (%s) returned an image "
-                        "whose mean is %.3g times the rendered image's (%.3g); no output written",
-                        j->den.path, sum_den / sum_noisy, sum_noisy / (3.0 * (double)np));
-    if (!j->a.quiet)
+    if (!rc && !j->a.quiet)
         fprintf(stderr, "denoised in %.2f s (Open Image Denoise, %s)\n", j->denoise_seconds, j->den.path);
-    return SPT_EXIT_OK;
+    return rc;
 }
 
 /* The film as every output image (with the render's metadata), then the final
@@ -592,45 +488,24 @@ static int write_outputs(RenderJob *j, SptError *e)
     int rc;
     if (rs->denoise && (rc = denoise(j, e)))
         return rc;
-    ImageMeta meta;
-    memset(&meta, 0, sizeof meta);
-    meta.spp = (int)j->st.spp_done;
-    meta.render_seconds = j->st.seconds;
-    char devdesc[4096], depth_s[32], nan_s[32];
+    char devdesc[4096];
     describe_devices(j, devdesc, sizeof devdesc);
-    meta.device = devdesc;
-    meta.seed = rs->seed;
-    meta.scene = a->scene;
-    snprintf(depth_s, sizeof depth_s, "%d", rs->max_depth);
-    snprintf(nan_s, sizeof nan_s, "%llu", (unsigned long long)j->st.nan_dropped);
-    image_meta_add(&meta, "max_depth", depth_s);
-    image_meta_add(&meta, "nan_dropped", nan_s);
-    /* The pose, when not the rest state (docs/gltf.md, "Animation, skins and
-     * morph targets"): which frame of the file the image is. */
-    if (rs->at)
-        image_meta_add(&meta, "at", rs->at);
-    if (rs->animation)
-        image_meta_add(&meta, "animation", rs->animation);
-    if (rs->camera)
-        image_meta_add(&meta, "camera", rs->camera);
-    FilmLayers *L = &j->layers;
-    film_layers_make(L, &j->film, rs->aov, 3);
-    meta.exr_attrs = L->attrs;
-    meta.exr_attr_count = L->attr_count;
+    RenderImageMeta *m = &j->meta;
+    render_image_meta(m, &j->film, rs, &j->st, devdesc, a->scene, 3);
     if (j->noisy) {
         static const char *names[3] = {"noisy.R", "noisy.G", "noisy.B"};
+        FilmLayers *L = &m->layers;
         for (int c = 0; c < 3; c++)
             L->channels[L->count++] = (ExrChannel){names[c], SPT_EXR_FLOAT, j->noisy + c, 3};
+        m->meta.layer_count = L->count;
     }
-    meta.layers = L->channels;
-    meta.layer_count = L->count;
     DisplayOptions disp = {(float)a->exposure, a->tonemap};
     const char *fail_at = getenv("SPECTRACE_TEST_FAIL_OUTPUT");
     atomic_test_fail_commit_at = fail_at ? atoi(fail_at) : 0;
     atomic_stage_begin();
     rc = SPT_EXIT_OK;
     for (int i = 0; i < a->outputs_count && !rc; i++)
-        rc = image_write(a->outputs[i], j->rgb, rs->width, rs->height, &meta, &disp, e);
+        rc = image_write(a->outputs[i], j->rgb, rs->width, rs->height, &m->meta, &disp, e);
     if (!rc)
         rc = checkpoint_writer_finish(&j->ckpt.writer, &j->film, e);
     int rc2 = atomic_stage_finish(!rc, e);
@@ -651,7 +526,7 @@ static void image_free(RenderJob *j)
     checkpoint_run_free(&j->ckpt);
     free(j->rgb);
     free(j->noisy);
-    film_layers_free(&j->layers);
+    render_image_meta_free(&j->meta);
     j->rgb = j->noisy = NULL;
     film_free(&j->film);
     if (j->gpu.bvh.nodes && j->programs.w && !j->scene.mesh_count) {

@@ -62,11 +62,20 @@ int denoiser_open(Denoiser *d, SptError *e)
                         "Denoise 2 library (%s)",
                         env, d->path);
     }
-    /* deps/oidn/lib/ beside the program's folder or the one above it. */
-    char exe[PATH_MAX];
-    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    if (n > 0) {
-        exe[n] = 0;
+    /* deps/oidn/lib/ beside the folder of the program, or of the file this
+     * code is in (build/libspectrace.so, loaded by another program: docs/
+     * api.md), or the folder above it. */
+    char bases[2][PATH_MAX];
+    int nb = 0;
+    ssize_t n = readlink("/proc/self/exe", bases[0], sizeof bases[0] - 1);
+    if (n > 0)
+        bases[nb++][n] = 0;
+    Dl_info self;
+    if (dladdr((void *)denoiser_open, &self) && self.dli_fname && self.dli_fname[0] == '/')
+        snprintf(bases[nb++], sizeof bases[0], "%s", self.dli_fname);
+    for (int b = 0; b < nb; b++) {
+        char exe[PATH_MAX];
+        memcpy(exe, bases[b], sizeof exe);
         for (int up = 1; up <= 2; up++) {
             char *slash = strrchr(exe, '/');
             if (!slash)

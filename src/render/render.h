@@ -46,17 +46,32 @@ typedef struct RenderTestHooks {
 
 struct Wavefront;
 
+/* The scene buffers (SPT_SCENE_BUFFERS) by index. */
+enum {
+#define SPT_SB_INDEX(type, name) SPT_SB_##name,
+    SPT_SCENE_BUFFERS(SPT_SB_INDEX)
+#undef SPT_SB_INDEX
+    SPT_SCENE_BUFFER_COUNT
+};
+
 /* Programs kept from one render to the next (a frame sequence: docs/gltf.md,
- * "Frame sequences"): per device of the selection (the same selection in
- * every render), its wavefront's context, program and kernels (NULL until a
- * render opens it; a device that fails is closed and opened again by the next
- * render), and the count of programs built (or loaded from the binary cache).
- * The kernels' build options come from the settings, which must give the same
- * options in every render that shares them. */
+ * "Frame sequences"; a scene of the library: docs/api.md): per device of the
+ * selection (the same selection in every render), its wavefront's context,
+ * program and kernels (NULL until a render opens it; a device that fails is
+ * closed and opened again by the next render), and the count of programs
+ * built (or loaded from the binary cache). A render whose kernel options
+ * differ from a kept program's (the thin film, AOVs, bands ...) builds that
+ * device's program anew. With keep_scene the scene buffers stay on the
+ * devices too, and a render uploads only those whose contents changed (the
+ * materials after a material's change, say); uploads counts, per scene
+ * buffer, the uploads on all devices, and upload_bytes their bytes. */
 typedef struct RenderPrograms {
     struct Wavefront **w;
     int count;
     int builds;
+    int keep_scene;
+    int uploads[SPT_SCENE_BUFFER_COUNT];
+    uint64_t upload_bytes;
 } RenderPrograms;
 
 /* count empty slots; render_programs_free closes every device opened. */
@@ -109,6 +124,13 @@ static inline int render_keeps_aov(const RenderSettings *rs)
  * open: a width of 512 when neither is given, the other side from the
  * camera's aspect ratio (1 when it has none). */
 void render_image_size(RenderSettings *rs, const SceneCamera *cam);
+
+/* --adaptive auto resolved (README.md, "--adaptive"): on for a render given
+ * seconds (--time), where the image is what counts, when may_adapt (not
+ * across MPI ranks nor with checkpoints, which keep no sums of squares); off
+ * otherwise, kept as SPT_SWITCH_AUTO (a RenderSettings' default, so a render
+ * without adaptive sampling has one checkpoint key however it was asked for). */
+void render_adaptive_resolve(RenderSettings *rs, int may_adapt);
 
 /* Kernel stages timed by --profile (src/render/wavefront.h, K_*). */
 #define SPT_STAGES 6

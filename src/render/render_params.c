@@ -119,3 +119,11 @@ void render_image_size(RenderSettings *rs, const SceneCamera *cam)
     if (!rs->width)
         rs->width = (long)(rs->height * aspect + 0.5f) > 0 ? (int)(long)(rs->height * aspect + 0.5f) : 1;
 }
+
+void render_adaptive_resolve(RenderSettings *rs, int may_adapt)
+{
+    if (rs->adaptive == SPT_SWITCH_AUTO)
+        rs->adaptive = rs->time_limit > 0 && may_adapt ? SPT_SWITCH_ON : SPT_SWITCH_OFF;
+    if (rs->adaptive == SPT_SWITCH_OFF)
+        rs->adaptive = SPT_SWITCH_AUTO;
+}

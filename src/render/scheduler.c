@@ -265,8 +265,8 @@ typedef struct Worker {
 
 void render_programs_init(RenderPrograms *p, int count)
 {
+    memset(p, 0, sizeof *p);
     p->count = count;
-    p->builds = 0;
     p->w = spt_calloc((size_t)(count > 0 ? count : 1), sizeof *p->w);
 }
 
@@ -282,8 +282,9 @@ void render_programs_free(RenderPrograms *p)
 }
 
 /* The worker's wavefront: with kept programs (rs->programs) the device's kept
- * one, opened (and counted) by the first render and given this render's
- * buffers; else its own, *own. */
+ * one, opened (and counted) by the first render, and again by a render
+ * whose kernel options differ, and given this render's buffers; else its
+ * own, *own. */
 static int worker_wavefront(Worker *wk, Wavefront *own, Wavefront **out)
 {
     const RenderSettings *rs = wk->s->rs;
@@ -294,26 +295,49 @@ static int worker_wavefront(Worker *wk, Wavefront *own, Wavefront **out)
         return wavefront_create(own, wk->info, wk->g, rs, wk->lights, light_film, &wk->e);
     }
     Wavefront **slot = &keep->w[wk->index];
-    int rc;
+    int rc = 0, fits = *slot ? wavefront_fits(*slot, wk->g, rs) : SPT_WAVEFRONT_REOPEN;
+    if (*slot && fits == SPT_WAVEFRONT_REOPEN) {
+        wavefront_free(*slot);
+        free(*slot);
+        *slot = NULL;
+    }
     if (!*slot) {
         *slot = spt_calloc(1, sizeof **slot);
         rc = wavefront_create(*slot, wk->info, wk->g, rs, wk->lights, light_film, &wk->e);
         __atomic_add_fetch(&keep->builds, 1, __ATOMIC_SEQ_CST);
     } else {
         (*slot)->dev.last_build_seconds = 0.0;
-        rc = wavefront_buffers(*slot, wk->g, rs, wk->lights, light_film, &wk->e);
+        (*slot)->uploaded = 0;
+        if (fits == SPT_WAVEFRONT_REBUILD) {
+            rc = wavefront_program(*slot, wk->g, rs, &wk->e);
+            __atomic_add_fetch(&keep->builds, 1, __ATOMIC_SEQ_CST);
+        }
+        if (!rc)
+            rc = wavefront_buffers(*slot, wk->g, rs, wk->lights, light_film, &wk->e);
     }
+    /* What went to the device, counted under the scheduler's lock. */
+    pthread_mutex_lock(&wk->s->lock);
+    for (int i = 0; i < SPT_SCENE_BUFFER_COUNT; i++)
+        if ((*slot)->uploaded & (1u << i)) {
+            keep->uploads[i]++;
+            keep->upload_bytes += (*slot)->scene_bytes[i];
+        }
+    pthread_mutex_unlock(&wk->s->lock);
     *out = *slot;
     return rc;
 }
 
-/* After the worker's last chunk: a kept wavefront keeps its program unless
- * the render failed on it (the next render opens the device again). */
+/* After the worker's last chunk: a kept wavefront keeps its program, and with
+ * keep_scene its scene buffers, unless the render failed on it (the next
+ * render opens the device again). */
 static void worker_wavefront_done(Worker *wk, Wavefront *w)
 {
     RenderPrograms *keep = wk->s->rs->programs;
     if (keep && !wk->rc) {
-        wavefront_release_buffers(w);
+        if (keep->keep_scene)
+            wavefront_release_work_buffers(w);
+        else
+            wavefront_release_buffers(w);
         return;
     }
     wavefront_free(w);

@@ -20,31 +20,49 @@ typedef cl_uint uint;
 static const char *const kernel_names[K_COUNT] = {"k_generate", "k_extend", "k_shade",
                                                   "k_connect", "k_accumulate", "k_paths"};
 
-void wavefront_release_buffers(Wavefront *w)
+_Static_assert(SPT_SCENE_BUFFER_COUNT <= 32, "Wavefront.uploaded has a bit per scene buffer");
+
+/* Scene buffer i (SPT_SB_*) released, with the memory it used in place. */
+static void scene_buffer_release(Wavefront *w, int i, cl_mem *m)
 {
-#define REL(type, name) if (w->b.name) clReleaseMemObject(w->b.name);
-#define PS_REL(type, name) if (w->b.ps_##name) clReleaseMemObject(w->b.ps_##name);
-#define SH_REL(type, name) if (w->b.sh_##name) clReleaseMemObject(w->b.sh_##name);
-    SPT_SCENE_BUFFERS(REL)
+    if (*m) {
+        /* A buffer is released before the memory it used in place. */
+        clReleaseMemObject(*m);
+        if (w->host_mem[i] && w->dev.queue)
+            clFinish(w->dev.queue);
+    }
+    *m = NULL;
+    free(w->host_mem[i]);
+    w->host_mem[i] = NULL;
+    w->scene_bytes[i] = 0;
+    w->scene_hash[i] = 0;
+}
+
+void wavefront_release_work_buffers(Wavefront *w)
+{
+#define REL(type, name) if (w->b.name) clReleaseMemObject(w->b.name); w->b.name = NULL;
+#define PS_REL(type, name) if (w->b.ps_##name) clReleaseMemObject(w->b.ps_##name); w->b.ps_##name = NULL;
+#define SH_REL(type, name) if (w->b.sh_##name) clReleaseMemObject(w->b.sh_##name); w->b.sh_##name = NULL;
     SPT_WORK_BUFFERS(REL)
     SPT_PATH_STATE(PS_REL)
     SPT_SHADOW_STATE(SH_REL)
 #undef REL
 #undef PS_REL
 #undef SH_REL
-    memset(&w->b, 0, sizeof w->b);
-    /* The buffers are released before the memory they used in place. */
-    if (w->dev.queue)
-        clFinish(w->dev.queue);
-    for (int i = 0; i < w->host_mem_count; i++)
-        free(w->host_mem[i]);
-    w->host_mem_count = 0;
     free(w->pm_raw);
     free(w->pm_sorted);
     free(w->pm_radius);
     free(w->pm_cells);
     w->pm_raw = w->pm_sorted = w->pm_radius = NULL;
     w->pm_cells = NULL;
+}
+
+void wavefront_release_buffers(Wavefront *w)
+{
+    wavefront_release_work_buffers(w);
+#define REL(type, name) scene_buffer_release(w, SPT_SB_##name, &w->b.name);
+    SPT_SCENE_BUFFERS(REL)
+#undef REL
 }
 
 void wavefront_free(Wavefront *w)
@@ -59,7 +77,8 @@ void wavefront_free(Wavefront *w)
     memset(w, 0, sizeof *w);
 }
 
-/* Read-only scene buffer name of bytes bytes from data. On a CPU device the
+/* Read-only scene buffer i (SPT_SB_*) called name, of bytes bytes from data
+ * (NULL: zeros). On a CPU device the
  * large ones (over 4 MiB: BVH nodes and triangles, vertex arrays, which the
  * kernels read at random) live in memory of our own that the device uses in
  * place (CL_MEM_USE_HOST_PTR; PoCL does not copy it), aligned to 2 MiB and
@@ -68,13 +87,12 @@ void wavefront_free(Wavefront *w)
  * bounce rays about 7% faster). Linux only gives huge pages to memory so marked when
  * transparent_hugepage is "madvise" (Debian's default) or "always"; elsewhere
  * this is plain memory. */
-static int scene_buffer_create(Wavefront *w, const char *name, size_t bytes, const void *data,
-                               cl_mem *out, SptError *e)
+static int scene_buffer_create(Wavefront *w, int i, const char *name, size_t bytes,
+                               const void *data, cl_mem *out, SptError *e)
 {
     static const char zeros[16];
     const size_t huge = (size_t)2 << 20;
-    if ((w->dev.info.type & CL_DEVICE_TYPE_CPU) && data && bytes > 2 * huge &&
-        w->host_mem_count < (int)(sizeof w->host_mem / sizeof w->host_mem[0])) {
+    if ((w->dev.info.type & CL_DEVICE_TYPE_CPU) && data && bytes > 2 * huge) {
         size_t size = (bytes + huge - 1) & ~(huge - 1);
         void *mem = aligned_alloc(huge, size);
         if (mem) {
@@ -82,13 +100,54 @@ static int scene_buffer_create(Wavefront *w, const char *name, size_t bytes, con
             madvise(mem, size, MADV_HUGEPAGE); /* advice: failure only loses speed */
 #endif
             memcpy(mem, data, bytes);
-            w->host_mem[w->host_mem_count++] = mem;
+            w->host_mem[i] = mem;
             return cl_buffer_create(&w->dev, name, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, bytes,
                                     mem, out, e);
         }
     }
     return cl_buffer_create(&w->dev, name, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
                             (void *)(data ? data : zeros), out, e);
+}
+
+/* A 64-bit hash of n bytes at p (NULL: n zero bytes), which tells a kept
+ * scene buffer's contents from the next render's: 8 bytes at a time, each
+ * word mixed in by a multiply and the finaliser of SplitMix64 (Steele, Lea
+ * and Flood, "Fast splittable pseudorandom number generators", OOPSLA 2014). */
+static uint64_t bytes_hash(const void *p, size_t n)
+{
+    uint64_t h = 0x9e3779b97f4a7c15ull ^ (uint64_t)n;
+    const unsigned char *c = p;
+    for (size_t k = 0; p && k < n; k += 8) {
+        uint64_t word = 0;
+        memcpy(&word, c + k, n - k < 8 ? n - k : 8);
+        h = (h ^ word) * 0xbf58476d1ce4e5b9ull;
+        h ^= h >> 29;
+    }
+    h ^= h >> 30;
+    h *= 0xbf58476d1ce4e5b9ull;
+    h ^= h >> 27;
+    h *= 0x94d049bb133111ebull;
+    return h ^ (h >> 31);
+}
+
+/* Scene buffer i called name for rendering g with L: kept when keep and the
+ * buffer w has holds the same bytes, else made anew (bit i of w->uploaded). */
+static int scene_buffer(Wavefront *w, int i, const char *name, const GpuScene *g,
+                        const RenderLights *L, int keep, cl_mem *m, SptError *e)
+{
+    size_t bytes = gpu_scene_buffer_bytes(g, L, name);
+    const void *data = gpu_scene_buffer_data(g, L, name);
+    uint64_t hash = keep ? bytes_hash(data, bytes) : 0;
+    if (*m && keep && w->scene_bytes[i] == bytes && w->scene_hash[i] == hash)
+        return 0;
+    scene_buffer_release(w, i, m);
+    int rc = scene_buffer_create(w, i, name, bytes, data, m, e);
+    if (!rc) {
+        w->scene_bytes[i] = bytes;
+        w->scene_hash[i] = hash;
+        w->uploaded |= 1u << i;
+    }
+    return rc;
 }
 
 /* The number of buffer arguments of every kernel (the params come after). */
@@ -307,16 +366,12 @@ void wavefront_plan(WavefrontPlan *p, const ClDeviceInfo *info, const GpuScene *
         p->device += al[i].bytes;
 }
 
-int wavefront_open(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
-                   const RenderSettings *rs, SptError *e)
+/* The kernels' code path for rendering with rs on info's device: *ray_pairs
+ * (the CPU path) and *mega (k_paths rather than the stages). */
+static void kernel_path_for(const ClDeviceInfo *info, const RenderSettings *rs, int *ray_pairs,
+                            int *mega)
 {
-    int rc;
-    memset(w, 0, sizeof *w);
-    w->aov = render_keeps_aov(rs);
-    w->bands = rs->spectral > 0 ? rs->spectral : 0;
-    if ((rc = cl_device_open(&w->dev, info, rs->profile, e)))
-        return rc;
-    w->ray_pairs = kernel_path_pairs(info);
+    *ray_pairs = kernel_path_pairs(info);
     /* The kernel_path test hook overrides that choice, so both paths run on any
      * device: tools/check_kernels.sh runs the CPU path under Oclgrind (a GPU to
      * us), tests/run_tests.sh the device tests on PoCL's CPU with the GPU path.
@@ -326,9 +381,9 @@ int wavefront_open(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
     if (path == SPT_KERNEL_PATH_DEVICE)
         kernel_path_env(&path, &stages);
     if (path == SPT_KERNEL_PATH_CPU)
-        w->ray_pairs = 1;
+        *ray_pairs = 1;
     else if (path == SPT_KERNEL_PATH_GPU)
-        w->ray_pairs = 0;
+        *ray_pairs = 0;
     /* The megakernel: on the CPU path, k_paths runs each work-item's paths from
      * start to end (kernels/integrator/wavefront.cl). A CPU runs a work-group's
      * items one after another, so the stage kernels' queues, barriers and
@@ -336,35 +391,72 @@ int wavefront_open(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
      * about 10% less CPU time, the 1M-triangle mesh the same
      * (docs/performance.md). A GPU keeps the stages, whose queues keep its
      * lanes on the same work. The stages test hook keeps them on a CPU too. */
-    w->mega = w->ray_pairs && !stages;
+    *mega = *ray_pairs && !stages;
+}
+
+void wavefront_options(const ClDeviceInfo *info, const GpuScene *g, const RenderSettings *rs,
+                       char *out, size_t cap)
+{
+    int ray_pairs, mega;
+    kernel_path_for(info, rs, &ray_pairs, &mega);
     cl_ulong cache = 0;
-    if (w->ray_pairs)
-        SPT_CL_CHECK(e, clGetDeviceInfo(info->id, CL_DEVICE_GLOBAL_MEM_CACHE_SIZE, sizeof cache,
-                                        &cache, NULL));
+    if (ray_pairs && clGetDeviceInfo(info->id, CL_DEVICE_GLOBAL_MEM_CACHE_SIZE, sizeof cache,
+                                     &cache, NULL) != CL_SUCCESS)
+        cache = 0;
     /* A BVH larger than a quarter of the device's cache (shared by its cores
      * and other programs) is read mostly from memory: each traversal step then
      * asks early for the next one's data (SPT_BVH_STEP_PREFETCH); in a small
      * scene those requests only cost time. */
     double bvh_bytes = (double)g->bvh.node_count * sizeof(BvhNode) + (double)g->bvh.tri_data_bytes;
-    int step_prefetch = w->ray_pairs && bvh_bytes > 0.25 * (double)cache;
+    int step_prefetch = ray_pairs && bvh_bytes > 0.25 * (double)cache;
     /* The thin film's code only where a material has one (kernels/closure/
      * bsdf_params.h, SPT_IRIDESCENCE). */
     int film = 0;
     for (uint32_t i = 0; i < g->material_count; i++)
         film |= g->materials[i].iridescence > 0.0f;
-    char options[256], bands_def[32] = "";
-    if (w->bands)
-        snprintf(bands_def, sizeof bands_def, "-DSPT_BANDS=%d ", w->bands);
+    char bands_def[32] = "";
+    if (rs->spectral > 0)
+        snprintf(bands_def, sizeof bands_def, "-DSPT_BANDS=%d ", rs->spectral);
     /* Photon merging's code only where it is asked for
      * (kernels/integrator/photon_merge.h). */
-    snprintf(options, sizeof options, "%s%s%s%s%s%s%s",
-             w->ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "-DSPT_BVH_SHORT_STACK=1 ",
+    snprintf(out, cap, "%s%s%s%s%s%s%s",
+             ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "-DSPT_BVH_SHORT_STACK=1 ",
              step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "", film ? "" : "-DSPT_IRIDESCENCE=0 ",
-             w->aov ? "-DSPT_AOV=1 " : "", bands_def, light_plan_merges(rs) ? "-DSPT_MERGE=1 " : "",
+             render_keeps_aov(rs) ? "-DSPT_AOV=1 " : "", bands_def, light_plan_merges(rs) ? "-DSPT_MERGE=1 " : "",
              rs->test.inject_nan ? "-DSPT_TEST_INJECT_NAN=1" : "");
+}
+
+int wavefront_fits(const Wavefront *w, const GpuScene *g, const RenderSettings *rs)
+{
+    if (w->dev.profiling != (rs->profile != 0))
+        return SPT_WAVEFRONT_REOPEN;
+    char options[sizeof w->options];
+    int ray_pairs, mega;
+    kernel_path_for(&w->dev.info, rs, &ray_pairs, &mega);
+    wavefront_options(&w->dev.info, g, rs, options, sizeof options);
+    return !strcmp(options, w->options) && ray_pairs == w->ray_pairs && mega == w->mega
+               ? SPT_WAVEFRONT_FITS
+               : SPT_WAVEFRONT_REBUILD;
+}
+
+int wavefront_program(Wavefront *w, const GpuScene *g, const RenderSettings *rs, SptError *e)
+{
+    int rc;
+    for (int i = 0; i < K_COUNT; i++)
+        if (w->k[i])
+            clReleaseKernel(w->k[i]);
+    memset(w->k, 0, sizeof w->k);
+    if (w->program)
+        clReleaseProgram(w->program);
+    w->program = NULL;
+    const ClDeviceInfo *info = &w->dev.info;
+    w->aov = render_keeps_aov(rs);
+    w->bands = rs->spectral > 0 ? rs->spectral : 0;
+    kernel_path_for(info, rs, &w->ray_pairs, &w->mega);
+    wavefront_options(info, g, rs, w->options, sizeof w->options);
     w->dev.stop = rs->stop;
     w->dev.announce = rs->progress;
-    if ((rc = cl_program_build(&w->dev, "kernels/integrator/wavefront.cl", options, &w->program, e)))
+    if ((rc = cl_program_build(&w->dev, "kernels/integrator/wavefront.cl", w->options, &w->program, e)))
         return rc;
     for (int i = 0; i < K_COUNT; i++) {
         cl_int err;
@@ -375,6 +467,16 @@ int wavefront_open(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
             return rc;
     }
     return 0;
+}
+
+int wavefront_open(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
+                   const RenderSettings *rs, SptError *e)
+{
+    int rc;
+    memset(w, 0, sizeof *w);
+    if ((rc = cl_device_open(&w->dev, info, rs->profile, e)))
+        return rc;
+    return wavefront_program(w, g, rs, e);
 }
 
 int wavefront_buffers(Wavefront *w, const GpuScene *g, const RenderSettings *rs,
@@ -388,9 +490,10 @@ int wavefront_buffers(Wavefront *w, const GpuScene *g, const RenderSettings *rs,
     w->chunk_spp = pl->chunk_spp;
     if ((rc = cl_device_check_memory(info, pl->allocs, pl->count, e)))
         return rc;
-#define MAKE_RO(type, name)                                                             \
-    if ((rc = scene_buffer_create(w, #name, gpu_scene_buffer_bytes(g, L, #name),              \
-                                  gpu_scene_buffer_data(g, L, #name), &w->b.name, e)))        \
+    int keep = rs->programs && rs->programs->keep_scene;
+    w->uploaded = 0;
+#define MAKE_RO(type, name)                                                              \
+    if ((rc = scene_buffer(w, SPT_SB_##name, #name, g, L, keep, &w->b.name, e)))         \
         return rc;
     SPT_SCENE_BUFFERS(MAKE_RO)
 #undef MAKE_RO

@@ -71,8 +71,14 @@ typedef struct Wavefront {
     int aov;               /* 1: the kernels keep AOVs (built with SPT_AOV) */
     int bands;             /* spectral bands (built with SPT_BANDS), 0: none */
     WavefrontPlan plan;    /* the sizes of every buffer */
-    void *host_mem[16];    /* memory of the scene buffers used in place (CPU devices) */
-    int host_mem_count;
+    char options[256];     /* the program's build options (wavefront_options) */
+    /* Per scene buffer (SPT_SB_*): the memory it uses in place (CPU devices;
+     * NULL: the device's own copy), and with kept scene buffers
+     * (RenderPrograms.keep_scene) the size and hash of what was uploaded. */
+    void *host_mem[SPT_SCENE_BUFFER_COUNT];
+    size_t scene_bytes[SPT_SCENE_BUFFER_COUNT];
+    uint64_t scene_hash[SPT_SCENE_BUFFER_COUNT];
+    uint32_t uploaded;     /* bit SPT_SB_*: uploaded by the last wavefront_buffers */
     /* Photon merging's host arrays (run_merge_chunk): the photons read back,
      * sorted into the grid, its buckets, the chunk's radii; NULL until used. */
     float *pm_raw, *pm_sorted, *pm_radius;
@@ -93,12 +99,33 @@ void wavefront_free(Wavefront *w);
  * device and builds the program and kernels for rs's kernel options (g only
  * chooses whether the traversal prefetches, which changes no result);
  * wavefront_buffers checks the device's memory and makes the buffers of a
- * render of g; wavefront_release_buffers releases them, keeping the program. */
+ * render of g; wavefront_release_buffers releases them, keeping the program.
+ * With rs->programs->keep_scene, wavefront_buffers keeps each scene buffer
+ * the last render left (wavefront_release_work_buffers) whose size and
+ * contents are unchanged, and uploads the others; w->uploaded says which. */
 int wavefront_open(Wavefront *w, const ClDeviceInfo *info, const GpuScene *g,
                    const RenderSettings *rs, SptError *e);
 int wavefront_buffers(Wavefront *w, const GpuScene *g, const RenderSettings *rs,
                       const RenderLights *L, uint32_t light_film, SptError *e);
 void wavefront_release_buffers(Wavefront *w);
+void wavefront_release_work_buffers(Wavefront *w);
+
+/* The build options of the program for rendering g with rs on info's device
+ * (the kernel specialisations: code path, AOVs, bands, the thin film ...)
+ * into out. */
+void wavefront_options(const ClDeviceInfo *info, const GpuScene *g, const RenderSettings *rs,
+                       char *out, size_t cap);
+
+/* Whether w, a wavefront kept from an earlier render, can render g with rs:
+ * as it is (SPT_WAVEFRONT_FITS), after wavefront_program builds its program
+ * with rs's options (SPT_WAVEFRONT_REBUILD: its context and buffers stay), or
+ * only opened anew (SPT_WAVEFRONT_REOPEN: its queue's profiling differs). */
+enum { SPT_WAVEFRONT_REOPEN, SPT_WAVEFRONT_REBUILD, SPT_WAVEFRONT_FITS };
+int wavefront_fits(const Wavefront *w, const GpuScene *g, const RenderSettings *rs);
+
+/* Builds w's program and kernels for rendering g with rs, replacing those it
+ * had (wavefront_open's second half). Returns 0 or an exit code. */
+int wavefront_program(Wavefront *w, const GpuScene *g, const RenderSettings *rs, SptError *e);
 
 /* A chunk of more camera paths than this many pools is long: a first stop
  * request (*stop 1) drops it rather than waiting for it. */

@@ -165,7 +165,13 @@ out:
 extern "C" int scene_load_gltf_memory(Scene *s, const void *data, size_t size, const char *name,
                                       SptError *e)
 {
-    return spt_gltf::load(s, (const unsigned char *)data, size, name, nullptr, e);
+    return scene_load_gltf_memory_posed(s, data, size, name, nullptr, e);
+}
+
+extern "C" int scene_load_gltf_memory_posed(Scene *s, const void *data, size_t size,
+                                            const char *name, const ScenePose *pose, SptError *e)
+{
+    return spt_gltf::load(s, (const unsigned char *)data, size, name, pose, e);
 }
 
 extern "C" int scene_load_gltf(Scene *s, const char *path, SptError *e)

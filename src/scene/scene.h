@@ -245,9 +245,13 @@ int scene_load_gltf_posed(Scene *s, const char *path, const ScenePose *pose, Spt
 
 /* The same from the file's bytes in memory (.gltf or .glb, told apart by the GLB
  * magic); name stands for the file in messages and its folder is where external
- * buffers and images are looked up. For tests and fuzzing. */
+ * buffers and images are looked up. For tests, fuzzing and the library
+ * (src/api/spectrace.h). */
 int scene_load_gltf_memory(Scene *s, const void *data, size_t size, const char *name,
                            SptError *e);
+/* The same posed (as scene_load_gltf_posed). */
+int scene_load_gltf_memory_posed(Scene *s, const void *data, size_t size, const char *name,
+                                 const ScenePose *pose, SptError *e);
 
 /* A default perspective camera that frames the bounds from +Z looking toward -Z,
  * yfov 45 degrees. */

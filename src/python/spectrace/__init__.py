@@ -54,6 +54,12 @@ class _ColorInfo(ctypes.Structure):
                 ("srgb8", ctypes.c_int * 3), ("x", ctypes.c_double), ("y", ctypes.c_double)]
 
 
+class _SceneStats(ctypes.Structure):
+    _fields_ = [("renders", ctypes.c_int), ("bvh_builds", ctypes.c_int),
+                ("program_builds", ctypes.c_int), ("geometry_uploads", ctypes.c_int),
+                ("material_uploads", ctypes.c_int), ("bytes_uploaded", ctypes.c_double)]
+
+
 _PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_uint32, ctypes.c_uint32)
 
 
@@ -91,7 +97,8 @@ def _load():
         "settings_count": (I, []), "settings_name": (C, [I]), "settings_kind": (C, [I]),
         "settings_help": (C, [I]),
         "scene_load": (P, [C, P, E]), "scene_load_memory": (P, [C, ctypes.c_size_t, C, E]),
-        "scene_free": (None, [P]),
+        "scene_load_memory_posed": (P, [C, ctypes.c_size_t, C, P, E]),
+        "scene_free": (None, [P]), "scene_stats_get": (None, [P, ctypes.POINTER(_SceneStats)]),
         "scene_material_count": (I, [P]), "scene_material_name": (C, [P, I]),
         "scene_material_find": (I, [P, C]),
         "scene_material_get": (I, [P, I, C, FP, E]), "scene_material_set": (I, [P, I, C, FP, I, E]),
@@ -102,7 +109,7 @@ def _load():
         "render": (I, [P, P, P, _PROGRESS, P, ctypes.POINTER(P), E]),
         "image_free": (None, [P]), "image_width": (I, [P]), "image_height": (I, [P]),
         "image_spp": (I, [P]), "image_seconds": (D, [P]),
-        "image_rgb": (I, [P, FP]), "image_xyz": (I, [P, FP]), "image_counts": (I, [P, FP]),
+        "image_rgb": (I, [P, FP]), "image_noisy_rgb": (I, [P, FP]), "image_xyz": (I, [P, FP]), "image_counts": (I, [P, FP]),
         "image_aov": (I, [P, C, FP, E]), "image_band_count": (I, [P]), "image_bands": (I, [P, FP]),
         "image_write": (I, [P, C, E]), "write_rgb": (I, [C, FP, I, I, E]),
         "color": (I, [C, DP, DP, I, I, ctypes.POINTER(_ColorInfo), E]),
@@ -162,7 +169,7 @@ class Settings:
     """A render's settings: the options of `spectrace render` by name."""
 
     NOT_SETTINGS = {"output", "device", "checkpoint", "checkpoint-every", "resume", "quiet",
-                    "help", "denoise"}
+                    "help"}
 
     def __init__(self, **kw):
         self._h = _lib.spectrace_settings_new()
@@ -378,8 +385,13 @@ class Image:
 
     @property
     def rgb(self):
-        """Linear sRGB."""
+        """Linear sRGB (with denoise=True the denoised image)."""
         return self._array(_lib.spectrace_image_rgb, 3)
+
+    @property
+    def noisy_rgb(self):
+        """Linear sRGB before denoising (without denoise, rgb)."""
+        return self._array(_lib.spectrace_image_noisy_rgb, 3)
 
     @property
     def xyz(self):
@@ -472,13 +484,15 @@ class Scene:
         self._collections()
 
     @classmethod
-    def from_bytes(cls, data, base_dir=None):
-        """A scene from a .gltf or .glb file's bytes; external files from base_dir."""
+    def from_bytes(cls, data, base_dir=None, at=None, animation=None, camera=None):
+        """A scene from a .gltf or .glb file's bytes; external files from base_dir; posed
+        as Scene(path, at=..., animation=..., camera=...) is."""
         s = cls.__new__(cls)
-        s._pose = Settings()
+        s._pose = Settings(at=at, animation=animation, camera=camera)
         err = _Error()
-        s._h = _lib.spectrace_scene_load_memory(bytes(data), len(data),
-                                                _enc(None if base_dir is None else os.fspath(base_dir)), err)
+        s._h = _lib.spectrace_scene_load_memory_posed(
+            bytes(data), len(data), _enc(None if base_dir is None else os.fspath(base_dir)),
+            s._pose._h, err)
         if not s._h:
             _check(err.code or 1, err)
         s._collections()
@@ -497,6 +511,15 @@ class Scene:
         if getattr(self, "_h", None):
             _lib.spectrace_scene_free(self._h)
             self._h = None
+
+    @property
+    def stats(self):
+        """What the scene's renders have cost so far, as a dict: renders, bvh_builds,
+        program_builds (per device), geometry_uploads and material_uploads (per device)
+        and bytes_uploaded (spectrace_scene_stats in spectrace.h)."""
+        st = _SceneStats()
+        _lib.spectrace_scene_stats_get(self._h, ctypes.byref(st))
+        return {name: getattr(st, name) for name, _ in _SceneStats._fields_}
 
     def render(self, settings=None, device=None, progress=None, **kw):
         """Renders with settings (a Settings, and/or keyword settings) on device's renderer

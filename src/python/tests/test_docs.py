@@ -34,6 +34,12 @@ def test_sweep_example(workdir):
     assert not np.array_equal(images[0], images[-1])
     assert abs(images[-1].mean() / images[0].mean() - 1) < 0.2
     assert (workdir / "sweep.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # One scene load, one program and one geometry upload per device for the 20
+    # renders; the materials uploaded at each change (docs/api.md, "Speed").
+    ndev = len(spectrace._renderer(None).devices)
+    assert ns["scene"].stats == dict(renders=20, bvh_builds=1, program_builds=ndev,
+                                     geometry_uploads=ndev, material_uploads=20 * ndev,
+                                     bytes_uploaded=ns["scene"].stats["bytes_uploaded"])
 
 
 def test_spectrum_example(workdir):
