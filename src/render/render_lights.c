@@ -295,7 +295,9 @@ static void tree_setup(RenderLights *L, const GpuScene *g, uint32_t *inst_leaf)
     free(w);
     L->aside_offset = L->select.n + 1;
     float pt = distrib_prob(&L->aside, 0);
-    uint32_t np = g->bvh.prim_count;
+    /* One word per packed triangle, the instanced meshes' too (the buffer's
+     * size, gpu_scene_buffer_bytes); theirs stay 0, their leaves per instance. */
+    uint32_t np = g->prim_total;
     L->tri_leaf = spt_calloc(np ? np : 1, sizeof(uint32_t));
     for (uint32_t k = 0; k < g->tri_emitter_count; k++)
         L->tri_light_pdf[g->emitters[k]] = 0.0f;
