@@ -23,30 +23,22 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from gen_gltf_tests import png  # noqa: E402
-from make_instancing_scene import Doc, quat  # noqa: E402
+from make_instancing_scene import Doc, ball, quat  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def tangent_ball(rings=10, segs=20, r=0.6):
-    """A UV sphere: positions, normals, TEXCOORD_0, TANGENT, indices."""
-    pos, nrm, uv, tan, idx = [], [], [], [], []
+    """make_instancing_scene's UV sphere (vertex i (segs + 1) + j at polar
+    angle pi i / rings, azimuth 2 pi j / segs) with TEXCOORD_0 and TANGENT:
+    positions, normals, uvs, tangents, indices."""
+    pos, nrm, idx = ball(rings, segs, r)
+    uv, tan = [], []
     for i in range(rings + 1):
-        th = math.pi * i / rings
         for j in range(segs + 1):
             ph = 2 * math.pi * j / segs
-            n = [math.sin(th) * math.cos(ph), math.cos(th), math.sin(th) * math.sin(ph)]
-            nrm += n
-            pos += [r * c for c in n]
             uv += [j / segs, i / rings]
             tan += [-math.sin(ph), 0.0, math.cos(ph), -1.0]
-    for i in range(rings):
-        for j in range(segs):
-            a, b = i * (segs + 1) + j, (i + 1) * (segs + 1) + j
-            if i:
-                idx += [a, a + 1, b]
-            if i < rings - 1:
-                idx += [a + 1, b + 1, b]
     return pos, nrm, uv, tan, idx
 
 
