@@ -7,7 +7,9 @@
  * stays flattened, an emitting mesh placed twice does not; and the scene renders
  * the image of its flattened load (--instancing off) up to the float
  * rounding of the transforms, on the CPU path (megakernel and stages) and
- * the GPU-shaped path. */
+ * the GPU-shaped path; so do meshes with TANGENT (normal-mapped and
+ * anisotropic) on tests/data/scenes/instancing_tangents.gltf
+ * (tools/make_tangent_instancing_scene.py). */
 #include "test_util.h"
 #include "test_render_util.h"
 
@@ -149,6 +151,48 @@ TEST(test_instanced_gltf_matches_flattened)
     load(&si, SCENE_INSTANCING_AUTO);
     load(&sf, SCENE_INSTANCING_OFF);
     assert_renders_agree_noisy(&si, &sf, W, 64);
+    scene_free(&si);
+    scene_free(&sf);
+}
+
+#define TANGENT_SCENE SPT_TEST_DATA("scenes/instancing_tangents.gltf")
+#define TANGENT_BALL_TRIS 360 /* 10 rings of 20 segments, the poles' one triangle each */
+
+/* Meshes with TANGENT load by reference, their tangents in their own space,
+ * and render the image of their flattened load, whose tangents the loader
+ * moved to world space in double (instancing_tangents.gltf,
+ * tools/make_tangent_instancing_scene.py: a normal-mapped ball and an
+ * anisotropic one, placed by rotated, non-uniformly scaled and mirrored
+ * nodes). Neither emits, so both loads draw the same random numbers and the
+ * images agree within assert_images_agree's rounding tolerance. */
+TEST(test_instanced_tangents_match_flattened)
+{
+    Scene si, sf;
+    SptError e = {0};
+    ScenePose on = {NAN, NULL, NULL, SCENE_INSTANCING_AUTO}, off = {NAN, NULL, NULL, SCENE_INSTANCING_OFF};
+    if (scene_load_gltf_posed(&si, TANGENT_SCENE, &on, &e) || scene_load_gltf_posed(&sf, TANGENT_SCENE, &off, &e))
+        fail_msg("%s", e.msg);
+    assert_int_equal(si.mesh_count, 2);
+    assert_int_equal(si.inst_count, 5 + 3);
+    assert_int_equal(si.tri_count, 2 + 2 * TANGENT_BALL_TRIS);
+    assert_int_equal(sf.mesh_count, 0);
+    assert_int_equal(sf.tri_count, 2 + 8 * TANGENT_BALL_TRIS);
+    /* The meshes' tangents as the file gives them: (-sin phi, 0, cos phi, -1)
+     * at the vertex of position r (sin th cos phi, cos th, sin th sin phi). */
+    assert_non_null(si.vtx_tangent);
+    for (uint32_t t = 2; t < si.tri_count; t += 37)
+        for (int k = 0; k < 3; k++) {
+            uint32_t v = si.tri_vidx[3 * t + k];
+            const float *p = &si.tri_pos[9 * t + 3 * k], *tg = &si.vtx_tangent[4 * v];
+            double rho = hypot(p[0], p[2]);
+            assert_close(tg[3], -1.0, 0);
+            assert_close(tg[1], 0.0, 1e-6);
+            if (rho > 1e-3) {
+                assert_close(tg[0], -p[2] / rho, 1e-5);
+                assert_close(tg[2], p[0] / rho, 1e-5);
+            }
+        }
+    assert_renders_agree(&si, &sf, W);
     scene_free(&si);
     scene_free(&sf);
 }

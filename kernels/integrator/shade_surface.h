@@ -301,7 +301,8 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
     f->both_sides = f->two_sided_bsdf || (bsdf_has_dt(bp) && bp->metallic < 1.0f);
     if (bsdf_has_aniso(bp))
         bp->aniso_t = aniso_direction(m, bp->aniso_t, ns, h->ng, tg, bt, prim, h->bu, h->bv, h->v0, h->v1, h->v2,
-                                      kg->tri_shade, kg->vtx_normal, kg->vtx_uv, kg->vtx_uv1, kg->vtx_tangent);
+                                      kg->tri_shade, kg->vtx_normal, kg->vtx_uv, kg->vtx_uv1, kg->vtx_tangent,
+                                      kg->tlas_inst, h->inst);
     if (bp->clearcoat > 0.0f) {
         if (dot(wo, n_coat) * dot(wo, ngf) <= 0.0f)
             n_coat = ngf;

@@ -58,6 +58,23 @@ static float3 vertex_normal_world(const __global BvhInstance *inst, uint k, floa
     return l > 0.0f ? w / l : (float3)(0.0f);
 }
 
+/* A vertex tangent t (unit xyz, w the bitangent's sign, 0 0 0 0: none) of
+ * instance k (SPT_NO_INST: in world space already) in world space, as the
+ * glTF loader moves a flattened copy's (src/scene/gltf_loader.h, mat_tangent):
+ * xyz through the transform's linear part, normalised, and w negated where
+ * the instance mirrors, since the bitangent cross(n, t) w must follow the
+ * transform as t and the normal do (glTF 2.0 3.7.2.1). */
+static float4 vertex_tangent_world(const __global BvhInstance *inst, uint k, float4 t)
+{
+    if (k == SPT_NO_INST || t.w == 0.0f)
+        return t;
+    float3 w = bvh_xf_apply(inst[k].xf, t.xyz, 0.0f);
+    float l = length(w);
+    if (!(l > 0.0f))
+        return (float4)(0.0f);
+    return (float4)(w / l, (inst[k].flags & BVH_INSTANCE_MIRRORED) ? -t.w : t.w);
+}
+
 /* The texture context of packed triangle prim (vertices v0, v1, v2, unit face
  * normal ng) at barycentrics (bu, bv), reached along unit direction rd by a ray
  * cone of width cone_w there (0: no footprint). The cone's circular cross-section
@@ -230,20 +247,23 @@ static int uv_tangent_frame(float2 t0, float2 t1, float2 t2, float3 n, float3 v0
     return 1;
 }
 
-/* The mesh's tangent frame at (bu, bv) of packed triangle prim, for material m
- * with SPT_MAT_TANGENTS: TANGENT interpolated and orthogonalised at the unit
- * normal n, the bitangent cross(nv, t) w (glTF 2.0 3.7.2.1, nv the vertex
- * normal; its sign is what the frame takes from it) made orthogonal to both.
- * Returns 0 where a vertex of the triangle has no tangent (w 0) or the
- * tangent is parallel to n. */
+/* The mesh's tangent frame at (bu, bv) of packed triangle prim of instance k
+ * of inst (SPT_NO_INST: a world-space triangle), for material m with
+ * SPT_MAT_TANGENTS: TANGENT in world space (vertex_tangent_world)
+ * interpolated and orthogonalised at the unit world normal n, the bitangent
+ * cross(nv, t) w (glTF 2.0 3.7.2.1, nv the world vertex normal; its sign is
+ * what the frame takes from it) made orthogonal to both. Returns 0 where a
+ * vertex of the triangle has no tangent (w 0) or the tangent is parallel to n. */
 static int mesh_tangent_frame(const __global GpuMaterial *m, uint prim, float bu, float bv, float3 n, float3 nv,
                               const __global TriShade *tri_shade, const __global float4 *vtx_tangent,
-                              float3 *tg, float3 *bt)
+                              const __global BvhInstance *inst, uint k, float3 *tg, float3 *bt)
 {
     if (!(m->flags & SPT_MAT_TANGENTS))
         return 0;
     TriShade ts = tri_shade[prim];
-    float4 a = vtx_tangent[ts.v[0]], b = vtx_tangent[ts.v[1]], c = vtx_tangent[ts.v[2]];
+    float4 a = vertex_tangent_world(inst, k, vtx_tangent[ts.v[0]]),
+           b = vertex_tangent_world(inst, k, vtx_tangent[ts.v[1]]),
+           c = vertex_tangent_world(inst, k, vtx_tangent[ts.v[2]]);
     if (a.w == 0.0f || b.w == 0.0f || c.w == 0.0f)
         return 0;
     float3 t = (1.0f - bu - bv) * a.xyz + bu * b.xyz + bv * c.xyz;
@@ -258,22 +278,24 @@ static int mesh_tangent_frame(const __global GpuMaterial *m, uint prim, float bu
     return 1;
 }
 
-/* Normal n (the interpolated vertex normal) bent by the tangent-space normal
- * map of slot k (scale: the normalTextureInfo's), in the mesh's tangent frame
- * (mesh_tangent_frame) or, without TANGENT, the frame uv_tangent_frame derives
- * from the slot's (transformed) texture coordinates. n itself when they are
- * degenerate. */
+/* Normal n (the interpolated world vertex normal) bent by the tangent-space
+ * normal map of slot k (scale: the normalTextureInfo's), in the mesh's tangent
+ * frame (mesh_tangent_frame, the triangle instance ik's of inst) or, without
+ * TANGENT, the frame uv_tangent_frame derives from the slot's (transformed)
+ * texture coordinates on the world vertices v0, v1, v2. n itself when they
+ * are degenerate. */
 static float3 normal_map(const __global GpuMaterial *m, int k, float scale, float3 n, uint prim, float bu,
                          float bv, float3 v0, float3 v1, float3 v2, const TexCtx *c,
                          const __global TriShade *tri_shade, const __global float *vtx_uv,
                          const __global float *vtx_uv1, const __global float4 *vtx_tangent,
-                         const __global GpuTexture *textures, const __global float4 *texels)
+                         const __global GpuTexture *textures, const __global float4 *texels,
+                         const __global BvhInstance *inst, uint ik)
 {
     const __global GpuTexSlot *s = m->slot + k;
     TriShade ts = tri_shade[prim];
     const __global float *uvs = s->uv_set ? vtx_uv1 : vtx_uv;
     float3 tg, bt;
-    if (!mesh_tangent_frame(m, prim, bu, bv, n, n, tri_shade, vtx_tangent, &tg, &bt) &&
+    if (!mesh_tangent_frame(m, prim, bu, bv, n, n, tri_shade, vtx_tangent, inst, ik, &tg, &bt) &&
         !uv_tangent_frame(uv_apply(s->m, vload2(ts.v[0], uvs)), uv_apply(s->m, vload2(ts.v[1], uvs)),
                           uv_apply(s->m, vload2(ts.v[2], uvs)), n, v0, v1, v2, &tg, &bt))
         return n;
@@ -284,8 +306,9 @@ static float3 normal_map(const __global GpuMaterial *m, int k, float scale, floa
     return nl > 1e-6f ? nb / nl : n;
 }
 
-/* KHR_materials_anisotropy's direction at a hit (packed triangle prim at (bu,
- * bv), shading normal n, face normal ng on the winding's front), in the local
+/* KHR_materials_anisotropy's direction at a hit (packed triangle prim of
+ * instance k of inst at (bu, bv), world vertices v0, v1, v2, shading normal n,
+ * face normal ng on the winding's front), in the local
  * frame (tg, bt, n) of the BSDF: the material's direction in tangent space
  * (dir, from material_bsdf) mapped through the mesh's tangent frame
  * (mesh_tangent_frame) or, without TANGENT, the one of the anisotropy slot's
@@ -296,16 +319,17 @@ static float3 aniso_direction(const __global GpuMaterial *m, float3 dir, float3 
                               float3 bt, uint prim, float bu, float bv, float3 v0, float3 v1, float3 v2,
                               const __global TriShade *tri_shade, const __global float *vtx_normal,
                               const __global float *vtx_uv, const __global float *vtx_uv1,
-                              const __global float4 *vtx_tangent)
+                              const __global float4 *vtx_tangent, const __global BvhInstance *inst, uint k)
 {
     TriShade ts = tri_shade[prim];
     const __global float *uvs = m->slot[SPT_TS_ANISOTROPY].uv_set ? vtx_uv1 : vtx_uv;
-    float3 nv = (1.0f - bu - bv) * vload3(ts.v[0], vtx_normal) + bu * vload3(ts.v[1], vtx_normal) +
-                bv * vload3(ts.v[2], vtx_normal);
+    float3 nv = (1.0f - bu - bv) * vertex_normal_world(inst, k, vload3(ts.v[0], vtx_normal)) +
+                bu * vertex_normal_world(inst, k, vload3(ts.v[1], vtx_normal)) +
+                bv * vertex_normal_world(inst, k, vload3(ts.v[2], vtx_normal));
     if (!(length(nv) > 1e-6f))
         nv = ng;
     float3 ut, ub;
-    if (!mesh_tangent_frame(m, prim, bu, bv, n, nv, tri_shade, vtx_tangent, &ut, &ub) &&
+    if (!mesh_tangent_frame(m, prim, bu, bv, n, nv, tri_shade, vtx_tangent, inst, k, &ut, &ub) &&
         !uv_tangent_frame(vload2(ts.v[0], uvs), vload2(ts.v[1], uvs), vload2(ts.v[2], uvs), n, v0, v1, v2,
                           &ut, &ub))
         return (float3)(1.0f, 0.0f, 0.0f);
@@ -351,10 +375,10 @@ static float3 shading_normal(uint prim, float bu, float bv, float3 *ng, int foll
     *n_coat = ns;
     if (m->clearcoat > 0.0f && m->slot[SPT_TS_CLEARCOAT_NORMAL].tex >= 0)
         *n_coat = normal_map(m, SPT_TS_CLEARCOAT_NORMAL, m->cc_normal_scale, ns, prim, bu, bv, v0, v1, v2, c,
-                             tri_shade, vtx_uv, vtx_uv1, vtx_tangent, textures, texels);
+                             tri_shade, vtx_uv, vtx_uv1, vtx_tangent, textures, texels, inst, k);
     if (m->slot[SPT_TS_NORMAL].tex >= 0)
         ns = normal_map(m, SPT_TS_NORMAL, m->normal_scale, ns, prim, bu, bv, v0, v1, v2, c, tri_shade, vtx_uv,
-                        vtx_uv1, vtx_tangent, textures, texels);
+                        vtx_uv1, vtx_tangent, textures, texels, inst, k);
     return ns;
 }
 

@@ -17,10 +17,10 @@ int Loader::place(int mi, const Mat4 &world, int node)
 }
 
 // Whether mesh mi (its primitives read), placed by nodes, can be traced by
-// reference: not skinned or morphed (posed per node: src/scene/gltf_pose.cpp),
-// and without TANGENT (the renderer takes tangents as world-space). Emitting
-// meshes are lights once per instance (docs/architecture.md, "Instances (two
-// levels)").
+// reference: not skinned or morphed (posed per node: src/scene/gltf_pose.cpp).
+// Emitting meshes are lights once per instance, and TANGENT stays in the
+// mesh's space, which the renderer moves through the instance's transform
+// (docs/architecture.md, "Instances (two levels)").
 bool Loader::by_reference_ok(int mi, const std::vector<int> &nodes)
 {
     for (int n : nodes)
@@ -28,7 +28,7 @@ bool Loader::by_reference_ok(int mi, const std::vector<int> &nodes)
     for (const PrimData &pd : prim[mi]) {
         if (pd.skip) continue;
         const PrimData &vd = pd.vsrc ? *pd.vsrc : pd;
-        if (pd.deformable || vd.deformable || !vd.tan.empty())
+        if (pd.deformable || vd.deformable)
             return false;
     }
     return true;

@@ -198,9 +198,10 @@ typedef struct Scene {
                              none), NULL when no primitive has TEXCOORD_1 */
     float *vtx_color;     /* 4 per vertex (COLOR_0 as linear RGBA in [0, 1]; 1,1,1,1
                              where a primitive has none), NULL when none has COLOR_0 */
-    float *vtx_tangent;   /* 4 per vertex (TANGENT in world space: unit xyz, w +-1 the
-                             bitangent's sign; 0,0,0,0 where a primitive has none),
-                             NULL when none has TANGENT */
+    float *vtx_tangent;   /* 4 per vertex (TANGENT in world space, a mesh placed by
+                             reference's in its own: unit xyz, w +-1 the bitangent's
+                             sign; 0,0,0,0 where a primitive has none), NULL when
+                             none has TANGENT */
     SceneMaterial *materials;
     uint32_t material_count;
     SceneTexture *textures;
