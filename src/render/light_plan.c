@@ -310,9 +310,53 @@ int light_plan_runs(const RenderSettings *rs, const RenderLights *L, const GpuSc
     return scene_turns_light(g);
 }
 
-int light_plan_merges(const RenderSettings *rs)
+/* Whether spectrum s is a table with a line: a 1 nm sample over
+ * SPT_PM_LINE_PEAK times the table's mean over 360-830 nm (the mercury
+ * lamp's lines about 160 times, CIE F11's peaks 12, F2's 6, smooth spectra
+ * 1-3). */
+#define SPT_PM_LINE_PEAK 40.0
+static int spectrum_has_line(const GpuScene *g, const SpecRef *s)
 {
-    return rs->merge == SPT_SWITCH_ON && rs->adaptive != SPT_SWITCH_ON;
+    if (s->kind != SPT_SPEC_TABLE || (size_t)s->offset + SPT_CIE_SAMPLES > g->spectra_count)
+        return 0;
+    const float *t = g->spectra + s->offset;
+    double sum = 0.0, peak = 0.0;
+    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
+        sum += t[i];
+        peak = fmax(peak, t[i]);
+    }
+    return peak > SPT_PM_LINE_PEAK * sum / SPT_CIE_SAMPLES;
+}
+
+/* Whether scene g has a dispersive material that material_turns_light on a
+ * triangle and a light (a punctual light or an emissive material on a
+ * triangle) whose spectrum has a line. */
+static int scene_disperses_lines(const GpuScene *g)
+{
+    unsigned char *used = spt_calloc(g->material_count ? g->material_count : 1, 1);
+    for (uint32_t i = 0; i < g->prim_total; i++)
+        if (g->tri_shade[i].material < g->material_count)
+            used[g->tri_shade[i].material] = 1;
+    int disperses = 0, line = 0;
+    for (uint32_t i = 0; i < g->material_count; i++) {
+        const GpuMaterial *m = &g->materials[i];
+        if (!used[i])
+            continue;
+        disperses |= m->dispersion > 0.0f && material_turns_light(m);
+        line |= (m->flags & SPT_MAT_EMISSIVE) && spectrum_has_line(g, &m->emission);
+    }
+    for (uint32_t k = 0; k < g->light_count; k++)
+        line |= spectrum_has_line(g, &g->lights[k].spectrum);
+    free(used);
+    return disperses && line;
+}
+
+int light_plan_merges(const RenderSettings *rs, const GpuScene *g)
+{
+    if (rs->merge == SPT_SWITCH_OFF || rs->adaptive == SPT_SWITCH_ON || rs->caustics == SPT_SWITCH_OFF ||
+        rs->spectral > 0 || (rs->aov & SPT_AOV_VARIANCE))
+        return 0;
+    return rs->merge == SPT_SWITCH_ON || (scene_turns_light(g) && !scene_disperses_lines(g));
 }
 
 uint32_t light_plan_max_paths(const RenderSettings *rs)
@@ -360,7 +404,7 @@ void light_plan(RenderParams *p, const RenderLights *L, const GpuScene *g, const
                          0.5);
         p->light_paths = n < 1.0 ? 1u : (uint32_t)n;
         /* Photon merging: its buffers hold light_plan_max_paths. */
-        if (light_plan_merges(rs)) {
+        if (light_plan_merges(rs, g)) {
             if (p->light_paths > light_plan_max_paths(rs))
                 p->light_paths = light_plan_max_paths(rs);
             p->merge = 1;
