@@ -353,8 +353,8 @@ static int scene_disperses_lines(const GpuScene *g)
 
 int light_plan_merges(const RenderSettings *rs, const GpuScene *g)
 {
-    if (rs->merge == SPT_SWITCH_OFF || rs->adaptive == SPT_SWITCH_ON || rs->caustics == SPT_SWITCH_OFF ||
-        rs->spectral > 0 || (rs->aov & SPT_AOV_VARIANCE))
+    if (rs->merge == SPT_SWITCH_OFF || rs->caustics == SPT_SWITCH_OFF || rs->spectral > 0 ||
+        (rs->aov & SPT_AOV_VARIANCE))
         return 0;
     return rs->merge == SPT_SWITCH_ON || (scene_turns_light(g) && !scene_disperses_lines(g));
 }
@@ -389,9 +389,7 @@ void light_plan(RenderParams *p, const RenderLights *L, const GpuScene *g, const
                 const RenderSettings *rs)
 {
     caustic_bounds(p, g);
-    if (rs->merge == SPT_SWITCH_ON && rs->adaptive == SPT_SWITCH_ON)
-        spt_warn("--merge on: photon merging does not run under adaptive sampling; rendering without it");
-    else if (rs->merge == SPT_SWITCH_ON && !light_plan_runs(rs, L, g, cam, 0))
+    if (rs->merge == SPT_SWITCH_ON && !light_plan_runs(rs, L, g, cam, 0))
         spt_warn("--merge on: photon merging needs the light-tracing pass (--caustics), which does not run "
                  "here; rendering without it");
     /* rs->light_paths (0: the default) light paths per camera path, times
