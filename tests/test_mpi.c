@@ -148,22 +148,23 @@ TEST(test_two_ranks_instanced)
 }
 
 /* Photon merging (docs/architecture.md, "Caustics seen through specular
- * surfaces"), on by default for the Cornell box's glass: rank 1 decides it
- * from the scene rank 0 packs, and each rank's chunks sort their own photon
- * grids from their sample indices' light paths, so two ranks give the
+ * surfaces"), on by default for MERGE_SCENE's glass sphere: rank 1 decides
+ * it from the scene rank 0 packs, and each rank's chunks sort their own
+ * photon grids from their sample indices' light paths, so two ranks give the
  * one-process image; and merging ran (the image is not --merge off's). */
+#define MERGE_SCENE "tests/data/scenes/caustic_sphere_area.gltf"
 TEST(test_two_ranks_merge)
 {
     if (mpi_unavailable())
         skip();
     static const char *opts = "--width 32 --height 32 --seed 5 --device 0 --spp 32";
     char cmd[4096], out[8192], args[512];
-    snprintf(cmd, sizeof cmd, "'%s' render " SCENE " %s --merge off -q -o %s", exe, opts,
+    snprintf(cmd, sizeof cmd, "'%s' render " MERGE_SCENE " %s --merge off -q -o %s", exe, opts,
              test_path("merge_off.exr"));
     run_ok(cmd, out, sizeof out);
-    snprintf(cmd, sizeof cmd, "'%s' render " SCENE " %s -q -o %s", exe, opts, test_path("merge_one.exr"));
+    snprintf(cmd, sizeof cmd, "'%s' render " MERGE_SCENE " %s -q -o %s", exe, opts, test_path("merge_one.exr"));
     run_ok(cmd, out, sizeof out);
-    snprintf(args, sizeof args, "render " SCENE " %s -o %s", opts, test_path("merge_two.exr"));
+    snprintf(args, sizeof args, "render " MERGE_SCENE " %s -o %s", opts, test_path("merge_two.exr"));
     two_ranks_render(args, 32, out, sizeof out);
     assert_same_exr(test_path("merge_one.exr"), test_path("merge_two.exr"));
     static const char *rgb[3] = {"R", "G", "B"};

@@ -310,45 +310,20 @@ int light_plan_runs(const RenderSettings *rs, const RenderLights *L, const GpuSc
     return scene_turns_light(g);
 }
 
-/* Whether spectrum s is a table with a line: a 1 nm sample over
- * SPT_PM_LINE_PEAK times the table's mean over 360-830 nm (the mercury
- * lamp's lines about 160 times, CIE F11's peaks 12, F2's 6, smooth spectra
- * 1-3). */
-#define SPT_PM_LINE_PEAK 40.0
-static int spectrum_has_line(const GpuScene *g, const SpecRef *s)
-{
-    if (s->kind != SPT_SPEC_TABLE || (size_t)s->offset + SPT_CIE_SAMPLES > g->spectra_count)
-        return 0;
-    const float *t = g->spectra + s->offset;
-    double sum = 0.0, peak = 0.0;
-    for (int i = 0; i < SPT_CIE_SAMPLES; i++) {
-        sum += t[i];
-        peak = fmax(peak, t[i]);
-    }
-    return peak > SPT_PM_LINE_PEAK * sum / SPT_CIE_SAMPLES;
-}
-
-/* Whether scene g has a dispersive material that material_turns_light on a
- * triangle and a light (a punctual light or an emissive material on a
- * triangle) whose spectrum has a line. */
-static int scene_disperses_lines(const GpuScene *g)
+/* Whether a material that material_turns_light on a triangle of scene g is
+ * dispersive (KHR_materials_dispersion): merging's light through it is
+ * biased (docs/architecture.md, "Caustics seen through specular surfaces"). */
+static int scene_disperses(const GpuScene *g)
 {
     unsigned char *used = spt_calloc(g->material_count ? g->material_count : 1, 1);
     for (uint32_t i = 0; i < g->prim_total; i++)
         if (g->tri_shade[i].material < g->material_count)
             used[g->tri_shade[i].material] = 1;
-    int disperses = 0, line = 0;
-    for (uint32_t i = 0; i < g->material_count; i++) {
-        const GpuMaterial *m = &g->materials[i];
-        if (!used[i])
-            continue;
-        disperses |= m->dispersion > 0.0f && material_turns_light(m);
-        line |= (m->flags & SPT_MAT_EMISSIVE) && spectrum_has_line(g, &m->emission);
-    }
-    for (uint32_t k = 0; k < g->light_count; k++)
-        line |= spectrum_has_line(g, &g->lights[k].spectrum);
+    int disperses = 0;
+    for (uint32_t i = 0; i < g->material_count && !disperses; i++)
+        disperses = used[i] && g->materials[i].dispersion > 0.0f && material_turns_light(&g->materials[i]);
     free(used);
-    return disperses && line;
+    return disperses;
 }
 
 int light_plan_merges(const RenderSettings *rs, const GpuScene *g)
@@ -356,7 +331,7 @@ int light_plan_merges(const RenderSettings *rs, const GpuScene *g)
     if (rs->merge == SPT_SWITCH_OFF || rs->caustics == SPT_SWITCH_OFF || rs->spectral > 0 ||
         (rs->aov & SPT_AOV_VARIANCE))
         return 0;
-    return rs->merge == SPT_SWITCH_ON || (scene_turns_light(g) && !scene_disperses_lines(g));
+    return rs->merge == SPT_SWITCH_ON || (scene_turns_light(g) && !scene_disperses(g));
 }
 
 uint32_t light_plan_max_paths(const RenderSettings *rs)

@@ -153,8 +153,8 @@ enum { SPT_SWITCH_AUTO = 0, SPT_SWITCH_OFF = 1, SPT_SWITCH_ON = 2 };
       SPT_OPT_IMAGE | SPT_OPT_MPI, "expected auto, off or on",                                  \
       "photon merging for caustics seen through glass or in a\n"                               \
       "mirror, on the light tracing's paths: auto (default: on\n"                              \
-      "where the light tracing runs for glass or mirrors, except\n"                           \
-      "line spectra through dispersive glass), off, or on (needs\n"                           \
+      "where the light tracing runs for glass or mirrors, unless\n"                          \
+      "the glass is dispersive), off, or on (needs\n"                                         \
       "the light tracing)")                                                                     \
     X(RS, SWITCH, int, light_tree, "light-tree", 0, "MODE", SPT_SWITCH_AUTO, 0, 0,              \
       SPT_OPT_IMAGE | SPT_OPT_MPI, "expected auto, off or on",                                  \
