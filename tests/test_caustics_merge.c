@@ -146,6 +146,36 @@ TEST(test_merge_area_through_glass)
     film_free(&f);
 }
 
+/* Under adaptive sampling (a pixel's samples run behind the chunk's sample
+ * slots once it has fewer than its neighbours): the spot's caustic seen
+ * through the slab is still the analytic one, and the pixels took unequal
+ * samples (the lag was exercised). */
+TEST(test_merge_adaptive)
+{
+    Scene s;
+    merge_scene(&s, LIGHT_SPOT);
+    RenderSettings rs = square_settings(W, 128, 6, 3);
+    rs.caustics = SPT_SWITCH_ON;
+    rs.merge = SPT_SWITCH_ON;
+    rs.adaptive = SPT_SWITCH_ON;
+    Film f;
+    render_caustic_scene(&s, &rs, &f);
+    scene_free(&s);
+    /* Pixels by their samples: 16, 32, ..., 128 (a count that is not a power
+     * of two took a segment after skipping one: its samples lagged). */
+    int by[9] = {0}, lagged = 0;
+    for (int i = 0; i < W * W; i++) {
+        int n = (int)f.count[i];
+        by[n / 16 <= 8 ? n / 16 : 8]++;
+        lagged += n != 16 && n != 32 && n != 64 && n != 128;
+    }
+    printf("--adaptive on: pixels of 16, 32, ..., 128 samples: %d %d %d %d %d %d %d %d\n", by[1], by[2], by[3],
+           by[4], by[5], by[6], by[7], by[8]);
+    assert_true(lagged > 0);
+    check_through(&f, LIGHT_SPOT, 0.5, 0.03, "spot, --merge on --adaptive on");
+    film_free(&f);
+}
+
 /* A pure function of the samples: a small path pool (other orders of the
  * light paths' photons and of the atomics) gives the same film bit for bit,
  * and renders of samples [0, 4) and [4, 8) add up to the render of [0, 8)

@@ -82,6 +82,27 @@ static int mpi_unavailable(void)
 #endif
 }
 
+/* Runs `spectrace-mpi ARGS` on two ranks, rank 1 started in a folder where
+ * the scene's relative path does not exist (it gets the scene from rank 0),
+ * RANKS_FIRST (rank 0's hook) giving each rank a chunk before any has a
+ * second, so both render, whatever the timing; their messages into out.
+ * Asserts that it succeeded and that the ranks' samples add up to spp. */
+static void two_ranks_render(const char *args, unsigned spp, char *out, size_t cap)
+{
+    char cmd[4096];
+    snprintf(cmd, sizeof cmd, MPIRUN " " RANKS_FIRST " -n 1 '%s' %s : -wdir %s -n 1 '%s' %s", mpi_exe, args,
+             test_dir(), mpi_exe, args);
+    int rc = run(cmd, out, cap);
+    printf("%s", out);
+    assert_int_equal(rc, 0);
+    unsigned r0, r1;
+    const char *ranks = strstr(out, "ranks: 0: ");
+    assert_non_null(ranks);
+    assert_int_equal(sscanf(ranks, "ranks: 0: %u spp, 1: %u spp", &r0, &r1), 2);
+    assert_int_equal(r0 + r1, spp);
+    assert_true(r0 > 0 && r1 > 0);
+}
+
 /* Two ranks, rank 1 started in a folder where the scene's relative path does not
  * exist (it gets the scene from rank 0), give the one-process image; only rank 0
  * prints and writes. */
@@ -90,22 +111,10 @@ TEST(test_two_ranks_same_image)
     if (mpi_unavailable())
         skip();
     reference();
-    char cmd[4096], out[8192], args[512];
+    char out[8192], args[512];
     snprintf(args, sizeof args, "render " SCENE " " COMMON " --spp 64 -o %s --checkpoint %s",
              test_path("two.exr"), test_path("two_ck.exr"));
-    /* RANKS_FIRST (rank 0's hook): each rank has a chunk before any has a
-     * second, so both render, whatever the timing. */
-    snprintf(cmd, sizeof cmd, MPIRUN " " RANKS_FIRST " -n 1 '%s' %s : -wdir %s -n 1 '%s' %s", mpi_exe,
-             args, test_dir(), mpi_exe, args);
-    int rc = run(cmd, out, sizeof out);
-    printf("%s", out);
-    assert_int_equal(rc, 0);
-    unsigned r0, r1;
-    const char *ranks = strstr(out, "ranks: 0: ");
-    assert_non_null(ranks);
-    assert_int_equal(sscanf(ranks, "ranks: 0: %u spp, 1: %u spp", &r0, &r1), 2);
-    assert_int_equal(r0 + r1, 64);
-    assert_true(r0 > 0 && r1 > 0);
+    two_ranks_render(args, 64, out, sizeof out);
     /* One device line: rank 1 prints nothing. */
     const char *d = strstr(out, "device 0:");
     assert_non_null(d);
@@ -136,6 +145,42 @@ TEST(test_two_ranks_instanced)
     assert_int_equal(rc, 0);
     assert_non_null(strstr(out, "ranks: 0: "));
     assert_same_exr(test_path("inst_one.exr"), test_path("inst_two.exr"));
+}
+
+/* Photon merging (docs/architecture.md, "Caustics seen through specular
+ * surfaces"), on by default for MERGE_SCENE's glass sphere: rank 1 decides
+ * it from the scene rank 0 packs, and each rank's chunks sort their own
+ * photon grids from their sample indices' light paths, so two ranks give the
+ * one-process image; and merging ran (the image is not --merge off's). */
+#define MERGE_SCENE "tests/data/scenes/caustic_sphere_area.gltf"
+TEST(test_two_ranks_merge)
+{
+    if (mpi_unavailable())
+        skip();
+    static const char *opts = "--width 32 --height 32 --seed 5 --device 0 --spp 32";
+    char cmd[4096], out[8192], args[512];
+    snprintf(cmd, sizeof cmd, "'%s' render " MERGE_SCENE " %s --merge off -q -o %s", exe, opts,
+             test_path("merge_off.exr"));
+    run_ok(cmd, out, sizeof out);
+    snprintf(cmd, sizeof cmd, "'%s' render " MERGE_SCENE " %s -q -o %s", exe, opts, test_path("merge_one.exr"));
+    run_ok(cmd, out, sizeof out);
+    snprintf(args, sizeof args, "render " MERGE_SCENE " %s -o %s", opts, test_path("merge_two.exr"));
+    two_ranks_render(args, 32, out, sizeof out);
+    assert_same_exr(test_path("merge_one.exr"), test_path("merge_two.exr"));
+    static const char *rgb[3] = {"R", "G", "B"};
+    ExrLayers a, b;
+    SptError e = {0};
+    if (exr_read_layers(test_path("merge_one.exr"), rgb, 3, &a, &e) ||
+        exr_read_layers(test_path("merge_off.exr"), rgb, 3, &b, &e))
+        fail_msg("%s", e.msg);
+    double diff = 0;
+    for (size_t i = 0; i < (size_t)a.width * a.height; i++)
+        diff += fabs(((const float *)exr_layers_channel(&a, "G")->data)[i] -
+                     ((const float *)exr_layers_channel(&b, "G")->data)[i]);
+    printf("--merge on against off: summed |G| difference %.4g\n", diff);
+    assert_true(diff > 0.0);
+    exr_layers_free(&a);
+    exr_layers_free(&b);
 }
 
 /* A one-process checkpoint of 32 spp resumed to 64 on two ranks. */

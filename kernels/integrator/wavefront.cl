@@ -166,9 +166,11 @@ static uint path_start(uint i, uint w, const KernelGlobals *kg)
     kg->ps_ray_o[i] = (float4)(org, 0.0f);
     kg->ps_ray_d[i] = (float4)(normalize(d), kg->p->cam_pos[3]); /* w: the ray cone's width */
     float4 lam, pdf;
-    /* With merging, the light paths' wavelengths of this sample index
-     * (kernels/integrator/photon_merge.h). */
-    spt_sample_wavelengths(pm_wavelength_u(spt_sampler_1d(smp, SPT_DIM_WAVELENGTH), sample, kg), &lam, &pdf);
+    /* With merging, the wavelengths of the chunk's light paths of this
+     * sample slot (kernels/integrator/photon_merge.h): its sample index,
+     * unless adaptive sampling put the pixel's own behind it (lag). */
+    spt_sample_wavelengths(
+        pm_wavelength_u(spt_sampler_1d(smp, SPT_DIM_WAVELENGTH), kg->p->sample_begin + w / npix, kg), &lam, &pdf);
     kg->ps_lambda[i] = lam;
     kg->ps_lambda_pdf[i] = pdf;
     kg->ps_throughput[i] = (float4)(1.0f);

@@ -310,9 +310,28 @@ int light_plan_runs(const RenderSettings *rs, const RenderLights *L, const GpuSc
     return scene_turns_light(g);
 }
 
-int light_plan_merges(const RenderSettings *rs)
+/* Whether a material that material_turns_light on a triangle of scene g is
+ * dispersive (KHR_materials_dispersion): merging's light through it is
+ * biased (docs/architecture.md, "Caustics seen through specular surfaces"). */
+static int scene_disperses(const GpuScene *g)
 {
-    return rs->merge == SPT_SWITCH_ON && rs->adaptive != SPT_SWITCH_ON;
+    unsigned char *used = spt_calloc(g->material_count ? g->material_count : 1, 1);
+    for (uint32_t i = 0; i < g->prim_total; i++)
+        if (g->tri_shade[i].material < g->material_count)
+            used[g->tri_shade[i].material] = 1;
+    int disperses = 0;
+    for (uint32_t i = 0; i < g->material_count && !disperses; i++)
+        disperses = used[i] && g->materials[i].dispersion > 0.0f && material_turns_light(&g->materials[i]);
+    free(used);
+    return disperses;
+}
+
+int light_plan_merges(const RenderSettings *rs, const GpuScene *g)
+{
+    if (rs->merge == SPT_SWITCH_OFF || rs->caustics == SPT_SWITCH_OFF || rs->spectral > 0 ||
+        (rs->aov & SPT_AOV_VARIANCE))
+        return 0;
+    return rs->merge == SPT_SWITCH_ON || (scene_turns_light(g) && !scene_disperses(g));
 }
 
 uint32_t light_plan_max_paths(const RenderSettings *rs)
@@ -345,9 +364,7 @@ void light_plan(RenderParams *p, const RenderLights *L, const GpuScene *g, const
                 const RenderSettings *rs)
 {
     caustic_bounds(p, g);
-    if (rs->merge == SPT_SWITCH_ON && rs->adaptive == SPT_SWITCH_ON)
-        spt_warn("--merge on: photon merging does not run under adaptive sampling; rendering without it");
-    else if (rs->merge == SPT_SWITCH_ON && !light_plan_runs(rs, L, g, cam, 0))
+    if (rs->merge == SPT_SWITCH_ON && !light_plan_runs(rs, L, g, cam, 0))
         spt_warn("--merge on: photon merging needs the light-tracing pass (--caustics), which does not run "
                  "here; rendering without it");
     /* rs->light_paths (0: the default) light paths per camera path, times
@@ -360,7 +377,7 @@ void light_plan(RenderParams *p, const RenderLights *L, const GpuScene *g, const
                          0.5);
         p->light_paths = n < 1.0 ? 1u : (uint32_t)n;
         /* Photon merging: its buffers hold light_plan_max_paths. */
-        if (light_plan_merges(rs)) {
+        if (light_plan_merges(rs, g)) {
             if (p->light_paths > light_plan_max_paths(rs))
                 p->light_paths = light_plan_max_paths(rs);
             p->merge = 1;

@@ -22,11 +22,14 @@
 int light_plan_runs(const RenderSettings *rs, const RenderLights *L, const GpuScene *g,
                     const SceneCamera *cam, int warn);
 
-/* Whether photon merging is asked for (--merge on) where it can run: not
- * under adaptive sampling (a pixel's samples there are not the chunk's
- * sample indices, whose wavelengths a merge shares). It runs when the
- * light-tracing pass does too. */
-int light_plan_merges(const RenderSettings *rs);
+/* Whether photon merging is on for scene g (docs/architecture.md, "Caustics
+ * seen through specular surfaces"): --merge on, or auto where a triangle's
+ * material has a delta lobe that passes or turns light (as the light-tracing
+ * pass's auto rule), so that camera paths may see, through it, a caustic that
+ * light paths carry through it, unless such a material is dispersive; never where the light-tracing pass cannot run
+ * for the settings (--caustics off, --spectral, the variance layer). It runs
+ * where the pass runs too (light_plan). */
+int light_plan_merges(const RenderSettings *rs, const GpuScene *g);
 
 /* Light paths per sample index of the light-tracing pass for rs at most,
  * with photon merging (its buffers are sized from this). */

@@ -152,9 +152,10 @@ enum { SPT_SWITCH_AUTO = 0, SPT_SWITCH_OFF = 1, SPT_SWITCH_ON = 2 };
     X(RS, SWITCH, int, merge, "merge", 0, "MODE", SPT_SWITCH_AUTO, 0, 0,                        \
       SPT_OPT_IMAGE | SPT_OPT_MPI, "expected auto, off or on",                                  \
       "photon merging for caustics seen through glass or in a\n"                               \
-      "mirror, on the light tracing's paths: auto (default: off)\n"                            \
-      "or off, or on (needs the light tracing; not with\n"                                     \
-      "--adaptive)")                                                                            \
+      "mirror, on the light tracing's paths: auto (default: on\n"                              \
+      "where the light tracing runs for glass or mirrors, unless\n"                          \
+      "the glass is dispersive), off, or on (needs\n"                                         \
+      "the light tracing)")                                                                     \
     X(RS, SWITCH, int, light_tree, "light-tree", 0, "MODE", SPT_SWITCH_AUTO, 0, 0,              \
       SPT_OPT_IMAGE | SPT_OPT_MPI, "expected auto, off or on",                                  \
       "next-event estimation picks lights with a light tree, by\n"                            \

@@ -263,9 +263,9 @@ static int group_size_for(cl_kernel k, cl_device_id dev, size_t *out, SptError *
 
 /* Photon slots per sample index with photon merging (light_paths per sample
  * index; 0: no merging). */
-static uint64_t merge_slots(const RenderSettings *rs, uint32_t light_paths)
+static uint64_t merge_slots(const RenderSettings *rs, const GpuScene *g, uint32_t light_paths)
 {
-    if (!light_paths || !light_plan_merges(rs))
+    if (!light_paths || !light_plan_merges(rs, g))
         return 0;
     return (uint64_t)light_plan_max_paths(rs) * SPT_PM_PER_PATH;
 }
@@ -307,7 +307,7 @@ void wavefront_plan(WavefrontPlan *p, const ClDeviceInfo *info, const GpuScene *
         spp = cap;
     /* Photon merging keeps each sample index's photons: at most 128 MiB of
      * them per chunk. */
-    uint64_t pm_slots = merge_slots(rs, light_film);
+    uint64_t pm_slots = merge_slots(rs, g, light_film);
     if (pm_slots && spp > (128ull << 20) / (pm_slots * 16ull * SPT_PM_PHOTON_FLOAT4))
         spp = (128ull << 20) / (pm_slots * 16ull * SPT_PM_PHOTON_FLOAT4);
     if (spp < 1)
@@ -422,7 +422,7 @@ void wavefront_options(const ClDeviceInfo *info, const GpuScene *g, const Render
     snprintf(out, cap, "%s%s%s%s%s%s%s",
              ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "-DSPT_BVH_SHORT_STACK=1 ",
              step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "", film ? "" : "-DSPT_IRIDESCENCE=0 ",
-             render_keeps_aov(rs) ? "-DSPT_AOV=1 " : "", bands_def, light_plan_merges(rs) ? "-DSPT_MERGE=1 " : "",
+             render_keeps_aov(rs) ? "-DSPT_AOV=1 " : "", bands_def, light_plan_merges(rs, g) ? "-DSPT_MERGE=1 " : "",
              rs->test.inject_nan ? "-DSPT_TEST_INJECT_NAN=1" : "");
 }
 
