@@ -367,6 +367,10 @@ void light_plan(RenderParams *p, const RenderLights *L, const GpuScene *g, const
     if (rs->merge == SPT_SWITCH_ON && !light_plan_runs(rs, L, g, cam, 0))
         spt_warn("--merge on: photon merging needs the light-tracing pass (--caustics), which does not run "
                  "here; rendering without it");
+    else if (rs->merge == SPT_SWITCH_ON && scene_disperses(g))
+        spt_warn("--merge on: the scene has dispersive glass, through which photon merging is biased "
+                 "(docs/architecture.md, \"Caustics seen through specular surfaces\"); --merge auto "
+                 "leaves it to the camera paths");
     /* rs->light_paths (0: the default) light paths per camera path, times
      * caustic_share: that many times the pixels per sample index, rounded, at
      * least one. */
