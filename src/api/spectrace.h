@@ -2,7 +2,8 @@
  * (docs/api.md). A program opens devices (a renderer), loads a scene once,
  * renders it with settings as many times as it likes, changing materials and
  * lights in between, and reads each render's image as arrays or writes it with
- * the command line's writers.
+ * the command line's writers. `spectrace render` of one image is itself a
+ * client of this API (src/cli/cmd_render.c).
  *
  * The API is versioned: SPECTRACE_API_VERSION in this header, and
  * spectrace_version() in the library, whose major number must match (a new

@@ -1,32 +1,30 @@
 /* spectrace render: load a glTF scene, render it on OpenCL devices, write the
  * outputs. The options are those of src/render/render_options.h (parsed by
- * src/api/render_args.c); the steps of a render are the functions below, in the
- * order cmd_render runs them. */
+ * src/api/render_args.c). One image is a client of the library's API
+ * (render_image_api: spectrace_* calls); frame sequences and spectrace-mpi's
+ * renders over ranks run the renderer's steps below (render_image), as
+ * docs/architecture.md ("Source layout") says why. */
 #include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-#include <limits.h>
-#include <sys/stat.h>
 #include <strings.h>
 
 #include "api/output_check.h"
+#include "api/render_args.h"
 #include "api/render_stats.h"
 #include "api/spectrace.h"
 #include "cl/cl_device.h"
 #include "cli/commands.h"
-#include "api/render_args.h"
+#include "core/input_file.h"
 #include "core/util.h"
-#include "io/atomic_file.h"
 #include "io/denoise.h"
 #include "io/image_out.h"
-#include "core/input_file.h"
 #include "mpi/mpi_hook.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
-#include "render/film_layers.h"
 #include "render/render.h"
 #include "render/render_result.h"
 #include "render/test_hooks.h"
