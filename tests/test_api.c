@@ -787,4 +787,161 @@ TEST(test_api_color)
     assert_int_equal(spectrace_color("no-such-spd", NULL, NULL, 0, 0, &c, &err), SPECTRACE_ERR_INPUT);
 }
 
+/* The library's steps as the command line takes them (since 1.2): outputs
+ * checked against the scene's inputs, the devices named, the memory estimate,
+ * a render stopped by its stop flag that keeps its samples, its outputs and
+ * final checkpoint written together, and the resumed render equal to the
+ * uninterrupted one bit for bit. */
+#define SPP 8
+
+/* The settings of the steps' tests (8 samples: one per chunk), with a
+ * checkpoint and a resumed checkpoint in test_dir() where named. */
+static spectrace_settings *step_settings(const char *checkpoint_name, const char *resume_name)
+{
+    spectrace_settings *s = spectrace_settings_new();
+    spectrace_error err;
+    static const char *const kv[][2] = {{"width", "32"}, {"spp", "8"}, {"seed", "7"}, {"caustics", "off"}};
+    for (size_t i = 0; i < sizeof kv / sizeof kv[0]; i++)
+        if (spectrace_settings_set(s, kv[i][0], kv[i][1], &err))
+            fail_msg("%s: %s", kv[i][0], err.message);
+    if (checkpoint_name && spectrace_settings_set(s, "checkpoint", test_path(checkpoint_name), &err))
+        fail_msg("checkpoint: %s", err.message);
+    if (resume_name && spectrace_settings_set(s, "resume", test_path(resume_name), &err))
+        fail_msg("resume: %s", err.message);
+    return s;
+}
+
+/* The progress seen: its calls, the last figures, whether the samples or the
+ * paths ever went back; it asks to stop once stop_at samples are done. */
+typedef struct Seen {
+    int n, bad;
+    spectrace_progress_info last;
+    uint32_t stop_at;
+} Seen;
+
+static int watch(void *user, const spectrace_progress_info *p)
+{
+    Seen *s = user;
+    s->bad |= p->done > p->total || p->elapsed < 0 ||
+              (s->n && (p->done <= s->last.done || p->paths < s->last.paths));
+    s->n++;
+    s->last = *p;
+    return s->stop_at && p->done >= s->stop_at;
+}
+
+/* Outputs that would replace the scene file, or each other, are refused with
+ * the command line's messages; others pass. */
+TEST(test_api_steps_check_outputs)
+{
+    spectrace_error err;
+    spectrace_settings *st = step_settings("ck.exr", NULL);
+    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
+    assert_non_null(s);
+    const char *scene_out[] = {test_path("a.exr"), "./" BOX};
+    assert_int_equal(spectrace_scene_check_outputs(s, st, scene_out, 2, &err), SPECTRACE_ERR_USAGE);
+    assert_non_null(strstr(err.message, "this output is the input file " BOX));
+    char again[4096];
+    snprintf(again, sizeof again, "%s/./a.exr", test_dir());
+    const char *twice[] = {test_path("a.exr"), again};
+    assert_int_equal(spectrace_scene_check_outputs(s, st, twice, 2, &err), SPECTRACE_ERR_USAGE);
+    assert_non_null(strstr(err.message, "name the same file"));
+    const char *ck_too[] = {test_path("ck.exr")};
+    assert_int_equal(spectrace_scene_check_outputs(s, st, ck_too, 1, &err), SPECTRACE_ERR_USAGE);
+    assert_non_null(strstr(err.message, "--checkpoint"));
+    const char *fine[] = {test_path("a.exr"), test_path("b.png")};
+    assert_int_equal(spectrace_scene_check_outputs(s, st, fine, 2, &err), 0);
+    spectrace_scene_free(s);
+    spectrace_settings_free(st);
+}
+
+/* A device's figures are those of its name; the memory estimate adds up as
+ * docs/limits.md says (the film, then the larger of the render's and the
+ * outputs'), and an output not written as EXR costs 16 bytes a pixel more. */
+TEST(test_api_steps_devices_and_memory)
+{
+    spectrace_error err;
+    spectrace_device_info d;
+    assert_int_equal(spectrace_renderer_device_info(R, 0, &d, &err), 0);
+    char name[1100];
+    snprintf(name, sizeof name, "%s (%s)", d.name, d.platform);
+    assert_string_equal(name, spectrace_renderer_device_name(R, 0));
+    assert_true(d.index >= 0 && d.driver && d.driver[0]);
+    assert_int_equal(spectrace_renderer_device_info(R, spectrace_renderer_device_count(R), &d, &err),
+                     SPECTRACE_ERR_USAGE);
+    spectrace_settings *st = step_settings(NULL, NULL);
+    spectrace_scene *s = spectrace_scene_load(BOX, st, &err);
+    assert_non_null(s);
+    const char *exr[] = {test_path("a.exr")}, *png[] = {test_path("a.exr"), test_path("a.png")};
+    spectrace_memory m1, m2;
+    assert_int_equal(spectrace_render_prepare(R, s, st, exr, 1, &m1, &err), 0);
+    assert_int_equal(spectrace_render_prepare(R, s, st, png, 2, &m2, &err), 0);
+    assert_true(m1.film > 0 && m1.loaded > 0 && m1.render > 0);
+    assert_true(m1.need == m1.film + (m1.render > m1.outputs ? m1.render : m1.outputs));
+    assert_true(m2.outputs == m1.outputs + 32.0 * 32.0 * 16.0);
+    assert_true(m2.film == m1.film && m2.loaded == m1.loaded);
+    spectrace_scene_free(s);
+    spectrace_settings_free(st);
+}
+
+/* A render stopped through its stop flag keeps its samples (keep_stopped),
+ * its outputs and deferred final checkpoint are written together, and the
+ * render resumed from that checkpoint equals the uninterrupted one bit for
+ * bit; the progress figures grow and end at the render's. */
+TEST(test_api_steps_stop_write_resume)
+{
+    spectrace_error err;
+    spectrace_settings *plain = step_settings(NULL, NULL);
+    spectrace_scene *s = spectrace_scene_load(BOX, plain, &err);
+    assert_non_null(s);
+    Seen seen = {0};
+    spectrace_render_options o = {watch, &seen, NULL, 0, 0, 0};
+    spectrace_image *full;
+    assert_int_equal(spectrace_render_with(R, s, plain, &o, &full, &err), 0);
+    spectrace_render_stats fs;
+    spectrace_image_stats(full, &fs);
+    assert_false(seen.bad);
+    assert_int_equal(seen.last.done, SPP);
+    assert_int_equal(seen.last.total, SPP);
+    assert_true(seen.last.paths == (double)fs.paths && fs.paths > 0);
+    assert_true(fs.spp_done == SPP && !fs.stopped && !fs.spp_resumed && !fs.checkpoint);
+    float *want = rgb_of(full);
+
+    spectrace_settings *ck = step_settings("ck.exr", NULL);
+    volatile sig_atomic_t stop = 0;
+    Seen part = {0, 0, {0}, 3};
+    spectrace_render_options keep = {watch, &part, &stop, 1, 0, 1};
+    spectrace_image *img;
+    assert_int_equal(spectrace_render_with(R, s, ck, &keep, &img, &err), 0);
+    spectrace_render_stats ps;
+    spectrace_image_stats(img, &ps);
+    assert_int_equal(stop, 1);
+    assert_true(ps.stopped && ps.spp_done >= 3 && ps.spp_done < SPP);
+    assert_string_equal(ps.checkpoint, test_path("ck.exr"));
+    assert_int_equal(ps.checkpoint_spp, ps.spp_done);
+    assert_int_equal(access(test_path("ck.exr"), F_OK), -1); /* deferred to the outputs */
+    const char *outs[] = {test_path("part.exr"), test_path("part.png")};
+    assert_int_equal(spectrace_image_write_outputs(img, outs, 2, &err), 0);
+    assert_int_equal(access(test_path("ck.exr"), F_OK), 0);
+    assert_int_equal(access(test_path("part.png"), F_OK), 0);
+    spectrace_image_free(img);
+
+    spectrace_settings *rs = step_settings(NULL, "ck.exr");
+    spectrace_image *resumed;
+    assert_int_equal(spectrace_render(R, s, rs, NULL, NULL, &resumed, &err), 0);
+    spectrace_render_stats rst;
+    spectrace_image_stats(resumed, &rst);
+    assert_int_equal(rst.spp_resumed, ps.spp_done);
+    assert_int_equal(spectrace_image_spp(resumed), SPP);
+    float *got = rgb_of(resumed);
+    assert_memory_equal(got, want, 32 * 32 * 3 * sizeof(float));
+    free(got);
+    free(want);
+    spectrace_image_free(resumed);
+    spectrace_image_free(full);
+    spectrace_settings_free(rs);
+    spectrace_settings_free(ck);
+    spectrace_settings_free(plain);
+    spectrace_scene_free(s);
+}
+
 TEST_MAIN("api", setup, teardown)

@@ -13,7 +13,7 @@
 #include <unistd.h>
 
 #include "cl/cl_device.h"
-#include "cli/render_args.h"
+#include "api/render_args.h"
 #include "io/image_in.h"
 #include "render/render_options.h"
 #include "scene/scene.h"

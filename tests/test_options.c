@@ -9,7 +9,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "cli/render_args.h"
+#include "api/render_args.h"
 #include "io/exr.h"
 #include "io/image_out.h"
 #include "render/checkpoint.h"

@@ -1,7 +1,8 @@
-/* The library's C API (src/api/spectrace.h) over the code the command line
- * runs: its option list and parsing (src/cli/render_args.h), the glTF loader,
- * the device arrays (src/render/gpu_scene.h), the scheduler (render_devices)
- * and the writers. */
+/* The library's C API (src/api/spectrace.h), which the command line's
+ * `spectrace render` is a client of (docs/architecture.md, "Source layout"):
+ * the option list and parsing (src/api/render_args.h), the glTF loader, the
+ * device arrays (src/render/gpu_scene.h), the scheduler (render_devices),
+ * checkpoints and the writers. */
 #include "api/spectrace.h"
 
 #include <math.h>
@@ -13,17 +14,21 @@
 #include <string.h>
 
 #include "cl/cl_device.h"
-#include "cli/render_args.h"
+#include "api/output_check.h"
+#include "api/render_args.h"
+#include "api/render_stats.h"
 #include "color/spd.h"
 #include "core/input_file.h"
 #include "core/util.h"
 #include "io/image_out.h"
 #include "io/srgb.h"
+#include "render/checkpoint.h"
 #include "render/film.h"
 #include "render/film_layers.h"
 #include "render/gpu_scene.h"
 #include "render/render.h"
 #include "render/render_result.h"
+#include "render/test_hooks.h"
 #include "scene/scene.h"
 #include "scene/sky.h"
 
@@ -118,6 +123,17 @@ const char *spectrace_renderer_device_name(const spectrace_renderer *r, int i)
     return i >= 0 && i < r->count ? r->names[i] : NULL;
 }
 
+int spectrace_renderer_device_info(const spectrace_renderer *r, int i, spectrace_device_info *out,
+                                   spectrace_error *err)
+{
+    if (i < 0 || i >= r->count)
+        return fail(err, SPECTRACE_ERR_USAGE, "renderer: device %d does not exist (it has %d)", i,
+                    r->count);
+    const ClDeviceInfo *d = r->devs[i];
+    *out = (spectrace_device_info){d->index, d->name, d->platform_name, d->driver_version};
+    return SPECTRACE_OK;
+}
+
 /* ---- Settings --------------------------------------------------------- */
 
 struct spectrace_settings {
@@ -156,9 +172,7 @@ void spectrace_settings_free(spectrace_settings *s)
 /* The options that are not settings of a render here (spectrace.h). */
 static int not_a_setting(int i)
 {
-    return i == SPT_ARG_outputs || i == SPT_ARG_device || i == SPT_ARG_checkpoint ||
-           i == SPT_ARG_checkpoint_every || i == SPT_ARG_resume || i == SPT_ARG_quiet ||
-           i == SPT_ARG_help;
+    return i == SPT_ARG_outputs || i == SPT_ARG_device || i == SPT_ARG_quiet || i == SPT_ARG_help;
 }
 
 static int find_option(const char *name, spectrace_error *err)
@@ -253,6 +267,8 @@ const char *spectrace_settings_help(int i)
 struct spectrace_scene {
     Scene scene;
     char *pose_at, *pose_animation, *pose_camera; /* as loaded (NULL: not given) */
+    int from_file;     /* loaded from a file (a checkpoint's key hashes it) */
+    InputList inputs;  /* the files its load read, for spectrace_scene_check_outputs */
     GpuScene gpu;
     int gpu_built;     /* the BVH and the device arrays exist */
     int shading_dirty; /* a material or light changed since */
@@ -279,9 +295,11 @@ static int same_text(const char *a, const char *b)
 /* A scene from the file at path, or from data (size bytes) standing for the
  * file name; NULL with err filled on failure. */
 static spectrace_scene *load(const char *path, const void *data, size_t size, const char *name,
-                             const RenderSettings *rs, spectrace_error *err)
+                             const RenderArgs *a, spectrace_error *err)
 {
     spectrace_scene *s = spt_calloc(1, sizeof *s);
+    const RenderSettings *rs = a ? &a->rs : NULL;
+    s->from_file = path != NULL;
     if (rs) {
         s->pose_at = dup_or_null(rs->at);
         s->pose_animation = dup_or_null(rs->animation);
@@ -292,8 +310,17 @@ static spectrace_scene *load(const char *path, const void *data, size_t size, co
     SptError e = {0};
     pthread_mutex_lock(&io_lock);
     input_seen_reset();
-    int rc = data ? scene_load_gltf_memory_posed(&s->scene, data, size, name, &pose, &e)
+    /* The sky first, as the command line reads it (its errors come first). */
+    int rc = a ? sky_from_args(&s->sky, a->env, a->background, &e) : SPT_EXIT_OK;
+    if (!rc && a) {
+        s->sky_loaded = 1;
+        s->sky_env = dup_or_null(a->env);
+        s->sky_background = dup_or_null(a->background);
+    }
+    if (!rc)
+        rc = data ? scene_load_gltf_memory_posed(&s->scene, data, size, name, &pose, &e)
                   : scene_load_gltf_posed(&s->scene, path, &pose, &e);
+    input_seen_copy(&s->inputs);
     input_seen_reset();
     pthread_mutex_unlock(&io_lock);
     if (rc) {
@@ -311,7 +338,7 @@ spectrace_scene *spectrace_scene_load(const char *path, const spectrace_settings
         fail(err, SPECTRACE_ERR_USAGE, "scene: no path");
         return NULL;
     }
-    return load(path, NULL, 0, NULL, settings ? &settings->a.rs : NULL, err);
+    return load(path, NULL, 0, NULL, settings ? &settings->a : NULL, err);
 }
 
 spectrace_scene *spectrace_scene_load_memory(const void *data, size_t size, const char *base_dir,
@@ -332,7 +359,32 @@ spectrace_scene *spectrace_scene_load_memory_posed(const void *data, size_t size
     /* The loader looks up external files in the folder of the name. */
     char name[4096];
     snprintf(name, sizeof name, "%s/(memory)", base_dir && *base_dir ? base_dir : ".");
-    return load(NULL, data, size, name, settings ? &settings->a.rs : NULL, err);
+    return load(NULL, data, size, name, settings ? &settings->a : NULL, err);
+}
+
+int spectrace_scene_check_outputs(const spectrace_scene *s, const spectrace_settings *settings,
+                                  const char *const *outputs, int count, spectrace_error *err)
+{
+    const char *checkpoint = settings ? settings->a.checkpoint : NULL;
+    const char *resume = settings ? settings->a.resume : NULL;
+    SptError e = {0};
+    int rc = SPT_EXIT_OK;
+    for (int i = 0; i < count && !rc; i++)
+        if (!outputs[i])
+            rc = spt_fail(&e, SPT_EXIT_USAGE, "image: no path");
+    if (!rc)
+        rc = outputs_check_not_inputs(&s->inputs, outputs, count, checkpoint, resume, &e);
+    return rc ? pass(err, &e, rc) : SPECTRACE_OK;
+}
+
+void spectrace_scene_release_devices(spectrace_scene *s)
+{
+    if (s->programs_of) {
+        spectrace_scene_stats_get(s, &s->stats);
+        render_programs_free(&s->programs);
+        memset(&s->programs, 0, sizeof s->programs);
+    }
+    s->programs_of = 0;
 }
 
 void spectrace_scene_free(spectrace_scene *s)
@@ -341,6 +393,7 @@ void spectrace_scene_free(spectrace_scene *s)
         return;
     if (s->programs_of)
         render_programs_free(&s->programs);
+    input_list_free(&s->inputs);
     if (s->gpu_built)
         gpu_scene_free(&s->gpu);
     if (s->sky_loaded)
@@ -565,28 +618,32 @@ struct spectrace_image {
     RenderSettings rs; /* as rendered; its pose (at, animation, camera) in pose */
     char *pose[3];
     float *denoised;   /* with denoise: the image denoised (the film's is the noisy one) */
+    double denoise_seconds;
+    char *denoiser;    /* the Open Image Denoise library that denoised it */
     DisplayOptions disp;
     char *scene_path;
     char device[4096];
+    CheckpointRun ckpt; /* the checkpoint side of the render (a writer without a path: none) */
+    char *ckpt_path[2]; /* its checkpoint and resume paths, which ckpt borrows */
+    int ckpt_pending;   /* its final write waits for spectrace_image_write_outputs */
+    int stopped;
 };
 
-/* The progress callback through the scheduler's on_chunk hook. */
+/* The progress callbacks through the scheduler's on_progress hook. */
 typedef struct Progress {
-    spectrace_progress_fn fn;
+    spectrace_progress_fn fn;          /* spectrace_render's */
+    spectrace_progress_info_fn info_fn; /* spectrace_render_with's */
     void *user;
-    volatile sig_atomic_t stop;
-    uint32_t sample_total;
+    volatile sig_atomic_t own_stop, *stop;
 } Progress;
 
-static void on_chunk(void *ctx, const Film *film, const unsigned char *done, uint32_t total)
+static void on_progress(void *ctx, uint32_t done, uint32_t total, double elapsed, uint64_t paths)
 {
-    (void)film;
     Progress *p = ctx;
-    uint32_t n = 0;
-    for (uint32_t i = 0; i < total; i++)
-        n += done[i];
-    if (p->fn && p->fn(p->user, n, total))
-        p->stop = 1;
+    spectrace_progress_info info = {done, total, elapsed, (double)paths};
+    int stop = p->fn ? p->fn(p->user, done, total) : p->info_fn ? p->info_fn(p->user, &info) : 0;
+    if (stop && !*p->stop)
+        *p->stop = 1;
 }
 
 /* The scene's device arrays and sky for rs: built once, the materials and
@@ -625,107 +682,189 @@ static int prepare_scene(spectrace_scene *s, const RenderArgs *a, SptError *e)
     return SPT_EXIT_OK;
 }
 
-/* The settings as the command line completes them (src/cli/cmd_render.c):
- * the image size from the camera's aspect ratio, adaptive sampling's auto. */
-static void complete(RenderSettings *rs, const SceneCamera *cam)
+/* The settings of a render as the command line completes them: the image
+ * size from the camera's aspect ratio, adaptive sampling's auto (off with
+ * checkpoints, which keep no sums of squares), --time without --spp, the
+ * sky, the test hooks of the environment. */
+static RenderSettings complete(const RenderArgs *a, const spectrace_scene *scene)
 {
-    render_image_size(rs, cam);
-    render_adaptive_resolve(rs, 1);
-}
-
-int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
-                     const spectrace_settings *settings, spectrace_progress_fn progress,
-                     void *user, spectrace_image **out, spectrace_error *err)
-{
-    *out = NULL;
-    spectrace_settings *defaults = settings ? NULL : spectrace_settings_new();
-    const RenderArgs *a = settings ? &settings->a : &defaults->a;
     RenderSettings rs = a->rs;
-    SptError e = {0};
-    int rc = SPT_EXIT_OK;
-    if (!same_text(rs.at, scene->pose_at) || !same_text(rs.animation, scene->pose_animation) ||
-        !same_text(rs.camera, scene->pose_camera)) {
-        rc = fail(err, SPECTRACE_ERR_USAGE, "render: the settings' at, animation or camera differ "
-                  "from the pose the scene was loaded in (load it with these settings)");
-        spectrace_settings_free(defaults);
-        return rc;
-    }
-    if ((rc = prepare_scene(scene, a, &e))) {
-        spectrace_settings_free(defaults);
-        return pass(err, &e, rc);
-    }
-    complete(&rs, &scene->scene.camera);
-    /* --time without --spp: as many samples as the time allows. */
+    render_image_size(&rs, &scene->scene.camera);
+    render_adaptive_resolve(&rs, !a->checkpoint && !a->resume);
     if (a->given[SPT_ARG_time_limit] && !a->given[SPT_ARG_spp])
         rs.spp = 1 << 24;
     rs.sky = &scene->sky;
-    /* The host memory of the film, the render and the image's arrays, as the
-     * command line checks it (docs/limits.md, "The memory estimate"). */
-    RenderHostMemory hm;
-    if ((rc = render_host_memory(r->devs, r->count, &scene->gpu, &scene->scene.camera, &rs, NULL, 0,
-                                 &hm, &e)) ||
-        (rs.denoise && !r->den_loaded && (rc = denoiser_open(&r->den, &e)))) {
-        spectrace_settings_free(defaults);
-        return pass(err, &e, rc);
+    render_test_hooks_env(&rs);
+    return rs;
+}
+
+int spectrace_render_prepare(spectrace_renderer *r, spectrace_scene *scene,
+                             const spectrace_settings *settings, const char *const *outputs,
+                             int count, spectrace_memory *mem, spectrace_error *err)
+{
+    spectrace_settings *defaults = settings ? NULL : spectrace_settings_new();
+    const RenderArgs *a = settings ? &settings->a : &defaults->a;
+    SptError e = {0};
+    int rc = prepare_scene(scene, a, &e);
+    if (!rc) {
+        RenderSettings rs = complete(a, scene);
+        RenderHostMemory m;
+        rc = render_host_memory(r->devs, r->count, &scene->gpu, &scene->scene.camera, &rs,
+                                outputs, count, &m, &e);
+        if (mem)
+            *mem = (spectrace_memory){m.loaded, m.need, m.film, m.render, m.outputs};
     }
-    r->den_loaded |= rs.denoise;
-    Progress prog = {progress, user, 0, (uint32_t)rs.spp};
+    spectrace_settings_free(defaults);
+    return rc ? pass(err, &e, rc) : SPECTRACE_OK;
+}
+
+/* The image's denoised array (render_denoise) and its figures. */
+static int denoise_image(spectrace_renderer *r, spectrace_image *img, const RenderSettings *rs,
+                         SptError *e)
+{
+    size_t floats = (size_t)rs->width * rs->height * 3;
+    float *noisy = spt_malloc(floats * sizeof(float));
+    film_to_linear_srgb(&img->film, noisy);
+    img->denoised = spt_malloc(floats * sizeof(float));
+    double t0 = spt_now();
+    int rc = render_denoise(&r->den, &img->film, rs, noisy, img->denoised, e);
+    img->denoise_seconds = spt_now() - t0;
+    img->denoiser = spt_strdup(r->den.path);
+    free(noisy);
+    return rc;
+}
+
+/* spectrace_render_with, or with fn (not NULL) spectrace_render with its
+ * callback. */
+static int render_image(spectrace_renderer *r, spectrace_scene *scene,
+                        const spectrace_settings *settings, const spectrace_render_options *options,
+                        spectrace_progress_fn fn, spectrace_image **out, spectrace_error *err)
+{
+    *out = NULL;
+    spectrace_render_options none = {0};
+    const spectrace_render_options *o = options ? options : &none;
+    spectrace_settings *defaults = settings ? NULL : spectrace_settings_new();
+    const RenderArgs *a = settings ? &settings->a : &defaults->a;
+    const char *ckpt_path = a->checkpoint ? a->checkpoint : a->resume;
+    SptError e = {0};
+    int rc = SPT_EXIT_OK;
+    if (!same_text(a->rs.at, scene->pose_at) || !same_text(a->rs.animation, scene->pose_animation) ||
+        !same_text(a->rs.camera, scene->pose_camera))
+        rc = fail(err, SPECTRACE_ERR_USAGE, "render: the settings' at, animation or camera differ "
+                  "from the pose the scene was loaded in (load it with these settings)");
+    else if (ckpt_path && !scene->from_file)
+        rc = fail(err, SPECTRACE_ERR_USAGE, "render: a checkpoint identifies its scene by the "
+                  "scene's file: load the scene from its file to checkpoint or resume");
+    else if (ckpt_path && (rc = checkpoint_path_check(ckpt_path, &e)))
+        pass(err, &e, rc);
+    else if ((rc = spectrace_render_prepare(r, scene, settings, NULL, 0, NULL, err)))
+        ;
+    else if (a->rs.denoise && !r->den_loaded && (rc = denoiser_open(&r->den, &e)))
+        pass(err, &e, rc);
+    if (rc) {
+        spectrace_settings_free(defaults);
+        return rc;
+    }
+    r->den_loaded |= a->rs.denoise;
+    const char *scene_name = scene->scene.path ? scene->scene.path : "(memory)";
+    RenderSettings rs = complete(a, scene);
+    render_warn_unlit(&scene->gpu, &scene->scene, &scene->sky, rs.env_intensity, scene_name);
+    Progress prog = {0};
+    prog.fn = fn;
+    prog.info_fn = o->progress;
+    prog.user = o->user;
+    prog.stop = o->stop ? o->stop : &prog.own_stop;
     rs.progress = 0;
-    rs.stop = &prog.stop;
-    rs.on_chunk = on_chunk;
-    rs.on_chunk_ctx = &prog;
+    rs.announce = o->verbose;
+    rs.stop = prog.stop;
+    rs.on_progress = on_progress;
+    rs.on_progress_ctx = &prog;
     /* The programs and buffers kept from the scene's last render on these
      * devices; another renderer's are closed first. */
     if (scene->programs_of != r->serial) {
-        if (scene->programs_of) {
-            spectrace_scene_stats_get(scene, &scene->stats);
-            render_programs_free(&scene->programs);
-        }
+        spectrace_scene_release_devices(scene);
         render_programs_init(&scene->programs, r->count);
         scene->programs.keep_scene = 1;
         scene->programs_of = r->serial;
     }
     rs.programs = &scene->programs;
     spectrace_image *img = spt_calloc(1, sizeof *img);
-    film_init_full(&img->film, rs.width, rs.height, render_keeps_aov(&rs), rs.spectral);
+    /* The film, from the checkpoint resumed or empty; checkpoints hook in. */
+    img->ckpt_path[0] = dup_or_null(a->checkpoint);
+    img->ckpt_path[1] = dup_or_null(a->resume);
+    if ((rc = checkpoint_run_begin(&img->ckpt, scene_name, img->ckpt_path[0], a->checkpoint_every,
+                                   img->ckpt_path[1], &rs, &img->film, &e))) {
+        pass(err, &e, rc);
+        spectrace_image_free(img);
+        spectrace_settings_free(defaults);
+        return rc;
+    }
+    if (img->ckpt.resumed && o->verbose)
+        fprintf(stderr, "resuming %s: %u of %ld samples per pixel done\n", a->resume,
+                img->ckpt.resumed, (long)rs.spp);
     RenderDeviceStats per_dev[MAX_DEVICES];
     rc = render_devices(r->devs, r->count, &scene->gpu, &scene->scene.camera, &rs, &img->film,
                         &img->st, per_dev, &e);
-    if (!rc && prog.stop)
-        rc = fail(err, SPECTRACE_ERR_CANCELLED, "render: stopped by the progress callback after %u of "
-                  "%d samples per pixel", img->st.spp_done, rs.spp);
-    else if (rc)
+    img->stopped = *prog.stop != 0;
+    if (rc)
         pass(err, &e, rc);
     else if (img->st.spp_done == 0)
-        rc = fail(err, SPECTRACE_ERR_CANCELLED, "render: stopped before any pass completed");
-    else if ((rc = render_film_check(&img->film, &rs, scene->scene.path ? scene->scene.path
-                                                                        : "(memory)", &e)))
-        pass(err, &e, rc);
-    else if (rs.denoise) {
-        size_t floats = (size_t)rs.width * rs.height * 3;
-        float *noisy = spt_malloc(floats * sizeof(float));
-        film_to_linear_srgb(&img->film, noisy);
-        img->denoised = spt_malloc(floats * sizeof(float));
-        if ((rc = render_denoise(&r->den, &img->film, &rs, noisy, img->denoised, &e)))
+        rc = fail(err, SPECTRACE_ERR_CANCELLED, "render: stopped before any pass completed; nothing written");
+    else if (img->stopped && !o->keep_stopped) {
+        /* The samples done stay in the checkpoint, to resume from. */
+        if ((rc = checkpoint_run_end(&img->ckpt, &img->film, !o->verbose, &e)))
             pass(err, &e, rc);
-        free(noisy);
-    }
+        else
+            rc = fail(err, SPECTRACE_ERR_CANCELLED, "render: stopped by the progress callback%s after "
+                  "%u of %d samples per pixel", o->stop ? " or the stop flag" : "",
+                  img->st.spp_done, rs.spp);
+    } else if ((rc = render_film_check(&img->film, &rs, scene_name, &e)))
+        pass(err, &e, rc);
+    else if (rs.denoise && (rc = denoise_image(r, img, &rs, &e)))
+        pass(err, &e, rc);
+    else if (o->checkpoint_with_outputs)
+        img->ckpt_pending = 1;
+    else if ((rc = checkpoint_run_end(&img->ckpt, &img->film, !o->verbose, &e)))
+        pass(err, &e, rc);
     if (rc) {
         spectrace_image_free(img);
         spectrace_settings_free(defaults);
         return rc;
     }
+    /* What the checkpoint hooks pointed into belongs to the image now. */
+    rs.done_in = NULL;
+    rs.on_chunk = NULL;
+    rs.on_chunk_ctx = NULL;
+    rs.on_progress = NULL;
+    rs.on_progress_ctx = NULL;
+    rs.stop = NULL;
     img->rs = rs;
     img->rs.at = img->pose[0] = dup_or_null(rs.at);
     img->rs.animation = img->pose[1] = dup_or_null(rs.animation);
     img->rs.camera = img->pose[2] = dup_or_null(rs.camera);
     img->disp = (DisplayOptions){(float)a->exposure, a->tonemap};
-    img->scene_path = spt_strdup(scene->scene.path ? scene->scene.path : "(memory)");
+    img->scene_path = spt_strdup(scene_name);
     render_device_description(r->devs, r->count, per_dev, img->device, sizeof img->device);
     scene->stats.renders++;
     *out = img;
     spectrace_settings_free(defaults);
     return SPECTRACE_OK;
+}
+
+int spectrace_render_with(spectrace_renderer *r, spectrace_scene *scene,
+                          const spectrace_settings *settings,
+                          const spectrace_render_options *options, spectrace_image **out,
+                          spectrace_error *err)
+{
+    return render_image(r, scene, settings, options, NULL, out, err);
+}
+
+int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
+                     const spectrace_settings *settings, spectrace_progress_fn progress,
+                     void *user, spectrace_image **out, spectrace_error *err)
+{
+    spectrace_render_options o = {NULL, user, NULL, 0, 0, 0};
+    return render_image(r, scene, settings, &o, progress, out, err);
 }
 
 void spectrace_scene_stats_get(const spectrace_scene *s, spectrace_scene_stats *out)
@@ -747,7 +886,20 @@ void spectrace_image_free(spectrace_image *img)
     for (int k = 0; k < 3; k++)
         free(img->pose[k]);
     free(img->denoised);
+    free(img->denoiser);
+    checkpoint_run_free(&img->ckpt);
+    free(img->ckpt_path[0]);
+    free(img->ckpt_path[1]);
     free(img);
+}
+
+void spectrace_image_stats(const spectrace_image *img, spectrace_render_stats *out)
+{
+    render_stats_public(&img->st, &img->ckpt, out);
+    out->stopped = img->stopped;
+    out->denoise_seconds = img->denoise_seconds;
+    out->denoiser = img->denoiser;
+    out->devices = img->device;
 }
 
 int spectrace_image_width(const spectrace_image *img)
@@ -829,34 +981,57 @@ int spectrace_image_bands(const spectrace_image *img, float *out)
     return SPECTRACE_OK;
 }
 
-int spectrace_image_write(const spectrace_image *img, const char *path, spectrace_error *err)
+/* The image's metadata and extra channels (render_image_meta) into meta, and
+ * the array its outputs show: linear (the film's linear sRGB, which the
+ * caller allocated) or, denoised, the denoised image with linear as its noisy
+ * layer (docs/outputs.md, "Denoising"). */
+static const float *image_meta(const spectrace_image *img, float *linear, RenderImageMeta *meta)
+{
+    film_to_linear_srgb(&img->film, linear);
+    render_image_meta(meta, &img->film, &img->rs, &img->st, img->device, img->scene_path, 3);
+    if (!img->denoised)
+        return linear;
+    render_image_meta_noisy(meta, linear);
+    return img->denoised;
+}
+
+/* The image written to count outputs, then ckpt's final checkpoint (may be
+ * NULL), all replaced or none (render_write_outputs). */
+static int write_images(const spectrace_image *img, const char *const *outputs, int count,
+                        CheckpointWriter *ckpt, spectrace_error *err)
 {
     const Film *f = &img->film;
     SptError e = {0};
-    int rc = path ? image_output_check(path, &e) : spt_fail(&e, SPT_EXIT_USAGE, "image: no path");
+    int rc = SPT_EXIT_OK;
+    for (int i = 0; i < count && !rc; i++)
+        rc = outputs[i] ? image_output_check(outputs[i], &e)
+                        : spt_fail(&e, SPT_EXIT_USAGE, "image: no path");
     if (rc)
         return pass(err, &e, rc);
     float *linear = spt_malloc((size_t)f->width * f->height * 3 * sizeof(float));
-    film_to_linear_srgb(f, linear);
-    const float *rgb = linear;
     RenderImageMeta meta;
-    render_image_meta(&meta, f, &img->rs, &img->st, img->device, img->scene_path, 3);
-    if (img->denoised) {
-        /* The denoised image, and the noisy one as its layer, as the command
-         * line writes them (docs/outputs.md, "Denoising"). */
-        static const char *names[3] = {"noisy.R", "noisy.G", "noisy.B"};
-        FilmLayers *L = &meta.layers;
-        for (int c = 0; c < 3; c++)
-            L->channels[L->count++] = (ExrChannel){names[c], SPT_EXR_FLOAT, linear + c, 3};
-        meta.meta.layer_count = L->count;
-        rgb = img->denoised;
-    }
+    const float *rgb = image_meta(img, linear, &meta);
     pthread_mutex_lock(&io_lock);
-    rc = image_write(path, rgb, f->width, f->height, &meta.meta, &img->disp, &e);
+    rc = render_write_outputs(outputs, count, rgb, f->width, f->height, &meta.meta, &img->disp,
+                              ckpt, f, &e);
     pthread_mutex_unlock(&io_lock);
     render_image_meta_free(&meta);
     free(linear);
     return rc ? pass(err, &e, rc) : SPECTRACE_OK;
+}
+
+int spectrace_image_write(const spectrace_image *img, const char *path, spectrace_error *err)
+{
+    return write_images(img, &path, 1, NULL, err);
+}
+
+int spectrace_image_write_outputs(spectrace_image *img, const char *const *outputs, int count,
+                                  spectrace_error *err)
+{
+    int rc = write_images(img, outputs, count, img->ckpt_pending ? &img->ckpt.writer : NULL, err);
+    if (!rc)
+        img->ckpt_pending = 0;
+    return rc;
 }
 
 int spectrace_write_rgb(const char *path, const float *rgb, int width, int height,

@@ -2,7 +2,8 @@
  * (docs/api.md). A program opens devices (a renderer), loads a scene once,
  * renders it with settings as many times as it likes, changing materials and
  * lights in between, and reads each render's image as arrays or writes it with
- * the command line's writers.
+ * the command line's writers. `spectrace render` of one image is itself a
+ * client of this API (src/cli/cmd_render.c).
  *
  * The API is versioned: SPECTRACE_API_VERSION in this header, and
  * spectrace_version() in the library, whose major number must match (a new
@@ -24,6 +25,7 @@
 #ifndef SPECTRACE_H
 #define SPECTRACE_H
 
+#include <signal.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -32,7 +34,7 @@ extern "C" {
 #endif
 
 #define SPECTRACE_API_VERSION_MAJOR 1
-#define SPECTRACE_API_VERSION_MINOR 1
+#define SPECTRACE_API_VERSION_MINOR 2
 /* major * 10000 + minor * 100 */
 #define SPECTRACE_API_VERSION (SPECTRACE_API_VERSION_MAJOR * 10000 + SPECTRACE_API_VERSION_MINOR * 100)
 
@@ -69,6 +71,15 @@ void spectrace_renderer_close(spectrace_renderer *r);
 /* The devices chosen and each one's "NAME (PLATFORM)". */
 int spectrace_renderer_device_count(const spectrace_renderer *r);
 const char *spectrace_renderer_device_name(const spectrace_renderer *r, int i);
+/* Device i's index in the list of `spectrace devices`, name, platform and
+ * driver version (since 1.2); the strings live as long as r. */
+typedef struct spectrace_device_info {
+    int index;
+    const char *name, *platform, *driver;
+} spectrace_device_info;
+
+int spectrace_renderer_device_info(const spectrace_renderer *r, int i, spectrace_device_info *out,
+                                   spectrace_error *err);
 
 /* ---- Settings --------------------------------------------------------- */
 
@@ -76,11 +87,18 @@ const char *spectrace_renderer_device_name(const spectrace_renderer *r, int i);
  * render_options.h, README.md "Rendering"), by its command-line name without
  * "--" ("spp", "width", "max-depth", "aov", ...), parsed and checked as the
  * command line does, so a new option is here without code of its own. Not
- * settings of a render here: output, device (spectrace_renderer_open),
- * checkpoint, checkpoint-every, resume, quiet and help, which are refused;
- * exposure and tonemap apply to spectrace_image_write. denoise (since 1.1)
- * denoises the image as the command line does (Open Image Denoise, loaded by
- * the first render that asks for it: README.md, "--denoise"). */
+ * settings of a render here: output, device (spectrace_renderer_open), quiet
+ * and help, which are refused; exposure and tonemap apply to
+ * spectrace_image_write. denoise (since 1.1) denoises the image as the
+ * command line does (Open Image Denoise, loaded by the first render that asks
+ * for it: README.md, "--denoise"). checkpoint, checkpoint-every and resume
+ * (since 1.2) checkpoint and resume a render as the command line does
+ * (docs/outputs.md, "Checkpoints"): the render writes its checkpoint every
+ * checkpoint-every seconds and at its end (or with its outputs: see
+ * spectrace_render_with), and a render with resume starts from the samples
+ * of that checkpoint, which the scene (its file) and the settings that change
+ * the image must match; the result is the uninterrupted render's, bit for
+ * bit. */
 typedef struct spectrace_settings spectrace_settings;
 
 spectrace_settings *spectrace_settings_new(void); /* every option at its default */
@@ -112,7 +130,9 @@ typedef struct spectrace_scene spectrace_scene;
 
 /* Loads a .gltf or .glb file. settings (may be NULL) gives the pose: its "at",
  * "animation" and "camera" (docs/gltf.md); a render whose settings name
- * another pose is refused. NULL on failure, with err filled. */
+ * another pose is refused. Since 1.2 it also reads the sky of settings' env
+ * and background first, as the command line does (a render with another sky
+ * reads that one). NULL on failure, with err filled. */
 spectrace_scene *spectrace_scene_load(const char *path, const spectrace_settings *settings,
                                       spectrace_error *err);
 /* The same from the file's bytes (.gltf or .glb); its external buffers and
@@ -126,6 +146,20 @@ spectrace_scene *spectrace_scene_load_memory_posed(const void *data, size_t size
                                                    const spectrace_settings *settings,
                                                    spectrace_error *err);
 void spectrace_scene_free(spectrace_scene *s);
+
+/* Before rendering (since 1.2): refuses (SPECTRACE_ERR_USAGE, the command
+ * line's message) outputs (count file names) that would replace a file the
+ * scene's load read (the scene, its buffers and textures, the sky's files),
+ * the checkpoint that settings resume (an image output), or each other; the
+ * checkpoint of settings (checkpoint, else resume) counts as an output. Files
+ * compared by device and inode, so links and other names are caught too. */
+int spectrace_scene_check_outputs(const spectrace_scene *s, const spectrace_settings *settings,
+                                  const char *const *outputs, int count, spectrace_error *err);
+
+/* Releases what the scene keeps on a renderer's devices between renders (its
+ * programs and buffers; since 1.2), as spectrace_scene_free does, keeping the
+ * scene: the next render builds and uploads them again. */
+void spectrace_scene_release_devices(spectrace_scene *s);
 
 /* Materials: their count, index i's name, and the index of the first named
  * name (-1: none). */
@@ -205,7 +239,93 @@ typedef struct spectrace_scene_stats {
 
 void spectrace_scene_stats_get(const spectrace_scene *s, spectrace_scene_stats *out);
 
+/* The steps of spectrace_render one by one, for a program that reports them
+ * as the command line does (since 1.2).
+ *
+ * spectrace_render_prepare builds the scene's device arrays (once, as
+ * spectrace_render would) and reads the settings' sky, then checks the host
+ * memory the render will take (the film, the render, and writing outputs:
+ * count file names, whose formats count) against what is available
+ * (docs/limits.md, "The memory estimate"), refusing too much with
+ * SPECTRACE_ERR_DEVICE. mem (may be NULL) receives the estimate in bytes, also
+ * when it is refused: what is loaded (the scene's device arrays and the
+ * environment map), and the render's need: the film, then the larger of the
+ * render's own and the outputs'. spectrace_render calls it itself. */
+typedef struct spectrace_memory {
+    double loaded, need, film, render, outputs;
+} spectrace_memory;
+
+int spectrace_render_prepare(spectrace_renderer *r, spectrace_scene *scene,
+                             const spectrace_settings *settings, const char *const *outputs,
+                             int count, spectrace_memory *mem, spectrace_error *err);
+
+/* What spectrace_render_with reports as the render goes: the samples per
+ * pixel done and asked for, the seconds since the render started (after the
+ * program builds) and the paths traced so far. */
+typedef struct spectrace_progress_info {
+    uint32_t done, total;
+    double elapsed;
+    double paths;
+} spectrace_progress_info;
+
+/* A non-zero return stops the render as spectrace_progress_fn's does. */
+typedef int (*spectrace_progress_info_fn)(void *user, const spectrace_progress_info *p);
+
+typedef struct spectrace_render_options {
+    spectrace_progress_info_fn progress; /* may be NULL */
+    void *user;
+    /* A flag the caller may set (from a signal handler too): 1 stops the
+     * render after the chunks in progress (a long one at once), 2 at once,
+     * dropping them. A progress callback's non-zero return sets it to 1. May
+     * be NULL. */
+    volatile sig_atomic_t *stop;
+    /* A render stopped after some samples returns them (SPECTRACE_OK, with
+     * spectrace_render_stats.stopped set) instead of SPECTRACE_ERR_CANCELLED. */
+    int keep_stopped;
+    /* The command line's notes on stderr: a kernel build not found in the
+     * program cache, "resuming ...", the final checkpoint written. */
+    int verbose;
+    /* The final checkpoint is written by spectrace_image_write_outputs with
+     * the outputs (all or none replaced) instead of at the render's end. */
+    int checkpoint_with_outputs;
+} spectrace_render_options;
+
+/* spectrace_render with options (NULL: as spectrace_render without a
+ * progress callback). spectrace_render(r, s, settings, fn, user, out, err)
+ * is this with the options' progress reporting fn's figures. */
+int spectrace_render_with(spectrace_renderer *r, spectrace_scene *scene,
+                          const spectrace_settings *settings,
+                          const spectrace_render_options *options, spectrace_image **out,
+                          spectrace_error *err);
+
 void spectrace_image_free(spectrace_image *img);
+
+/* A render's figures (since 1.2; the command line's "rendered ..." line and
+ * --profile): the samples per pixel done, of them those resumed from a
+ * checkpoint, whether the render was stopped (keep_stopped), the seconds of
+ * the render and of the program builds, the paths and rays traced, the
+ * samples dropped as NaN or infinite, each stage's seconds (the kernels
+ * generate, extend, shade, connect, accumulate and, on CPU devices, paths,
+ * which runs the first four for whole paths), the denoising's seconds and the
+ * Open Image Denoise library used (NULL: not denoised), the devices as the
+ * EXR's metadata names them, and the checkpoint of the render (written at
+ * its end, or to be written with its outputs; NULL: none, or no sample done)
+ * with the samples per pixel it holds. The strings live as long as img. */
+#define SPECTRACE_STAGES 6
+typedef struct spectrace_render_stats {
+    uint32_t spp_done, spp_resumed;
+    int stopped;
+    double seconds, build_seconds;
+    uint64_t paths, rays_extend, rays_shadow, nan_dropped;
+    double stage_seconds[SPECTRACE_STAGES];
+    double denoise_seconds;
+    const char *denoiser;
+    const char *devices;
+    const char *checkpoint;
+    uint32_t checkpoint_spp;
+} spectrace_render_stats;
+
+void spectrace_image_stats(const spectrace_image *img, spectrace_render_stats *out);
 int spectrace_image_width(const spectrace_image *img);
 int spectrace_image_height(const spectrace_image *img);
 /* Samples per pixel rendered, and the render's seconds. */
@@ -237,6 +357,14 @@ int spectrace_image_bands(const spectrace_image *img, float *out);
  * .exr with the AOV layers and bands, .png, .jpg, .tif, .hdr), with the
  * render's settings' exposure and tonemap for display formats. */
 int spectrace_image_write(const spectrace_image *img, const char *path, spectrace_error *err);
+
+/* Writes the image to count outputs as spectrace_image_write does, and with
+ * checkpoint_with_outputs the render's final checkpoint (since 1.2): each to a
+ * temporary file, renamed over its name only when every one was written, so
+ * a failure (a full disk at the second output) leaves every existing file as
+ * it was. */
+int spectrace_image_write_outputs(spectrace_image *img, const char *const *outputs, int count,
+                                  spectrace_error *err);
 
 /* Writes any linear sRGB array (3 floats per pixel, rows top to bottom: a
  * contact sheet of several renders) with the same writers, without metadata;

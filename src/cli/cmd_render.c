@@ -1,29 +1,30 @@
 /* spectrace render: load a glTF scene, render it on OpenCL devices, write the
  * outputs. The options are those of src/render/render_options.h (parsed by
- * src/cli/render_args.c); the steps of a render are the functions below, in the
- * order cmd_render runs them. */
+ * src/api/render_args.c). One image is a client of the library's API
+ * (render_image_api: spectrace_* calls); frame sequences and spectrace-mpi's
+ * renders over ranks run the renderer's steps below (render_image), as
+ * docs/architecture.md ("Source layout") says why. */
 #include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-#include <limits.h>
-#include <sys/stat.h>
 #include <strings.h>
 
+#include "api/output_check.h"
+#include "api/render_args.h"
+#include "api/render_stats.h"
+#include "api/spectrace.h"
 #include "cl/cl_device.h"
 #include "cli/commands.h"
-#include "cli/render_args.h"
+#include "core/input_file.h"
 #include "core/util.h"
-#include "io/atomic_file.h"
 #include "io/denoise.h"
 #include "io/image_out.h"
-#include "core/input_file.h"
 #include "mpi/mpi_hook.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
-#include "render/film_layers.h"
 #include "render/render.h"
 #include "render/render_result.h"
 #include "render/test_hooks.h"
@@ -119,24 +120,6 @@ static void scene_stem(const char *path, char *out, size_t n)
         *dot = 0;
 }
 
-/* Whether the sky is black: --background black, none or R,G,B all 0, or --env
- * with intensity 0 or a map whose every texel is 0 (the renderer leaves these
- * unlit). */
-static int sky_is_black(const Sky *sky, double env_intensity)
-{
-    if (sky->kind == SPT_SKY_MAP && env_intensity > 0) {
-        size_t n = (size_t)sky->map_width * (size_t)sky->map_height * 3;
-        for (size_t i = 0; i < n; i++)
-            if (sky->map[i] != 0.0f)
-                return 0;
-        return 1;
-    }
-    return sky->kind == SPT_SKY_BLACK ||
-           (sky->kind == SPT_SKY_RGB && sky->rgb[0] == 0.0f && sky->rgb[1] == 0.0f &&
-            sky->rgb[2] == 0.0f) ||
-           (sky->kind == SPT_SKY_MAP && !(env_intensity > 0));
-}
-
 /* The outputs (SCENE-NAME.exr and .png when none is given) and the checkpoint
  * file, checked before any work: a run that cannot write them fails at once. */
 static int check_outputs(RenderJob *j, SptError *e)
@@ -178,76 +161,18 @@ static int check_outputs(RenderJob *j, SptError *e)
     return SPT_EXIT_OK;
 }
 
-/* An output's identity: the file it would replace (device and inode) when that
- * exists, else its folder's device and inode and its name. */
-typedef struct OutputId {
-    int exists;
-    struct stat st;
-    char name[NAME_MAX + 1];
-} OutputId;
-
-static void output_id(const char *path, OutputId *id)
-{
-    memset(id, 0, sizeof *id);
-    if (stat(path, &id->st) == 0) {
-        id->exists = 1;
-        return;
-    }
-    char real[PATH_MAX], dir[PATH_MAX];
-    const char *base;
-    atomic_resolve(path, real, sizeof real);
-    atomic_split_path(real, dir, sizeof dir, &base);
-    snprintf(id->name, sizeof id->name, "%s", base);
-    if (stat(dir, &id->st) != 0)
-        memset(&id->st, 0, sizeof id->st);
-}
-
-static int same_output(const OutputId *a, const OutputId *b)
-{
-    return a->exists == b->exists && a->st.st_dev == b->st.st_dev &&
-           a->st.st_ino == b->st.st_ino && !strcmp(a->name, b->name);
-}
-
 /* After the inputs are read and before any work: no output (-o or the
  * checkpoint) may be one of the files read (scene, buffers, textures, the
- * environment map, SPD files), an image output may not be the checkpoint being
- * resumed, and no two outputs may be the same file. Compared by device and inode,
- * so other names of a file (links, "./", "..") are caught too. */
+ * environment map, SPD files), the checkpoint resumed, or another output
+ * (outputs_check_not_inputs). */
 static int check_outputs_are_not_inputs(const RenderJob *j, SptError *e)
 {
     const RenderArgs *a = &j->a;
-    const char *ckpt = a->checkpoint ? a->checkpoint : a->resume;
-    int n = a->outputs_count + (ckpt ? 1 : 0);
-    OutputId *ids = spt_calloc((size_t)n, sizeof *ids);
-    const char **names = spt_calloc((size_t)n, sizeof *names);
-    for (int i = 0; i < a->outputs_count; i++)
-        names[i] = a->outputs[i];
-    if (ckpt)
-        names[n - 1] = ckpt;
-    struct stat resume_st;
-    int have_resume = a->resume && stat(a->resume, &resume_st) == 0;
-    int rc = SPT_EXIT_OK;
-    for (int i = 0; i < n && !rc; i++) {
-        output_id(names[i], &ids[i]);
-        const char *input = ids[i].exists ? input_seen_match(&ids[i].st) : NULL;
-        int is_ckpt = ckpt && i == n - 1;
-        if (input)
-            rc = spt_fail(e, SPT_EXIT_USAGE, "%s: this %s is the input file %s; writing it "
-                          "would destroy it (choose another name)", names[i],
-                          is_ckpt ? "checkpoint" : "output", input);
-        else if (!is_ckpt && have_resume && ids[i].exists &&
-                 ids[i].st.st_dev == resume_st.st_dev && ids[i].st.st_ino == resume_st.st_ino)
-            rc = spt_fail(e, SPT_EXIT_USAGE, "%s: this output is the checkpoint %s being "
-                          "resumed (choose another name)", names[i], a->resume);
-        for (int k = 0; k < i && !rc; k++)
-            if (same_output(&ids[i], &ids[k]))
-                rc = spt_fail(e, SPT_EXIT_USAGE, "-o %s and %s %s name the same file (give "
-                              "each output its own name)", names[k],
-                              !is_ckpt ? "-o" : a->checkpoint ? "--checkpoint" : "--resume",
-                              names[i]);
-    }
-    free(ids);
-    free(names);
+    InputList inputs;
+    input_seen_copy(&inputs);
+    int rc = outputs_check_not_inputs(&inputs, (const char *const *)a->outputs, a->outputs_count,
+                                      a->checkpoint, a->resume, e);
+    input_list_free(&inputs);
     return rc;
 }
 
@@ -328,9 +253,22 @@ static int build_device_scene(RenderJob *j, SptError *e)
     return rc;
 }
 
+/* --profile's estimate of the host memory (render_host_memory, docs/limits.md
+ * "The memory estimate"), unless quiet. */
+static void report_memory(const RenderArgs *ra, const spectrace_memory *m)
+{
+    char a[32], b[32], c[32], d[32], f[32], g[32];
+    if (ra->rs.profile && !ra->quiet)
+        fprintf(stderr, "memory: about %s of host memory: %s loaded, %s for the render (film %s, "
+                "then the larger of the render's %s and the outputs' %s)\n",
+                spt_format_bytes(a, sizeof a, m->loaded + m->need),
+                spt_format_bytes(b, sizeof b, m->loaded), spt_format_bytes(c, sizeof c, m->need),
+                spt_format_bytes(d, sizeof d, m->film), spt_format_bytes(f, sizeof f, m->render),
+                spt_format_bytes(g, sizeof g, m->outputs));
+}
+
 /* Before any device memory is taken: the host memory the render will take on
- * top of what is loaded, against what is available (render_host_memory,
- * docs/limits.md "The memory estimate"). --profile prints the estimate. */
+ * top of what is loaded, against what is available (render_host_memory). */
 static int check_host_memory(RenderJob *j, SptError *e)
 {
     RenderSettings *rs = &j->a.rs;
@@ -339,22 +277,7 @@ static int check_host_memory(RenderJob *j, SptError *e)
     int rc = render_host_memory((const ClDeviceInfo *const *)j->devs, j->nsel, &j->gpu,
                                 &j->scene.camera, rs, (const char *const *)j->a.outputs,
                                 j->a.outputs_count, &m, e);
-    char a[32], b[32], c[32], d[32], f[32], g[32];
-    if (rs->profile && !j->a.quiet) {
-        /* What is loaded already: the scene's arrays as the devices get them,
-         * and the environment map as read. */
-        double loaded = 0.0;
-#define LOADED(type, name) loaded += (double)gpu_scene_buffer_bytes(&j->gpu, NULL, #name);
-        SPT_SCENE_BUFFERS(LOADED)
-#undef LOADED
-        if (j->sky.kind == SPT_SKY_MAP)
-            loaded += 3.0 * sizeof(float) * (double)j->sky.map_width * (double)j->sky.map_height;
-        fprintf(stderr, "memory: about %s of host memory: %s loaded, %s for the render (film %s, "
-                "then the larger of the render's %s and the outputs' %s)\n",
-                spt_format_bytes(a, sizeof a, loaded + m.need), spt_format_bytes(b, sizeof b, loaded),
-                spt_format_bytes(c, sizeof c, m.need), spt_format_bytes(d, sizeof d, m.film),
-                spt_format_bytes(f, sizeof f, m.render), spt_format_bytes(g, sizeof g, m.outputs));
-    }
+    report_memory(&j->a, &(spectrace_memory){m.loaded, m.need, m.film, m.render, m.outputs});
     return rc;
 }
 
@@ -368,12 +291,7 @@ static void complete_settings(RenderJob *j)
     rs->progress = !j->a.quiet;
     rs->stop = &stop_requested;
     render_test_hooks_env(rs);
-    /* Without emitters or lights the default sky lights the scene
-     * (src/render/render_lights.c); only a black sky leaves it dark. */
-    if (j->gpu.emitter_count == 0 && j->scene.light_count == 0 &&
-        sky_is_black(&j->sky, rs->env_intensity))
-        spt_warn("%s: nothing lights the scene (no emissive surfaces, no lights, a black sky): the "
-                 "image will be black", j->a.scene);
+    render_warn_unlit(&j->gpu, &j->scene, &j->sky, rs->env_intensity, j->a.scene);
 }
 
 /* The render itself, on this process's devices or (spectrace-mpi) over MPI
@@ -398,39 +316,32 @@ static int render(RenderJob *j, SptError *e)
 }
 
 /* The notes after a render: how it stopped and the samples dropped. */
-static void report_notes(const RenderJob *j)
+static void report_notes(const RenderArgs *a, const spectrace_render_stats *st)
 {
-    const RenderStats *st = &j->st;
     if (stop_requested)
         spt_note("render: stopped by a signal after %u of %ld samples per pixel; writing them",
-                 st->spp_done, (long)j->a.rs.spp);
+                 st->spp_done, (long)a->rs.spp);
     if (st->nan_dropped)
         spt_warn("render: %llu samples had NaN or infinite radiance and were dropped",
                  (unsigned long long)st->nan_dropped);
 }
 
-/* A film with a NaN or infinite pixel is never written (render_film_check).
- * The test hook film_nan makes the first pixels NaN, as a render gone wrong
- * would. */
+/* A film with a NaN or infinite pixel is never written (render_film_check). */
 static int check_film(RenderJob *j)
 {
-    long npix = (long)j->a.rs.width * j->a.rs.height;
-    for (long i = 0; i < j->a.rs.test.film_nan && i < npix; i++)
-        j->film.xyz[3 * i] = NAN;
     SptError e = {0};
     int rc = render_film_check(&j->film, &j->a.rs, j->a.scene, &e);
     return rc ? spt_report(&e) : SPT_EXIT_OK;
 }
 
 /* Speed and (with --profile) where the time went, unless quiet. */
-static void report_speed(const RenderJob *j)
+static void report_speed(const RenderArgs *a, int width, int height,
+                         const spectrace_render_stats *st)
 {
-    const RenderArgs *a = &j->a;
-    const RenderStats *st = &j->st;
     if (a->quiet)
         return;
     fprintf(stderr, "rendered %dx%d, %u spp in %.2f s (%.3f Mpaths/s; program build %.2f s)\n",
-            a->rs.width, a->rs.height, st->spp_done, st->seconds,
+            width, height, st->spp_done, st->seconds,
             st->seconds > 0 ? st->paths / st->seconds * 1e-6 : 0.0, st->build_seconds);
     if (a->rs.profile) {
         /* Each stage's seconds, share, and time per path segment (closest-hit
@@ -451,13 +362,30 @@ static void report_speed(const RenderJob *j)
     }
 }
 
-/* The device description of the outputs' metadata (render_device_description),
- * printed unless quiet when the render had several devices. */
-static void describe_devices(const RenderJob *j, char *out, size_t cap)
+/* The devices of the outputs' metadata (render_device_description), printed
+ * unless quiet when the render had several. */
+static void report_devices(const RenderArgs *a, int count, const char *description)
 {
-    render_device_description(j->devs, j->nsel, j->per_dev, out, cap);
-    if (j->nsel > 1 && !j->a.quiet)
-        fprintf(stderr, "devices: %s\n", out);
+    if (count > 1 && !a->quiet)
+        fprintf(stderr, "devices: %s\n", description);
+}
+
+/* --denoise: how long it took, with which library, unless quiet. */
+static void report_denoise(const RenderArgs *a, double seconds, const char *library)
+{
+    if (!a->quiet)
+        fprintf(stderr, "denoised in %.2f s (Open Image Denoise, %s)\n", seconds, library);
+}
+
+/* The outputs written, unless quiet, and the checkpoint's note (unless quiet
+ * and not stopped by a signal). */
+static void report_written(const RenderArgs *a, const char *checkpoint, uint32_t checkpoint_spp)
+{
+    for (int i = 0; i < a->outputs_count && !a->quiet; i++)
+        fprintf(stderr, "wrote %s\n", a->outputs[i]);
+    if (checkpoint && (!a->quiet || stop_requested))
+        fprintf(stderr, "wrote checkpoint %s (%u spp; continue with --resume %s)\n", checkpoint,
+                checkpoint_spp, checkpoint);
 }
 
 /* --denoise: the image (j->rgb) denoised (render_denoise); j->noisy keeps the
@@ -470,8 +398,8 @@ static int denoise(RenderJob *j, SptError *e)
     double t0 = spt_now();
     int rc = render_denoise(&j->den, &j->film, rs, j->noisy, j->rgb, e);
     j->denoise_seconds = spt_now() - t0;
-    if (!rc && !j->a.quiet)
-        fprintf(stderr, "denoised in %.2f s (Open Image Denoise, %s)\n", j->denoise_seconds, j->den.path);
+    if (!rc)
+        report_denoise(&j->a, j->denoise_seconds, j->den.path);
     return rc;
 }
 
@@ -489,32 +417,20 @@ static int write_outputs(RenderJob *j, SptError *e)
     if (rs->denoise && (rc = denoise(j, e)))
         return rc;
     char devdesc[4096];
-    describe_devices(j, devdesc, sizeof devdesc);
+    render_device_description(j->devs, j->nsel, j->per_dev, devdesc, sizeof devdesc);
+    report_devices(a, j->nsel, devdesc);
     RenderImageMeta *m = &j->meta;
     render_image_meta(m, &j->film, rs, &j->st, devdesc, a->scene, 3);
-    if (j->noisy) {
-        static const char *names[3] = {"noisy.R", "noisy.G", "noisy.B"};
-        FilmLayers *L = &m->layers;
-        for (int c = 0; c < 3; c++)
-            L->channels[L->count++] = (ExrChannel){names[c], SPT_EXR_FLOAT, j->noisy + c, 3};
-        m->meta.layer_count = L->count;
-    }
+    if (j->noisy)
+        render_image_meta_noisy(m, j->noisy);
     DisplayOptions disp = {(float)a->exposure, a->tonemap};
-    const char *fail_at = getenv("SPECTRACE_TEST_FAIL_OUTPUT");
-    atomic_test_fail_commit_at = fail_at ? atoi(fail_at) : 0;
-    atomic_stage_begin();
-    rc = SPT_EXIT_OK;
-    for (int i = 0; i < a->outputs_count && !rc; i++)
-        rc = image_write(a->outputs[i], j->rgb, rs->width, rs->height, &m->meta, &disp, e);
-    if (!rc)
-        rc = checkpoint_writer_finish(&j->ckpt.writer, &j->film, e);
-    int rc2 = atomic_stage_finish(!rc, e);
-    atomic_test_fail_commit_at = 0;
-    if (rc || rc2)
-        return rc ? rc : rc2;
-    for (int i = 0; i < a->outputs_count && !a->quiet; i++)
-        fprintf(stderr, "wrote %s\n", a->outputs[i]);
-    checkpoint_run_report(&j->ckpt, a->quiet && !stop_requested);
+    if ((rc = render_write_outputs((const char *const *)a->outputs, a->outputs_count, j->rgb,
+                                   rs->width, rs->height, &m->meta, &disp, &j->ckpt.writer,
+                                   &j->film, e)))
+        return rc;
+    spectrace_render_stats st;
+    render_stats_public(&j->st, &j->ckpt, &st);
+    report_written(a, st.checkpoint, st.checkpoint_spp);
     return SPT_EXIT_OK;
 }
 
@@ -585,14 +501,141 @@ static int render_image(RenderJob *j)
             spt_error("render: stopped before any pass completed; nothing written");
             rc = SPT_EXIT_INTERRUPTED;
         } else {
-            report_notes(j);
+            spectrace_render_stats st;
+            render_stats_public(&j->st, &j->ckpt, &st);
+            report_notes(&j->a, &st);
             if (!(rc = check_film(j))) {
-                report_speed(j);
+                report_speed(&j->a, j->a.rs.width, j->a.rs.height, &st);
                 if ((rc = write_outputs(j, &e)))
                     spt_report(&e);
             }
         }
     }
+    return rc;
+}
+
+/* ---- One image through the library (src/api/spectrace.h) ---------------- */
+
+/* The library's error as the command line reports it: its message after
+ * "error: " (none when it has none), and its code as the exit code. */
+static int report_api(const spectrace_error *err)
+{
+    if (err->message[0])
+        spt_error("%s", err->message);
+    return err->code ? err->code : SPT_EXIT_FAILURE;
+}
+
+/* The options given on the command line as the library's settings, by name
+ * (the command line's own, -o, --device, -q, are not settings). */
+static spectrace_settings *settings_of(const RenderArgs *a, spectrace_error *err)
+{
+    spectrace_settings *set = spectrace_settings_new();
+    char value[4096];
+    for (int i = 0; i < SPT_ARG_COUNT; i++) {
+        if (!a->given[i] || i == SPT_ARG_outputs || i == SPT_ARG_device || i == SPT_ARG_quiet ||
+            i == SPT_ARG_help)
+            continue;
+        render_args_format(a, i, value, sizeof value);
+        if (spectrace_settings_set(set, render_args_option_name(i), value, err)) {
+            spectrace_settings_free(set);
+            return NULL;
+        }
+    }
+    return set;
+}
+
+/* The progress line of the scheduler's display (src/render/scheduler.c):
+ * rewritten in place on a terminal, else a plain line at every tenth. */
+typedef struct ProgressLine {
+    double time_limit;
+    int decile, printed;
+} ProgressLine;
+
+static int on_progress(void *user, const spectrace_progress_info *p)
+{
+    ProgressLine *pl = user;
+    double frac = p->total ? (double)p->done / p->total : 1.0;
+    int tty = isatty(2), decile = (int)(frac * 10.0);
+    if (!tty && decile == pl->decile)
+        return 0;
+    pl->decile = decile;
+    pl->printed = 1;
+    double rate = p->elapsed > 0 ? p->paths / p->elapsed : 0.0;
+    double remain = frac > 0 ? p->elapsed * (1.0 - frac) / frac : 0.0;
+    if (pl->time_limit > 0 && pl->time_limit - p->elapsed < remain)
+        remain = pl->time_limit - p->elapsed > 0 ? pl->time_limit - p->elapsed : 0;
+    fprintf(stderr, "%srender: %5.1f%%  %u/%u spp  %.2f Mpaths/s  %.1f s elapsed  %.1f s left%s",
+            tty ? "\r" : "", 100.0 * frac, p->done, p->total, rate * 1e-6, p->elapsed, remain,
+            tty ? "   " : "\n");
+    fflush(stderr);
+    return 0;
+}
+
+/* What one image through the library holds. */
+typedef struct ApiRender {
+    spectrace_settings *set;
+    spectrace_scene *scene;
+    spectrace_renderer *r;
+    spectrace_image *img;
+} ApiRender;
+
+/* The steps of render_image (load, devices, device arrays and memory,
+ * render, outputs) as spectrace_* calls: the same messages, notes and exit
+ * codes. */
+static int api_steps(const RenderArgs *a, ApiRender *x)
+{
+    spectrace_error err = {0};
+    const char *const *outputs = (const char *const *)a->outputs;
+    if (!(x->set = settings_of(a, &err)) || !(x->scene = spectrace_scene_load(a->scene, x->set, &err)) ||
+        spectrace_scene_check_outputs(x->scene, x->set, outputs, a->outputs_count, &err) ||
+        !(x->r = spectrace_renderer_open(a->device, &err)))
+        return report_api(&err);
+    for (int i = 0; i < spectrace_renderer_device_count(x->r) && !a->quiet; i++) {
+        spectrace_device_info d;
+        spectrace_renderer_device_info(x->r, i, &d, NULL);
+        fprintf(stderr, "device %d: %s (%s, %s)\n", d.index, d.name, d.platform, d.driver);
+    }
+    spectrace_memory mem = {.need = -1.0};
+    int rc = spectrace_render_prepare(x->r, x->scene, x->set, outputs, a->outputs_count, &mem, &err);
+    if (mem.need >= 0)
+        report_memory(a, &mem);
+    if (rc)
+        return report_api(&err);
+    if (stop_requested) {
+        spt_error("render: stopped by a signal before rendering; nothing written");
+        return SPT_EXIT_INTERRUPTED;
+    }
+    ProgressLine pl = {a->rs.time_limit, -1, 0};
+    spectrace_render_options o = {a->quiet ? NULL : on_progress, &pl, &stop_requested, 1,
+                                  !a->quiet, 1};
+    rc = spectrace_render_with(x->r, x->scene, x->set, &o, &x->img, &err);
+    if (pl.printed && isatty(2))
+        fputc('\n', stderr);
+    if (rc)
+        return report_api(&err);
+    spectrace_render_stats st;
+    spectrace_image_stats(x->img, &st);
+    report_notes(a, &st);
+    report_speed(a, spectrace_image_width(x->img), spectrace_image_height(x->img), &st);
+    if (st.denoiser)
+        report_denoise(a, st.denoise_seconds, st.denoiser);
+    report_devices(a, spectrace_renderer_device_count(x->r), st.devices);
+    /* The programs and device buffers are not needed for writing. */
+    spectrace_scene_release_devices(x->scene);
+    if (spectrace_image_write_outputs(x->img, outputs, a->outputs_count, &err))
+        return report_api(&err);
+    report_written(a, st.checkpoint, st.checkpoint_spp);
+    return SPT_EXIT_OK;
+}
+
+static int render_image_api(const RenderArgs *a)
+{
+    ApiRender x = {0};
+    int rc = api_steps(a, &x);
+    spectrace_image_free(x.img);
+    spectrace_renderer_close(x.r);
+    spectrace_scene_free(x.scene);
+    spectrace_settings_free(x.set);
     return rc;
 }
 
@@ -746,7 +789,11 @@ int cmd_render(int argc, char **argv)
     if ((rc = check_outputs(j, &e)))
         spt_report(&e);
     else
-        rc = j->a.frame_step ? render_frames(j) : render_image(j);
+        /* One image through the library; frame sequences, and spectrace-mpi's
+         * renders over ranks, on the renderer's own steps (docs/architecture.md,
+         * "Source layout"). */
+        rc = j->a.frame_step ? render_frames(j) : spt_dist_render ? render_image(j)
+                                                                  : render_image_api(&j->a);
     signals_restore();
     /* A kernel build given up at a second signal still runs in its thread:
      * exit's clean-up of the OpenCL implementation could meet it, so the

@@ -133,47 +133,61 @@ int input_read(const char *path, const char *what, unsigned char **data, size_t 
 
 /* The inputs read, by device and inode (several threads may load textures). */
 static pthread_mutex_t seen_lock = PTHREAD_MUTEX_INITIALIZER;
-static struct Seen {
-    dev_t dev;
-    ino_t ino;
-    char *path;
-} *seen;
-static int seen_count, seen_cap;
+static InputList seen;
+
+static void list_add(InputList *list, const char *path, dev_t dev, ino_t ino)
+{
+    if (list->count == list->cap) {
+        list->cap = list->cap ? 2 * list->cap : 16;
+        list->files = spt_realloc(list->files, (size_t)list->cap * sizeof *list->files);
+    }
+    list->files[list->count++] = (InputFile){dev, ino, spt_strdup(path)};
+}
 
 void input_seen_add(const char *path, const struct stat *st)
 {
     pthread_mutex_lock(&seen_lock);
-    int found = 0;
-    for (int i = 0; i < seen_count && !found; i++)
-        found = seen[i].dev == st->st_dev && seen[i].ino == st->st_ino;
-    if (!found) {
-        if (seen_count == seen_cap) {
-            seen_cap = seen_cap ? 2 * seen_cap : 16;
-            seen = spt_realloc(seen, (size_t)seen_cap * sizeof *seen);
-        }
-        seen[seen_count++] = (struct Seen){st->st_dev, st->st_ino, spt_strdup(path)};
-    }
+    if (!input_list_match(&seen, st))
+        list_add(&seen, path, st->st_dev, st->st_ino);
     pthread_mutex_unlock(&seen_lock);
+}
+
+const char *input_list_match(const InputList *list, const struct stat *st)
+{
+    for (int i = 0; i < list->count; i++)
+        if (list->files[i].dev == st->st_dev && list->files[i].ino == st->st_ino)
+            return list->files[i].path;
+    return NULL;
 }
 
 const char *input_seen_match(const struct stat *st)
 {
-    const char *p = NULL;
     pthread_mutex_lock(&seen_lock);
-    for (int i = 0; i < seen_count && !p; i++)
-        if (seen[i].dev == st->st_dev && seen[i].ino == st->st_ino)
-            p = seen[i].path;
+    const char *p = input_list_match(&seen, st);
     pthread_mutex_unlock(&seen_lock);
     return p;
+}
+
+void input_seen_copy(InputList *list)
+{
+    memset(list, 0, sizeof *list);
+    pthread_mutex_lock(&seen_lock);
+    for (int i = 0; i < seen.count; i++)
+        list_add(list, seen.files[i].path, seen.files[i].dev, seen.files[i].ino);
+    pthread_mutex_unlock(&seen_lock);
+}
+
+void input_list_free(InputList *list)
+{
+    for (int i = 0; i < list->count; i++)
+        free(list->files[i].path);
+    free(list->files);
+    memset(list, 0, sizeof *list);
 }
 
 void input_seen_reset(void)
 {
     pthread_mutex_lock(&seen_lock);
-    for (int i = 0; i < seen_count; i++)
-        free(seen[i].path);
-    free(seen);
-    seen = NULL;
-    seen_count = seen_cap = 0;
+    input_list_free(&seen);
     pthread_mutex_unlock(&seen_lock);
 }

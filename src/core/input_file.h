@@ -42,4 +42,22 @@ const char *input_seen_match(const struct stat *st);
 void input_seen_add(const char *path, const struct stat *st);
 void input_seen_reset(void);
 
+/* A copy of the inputs recorded (input_seen_copy), kept by a caller that checks
+ * its outputs against them later, after other loads have reset the record. */
+typedef struct InputFile {
+    dev_t dev;
+    ino_t ino;
+    char *path;
+} InputFile;
+
+typedef struct InputList {
+    InputFile *files;
+    int count, cap;
+} InputList;
+
+void input_seen_copy(InputList *list); /* list: empty or freed before */
+/* The path of the file of list that is the same file as st, or NULL. */
+const char *input_list_match(const InputList *list, const struct stat *st);
+void input_list_free(InputList *list);
+
 #endif

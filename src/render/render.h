@@ -17,7 +17,7 @@
 enum { SPT_KERNEL_PATH_DEVICE = 0, SPT_KERNEL_PATH_CPU, SPT_KERNEL_PATH_GPU };
 
 /* Hooks for tests, off when zero; only tests set them (the command line takes
- * them from SPECTRACE_TEST_* variables: src/cli/render_args.h). */
+ * them from SPECTRACE_TEST_* variables: src/api/render_args.h). */
 typedef struct RenderTestHooks {
     int fail_device;  /* 1 + the index (in the selection) of a device that fails as it
                          starts its chunk number fail_after (counting from 0) */
@@ -89,6 +89,9 @@ typedef struct RenderSettings {
     const Sky *sky;          /* --env, --background (src/scene/sky.h); NULL = default */
     uint32_t sample_begin;   /* first sample index (a resumed render starts later) */
     int progress;            /* print progress to stderr */
+    int announce;            /* name a kernel build not found in the cache on stderr,
+                                as progress does (for a caller printing its own
+                                progress through on_progress) */
     volatile sig_atomic_t *stop; /* 1: finish the current chunks (drop a long one,
                                     SPT_LONG_CHUNK_POOLS), then stop; 2 (a second
                                     Ctrl-C): drop the chunks in progress at the next
@@ -110,6 +113,11 @@ typedef struct RenderSettings {
     void *chunk_ctx;
     void (*on_chunk)(void *ctx, const Film *film, const unsigned char *done, uint32_t total);
     void *on_chunk_ctx;
+    /* - on_progress: called where the progress display is (after every completed
+     *   chunk, with the lock held) with the samples per pixel done and asked
+     *   for, the seconds since the render's start and the paths traced. */
+    void (*on_progress)(void *ctx, uint32_t done, uint32_t total, double elapsed, uint64_t paths);
+    void *on_progress_ctx;
     RenderPrograms *programs; /* NULL: the render builds its programs and frees them */
 } RenderSettings;
 

@@ -1,9 +1,9 @@
 /* The options of `spectrace render`, declared once. Every other place that needs
  * them is generated from this list:
  *   - the fields of RenderSettings (src/render/render.h, rows marked RS) and of
- *     the command line's RenderArgs (src/cli/render_args.h, rows marked CLI);
+ *     the command line's RenderArgs (src/api/render_args.h, rows marked CLI);
  *   - the option parsing and its error messages, and the usage text
- *     (src/cli/render_args.c);
+ *     (src/api/render_args.c);
  *   - what MPI rank 0 sends to the other ranks (src/mpi/mpi_main.c, rows with
  *     SPT_OPT_MPI);
  *   - the checkpoint's settings key (src/render/checkpoint.c, rows with

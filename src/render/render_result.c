@@ -7,6 +7,8 @@
 #include <string.h>
 #include <strings.h>
 
+#include "io/atomic_file.h"
+
 /* The bytes of writing the images (RenderHostMemory.outputs). */
 static double output_bytes(const RenderSettings *rs, const char *const *outputs, int count)
 {
@@ -37,6 +39,12 @@ int render_host_memory(const ClDeviceInfo *const *infos, int count, const GpuSce
     m->render = (double)rm.total;
     m->outputs = output_bytes(rs, outputs, output_count);
     m->need = m->film + fmax(m->render, m->outputs);
+    m->loaded = 0.0;
+#define LOADED(type, name) m->loaded += (double)gpu_scene_buffer_bytes(g, NULL, #name);
+    SPT_SCENE_BUFFERS(LOADED)
+#undef LOADED
+    if (rs->sky && rs->sky->kind == SPT_SKY_MAP)
+        m->loaded += 3.0 * sizeof(float) * (double)rs->sky->map_width * (double)rs->sky->map_height;
     double limit = spt_memory_limit();
     char a[32], b[32], c[32], d[32], f[32];
     if (limit > 0 && m->need > limit)
@@ -50,9 +58,11 @@ int render_host_memory(const ClDeviceInfo *const *infos, int count, const GpuSce
     return SPT_EXIT_OK;
 }
 
-int render_film_check(const Film *f, const RenderSettings *rs, const char *scene, SptError *e)
+int render_film_check(Film *f, const RenderSettings *rs, const char *scene, SptError *e)
 {
     long npix = (long)f->width * f->height;
+    for (long i = 0; i < rs->test.film_nan && i < npix; i++)
+        f->xyz[3 * i] = NAN;
     /* The sums of squares count only for the variance layer (a checkpoint
      * checks its own film, src/render/checkpoint.c). */
     size_t bad = film_nonfinite_except_squares(f);
@@ -69,6 +79,34 @@ int render_film_check(const Film *f, const RenderSettings *rs, const char *scene
                  "variance is inexact, or 0 on a device that flushes such values",
                  scene, bad, npix);
     return SPT_EXIT_OK;
+}
+
+/* Whether the sky is black: --background black, none or R,G,B all 0, or --env
+ * with intensity 0 or a map whose every texel is 0 (the renderer leaves these
+ * unlit). */
+static int sky_is_black(const Sky *sky, double env_intensity)
+{
+    if (sky->kind == SPT_SKY_MAP && env_intensity > 0) {
+        size_t n = (size_t)sky->map_width * (size_t)sky->map_height * 3;
+        for (size_t i = 0; i < n; i++)
+            if (sky->map[i] != 0.0f)
+                return 0;
+        return 1;
+    }
+    return sky->kind == SPT_SKY_BLACK ||
+           (sky->kind == SPT_SKY_RGB && sky->rgb[0] == 0.0f && sky->rgb[1] == 0.0f &&
+            sky->rgb[2] == 0.0f) ||
+           (sky->kind == SPT_SKY_MAP && !(env_intensity > 0));
+}
+
+void render_warn_unlit(const GpuScene *g, const Scene *s, const Sky *sky, double env_intensity,
+                       const char *scene)
+{
+    /* Without emitters or lights the default sky lights the scene
+     * (src/render/render_lights.c); only a black sky leaves it dark. */
+    if (g->emitter_count == 0 && s->light_count == 0 && sky_is_black(sky, env_intensity))
+        spt_warn("%s: nothing lights the scene (no emissive surfaces, no lights, a black sky): the "
+                 "image will be black", scene);
 }
 
 int render_denoise(Denoiser *den, const Film *f, const RenderSettings *rs, const float *noisy,
@@ -146,6 +184,33 @@ void render_image_meta(RenderImageMeta *m, const Film *f, const RenderSettings *
     meta->exr_attr_count = m->layers.attr_count;
     meta->layers = m->layers.channels;
     meta->layer_count = m->layers.count;
+}
+
+void render_image_meta_noisy(RenderImageMeta *m, const float *noisy)
+{
+    static const char *names[3] = {"noisy.R", "noisy.G", "noisy.B"};
+    FilmLayers *L = &m->layers;
+    for (int c = 0; c < 3; c++)
+        L->channels[L->count++] = (ExrChannel){names[c], SPT_EXR_FLOAT, noisy + c, 3};
+    m->meta.layer_count = L->count;
+}
+
+int render_write_outputs(const char *const *outputs, int count, const float *rgb, int width,
+                         int height, const ImageMeta *meta, const DisplayOptions *disp,
+                         CheckpointWriter *ckpt, const Film *f, SptError *e)
+{
+    /* The test hook that fails the commit of output N (tests/test_render.c). */
+    const char *fail_at = getenv("SPECTRACE_TEST_FAIL_OUTPUT");
+    atomic_test_fail_commit_at = fail_at ? atoi(fail_at) : 0;
+    atomic_stage_begin();
+    int rc = SPT_EXIT_OK;
+    for (int i = 0; i < count && !rc; i++)
+        rc = image_write(outputs[i], rgb, width, height, meta, disp, e);
+    if (!rc && ckpt)
+        rc = checkpoint_writer_finish(ckpt, f, e);
+    int rc2 = atomic_stage_finish(!rc, e);
+    atomic_test_fail_commit_at = 0;
+    return rc ? rc : rc2;
 }
 
 void render_image_meta_free(RenderImageMeta *m)

@@ -11,11 +11,13 @@
 #include "core/util.h"
 #include "io/denoise.h"
 #include "io/image_out.h"
+#include "render/checkpoint.h"
 #include "render/film.h"
 #include "render/film_layers.h"
 #include "render/gpu_scene.h"
 #include "render/render.h"
 #include "scene/scene.h"
+#include "scene/sky.h"
 
 /* The host memory a render of g with rs on count devices takes on top of
  * what is loaded (docs/limits.md, "The memory estimate"): the film, then the
@@ -28,6 +30,8 @@
 typedef struct RenderHostMemory {
     double film, render, outputs;
     double need;   /* film + the larger of render and outputs */
+    double loaded; /* not in need: the scene's device arrays and the
+                      environment map (rs->sky) as read */
 } RenderHostMemory;
 
 /* Fills m and checks it against spt_memory_limit (the memory available, or
@@ -39,12 +43,20 @@ int render_host_memory(const ClDeviceInfo *const *infos, int count, const GpuSce
                        const char *const *outputs, int output_count, RenderHostMemory *m,
                        SptError *e);
 
-/* The checks of a rendered film before any output is written: a NaN or
+/* The checks of a rendered film before any output is written (after the
+ * test hook film_nan made its first pixels NaN, as a render gone wrong would):
+ * a NaN or
  * infinite pixel is an internal error (the kernels drop such samples;
  * SPT_EXIT_FAILURE); with the variance layer (--aov variance) a pixel too
  * bright for it is SPT_EXIT_INPUT (docs/limits.md), and pixels too dim for it
  * a warning. scene names the scene in the messages. */
-int render_film_check(const Film *f, const RenderSettings *rs, const char *scene, SptError *e);
+int render_film_check(Film *f, const RenderSettings *rs, const char *scene, SptError *e);
+
+/* A warning naming scene when nothing lights it: no emitters in g, no lights
+ * in s and a black sky (--background black, none or 0,0,0; an --env map of
+ * zeros or at intensity 0). */
+void render_warn_unlit(const GpuScene *g, const Scene *s, const Sky *sky, double env_intensity,
+                       const char *scene);
 
 /* --denoise: noisy (the linear sRGB of film f, rendered with rs and its AOV
  * sums) denoised by Open Image Denoise's RT filter into out, guided by f's
@@ -76,6 +88,19 @@ typedef struct RenderImageMeta {
 
 void render_image_meta(RenderImageMeta *m, const Film *f, const RenderSettings *rs,
                        const RenderStats *st, const char *device, const char *scene, int spare);
+/* --denoise: the image before denoising, noisy (3 floats per pixel, borrowed),
+ * as the EXR's layer noisy.R, G, B (docs/outputs.md, "Denoising"); m was made
+ * with room for it. */
+void render_image_meta_noisy(RenderImageMeta *m, const float *noisy);
 void render_image_meta_free(RenderImageMeta *m);
+
+/* The image rgb (width x height, linear sRGB) written to count outputs with
+ * meta and disp, then ckpt's final checkpoint of film f (ckpt may be NULL):
+ * each to a temporary file, renamed over its name only when every one was
+ * written (src/io/atomic_file.h), so a failure leaves every existing file as
+ * it was. */
+int render_write_outputs(const char *const *outputs, int count, const float *rgb, int width,
+                         int height, const ImageMeta *meta, const DisplayOptions *disp,
+                         CheckpointWriter *ckpt, const Film *f, SptError *e);
 
 #endif

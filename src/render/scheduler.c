@@ -241,7 +241,10 @@ static void sched_done(Scheduler *s, uint32_t begin, uint32_t n, uint64_t paths,
     s->done_count += n;
     s->active--;
     s->paths += paths;
-    progress_print(s->rs, s->done_count, s->total, spt_now() - s->t0, s->paths, &s->decile);
+    double elapsed = spt_now() - s->t0;
+    progress_print(s->rs, s->done_count, s->total, elapsed, s->paths, &s->decile);
+    if (s->rs->on_progress)
+        s->rs->on_progress(s->rs->on_progress_ctx, s->done_count, s->total, elapsed, s->paths);
     if (s->rs->on_chunk)
         s->rs->on_chunk(s->rs->on_chunk_ctx, s->film, s->done, s->total);
     pthread_mutex_unlock(&s->lock);

@@ -455,7 +455,7 @@ int wavefront_program(Wavefront *w, const GpuScene *g, const RenderSettings *rs,
     kernel_path_for(info, rs, &w->ray_pairs, &w->mega);
     wavefront_options(info, g, rs, w->options, sizeof w->options);
     w->dev.stop = rs->stop;
-    w->dev.announce = rs->progress;
+    w->dev.announce = rs->progress || rs->announce;
     if ((rc = cl_program_build(&w->dev, "kernels/integrator/wavefront.cl", w->options, &w->program, e)))
         return rc;
     for (int i = 0; i < K_COUNT; i++) {

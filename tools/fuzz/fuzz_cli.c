@@ -7,7 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cli/render_args.h"
+#include "api/render_args.h"
 #include "io/atomic_file.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);

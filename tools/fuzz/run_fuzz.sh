@@ -38,7 +38,7 @@ case $target in
             -o "$out/seed.exr" --checkpoint "$out/corpus/seed_ck.exr" || true
           cp "$out/seed.exr" "$out/corpus/" 2>/dev/null || true
         fi ;;
-  cli)  srcs="src/cli/render_args.c src/io/atomic_file.c"; dict=; max_len=1024
+  cli)  srcs="src/api/render_args.c src/io/atomic_file.c"; dict=; max_len=1024
         printf 'scene.gltf\n--spp\n64\n-o\nout.exr\n' > "$out/corpus/seed1"
         printf -- '--width\n640\n--height\n480\n--time\n2.5\n--seed\n7\nx.glb\n' > "$out/corpus/seed2"
         printf -- '--env\nsky.hdr\n--env-rotation\n-90\n--tonemap\nneutral\n-q\n--exposure\n-2\ns.gltf\n' > "$out/corpus/seed3" ;;

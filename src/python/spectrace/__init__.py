@@ -12,6 +12,10 @@ comments are the reference; docs/api.md shows examples):
     img = scene.render(spp=64, width=256, aov="albedo", spectral=47)
     img.rgb, img.xyz, img.aov("albedo"), img.bands
 
+    # checkpoint and resume as the command line does (docs/api.md, "Checkpoints")
+    scene.render(spp=32, checkpoint="part.exr")
+    img = scene.render(spp=64, resume="part.exr")   # the 64 spp image, bit for bit
+
 Settings are the options of `spectrace render` (README.md, "Rendering") as
 keyword arguments, with "_" for "-" (max_depth=8, light_paths=0.5). The
 library is found through the SPECTRACE_LIB variable, the path `make python`
@@ -58,6 +62,17 @@ class _SceneStats(ctypes.Structure):
     _fields_ = [("renders", ctypes.c_int), ("bvh_builds", ctypes.c_int),
                 ("program_builds", ctypes.c_int), ("geometry_uploads", ctypes.c_int),
                 ("material_uploads", ctypes.c_int), ("bytes_uploaded", ctypes.c_double)]
+
+
+class _RenderStats(ctypes.Structure):
+    _fields_ = [("spp_done", ctypes.c_uint32), ("spp_resumed", ctypes.c_uint32),
+                ("stopped", ctypes.c_int), ("seconds", ctypes.c_double),
+                ("build_seconds", ctypes.c_double), ("paths", ctypes.c_uint64),
+                ("rays_extend", ctypes.c_uint64), ("rays_shadow", ctypes.c_uint64),
+                ("nan_dropped", ctypes.c_uint64), ("stage_seconds", ctypes.c_double * 6),
+                ("denoise_seconds", ctypes.c_double), ("denoiser", ctypes.c_char_p),
+                ("devices", ctypes.c_char_p), ("checkpoint", ctypes.c_char_p),
+                ("checkpoint_spp", ctypes.c_uint32)]
 
 
 _PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_uint32, ctypes.c_uint32)
@@ -109,6 +124,7 @@ def _load():
         "render": (I, [P, P, P, _PROGRESS, P, ctypes.POINTER(P), E]),
         "image_free": (None, [P]), "image_width": (I, [P]), "image_height": (I, [P]),
         "image_spp": (I, [P]), "image_seconds": (D, [P]),
+        "image_stats": (None, [P, ctypes.POINTER(_RenderStats)]),
         "image_rgb": (I, [P, FP]), "image_noisy_rgb": (I, [P, FP]), "image_xyz": (I, [P, FP]), "image_counts": (I, [P, FP]),
         "image_aov": (I, [P, C, FP, E]), "image_band_count": (I, [P]), "image_bands": (I, [P, FP]),
         "image_write": (I, [P, C, E]), "write_rgb": (I, [C, FP, I, I, E]),
@@ -168,8 +184,7 @@ def settings_names():
 class Settings:
     """A render's settings: the options of `spectrace render` by name."""
 
-    NOT_SETTINGS = {"output", "device", "checkpoint", "checkpoint-every", "resume", "quiet",
-                    "help"}
+    NOT_SETTINGS = {"output", "device", "quiet", "help"}
 
     def __init__(self, **kw):
         self._h = _lib.spectrace_settings_new()
@@ -376,6 +391,20 @@ class Image:
         if getattr(self, "_h", None):
             _lib.spectrace_image_free(self._h)
             self._h = None
+
+    @property
+    def stats(self):
+        """The render's figures as a dict (spectrace_render_stats in spectrace.h): spp_done,
+        spp_resumed (taken from a resumed checkpoint), seconds, paths, rays_extend,
+        rays_shadow, nan_dropped, stage_seconds, checkpoint (the file written, or None) and
+        checkpoint_spp, ..."""
+        st = _RenderStats()
+        _lib.spectrace_image_stats(self._h, ctypes.byref(st))
+        out = {}
+        for name, _ in _RenderStats._fields_:
+            v = getattr(st, name)
+            out[name] = v.decode() if isinstance(v, bytes) else list(v) if name == "stage_seconds" else v
+        return out
 
     def _array(self, fn, channels):
         out = _floats(self.width * self.height * channels)

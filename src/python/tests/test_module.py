@@ -23,7 +23,7 @@ def box():
 
 
 def test_version():
-    assert spectrace.version() == (1, 1)
+    assert spectrace.version() == (1, 2)
 
 
 def test_only_the_api_is_exported():
@@ -202,4 +202,42 @@ def test_write_image(tmp_path):
     assert (tmp_path / "ramp.exr").read_bytes()[:4] == b"\x76\x2f\x31\x01"
     with pytest.raises(spectrace.SpectraceError) as e:
         spectrace.write_image(tmp_path / "ramp.xyz", ramp)
+    assert e.value.code == 2
+
+
+def test_checkpoint_and_resume(box, tmp_path):
+    """A render of 4 spp checkpointed and resumed to 12 equals the 12 spp render bit for
+    bit (every sample is a function of its index: docs/architecture.md, "Scale"), and the
+    checkpoint of a render stopped by its progress callback resumes the same way."""
+    part = tmp_path / "part.exr"
+    settings = dict(width=24, seed=5, caustics="off", aov="albedo,N", spectral=4)
+    full = box.render(spp=12, **settings)
+    first = box.render(spp=4, checkpoint=part, **settings)
+    assert first.stats["checkpoint"] == str(part) and first.stats["checkpoint_spp"] == 4
+    assert part.exists()
+    resumed = box.render(spp=12, resume=part, **settings)
+    assert resumed.stats["spp_resumed"] == 4 and resumed.spp == 12
+    np.testing.assert_array_equal(resumed.xyz, full.xyz)
+    np.testing.assert_array_equal(resumed.rgb, full.rgb)
+    np.testing.assert_array_equal(resumed.counts, full.counts)
+    np.testing.assert_array_equal(resumed.aov("albedo"), full.aov("albedo"))
+    np.testing.assert_array_equal(resumed.bands, full.bands)
+    # Not the same as a render of fewer samples: the comparison can fail.
+    assert not np.array_equal(first.xyz, full.xyz)
+    # Stopped by its progress callback, the render leaves its samples in the checkpoint.
+    stopped = tmp_path / "stopped.exr"
+    with pytest.raises(spectrace.Cancelled):
+        box.render(spp=12, checkpoint=stopped, progress=lambda done, total: done >= 2, **settings)
+    again = box.render(spp=12, resume=stopped, **settings)
+    assert 2 <= again.stats["spp_resumed"] < 12
+    np.testing.assert_array_equal(again.xyz, full.xyz)
+    np.testing.assert_array_equal(again.rgb, full.rgb)
+    # A resume with other settings that change the image is refused, naming the setting.
+    with pytest.raises(spectrace.SpectraceError) as e:
+        box.render(spp=12, resume=part, **dict(settings, seed=6))
+    assert e.value.code == 3 and "seed" in e.value.message
+    # A scene from bytes has no file for the checkpoint to identify it by.
+    mem = spectrace.Scene.from_bytes(Path(BOX).read_bytes(), base_dir="scenes")
+    with pytest.raises(spectrace.SpectraceError) as e:
+        mem.render(spp=4, checkpoint=tmp_path / "mem.exr", **settings)
     assert e.value.code == 2

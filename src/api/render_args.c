@@ -1,6 +1,6 @@
 /* The command line of `spectrace render` (src/cli/render_args.h), generated from
  * the option list of src/render/render_options.h. */
-#include "cli/render_args.h"
+#include "api/render_args.h"
 
 #include <float.h>
 #include <getopt.h>
