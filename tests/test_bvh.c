@@ -127,8 +127,9 @@ static void check_rays(const Bvh *bvh, const float *tris, uint32_t n, const unsi
     assert_true(hits < rays);
 }
 
-/* Checks the tree: every node reached once, child boxes inside their parent's
- * box, unused slots empty, leaves bound their triangles, every kept triangle in
+/* Checks the tree: every node reached once, unused slots marked so, every
+ * triangle inside the decoded (quantised) box of each of its ancestors' slots
+ * on its path, leaves bound their triangles, every kept triangle in
  * exactly one leaf, packed data equal to the input, depth within the traversal
  * stack's bound. keep may be NULL. */
 static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
@@ -167,25 +168,24 @@ static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
         max_depth = dep > max_depth ? dep : max_depth;
         assert_true(dep < BVH_MAX_DEPTH);
         const BvhNode *nd = &bvh->nodes[i];
+        for (int a = 0; a < 3; a++)
+            assert_true(nd->exp[a] >= BVH_QEXP_MIN && nd->exp[a] <= BVH_QEXP_MAX);
         for (int c = 0; c < BVH_WIDTH; c++) {
             float lo[3], hi[3];
-            for (int a = 0; a < 3; a++) {
-                lo[a] = nd->bounds[2 * a][c];
-                hi[a] = nd->bounds[2 * a + 1][c];
-            }
+            bvh_node_box(nd, c, lo, hi);
             if (nd->count[c] == 0 && nd->child[c] == 0) {
-                /* unused: an empty box no ray enters */
-                for (int a = 0; a < 3; a++) {
-                    assert_true(lo[a] == FLT_MAX);
-                    assert_true(hi[a] == -FLT_MAX);
-                }
+                /* unused: a slot no ray enters */
+                assert_false(nd->used >> c & 1u);
                 continue;
             }
+            assert_true(nd->used >> c & 1u);
+            /* the triangles below must lie in this box and in every
+             * ancestor's: pass down the intersection */
             for (int a = 0; a < 3; a++) {
                 assert_true(isfinite(lo[a]) && isfinite(hi[a]));
                 assert_true(lo[a] <= hi[a]);
-                assert_true(lo[a] >= parent[a]);
-                assert_true(hi[a] <= parent[3 + a]);
+                lo[a] = lo[a] > parent[a] ? lo[a] : parent[a];
+                hi[a] = hi[a] < parent[3 + a] ? hi[a] : parent[3 + a];
             }
             if (nd->count[c]) {
                 leaves++;
@@ -253,6 +253,53 @@ static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
     free(stack);
     free(depth);
     free(pbox);
+}
+
+/* Quantised boxes (kernels/bvh/bvh_node.h): random child boxes of nodes of
+ * every size, near and far from the origin (where org + q 2^e rounds), and
+ * degenerate ones, decode to boxes that contain them, looser by at most a
+ * step of their node's grid plus an ulp of the plane (the rounding of
+ * org + q 2^e); unused slots are marked. */
+TEST(test_quantised_boxes_conservative)
+{
+    rng_state = 31;
+    int loose = 0;
+    for (int k = 0; k < 20000; k++) {
+        double centre = rnd_range(-1, 1) * pow(10.0, rnd_range(-3, 7));
+        double size = pow(10.0, rnd_range(-7, 4));
+        float box[6][BVH_WIDTH];
+        int nused = 1 + (int)(rnd() * BVH_WIDTH);
+        for (int i = 0; i < BVH_WIDTH; i++) {
+            for (int a = 0; a < 3; a++) {
+                double l = centre + size * rnd_range(-1, 1);
+                double w = k % 7 == 0 ? 0.0 : size * rnd();
+                box[2 * a][i] = i < nused ? (float)l : FLT_MAX;
+                box[2 * a + 1][i] = i < nused ? (float)(l + w) : -FLT_MAX;
+                if (box[2 * a + 1][i] < box[2 * a][i] && i < nused)
+                    box[2 * a + 1][i] = box[2 * a][i];
+            }
+        }
+        BvhNode n;
+        memset(&n, 0xab, sizeof n);
+        bvh_node_quantise(&n, (const float (*)[BVH_WIDTH])box);
+        for (int i = 0; i < BVH_WIDTH; i++) {
+            assert_int_equal(n.used >> i & 1u, i < nused);
+            if (i >= nused)
+                continue;
+            float lo[3], hi[3];
+            bvh_node_box(&n, i, lo, hi);
+            for (int a = 0; a < 3; a++) {
+                float step = bvh_qstep(n.exp[a]);
+                assert_true(lo[a] <= box[2 * a][i]);
+                assert_true(hi[a] >= box[2 * a + 1][i]);
+                double ulo = nextafterf(fabsf(lo[a]), INFINITY) - fabsf(lo[a]);
+                double uhi = nextafterf(fabsf(hi[a]), INFINITY) - fabsf(hi[a]);
+                loose += (double)box[2 * a][i] - lo[a] > step + ulo;
+                loose += (double)hi[a] - box[2 * a + 1][i] > step + uhi;
+            }
+        }
+    }
+    assert_int_equal(loose, 0);
 }
 
 /* n random triangles of size up to `size` inside [-1, 1]^3. */

@@ -4,19 +4,30 @@
  * kernels/bvh/bvh.h). Valid C99 and OpenCL C 1.2, so the
  * host tests and benchmarks run exactly the code the kernels run.
  *
- * Layout: a flat array of 256-byte 8-wide nodes (the binary SAH tree of
- * src/accel/bvh_build.c gathered, each node taking up to eight of its largest descendants),
- * depth first, node 0 the root. A node stores its children's boxes as structure
- * of arrays, bounds[2 a + 0] = the eight low and bounds[2 a + 1] = the eight high
- * coordinates along axis a, so one test of all children is a handful of float8
- * operations. Eight-wide nodes make a ray's chain of dependent node loads about
- * a third shorter than four-wide ones did, and cost the same float8 test on
- * a CPU. Child i is a leaf when count[i] > 0: the block at word child[i] of
- * count[i] & 255 triangles with count[i] >> 8 distinct vertices (below), so
- * its loads need not wait for its header; when count[i] == 0 it is the node
- * child[i] (> 0); an unused
- * slot has count 0 and an empty box (low +FLT_MAX, high -FLT_MAX) that no ray
- * enters.
+ * Layout: a flat array of 128-byte 8-wide nodes (the binary SAH tree of
+ * src/accel/bvh_build.c gathered, each node taking up to eight of its largest
+ * descendants), depth first, node 0 the root. A node stores its children's
+ * boxes quantised (Ylitie, Karras and Laine 2017, "Efficient Incoherent Ray
+ * Traversal on GPUs Through Compressed Wide BVHs"): per axis a an origin
+ * org[a] and a power-of-two scale 2^e (exp[a], the biased exponent of the
+ * float 2^e), and per child a byte per plane, q[2 a + 0] the eight low and
+ * q[2 a + 1] the eight high planes along axis a (structure of arrays, so one
+ * test of all children is a handful of float8 operations). A plane is
+ * org[a] + q 2^e, computed in float (bvh_qplane; q 2^e is exact, so a fused
+ * multiply-add rounds it the same), and the builder rounds each low plane
+ * down and each high plane up in that very arithmetic, so every decoded box
+ * contains its child's true box and the slab test below is as conservative as
+ * on float boxes: the closest hit is the one float boxes give (only which of
+ * two hits at exactly the same distance wins can change, as the visiting
+ * order may). Half the bytes of float boxes (docs/performance.md, "What sets
+ * the speed": nodes of 256 bytes before) for two more float8 operations per
+ * plane. Eight-wide nodes make a ray's chain of dependent node loads about a
+ * third shorter than four-wide ones did, and cost the same float8 test on a
+ * CPU. Bit i of used is set when slot i holds a child; child i is a leaf when
+ * count[i] > 0: the block at word child[i] of count[i] & 255 triangles with
+ * count[i] >> 8 distinct vertices (below), so its loads need not wait for its
+ * header; when count[i] == 0 it is the node child[i] (> 0). An unused slot
+ * has count 0, child 0 and bit 0 in used, so no ray enters it.
  *
  * Triangles are packed in leaf order (packed triangle i, the prim of a hit, is
  * input triangle prim_index[i]), and each leaf is a block of 32-bit words in
@@ -73,10 +84,19 @@
 #define BVH_FAR 3.402823466e+38f
 
 typedef struct BvhNode {
-    float bounds[6][BVH_WIDTH]; /* [2 a] low, [2 a + 1] high along axis a, per child */
+    float org[3];               /* per axis, the planes' origin */
+    spt_u8 exp[3];              /* per axis, the biased float exponent of the planes' step */
+    spt_u8 used;                /* bit i: slot i holds a child */
+    spt_u8 q[6][BVH_WIDTH];     /* [2 a] low, [2 a + 1] high planes along axis a, per child */
     spt_u32 child[BVH_WIDTH];   /* a node index, or a leaf's first triangle */
     spt_u32 count[BVH_WIDTH];   /* leaf: triangles | distinct vertices << 8; 0: a node (or unused) */
 } BvhNode;
+
+/* The smallest and largest biased exponents a node's step takes: 255 steps
+ * of the largest stay finite, and a step times a byte is never subnormal, so
+ * q 2^e is exact. */
+#define BVH_QEXP_MIN 1
+#define BVH_QEXP_MAX 246
 
 /* Most triangles and distinct vertices in one leaf (a 16-lane row), and the
  * words of padding after the last leaf block. */
@@ -87,7 +107,7 @@ typedef struct BvhNode {
 /* Words of the block of a leaf of n triangles with nv distinct vertices. */
 #define bvh_leaf_words(n, nv) (2u + 3u * (nv) + (3u * (n) + 3u) / 4u)
 
-SPT_STATIC_ASSERT(sizeof(BvhNode) == 256, "BvhNode must stay 256 bytes (device layout)");
+SPT_STATIC_ASSERT(sizeof(BvhNode) == 128, "BvhNode must stay 128 bytes (device layout)");
 SPT_STATIC_ASSERT(bvh_leaf_words(BVH_LEAF_MAX, BVH_LEAF_VERTS) <= 64,
                   "bvh_prefetch's five requests cover leaf blocks of at most 64 words");
 
@@ -119,6 +139,35 @@ SPT_FN spt_u32 bvh_word(const SPT_GLOBAL float *p, spt_u32 i)
     w.f = p[i];
     return w.u;
 #endif
+}
+
+/* The step 2^e of a node's planes along an axis from its biased exponent. */
+SPT_FN float bvh_qstep(spt_u32 biased)
+{
+#if SPT_DEVICE
+    return as_float(biased << 23);
+#else
+    union { float f; spt_u32 u; } w;
+    w.u = biased << 23;
+    return w.f;
+#endif
+}
+
+/* The plane of byte q along an axis of origin org and step: the device's
+ * decoding, lane for lane, and the one the builder rounds in. */
+SPT_FN float bvh_qplane(float org, float step, spt_u32 q)
+{
+    return (float)q * step + org;
+}
+
+/* Child i's box of node n as the traversal decodes it. */
+SPT_FN void bvh_node_box(const SPT_GLOBAL BvhNode *n, int i, float lo[3], float hi[3])
+{
+    for (int a = 0; a < 3; a++) {
+        float step = bvh_qstep(n->exp[a]);
+        lo[a] = bvh_qplane(n->org[a], step, n->q[2 * a][i]);
+        hi[a] = bvh_qplane(n->org[a], step, n->q[2 * a + 1][i]);
+    }
 }
 
 /* The three vertices of triangle l of the leaf block at p. */
@@ -235,19 +284,27 @@ SPT_FN uint bvh_mask8(int8 c)
 SPT_FN float8 bvh_v8_min(float8 a, float8 b) { return select(b, a, a < b); }
 SPT_FN float8 bvh_v8_max(float8 a, float8 b) { return select(b, a, a > b); }
 
+/* The eight planes of row row (bvh_qplane, lane by lane). */
+SPT_FN float8 bvh_qplanes8(const __global BvhNode *n, int row, float org, float step)
+{
+    return convert_float8(vload8(0, n->q[row])) * (float8)(step) + (float8)(org);
+}
+
 SPT_FN float8 bvh_node_enter(const __global BvhNode *n, const BvhRay *r, float tbest, uint *mask)
 {
     float8 ox = (float8)(r->ox), oy = (float8)(r->oy), oz = (float8)(r->oz);
-    float8 tnx = (vload8(0, n->bounds[r->nx]) - ox) * r->ix;
-    float8 tfx = (vload8(0, n->bounds[r->nx ^ 1]) - ox) * r->ix;
-    float8 tny = (vload8(0, n->bounds[r->ny]) - oy) * r->iy;
-    float8 tfy = (vload8(0, n->bounds[r->ny ^ 1]) - oy) * r->iy;
-    float8 tnz = (vload8(0, n->bounds[r->nz]) - oz) * r->iz;
-    float8 tfz = (vload8(0, n->bounds[r->nz ^ 1]) - oz) * r->iz;
+    float gx = n->org[0], gy = n->org[1], gz = n->org[2];
+    float sx = bvh_qstep(n->exp[0]), sy = bvh_qstep(n->exp[1]), sz = bvh_qstep(n->exp[2]);
+    float8 tnx = (bvh_qplanes8(n, r->nx, gx, sx) - ox) * r->ix;
+    float8 tfx = (bvh_qplanes8(n, r->nx ^ 1, gx, sx) - ox) * r->ix;
+    float8 tny = (bvh_qplanes8(n, r->ny, gy, sy) - oy) * r->iy;
+    float8 tfy = (bvh_qplanes8(n, r->ny ^ 1, gy, sy) - oy) * r->iy;
+    float8 tnz = (bvh_qplanes8(n, r->nz, gz, sz) - oz) * r->iz;
+    float8 tfz = (bvh_qplanes8(n, r->nz ^ 1, gz, sz) - oz) * r->iz;
     float8 tn = bvh_v8_max(bvh_v8_max(tnx, tny), bvh_v8_max(tnz, (float8)(0.0f)));
     float8 tf = bvh_v8_min(bvh_v8_min(tfx, tfy), tfz) * 1.00000036f;
     tf = bvh_v8_min(tf, (float8)(tbest));
-    *mask = bvh_mask8(tn <= tf);
+    *mask = bvh_mask8(tn <= tf) & (uint)n->used;
     return tn;
 }
 
@@ -257,22 +314,34 @@ typedef struct BvhEnter {
 } BvhEnter;
 #define BVH_ENTER_LANE(d, i) ((d).v[i])
 
+#if defined(__SSE2__)
+/* Planes h .. h + 3 of row q (bvh_qplane, four lanes at a time). */
+SPT_FN __m128 bvh_qplanes4(const spt_u8 *q, int h, __m128 step, __m128 org)
+{
+    __m128i b = _mm_set_epi32(q[h + 3], q[h + 2], q[h + 1], q[h]);
+    return _mm_add_ps(_mm_mul_ps(_mm_cvtepi32_ps(b), step), org);
+}
+#endif
+
 SPT_FN BvhEnter bvh_node_enter(const BvhNode *n, const BvhRay *r, float tbest, spt_u32 *mask)
 {
     BvhEnter d;
     spt_u32 m = 0;
+    float sx = bvh_qstep(n->exp[0]), sy = bvh_qstep(n->exp[1]), sz = bvh_qstep(n->exp[2]);
 #if defined(__SSE2__)
     /* The device's float8 arithmetic, four lanes at a time (minps/maxps are
      * a < b ? a : b and a > b ? a : b, like the device's selects). */
     __m128 ox = _mm_set1_ps(r->ox), oy = _mm_set1_ps(r->oy), oz = _mm_set1_ps(r->oz);
     __m128 ix = _mm_set1_ps(r->ix), iy = _mm_set1_ps(r->iy), iz = _mm_set1_ps(r->iz);
+    __m128 gx = _mm_set1_ps(n->org[0]), gy = _mm_set1_ps(n->org[1]), gz = _mm_set1_ps(n->org[2]);
+    __m128 qx = _mm_set1_ps(sx), qy = _mm_set1_ps(sy), qz = _mm_set1_ps(sz);
     for (int h = 0; h < BVH_WIDTH; h += 4) {
-        __m128 tnx = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nx] + h), ox), ix);
-        __m128 tfx = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nx ^ 1] + h), ox), ix);
-        __m128 tny = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->ny] + h), oy), iy);
-        __m128 tfy = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->ny ^ 1] + h), oy), iy);
-        __m128 tnz = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nz] + h), oz), iz);
-        __m128 tfz = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nz ^ 1] + h), oz), iz);
+        __m128 tnx = _mm_mul_ps(_mm_sub_ps(bvh_qplanes4(n->q[r->nx], h, qx, gx), ox), ix);
+        __m128 tfx = _mm_mul_ps(_mm_sub_ps(bvh_qplanes4(n->q[r->nx ^ 1], h, qx, gx), ox), ix);
+        __m128 tny = _mm_mul_ps(_mm_sub_ps(bvh_qplanes4(n->q[r->ny], h, qy, gy), oy), iy);
+        __m128 tfy = _mm_mul_ps(_mm_sub_ps(bvh_qplanes4(n->q[r->ny ^ 1], h, qy, gy), oy), iy);
+        __m128 tnz = _mm_mul_ps(_mm_sub_ps(bvh_qplanes4(n->q[r->nz], h, qz, gz), oz), iz);
+        __m128 tfz = _mm_mul_ps(_mm_sub_ps(bvh_qplanes4(n->q[r->nz ^ 1], h, qz, gz), oz), iz);
         __m128 tn = _mm_max_ps(_mm_max_ps(tnx, tny), _mm_max_ps(tnz, _mm_setzero_ps()));
         __m128 tf = _mm_mul_ps(_mm_min_ps(_mm_min_ps(tfx, tfy), tfz), _mm_set1_ps(1.00000036f));
         tf = _mm_min_ps(tf, _mm_set1_ps(tbest));
@@ -282,9 +351,12 @@ SPT_FN BvhEnter bvh_node_enter(const BvhNode *n, const BvhRay *r, float tbest, s
     }
 #else
     for (int i = 0; i < BVH_WIDTH; i++) {
-        float tnx = (n->bounds[r->nx][i] - r->ox) * r->ix, tfx = (n->bounds[r->nx ^ 1][i] - r->ox) * r->ix;
-        float tny = (n->bounds[r->ny][i] - r->oy) * r->iy, tfy = (n->bounds[r->ny ^ 1][i] - r->oy) * r->iy;
-        float tnz = (n->bounds[r->nz][i] - r->oz) * r->iz, tfz = (n->bounds[r->nz ^ 1][i] - r->oz) * r->iz;
+        float tnx = (bvh_qplane(n->org[0], sx, n->q[r->nx][i]) - r->ox) * r->ix;
+        float tfx = (bvh_qplane(n->org[0], sx, n->q[r->nx ^ 1][i]) - r->ox) * r->ix;
+        float tny = (bvh_qplane(n->org[1], sy, n->q[r->ny][i]) - r->oy) * r->iy;
+        float tfy = (bvh_qplane(n->org[1], sy, n->q[r->ny ^ 1][i]) - r->oy) * r->iy;
+        float tnz = (bvh_qplane(n->org[2], sz, n->q[r->nz][i]) - r->oz) * r->iz;
+        float tfz = (bvh_qplane(n->org[2], sz, n->q[r->nz ^ 1][i]) - r->oz) * r->iz;
         float tn = bvh_max_(bvh_max_(tnx, tny), bvh_max_(tnz, 0.0f));
         float tf = bvh_min_(bvh_min_(tfx, tfy), tfz) * 1.00000036f;
         tf = bvh_min_(tf, tbest);
@@ -292,7 +364,7 @@ SPT_FN BvhEnter bvh_node_enter(const BvhNode *n, const BvhRay *r, float tbest, s
         m |= (spt_u32)(tn <= tf) << i;
     }
 #endif
-    *mask = m;
+    *mask = m & n->used;
     return d;
 }
 
@@ -558,8 +630,6 @@ SPT_FN void bvh_prefetch(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float
         const SPT_GLOBAL char *q = (const SPT_GLOBAL char *)&nodes[child];
         SPT_PREFETCH(q);
         SPT_PREFETCH(q + 64);
-        SPT_PREFETCH(q + 128);
-        SPT_PREFETCH(q + 192);
     }
 }
 

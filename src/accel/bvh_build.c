@@ -184,35 +184,116 @@ static void decide(Builder *bd, uint32_t begin, uint32_t end, uint32_t depth, It
     bd->sah += (double)area * (leaf ? bd->opt.cost_tri * (double)count : bd->opt.cost_node);
 }
 
+/* Room for cap 8-wide nodes and their float boxes, the nodes 64-byte
+ * aligned (a node is two cache lines); the first wide_count are kept. */
+static void wide_reserve(Builder *bd, uint32_t cap)
+{
+    BvhNode *w = aligned_alloc(64, (size_t)cap * sizeof *w);
+    if (!w)
+        w = spt_malloc((size_t)cap * sizeof *w);
+    if (bd->wide_count)
+        memcpy(w, bd->wide, (size_t)bd->wide_count * sizeof *w);
+    free(bd->wide);
+    bd->wide = w;
+    bd->wbox = spt_realloc(bd->wbox, (size_t)cap * sizeof *bd->wbox);
+    bd->wide_cap = cap;
+}
+
 /* Index of a new 8-wide node (the array grows by doubling). */
 static uint32_t wide_new(Builder *bd)
 {
-    if (bd->wide_count == bd->wide_cap) {
-        uint32_t cap = bd->wide_cap * 2;
-        BvhNode *w = aligned_alloc(64, (size_t)cap * sizeof *w);
-        if (!w)
-            w = spt_malloc((size_t)cap * sizeof *w);
-        memcpy(w, bd->wide, (size_t)bd->wide_count * sizeof *w);
-        free(bd->wide);
-        bd->wide = w;
-        bd->wide_cap = cap;
-    }
+    if (bd->wide_count == bd->wide_cap)
+        wide_reserve(bd, bd->wide_cap * 2);
     return bd->wide_count++;
 }
 
-/* Fills slot i of 8-wide node w with item it (NULL: unused). */
+/* Fills slot i of 8-wide node w with item it (NULL: unused, an empty box). */
 static void wide_slot(Builder *bd, uint32_t w, int i, const Item *it)
 {
     BvhNode *node = &bd->wide[w];
     for (int a = 0; a < 3; a++) {
-        node->bounds[2 * a][i] = it ? it->bounds.lo[a] : FLT_MAX;
-        node->bounds[2 * a + 1][i] = it ? it->bounds.hi[a] : -FLT_MAX;
+        bd->wbox[w][2 * a][i] = it ? it->bounds.lo[a] : FLT_MAX;
+        bd->wbox[w][2 * a + 1][i] = it ? it->bounds.hi[a] : -FLT_MAX;
     }
     node->child[i] = it && it->leaf ? it->begin : 0;
     node->count[i] = it && it->leaf ? it->end - it->begin : 0;
     if (it && it->leaf) {
         bd->leaf_slot[it->begin] = w * BVH_WIDTH + (uint32_t)i + 1;
         bd->st->leaf_count++;
+    }
+}
+
+/* Every wide node's boxes quantised (bvh_node_quantise), and the float boxes
+ * freed. */
+static void wide_quantise(Builder *bd)
+{
+    for (uint32_t k = 0; k < bd->wide_count; k++)
+        bvh_node_quantise(&bd->wide[k], (const float (*)[BVH_WIDTH])bd->wbox[k]);
+    free(bd->wbox);
+    bd->wbox = NULL;
+}
+
+/* The biased exponent of the smallest power of two 2^e with 255 steps from
+ * org reaching hi in bvh_qplane's float arithmetic (BVH_QEXP_MAX at most). */
+static uint32_t qexp_for(float org, float hi)
+{
+    int e;
+    double ext = (double)hi - (double)org;
+    frexp(ext / 255.0, &e); /* 2^(e - 1) <= ext / 255 < 2^e */
+    long b = ext > 0.0 ? (long)e + 126 : BVH_QEXP_MIN; /* 2^(e - 1), then up as needed */
+    if (b < BVH_QEXP_MIN)
+        b = BVH_QEXP_MIN;
+    if (b > BVH_QEXP_MAX)
+        b = BVH_QEXP_MAX;
+    while (b < BVH_QEXP_MAX && bvh_qplane(org, bvh_qstep((spt_u32)b), 255u) < hi)
+        b++;
+    return (uint32_t)b;
+}
+
+void bvh_node_quantise(BvhNode *n, const float box[6][BVH_WIDTH])
+{
+    float lo[3], hi[3];
+    n->used = 0;
+    for (int a = 0; a < 3; a++) {
+        lo[a] = FLT_MAX;
+        hi[a] = -FLT_MAX;
+    }
+    for (int i = 0; i < BVH_WIDTH; i++) {
+        if (!(box[0][i] <= box[1][i] && box[2][i] <= box[3][i] && box[4][i] <= box[5][i]))
+            continue;
+        n->used |= (spt_u8)(1u << i);
+        for (int a = 0; a < 3; a++) {
+            lo[a] = minf(lo[a], box[2 * a][i]);
+            hi[a] = maxf(hi[a], box[2 * a + 1][i]);
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        if (!n->used) {
+            lo[a] = hi[a] = 0.0f;
+        }
+        uint32_t b = qexp_for(lo[a], hi[a]);
+        float step = bvh_qstep(b);
+        double dstep = (double)step;
+        n->org[a] = lo[a];
+        n->exp[a] = (spt_u8)b;
+        for (int i = 0; i < BVH_WIDTH; i++) {
+            if (!(n->used >> i & 1u)) {
+                n->q[2 * a][i] = n->q[2 * a + 1][i] = 0;
+                continue;
+            }
+            /* A first guess from the exact quotient, then moved until the
+             * float plane is outside the box: low planes down, high planes up. */
+            double fl = floor(((double)box[2 * a][i] - (double)lo[a]) / dstep);
+            double fh = ceil(((double)box[2 * a + 1][i] - (double)lo[a]) / dstep);
+            uint32_t ql = fl < 0.0 ? 0u : fl > 255.0 ? 255u : (uint32_t)fl;
+            uint32_t qh = fh < 0.0 ? 0u : fh > 255.0 ? 255u : (uint32_t)fh;
+            while (ql > 0 && bvh_qplane(lo[a], step, ql) > box[2 * a][i])
+                ql--;
+            while (qh < 255 && bvh_qplane(lo[a], step, qh) < box[2 * a + 1][i])
+                qh++;
+            n->q[2 * a][i] = (spt_u8)ql;
+            n->q[2 * a + 1][i] = (spt_u8)qh;
+        }
     }
 }
 
@@ -420,12 +501,14 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         /* A root with no children; a dummy triangle and index keep the buffers
          * non-empty. */
         bvh->nodes = spt_calloc(1, sizeof *bvh->nodes);
+        float empty[6][BVH_WIDTH];
         for (int i = 0; i < BVH_WIDTH; i++) {
             for (int a = 0; a < 3; a++) {
-                bvh->nodes[0].bounds[2 * a][i] = FLT_MAX;
-                bvh->nodes[0].bounds[2 * a + 1][i] = -FLT_MAX;
+                empty[2 * a][i] = FLT_MAX;
+                empty[2 * a + 1][i] = -FLT_MAX;
             }
         }
+        bvh_node_quantise(&bvh->nodes[0], (const float (*)[BVH_WIDTH])empty);
         bvh->node_count = 1;
         bvh->tri_data_bytes = (2 + BVH_TRI_PAD) * sizeof(float);
         bvh->tri_data = spt_calloc(1, bvh->tri_data_bytes);
@@ -441,10 +524,7 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         /* About one 8-wide node per 32 triangles with the default options; the
          * array doubles when a tree needs more. 64-byte aligned, so a node is
          * four cache lines. Pages past the last node are never touched. */
-        bd.wide_cap = kept / 8 + 16;
-        bd.wide = aligned_alloc(64, (size_t)bd.wide_cap * sizeof *bd.wide);
-        if (!bd.wide)
-            bd.wide = spt_malloc((size_t)bd.wide_cap * sizeof *bd.wide);
+        wide_reserve(&bd, kept / 8 + 16);
         bd.st = &bvh->stats;
         bd.leaf_slot = spt_calloc(kept, sizeof *bd.leaf_slot);
         bd.tri_pos = tri_pos;
@@ -490,6 +570,7 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         free(depth);
         memset(tris + words, 0, BVH_TRI_PAD * sizeof *tris);
         words += BVH_TRI_PAD;
+        wide_quantise(&bd);
         float *shrunk = realloc(tris, words * sizeof *tris);
         tris = shrunk ? shrunk : tris;
         bvh->nodes = bd.wide;
@@ -533,8 +614,7 @@ int bvh_build_boxes(const float *boxes, uint32_t count, BvhNode **nodes, uint32_
         r->id = i;
         r->pad = 0.0f;
     }
-    bd.wide_cap = count / 4 + 16;
-    bd.wide = spt_malloc((size_t)bd.wide_cap * sizeof *bd.wide);
+    wide_reserve(&bd, count / 4 + 16);
     bd.leaf_slot = spt_calloc(count ? count : 1, sizeof *bd.leaf_slot);
     uint32_t w = wide_new(&bd);
     if (count == 0) {
@@ -554,6 +634,7 @@ int bvh_build_boxes(const float *boxes, uint32_t count, BvhNode **nodes, uint32_
         order[i] = bd.refs[i].id;
     free(bd.refs);
     free(bd.leaf_slot);
+    wide_quantise(&bd);
     *nodes = bd.wide;
     *node_count = bd.wide_count;
     return SPT_EXIT_OK;
@@ -564,9 +645,15 @@ void bvh_bounds(const Bvh *bvh, float lo[3], float hi[3])
     for (int a = 0; a < 3; a++) {
         lo[a] = FLT_MAX;
         hi[a] = -FLT_MAX;
-        for (int i = 0; i < BVH_WIDTH && bvh->node_count; i++) {
-            lo[a] = minf(lo[a], bvh->nodes[0].bounds[2 * a][i]);
-            hi[a] = maxf(hi[a], bvh->nodes[0].bounds[2 * a + 1][i]);
+    }
+    for (int i = 0; i < BVH_WIDTH && bvh->node_count; i++) {
+        float clo[3], chi[3];
+        if (!(bvh->nodes[0].used >> i & 1u))
+            continue;
+        bvh_node_box(&bvh->nodes[0], i, clo, chi);
+        for (int a = 0; a < 3; a++) {
+            lo[a] = minf(lo[a], clo[a]);
+            hi[a] = maxf(hi[a], chi[a]);
         }
     }
 }
