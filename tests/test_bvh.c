@@ -127,9 +127,8 @@ static void check_rays(const Bvh *bvh, const float *tris, uint32_t n, const unsi
     assert_true(hits < rays);
 }
 
-/* Checks the tree: every node reached once, unused slots marked so, every
- * triangle inside the decoded (quantised) box of each of its ancestors' slots
- * on its path, leaves bound their triangles, every kept triangle in
+/* Checks the tree: every node reached once, child boxes inside their parent's
+ * box, unused slots empty, leaves bound their triangles, every kept triangle in
  * exactly one leaf, packed data equal to the input, depth within the traversal
  * stack's bound. keep may be NULL. */
 static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
@@ -168,24 +167,25 @@ static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
         max_depth = dep > max_depth ? dep : max_depth;
         assert_true(dep < BVH_MAX_DEPTH);
         const BvhNode *nd = &bvh->nodes[i];
-        for (int a = 0; a < 3; a++)
-            assert_true(nd->exp[a] >= BVH_QEXP_MIN && nd->exp[a] <= BVH_QEXP_MAX);
         for (int c = 0; c < BVH_WIDTH; c++) {
             float lo[3], hi[3];
-            bvh_node_box(nd, c, lo, hi);
+            for (int a = 0; a < 3; a++) {
+                lo[a] = nd->bounds[2 * a][c];
+                hi[a] = nd->bounds[2 * a + 1][c];
+            }
             if (nd->count[c] == 0 && nd->child[c] == 0) {
-                /* unused: a slot no ray enters */
-                assert_false(nd->used >> c & 1u);
+                /* unused: an empty box no ray enters */
+                for (int a = 0; a < 3; a++) {
+                    assert_true(lo[a] == FLT_MAX);
+                    assert_true(hi[a] == -FLT_MAX);
+                }
                 continue;
             }
-            assert_true(nd->used >> c & 1u);
-            /* the triangles below must lie in this box and in every
-             * ancestor's: pass down the intersection */
             for (int a = 0; a < 3; a++) {
                 assert_true(isfinite(lo[a]) && isfinite(hi[a]));
                 assert_true(lo[a] <= hi[a]);
-                lo[a] = lo[a] > parent[a] ? lo[a] : parent[a];
-                hi[a] = hi[a] < parent[3 + a] ? hi[a] : parent[3 + a];
+                assert_true(lo[a] >= parent[a]);
+                assert_true(hi[a] <= parent[3 + a]);
             }
             if (nd->count[c]) {
                 leaves++;
@@ -279,15 +279,17 @@ TEST(test_quantised_boxes_conservative)
                     box[2 * a + 1][i] = box[2 * a][i];
             }
         }
-        BvhNode n;
+        BvhNode f;
+        memcpy(f.bounds, box, sizeof box);
+        BvhQNode n;
         memset(&n, 0xab, sizeof n);
-        bvh_node_quantise(&n, (const float (*)[BVH_WIDTH])box);
+        bvh_node_quantise(&n, &f);
         for (int i = 0; i < BVH_WIDTH; i++) {
             assert_int_equal(n.used >> i & 1u, i < nused);
             if (i >= nused)
                 continue;
             float lo[3], hi[3];
-            bvh_node_box(&n, i, lo, hi);
+            bvh_qnode_box(&n, i, lo, hi);
             for (int a = 0; a < 3; a++) {
                 float step = bvh_qstep(n.exp[a]);
                 assert_true(lo[a] <= box[2 * a][i]);
@@ -300,6 +302,35 @@ TEST(test_quantised_boxes_conservative)
         }
     }
     assert_int_equal(loose, 0);
+}
+
+/* Checks bvh's nodes quantised (bvh_quantise_nodes): child and count kept,
+ * used marking the used slots, steps in range, and every decoded box
+ * containing the float box it stands for. */
+static void check_quantised(const Bvh *bvh)
+{
+    BvhQNode *q = bvh_quantise_nodes(bvh->nodes, bvh->node_count);
+    assert_true(((uintptr_t)q) % 64 == 0);
+    for (uint32_t k = 0; k < bvh->node_count; k++) {
+        const BvhNode *f = &bvh->nodes[k];
+        for (int a = 0; a < 3; a++)
+            assert_true(q[k].exp[a] >= BVH_QEXP_MIN && q[k].exp[a] <= BVH_QEXP_MAX);
+        for (int c = 0; c < BVH_WIDTH; c++) {
+            assert_int_equal(q[k].child[c], f->child[c]);
+            assert_int_equal(q[k].count[c], f->count[c]);
+            int used = f->count[c] || f->child[c];
+            assert_int_equal(q[k].used >> c & 1u, used);
+            if (!used)
+                continue;
+            float lo[3], hi[3];
+            bvh_qnode_box(&q[k], c, lo, hi);
+            for (int a = 0; a < 3; a++) {
+                assert_true(lo[a] <= f->bounds[2 * a][c]);
+                assert_true(hi[a] >= f->bounds[2 * a + 1][c]);
+            }
+        }
+    }
+    free(q);
 }
 
 /* n random triangles of size up to `size` inside [-1, 1]^3. */
@@ -325,6 +356,7 @@ TEST(test_soup_matches_brute_force)
     assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
     assert_int_equal(bvh.stats.dropped, 0);
     check_structure(&bvh, t, n, NULL);
+    check_quantised(&bvh);
     /* Soup triangles share no vertices, so no leaf holds more than five (16
      * vertices): the SAH's larger leaves were split into runs. */
     assert_true(bvh.stats.max_leaf_size >= 1 && bvh.stats.max_leaf_size <= 5);
@@ -343,6 +375,7 @@ TEST(test_sphere_matches_brute_force)
     Bvh bvh;
     assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
     check_structure(&bvh, t, n, NULL);
+    check_quantised(&bvh);
     check_rays(&bvh, t, n, NULL, 40000, -1.5, 1.5);
     bvh_free(&bvh);
     free(t);
@@ -478,6 +511,7 @@ TEST(test_full_sweep_builder)
     o.full_sweep = 1;
     assert_int_equal(bvh_build_ex(&b, t, n, &o, NULL), 0);
     check_structure(&b, t, n, NULL);
+    check_quantised(&b);
     check_rays(&b, t, n, NULL, 10000, -1.5, 1.5);
     assert_true(b.stats.sah_cost <= a.stats.sah_cost * 1.02);
     bvh_free(&a);
@@ -572,6 +606,7 @@ TEST(test_garbage_dropped)
     assert_int_equal(bvh.stats.dropped_degenerate, 2);
     assert_int_equal(bvh.stats.dropped, 7);
     check_structure(&bvh, t, n, keep);
+    check_quantised(&bvh);
     check_rays(&bvh, t, n, keep, 10000, -1.5, 1.5);
     bvh_free(&bvh);
     free(keep);
@@ -589,6 +624,7 @@ TEST(test_identical_triangles)
     Bvh bvh;
     assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
     check_structure(&bvh, t, n, NULL);
+    check_quantised(&bvh);
     /* halving down to leaves of at most 8: ceil(log2(100000 / 8)) = 14 binary
      * levels, at least two of them per wide level */
     assert_true(bvh.stats.max_depth <= 7);
@@ -647,7 +683,8 @@ TEST(test_empty_scene)
  * the vector ones of x86 CPUs (SPT_BVH_SIMD: rows of 8 triangles with AVX2,
  * forced with SPT_BVH_NO_AVX512, and of 16 with AVX-512 where the CPU has it), with two rays traced
  * together (SPT_BVH_PAIRS) and with the GPU path's short stack
- * (SPT_BVH_SHORT_STACK; also with 2 entries, which restarts often), it reports the host's node size and returns
+ * (SPT_BVH_SHORT_STACK; also with 2 entries, which restarts often), each
+ * also on quantised nodes (SPT_BVH_QNODES), it reports the host's node size and returns
  * bit-identical hits to the host build for the same rays. Skipped without
  * an OpenCL device. */
 static const char *k_device_src =
@@ -686,14 +723,20 @@ static int device_differences(const TestCl *cl, const char *options, const Bvh *
                               int nr, int *hits)
 {
     float *out = malloc((size_t)nr * 4 * sizeof *out);
-    const TestClArg args[3] = {{bvh->nodes, bvh->node_count * sizeof(BvhNode)},
+    /* With SPT_BVH_QNODES the device reads the nodes quantised, and must
+     * still find the host's hits (on these rays no two hits tie) */
+    int quantised = options && strstr(options, "SPT_BVH_QNODES");
+    BvhQNode *qn = quantised ? bvh_quantise_nodes(bvh->nodes, bvh->node_count) : NULL;
+    const TestClArg args[3] = {{quantised ? (const void *)qn : bvh->nodes,
+                                bvh->node_count * (quantised ? sizeof(BvhQNode) : sizeof(BvhNode))},
                                {bvh->tri_data, bvh->tri_data_bytes},
                                {rays, (size_t)nr * 6 * sizeof *rays}};
     /* Work-groups of 64, as the renderer's: PoCL keeps every work-item's
      * private traversal stacks of a group at once, on a thread's stack. */
     test_cl_run(cl, k_device_src, options, "kernels/bvh/bvh.h", "k_bvh_test", args, 3, out,
                 (size_t)nr * 4 * sizeof *out, nr, 64);
-    assert_close(out[3], sizeof(BvhNode), 0);
+    assert_close(out[3], quantised ? sizeof(BvhQNode) : sizeof(BvhNode), 0);
+    free(qn);
     int differ = 0;
     *hits = 0;
     for (int i = 0; i < nr; i++) {
@@ -746,13 +789,17 @@ TEST(test_device_matches_host)
         assert_int_equal(bvh_build_ex(&bvh, t, n, &opt, NULL), 0);
         if (m == 0)
             assert_true(bvh.stats.max_leaf_size > 8);
-        const char *options[5] = {
+        const char *options[9] = {
             NULL,
             "-DSPT_BVH_SIMD=1 -DSPT_BVH_NO_AVX512=1",
             "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 -DSPT_BVH_STEP_PREFETCH=1",
             "-DSPT_BVH_SHORT_STACK=1",
-            "-DSPT_BVH_SHORT_STACK=1 -DBVH_SHORT_STACK_SIZE=2"};
-        for (int o = 0; o < 5; o++) {
+            "-DSPT_BVH_SHORT_STACK=1 -DBVH_SHORT_STACK_SIZE=2",
+            "-DSPT_BVH_QNODES=1",
+            "-DSPT_BVH_QNODES=1 -DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 -DSPT_BVH_STEP_PREFETCH=1",
+            "-DSPT_BVH_QNODES=1 -DSPT_BVH_SHORT_STACK=1",
+            "-DSPT_BVH_QNODES=1 -DSPT_BVH_SHORT_STACK=1 -DBVH_SHORT_STACK_SIZE=2"};
+        for (int o = 0; o < 9; o++) {
             int hits;
             assert_int_equal(device_differences(&cl, options[o], &bvh, rays, nr, &hits), 0);
             assert_true(hits > nr / 4);

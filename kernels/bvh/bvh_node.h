@@ -4,30 +4,36 @@
  * kernels/bvh/bvh.h). Valid C99 and OpenCL C 1.2, so the
  * host tests and benchmarks run exactly the code the kernels run.
  *
- * Layout: a flat array of 128-byte 8-wide nodes (the binary SAH tree of
- * src/accel/bvh_build.c gathered, each node taking up to eight of its largest
- * descendants), depth first, node 0 the root. A node stores its children's
- * boxes quantised (Ylitie, Karras and Laine 2017, "Efficient Incoherent Ray
- * Traversal on GPUs Through Compressed Wide BVHs"): per axis a an origin
- * org[a] and a power-of-two scale 2^e (exp[a], the biased exponent of the
- * float 2^e), and per child a byte per plane, q[2 a + 0] the eight low and
- * q[2 a + 1] the eight high planes along axis a (structure of arrays, so one
- * test of all children is a handful of float8 operations). A plane is
- * org[a] + q 2^e, computed in float (bvh_qplane; q 2^e is exact, so a fused
+ * Layout: a flat array of 256-byte 8-wide nodes (the binary SAH tree of
+ * src/accel/bvh_build.c gathered, each node taking up to eight of its largest descendants),
+ * depth first, node 0 the root. A node stores its children's boxes as structure
+ * of arrays, bounds[2 a + 0] = the eight low and bounds[2 a + 1] = the eight high
+ * coordinates along axis a, so one test of all children is a handful of float8
+ * operations. Eight-wide nodes make a ray's chain of dependent node loads about
+ * a third shorter than four-wide ones did, and cost the same float8 test on
+ * a CPU. Child i is a leaf when count[i] > 0: the block at word child[i] of
+ * count[i] & 255 triangles with count[i] >> 8 distinct vertices (below), so
+ * its loads need not wait for its header; when count[i] == 0 it is the node
+ * child[i] (> 0); an unused
+ * slot has count 0 and an empty box (low +FLT_MAX, high -FLT_MAX) that no ray
+ * enters.
+ *
+ * Quantised nodes (SPT_BVH_QNODES, set by the host when it uploads them:
+ * src/accel/bvh_build.h, bvh_qnodes_wanted): the same tree in 128-byte nodes
+ * (BvhQNode), its children's boxes quantised (Ylitie, Karras and Laine 2017,
+ * "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
+ * BVHs"): per axis a an origin org[a] and a power-of-two step 2^e (exp[a], the
+ * biased exponent of the float 2^e), and per child a byte per plane, q[2 a]
+ * the eight low and q[2 a + 1] the eight high planes along axis a. A plane is
+ * org[a] + q 2^e computed in float (bvh_qplane; q 2^e is exact, so a fused
  * multiply-add rounds it the same), and the builder rounds each low plane
  * down and each high plane up in that very arithmetic, so every decoded box
- * contains its child's true box and the slab test below is as conservative as
- * on float boxes: the closest hit is the one float boxes give (only which of
- * two hits at exactly the same distance wins can change, as the visiting
- * order may). Half the bytes of float boxes (docs/performance.md, "What sets
- * the speed": nodes of 256 bytes before) for two more float8 operations per
- * plane. Eight-wide nodes make a ray's chain of dependent node loads about a
- * third shorter than four-wide ones did, and cost the same float8 test on a
- * CPU. Bit i of used is set when slot i holds a child; child i is a leaf when
- * count[i] > 0: the block at word child[i] of count[i] & 255 triangles with
- * count[i] >> 8 distinct vertices (below), so its loads need not wait for its
- * header; when count[i] == 0 it is the node child[i] (> 0). An unused slot
- * has count 0, child 0 and bit 0 in used, so no ray enters it.
+ * contains its child's float box and the slab test is as conservative as on
+ * float boxes: the closest hit is the same (only which of two hits at exactly
+ * the same distance wins may change, as the visiting order may). Bit i of
+ * used marks the slots that hold a child. Half the node bytes for two more
+ * float8 operations per plane (docs/performance.md, "What sets the speed":
+ * slower on CPU devices, so not their default).
  *
  * Triangles are packed in leaf order (packed triangle i, the prim of a hit, is
  * input triangle prim_index[i]), and each leaf is a block of 32-bit words in
@@ -83,20 +89,11 @@
 /* FLT_MAX, a sort key beyond every entry distance (those are <= tmax). */
 #define BVH_FAR 3.402823466e+38f
 
-typedef struct BvhNode {
-    float org[3];               /* per axis, the planes' origin */
-    spt_u8 exp[3];              /* per axis, the biased float exponent of the planes' step */
-    spt_u8 used;                /* bit i: slot i holds a child */
-    spt_u8 q[6][BVH_WIDTH];     /* [2 a] low, [2 a + 1] high planes along axis a, per child */
+typedef struct BvhFNode {
+    float bounds[6][BVH_WIDTH]; /* [2 a] low, [2 a + 1] high along axis a, per child */
     spt_u32 child[BVH_WIDTH];   /* a node index, or a leaf's first triangle */
     spt_u32 count[BVH_WIDTH];   /* leaf: triangles | distinct vertices << 8; 0: a node (or unused) */
-} BvhNode;
-
-/* The smallest and largest biased exponents a node's step takes: 255 steps
- * of the largest stay finite, and a step times a byte is never subnormal, so
- * q 2^e is exact. */
-#define BVH_QEXP_MIN 1
-#define BVH_QEXP_MAX 246
+} BvhFNode;
 
 /* Most triangles and distinct vertices in one leaf (a 16-lane row), and the
  * words of padding after the last leaf block. */
@@ -107,7 +104,32 @@ typedef struct BvhNode {
 /* Words of the block of a leaf of n triangles with nv distinct vertices. */
 #define bvh_leaf_words(n, nv) (2u + 3u * (nv) + (3u * (n) + 3u) / 4u)
 
-SPT_STATIC_ASSERT(sizeof(BvhNode) == 128, "BvhNode must stay 128 bytes (device layout)");
+/* The quantised node (see the header comment). */
+typedef struct BvhQNode {
+    float org[3];               /* per axis, the planes' origin */
+    spt_u8 exp[3];              /* per axis, the biased float exponent of the planes' step */
+    spt_u8 used;                /* bit i: slot i holds a child */
+    spt_u8 q[6][BVH_WIDTH];     /* [2 a] low, [2 a + 1] high planes along axis a, per child */
+    spt_u32 child[BVH_WIDTH];   /* as BvhFNode's */
+    spt_u32 count[BVH_WIDTH];   /* as BvhFNode's */
+} BvhQNode;
+
+/* The smallest and largest biased exponents of a step: 255 steps of the
+ * largest stay finite, and a step times a byte is never subnormal, so
+ * q 2^e is exact. */
+#define BVH_QEXP_MIN 1
+#define BVH_QEXP_MAX 246
+
+SPT_STATIC_ASSERT(sizeof(BvhFNode) == 256, "BvhFNode must stay 256 bytes (device layout)");
+SPT_STATIC_ASSERT(sizeof(BvhQNode) == 128, "BvhQNode must stay 128 bytes (device layout)");
+
+/* The node the traversal reads: the device's quantised nodes when the host
+ * uploads them, else (and always on the host) the float ones. */
+#if SPT_DEVICE && defined(SPT_BVH_QNODES)
+typedef BvhQNode BvhNode;
+#else
+typedef BvhFNode BvhNode;
+#endif
 SPT_STATIC_ASSERT(bvh_leaf_words(BVH_LEAF_MAX, BVH_LEAF_VERTS) <= 64,
                   "bvh_prefetch's five requests cover leaf blocks of at most 64 words");
 
@@ -141,7 +163,8 @@ SPT_FN spt_u32 bvh_word(const SPT_GLOBAL float *p, spt_u32 i)
 #endif
 }
 
-/* The step 2^e of a node's planes along an axis from its biased exponent. */
+/* The step 2^e of a quantised node's planes along an axis, from its biased
+ * exponent. */
 SPT_FN float bvh_qstep(spt_u32 biased)
 {
 #if SPT_DEVICE
@@ -160,8 +183,8 @@ SPT_FN float bvh_qplane(float org, float step, spt_u32 q)
     return (float)q * step + org;
 }
 
-/* Child i's box of node n as the traversal decodes it. */
-SPT_FN void bvh_node_box(const SPT_GLOBAL BvhNode *n, int i, float lo[3], float hi[3])
+/* Child i's box of quantised node n as the traversal decodes it. */
+SPT_FN void bvh_qnode_box(const SPT_GLOBAL BvhQNode *n, int i, float lo[3], float hi[3])
 {
     for (int a = 0; a < 3; a++) {
         float step = bvh_qstep(n->exp[a]);
@@ -284,13 +307,14 @@ SPT_FN uint bvh_mask8(int8 c)
 SPT_FN float8 bvh_v8_min(float8 a, float8 b) { return select(b, a, a < b); }
 SPT_FN float8 bvh_v8_max(float8 a, float8 b) { return select(b, a, a > b); }
 
+#if defined(SPT_BVH_QNODES)
 /* The eight planes of row row (bvh_qplane, lane by lane). */
-SPT_FN float8 bvh_qplanes8(const __global BvhNode *n, int row, float org, float step)
+SPT_FN float8 bvh_qplanes8(const __global BvhQNode *n, int row, float org, float step)
 {
     return convert_float8(vload8(0, n->q[row])) * (float8)(step) + (float8)(org);
 }
 
-SPT_FN float8 bvh_node_enter(const __global BvhNode *n, const BvhRay *r, float tbest, uint *mask)
+SPT_FN float8 bvh_node_enter(const __global BvhQNode *n, const BvhRay *r, float tbest, uint *mask)
 {
     float8 ox = (float8)(r->ox), oy = (float8)(r->oy), oz = (float8)(r->oz);
     float gx = n->org[0], gy = n->org[1], gz = n->org[2];
@@ -307,6 +331,23 @@ SPT_FN float8 bvh_node_enter(const __global BvhNode *n, const BvhRay *r, float t
     *mask = bvh_mask8(tn <= tf) & (uint)n->used;
     return tn;
 }
+#else
+SPT_FN float8 bvh_node_enter(const __global BvhNode *n, const BvhRay *r, float tbest, uint *mask)
+{
+    float8 ox = (float8)(r->ox), oy = (float8)(r->oy), oz = (float8)(r->oz);
+    float8 tnx = (vload8(0, n->bounds[r->nx]) - ox) * r->ix;
+    float8 tfx = (vload8(0, n->bounds[r->nx ^ 1]) - ox) * r->ix;
+    float8 tny = (vload8(0, n->bounds[r->ny]) - oy) * r->iy;
+    float8 tfy = (vload8(0, n->bounds[r->ny ^ 1]) - oy) * r->iy;
+    float8 tnz = (vload8(0, n->bounds[r->nz]) - oz) * r->iz;
+    float8 tfz = (vload8(0, n->bounds[r->nz ^ 1]) - oz) * r->iz;
+    float8 tn = bvh_v8_max(bvh_v8_max(tnx, tny), bvh_v8_max(tnz, (float8)(0.0f)));
+    float8 tf = bvh_v8_min(bvh_v8_min(tfx, tfy), tfz) * 1.00000036f;
+    tf = bvh_v8_min(tf, (float8)(tbest));
+    *mask = bvh_mask8(tn <= tf);
+    return tn;
+}
+#endif
 
 #else
 typedef struct BvhEnter {
@@ -314,34 +355,22 @@ typedef struct BvhEnter {
 } BvhEnter;
 #define BVH_ENTER_LANE(d, i) ((d).v[i])
 
-#if defined(__SSE2__)
-/* Planes h .. h + 3 of row q (bvh_qplane, four lanes at a time). */
-SPT_FN __m128 bvh_qplanes4(const spt_u8 *q, int h, __m128 step, __m128 org)
-{
-    __m128i b = _mm_set_epi32(q[h + 3], q[h + 2], q[h + 1], q[h]);
-    return _mm_add_ps(_mm_mul_ps(_mm_cvtepi32_ps(b), step), org);
-}
-#endif
-
 SPT_FN BvhEnter bvh_node_enter(const BvhNode *n, const BvhRay *r, float tbest, spt_u32 *mask)
 {
     BvhEnter d;
     spt_u32 m = 0;
-    float sx = bvh_qstep(n->exp[0]), sy = bvh_qstep(n->exp[1]), sz = bvh_qstep(n->exp[2]);
 #if defined(__SSE2__)
     /* The device's float8 arithmetic, four lanes at a time (minps/maxps are
      * a < b ? a : b and a > b ? a : b, like the device's selects). */
     __m128 ox = _mm_set1_ps(r->ox), oy = _mm_set1_ps(r->oy), oz = _mm_set1_ps(r->oz);
     __m128 ix = _mm_set1_ps(r->ix), iy = _mm_set1_ps(r->iy), iz = _mm_set1_ps(r->iz);
-    __m128 gx = _mm_set1_ps(n->org[0]), gy = _mm_set1_ps(n->org[1]), gz = _mm_set1_ps(n->org[2]);
-    __m128 qx = _mm_set1_ps(sx), qy = _mm_set1_ps(sy), qz = _mm_set1_ps(sz);
     for (int h = 0; h < BVH_WIDTH; h += 4) {
-        __m128 tnx = _mm_mul_ps(_mm_sub_ps(bvh_qplanes4(n->q[r->nx], h, qx, gx), ox), ix);
-        __m128 tfx = _mm_mul_ps(_mm_sub_ps(bvh_qplanes4(n->q[r->nx ^ 1], h, qx, gx), ox), ix);
-        __m128 tny = _mm_mul_ps(_mm_sub_ps(bvh_qplanes4(n->q[r->ny], h, qy, gy), oy), iy);
-        __m128 tfy = _mm_mul_ps(_mm_sub_ps(bvh_qplanes4(n->q[r->ny ^ 1], h, qy, gy), oy), iy);
-        __m128 tnz = _mm_mul_ps(_mm_sub_ps(bvh_qplanes4(n->q[r->nz], h, qz, gz), oz), iz);
-        __m128 tfz = _mm_mul_ps(_mm_sub_ps(bvh_qplanes4(n->q[r->nz ^ 1], h, qz, gz), oz), iz);
+        __m128 tnx = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nx] + h), ox), ix);
+        __m128 tfx = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nx ^ 1] + h), ox), ix);
+        __m128 tny = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->ny] + h), oy), iy);
+        __m128 tfy = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->ny ^ 1] + h), oy), iy);
+        __m128 tnz = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nz] + h), oz), iz);
+        __m128 tfz = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n->bounds[r->nz ^ 1] + h), oz), iz);
         __m128 tn = _mm_max_ps(_mm_max_ps(tnx, tny), _mm_max_ps(tnz, _mm_setzero_ps()));
         __m128 tf = _mm_mul_ps(_mm_min_ps(_mm_min_ps(tfx, tfy), tfz), _mm_set1_ps(1.00000036f));
         tf = _mm_min_ps(tf, _mm_set1_ps(tbest));
@@ -351,12 +380,9 @@ SPT_FN BvhEnter bvh_node_enter(const BvhNode *n, const BvhRay *r, float tbest, s
     }
 #else
     for (int i = 0; i < BVH_WIDTH; i++) {
-        float tnx = (bvh_qplane(n->org[0], sx, n->q[r->nx][i]) - r->ox) * r->ix;
-        float tfx = (bvh_qplane(n->org[0], sx, n->q[r->nx ^ 1][i]) - r->ox) * r->ix;
-        float tny = (bvh_qplane(n->org[1], sy, n->q[r->ny][i]) - r->oy) * r->iy;
-        float tfy = (bvh_qplane(n->org[1], sy, n->q[r->ny ^ 1][i]) - r->oy) * r->iy;
-        float tnz = (bvh_qplane(n->org[2], sz, n->q[r->nz][i]) - r->oz) * r->iz;
-        float tfz = (bvh_qplane(n->org[2], sz, n->q[r->nz ^ 1][i]) - r->oz) * r->iz;
+        float tnx = (n->bounds[r->nx][i] - r->ox) * r->ix, tfx = (n->bounds[r->nx ^ 1][i] - r->ox) * r->ix;
+        float tny = (n->bounds[r->ny][i] - r->oy) * r->iy, tfy = (n->bounds[r->ny ^ 1][i] - r->oy) * r->iy;
+        float tnz = (n->bounds[r->nz][i] - r->oz) * r->iz, tfz = (n->bounds[r->nz ^ 1][i] - r->oz) * r->iz;
         float tn = bvh_max_(bvh_max_(tnx, tny), bvh_max_(tnz, 0.0f));
         float tf = bvh_min_(bvh_min_(tfx, tfy), tfz) * 1.00000036f;
         tf = bvh_min_(tf, tbest);
@@ -364,7 +390,7 @@ SPT_FN BvhEnter bvh_node_enter(const BvhNode *n, const BvhRay *r, float tbest, s
         m |= (spt_u32)(tn <= tf) << i;
     }
 #endif
-    *mask = m & n->used;
+    *mask = m;
     return d;
 }
 
@@ -627,9 +653,14 @@ SPT_FN void bvh_prefetch(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float
         SPT_PREFETCH(p + (last < 48u ? last : 48u));
         SPT_PREFETCH(p + last);
     } else {
+        /* the node's cache lines: four, or two of a quantised node */
         const SPT_GLOBAL char *q = (const SPT_GLOBAL char *)&nodes[child];
         SPT_PREFETCH(q);
         SPT_PREFETCH(q + 64);
+#if !defined(SPT_BVH_QNODES)
+        SPT_PREFETCH(q + 128);
+        SPT_PREFETCH(q + 192);
+#endif
     }
 }
 

@@ -184,116 +184,35 @@ static void decide(Builder *bd, uint32_t begin, uint32_t end, uint32_t depth, It
     bd->sah += (double)area * (leaf ? bd->opt.cost_tri * (double)count : bd->opt.cost_node);
 }
 
-/* Room for cap 8-wide nodes and their float boxes, the nodes 64-byte
- * aligned (a node is two cache lines); the first wide_count are kept. */
-static void wide_reserve(Builder *bd, uint32_t cap)
-{
-    BvhNode *w = aligned_alloc(64, (size_t)cap * sizeof *w);
-    if (!w)
-        w = spt_malloc((size_t)cap * sizeof *w);
-    if (bd->wide_count)
-        memcpy(w, bd->wide, (size_t)bd->wide_count * sizeof *w);
-    free(bd->wide);
-    bd->wide = w;
-    bd->wbox = spt_realloc(bd->wbox, (size_t)cap * sizeof *bd->wbox);
-    bd->wide_cap = cap;
-}
-
 /* Index of a new 8-wide node (the array grows by doubling). */
 static uint32_t wide_new(Builder *bd)
 {
-    if (bd->wide_count == bd->wide_cap)
-        wide_reserve(bd, bd->wide_cap * 2);
+    if (bd->wide_count == bd->wide_cap) {
+        uint32_t cap = bd->wide_cap * 2;
+        BvhNode *w = aligned_alloc(64, (size_t)cap * sizeof *w);
+        if (!w)
+            w = spt_malloc((size_t)cap * sizeof *w);
+        memcpy(w, bd->wide, (size_t)bd->wide_count * sizeof *w);
+        free(bd->wide);
+        bd->wide = w;
+        bd->wide_cap = cap;
+    }
     return bd->wide_count++;
 }
 
-/* Fills slot i of 8-wide node w with item it (NULL: unused, an empty box). */
+/* Fills slot i of 8-wide node w with item it (NULL: unused). */
 static void wide_slot(Builder *bd, uint32_t w, int i, const Item *it)
 {
     BvhNode *node = &bd->wide[w];
     for (int a = 0; a < 3; a++) {
-        bd->wbox[w][2 * a][i] = it ? it->bounds.lo[a] : FLT_MAX;
-        bd->wbox[w][2 * a + 1][i] = it ? it->bounds.hi[a] : -FLT_MAX;
+        node->bounds[2 * a][i] = it ? it->bounds.lo[a] : FLT_MAX;
+        node->bounds[2 * a + 1][i] = it ? it->bounds.hi[a] : -FLT_MAX;
     }
     node->child[i] = it && it->leaf ? it->begin : 0;
     node->count[i] = it && it->leaf ? it->end - it->begin : 0;
     if (it && it->leaf) {
         bd->leaf_slot[it->begin] = w * BVH_WIDTH + (uint32_t)i + 1;
         bd->st->leaf_count++;
-    }
-}
-
-/* Every wide node's boxes quantised (bvh_node_quantise), and the float boxes
- * freed. */
-static void wide_quantise(Builder *bd)
-{
-    for (uint32_t k = 0; k < bd->wide_count; k++)
-        bvh_node_quantise(&bd->wide[k], (const float (*)[BVH_WIDTH])bd->wbox[k]);
-    free(bd->wbox);
-    bd->wbox = NULL;
-}
-
-/* The biased exponent of the smallest power of two 2^e with 255 steps from
- * org reaching hi in bvh_qplane's float arithmetic (BVH_QEXP_MAX at most). */
-static uint32_t qexp_for(float org, float hi)
-{
-    int e;
-    double ext = (double)hi - (double)org;
-    frexp(ext / 255.0, &e); /* 2^(e - 1) <= ext / 255 < 2^e */
-    long b = ext > 0.0 ? (long)e + 126 : BVH_QEXP_MIN; /* 2^(e - 1), then up as needed */
-    if (b < BVH_QEXP_MIN)
-        b = BVH_QEXP_MIN;
-    if (b > BVH_QEXP_MAX)
-        b = BVH_QEXP_MAX;
-    while (b < BVH_QEXP_MAX && bvh_qplane(org, bvh_qstep((spt_u32)b), 255u) < hi)
-        b++;
-    return (uint32_t)b;
-}
-
-void bvh_node_quantise(BvhNode *n, const float box[6][BVH_WIDTH])
-{
-    float lo[3], hi[3];
-    n->used = 0;
-    for (int a = 0; a < 3; a++) {
-        lo[a] = FLT_MAX;
-        hi[a] = -FLT_MAX;
-    }
-    for (int i = 0; i < BVH_WIDTH; i++) {
-        if (!(box[0][i] <= box[1][i] && box[2][i] <= box[3][i] && box[4][i] <= box[5][i]))
-            continue;
-        n->used |= (spt_u8)(1u << i);
-        for (int a = 0; a < 3; a++) {
-            lo[a] = minf(lo[a], box[2 * a][i]);
-            hi[a] = maxf(hi[a], box[2 * a + 1][i]);
-        }
-    }
-    for (int a = 0; a < 3; a++) {
-        if (!n->used) {
-            lo[a] = hi[a] = 0.0f;
-        }
-        uint32_t b = qexp_for(lo[a], hi[a]);
-        float step = bvh_qstep(b);
-        double dstep = (double)step;
-        n->org[a] = lo[a];
-        n->exp[a] = (spt_u8)b;
-        for (int i = 0; i < BVH_WIDTH; i++) {
-            if (!(n->used >> i & 1u)) {
-                n->q[2 * a][i] = n->q[2 * a + 1][i] = 0;
-                continue;
-            }
-            /* A first guess from the exact quotient, then moved until the
-             * float plane is outside the box: low planes down, high planes up. */
-            double fl = floor(((double)box[2 * a][i] - (double)lo[a]) / dstep);
-            double fh = ceil(((double)box[2 * a + 1][i] - (double)lo[a]) / dstep);
-            uint32_t ql = fl < 0.0 ? 0u : fl > 255.0 ? 255u : (uint32_t)fl;
-            uint32_t qh = fh < 0.0 ? 0u : fh > 255.0 ? 255u : (uint32_t)fh;
-            while (ql > 0 && bvh_qplane(lo[a], step, ql) > box[2 * a][i])
-                ql--;
-            while (qh < 255 && bvh_qplane(lo[a], step, qh) < box[2 * a + 1][i])
-                qh++;
-            n->q[2 * a][i] = (spt_u8)ql;
-            n->q[2 * a + 1][i] = (spt_u8)qh;
-        }
     }
 }
 
@@ -443,6 +362,88 @@ static void bvh_finish_stats(Bvh *bvh)
         : 0.0;
 }
 
+/* The biased exponent of the smallest power of two 2^e with 255 steps from
+ * org reaching hi in bvh_qplane's float arithmetic (BVH_QEXP_MAX at most). */
+static uint32_t qexp_for(float org, float hi)
+{
+    int e;
+    double ext = (double)hi - (double)org;
+    frexp(ext / 255.0, &e); /* 2^(e - 1) <= ext / 255 < 2^e: start at 2^(e - 1) */
+    long b = ext > 0.0 ? (long)e + 126 : BVH_QEXP_MIN;
+    if (b < BVH_QEXP_MIN)
+        b = BVH_QEXP_MIN;
+    if (b > BVH_QEXP_MAX)
+        b = BVH_QEXP_MAX;
+    while (b < BVH_QEXP_MAX && bvh_qplane(org, bvh_qstep((spt_u32)b), 255u) < hi)
+        b++;
+    return (uint32_t)b;
+}
+
+void bvh_node_quantise(BvhQNode *q, const BvhNode *n)
+{
+    float lo[3], hi[3];
+    memset(q, 0, sizeof *q);
+    for (int a = 0; a < 3; a++) {
+        lo[a] = FLT_MAX;
+        hi[a] = -FLT_MAX;
+    }
+    for (int i = 0; i < BVH_WIDTH; i++) {
+        q->child[i] = n->child[i];
+        q->count[i] = n->count[i];
+        if (!(n->bounds[0][i] <= n->bounds[1][i] && n->bounds[2][i] <= n->bounds[3][i] &&
+              n->bounds[4][i] <= n->bounds[5][i]))
+            continue; /* unused: an empty box */
+        q->used |= (spt_u8)(1u << i);
+        for (int a = 0; a < 3; a++) {
+            lo[a] = minf(lo[a], n->bounds[2 * a][i]);
+            hi[a] = maxf(hi[a], n->bounds[2 * a + 1][i]);
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        if (!q->used)
+            lo[a] = hi[a] = 0.0f;
+        uint32_t b = qexp_for(lo[a], hi[a]);
+        float step = bvh_qstep(b);
+        q->org[a] = lo[a];
+        q->exp[a] = (spt_u8)b;
+        for (int i = 0; i < BVH_WIDTH; i++) {
+            if (!(q->used >> i & 1u))
+                continue;
+            float bl = n->bounds[2 * a][i], bh = n->bounds[2 * a + 1][i];
+            /* A first guess from the quotient in double, then moved until the
+             * float plane is outside the box: low planes down, high planes up. */
+            double fl = floor(((double)bl - (double)lo[a]) / (double)step);
+            double fh = ceil(((double)bh - (double)lo[a]) / (double)step);
+            uint32_t ql = fl < 0.0 ? 0u : fl > 255.0 ? 255u : (uint32_t)fl;
+            uint32_t qh = fh < 0.0 ? 0u : fh > 255.0 ? 255u : (uint32_t)fh;
+            while (ql > 0 && bvh_qplane(lo[a], step, ql) > bl)
+                ql--;
+            while (qh < 255 && bvh_qplane(lo[a], step, qh) < bh)
+                qh++;
+            q->q[2 * a][i] = (spt_u8)ql;
+            q->q[2 * a + 1][i] = (spt_u8)qh;
+        }
+    }
+}
+
+BvhQNode *bvh_quantise_nodes(const BvhNode *nodes, size_t count)
+{
+    size_t n = count ? count : 1;
+    BvhQNode *q = aligned_alloc(64, n * sizeof *q);
+    if (!q)
+        q = spt_malloc(n * sizeof *q);
+    memset(q, 0, n * sizeof *q);
+    for (size_t k = 0; k < count; k++)
+        bvh_node_quantise(&q[k], &nodes[k]);
+    return q;
+}
+
+int bvh_qnodes_wanted(void)
+{
+    const char *v = getenv("SPECTRACE_BVH_NODES");
+    return v && !strcmp(v, "quantised");
+}
+
 int bvh_build(Bvh *bvh, const float *tri_pos, uint32_t tri_count, SptError *e)
 {
     return bvh_build_ex(bvh, tri_pos, tri_count, NULL, e);
@@ -501,14 +502,12 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         /* A root with no children; a dummy triangle and index keep the buffers
          * non-empty. */
         bvh->nodes = spt_calloc(1, sizeof *bvh->nodes);
-        float empty[6][BVH_WIDTH];
         for (int i = 0; i < BVH_WIDTH; i++) {
             for (int a = 0; a < 3; a++) {
-                empty[2 * a][i] = FLT_MAX;
-                empty[2 * a + 1][i] = -FLT_MAX;
+                bvh->nodes[0].bounds[2 * a][i] = FLT_MAX;
+                bvh->nodes[0].bounds[2 * a + 1][i] = -FLT_MAX;
             }
         }
-        bvh_node_quantise(&bvh->nodes[0], (const float (*)[BVH_WIDTH])empty);
         bvh->node_count = 1;
         bvh->tri_data_bytes = (2 + BVH_TRI_PAD) * sizeof(float);
         bvh->tri_data = spt_calloc(1, bvh->tri_data_bytes);
@@ -524,7 +523,10 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         /* About one 8-wide node per 32 triangles with the default options; the
          * array doubles when a tree needs more. 64-byte aligned, so a node is
          * four cache lines. Pages past the last node are never touched. */
-        wide_reserve(&bd, kept / 8 + 16);
+        bd.wide_cap = kept / 8 + 16;
+        bd.wide = aligned_alloc(64, (size_t)bd.wide_cap * sizeof *bd.wide);
+        if (!bd.wide)
+            bd.wide = spt_malloc((size_t)bd.wide_cap * sizeof *bd.wide);
         bd.st = &bvh->stats;
         bd.leaf_slot = spt_calloc(kept, sizeof *bd.leaf_slot);
         bd.tri_pos = tri_pos;
@@ -570,7 +572,6 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
         free(depth);
         memset(tris + words, 0, BVH_TRI_PAD * sizeof *tris);
         words += BVH_TRI_PAD;
-        wide_quantise(&bd);
         float *shrunk = realloc(tris, words * sizeof *tris);
         tris = shrunk ? shrunk : tris;
         bvh->nodes = bd.wide;
@@ -614,7 +615,8 @@ int bvh_build_boxes(const float *boxes, uint32_t count, BvhNode **nodes, uint32_
         r->id = i;
         r->pad = 0.0f;
     }
-    wide_reserve(&bd, count / 4 + 16);
+    bd.wide_cap = count / 4 + 16;
+    bd.wide = spt_malloc((size_t)bd.wide_cap * sizeof *bd.wide);
     bd.leaf_slot = spt_calloc(count ? count : 1, sizeof *bd.leaf_slot);
     uint32_t w = wide_new(&bd);
     if (count == 0) {
@@ -634,7 +636,6 @@ int bvh_build_boxes(const float *boxes, uint32_t count, BvhNode **nodes, uint32_
         order[i] = bd.refs[i].id;
     free(bd.refs);
     free(bd.leaf_slot);
-    wide_quantise(&bd);
     *nodes = bd.wide;
     *node_count = bd.wide_count;
     return SPT_EXIT_OK;
@@ -645,15 +646,9 @@ void bvh_bounds(const Bvh *bvh, float lo[3], float hi[3])
     for (int a = 0; a < 3; a++) {
         lo[a] = FLT_MAX;
         hi[a] = -FLT_MAX;
-    }
-    for (int i = 0; i < BVH_WIDTH && bvh->node_count; i++) {
-        float clo[3], chi[3];
-        if (!(bvh->nodes[0].used >> i & 1u))
-            continue;
-        bvh_node_box(&bvh->nodes[0], i, clo, chi);
-        for (int a = 0; a < 3; a++) {
-            lo[a] = minf(lo[a], clo[a]);
-            hi[a] = maxf(hi[a], chi[a]);
+        for (int i = 0; i < BVH_WIDTH && bvh->node_count; i++) {
+            lo[a] = minf(lo[a], bvh->nodes[0].bounds[2 * a][i]);
+            hi[a] = maxf(hi[a], bvh->nodes[0].bounds[2 * a + 1][i]);
         }
     }
 }

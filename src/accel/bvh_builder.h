@@ -54,8 +54,6 @@ typedef struct Item {
 typedef struct Builder {
     PrimRef *refs;
     BvhNode *wide;      /* the 8-wide nodes made so far */
-    float (*wbox)[6][BVH_WIDTH]; /* per wide node, its children's boxes in float
-                                    (BvhNode's rows), quantised at the end */
     uint32_t wide_count, wide_cap;
     double sah;         /* the binary tree's SAH cost times its root's area */
     BvhStats *st;

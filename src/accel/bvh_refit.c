@@ -73,43 +73,33 @@ int bvh_refit(Bvh *bvh, const float *tri_pos, uint32_t tri_count, uint32_t built
     }
     /* A child's node index is above its parent's (bvh_build.c), so from the
      * last node to the root every child's box is final before its parent
-     * reads it. Each node's own box is kept in float (nbox, low x y z, high
-     * x y z), so a parent quantises its children's exact boxes, not their
-     * rounded ones. */
-    float (*nbox)[6] = spt_malloc((size_t)bvh->node_count * sizeof *nbox);
+     * reads it. */
     for (uint32_t k = bvh->node_count; k-- > 0;) {
         BvhNode *nd = &bvh->nodes[k];
-        float box[6][BVH_WIDTH];
-        for (int a = 0; a < 3; a++) {
-            nbox[k][a] = FLT_MAX;
-            nbox[k][3 + a] = -FLT_MAX;
-        }
         for (int c = 0; c < BVH_WIDTH; c++) {
             float lo[3], hi[3];
             if (nd->count[c]) {
-                if (!refit_leaf(bvh, bvh->tri_data + nd->child[c], tri_pos, lo, hi)) {
-                    free(nbox);
+                if (!refit_leaf(bvh, bvh->tri_data + nd->child[c], tri_pos, lo, hi))
                     return 0;
-                }
             } else if (nd->child[c]) {
-                memcpy(lo, nbox[nd->child[c]], sizeof lo);
-                memcpy(hi, nbox[nd->child[c]] + 3, sizeof hi);
-            } else {
-                for (int a = 0; a < 3; a++) { /* an unused slot: an empty box */
+                const BvhNode *ch = &bvh->nodes[nd->child[c]];
+                for (int a = 0; a < 3; a++) {
                     lo[a] = FLT_MAX;
                     hi[a] = -FLT_MAX;
+                    for (int i = 0; i < BVH_WIDTH; i++) {
+                        lo[a] = minf(lo[a], ch->bounds[2 * a][i]);
+                        hi[a] = maxf(hi[a], ch->bounds[2 * a + 1][i]);
+                    }
                 }
+            } else {
+                continue; /* an unused slot keeps its empty box */
             }
             for (int a = 0; a < 3; a++) {
-                box[2 * a][c] = lo[a];
-                box[2 * a + 1][c] = hi[a];
-                nbox[k][a] = minf(nbox[k][a], lo[a]);
-                nbox[k][3 + a] = maxf(nbox[k][3 + a], hi[a]);
+                nd->bounds[2 * a][c] = lo[a];
+                nd->bounds[2 * a + 1][c] = hi[a];
             }
         }
-        bvh_node_quantise(nd, (const float (*)[BVH_WIDTH])box);
     }
-    free(nbox);
     bvh->stats.build_seconds = spt_now() - t0;
     bvh->refitted = 1;
     return 1;
