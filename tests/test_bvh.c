@@ -255,6 +255,84 @@ static void check_structure(const Bvh *bvh, const float *tris, uint32_t n,
     free(pbox);
 }
 
+/* Quantised boxes (kernels/bvh/bvh_node.h): random child boxes of nodes of
+ * every size, near and far from the origin (where org + q 2^e rounds), and
+ * degenerate ones, decode to boxes that contain them, looser by at most a
+ * step of their node's grid plus an ulp of the plane (the rounding of
+ * org + q 2^e); unused slots are marked. */
+TEST(test_quantised_boxes_conservative)
+{
+    rng_state = 31;
+    int loose = 0;
+    for (int k = 0; k < 20000; k++) {
+        double centre = rnd_range(-1, 1) * pow(10.0, rnd_range(-3, 7));
+        double size = pow(10.0, rnd_range(-7, 4));
+        float box[6][BVH_WIDTH];
+        int nused = 1 + (int)(rnd() * BVH_WIDTH);
+        for (int i = 0; i < BVH_WIDTH; i++) {
+            for (int a = 0; a < 3; a++) {
+                double l = centre + size * rnd_range(-1, 1);
+                double w = k % 7 == 0 ? 0.0 : size * rnd();
+                box[2 * a][i] = i < nused ? (float)l : FLT_MAX;
+                box[2 * a + 1][i] = i < nused ? (float)(l + w) : -FLT_MAX;
+                if (box[2 * a + 1][i] < box[2 * a][i] && i < nused)
+                    box[2 * a + 1][i] = box[2 * a][i];
+            }
+        }
+        BvhNode f;
+        memcpy(f.bounds, box, sizeof box);
+        BvhQNode n;
+        memset(&n, 0xab, sizeof n);
+        bvh_node_quantise(&n, &f);
+        for (int i = 0; i < BVH_WIDTH; i++) {
+            assert_int_equal(n.used >> i & 1u, i < nused);
+            if (i >= nused)
+                continue;
+            float lo[3], hi[3];
+            bvh_qnode_box(&n, i, lo, hi);
+            for (int a = 0; a < 3; a++) {
+                float step = bvh_qstep(n.exp[a]);
+                assert_true(lo[a] <= box[2 * a][i]);
+                assert_true(hi[a] >= box[2 * a + 1][i]);
+                double ulo = nextafterf(fabsf(lo[a]), INFINITY) - fabsf(lo[a]);
+                double uhi = nextafterf(fabsf(hi[a]), INFINITY) - fabsf(hi[a]);
+                loose += (double)box[2 * a][i] - lo[a] > step + ulo;
+                loose += (double)hi[a] - box[2 * a + 1][i] > step + uhi;
+            }
+        }
+    }
+    assert_int_equal(loose, 0);
+}
+
+/* Checks bvh's nodes quantised (bvh_quantise_nodes): child and count kept,
+ * used marking the used slots, steps in range, and every decoded box
+ * containing the float box it stands for. */
+static void check_quantised(const Bvh *bvh)
+{
+    BvhQNode *q = bvh_quantise_nodes(bvh->nodes, bvh->node_count);
+    assert_true(((uintptr_t)q) % 64 == 0);
+    for (uint32_t k = 0; k < bvh->node_count; k++) {
+        const BvhNode *f = &bvh->nodes[k];
+        for (int a = 0; a < 3; a++)
+            assert_true(q[k].exp[a] >= BVH_QEXP_MIN && q[k].exp[a] <= BVH_QEXP_MAX);
+        for (int c = 0; c < BVH_WIDTH; c++) {
+            assert_int_equal(q[k].child[c], f->child[c]);
+            assert_int_equal(q[k].count[c], f->count[c]);
+            int used = f->count[c] || f->child[c];
+            assert_int_equal(q[k].used >> c & 1u, used);
+            if (!used)
+                continue;
+            float lo[3], hi[3];
+            bvh_qnode_box(&q[k], c, lo, hi);
+            for (int a = 0; a < 3; a++) {
+                assert_true(lo[a] <= f->bounds[2 * a][c]);
+                assert_true(hi[a] >= f->bounds[2 * a + 1][c]);
+            }
+        }
+    }
+    free(q);
+}
+
 /* n random triangles of size up to `size` inside [-1, 1]^3. */
 static float *make_soup(uint32_t n, double size)
 {
@@ -278,6 +356,7 @@ TEST(test_soup_matches_brute_force)
     assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
     assert_int_equal(bvh.stats.dropped, 0);
     check_structure(&bvh, t, n, NULL);
+    check_quantised(&bvh);
     /* Soup triangles share no vertices, so no leaf holds more than five (16
      * vertices): the SAH's larger leaves were split into runs. */
     assert_true(bvh.stats.max_leaf_size >= 1 && bvh.stats.max_leaf_size <= 5);
@@ -296,6 +375,7 @@ TEST(test_sphere_matches_brute_force)
     Bvh bvh;
     assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
     check_structure(&bvh, t, n, NULL);
+    check_quantised(&bvh);
     check_rays(&bvh, t, n, NULL, 40000, -1.5, 1.5);
     bvh_free(&bvh);
     free(t);
@@ -431,6 +511,7 @@ TEST(test_full_sweep_builder)
     o.full_sweep = 1;
     assert_int_equal(bvh_build_ex(&b, t, n, &o, NULL), 0);
     check_structure(&b, t, n, NULL);
+    check_quantised(&b);
     check_rays(&b, t, n, NULL, 10000, -1.5, 1.5);
     assert_true(b.stats.sah_cost <= a.stats.sah_cost * 1.02);
     bvh_free(&a);
@@ -525,6 +606,7 @@ TEST(test_garbage_dropped)
     assert_int_equal(bvh.stats.dropped_degenerate, 2);
     assert_int_equal(bvh.stats.dropped, 7);
     check_structure(&bvh, t, n, keep);
+    check_quantised(&bvh);
     check_rays(&bvh, t, n, keep, 10000, -1.5, 1.5);
     bvh_free(&bvh);
     free(keep);
@@ -542,6 +624,7 @@ TEST(test_identical_triangles)
     Bvh bvh;
     assert_int_equal(bvh_build(&bvh, t, n, NULL), 0);
     check_structure(&bvh, t, n, NULL);
+    check_quantised(&bvh);
     /* halving down to leaves of at most 8: ceil(log2(100000 / 8)) = 14 binary
      * levels, at least two of them per wide level */
     assert_true(bvh.stats.max_depth <= 7);
@@ -600,7 +683,8 @@ TEST(test_empty_scene)
  * the vector ones of x86 CPUs (SPT_BVH_SIMD: rows of 8 triangles with AVX2,
  * forced with SPT_BVH_NO_AVX512, and of 16 with AVX-512 where the CPU has it), with two rays traced
  * together (SPT_BVH_PAIRS) and with the GPU path's short stack
- * (SPT_BVH_SHORT_STACK; also with 2 entries, which restarts often), it reports the host's node size and returns
+ * (SPT_BVH_SHORT_STACK; also with 2 entries, which restarts often), each
+ * also on quantised nodes (SPT_BVH_QNODES), it reports the host's node size and returns
  * bit-identical hits to the host build for the same rays. Skipped without
  * an OpenCL device. */
 static const char *k_device_src =
@@ -639,14 +723,20 @@ static int device_differences(const TestCl *cl, const char *options, const Bvh *
                               int nr, int *hits)
 {
     float *out = malloc((size_t)nr * 4 * sizeof *out);
-    const TestClArg args[3] = {{bvh->nodes, bvh->node_count * sizeof(BvhNode)},
+    /* With SPT_BVH_QNODES the device reads the nodes quantised, and must
+     * still find the host's hits (on these rays no two hits tie) */
+    int quantised = options && strstr(options, "SPT_BVH_QNODES");
+    BvhQNode *qn = quantised ? bvh_quantise_nodes(bvh->nodes, bvh->node_count) : NULL;
+    const TestClArg args[3] = {{quantised ? (const void *)qn : bvh->nodes,
+                                bvh->node_count * (quantised ? sizeof(BvhQNode) : sizeof(BvhNode))},
                                {bvh->tri_data, bvh->tri_data_bytes},
                                {rays, (size_t)nr * 6 * sizeof *rays}};
     /* Work-groups of 64, as the renderer's: PoCL keeps every work-item's
      * private traversal stacks of a group at once, on a thread's stack. */
     test_cl_run(cl, k_device_src, options, "kernels/bvh/bvh.h", "k_bvh_test", args, 3, out,
                 (size_t)nr * 4 * sizeof *out, nr, 64);
-    assert_close(out[3], sizeof(BvhNode), 0);
+    assert_close(out[3], quantised ? sizeof(BvhQNode) : sizeof(BvhNode), 0);
+    free(qn);
     int differ = 0;
     *hits = 0;
     for (int i = 0; i < nr; i++) {
@@ -699,13 +789,17 @@ TEST(test_device_matches_host)
         assert_int_equal(bvh_build_ex(&bvh, t, n, &opt, NULL), 0);
         if (m == 0)
             assert_true(bvh.stats.max_leaf_size > 8);
-        const char *options[5] = {
+        const char *options[9] = {
             NULL,
             "-DSPT_BVH_SIMD=1 -DSPT_BVH_NO_AVX512=1",
             "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 -DSPT_BVH_STEP_PREFETCH=1",
             "-DSPT_BVH_SHORT_STACK=1",
-            "-DSPT_BVH_SHORT_STACK=1 -DBVH_SHORT_STACK_SIZE=2"};
-        for (int o = 0; o < 5; o++) {
+            "-DSPT_BVH_SHORT_STACK=1 -DBVH_SHORT_STACK_SIZE=2",
+            "-DSPT_BVH_QNODES=1",
+            "-DSPT_BVH_QNODES=1 -DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 -DSPT_BVH_STEP_PREFETCH=1",
+            "-DSPT_BVH_QNODES=1 -DSPT_BVH_SHORT_STACK=1",
+            "-DSPT_BVH_QNODES=1 -DSPT_BVH_SHORT_STACK=1 -DBVH_SHORT_STACK_SIZE=2"};
+        for (int o = 0; o < 9; o++) {
             int hits;
             assert_int_equal(device_differences(&cl, options[o], &bvh, rays, nr, &hits), 0);
             assert_true(hits > nr / 4);

@@ -591,7 +591,8 @@ TEST(test_gltf_gpu_instancing)
 /* The two-level queries compiled by the OpenCL device from kernels/, on the
  * CPU path (with the x86 leaf tests where the device has them) and the GPU
  * path (SPT_BVH_SHORT_STACK; with 2 entries too, which restarts at both
- * levels), return the host's hits bit for bit. */
+ * levels), on float and on quantised nodes (SPT_BVH_QNODES), return the
+ * host's hits bit for bit. */
 static const char *k_device_src =
     "#include \"bvh/bvh_tlas.h\"\n"
     "__kernel void k_tlas_test(__global const BvhNode *top, __global const BvhInstance *inst,\n"
@@ -621,14 +622,23 @@ TEST(test_tlas_device_matches_host)
     int nr = 8000;
     float *rays = make_rays(&s, nr, span);
     float *out = malloc((size_t)nr * 5 * sizeof *out);
-    const TestClArg args[5] = {{s.tlas.top, s.tlas.top_count * sizeof(BvhNode)},
-                               {s.tlas.inst, s.tlas.inst_count * sizeof(BvhInstance)},
-                               {s.tlas.nodes, s.tlas.node_count * sizeof(BvhNode)},
-                               {s.tlas.tris, s.tlas.tri_words * sizeof(float)},
-                               {rays, (size_t)nr * 6 * sizeof *rays}};
-    const char *options[4] = {NULL, "-DSPT_BVH_SIMD=1", "-DSPT_BVH_SHORT_STACK=1",
-                              "-DSPT_BVH_SHORT_STACK=1 -DBVH_SHORT_STACK_SIZE=2"};
-    for (int k = 0; k < 4; k++) {
+    /* the same levels with quantised nodes (SPT_BVH_QNODES) */
+    BvhQNode *qtop = bvh_quantise_nodes(s.tlas.top, s.tlas.top_count);
+    BvhQNode *qnodes = bvh_quantise_nodes(s.tlas.nodes, s.tlas.node_count);
+    const char *options[8] = {NULL, "-DSPT_BVH_SIMD=1", "-DSPT_BVH_SHORT_STACK=1",
+                              "-DSPT_BVH_SHORT_STACK=1 -DBVH_SHORT_STACK_SIZE=2",
+                              "-DSPT_BVH_QNODES=1", "-DSPT_BVH_QNODES=1 -DSPT_BVH_SIMD=1",
+                              "-DSPT_BVH_QNODES=1 -DSPT_BVH_SHORT_STACK=1",
+                              "-DSPT_BVH_QNODES=1 -DSPT_BVH_SHORT_STACK=1 -DBVH_SHORT_STACK_SIZE=2"};
+    for (int k = 0; k < 8; k++) {
+        int q = k >= 4;
+        const TestClArg args[5] = {
+            {q ? (const void *)qtop : s.tlas.top, s.tlas.top_count * (q ? sizeof(BvhQNode) : sizeof(BvhNode))},
+            {s.tlas.inst, s.tlas.inst_count * sizeof(BvhInstance)},
+            {q ? (const void *)qnodes : s.tlas.nodes,
+             s.tlas.node_count * (q ? sizeof(BvhQNode) : sizeof(BvhNode))},
+            {s.tlas.tris, s.tlas.tri_words * sizeof(float)},
+            {rays, (size_t)nr * 6 * sizeof *rays}};
         test_cl_run(&cl, k_device_src, options[k], "kernels/bvh/bvh_tlas.h", "k_tlas_test", args, 5, out,
                     (size_t)nr * 5 * sizeof *out, nr, 64);
         assert_close(out[4], sizeof(BvhInstance), 0);
@@ -655,6 +665,8 @@ TEST(test_tlas_device_matches_host)
         assert_int_equal(differ, 0);
         assert_true(hits > nr / 2);
     }
+    free(qtop);
+    free(qnodes);
     free(out);
     free(rays);
     iscene_free(&s);

@@ -18,6 +18,23 @@
  * slot has count 0 and an empty box (low +FLT_MAX, high -FLT_MAX) that no ray
  * enters.
  *
+ * Quantised nodes (SPT_BVH_QNODES, set by the host when it uploads them:
+ * src/accel/bvh_build.h, bvh_qnodes_wanted): the same tree in 128-byte nodes
+ * (BvhQNode), its children's boxes quantised (Ylitie, Karras and Laine 2017,
+ * "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
+ * BVHs"): per axis a an origin org[a] and a power-of-two step 2^e (exp[a], the
+ * biased exponent of the float 2^e), and per child a byte per plane, q[2 a]
+ * the eight low and q[2 a + 1] the eight high planes along axis a. A plane is
+ * org[a] + q 2^e computed in float (bvh_qplane; q 2^e is exact, so a fused
+ * multiply-add rounds it the same), and the builder rounds each low plane
+ * down and each high plane up in that very arithmetic, so every decoded box
+ * contains its child's float box and the slab test is as conservative as on
+ * float boxes: the closest hit is the same (only which of two hits at exactly
+ * the same distance wins may change, as the visiting order may). Bit i of
+ * used marks the slots that hold a child. Half the node bytes for two more
+ * float8 operations per plane (docs/performance.md, "What sets the speed":
+ * slower on CPU devices, so not their default).
+ *
  * Triangles are packed in leaf order (packed triangle i, the prim of a hit, is
  * input triangle prim_index[i]), and each leaf is a block of 32-bit words in
  * the tris buffer: the leaf of n triangles at word b holds
@@ -72,11 +89,11 @@
 /* FLT_MAX, a sort key beyond every entry distance (those are <= tmax). */
 #define BVH_FAR 3.402823466e+38f
 
-typedef struct BvhNode {
+typedef struct BvhFNode {
     float bounds[6][BVH_WIDTH]; /* [2 a] low, [2 a + 1] high along axis a, per child */
     spt_u32 child[BVH_WIDTH];   /* a node index, or a leaf's first triangle */
     spt_u32 count[BVH_WIDTH];   /* leaf: triangles | distinct vertices << 8; 0: a node (or unused) */
-} BvhNode;
+} BvhFNode;
 
 /* Most triangles and distinct vertices in one leaf (a 16-lane row), and the
  * words of padding after the last leaf block. */
@@ -87,7 +104,32 @@ typedef struct BvhNode {
 /* Words of the block of a leaf of n triangles with nv distinct vertices. */
 #define bvh_leaf_words(n, nv) (2u + 3u * (nv) + (3u * (n) + 3u) / 4u)
 
-SPT_STATIC_ASSERT(sizeof(BvhNode) == 256, "BvhNode must stay 256 bytes (device layout)");
+/* The quantised node (see the header comment). */
+typedef struct BvhQNode {
+    float org[3];               /* per axis, the planes' origin */
+    spt_u8 exp[3];              /* per axis, the biased float exponent of the planes' step */
+    spt_u8 used;                /* bit i: slot i holds a child */
+    spt_u8 q[6][BVH_WIDTH];     /* [2 a] low, [2 a + 1] high planes along axis a, per child */
+    spt_u32 child[BVH_WIDTH];   /* as BvhFNode's */
+    spt_u32 count[BVH_WIDTH];   /* as BvhFNode's */
+} BvhQNode;
+
+/* The smallest and largest biased exponents of a step: 255 steps of the
+ * largest stay finite, and a step times a byte is never subnormal, so
+ * q 2^e is exact. */
+#define BVH_QEXP_MIN 1
+#define BVH_QEXP_MAX 246
+
+SPT_STATIC_ASSERT(sizeof(BvhFNode) == 256, "BvhFNode must stay 256 bytes (device layout)");
+SPT_STATIC_ASSERT(sizeof(BvhQNode) == 128, "BvhQNode must stay 128 bytes (device layout)");
+
+/* The node the traversal reads: the device's quantised nodes when the host
+ * uploads them, else (and always on the host) the float ones. */
+#if SPT_DEVICE && defined(SPT_BVH_QNODES)
+typedef BvhQNode BvhNode;
+#else
+typedef BvhFNode BvhNode;
+#endif
 SPT_STATIC_ASSERT(bvh_leaf_words(BVH_LEAF_MAX, BVH_LEAF_VERTS) <= 64,
                   "bvh_prefetch's five requests cover leaf blocks of at most 64 words");
 
@@ -119,6 +161,36 @@ SPT_FN spt_u32 bvh_word(const SPT_GLOBAL float *p, spt_u32 i)
     w.f = p[i];
     return w.u;
 #endif
+}
+
+/* The step 2^e of a quantised node's planes along an axis, from its biased
+ * exponent. */
+SPT_FN float bvh_qstep(spt_u32 biased)
+{
+#if SPT_DEVICE
+    return as_float(biased << 23);
+#else
+    union { float f; spt_u32 u; } w;
+    w.u = biased << 23;
+    return w.f;
+#endif
+}
+
+/* The plane of byte q along an axis of origin org and step: the device's
+ * decoding, lane for lane, and the one the builder rounds in. */
+SPT_FN float bvh_qplane(float org, float step, spt_u32 q)
+{
+    return (float)q * step + org;
+}
+
+/* Child i's box of quantised node n as the traversal decodes it. */
+SPT_FN void bvh_qnode_box(const SPT_GLOBAL BvhQNode *n, int i, float lo[3], float hi[3])
+{
+    for (int a = 0; a < 3; a++) {
+        float step = bvh_qstep(n->exp[a]);
+        lo[a] = bvh_qplane(n->org[a], step, n->q[2 * a][i]);
+        hi[a] = bvh_qplane(n->org[a], step, n->q[2 * a + 1][i]);
+    }
 }
 
 /* The three vertices of triangle l of the leaf block at p. */
@@ -235,6 +307,31 @@ SPT_FN uint bvh_mask8(int8 c)
 SPT_FN float8 bvh_v8_min(float8 a, float8 b) { return select(b, a, a < b); }
 SPT_FN float8 bvh_v8_max(float8 a, float8 b) { return select(b, a, a > b); }
 
+#if defined(SPT_BVH_QNODES)
+/* The eight planes of row row (bvh_qplane, lane by lane). */
+SPT_FN float8 bvh_qplanes8(const __global BvhQNode *n, int row, float org, float step)
+{
+    return convert_float8(vload8(0, n->q[row])) * (float8)(step) + (float8)(org);
+}
+
+SPT_FN float8 bvh_node_enter(const __global BvhQNode *n, const BvhRay *r, float tbest, uint *mask)
+{
+    float8 ox = (float8)(r->ox), oy = (float8)(r->oy), oz = (float8)(r->oz);
+    float gx = n->org[0], gy = n->org[1], gz = n->org[2];
+    float sx = bvh_qstep(n->exp[0]), sy = bvh_qstep(n->exp[1]), sz = bvh_qstep(n->exp[2]);
+    float8 tnx = (bvh_qplanes8(n, r->nx, gx, sx) - ox) * r->ix;
+    float8 tfx = (bvh_qplanes8(n, r->nx ^ 1, gx, sx) - ox) * r->ix;
+    float8 tny = (bvh_qplanes8(n, r->ny, gy, sy) - oy) * r->iy;
+    float8 tfy = (bvh_qplanes8(n, r->ny ^ 1, gy, sy) - oy) * r->iy;
+    float8 tnz = (bvh_qplanes8(n, r->nz, gz, sz) - oz) * r->iz;
+    float8 tfz = (bvh_qplanes8(n, r->nz ^ 1, gz, sz) - oz) * r->iz;
+    float8 tn = bvh_v8_max(bvh_v8_max(tnx, tny), bvh_v8_max(tnz, (float8)(0.0f)));
+    float8 tf = bvh_v8_min(bvh_v8_min(tfx, tfy), tfz) * 1.00000036f;
+    tf = bvh_v8_min(tf, (float8)(tbest));
+    *mask = bvh_mask8(tn <= tf) & (uint)n->used;
+    return tn;
+}
+#else
 SPT_FN float8 bvh_node_enter(const __global BvhNode *n, const BvhRay *r, float tbest, uint *mask)
 {
     float8 ox = (float8)(r->ox), oy = (float8)(r->oy), oz = (float8)(r->oz);
@@ -250,6 +347,7 @@ SPT_FN float8 bvh_node_enter(const __global BvhNode *n, const BvhRay *r, float t
     *mask = bvh_mask8(tn <= tf);
     return tn;
 }
+#endif
 
 #else
 typedef struct BvhEnter {
@@ -555,11 +653,14 @@ SPT_FN void bvh_prefetch(const SPT_GLOBAL BvhNode *nodes, const SPT_GLOBAL float
         SPT_PREFETCH(p + (last < 48u ? last : 48u));
         SPT_PREFETCH(p + last);
     } else {
+        /* the node's cache lines: four, or two of a quantised node */
         const SPT_GLOBAL char *q = (const SPT_GLOBAL char *)&nodes[child];
         SPT_PREFETCH(q);
         SPT_PREFETCH(q + 64);
+#if !defined(SPT_BVH_QNODES)
         SPT_PREFETCH(q + 128);
         SPT_PREFETCH(q + 192);
+#endif
     }
 }
 

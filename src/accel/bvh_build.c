@@ -362,6 +362,88 @@ static void bvh_finish_stats(Bvh *bvh)
         : 0.0;
 }
 
+/* The biased exponent of the smallest power of two 2^e with 255 steps from
+ * org reaching hi in bvh_qplane's float arithmetic (BVH_QEXP_MAX at most). */
+static uint32_t qexp_for(float org, float hi)
+{
+    int e;
+    double ext = (double)hi - (double)org;
+    frexp(ext / 255.0, &e); /* 2^(e - 1) <= ext / 255 < 2^e: start at 2^(e - 1) */
+    long b = ext > 0.0 ? (long)e + 126 : BVH_QEXP_MIN;
+    if (b < BVH_QEXP_MIN)
+        b = BVH_QEXP_MIN;
+    if (b > BVH_QEXP_MAX)
+        b = BVH_QEXP_MAX;
+    while (b < BVH_QEXP_MAX && bvh_qplane(org, bvh_qstep((spt_u32)b), 255u) < hi)
+        b++;
+    return (uint32_t)b;
+}
+
+void bvh_node_quantise(BvhQNode *q, const BvhNode *n)
+{
+    float lo[3], hi[3];
+    memset(q, 0, sizeof *q);
+    for (int a = 0; a < 3; a++) {
+        lo[a] = FLT_MAX;
+        hi[a] = -FLT_MAX;
+    }
+    for (int i = 0; i < BVH_WIDTH; i++) {
+        q->child[i] = n->child[i];
+        q->count[i] = n->count[i];
+        if (!(n->bounds[0][i] <= n->bounds[1][i] && n->bounds[2][i] <= n->bounds[3][i] &&
+              n->bounds[4][i] <= n->bounds[5][i]))
+            continue; /* unused: an empty box */
+        q->used |= (spt_u8)(1u << i);
+        for (int a = 0; a < 3; a++) {
+            lo[a] = minf(lo[a], n->bounds[2 * a][i]);
+            hi[a] = maxf(hi[a], n->bounds[2 * a + 1][i]);
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        if (!q->used)
+            lo[a] = hi[a] = 0.0f;
+        uint32_t b = qexp_for(lo[a], hi[a]);
+        float step = bvh_qstep(b);
+        q->org[a] = lo[a];
+        q->exp[a] = (spt_u8)b;
+        for (int i = 0; i < BVH_WIDTH; i++) {
+            if (!(q->used >> i & 1u))
+                continue;
+            float bl = n->bounds[2 * a][i], bh = n->bounds[2 * a + 1][i];
+            /* A first guess from the quotient in double, then moved until the
+             * float plane is outside the box: low planes down, high planes up. */
+            double fl = floor(((double)bl - (double)lo[a]) / (double)step);
+            double fh = ceil(((double)bh - (double)lo[a]) / (double)step);
+            uint32_t ql = fl < 0.0 ? 0u : fl > 255.0 ? 255u : (uint32_t)fl;
+            uint32_t qh = fh < 0.0 ? 0u : fh > 255.0 ? 255u : (uint32_t)fh;
+            while (ql > 0 && bvh_qplane(lo[a], step, ql) > bl)
+                ql--;
+            while (qh < 255 && bvh_qplane(lo[a], step, qh) < bh)
+                qh++;
+            q->q[2 * a][i] = (spt_u8)ql;
+            q->q[2 * a + 1][i] = (spt_u8)qh;
+        }
+    }
+}
+
+BvhQNode *bvh_quantise_nodes(const BvhNode *nodes, size_t count)
+{
+    size_t n = count ? count : 1;
+    BvhQNode *q = aligned_alloc(64, n * sizeof *q);
+    if (!q)
+        q = spt_malloc(n * sizeof *q);
+    memset(q, 0, n * sizeof *q);
+    for (size_t k = 0; k < count; k++)
+        bvh_node_quantise(&q[k], &nodes[k]);
+    return q;
+}
+
+int bvh_qnodes_wanted(void)
+{
+    const char *v = getenv("SPECTRACE_BVH_NODES");
+    return v && !strcmp(v, "quantised");
+}
+
 int bvh_build(Bvh *bvh, const float *tri_pos, uint32_t tri_count, SptError *e)
 {
     return bvh_build_ex(bvh, tri_pos, tri_count, NULL, e);

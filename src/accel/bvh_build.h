@@ -98,6 +98,23 @@ int bvh_refit(Bvh *bvh, const float *tri_pos, uint32_t tri_count, uint32_t built
 int bvh_build_boxes(const float *boxes, uint32_t count, BvhNode **nodes, uint32_t *node_count,
                     uint32_t *order, SptError *e);
 
+/* Node n as a quantised node (kernels/bvh/bvh_node.h, BvhQNode): each low
+ * plane rounded down and each high plane up in the traversal's own float
+ * arithmetic, so every decoded box contains n's float box; slots with an
+ * empty box are unused. */
+void bvh_node_quantise(BvhQNode *q, const BvhNode *n);
+
+/* The count nodes quantised (malloc'd, 64-byte aligned; one zeroed node when
+ * count is 0), the caller's to free. */
+BvhQNode *bvh_quantise_nodes(const BvhNode *nodes, size_t count);
+
+/* 1 when the renderer uploads quantised nodes (and compiles the kernels with
+ * SPT_BVH_QNODES): SPECTRACE_BVH_NODES=quantised. They halve the nodes' bytes
+ * (the 1M-triangle mesh: 24.3 -> 20.4 bytes per triangle) but were slower
+ * on CPU devices in cache and no faster beyond it (docs/performance.md,
+ * "What sets the speed"), so float nodes are the default. */
+int bvh_qnodes_wanted(void);
+
 /* Frees what bvh_build allocated and zeroes bvh; safe on a zeroed or freed Bvh. */
 void bvh_free(Bvh *bvh);
 

@@ -571,6 +571,12 @@ int gpu_scene_build_with(GpuScene *g, const Scene *s, Bvh *bvh, SptError *e)
         }
     }
     free(src);
+    if (bvh_qnodes_wanted()) {
+        const Tlas *tl = &g->tlas;
+        g->qnodes = tl->inst_count ? bvh_quantise_nodes(tl->nodes, tl->node_count)
+                                   : bvh_quantise_nodes(g->bvh.nodes, g->bvh.node_count);
+        g->qtop = tl->inst_count ? bvh_quantise_nodes(tl->top, tl->top_count) : NULL;
+    }
 
     return gpu_scene_build_shading(g, s, e);
 }
@@ -765,6 +771,8 @@ void gpu_scene_free(GpuScene *g)
 {
     bvh_free(&g->bvh);
     tlas_free(&g->tlas);
+    free(g->qnodes);
+    free(g->qtop);
     free(g->mesh_prims);
     free(g->tri_shade);
     free(g->vtx_pos);
@@ -783,11 +791,12 @@ static size_t buffer_bytes(const GpuScene *g, const RenderLights *L, const char 
 {
     uint32_t n = g->prim_total;
     const Tlas *tl = &g->tlas;
+    size_t node_bytes = g->qnodes ? sizeof(BvhQNode) : sizeof(BvhNode);
     if (!strcmp(name, "nodes"))
-        return NZ((tl->inst_count ? tl->node_count : g->bvh.node_count) * sizeof(BvhNode));
+        return NZ((tl->inst_count ? tl->node_count : g->bvh.node_count) * node_bytes);
     if (!strcmp(name, "tris"))
         return NZ(tl->inst_count ? tl->tri_words * sizeof(float) : g->bvh.tri_data_bytes);
-    if (!strcmp(name, "tlas_top")) return NZ((size_t)tl->top_count * sizeof(BvhNode));
+    if (!strcmp(name, "tlas_top")) return NZ((size_t)tl->top_count * node_bytes);
     if (!strcmp(name, "tlas_inst")) return NZ((size_t)tl->inst_count * sizeof(BvhInstance));
     if (!strcmp(name, "tri_shade")) return NZ((size_t)n * sizeof(TriShade));
     if (!strcmp(name, "vtx_pos")) return NZ((size_t)g->vertex_count * 3 * sizeof(float));
@@ -837,9 +846,10 @@ const void *gpu_scene_buffer_data(const GpuScene *g, const RenderLights *L, cons
 {
     if (buffer_bytes(g, L, name, 0) < buffer_bytes(g, L, name, 1))
         return NULL;
-    if (!strcmp(name, "nodes")) return g->tlas.inst_count ? g->tlas.nodes : g->bvh.nodes;
+    if (!strcmp(name, "nodes"))
+        return g->qnodes ? (const void *)g->qnodes : g->tlas.inst_count ? g->tlas.nodes : g->bvh.nodes;
     if (!strcmp(name, "tris")) return g->tlas.inst_count ? g->tlas.tris : g->bvh.tri_data;
-    if (!strcmp(name, "tlas_top")) return g->tlas.top;
+    if (!strcmp(name, "tlas_top")) return g->qtop ? (const void *)g->qtop : g->tlas.top;
     if (!strcmp(name, "tlas_inst")) return g->tlas.inst;
     if (!strcmp(name, "tri_shade")) return g->tri_shade;
     if (!strcmp(name, "vtx_pos")) return g->vtx_pos;

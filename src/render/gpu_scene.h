@@ -22,6 +22,10 @@ typedef struct GpuScene {
      * are bvh's, then each mesh's in turn (BvhInstance.prim_base); the
      * kernels' nodes and tris are tlas's. inst_count 0: no instances. */
     Tlas tlas;
+    /* The kernels' nodes and top level quantised (kernels/bvh/bvh_node.h,
+     * BvhQNode) when bvh_qnodes_wanted, uploaded instead of the float ones;
+     * else NULL. */
+    BvhQNode *qnodes, *qtop;
     uint32_t *mesh_prims;    /* tlas's mesh m: packed triangles [mesh_prims[m], mesh_prims[m + 1]) */
     uint32_t prim_total;     /* packed triangles: bvh's and the meshes' */
     TriShade *tri_shade;     /* per packed triangle */

@@ -407,7 +407,8 @@ void wavefront_options(const ClDeviceInfo *info, const GpuScene *g, const Render
      * and other programs) is read mostly from memory: each traversal step then
      * asks early for the next one's data (SPT_BVH_STEP_PREFETCH); in a small
      * scene those requests only cost time. */
-    double bvh_bytes = (double)g->bvh.node_count * sizeof(BvhNode) + (double)g->bvh.tri_data_bytes;
+    double bvh_bytes = (double)g->bvh.node_count * (g->qnodes ? sizeof(BvhQNode) : sizeof(BvhNode)) +
+                       (double)g->bvh.tri_data_bytes;
     int step_prefetch = ray_pairs && bvh_bytes > 0.25 * (double)cache;
     /* The thin film's code only where a material has one (kernels/closure/
      * bsdf_params.h, SPT_IRIDESCENCE). */
@@ -419,10 +420,11 @@ void wavefront_options(const ClDeviceInfo *info, const GpuScene *g, const Render
         snprintf(bands_def, sizeof bands_def, "-DSPT_BANDS=%d ", rs->spectral);
     /* Photon merging's code only where it is asked for
      * (kernels/integrator/photon_merge.h). */
-    snprintf(out, cap, "%s%s%s%s%s%s%s",
+    snprintf(out, cap, "%s%s%s%s%s%s%s%s",
              ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "-DSPT_BVH_SHORT_STACK=1 ",
-             step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "", film ? "" : "-DSPT_IRIDESCENCE=0 ",
-             render_keeps_aov(rs) ? "-DSPT_AOV=1 " : "", bands_def, light_plan_merges(rs, g) ? "-DSPT_MERGE=1 " : "",
+             g->qnodes ? "-DSPT_BVH_QNODES=1 " : "", step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "",
+             film ? "" : "-DSPT_IRIDESCENCE=0 ", render_keeps_aov(rs) ? "-DSPT_AOV=1 " : "", bands_def,
+             light_plan_merges(rs, g) ? "-DSPT_MERGE=1 " : "",
              rs->test.inject_nan ? "-DSPT_TEST_INJECT_NAN=1" : "");
 }
 
