@@ -63,9 +63,13 @@ IFS=, read -r -a impl_list <<<"$impls"
 # these, while pocl-gpu runs every device test on that path. The full form adds
 # the two that render most there (quick form, 2 cores: test_textures 342 s and
 # test_multidevice 173 s of CPU time, the other six 67 s together).
-# The instance renders are left out: test_gltf_instances had not finished
-# after 30 minutes there (17 of CPU, 6.7 GB resident).
-rusticl_subset=(test_bsdf test_bvh test_instancing test_lights test_rng test_sampling test_sweep test_wavelength)
+# The tests of instancing and the light tree run their rusticl form
+# (tests/test_util.h, test_on_rusticl; test_kernel_path_here: the GPU path
+# only, smaller renders). Left out: test_caustics_merge (rusticl's build of
+# the photon-merging kernels, -DSPT_MERGE, took 12 minutes and 4 GB here) and
+# test_api (1325 s here before the path pool was capped at a chunk's paths).
+rusticl_subset=(test_bsdf test_bvh test_instancing test_lights test_rng test_sampling test_sweep test_wavelength
+                test_gltf_instances test_instance_render test_light_tree)
 [ "$form" = full ] && rusticl_subset+=(test_textures test_multidevice)
 # test_multidevice and test_sweep split one render across PoCL and another
 # implementation; pocl-gpu is PoCL itself.

@@ -139,18 +139,23 @@ TEST(test_instances_loaded)
     scene_free(&s);
 }
 
-#define W 48
-
 /* The two loads render alike on every kernel path: the emitting quad is two
  * instances in one and four world-space triangles in the other, so the light
  * selection's random streams differ and the images agree within their noise
- * (assert_renders_agree_noisy, tests/test_render_util.h). */
+ * (assert_renders_agree_noisy, tests/test_render_util.h). At 48 x 48 and 64
+ * samples; on rusticl (test_on_rusticl) 24 x 24 at 16, 16 times fewer paths,
+ * whose noise leaves a coarse check (a ray not carried into an instance's
+ * space fails it; a normal carried wrongly, which test_instance_render's
+ * exact comparison catches there, does not). */
 TEST(test_instanced_gltf_matches_flattened)
 {
     Scene si, sf;
     load(&si, SCENE_INSTANCING_AUTO);
     load(&sf, SCENE_INSTANCING_OFF);
-    assert_renders_agree_noisy(&si, &sf, W, 64);
+    if (test_on_rusticl())
+        assert_renders_agree_noisy(&si, &sf, 24, 16);
+    else
+        assert_renders_agree_noisy(&si, &sf, 48, 64);
     scene_free(&si);
     scene_free(&sf);
 }

@@ -384,6 +384,12 @@ TEST(test_instanced_emitters_match_flattened)
     } runs[5] = {{SPT_KERNEL_PATH_CPU, SPT_SWITCH_OFF, 0}, {SPT_KERNEL_PATH_CPU, SPT_SWITCH_ON, 0},
                  {SPT_KERNEL_PATH_GPU, SPT_SWITCH_OFF, 0}, {SPT_KERNEL_PATH_GPU, SPT_SWITCH_ON, 0},
                  {SPT_KERNEL_PATH_CPU, SPT_SWITCH_AUTO, 1}};
+    /* rusticl traces some 150 paths a second here: its 9 renders of 147,456
+     * paths would take hours. test_instanced_matches_flattened runs there. */
+    if (test_on_rusticl()) {
+        print_message("  left out on rusticl (9 renders at 48 x 48, 64 spp)\n");
+        skip();
+    }
     float *a = malloc(sizeof(float) * 3 * W * W), *b = malloc(sizeof(float) * 3 * W * W);
     for (int k = 0; k < 5; k++) {
         Scene si, sf;

@@ -388,11 +388,14 @@ static void yard_scene(Scene *s)
 
 /* The yard with and without the tree: the means of the image's 4 x 4 blocks
  * over R independent renders (seeds) agree by Welch's test, and so does the
- * whole image's. */
+ * whole image's. On rusticl (test_on_rusticl) 16 x 16 at 8 samples: the
+ * blocks' standard errors grow about 6 times, which still tells a light the
+ * tree never picks or a pick probability off by a factor. */
 TEST(test_light_tree_images_agree)
 {
-    enum { W = 32, B = 4, R = 8 };
-    const int spp = test_quick() ? 64 : 256;
+    enum { B = 4, R = 8 };
+    const int W = test_on_rusticl() ? 16 : 32;
+    const int spp = test_on_rusticl() ? 8 : test_quick() ? 64 : 256;
     Scene s;
     yard_scene(&s);
     double m[2][B * B], m2[2][B * B], all[2] = {0}, all2[2] = {0};

@@ -363,6 +363,16 @@ static inline int test_quick(void)
     return q && *q && strcmp(q, "0") != 0;
 }
 
+/* 1 when the tests run on rusticl (tests/run_tests.sh names the implementation
+ * in SPECTRACE_TEST_IMPL): llvmpipe traces about 600 paths a second here
+ * (docs/performance.md, "Implementations"), so the renders of its quick form
+ * are smaller still where a test says so. */
+static inline int test_on_rusticl(void)
+{
+    const char *impl = getenv("SPECTRACE_TEST_IMPL");
+    return impl && strcmp(impl, "rusticl") == 0;
+}
+
 #define skip_if_quick()                                                              \
     do {                                                                             \
         if (test_quick()) {                                                          \
