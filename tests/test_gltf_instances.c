@@ -197,7 +197,8 @@ TEST(test_instanced_tangents_match_flattened)
                 assert_close(tg[2], p[0] / rho, 1e-5);
             }
         }
-    assert_renders_agree(&si, &sf, W);
+    /* 24 pixels wide on rusticl: the comparison is exact, so it stays strict. */
+    assert_renders_agree(&si, &sf, test_on_rusticl() ? 24 : 48);
     scene_free(&si);
     scene_free(&sf);
 }
