@@ -21,14 +21,6 @@
 
 SPT_DEVICE_ONLY
 
-/* Whether params p hold instances (docs/architecture.md, "Instances (two
- * levels)"). The host builds one-level scenes with -DSPT_INSTANCES=0, so
- * their programs carry none of the top level's branches. */
-#ifndef SPT_INSTANCES
-#define SPT_INSTANCES 1
-#endif
-#define spt_instanced(p) (SPT_INSTANCES && (p)->inst_count > 0u)
-
 #define SPT_KG_PARAM(type, name) __global type *name,
 #define SPT_KG_PS_PARAM(type, name) __global type *ps_##name,
 #define SPT_KG_SH_PARAM(type, name) __global type *sh_##name,

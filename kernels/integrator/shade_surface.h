@@ -543,7 +543,7 @@ SPT_FN_INLINE void shade_hit_begin(uint i, ShadeHit *h, const KernelGlobals *kg)
     h->i = i;
     h->hit = kg->ps_hit[i];
     h->prim = as_uint(h->hit.w);
-    h->inst = spt_instanced(kg->p) && h->prim != NO_HIT ? kg->ps_inst[i] : SPT_NO_INST;
+    h->inst = kg->p->inst_count > 0u && h->prim != NO_HIT ? kg->ps_inst[i] : SPT_NO_INST;
     h->depth = kg->ps_depth[i] + 1u;
     h->lam = kg->ps_lambda[i];
     h->beta = kg->ps_throughput[i];

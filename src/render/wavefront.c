@@ -430,11 +430,8 @@ void wavefront_options(const ClDeviceInfo *info, const GpuScene *g, const Render
         snprintf(bands_def, sizeof bands_def, "-DSPT_BANDS=%d ", rs->spectral);
     /* Photon merging's code only where it is asked for
      * (kernels/integrator/photon_merge.h). */
-    /* A one-level scene's program leaves the top level's branches out
-     * (kernels/integrator/kernel_globals.h, spt_instanced). */
-    snprintf(out, cap, "%s%s%s%s%s%s%s%s%s",
+    snprintf(out, cap, "%s%s%s%s%s%s%s%s",
              ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "-DSPT_BVH_SHORT_STACK=1 ",
-             g->tlas.inst_count ? "" : "-DSPT_INSTANCES=0 ",
              g->qnodes ? "-DSPT_BVH_QNODES=1 " : "", step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "",
              film ? "" : "-DSPT_IRIDESCENCE=0 ", render_keeps_aov(rs) ? "-DSPT_AOV=1 " : "", bands_def,
              light_plan_merges(rs, g) ? "-DSPT_MERGE=1 " : "",
