@@ -259,20 +259,40 @@ static int material_turns_light(const GpuMaterial *m)
     return (smooth && (m->transmission > 0.0f || m->metallic > 0.0f)) || (m->clearcoat > 0.0f && cc_smooth);
 }
 
-/* Whether a triangle of the scene has a material that material_turns_light:
- * a material that only the file defines, on no rendered triangle, makes no
- * caustics. */
-static int scene_turns_light(const GpuScene *g)
+/* Whether a triangle of the scene has a material that material_turns_light
+ * (the return value), and whether such a material is dispersive
+ * (KHR_materials_dispersion) into *disperses when not NULL: merging's light
+ * through it is biased (docs/architecture.md, "Caustics seen through
+ * specular surfaces"). A material that only the file defines, on no rendered
+ * triangle, makes no caustics. */
+static int scene_turns_light_ex(const GpuScene *g, int *disperses)
 {
     unsigned char *used = spt_calloc(g->material_count ? g->material_count : 1, 1);
-    int any = 0;
+    int any = 0, disp = 0;
     for (uint32_t i = 0; i < g->prim_total; i++)
         if (g->tri_shade[i].material < g->material_count)
             used[g->tri_shade[i].material] = 1;
-    for (uint32_t i = 0; i < g->material_count && !any; i++)
-        any = used[i] && material_turns_light(&g->materials[i]);
+    for (uint32_t i = 0; i < g->material_count; i++)
+        if (used[i] && material_turns_light(&g->materials[i])) {
+            any = 1;
+            disp |= g->materials[i].dispersion > 0.0f;
+        }
     free(used);
+    if (disperses)
+        *disperses = disp;
     return any;
+}
+
+static int scene_turns_light(const GpuScene *g)
+{
+    return scene_turns_light_ex(g, NULL);
+}
+
+static int scene_disperses(const GpuScene *g)
+{
+    int disp;
+    scene_turns_light_ex(g, &disp);
+    return disp;
 }
 
 /* Whether the light-tracing pass runs (--caustics): on, or auto and the scene
@@ -310,28 +330,13 @@ int light_plan_runs(const RenderSettings *rs, const RenderLights *L, const GpuSc
     return scene_turns_light(g);
 }
 
-/* Whether a material that material_turns_light on a triangle of scene g is
- * dispersive (KHR_materials_dispersion): merging's light through it is
- * biased (docs/architecture.md, "Caustics seen through specular surfaces"). */
-static int scene_disperses(const GpuScene *g)
-{
-    unsigned char *used = spt_calloc(g->material_count ? g->material_count : 1, 1);
-    for (uint32_t i = 0; i < g->prim_total; i++)
-        if (g->tri_shade[i].material < g->material_count)
-            used[g->tri_shade[i].material] = 1;
-    int disperses = 0;
-    for (uint32_t i = 0; i < g->material_count && !disperses; i++)
-        disperses = used[i] && g->materials[i].dispersion > 0.0f && material_turns_light(&g->materials[i]);
-    free(used);
-    return disperses;
-}
-
 int light_plan_merges(const RenderSettings *rs, const GpuScene *g)
 {
     if (rs->merge == SPT_SWITCH_OFF || rs->caustics == SPT_SWITCH_OFF || rs->spectral > 0 ||
         (rs->aov & SPT_AOV_VARIANCE))
         return 0;
-    return rs->merge == SPT_SWITCH_ON || (scene_turns_light(g) && !scene_disperses(g));
+    int disperses;
+    return rs->merge == SPT_SWITCH_ON || (scene_turns_light_ex(g, &disperses) && !disperses);
 }
 
 uint32_t light_plan_max_paths(const RenderSettings *rs)
