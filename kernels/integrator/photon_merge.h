@@ -57,6 +57,30 @@ SPT_FN_INLINE float pm_wavelength_u(float u, uint sample, const KernelGlobals *k
     return u;
 }
 
+/* A camera path's throughput beta after a BSDF sample (dispersive: it
+ * refracted at a wavelength-dependent index), with merging: a dispersive
+ * refraction leaves it its hero wavelength alone, as TerminateSecondary does,
+ * but its wavelengths' pdfs stay, and the hero's throughput takes the 4 the
+ * pdf would lose (SPT_PM_HERO marks it). So the radiance the path gathered
+ * before (a merge of a hero-only photon, whose hero lane carries that 4
+ * already, pm_gather) keeps its weight when the path loses its other lanes
+ * later: dividing it by a hero-only pdf at the end would count it four times
+ * over (docs/architecture.md, "Caustics seen through specular surfaces").
+ * Returns 0, leaving beta, for light paths and without merging. */
+SPT_FN_INLINE int pm_camera_hero(uint i, int dispersive, float4 *beta, const KernelGlobals *kg)
+{
+    uint lt = kg->ps_lt[i];
+    if (!kg->p->merge || (lt & SPT_LT_LIGHT))
+        return 0;
+    if (dispersive && !(lt & SPT_PM_HERO)) {
+        kg->ps_lt[i] = lt | SPT_PM_HERO;
+        *beta = (float4)(4.0f * beta->x, 0.0f, 0.0f, 0.0f);
+    } else if (lt & SPT_PM_HERO) {
+        *beta = (float4)(beta->x, 0.0f, 0.0f, 0.0f);
+    }
+    return 1;
+}
+
 /* The camera path's state after its vertex at depth `depth` (segments from
  * the camera) sampled a lobe, delta or not (SPT_PM_* of render_types.h). */
 SPT_FN_INLINE uint pm_camera_next(uint lt, uint depth, int is_delta)
@@ -121,7 +145,7 @@ SPT_FN_INLINE float4 pm_gather(uint i, uint depth, float3 p, float3 ngf, float3 
     uint npix = (uint)(kg->p->width * kg->p->height);
     uint slot = kg->ps_work[i] / npix;
     float r = kg->pm_radius[2u * slot], inv = kg->pm_radius[2u * slot + 1u];
-    int hero_only = !(kg->ps_lambda_pdf[i].y > 0.0f);
+    int hero_only = (kg->ps_lt[i] & SPT_PM_HERO) != 0u;
     float4 sum = (float4)(0.0f);
     int x0 = spt_pm_cell(p.x - r, inv), x1 = spt_pm_cell(p.x + r, inv);
     int y0 = spt_pm_cell(p.y - r, inv), y1 = spt_pm_cell(p.y + r, inv);
@@ -150,7 +174,9 @@ SPT_FN_INLINE float4 pm_gather(uint i, uint depth, float3 p, float3 ngf, float3 
                     float4 phi = ph[2];
                     /* A light path that kept only its hero wavelength: that
                      * lane's estimate carries the 4 its lost lanes leave it
-                     * (the camera path's own pdfs count all four). */
+                     * (the camera path's pdfs count all four); a camera path
+                     * that kept only its hero carries that 4 in its
+                     * throughput already (pm_camera_hero). */
                     if ((tag & SPT_PM_TAG_HERO) && !hero_only)
                         phi = (float4)(4.0f * phi.x, 0.0f, 0.0f, 0.0f);
                     sum += bsdf_eval(bp, wo_l, wi_l) * phi * (1.0f / fabs(wi_side));

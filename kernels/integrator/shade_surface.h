@@ -462,15 +462,20 @@ SPT_FN_INLINE int shade_bsdf_bounce(ShadeHit *h, const BsdfParams *bp, const Sha
     int alive = bs->valid && (*reflect ? *wn_side * f->wo_side > 0.0f : *wn_side * f->wo_side < 0.0f);
     if (alive) {
         h->beta *= bs->weight;
-        float4 lp = kg->ps_lambda_pdf[i];
-        if (bs->dispersive && lp.y > 0.0f) {
-            /* The refraction split the wavelengths: only the hero carries on
-             * (pbrt-v4's TerminateSecondary); its pdf becomes 1/4 of what it was. */
-            lp = (float4)(0.25f * lp.x, 0.0f, 0.0f, 0.0f);
-            kg->ps_lambda_pdf[i] = lp;
+#ifdef SPT_MERGE
+        if (!pm_camera_hero(i, bs->dispersive, &h->beta, kg))
+#endif
+        {
+            float4 lp = kg->ps_lambda_pdf[i];
+            if (bs->dispersive && lp.y > 0.0f) {
+                /* The refraction split the wavelengths: only the hero carries on
+                 * (pbrt-v4's TerminateSecondary); its pdf becomes 1/4 of what it was. */
+                lp = (float4)(0.25f * lp.x, 0.0f, 0.0f, 0.0f);
+                kg->ps_lambda_pdf[i] = lp;
+            }
+            if (!(lp.y > 0.0f))
+                h->beta = (float4)(h->beta.x, 0.0f, 0.0f, 0.0f);
         }
-        if (!(lp.y > 0.0f))
-            h->beta = (float4)(h->beta.x, 0.0f, 0.0f, 0.0f);
         alive = max4(h->beta) > 0.0f;
     }
     return alive;

@@ -322,12 +322,15 @@ typedef struct RenderParams {
  * exactly one has, after one or more delta vertices from the camera (the
  * merge's vertex), and SPT_PM_ONE_S once a delta vertex followed it. A light
  * path: SPT_PM_SEEN_D once a vertex sampled a non-delta lobe, and its
- * photons so far in the two bits from SPT_PM_COUNT_SHIFT. */
+ * photons so far in the two bits from SPT_PM_COUNT_SHIFT. A camera path
+ * with merging: SPT_PM_HERO once a dispersive refraction left it its hero
+ * wavelength alone (pm_camera_hero). */
 #define SPT_PM_SEEN_D 16u
 #define SPT_PM_ONE 32u
 #define SPT_PM_ONE_S 64u
 #define SPT_PM_COUNT_SHIFT 7
-#define SPT_PM_BITS 0x1f0u
+#define SPT_PM_HERO 512u
+#define SPT_PM_BITS 0x3f0u
 
 /* The light film (light_film): per pixel, X, Y and Z of the light paths'
  * splats as 64-bit fixed-point sums (two words each, low first) in units of

@@ -753,6 +753,7 @@ int gpu_scene_build_shading(GpuScene *g, const Scene *s, SptError *e)
     for (int k = 0; k < 3; k++)
         g->scene_center[k] = r2 > 0.0f ? 0.5f * (s->bounds_min[k] + s->bounds_max[k]) : 0.0f;
     g->lights = spt_calloc(s->light_count ? s->light_count : 1, sizeof(GpuLight));
+    g->line_spectrum = 0;
     for (uint32_t i = 0; i < s->light_count; i++) {
         g->spectra = spt_realloc(g->spectra, (g->spectra_count + SPT_CIE_SAMPLES) * sizeof(float));
         rc = light_from_scene(&s->lights[i], g->spectra + g->spectra_count, g->spectra_count,
@@ -763,7 +764,10 @@ int gpu_scene_build_shading(GpuScene *g, const Scene *s, SptError *e)
         }
         g->spectra_count += SPT_CIE_SAMPLES;
         g->light_count++;
+        g->line_spectrum |= s->lights[i].spd.line_count > 0;
     }
+    for (uint32_t i = 0; i < s->material_count; i++)
+        g->line_spectrum |= s->materials[i].emission_spd.line_count > 0;
     return 0;
 }
 

@@ -67,6 +67,8 @@ typedef struct GpuScene {
     uint32_t light_count;
     float scene_radius;      /* of the bounding sphere, for light power estimates */
     float scene_center[3];   /* its centre */
+    int line_spectrum;       /* a light's or an emissive material's spectrum has lines
+                                (an SPD's line_count, e.g. mercury): light_plan_merges */
 } GpuScene;
 
 /* Builds the BVH and the device arrays of s. Returns 0 or an exit code. */

@@ -261,10 +261,8 @@ static int material_turns_light(const GpuMaterial *m)
 
 /* Whether a triangle of the scene has a material that material_turns_light
  * (the return value), and whether such a material is dispersive
- * (KHR_materials_dispersion) into *disperses when not NULL: merging's light
- * through it is biased (docs/architecture.md, "Caustics seen through
- * specular surfaces"). A material that only the file defines, on no rendered
- * triangle, makes no caustics. */
+ * (KHR_materials_dispersion) into *disperses when not NULL. A material that
+ * only the file defines, on no rendered triangle, makes no caustics. */
 static int scene_turns_light_ex(const GpuScene *g, int *disperses)
 {
     unsigned char *used = spt_calloc(g->material_count ? g->material_count : 1, 1);
@@ -288,11 +286,16 @@ static int scene_turns_light(const GpuScene *g)
     return scene_turns_light_ex(g, NULL);
 }
 
-static int scene_disperses(const GpuScene *g)
+/* Whether dispersive glass and a line spectrum meet: with merging, a
+ * dispersive refraction leaves every path of a sample index the same hero
+ * wavelength, too few wavelengths over the render to find a line narrower
+ * than their spacing (docs/architecture.md, "Caustics seen through specular
+ * surfaces"). */
+static int scene_disperses_lines(const GpuScene *g)
 {
     int disp;
     scene_turns_light_ex(g, &disp);
-    return disp;
+    return disp && g->line_spectrum;
 }
 
 /* Whether the light-tracing pass runs (--caustics): on, or auto and the scene
@@ -335,8 +338,7 @@ int light_plan_merges(const RenderSettings *rs, const GpuScene *g)
     if (rs->merge == SPT_SWITCH_OFF || rs->caustics == SPT_SWITCH_OFF || rs->spectral > 0 ||
         (rs->aov & SPT_AOV_VARIANCE))
         return 0;
-    int disperses;
-    return rs->merge == SPT_SWITCH_ON || (scene_turns_light_ex(g, &disperses) && !disperses);
+    return rs->merge == SPT_SWITCH_ON || (scene_turns_light(g) && !scene_disperses_lines(g));
 }
 
 uint32_t light_plan_max_paths(const RenderSettings *rs)
@@ -372,9 +374,10 @@ void light_plan(RenderParams *p, const RenderLights *L, const GpuScene *g, const
     if (rs->merge == SPT_SWITCH_ON && !light_plan_runs(rs, L, g, cam, 0))
         spt_warn("--merge on: photon merging needs the light-tracing pass (--caustics), which does not run "
                  "here; rendering without it");
-    else if (rs->merge == SPT_SWITCH_ON && scene_disperses(g))
-        spt_warn("--merge on: the scene has dispersive glass, through which photon merging is biased "
-                 "(docs/architecture.md, \"Caustics seen through specular surfaces\"); --merge auto "
+    else if (rs->merge == SPT_SWITCH_ON && scene_disperses_lines(g))
+        spt_warn("--merge on: the scene has dispersive glass and a light with a line spectrum, whose lines "
+                 "the one hero wavelength per sample index that merging leaves through that glass may "
+                 "miss (docs/architecture.md, \"Caustics seen through specular surfaces\"); --merge auto "
                  "leaves it to the camera paths");
     /* rs->light_paths (0: the default) light paths per camera path, times
      * caustic_share: that many times the pixels per sample index, rounded, at

@@ -26,7 +26,8 @@ int light_plan_runs(const RenderSettings *rs, const RenderLights *L, const GpuSc
  * seen through specular surfaces"): --merge on, or auto where a triangle's
  * material has a delta lobe that passes or turns light (as the light-tracing
  * pass's auto rule), so that camera paths may see, through it, a caustic that
- * light paths carry through it, unless such a material is dispersive; never where the light-tracing pass cannot run
+ * light paths carry through it, unless such a material is dispersive and a
+ * light's spectrum has lines; never where the light-tracing pass cannot run
  * for the settings (--caustics off, --spectral, the variance layer). It runs
  * where the pass runs too (light_plan). */
 int light_plan_merges(const RenderSettings *rs, const GpuScene *g);

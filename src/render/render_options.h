@@ -154,8 +154,8 @@ enum { SPT_SWITCH_AUTO = 0, SPT_SWITCH_OFF = 1, SPT_SWITCH_ON = 2 };
       "photon merging for caustics seen through glass or in a\n"                               \
       "mirror, on the light tracing's paths: auto (default: on\n"                              \
       "where the light tracing runs for glass or mirrors, unless\n"                          \
-      "the glass is dispersive), off, or on (needs\n"                                         \
-      "the light tracing)")                                                                     \
+      "the glass is dispersive and a light has a line spectrum),\n"                          \
+      "off, or on (needs the light tracing)")                                                   \
     X(RS, SWITCH, int, light_tree, "light-tree", 0, "MODE", SPT_SWITCH_AUTO, 0, 0,              \
       SPT_OPT_IMAGE | SPT_OPT_MPI, "expected auto, off or on",                                  \
       "next-event estimation picks lights with a light tree, by\n"                            \
