@@ -14,6 +14,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "accel/bvh_build.h"
 #include "cl/cl_device.h"
 #include "api/output_check.h"
 #include "api/render_args.h"
@@ -24,7 +25,6 @@
 #include "io/image_out.h"
 #include "io/srgb.h"
 #include "mpi/mpi_hook.h"
-#include "accel/bvh_build.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
 #include "render/film_layers.h"

@@ -277,7 +277,8 @@ int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
                      void *user, spectrace_image **out, spectrace_error *err);
 
 /* What a scene's renders have cost so far (since version 1.1): the renders
- * that completed; the BVH builds (one per load, again only when a material
+ * that completed; the BVH builds (one per load and per pose of
+ * spectrace_scene_set_time whose tree is not refitted, again when a material
  * change could not be applied to the kept one); the programs built or loaded
  * from the program cache (one per device, again when the kernel options
  * change); the uploads of the geometry (BVH, triangles and vertex arrays) and
