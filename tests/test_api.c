@@ -3,6 +3,7 @@
  * threads; changed materials equal the changed file; errors are the command
  * line's; the progress callback cancels. Each render is small (32 x 32, 4
  * samples) on the implementation's default device. */
+#include <math.h>
 #include <pthread.h>
 #include <unistd.h>
 
@@ -942,6 +943,183 @@ TEST(test_api_steps_stop_write_resume)
     spectrace_settings_free(ck);
     spectrace_settings_free(plain);
     spectrace_scene_free(s);
+}
+
+#define TURNTABLE SPT_TEST_DATA("anim/turntable.gltf")
+
+/* image's linear sRGB and XYZ equal want's bit for bit. */
+static void assert_same_image(const spectrace_image *image, const spectrace_image *want)
+{
+    size_t n = (size_t)spectrace_image_width(want) * spectrace_image_height(want) * 3;
+    assert_int_equal(spectrace_image_width(image), spectrace_image_width(want));
+    assert_int_equal(spectrace_image_height(image), spectrace_image_height(want));
+    float *a = malloc(n * sizeof(float)), *b = malloc(n * sizeof(float));
+    assert_non_null(a);
+    assert_non_null(b);
+    spectrace_image_rgb(image, a);
+    spectrace_image_rgb(want, b);
+    assert_memory_equal(a, b, n * sizeof(float));
+    spectrace_image_xyz(image, a);
+    spectrace_image_xyz(want, b);
+    assert_memory_equal(a, b, n * sizeof(float));
+    free(a);
+    free(b);
+}
+
+/* A frame sequence through the API (docs/api.md, "Frame sequences"): the
+ * turntable (tests/data/anim/turntable.gltf, a 1 s turn) loaded at 0 s and
+ * set to frame 3 at 24 frames per second (0.125 s) renders frame 3 of the
+ * command line's --frames 0:3 bit for bit, with the BVH refitted and no
+ * program built again; its first image differs; a render asking for the old
+ * time is refused. With the BVH built anew (the test hook
+ * SPECTRACE_TEST_BVH_REBUILD) it is a fresh load at 0.125 s, bit for bit (a
+ * refitted tree keeps the first pose's triangle order, which changes the
+ * noise: tests/test_frames.c). */
+TEST(test_api_set_time)
+{
+    static const char *const kv0[] = {"at=0", "width=32", "spp=4", "seed=7", "caustics=off", NULL};
+    static const char *const kv3[] = {"at=0.125", "width=32", "spp=4", "seed=7", "caustics=off", NULL};
+    spectrace_settings *s0 = settings(kv0), *s3 = settings(kv3);
+    spectrace_error err;
+    spectrace_scene *s = load_or_fail(TURNTABLE, s0);
+    assert_true(spectrace_scene_time(s) == 0.0);
+    spectrace_image *i0 = render_or_fail(R, s, s0);
+    spectrace_scene_stats st0, st3;
+    spectrace_scene_timing tm;
+    spectrace_scene_stats_get(s, &st0);
+    spectrace_scene_timing_get(s, &tm);
+    assert_int_equal(tm.bvh_refitted, 0);
+    assert_int_equal(st0.bvh_builds, 1);
+    if (spectrace_scene_set_time(s, 3.0 / 24.0, &err))
+        fail_msg("%s", err.message);
+    assert_true(spectrace_scene_time(s) == 0.125);
+    spectrace_image *none;
+    assert_int_equal(spectrace_render(R, s, s0, NULL, NULL, &none, &err), SPECTRACE_ERR_USAGE);
+    spectrace_image *i3 = render_or_fail(R, s, s3);
+    spectrace_scene_stats_get(s, &st3);
+    spectrace_scene_timing_get(s, &tm);
+    assert_int_equal(tm.bvh_refitted, 1);
+    assert_int_equal(tm.bvh_refits, 1);
+    assert_int_equal(st3.bvh_builds, 1);
+    assert_int_equal(st3.program_builds, st0.program_builds);
+    assert_int_equal(st3.renders, 2);
+    spectrace_scene *fresh = load_or_fail(TURNTABLE, s3);
+    spectrace_image *f3 = render_or_fail(R, fresh, s3);
+    setenv("SPECTRACE_TEST_BVH_REBUILD", "1", 1);
+    if (spectrace_scene_set_time(s, 0.125, &err))
+        fail_msg("%s", err.message);
+    spectrace_image *b3 = render_or_fail(R, s, s3);
+    unsetenv("SPECTRACE_TEST_BVH_REBUILD");
+    spectrace_scene_timing_get(s, &tm);
+    assert_int_equal(tm.bvh_refitted, 0);
+    assert_same_image(b3, f3);
+    spectrace_image_free(b3);
+    float *rgb0 = rgb_of(i0), *rgb3 = rgb_of(i3);
+    assert_memory_not_equal(rgb0, rgb3, (size_t)W * W * 3 * sizeof(float));
+    /* The command line's frame 3 of four. */
+    char cmd[2048], out[8192];
+    snprintf(cmd, sizeof cmd, "render %s --frames 0:3 --width 32 --spp 4 --seed 7 --caustics off -q "
+             "-o %s", TURNTABLE, test_path("frame_#.exr"));
+    if (test_run_exe("", 1800, cmd, out, sizeof out))
+        fail_msg("spectrace %s: %s", cmd, out);
+    ExrLayers L;
+    SptError e = {0};
+    if (exr_read_layers(test_path("frame_3.exr"), NULL, 0, &L, &e))
+        fail_msg("%s", e.msg);
+    static const char *const rgbn[] = {"R", "G", "B"};
+    for (int c = 0; c < 3; c++)
+        assert_channel_is(&L, rgbn[c], rgb3 + c, 3);
+    exr_layers_free(&L);
+    free(rgb0);
+    free(rgb3);
+    spectrace_image_free(i0);
+    spectrace_image_free(i3);
+    spectrace_image_free(f3);
+    spectrace_scene_free(s);
+    spectrace_scene_free(fresh);
+    spectrace_settings_free(s0);
+    spectrace_settings_free(s3);
+}
+
+/* spectrace_scene_set_time refuses a time that is not finite, and a scene
+ * whose file is gone stays as it was (its image the same bit for bit); a
+ * scene from bytes is posed again from them (equal to the file loaded at that
+ * time); the file's animations are the turntable's two, each of one channel
+ * keyed from 0 to 1 s (its accessors' min and max). */
+TEST(test_api_set_time_errors_memory_animations)
+{
+    static const char *const kv[] = {"at=0.25", "width=16", "spp=2", "seed=7", "caustics=off",
+                                     "max-depth=3", NULL};
+    spectrace_settings *st = settings(kv);
+    spectrace_error err;
+    size_t n;
+    char *bytes = test_slurp(TURNTABLE, &n);
+    FILE *f = fopen(test_path("copy.gltf"), "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(bytes, 1, n, f), n);
+    fclose(f);
+    spectrace_scene *s = load_or_fail(test_path("copy.gltf"), st);
+    spectrace_image *before = render_or_fail(R, s, st);
+    assert_int_equal(spectrace_scene_set_time(s, NAN, &err), SPECTRACE_ERR_USAGE);
+    assert_int_equal(unlink(test_path("copy.gltf")), 0);
+    assert_int_equal(spectrace_scene_set_time(s, 0.5, &err), SPECTRACE_ERR_INPUT);
+    assert_non_null(strstr(err.message, "copy.gltf"));
+    assert_true(spectrace_scene_time(s) == 0.25);
+    spectrace_image *after = render_or_fail(R, s, st);
+    assert_same_image(after, before);
+    /* From bytes, posed at 0.25 s, then at 0.5 s. */
+    spectrace_scene *m = spectrace_scene_load_memory_posed(bytes, n, SPT_TEST_DATA("anim"), st, &err);
+    if (!m)
+        fail_msg("%s", err.message);
+    if (spectrace_scene_set_time(m, 0.5, &err))
+        fail_msg("%s", err.message);
+    spectrace_settings_set(st, "at", "0.5", NULL);
+    spectrace_scene *file = load_or_fail(TURNTABLE, st);
+    spectrace_image *im = render_or_fail(R, m, st), *ifile = render_or_fail(R, file, st);
+    assert_same_image(im, ifile);
+    /* The animations. */
+    assert_int_equal(spectrace_scene_animation_count(file), 2);
+    static const char *const names[] = {"turn", "orbit"};
+    for (int i = 0; i < 2; i++) {
+        spectrace_animation_info a;
+        assert_int_equal(spectrace_scene_animation_info(file, i, &a, &err), 0);
+        assert_string_equal(a.name, names[i]);
+        assert_true(a.start == 0.0 && a.end == 1.0);
+        assert_int_equal(a.channels, 1);
+    }
+    spectrace_animation_info a;
+    assert_int_equal(spectrace_scene_animation_info(file, 2, &a, &err), SPECTRACE_ERR_USAGE);
+    free(bytes);
+    spectrace_image_free(before);
+    spectrace_image_free(after);
+    spectrace_image_free(im);
+    spectrace_image_free(ifile);
+    spectrace_scene_free(s);
+    spectrace_scene_free(m);
+    spectrace_scene_free(file);
+    spectrace_settings_free(st);
+}
+
+/* The instancing setting reaches the loader: off flattens the scene's
+ * repeated meshes into world-space triangles, which take more memory than
+ * the meshes placed by reference (docs/gltf.md, "Instancing"). */
+TEST(test_api_instancing_setting)
+{
+    const char *path = SPT_TEST_DATA("scenes/instancing.gltf");
+    static const char *const off[] = {"instancing=off", "width=16", NULL};
+    static const char *const on[] = {"instancing=on", "width=16", NULL};
+    spectrace_settings *so = settings(off), *sn = settings(on);
+    spectrace_scene *a = load_or_fail(path, so), *b = load_or_fail(path, sn);
+    spectrace_memory ma, mb;
+    spectrace_error err;
+    assert_int_equal(spectrace_render_prepare(R, a, so, NULL, 0, &ma, &err), 0);
+    assert_int_equal(spectrace_render_prepare(R, b, sn, NULL, 0, &mb, &err), 0);
+    if (!(ma.loaded > mb.loaded))
+        fail_msg("loaded: %g bytes flattened, %g placed by reference", ma.loaded, mb.loaded);
+    spectrace_scene_free(a);
+    spectrace_scene_free(b);
+    spectrace_settings_free(so);
+    spectrace_settings_free(sn);
 }
 
 TEST_MAIN("api", setup, teardown)

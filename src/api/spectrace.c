@@ -12,7 +12,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
+#include "accel/bvh_build.h"
 #include "cl/cl_device.h"
 #include "api/output_check.h"
 #include "api/render_args.h"
@@ -22,6 +24,7 @@
 #include "core/util.h"
 #include "io/image_out.h"
 #include "io/srgb.h"
+#include "mpi/mpi_hook.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
 #include "render/film_layers.h"
@@ -266,11 +269,25 @@ const char *spectrace_settings_help(int i)
 
 struct spectrace_scene {
     Scene scene;
-    char *pose_at, *pose_animation, *pose_camera; /* as loaded (NULL: not given) */
+    /* The pose (NULL: not given): at as loaded or set by
+     * spectrace_scene_set_time ("%.17g" of its seconds). */
+    char *pose_at, *pose_animation, *pose_camera;
+    int instancing;    /* the loader's SCENE_INSTANCING_* */
     int from_file;     /* loaded from a file (a checkpoint's key hashes it) */
-    InputList inputs;  /* the files its load read, for spectrace_scene_check_outputs */
+    /* Where spectrace_scene_set_time reads the scene again: the file's path,
+     * or (a scene from memory) a copy of its bytes and the name standing for
+     * them. */
+    char *path;
+    void *data;
+    size_t size;
+    char *data_name;
+    InputList inputs;  /* the files its loads read, for spectrace_scene_check_outputs */
     GpuScene gpu;
     int gpu_built;     /* the BVH and the device arrays exist */
+    /* The last pose's BVH, kept by spectrace_scene_set_time when the new pose
+     * has the same triangles (moved): the next build refits it. */
+    Bvh refit_bvh;
+    spectrace_scene_timing timing;
     int shading_dirty; /* a material or light changed since */
     Sky sky;           /* the last render's, kept while its env and background stay */
     char *sky_env, *sky_background;
@@ -281,6 +298,12 @@ struct spectrace_scene {
     unsigned programs_of;
     spectrace_scene_stats stats;
 };
+
+/* The "instancing" setting's values are the loader's (src/scene/scene.h). */
+_Static_assert((int)SCENE_INSTANCING_AUTO == (int)SPT_SWITCH_AUTO &&
+                   (int)SCENE_INSTANCING_OFF == (int)SPT_SWITCH_OFF &&
+                   (int)SCENE_INSTANCING_ON == (int)SPT_SWITCH_ON,
+               "ScenePose.instancing takes the instancing setting's value");
 
 static char *dup_or_null(const char *s)
 {
@@ -304,9 +327,17 @@ static spectrace_scene *load(const char *path, const void *data, size_t size, co
         s->pose_at = dup_or_null(rs->at);
         s->pose_animation = dup_or_null(rs->animation);
         s->pose_camera = dup_or_null(rs->camera);
+        s->instancing = rs->instancing;
+    }
+    s->path = dup_or_null(path);
+    if (data) {
+        s->data = spt_malloc(size ? size : 1);
+        memcpy(s->data, data, size);
+        s->size = size;
+        s->data_name = spt_strdup(name);
     }
     ScenePose pose = {s->pose_at ? strtod(s->pose_at, NULL) : NAN, s->pose_animation, s->pose_camera,
-                      SCENE_INSTANCING_AUTO};
+                      s->instancing};
     SptError e = {0};
     pthread_mutex_lock(&io_lock);
     input_seen_reset();
@@ -317,9 +348,11 @@ static spectrace_scene *load(const char *path, const void *data, size_t size, co
         s->sky_env = dup_or_null(a->env);
         s->sky_background = dup_or_null(a->background);
     }
+    double t0 = spt_now();
     if (!rc)
         rc = data ? scene_load_gltf_memory_posed(&s->scene, data, size, name, &pose, &e)
                   : scene_load_gltf_posed(&s->scene, path, &pose, &e);
+    s->timing.load_seconds = spt_now() - t0;
     input_seen_copy(&s->inputs);
     input_seen_reset();
     pthread_mutex_unlock(&io_lock);
@@ -396,6 +429,10 @@ void spectrace_scene_free(spectrace_scene *s)
     input_list_free(&s->inputs);
     if (s->gpu_built)
         gpu_scene_free(&s->gpu);
+    bvh_free(&s->refit_bvh);
+    free(s->path);
+    free(s->data);
+    free(s->data_name);
     if (s->sky_loaded)
         sky_free(&s->sky);
     scene_free(&s->scene);
@@ -405,6 +442,102 @@ void spectrace_scene_free(spectrace_scene *s)
     free(s->sky_env);
     free(s->sky_background);
     free(s);
+}
+
+/* ---- Animation (since 1.3) -------------------------------------------- */
+
+int spectrace_scene_animation_count(const spectrace_scene *s)
+{
+    return (int)s->scene.animation_info_count;
+}
+
+int spectrace_scene_animation_info(const spectrace_scene *s, int i, spectrace_animation_info *out,
+                                   spectrace_error *err)
+{
+    if (i < 0 || (uint32_t)i >= s->scene.animation_info_count)
+        return fail(err, SPECTRACE_ERR_USAGE, "scene: animation %d does not exist (the scene has %u)",
+                    i, s->scene.animation_info_count);
+    const SceneAnimationInfo *a = &s->scene.animation_info[i];
+    *out = (spectrace_animation_info){a->name, a->start, a->end, (int)a->channels};
+    return SPECTRACE_OK;
+}
+
+double spectrace_scene_time(const spectrace_scene *s)
+{
+    return s->pose_at ? strtod(s->pose_at, NULL) : NAN;
+}
+
+/* Whether scenes a and b have the same triangles (count, vertex indices and
+ * materials), of which only the positions may differ. */
+static int same_triangles(const Scene *a, const Scene *b)
+{
+    return a->tri_count == b->tri_count &&
+           !memcmp(a->tri_vidx, b->tri_vidx, (size_t)a->tri_count * 3 * sizeof(uint32_t)) &&
+           !memcmp(a->tri_mat, b->tri_mat, (size_t)a->tri_count * sizeof(uint32_t));
+}
+
+/* The inputs of the scene's loads into the loaders' record (io_lock held), so
+ * that the next load adds its own to them. */
+static void inputs_reseed(const InputList *list)
+{
+    input_seen_reset();
+    for (int i = 0; i < list->count; i++) {
+        struct stat st;
+        memset(&st, 0, sizeof st);
+        st.st_dev = list->files[i].dev;
+        st.st_ino = list->files[i].ino;
+        input_seen_add(list->files[i].path, &st);
+    }
+}
+
+int spectrace_scene_set_time(spectrace_scene *s, double seconds, spectrace_error *err)
+{
+    if (!isfinite(seconds))
+        return fail(err, SPECTRACE_ERR_USAGE, "scene: time %g: expected a finite time in seconds",
+                    seconds);
+    ScenePose pose = {seconds, s->pose_animation, s->pose_camera, s->instancing};
+    Scene next;
+    SptError e = {0};
+    pthread_mutex_lock(&io_lock);
+    inputs_reseed(&s->inputs);
+    double t0 = spt_now();
+    int rc = s->data ? scene_load_gltf_memory_posed(&next, s->data, s->size, s->data_name, &pose, &e)
+                     : scene_load_gltf_posed(&next, s->path, &pose, &e);
+    double load_seconds = spt_now() - t0;
+    if (!rc) {
+        input_list_free(&s->inputs);
+        input_seen_copy(&s->inputs);
+    }
+    input_seen_reset();
+    pthread_mutex_unlock(&io_lock);
+    if (rc)
+        return pass(err, &e, rc); /* the scene stays as it was */
+    /* The BVH of the last pose is refitted by the next build when only the
+     * triangles' positions moved (docs/gltf.md, "Frame sequences"); a
+     * two-level scene's world tree is not the whole scene's. */
+    bvh_free(&s->refit_bvh);
+    if (s->gpu_built && s->gpu.bvh.nodes && !s->scene.mesh_count && !next.mesh_count &&
+        same_triangles(&s->scene, &next)) {
+        s->refit_bvh = s->gpu.bvh;
+        memset(&s->gpu.bvh, 0, sizeof s->gpu.bvh);
+    }
+    if (s->gpu_built)
+        gpu_scene_free(&s->gpu);
+    s->gpu_built = 0;
+    s->shading_dirty = 0;
+    scene_free(&s->scene);
+    s->scene = next;
+    char at[64];
+    snprintf(at, sizeof at, "%.17g", seconds);
+    free(s->pose_at);
+    s->pose_at = spt_strdup(at);
+    s->timing.load_seconds = load_seconds;
+    return SPECTRACE_OK;
+}
+
+void spectrace_scene_timing_get(const spectrace_scene *s, spectrace_scene_timing *out)
+{
+    *out = s->timing;
 }
 
 /* A parameter of a material or a light: its name, where it lies in the
@@ -652,10 +785,24 @@ static int prepare_scene(spectrace_scene *s, const RenderArgs *a, SptError *e)
 {
     int rc;
     if (!s->gpu_built) {
-        if ((rc = gpu_scene_build(&s->gpu, &s->scene, e)))
+        /* After spectrace_scene_set_time: the last pose's BVH refitted when
+         * it can index the new positions, else built. */
+        RenderSettings hooks = a->rs;
+        render_test_hooks_env(&hooks);
+        uint32_t n = s->scene.tri_count;
+        int refit = s->refit_bvh.nodes && !hooks.test.bvh_rebuild &&
+                    bvh_refit(&s->refit_bvh, s->scene.tri_pos, n, n);
+        if (!refit)
+            bvh_free(&s->refit_bvh);
+        rc = refit ? gpu_scene_build_with(&s->gpu, &s->scene, &s->refit_bvh, e)
+                   : gpu_scene_build(&s->gpu, &s->scene, e);
+        if (rc)
             return rc;
         s->gpu_built = 1;
-        s->stats.bvh_builds++;
+        s->stats.bvh_builds += !refit;
+        s->timing.bvh_refits += refit;
+        s->timing.bvh_refitted = refit;
+        s->timing.bvh_seconds = s->gpu.bvh.stats.build_seconds;
         s->shading_dirty = 0;
     } else if (s->shading_dirty) {
         if ((rc = gpu_scene_build_shading(&s->gpu, &s->scene, e))) {
@@ -690,7 +837,8 @@ static RenderSettings complete(const RenderArgs *a, const spectrace_scene *scene
 {
     RenderSettings rs = a->rs;
     render_image_size(&rs, &scene->scene.camera);
-    render_adaptive_resolve(&rs, !a->checkpoint && !a->resume);
+    /* Adaptive sampling's auto is off over MPI ranks too (src/mpi/mpi_hook.h). */
+    render_adaptive_resolve(&rs, !spt_dist_render && !a->checkpoint && !a->resume);
     if (a->given[SPT_ARG_time_limit] && !a->given[SPT_ARG_spp])
         rs.spp = 1 << 24;
     rs.sky = &scene->sky;
@@ -752,6 +900,8 @@ static int render_image(spectrace_renderer *r, spectrace_scene *scene,
         !same_text(a->rs.camera, scene->pose_camera))
         rc = fail(err, SPECTRACE_ERR_USAGE, "render: the settings' at, animation or camera differ "
                   "from the pose the scene was loaded in (load it with these settings)");
+    else if (a->rs.adaptive == SPT_SWITCH_ON && spt_dist_render)
+        rc = fail(err, SPECTRACE_ERR_USAGE, "render: --adaptive on is not supported across MPI ranks");
     else if (ckpt_path && !scene->from_file)
         rc = fail(err, SPECTRACE_ERR_USAGE, "render: a checkpoint identifies its scene by the "
                   "scene's file: load the scene from its file to checkpoint or resume");
@@ -803,8 +953,17 @@ static int render_image(spectrace_renderer *r, spectrace_scene *scene,
         fprintf(stderr, "resuming %s: %u of %ld samples per pixel done\n", a->resume,
                 img->ckpt.resumed, (long)rs.spp);
     RenderDeviceStats per_dev[MAX_DEVICES];
-    rc = render_devices(r->devs, r->count, &scene->gpu, &scene->scene.camera, &rs, &img->film,
-                        &img->st, per_dev, &e);
+    /* In build/spectrace-mpi with several ranks the render is spread over
+     * them (src/mpi/mpi_hook.h); its own progress line and the ranks' samples
+     * are printed there when the caller is verbose with a progress callback. */
+    if (spt_dist_render) {
+        rs.progress = o->verbose && (o->progress || fn);
+        rc = spt_dist_render(r->devs, r->count, &scene->gpu, &scene->scene, &scene->scene.camera,
+                             &rs, &img->film, &img->st, per_dev, &e);
+    } else {
+        rc = render_devices(r->devs, r->count, &scene->gpu, &scene->scene.camera, &rs, &img->film,
+                            &img->st, per_dev, &e);
+    }
     img->stopped = *prog.stop != 0;
     if (rc)
         pass(err, &e, rc);

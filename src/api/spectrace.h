@@ -2,8 +2,9 @@
  * (docs/api.md). A program opens devices (a renderer), loads a scene once,
  * renders it with settings as many times as it likes, changing materials and
  * lights in between, and reads each render's image as arrays or writes it with
- * the command line's writers. `spectrace render` of one image is itself a
- * client of this API (src/cli/cmd_render.c).
+ * the command line's writers. `spectrace render` (one image, a frame
+ * sequence, and build/spectrace-mpi over several ranks) is itself a client of
+ * this API (src/cli/cmd_render.c).
  *
  * The API is versioned: SPECTRACE_API_VERSION in this header, and
  * spectrace_version() in the library, whose major number must match (a new
@@ -34,7 +35,7 @@ extern "C" {
 #endif
 
 #define SPECTRACE_API_VERSION_MAJOR 1
-#define SPECTRACE_API_VERSION_MINOR 2
+#define SPECTRACE_API_VERSION_MINOR 3
 /* major * 10000 + minor * 100 */
 #define SPECTRACE_API_VERSION (SPECTRACE_API_VERSION_MAJOR * 10000 + SPECTRACE_API_VERSION_MINOR * 100)
 
@@ -161,6 +162,60 @@ int spectrace_scene_check_outputs(const spectrace_scene *s, const spectrace_sett
  * scene: the next render builds and uploads them again. */
 void spectrace_scene_release_devices(spectrace_scene *s);
 
+/* ---- Animation (since 1.3) ---------------------------------------------
+ *
+ * A frame sequence renders one scene at one time after another (docs/api.md,
+ * "Frame sequences"; the command line's --frames is this API's client):
+ * spectrace_scene_set_time poses the scene at a time, keeping what it holds
+ * on a renderer's devices (its programs, and its buffers, of which the next
+ * render uploads only those whose contents changed), and the next render
+ * refits the last pose's BVH to the moved triangles instead of building one
+ * when the new pose has the same triangles (count, vertices and materials;
+ * a scene with meshes placed by reference is built again), which gives the
+ * same image as a scene loaded at that time (docs/gltf.md, "Frame
+ * sequences"). Frame F of a sequence at R frames per second is at time F / R
+ * (the command line's --fps, 24 by default); the file's animations give
+ * their first and last key times. */
+
+/* The file's animations: their count, and animation i's name ("" when the
+ * file gives none), first and last key time in seconds, and channels. The
+ * name lives as long as the scene's pose. */
+typedef struct spectrace_animation_info {
+    const char *name;
+    double start, end;
+    int channels;
+} spectrace_animation_info;
+
+int spectrace_scene_animation_count(const spectrace_scene *s);
+int spectrace_scene_animation_info(const spectrace_scene *s, int i, spectrace_animation_info *out,
+                                   spectrace_error *err);
+
+/* The time the scene is posed at in seconds (its load's "at", or the last
+ * spectrace_scene_set_time); NaN: the rest pose. */
+double spectrace_scene_time(const spectrace_scene *s);
+
+/* Poses the scene at seconds (finite) with the animation and camera it was
+ * loaded with: the scene is read again from its file (or the bytes it was
+ * loaded from, which it keeps) at that time, so changes of its materials and
+ * lights made since its load are replaced by the file's. Its "at" becomes
+ * the time written with 17 digits ("%.17g"), which a render's settings must
+ * give as their at (or leave it to Python's Scene.time). The sky stays. On
+ * failure (the file is gone, say) the scene stays as it was. */
+int spectrace_scene_set_time(spectrace_scene *s, double seconds, spectrace_error *err);
+
+/* What the scene's last pose cost: the seconds of its load (spectrace_scene_
+ * load or _set_time: reading and posing the file), and of its BVH's build or
+ * refit (the next render's), whether that BVH was refitted, and the refits
+ * so far (the builds are spectrace_scene_stats.bvh_builds). */
+typedef struct spectrace_scene_timing {
+    double load_seconds;
+    double bvh_seconds;
+    int bvh_refitted;
+    int bvh_refits;
+} spectrace_scene_timing;
+
+void spectrace_scene_timing_get(const spectrace_scene *s, spectrace_scene_timing *out);
+
 /* Materials: their count, index i's name, and the index of the first named
  * name (-1: none). */
 int spectrace_scene_material_count(const spectrace_scene *s);
@@ -222,7 +277,8 @@ int spectrace_render(spectrace_renderer *r, spectrace_scene *scene,
                      void *user, spectrace_image **out, spectrace_error *err);
 
 /* What a scene's renders have cost so far (since version 1.1): the renders
- * that completed; the BVH builds (one per load, again only when a material
+ * that completed; the BVH builds (one per load and per pose of
+ * spectrace_scene_set_time whose tree is not refitted, again when a material
  * change could not be applied to the kept one); the programs built or loaded
  * from the program cache (one per device, again when the kernel options
  * change); the uploads of the geometry (BVH, triangles and vertex arrays) and
@@ -283,7 +339,11 @@ typedef struct spectrace_render_options {
      * spectrace_render_stats.stopped set) instead of SPECTRACE_ERR_CANCELLED. */
     int keep_stopped;
     /* The command line's notes on stderr: a kernel build not found in the
-     * program cache, "resuming ...", the final checkpoint written. */
+     * program cache, "resuming ...", the final checkpoint written. In
+     * build/spectrace-mpi over several ranks (since 1.3), where every render
+     * is spread over the ranks (docs/api.md, "Several MPI ranks"), a verbose
+     * render with a progress callback prints the ranks' progress line and
+     * each rank's samples instead of calling the callback. */
     int verbose;
     /* The final checkpoint is written by spectrace_image_write_outputs with
      * the outputs (all or none replaced) instead of at the render's end. */

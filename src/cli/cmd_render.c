@@ -1,9 +1,9 @@
 /* spectrace render: load a glTF scene, render it on OpenCL devices, write the
  * outputs. The options are those of src/render/render_options.h (parsed by
- * src/api/render_args.c). One image is a client of the library's API
- * (render_image_api: spectrace_* calls); frame sequences and spectrace-mpi's
- * renders over ranks run the renderer's steps below (render_image), as
- * docs/architecture.md ("Source layout") says why. */
+ * src/api/render_args.c). A client of the library's API (src/api/spectrace.h):
+ * one image (render_image_api) or a frame sequence (render_frames, one scene
+ * posed at each frame's time); build/spectrace-mpi spreads the renders over
+ * its ranks inside the library (src/mpi/mpi_hook.h). */
 #include <math.h>
 #include <signal.h>
 #include <stdio.h>
@@ -12,9 +12,7 @@
 #include <unistd.h>
 #include <strings.h>
 
-#include "api/output_check.h"
 #include "api/render_args.h"
-#include "api/render_stats.h"
 #include "api/spectrace.h"
 #include "cl/cl_device.h"
 #include "cli/commands.h"
@@ -24,45 +22,13 @@
 #include "io/image_out.h"
 #include "mpi/mpi_hook.h"
 #include "render/checkpoint.h"
-#include "render/film.h"
 #include "render/render.h"
-#include "render/render_result.h"
-#include "render/test_hooks.h"
-#include "scene/scene.h"
-#include "scene/sky.h"
 
-#define MAX_DEVICES 64
-
-/* Everything one `spectrace render` holds, freed by job_free. */
+/* Everything one `spectrace render` holds. */
 typedef struct RenderJob {
     RenderArgs a;
     char def_exr[512], def_png[512]; /* the default output names */
-    Sky sky;
-    Scene scene;
-    ClDeviceList devices;
-    const ClDeviceInfo *devs[MAX_DEVICES];
-    int nsel;
-    GpuScene gpu;
-    Film film;
-    CheckpointRun ckpt;
-    RenderStats st;
-    RenderDeviceStats per_dev[MAX_DEVICES];
-    float *rgb;
-    RenderImageMeta meta; /* the outputs' metadata; AOV, spectral and noisy channels */
-    Denoiser den;        /* --denoise: Open Image Denoise, loaded before rendering */
-    float *noisy;        /* --denoise: the image before denoising */
-    double denoise_seconds;
-    int sky_loaded;      /* the sky is read once, for every frame */
-    /* --frames (render_frames): the programs kept for every frame; the last
-     * frame's BVH and the triangles it indexes (count, vertex indices,
-     * materials), which the next frame refits when only their positions
-     * moved; how long this frame's scene load and BVH took. */
-    RenderPrograms programs;
-    Bvh last_bvh;
-    uint32_t last_tri_count;
-    uint32_t *last_vidx, *last_mat;
-    int refitted;
-    double load_seconds, bvh_seconds;
+    Denoiser den; /* --denoise: Open Image Denoise, opened to fail before any work */
 } RenderJob;
 
 static volatile sig_atomic_t stop_requested;
@@ -161,98 +127,6 @@ static int check_outputs(RenderJob *j, SptError *e)
     return SPT_EXIT_OK;
 }
 
-/* After the inputs are read and before any work: no output (-o or the
- * checkpoint) may be one of the files read (scene, buffers, textures, the
- * environment map, SPD files), the checkpoint resumed, or another output
- * (outputs_check_not_inputs). */
-static int check_outputs_are_not_inputs(const RenderJob *j, SptError *e)
-{
-    const RenderArgs *a = &j->a;
-    InputList inputs;
-    input_seen_copy(&inputs);
-    int rc = outputs_check_not_inputs(&inputs, (const char *const *)a->outputs, a->outputs_count,
-                                      a->checkpoint, a->resume, e);
-    input_list_free(&inputs);
-    return rc;
-}
-
-/* --instancing's values are the loader's (src/scene/scene.h). */
-_Static_assert((int)SCENE_INSTANCING_AUTO == (int)SPT_SWITCH_AUTO &&
-                   (int)SCENE_INSTANCING_OFF == (int)SPT_SWITCH_OFF &&
-                   (int)SCENE_INSTANCING_ON == (int)SPT_SWITCH_ON,
-               "ScenePose.instancing takes --instancing's value");
-
-/* The sky of --env/--background, the scene, the check that no output replaces an
- * input, and the image size (--width 512 by default, the other side from the
- * camera's aspect ratio). */
-static int load_scene(RenderJob *j, SptError *e)
-{
-    RenderSettings *rs = &j->a.rs;
-    int rc;
-    if (!j->sky_loaded) {
-        input_seen_reset();
-        if ((rc = sky_from_args(&j->sky, j->a.env, j->a.background, e)))
-            return rc;
-        j->sky_loaded = 1;
-    }
-    double t0 = spt_now();
-    rc = scene_load_gltf_posed(&j->scene, j->a.scene,
-                               &(ScenePose){rs->at ? strtod(rs->at, NULL) : NAN, rs->animation,
-                                            rs->camera, rs->instancing},
-                               e);
-    j->load_seconds = spt_now() - t0;
-    if (rc || (rc = check_outputs_are_not_inputs(j, e)))
-        return rc;
-    render_image_size(rs, &j->scene.camera);
-    return SPT_EXIT_OK;
-}
-
-/* The devices of --device (named on stderr unless quiet). */
-static int select_devices(RenderJob *j, SptError *e)
-{
-    int sel[MAX_DEVICES], rc;
-    if ((rc = cl_device_list(&j->devices, e)) ||
-        (rc = cl_device_select(&j->devices, j->a.device, sel, &j->nsel, e)))
-        return rc;
-    for (int i = 0; i < j->nsel; i++) {
-        j->devs[i] = &j->devices.devices[sel[i]];
-        if (!j->a.quiet)
-            fprintf(stderr, "device %d: %s (%s, %s)\n", sel[i], j->devs[i]->name,
-                    j->devs[i]->platform_name, j->devs[i]->driver_version);
-    }
-    return SPT_EXIT_OK;
-}
-
-/* Whether the scene has the last frame's triangles (count, vertices and
- * materials), which only their positions may have moved since. */
-static int same_triangles(const RenderJob *j)
-{
-    const Scene *s = &j->scene;
-    return j->last_bvh.nodes && s->tri_count == j->last_tri_count &&
-           !memcmp(s->tri_vidx, j->last_vidx, (size_t)s->tri_count * 3 * sizeof(uint32_t)) &&
-           !memcmp(s->tri_mat, j->last_mat, (size_t)s->tri_count * sizeof(uint32_t));
-}
-
-/* The scene as the devices' arrays: in a frame sequence, the last frame's BVH
- * refitted when only the triangles' positions moved (docs/gltf.md, "Frame
- * sequences"), else (or when the refit cannot index them) built. */
-static int build_device_scene(RenderJob *j, SptError *e)
-{
-    double t0 = spt_now();
-    j->refitted = 0;
-    int rc;
-    if (same_triangles(j) && !j->a.rs.test.bvh_rebuild &&
-        bvh_refit(&j->last_bvh, j->scene.tri_pos, j->scene.tri_count, j->last_tri_count)) {
-        j->refitted = 1;
-        rc = gpu_scene_build_with(&j->gpu, &j->scene, &j->last_bvh, e);
-    } else {
-        bvh_free(&j->last_bvh);
-        rc = gpu_scene_build(&j->gpu, &j->scene, e);
-    }
-    j->bvh_seconds = spt_now() - t0;
-    return rc;
-}
-
 /* --profile's estimate of the host memory (render_host_memory, docs/limits.md
  * "The memory estimate"), unless quiet. */
 static void report_memory(const RenderArgs *ra, const spectrace_memory *m)
@@ -267,54 +141,6 @@ static void report_memory(const RenderArgs *ra, const spectrace_memory *m)
                 spt_format_bytes(g, sizeof g, m->outputs));
 }
 
-/* Before any device memory is taken: the host memory the render will take on
- * top of what is loaded, against what is available (render_host_memory). */
-static int check_host_memory(RenderJob *j, SptError *e)
-{
-    RenderSettings *rs = &j->a.rs;
-    rs->sky = &j->sky; /* render_memory reads the map's size */
-    RenderHostMemory m;
-    int rc = render_host_memory((const ClDeviceInfo *const *)j->devs, j->nsel, &j->gpu,
-                                &j->scene.camera, rs, (const char *const *)j->a.outputs,
-                                j->a.outputs_count, &m, e);
-    report_memory(&j->a, &(spectrace_memory){m.loaded, m.need, m.film, m.render, m.outputs});
-    return rc;
-}
-
-/* What the renderer needs beyond the options: the sky, progress, the stop flag,
- * the test hooks of the environment; and a warning when nothing lights the
- * scene. */
-static void complete_settings(RenderJob *j)
-{
-    RenderSettings *rs = &j->a.rs;
-    rs->sky = &j->sky;
-    rs->progress = !j->a.quiet;
-    rs->stop = &stop_requested;
-    render_test_hooks_env(rs);
-    render_warn_unlit(&j->gpu, &j->scene, &j->sky, rs->env_intensity, j->a.scene);
-}
-
-/* The render itself, on this process's devices or (spectrace-mpi) over MPI
- * ranks, resuming and checkpointing as asked; a signal stops it (on_signal). */
-static int render(RenderJob *j, SptError *e)
-{
-    RenderArgs *a = &j->a;
-    RenderSettings *rs = &a->rs;
-    int rc = checkpoint_run_begin(&j->ckpt, a->scene, a->checkpoint, a->checkpoint_every,
-                                  a->resume, rs, &j->film, e);
-    if (rc)
-        return rc;
-    if (j->ckpt.resumed && !a->quiet)
-        fprintf(stderr, "resuming %s: %u of %ld samples per pixel done\n", a->resume,
-                j->ckpt.resumed, (long)rs->spp);
-    const SceneCamera *cam = &j->scene.camera;
-    rc = spt_dist_render ? spt_dist_render(j->devs, j->nsel, &j->gpu, &j->scene, cam, rs,
-                                           &j->film, &j->st, j->per_dev, e)
-                         : render_devices(j->devs, j->nsel, &j->gpu, cam, rs, &j->film, &j->st,
-                                          j->per_dev, e);
-    return rc;
-}
-
 /* The notes after a render: how it stopped and the samples dropped. */
 static void report_notes(const RenderArgs *a, const spectrace_render_stats *st)
 {
@@ -324,14 +150,6 @@ static void report_notes(const RenderArgs *a, const spectrace_render_stats *st)
     if (st->nan_dropped)
         spt_warn("render: %llu samples had NaN or infinite radiance and were dropped",
                  (unsigned long long)st->nan_dropped);
-}
-
-/* A film with a NaN or infinite pixel is never written (render_film_check). */
-static int check_film(RenderJob *j)
-{
-    SptError e = {0};
-    int rc = render_film_check(&j->film, &j->a.rs, j->a.scene, &e);
-    return rc ? spt_report(&e) : SPT_EXIT_OK;
 }
 
 /* Speed and (with --profile) where the time went, unless quiet. */
@@ -388,132 +206,6 @@ static void report_written(const RenderArgs *a, const char *checkpoint, uint32_t
                 checkpoint_spp, checkpoint);
 }
 
-/* --denoise: the image (j->rgb) denoised (render_denoise); j->noisy keeps the
- * image as it was. */
-static int denoise(RenderJob *j, SptError *e)
-{
-    const RenderSettings *rs = &j->a.rs;
-    j->noisy = j->rgb;
-    j->rgb = spt_malloc((size_t)rs->width * rs->height * 3 * sizeof(float));
-    double t0 = spt_now();
-    int rc = render_denoise(&j->den, &j->film, rs, j->noisy, j->rgb, e);
-    j->denoise_seconds = spt_now() - t0;
-    if (!rc)
-        report_denoise(&j->a, j->denoise_seconds, j->den.path);
-    return rc;
-}
-
-/* The film as every output image (with the render's metadata), then the final
- * checkpoint: all written to temporary files first and renamed over their names
- * only when every one was written, so a failed run (a full disk at the second
- * output) leaves every existing file as it was. */
-static int write_outputs(RenderJob *j, SptError *e)
-{
-    const RenderArgs *a = &j->a;
-    const RenderSettings *rs = &a->rs;
-    j->rgb = spt_malloc((size_t)rs->width * rs->height * 3 * sizeof(float));
-    film_to_linear_srgb(&j->film, j->rgb);
-    int rc;
-    if (rs->denoise && (rc = denoise(j, e)))
-        return rc;
-    char devdesc[4096];
-    render_device_description(j->devs, j->nsel, j->per_dev, devdesc, sizeof devdesc);
-    report_devices(a, j->nsel, devdesc);
-    RenderImageMeta *m = &j->meta;
-    render_image_meta(m, &j->film, rs, &j->st, devdesc, a->scene, 3);
-    if (j->noisy)
-        render_image_meta_noisy(m, j->noisy);
-    DisplayOptions disp = {(float)a->exposure, a->tonemap};
-    if ((rc = render_write_outputs((const char *const *)a->outputs, a->outputs_count, j->rgb,
-                                   rs->width, rs->height, &m->meta, &disp, &j->ckpt.writer,
-                                   &j->film, e)))
-        return rc;
-    spectrace_render_stats st;
-    render_stats_public(&j->st, &j->ckpt, &st);
-    report_written(a, st.checkpoint, st.checkpoint_spp);
-    return SPT_EXIT_OK;
-}
-
-/* What one image holds (the posed scene, its device arrays, the film and the
- * outputs' memory), freed after each frame; the BVH and the triangles it
- * indexes are kept for the next frame's refit. */
-static void image_free(RenderJob *j)
-{
-    checkpoint_run_free(&j->ckpt);
-    free(j->rgb);
-    free(j->noisy);
-    render_image_meta_free(&j->meta);
-    j->rgb = j->noisy = NULL;
-    film_free(&j->film);
-    if (j->gpu.bvh.nodes && j->programs.w && !j->scene.mesh_count) {
-        bvh_free(&j->last_bvh);
-        j->last_bvh = j->gpu.bvh;
-        memset(&j->gpu.bvh, 0, sizeof j->gpu.bvh);
-        size_t n = (size_t)j->scene.tri_count;
-        j->last_tri_count = j->scene.tri_count;
-        j->last_vidx = spt_realloc(j->last_vidx, (n ? n : 1) * 3 * sizeof(uint32_t));
-        j->last_mat = spt_realloc(j->last_mat, (n ? n : 1) * sizeof(uint32_t));
-        memcpy(j->last_vidx, j->scene.tri_vidx, n * 3 * sizeof(uint32_t));
-        memcpy(j->last_mat, j->scene.tri_mat, n * sizeof(uint32_t));
-    }
-    gpu_scene_free(&j->gpu);
-    scene_free(&j->scene);
-    memset(&j->st, 0, sizeof j->st);
-    memset(j->per_dev, 0, sizeof j->per_dev);
-    /* What checkpoint_run_begin hooked in pointed into this image's run. */
-    j->a.rs.done_in = NULL;
-    j->a.rs.on_chunk = NULL;
-    j->a.rs.on_chunk_ctx = NULL;
-}
-
-static void job_free(RenderJob *j)
-{
-    image_free(j);
-    bvh_free(&j->last_bvh);
-    free(j->last_vidx);
-    free(j->last_mat);
-    if (j->programs.w)
-        render_programs_free(&j->programs);
-    denoiser_close(&j->den);
-    cl_device_list_free(&j->devices);
-    sky_free(&j->sky);
-}
-
-/* One image: the scene posed as asked, the devices (chosen for the first
- * image), the render and the outputs. Every failure is reported here; returns
- * the exit code. */
-static int render_image(RenderJob *j)
-{
-    SptError e = {0};
-    int rc;
-    if ((rc = load_scene(j, &e)) || (!j->nsel && (rc = select_devices(j, &e))) ||
-        (rc = build_device_scene(j, &e)) || (rc = check_host_memory(j, &e))) {
-        spt_report(&e);
-    } else if (stop_requested) {
-        spt_error("render: stopped by a signal before rendering; nothing written");
-        rc = SPT_EXIT_INTERRUPTED;
-    } else {
-        complete_settings(j);
-        if ((rc = render(j, &e))) {
-            if (e.msg[0])
-                spt_report(&e);
-        } else if (j->st.spp_done == 0) {
-            spt_error("render: stopped before any pass completed; nothing written");
-            rc = SPT_EXIT_INTERRUPTED;
-        } else {
-            spectrace_render_stats st;
-            render_stats_public(&j->st, &j->ckpt, &st);
-            report_notes(&j->a, &st);
-            if (!(rc = check_film(j))) {
-                report_speed(&j->a, j->a.rs.width, j->a.rs.height, &st);
-                if ((rc = write_outputs(j, &e)))
-                    spt_report(&e);
-            }
-        }
-    }
-    return rc;
-}
-
 /* ---- One image through the library (src/api/spectrace.h) ---------------- */
 
 /* The library's error as the command line reports it: its message after
@@ -526,20 +218,28 @@ static int report_api(const spectrace_error *err)
 }
 
 /* The options given on the command line as the library's settings, by name
- * (the command line's own, -o, --device, -q, are not settings). */
+ * (the command line's own, -o, --device, -q, --frames, are not settings);
+ * at, checkpoint and resume as a frame of --frames has them (frame_names). */
 static spectrace_settings *settings_of(const RenderArgs *a, spectrace_error *err)
 {
     spectrace_settings *set = spectrace_settings_new();
     char value[4096];
     for (int i = 0; i < SPT_ARG_COUNT; i++) {
         if (!a->given[i] || i == SPT_ARG_outputs || i == SPT_ARG_device || i == SPT_ARG_quiet ||
-            i == SPT_ARG_help)
+            i == SPT_ARG_help || i == SPT_ARG_frames || i == SPT_ARG_at ||
+            i == SPT_ARG_checkpoint || i == SPT_ARG_resume)
             continue;
         render_args_format(a, i, value, sizeof value);
         if (spectrace_settings_set(set, render_args_option_name(i), value, err)) {
             spectrace_settings_free(set);
             return NULL;
         }
+    }
+    if ((a->rs.at && spectrace_settings_set(set, "at", a->rs.at, err)) ||
+        (a->checkpoint && spectrace_settings_set(set, "checkpoint", a->checkpoint, err)) ||
+        (a->resume && spectrace_settings_set(set, "resume", a->resume, err))) {
+        spectrace_settings_free(set);
+        return NULL;
     }
     return set;
 }
@@ -571,30 +271,44 @@ static int on_progress(void *user, const spectrace_progress_info *p)
     return 0;
 }
 
-/* What one image through the library holds. */
+/* What one image through the library holds; a frame sequence keeps the
+ * renderer and the scene from frame to frame. */
 typedef struct ApiRender {
     spectrace_settings *set;
     spectrace_scene *scene;
     spectrace_renderer *r;
     spectrace_image *img;
+    int frames; /* --frames: the scene keeps its programs and buffers */
 } ApiRender;
 
-/* The steps of render_image (load, devices, device arrays and memory,
- * render, outputs) as spectrace_* calls: the same messages, notes and exit
- * codes. */
-static int api_steps(const RenderArgs *a, ApiRender *x)
+/* The devices of --device, named on stderr unless quiet. */
+static int open_renderer(const RenderArgs *a, ApiRender *x, spectrace_error *err)
 {
-    spectrace_error err = {0};
-    const char *const *outputs = (const char *const *)a->outputs;
-    if (!(x->set = settings_of(a, &err)) || !(x->scene = spectrace_scene_load(a->scene, x->set, &err)) ||
-        spectrace_scene_check_outputs(x->scene, x->set, outputs, a->outputs_count, &err) ||
-        !(x->r = spectrace_renderer_open(a->device, &err)))
-        return report_api(&err);
+    if (!(x->r = spectrace_renderer_open(a->device, err)))
+        return err->code;
     for (int i = 0; i < spectrace_renderer_device_count(x->r) && !a->quiet; i++) {
         spectrace_device_info d;
         spectrace_renderer_device_info(x->r, i, &d, NULL);
         fprintf(stderr, "device %d: %s (%s, %s)\n", d.index, d.name, d.platform, d.driver);
     }
+    return SPT_EXIT_OK;
+}
+
+/* One image as spectrace_* calls: the scene loaded (a frame sequence's
+ * later frames: posed at their time t), the outputs checked against the
+ * inputs, the devices (once), the device arrays and memory, the render and
+ * the outputs, with the messages, notes and exit codes of
+ * docs/architecture.md ("Source layout"). */
+static int api_steps(const RenderArgs *a, ApiRender *x, double t)
+{
+    spectrace_error err = {0};
+    const char *const *outputs = (const char *const *)a->outputs;
+    if (!(x->set = settings_of(a, &err)) ||
+        (x->scene ? spectrace_scene_set_time(x->scene, t, &err)
+                  : !(x->scene = spectrace_scene_load(a->scene, x->set, &err))) ||
+        spectrace_scene_check_outputs(x->scene, x->set, outputs, a->outputs_count, &err) ||
+        (!x->r && open_renderer(a, x, &err)))
+        return report_api(&err);
     spectrace_memory mem = {.need = -1.0};
     int rc = spectrace_render_prepare(x->r, x->scene, x->set, outputs, a->outputs_count, &mem, &err);
     if (mem.need >= 0)
@@ -620,22 +334,37 @@ static int api_steps(const RenderArgs *a, ApiRender *x)
     if (st.denoiser)
         report_denoise(a, st.denoise_seconds, st.denoiser);
     report_devices(a, spectrace_renderer_device_count(x->r), st.devices);
-    /* The programs and device buffers are not needed for writing. */
-    spectrace_scene_release_devices(x->scene);
+    /* One image: the programs and device buffers are not needed for writing. */
+    if (!x->frames)
+        spectrace_scene_release_devices(x->scene);
     if (spectrace_image_write_outputs(x->img, outputs, a->outputs_count, &err))
         return report_api(&err);
     report_written(a, st.checkpoint, st.checkpoint_spp);
     return SPT_EXIT_OK;
 }
 
+/* What api_steps made for one image (a frame sequence keeps the renderer
+ * and the scene). */
+static void image_free(ApiRender *x)
+{
+    spectrace_image_free(x->img);
+    spectrace_settings_free(x->set);
+    x->img = NULL;
+    x->set = NULL;
+}
+
+static void api_free(ApiRender *x)
+{
+    image_free(x);
+    spectrace_renderer_close(x->r);
+    spectrace_scene_free(x->scene);
+}
+
 static int render_image_api(const RenderArgs *a)
 {
     ApiRender x = {0};
-    int rc = api_steps(a, &x);
-    spectrace_image_free(x.img);
-    spectrace_renderer_close(x.r);
-    spectrace_scene_free(x.scene);
-    spectrace_settings_free(x.set);
+    int rc = api_steps(a, &x, NAN);
+    api_free(&x);
     return rc;
 }
 
@@ -712,13 +441,19 @@ static int render_frames(RenderJob *j)
         for (int i = 0; i < npat && !rc; i++)
             rc = image_output_check(a->outputs[i], &e);
     }
-    if (rc || (rc = select_devices(j, &e))) {
+    if (rc)
         spt_report(&e);
+    /* One renderer and one scene for every frame: the scene keeps its
+     * programs and buffers, and is posed at each frame's time
+     * (spectrace_scene_set_time, which refits the last frame's BVH). */
+    ApiRender x = {.frames = 1};
+    spectrace_error err = {0};
+    if (!rc && open_renderer(a, &x, &err))
+        rc = report_api(&err);
+    if (rc) {
         free(names);
         return rc;
     }
-    render_programs_init(&j->programs, j->nsel);
-    a->rs.programs = &j->programs;
     a->quiet = 1; /* one line per frame instead of the render's own */
     spt_warn_repeats(0);
     double t0 = spt_now();
@@ -728,11 +463,13 @@ static int render_frames(RenderJob *j)
         snprintf(at, sizeof at, "%.17g", (double)f / a->fps);
         a->rs.at = at;
         double tf = spt_now();
-        int frc = render_image(j);
+        int frc = api_steps(a, &x, (double)f / a->fps);
         if (!frc && !quiet) {
-            fprintf(stderr, "frame %ld (%.4g s): %u spp in %.2f s (scene %.2f s, BVH %s in %.4f s)",
-                    f, (double)f / a->fps, j->st.spp_done, spt_now() - tf, j->load_seconds,
-                    j->refitted ? "refitted" : "built", j->gpu.bvh.stats.build_seconds);
+            spectrace_scene_timing tm;
+            spectrace_scene_timing_get(x.scene, &tm);
+            fprintf(stderr, "frame %ld (%.4g s): %d spp in %.2f s (scene %.2f s, BVH %s in %.4f s)",
+                    f, (double)f / a->fps, spectrace_image_spp(x.img), spt_now() - tf,
+                    tm.load_seconds, tm.bvh_refitted ? "refitted" : "built", tm.bvh_seconds);
             for (int i = 0; i < npat; i++)
                 fprintf(stderr, "%s%s", i ? ", " : ": ", a->outputs[i]);
             fputc('\n', stderr);
@@ -750,14 +487,17 @@ static int render_frames(RenderJob *j)
         }
         written += !frc;
         last = f;
-        image_free(j);
+        image_free(&x);
     }
     a->rs.at = NULL;
     spt_warn_repeats(1);
+    spectrace_scene_stats ss = {0};
+    if (x.scene)
+        spectrace_scene_stats_get(x.scene, &ss);
     if (!quiet)
         fprintf(stderr, "rendered %ld of %ld frames in %.2f s (%d program build%s)\n",
-                written, total, spt_now() - t0, j->programs.builds,
-                j->programs.builds == 1 ? "" : "s");
+                written, total, spt_now() - t0, ss.program_builds,
+                ss.program_builds == 1 ? "" : "s");
     if (failed)
         spt_error("render: %d of %ld frames failed (frame%s %s); %s", failed, total,
                   failed == 1 ? "" : "s", failed_list,
@@ -768,6 +508,7 @@ static int render_frames(RenderJob *j)
         rc = SPT_EXIT_INTERRUPTED;
     }
     a->quiet = quiet;
+    api_free(&x);
     free(names);
     return rc;
 }
@@ -789,11 +530,10 @@ int cmd_render(int argc, char **argv)
     if ((rc = check_outputs(j, &e)))
         spt_report(&e);
     else
-        /* One image through the library; frame sequences, and spectrace-mpi's
-         * renders over ranks, on the renderer's own steps (docs/architecture.md,
-         * "Source layout"). */
-        rc = j->a.frame_step ? render_frames(j) : spt_dist_render ? render_image(j)
-                                                                  : render_image_api(&j->a);
+        /* Through the library: one image, or a frame sequence; spectrace-mpi
+         * spreads the renders over its ranks (docs/architecture.md, "Source
+         * layout"). */
+        rc = j->a.frame_step ? render_frames(j) : render_image_api(&j->a);
     signals_restore();
     /* A kernel build given up at a second signal still runs in its thread:
      * exit's clean-up of the OpenCL implementation could meet it, so the
@@ -802,7 +542,7 @@ int cmd_render(int argc, char **argv)
         fflush(NULL);
         _exit(rc);
     }
-    job_free(j);
+    denoiser_close(&j->den);
     free(j);
     input_seen_reset();
     return rc;

@@ -3,7 +3,8 @@
  *
  * Rank 0 runs the ordinary command line (src/cli/main.c, compiled here as
  * spectrace_main): it alone reads the scene, the checkpoint and writes files and
- * progress. When cmd_render reaches the render, spt_dist_render (below) sends
+ * progress. When the library's render (src/api/spectrace.c, which the command
+ * line is a client of) reaches render_devices, spt_dist_render (below) sends
  * every other rank the job (the settings and the loaded scene, packed by
  * src/scene/scene_pack.c, so buffers and textures need not exist on the other
  * machines), then renders on its own devices while a server thread hands out
@@ -224,11 +225,17 @@ static void g_give_back(Global *G, uint32_t begin, uint32_t n)
     G->ret_count++;
 }
 
+/* The progress of the whole render (G locked): its own line when rs->progress
+ * (the command line's, with the ranks), else the caller's on_progress hook. */
 static void g_progress(Global *G)
 {
     const RenderSettings *rs = G->rs;
-    if (!rs->progress)
+    if (!rs->progress) {
+        if (rs->on_progress)
+            rs->on_progress(rs->on_progress_ctx, G->done_count, G->total,
+                            G->t0 > 0.0 ? spt_now() - G->t0 : 0.0, G->paths);
         return;
+    }
     double frac = G->total ? (double)G->done_count / G->total : 1.0;
     int tty = isatty(2), decile = (int)(frac * 10.0);
     if (!tty && decile == G->decile)
@@ -449,6 +456,7 @@ static int mpi_render(const ClDeviceInfo *const *infos, int count, const GpuScen
     lrs.chunk_ctx = &G;
     lrs.on_chunk = local_done;
     lrs.on_chunk_ctx = &G;
+    lrs.on_progress = NULL; /* the whole render's progress is g_progress's */
     RenderStats lst;
     SptError le = {0};
     int rc0 = render_devices(infos, count, g, cam, &lrs, &G.local_film, &lst, per_device, &le);

@@ -75,6 +75,16 @@ class _RenderStats(ctypes.Structure):
                 ("checkpoint_spp", ctypes.c_uint32)]
 
 
+class _AnimationInfo(ctypes.Structure):
+    _fields_ = [("name", ctypes.c_char_p), ("start", ctypes.c_double), ("end", ctypes.c_double),
+                ("channels", ctypes.c_int)]
+
+
+class _SceneTiming(ctypes.Structure):
+    _fields_ = [("load_seconds", ctypes.c_double), ("bvh_seconds", ctypes.c_double),
+                ("bvh_refitted", ctypes.c_int), ("bvh_refits", ctypes.c_int)]
+
+
 _PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_uint32, ctypes.c_uint32)
 
 
@@ -114,6 +124,10 @@ def _load():
         "scene_load": (P, [C, P, E]), "scene_load_memory": (P, [C, ctypes.c_size_t, C, E]),
         "scene_load_memory_posed": (P, [C, ctypes.c_size_t, C, P, E]),
         "scene_free": (None, [P]), "scene_stats_get": (None, [P, ctypes.POINTER(_SceneStats)]),
+        "scene_animation_count": (I, [P]),
+        "scene_animation_info": (I, [P, I, ctypes.POINTER(_AnimationInfo), E]),
+        "scene_time": (D, [P]), "scene_set_time": (I, [P, D, E]),
+        "scene_timing_get": (None, [P, ctypes.POINTER(_SceneTiming)]),
         "scene_material_count": (I, [P]), "scene_material_name": (C, [P, I]),
         "scene_material_find": (I, [P, C]),
         "scene_material_get": (I, [P, I, C, FP, E]), "scene_material_set": (I, [P, I, C, FP, I, E]),
@@ -542,6 +556,41 @@ class Scene:
             self._h = None
 
     @property
+    def animations(self):
+        """The file's animations: a list of Animation(name, start, end, channels), their
+        first and last key times in seconds."""
+        out = []
+        for i in range(_lib.spectrace_scene_animation_count(self._h)):
+            a, err = _AnimationInfo(), _Error()
+            _check(_lib.spectrace_scene_animation_info(self._h, i, ctypes.byref(a), err), err)
+            out.append(Animation(a.name.decode(), a.start, a.end, a.channels))
+        return out
+
+    @property
+    def time(self):
+        """The time in seconds the scene is posed at (None: the rest pose). Setting it poses
+        the scene at that time (spectrace_scene_set_time: the file read again, the last
+        pose's BVH refitted by the next render, the programs kept); frame F of a sequence at
+        R frames per second is at F / R."""
+        t = _lib.spectrace_scene_time(self._h)
+        return None if t != t else t
+
+    @time.setter
+    def time(self, seconds):
+        err = _Error()
+        _check(_lib.spectrace_scene_set_time(self._h, float(seconds), err), err)
+        # The renders' settings give the scene's time as the library wrote it.
+        self._pose["at"] = "%.17g" % float(seconds)
+
+    @property
+    def timing(self):
+        """What the last pose cost, as a dict: load_seconds, bvh_seconds, bvh_refitted and
+        bvh_refits (spectrace_scene_timing in spectrace.h)."""
+        t = _SceneTiming()
+        _lib.spectrace_scene_timing_get(self._h, ctypes.byref(t))
+        return {name: getattr(t, name) for name, _ in _SceneTiming._fields_}
+
+    @property
     def stats(self):
         """What the scene's renders have cost so far, as a dict: renders, bvh_builds,
         program_builds (per device), geometry_uploads and material_uploads (per device)
@@ -617,6 +666,7 @@ def render(scene, layers=None, device=None, progress=None, **settings):
 
 
 Color = namedtuple("Color", "xyz linear_srgb srgb8 xy")
+Animation = namedtuple("Animation", "name start end channels")
 
 
 def color(spd, reflectance=False):

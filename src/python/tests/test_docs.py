@@ -1,4 +1,4 @@
-"""docs/api.md's three examples, run as they stand there, and what they make checked."""
+"""docs/api.md's examples, run as they stand there, and what they make checked."""
 import os
 import re
 import subprocess
@@ -21,6 +21,7 @@ def example(tag):
 def workdir(tmp_path, monkeypatch):
     """A folder where an example's files go, its scenes/ that of the source tree."""
     (tmp_path / "scenes").symlink_to(ROOT / "scenes")
+    (tmp_path / "tests").symlink_to(ROOT / "tests")
     monkeypatch.chdir(tmp_path)
     return tmp_path
 
@@ -52,6 +53,20 @@ def test_spectrum_example(workdir):
     # (scenes/cornell_box.gltf), under a light rising towards the red.
     assert wall[nm > 620].mean() > 5 * wall[(nm > 450) & (nm < 560)].mean()
     assert ns["band_600"].shape == (64, 64)
+
+
+def test_frames_example(workdir, capsys):
+    ns = {}
+    exec(compile(example("example-frames"), "docs/api.md:example-frames", "exec"), ns)
+    # Four frames written, the first BVH built and the others refitted, with one
+    # program build per device.
+    assert capsys.readouterr().out.split() == "0 0 6 1 12 1 18 1".split()
+    names = [workdir / f"turn_{f:02d}.exr" for f in (0, 6, 12, 18)]
+    assert all(n.read_bytes()[:4] == b"\x76\x2f\x31\x01" for n in names)
+    ndev = len(spectrace._renderer(None).devices)
+    stats = ns["scene"].stats
+    assert stats["renders"] == 4 and stats["bvh_builds"] == 1 and stats["program_builds"] == ndev
+    assert ns["scene"].timing["bvh_refits"] == 3
 
 
 def test_c_example(workdir):
