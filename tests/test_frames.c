@@ -1,9 +1,11 @@
 /* spectrace render --frames (docs/gltf.md, "Frame sequences"): a 24-frame
  * turntable of the Cornell box (tests/data/anim/turntable.gltf, written by
- * tools/make_anim_scenes.py) rendered with one program build; each frame the
- * image of the same frame rendered alone with --at (bit for bit), whether its
- * BVH was built anew or refitted; the names the frames' files get; a frame
- * that fails leaving the others; bad ranges refused with one error line. */
+ * tools/make_anim_scenes.py) rendered with one program build; each frame
+ * whose BVH was built anew the image of the same frame rendered alone with
+ * --at (bit for bit), and a refitted one the same picture with other noise (a
+ * refit keeps the first frame's triangle order: test_refit_agrees); the names
+ * the frames' files get; a frame that fails leaving the others; bad ranges
+ * refused with one error line. */
 #include "test_util.h"
 
 #include <sys/stat.h>
@@ -98,8 +100,8 @@ static int exists(const char *name)
 
 /* The 24 frames of a turn (at 24 frames per second) with one program build,
  * one line per frame, every BVH after the first refitted; the same frames with
- * every BVH built anew (the test hook) are the same images, and so are
- * frames rendered alone with --at at their times. */
+ * every BVH built anew (the test hook) equal frames rendered alone with --at
+ * at their times, bit for bit. */
 TEST_FIXTURE(test_turntable, make_dir, remove_dir)
 {
     static char err[1 << 16];
