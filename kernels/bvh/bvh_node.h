@@ -218,8 +218,10 @@ SPT_FN float bvh_safe_rcp(float d)
     return 1.0f / (fabsf(d) > 1e-30f ? d : copysignf(1e-30f, d));
 }
 
-/* Precomputes r for a ray (org, dir); dir must be non-zero. */
-SPT_FN void bvh_ray_init(BvhRay *r, vec3 org, vec3 dir)
+/* Precomputes r for a ray (org, dir); dir must be non-zero. Inlined: called
+ * from several traversals, it would otherwise become a call whose BvhRay goes
+ * through memory (docs/performance.md, "Instances: two levels"). */
+SPT_FN_INLINE void bvh_ray_init(BvhRay *r, vec3 org, vec3 dir)
 {
     float d[3];
     d[0] = dir.x; d[1] = dir.y; d[2] = dir.z;

@@ -318,6 +318,34 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
     f->key = smp.rand_key;
 }
 
+/* Next-event estimation's emitter entry e when it is an instance's
+ * (kernels/light/inst_lights.h; prob: the entry's probability, u the
+ * triangle's random number): a triangle of its mesh placed by the instance,
+ * a, b, c, its unit normal nl as the instance turns it, and *pl, P(entry)
+ * p(triangle) per placed area. Returns the triangle (packed index), or 0
+ * with zero vertices and *pl 0 where the mesh has none. Out of line,
+ * so that the triangles' case keeps its registers (docs/performance.md,
+ * "Instances: two levels"). */
+static uint inst_emitter_triangle(uint e, float prob, float u, const KernelGlobals *kg, float3 *a, float3 *b,
+                                  float3 *c, float3 *nl, float *pl)
+{
+    float pt;
+    uint k = kg->emitters[e];
+    uint lt = inst_light_pick(kg->inst_light, kg->light_cdf, kg->p->inst_count, e - kg->p->tri_emitters, u, &pt);
+    *pl = 0.0f;
+    if (lt == SPT_INST_LIGHT_NONE) {
+        *a = *b = *c = *nl = (float3)(0.0f);
+        return 0u;
+    }
+    tri_world(kg->tri_shade, kg->vtx_pos, kg->tlas_inst, k, lt, a, b, c);
+    *nl = normalize(cross(*b - *a, *c - *a));
+    float area = 0.5f * length(cross(*b - *a, *c - *a));
+    *pl = area > 0.0f ? prob * pt / area : 0.0f;
+    if (kg->tlas_inst[k].flags & BVH_INSTANCE_MIRRORED)
+        *nl = -*nl;
+    return lt;
+}
+
 /* Next-event estimation: one light chosen (by usel, the bounce's
  * SPT_DIM_LIGHT_SELECT) in proportion to power among the
  * emissive triangles, the punctual lights and the environment, or with the
@@ -354,37 +382,24 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
     float dist = 0.0f, light_pdf = 0.0f;
     float4 le = (float4)(0.0f);
     int delta = 0;
-    uint k = SPT_NO_INST, lt = 0u;
-    float pa = 0.0f;
-    if (e >= 0 && (uint)e >= kg->p->tri_emitters && (uint)e < kg->p->emitter_count) {
-        /* An instance: a triangle of its mesh (kernels/light/inst_lights.h),
-         * P(entry) p(triangle) per placed area. */
-        float pt;
-        k = kg->emitters[e];
-        lt = inst_light_pick(kg->inst_light, kg->light_cdf, kg->p->inst_count, (uint)e - kg->p->tri_emitters,
-                             spt_rand_key(f->key, spt_dim_bounce(bounce, SPT_DIM_LIGHT_SELECT) | SPT_DIM_INST_TRI),
-                             &pt);
-        if (lt == SPT_INST_LIGHT_NONE)
-            e = -1;
-        pa = prob * pt;
-    }
     if (e >= 0 && (uint)e < kg->p->emitter_count) {
-        vec3 a, b, c;
-        if (k == SPT_NO_INST) {
+        /* A triangle: its probability per area pl, tri_light_pdf times the
+         * tree's share; an instance's (inst_emitter_triangle) from its mesh. */
+        vec3 a, b, c, nl;
+        uint lt;
+        float pl;
+        vec3 bary = spt_sample_triangle_bary(ul, vl);
+        if ((uint)e < kg->p->tri_emitters) {
             lt = kg->emitters[e];
             tri_positions(kg->tri_shade, kg->vtx_pos, lt, &a, &b, &c);
+            nl = normalize(cross(b - a, c - a));
+            pl = kg->tri_light_pdf[lt] * tree_prob;
         } else {
-            tri_world(kg->tri_shade, kg->vtx_pos, kg->tlas_inst, k, lt, &a, &b, &c);
+            lt = inst_emitter_triangle(
+                (uint)e, prob, spt_rand_key(f->key, spt_dim_bounce(bounce, SPT_DIM_LIGHT_SELECT) | SPT_DIM_INST_TRI),
+                kg, &a, &b, &c, &nl, &pl);
         }
-        vec3 bary = spt_sample_triangle_bary(ul, vl);
         float3 q = bary.x * a + bary.y * b + bary.z * c;
-        float3 nl = normalize(cross(b - a, c - a));
-        if (k != SPT_NO_INST) {
-            float area = 0.5f * length(cross(b - a, c - a));
-            pa = area > 0.0f ? pa / area : 0.0f;
-            if (kg->tlas_inst[k].flags & BVH_INSTANCE_MIRRORED)
-                nl = -nl;
-        }
         float3 dq = q - p;
         float dist2 = dot(dq, dq);
         dist = sqrt(dist2);
@@ -393,8 +408,8 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
         const __global GpuMaterial *lm = kg->materials + kg->tri_shade[lt].material;
         if (lm->flags & SPT_MAT_DOUBLE_SIDED_EMISSION)
             cos_l = fabs(cos_l);
-        if (cos_l > 0.0f && dist > 0.0f && (k == SPT_NO_INST || pa > 0.0f)) {
-            light_pdf = (k == SPT_NO_INST ? kg->tri_light_pdf[lt] * tree_prob : pa) * dist2 / cos_l;
+        if (cos_l > 0.0f && dist > 0.0f && pl > 0.0f) {
+            light_pdf = pl * dist2 / cos_l;
             /* The emitter's textures at their finest level (no footprint). */
             TexCtx ltc = *tc;
             if (material_uses_uv(lm))

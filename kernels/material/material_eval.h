@@ -31,20 +31,27 @@ static void tri_positions(const __global TriShade *ts, const __global float *vtx
  * SPT_NO_INST for a scene without instances, whose vertices are in world space. */
 #define SPT_NO_INST 0xffffffffu
 
+/* Vertices a, b, c of instance in's mesh moved to world space. */
+static void tri_to_world(const __global BvhInstance *in, float3 *a, float3 *b, float3 *c)
+{
+    *a = bvh_xf_apply(in->xf, *a, 1.0f);
+    *b = bvh_xf_apply(in->xf, *b, 1.0f);
+    *c = bvh_xf_apply(in->xf, *c, 1.0f);
+}
+
 /* The vertices of packed triangle prim in world space: through instance k of
  * inst (its mesh's space to the world) unless k is SPT_NO_INST. The winding
  * stays the mesh's: a mirrored instance's face normal is to be negated
- * (BVH_INSTANCE_MIRRORED). */
-static void tri_world(const __global TriShade *ts, const __global float *vtx_pos,
-                      const __global BvhInstance *inst, uint k, uint prim, float3 *a, float3 *b,
-                      float3 *c)
+ * (BVH_INSTANCE_MIRRORED). Inlined, so that a one-level scene's hits load
+ * their vertices as tri_positions alone does, in the caller's code
+ * (docs/performance.md, "Instances: two levels"). */
+SPT_FN_INLINE void tri_world(const __global TriShade *ts, const __global float *vtx_pos,
+                             const __global BvhInstance *inst, uint k, uint prim, float3 *a, float3 *b,
+                             float3 *c)
 {
     tri_positions(ts, vtx_pos, prim, a, b, c);
-    if (k != SPT_NO_INST) {
-        *a = bvh_xf_apply(inst[k].xf, *a, 1.0f);
-        *b = bvh_xf_apply(inst[k].xf, *b, 1.0f);
-        *c = bvh_xf_apply(inst[k].xf, *c, 1.0f);
-    }
+    if (k != SPT_NO_INST)
+        tri_to_world(inst + k, a, b, c);
 }
 
 /* A vertex normal of instance k (SPT_NO_INST: in world space already) in world

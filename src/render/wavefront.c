@@ -109,6 +109,13 @@ static int scene_buffer_create(Wavefront *w, int i, const char *name, size_t byt
                             (void *)(data ? data : zeros), out, e);
 }
 
+/* bytes_hash's step: word mixed into h. */
+static uint64_t hash_word(uint64_t h, uint64_t word)
+{
+    h = (h ^ word) * 0xbf58476d1ce4e5b9ull;
+    return h ^ (h >> 29);
+}
+
 /* A 64-bit hash of n bytes at p (NULL: n zero bytes), which tells a kept
  * scene buffer's contents from the next render's: 8 bytes at a time, each
  * word mixed in by a multiply and the finaliser of SplitMix64 (Steele, Lea
@@ -117,11 +124,18 @@ static uint64_t bytes_hash(const void *p, size_t n)
 {
     uint64_t h = 0x9e3779b97f4a7c15ull ^ (uint64_t)n;
     const unsigned char *c = p;
-    for (size_t k = 0; p && k < n; k += 8) {
+    /* Whole words by a fixed-size copy (one load; a copy of variable size
+     * is a call to memcpy per word), then the tail zero-padded. */
+    size_t k = 0;
+    for (; p && k + 8 <= n; k += 8) {
+        uint64_t word;
+        memcpy(&word, c + k, 8);
+        h = hash_word(h, word);
+    }
+    if (p && k < n) {
         uint64_t word = 0;
-        memcpy(&word, c + k, n - k < 8 ? n - k : 8);
-        h = (h ^ word) * 0xbf58476d1ce4e5b9ull;
-        h ^= h >> 29;
+        memcpy(&word, c + k, n - k);
+        h = hash_word(h, word);
     }
     h ^= h >> 30;
     h *= 0xbf58476d1ce4e5b9ull;
