@@ -67,17 +67,28 @@ IFS=, read -r -a impl_list <<<"$impls"
 # these, while pocl-gpu runs every device test on that path. The full form adds
 # the two that render most there (quick form, 2 cores: test_textures 342 s and
 # test_multidevice 173 s of CPU time, the other six 67 s together).
-# The tests of instancing and the light tree have a rusticl form
+# The tests of instancing and the light tree run in their rusticl form
 # (tests/test_util.h, test_on_rusticl; test_kernel_path_here: the GPU path
-# only, smaller renders) that passes when named (`SPECTRACE_TEST_IMPLS=rusticl
-# tests/run_tests.sh build test_gltf_instances test_instance_render
-# test_light_tree`: 43, 30 and 103 s with Mesa's shader cache warm), but
-# llvmpipe's cold compile of the instanced programs ran past 10 minutes of CPU
-# here, so they stay out of the subset that CI runs on a cold cache. Also
-# left out: test_caustics_merge (rusticl's build of the photon-merging
-# kernels, -DSPT_MERGE, took 12 minutes and 4 GB here) and test_api (1325 s
-# here before the path pool was capped at a chunk's paths).
-rusticl_subset=(test_bsdf test_bvh test_instancing test_lights test_rng test_sampling test_sweep test_wavelength)
+# only, smaller renders). What rusticl costs is its cold build of each program
+# variant (the build options, src/render/wavefront.c): CI starts with Mesa's
+# shader cache empty, and llvmpipe compiles a kernel at its first launch. The
+# GPU path's program without options took 420 s of CPU and 3.9 GB here with
+# the cache empty (MESA_SHADER_CACHE_DIR a new folder), 374 s of it k_shade's
+# first launch, in LLVM's coroutine splitting (CoroSplit: gallivm makes each
+# compute shader a coroutine, for barriers, and splits it whatever
+# GALLIVM_PERF says; with GALLIVM_PERF=nopt, which skips the optimisation
+# passes, the same build ran past 15 minutes of CPU unfinished); then 29 s of
+# Mesa's passes in clCreateKernel(k_shade), 21 s the other kernels. The tests
+# of instancing and the light tree build only that variant, which test_sweep
+# builds too (483 s of CPU with the cache empty): the build is paid once, and
+# they add their times with the cache warm: test_gltf_instances 58 s,
+# test_instance_render 29 s, test_light_tree 103 s of CPU. Left out:
+# test_caustics_merge (its -DSPT_MERGE=1 program is a second cold build, 12
+# minutes and 4 GB here, more than CI's budget for rusticl), and test_api
+# (with the cache warm, its first 5 of 18 tests took 420 s here: its renders
+# are sized for PoCL).
+rusticl_subset=(test_bsdf test_bvh test_gltf_instances test_instance_render test_instancing
+                test_light_tree test_lights test_rng test_sampling test_sweep test_wavelength)
 [ "$form" = full ] && rusticl_subset+=(test_textures test_multidevice)
 # test_multidevice and test_sweep split one render across PoCL and another
 # implementation; pocl-gpu is PoCL itself.
