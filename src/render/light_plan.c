@@ -338,7 +338,10 @@ int light_plan_merges(const RenderSettings *rs, const GpuScene *g)
     if (rs->merge == SPT_SWITCH_OFF || rs->caustics == SPT_SWITCH_OFF || rs->spectral > 0 ||
         (rs->aov & SPT_AOV_VARIANCE))
         return 0;
-    return rs->merge == SPT_SWITCH_ON || (scene_turns_light(g) && !scene_disperses_lines(g));
+    if (rs->merge == SPT_SWITCH_ON)
+        return 1;
+    int disperses; /* one scan of the triangles' materials for both */
+    return scene_turns_light_ex(g, &disperses) && !(disperses && g->line_spectrum);
 }
 
 uint32_t light_plan_max_paths(const RenderSettings *rs)
