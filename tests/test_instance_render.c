@@ -400,14 +400,15 @@ static void image_diff(const float *a, const float *b, int w, double *mean_rel, 
  * largest difference seen, 1.7%; two seeds of one scene differ by 8%); the
  * mirror scene's quarters within 3 times the difference of two seeds
  * (seen: 1.4% against 2.7%; a mirrored card emitting on the wrong side
- * makes 45%). rusticl (some 150 paths a second here) runs the lit scene's
- * GPU-path renders only, smaller (LIT_RUSTICL_W), whose blocks are too
- * noisy for LIT_BLOCK_TOL (two seeds differ by 50%): there each quarter
- * within 3 times the seeds' difference, and the whole image's mean within
- * LIT_RUSTICL_LEVEL_TOL of the flattened scene's (seen: 0.11%; two seeds
- * differ by 0.8 to 2.2%; an instance's light samples counted twice, their
- * probability per area halved, make 1.3 to 1.4% and leave the quarters
- * within bounds). */
+ * makes 45%). rusticl (a few hundred paths a second here) runs the lit
+ * scene's GPU-path renders only, smaller (LIT_RUSTICL_W; 81 s with the
+ * program built), whose blocks are too noisy for LIT_BLOCK_TOL (two seeds
+ * differ by 50%): there each quarter within 3 times the seeds'
+ * difference, and the whole image's mean within LIT_RUSTICL_LEVEL_TOL of
+ * the flattened scene's (seen on rusticl and PoCL's GPU path: 0.11%; two
+ * seeds differ by 0.8 to 2.2%; an instance's light samples counted twice,
+ * their probability per area halved, make 1.3 to 1.4% and leave the
+ * quarters within bounds). */
 TEST(test_instanced_emitters_match_flattened)
 {
     static const struct {
