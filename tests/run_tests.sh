@@ -82,7 +82,8 @@ IFS=, read -r -a impl_list <<<"$impls"
 # of instancing and the light tree build only that variant, which test_sweep
 # builds too (483 s of CPU with the cache empty): the build is paid once, and
 # they add their times with the cache warm: test_gltf_instances 58 s,
-# test_instance_render 29 s, test_light_tree 103 s of CPU. Left out:
+# test_instance_render 29 s (and 81 s of wall time for its instanced emitters'
+# test, which joined later), test_light_tree 103 s of CPU. Left out:
 # test_caustics_merge (its -DSPT_MERGE=1 program is a second cold build, 12
 # minutes and 4 GB here, more than CI's budget for rusticl), and test_api
 # (with the cache warm, its first 5 of 18 tests took 420 s here: its renders

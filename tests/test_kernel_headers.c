@@ -124,12 +124,12 @@ TEST(test_host_headers_compile_alone)
 /* Each header alone as OpenCL C on the first device, once with the options of
  * the CPU code path and once with those of the GPU path
  * (src/render/wavefront.c), the optional parts (AOVs, spectral bands, the
- * NaN test hook) switched on. */
+ * NaN test hook) switched on, the CPU path's without instances' code. */
 TEST(test_device_headers_compile_alone)
 {
     const char *options[] = {
         "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 -DSPT_BVH_STEP_PREFETCH=1 -DSPT_AOV=1 "
-        "-DSPT_BANDS=16 -DSPT_TEST_INJECT_NAN=1",
+        "-DSPT_BANDS=16 -DSPT_TEST_INJECT_NAN=1 -DSPT_INSTANCES=0",
         "-DSPT_BVH_SHORT_STACK=1 -DSPT_AOV=1 -DSPT_BANDS=16",
     };
     ClDeviceList list;

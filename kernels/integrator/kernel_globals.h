@@ -45,6 +45,18 @@ typedef struct KernelGlobals {
     const RenderParams *p;
 } KernelGlobals;
 
+/* Whether the scene has instances (docs/architecture.md, "Instances (two
+ * levels)"), for the RenderParams p. Every instance branch of the kernels
+ * tests this: the CPU path builds a scene without instances with
+ * SPT_INSTANCES=0 (src/render/wavefront.c, wavefront_options), where it is the
+ * constant 0 and the compiler drops those branches, so that the one-level path
+ * carries no instance code (docs/performance.md, "Instances: two levels"). */
+#if defined(SPT_INSTANCES) && SPT_INSTANCES == 0
+#define SPT_HAS_INSTANCES(p) 0
+#else
+#define SPT_HAS_INSTANCES(p) ((p)->inst_count > 0u)
+#endif
+
 #define SPT_KG_ARG(type, name) name,
 #define SPT_KG_PS_ARG(type, name) ps_##name,
 #define SPT_KG_SH_ARG(type, name) sh_##name,

@@ -193,7 +193,8 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, const KernelGlobals *kg)
     float3 o = (float3)(0.0f), d = (float3)(0.0f, 0.0f, 1.0f);
     float4 power = (float4)(0.0f);
     uint k = SPT_NO_INST, lt = 0u;
-    if (e >= 0 && (uint)e >= kg->p->tri_emitters && (uint)e < kg->p->emitter_count && prob > 0.0f) {
+    if (SPT_HAS_INSTANCES(kg->p) && e >= 0 && (uint)e >= kg->p->tri_emitters && (uint)e < kg->p->emitter_count &&
+        prob > 0.0f) {
         /* An instance: a triangle of its mesh (kernels/light/inst_lights.h),
          * picked with probability pt, placed by the instance. */
         float pt;

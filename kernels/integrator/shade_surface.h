@@ -91,8 +91,9 @@ SPT_FN_INLINE uint lt_camera_next(uint lt, uint depth, int is_delta)
  * is their probability in the mesh's distribution). */
 SPT_FN_INLINE uint inst_emitter(uint inst, const KernelGlobals *kg)
 {
-    return kg->p->emitter_count > kg->p->tri_emitters && inst != SPT_NO_INST ? kg->inst_light[inst]
-                                                                            : SPT_INST_LIGHT_NONE;
+    return SPT_HAS_INSTANCES(kg->p) && kg->p->emitter_count > kg->p->tri_emitters && inst != SPT_NO_INST
+               ? kg->inst_light[inst]
+               : SPT_INST_LIGHT_NONE;
 }
 
 SPT_FN_INLINE int lt_camera_drops(uint lt, uint prim, uint inst, const KernelGlobals *kg)
@@ -389,7 +390,7 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
         uint lt;
         float pl;
         vec3 bary = spt_sample_triangle_bary(ul, vl);
-        if ((uint)e < kg->p->tri_emitters) {
+        if (!SPT_HAS_INSTANCES(kg->p) || (uint)e < kg->p->tri_emitters) {
             lt = kg->emitters[e];
             tri_positions(kg->tri_shade, kg->vtx_pos, lt, &a, &b, &c);
             nl = normalize(cross(b - a, c - a));
@@ -563,7 +564,7 @@ SPT_FN_INLINE void shade_hit_begin(uint i, ShadeHit *h, const KernelGlobals *kg)
     h->i = i;
     h->hit = kg->ps_hit[i];
     h->prim = as_uint(h->hit.w);
-    h->inst = kg->p->inst_count > 0u && h->prim != NO_HIT ? kg->ps_inst[i] : SPT_NO_INST;
+    h->inst = SPT_HAS_INSTANCES(kg->p) && h->prim != NO_HIT ? kg->ps_inst[i] : SPT_NO_INST;
     h->depth = kg->ps_depth[i] + 1u;
     h->lam = kg->ps_lambda[i];
     h->beta = kg->ps_throughput[i];

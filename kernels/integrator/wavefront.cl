@@ -230,7 +230,7 @@ static float4 extend_result(int found, const BvhHit *h)
 static int scene_intersect(float3 org, float3 dir, float tmax, BvhHit *h, uint *inst,
                            const KernelGlobals *kg)
 {
-    if (kg->p->inst_count == 0u)
+    if (!SPT_HAS_INSTANCES(kg->p))
         return kg->p->node_count > 0u && bvh_intersect(kg->nodes, kg->tris, org, dir, tmax, h);
     BvhInstHit ih;
     if (!bvh_tlas_intersect(kg->tlas_top, kg->tlas_inst, kg->nodes, kg->tris, org, dir, tmax, &ih))
@@ -246,7 +246,7 @@ static float4 extend_path(uint i, const KernelGlobals *kg)
     BvhHit h;
     uint inst = 0u;
     int found = scene_intersect(kg->ps_ray_o[i].xyz, kg->ps_ray_d[i].xyz, 1e30f, &h, &inst, kg);
-    if (kg->p->inst_count > 0u)
+    if (SPT_HAS_INSTANCES(kg->p))
         kg->ps_inst[i] = inst;
     return extend_result(found, &h);
 }
@@ -257,7 +257,7 @@ static float4 extend_path(uint i, const KernelGlobals *kg)
 __kernel void k_extend(KERNEL_ARGS)
 {
     uint n = counters[SPT_CNT_EXTEND];
-    if (params.inst_count > 0u) {
+    if (SPT_HAS_INSTANCES(&params)) {
         KERNEL_GLOBALS;
 #if defined(SPT_BVH_PAIRS)
         for (uint g = 2u * get_global_id(0); g < n && g < 2u * get_global_id(0) + 2u; g++)
@@ -352,7 +352,7 @@ __kernel void k_shade(KERNEL_ARGS)
 static void connect_shadow(float4 so, float4 d, float4 sc, uint i, const KernelGlobals *kg)
 {
     float transmit = 1.0f;
-    if (kg->p->inst_count > 0u && !kg->p->has_alpha) {
+    if (SPT_HAS_INSTANCES(kg->p) && !kg->p->has_alpha) {
         if (bvh_tlas_occluded(kg->tlas_top, kg->tlas_inst, kg->nodes, kg->tris, so.xyz, d.xyz, d.w))
             return;
     } else if (kg->p->node_count > 0u && !kg->p->has_alpha) {
@@ -475,7 +475,7 @@ __kernel void k_paths(KERNEL_ARGS)
     int a0 = s0 < params.pool_size && mega_next(s0, kg);
     int a1 = a0 && s1 < params.pool_size && mega_next(s1, kg);
     while (a0 | a1) {
-        if (params.inst_count > 0u) {
+        if (SPT_HAS_INSTANCES(&params)) {
             /* Two levels (docs/architecture.md, "Instances (two levels)"): one ray at a time. */
             if (a0)
                 ps_hit[s0] = extend_path(s0, kg);

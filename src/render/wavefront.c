@@ -439,13 +439,20 @@ void wavefront_options(const ClDeviceInfo *info, const GpuScene *g, const Render
     int film = 0;
     for (uint32_t i = 0; i < g->material_count; i++)
         film |= g->materials[i].iridescence > 0.0f;
+    /* A scene without instances builds the CPU path's program without their
+     * code (kernels/integrator/kernel_globals.h, SPT_HAS_INSTANCES;
+     * docs/performance.md, "Instances: two levels"). The GPU path keeps one
+     * program for both: rusticl's cold build of each program variant takes
+     * about 7 minutes, which CI would pay again for the second. */
+    int no_inst = ray_pairs && g->tlas.inst_count == 0;
     char bands_def[32] = "";
     if (rs->spectral > 0)
         snprintf(bands_def, sizeof bands_def, "-DSPT_BANDS=%d ", rs->spectral);
     /* Photon merging's code only where it is asked for
      * (kernels/integrator/photon_merge.h). */
-    snprintf(out, cap, "%s%s%s%s%s%s%s%s",
+    snprintf(out, cap, "%s%s%s%s%s%s%s%s%s",
              ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "-DSPT_BVH_SHORT_STACK=1 ",
+             no_inst ? "-DSPT_INSTANCES=0 " : "",
              g->qnodes ? "-DSPT_BVH_QNODES=1 " : "", step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "",
              film ? "" : "-DSPT_IRIDESCENCE=0 ", render_keeps_aov(rs) ? "-DSPT_AOV=1 " : "", bands_def,
              light_plan_merges(rs, g) ? "-DSPT_MERGE=1 " : "",
