@@ -36,6 +36,16 @@ static int sees_light(double x, double z)
     return fabs(x) < AREA_HALF + 0.05 && fabs(z) < AREA_HALF + 0.05;
 }
 
+/* The direction (not normalized) of pixel (px, py)'s centre ray from the
+ * camera of s. */
+static void pixel_dir(const Scene *s, int px, int py, double d[3])
+{
+    double tf = tan(0.5 * s->camera.yfov);
+    double sx = (2.0 * (px + 0.5) / W - 1.0) * tf, sy = (1.0 - 2.0 * (py + 0.5) / W) * tf;
+    for (int k = 0; k < 3; k++)
+        d[k] = s->camera.forward[k] + sx * s->camera.right[k] + sy * s->camera.up[k];
+}
+
 /* Where pixel (px, py)'s centre ray meets the floor through the slab (x, z),
  * and the slab's transmittance along it (*t); 0 when it does not, or when its
  * reflection off the slab's top or bottom reaches the area light (that pixel
@@ -43,12 +53,10 @@ static int sees_light(double x, double z)
  * light's rings leave out the centre). */
 static int pixel_floor_through(const Scene *s, int light, int px, int py, double *x, double *z, double *t)
 {
-    double tf = tan(0.5 * s->camera.yfov), d[3], o[3];
-    double sx = (2.0 * (px + 0.5) / W - 1.0) * tf, sy = (1.0 - 2.0 * (py + 0.5) / W) * tf;
-    for (int k = 0; k < 3; k++) {
-        d[k] = s->camera.forward[k] + sx * s->camera.right[k] + sy * s->camera.up[k];
+    double d[3], o[3];
+    pixel_dir(s, px, py, d);
+    for (int k = 0; k < 3; k++)
         o[k] = s->camera.position[k];
-    }
     double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     for (int k = 0; k < 3; k++)
         d[k] /= len;
@@ -182,10 +190,8 @@ static void mirror_scene(Scene *s)
  * floor (x, z); 0 when it misses the mirror. */
 static int pixel_floor_mirrored(const Scene *s, int px, int py, double *x, double *z)
 {
-    double tf = tan(0.5 * s->camera.yfov), d[3];
-    double sx = (2.0 * (px + 0.5) / W - 1.0) * tf, sy = (1.0 - 2.0 * (py + 0.5) / W) * tf;
-    for (int k = 0; k < 3; k++)
-        d[k] = s->camera.forward[k] + sx * s->camera.right[k] + sy * s->camera.up[k];
+    double d[3];
+    pixel_dir(s, px, py, d);
     const float *o = s->camera.position;
     if (!(d[2] < 0.0) || !(d[1] < 0.0))
         return 0;
@@ -397,10 +403,8 @@ static void wall_scene(Scene *s, int through)
  * slab) meets the floor (x, z). */
 static int pixel_floor_direct(const Scene *s, int px, int py, double *x, double *z)
 {
-    double tf = tan(0.5 * s->camera.yfov), d[3];
-    double sx = (2.0 * (px + 0.5) / W - 1.0) * tf, sy = (1.0 - 2.0 * (py + 0.5) / W) * tf;
-    for (int k = 0; k < 3; k++)
-        d[k] = s->camera.forward[k] + sx * s->camera.right[k] + sy * s->camera.up[k];
+    double d[3];
+    pixel_dir(s, px, py, d);
     const float *o = s->camera.position;
     if (!(d[1] < 0.0))
         return 0;
