@@ -4,9 +4,8 @@
  * leave photons where they reach a surface with a non-delta lobe (after their
  * first vertex, a delta one), and camera paths that reach such a surface
  * after delta vertices only gather them within a radius that shrinks with the
- * sample
- * index (progressive photon mapping: Hachisuka, Ogaki and Jensen 2008;
- * the radius schedule of Knaus and Zwicker 2011,
+ * sample index (progressive photon mapping: Hachisuka, Ogaki and Jensen
+ * 2008; the radius schedule of Knaus and Zwicker 2011,
  * kernels/integrator/photon_grid.h). Kernels built with SPT_MERGE only.
  *
  * The partition of path space: name a path's vertices from the camera by the
@@ -17,8 +16,8 @@
  * its photon at that first D, that is fewer than SPT_PM_PER_PATH vertices
  * with a non-delta lobe lie between it and the last S; a camera path drops
  * the emission it reaches that way (pm_camera_drops), and keeps everything
- * else. Those paths were the camera paths' alone (their first vertex is S, so the
- * light-tracing pass's connections never made them), and the dropped
+ * else. Those paths were the camera paths' alone (their first vertex is S,
+ * so the light-tracing pass's connections never made them), and the dropped
  * emission has MIS weight 1 (reached through a delta vertex), so no weight
  * is split. A camera path and a light path of one sample index carry the
  * same wavelengths (pm_lambda_u), so a merge multiplies the two lane by
