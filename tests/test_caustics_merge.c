@@ -36,6 +36,16 @@ static int sees_light(double x, double z)
     return fabs(x) < AREA_HALF + 0.05 && fabs(z) < AREA_HALF + 0.05;
 }
 
+/* The direction (not normalized) of pixel (px, py)'s centre ray from the
+ * camera of s. */
+static void pixel_dir(const Scene *s, int px, int py, double d[3])
+{
+    double tf = tan(0.5 * s->camera.yfov);
+    double sx = (2.0 * (px + 0.5) / W - 1.0) * tf, sy = (1.0 - 2.0 * (py + 0.5) / W) * tf;
+    for (int k = 0; k < 3; k++)
+        d[k] = s->camera.forward[k] + sx * s->camera.right[k] + sy * s->camera.up[k];
+}
+
 /* Where pixel (px, py)'s centre ray meets the floor through the slab (x, z),
  * and the slab's transmittance along it (*t); 0 when it does not, or when its
  * reflection off the slab's top or bottom reaches the area light (that pixel
@@ -43,12 +53,10 @@ static int sees_light(double x, double z)
  * light's rings leave out the centre). */
 static int pixel_floor_through(const Scene *s, int light, int px, int py, double *x, double *z, double *t)
 {
-    double tf = tan(0.5 * s->camera.yfov), d[3], o[3];
-    double sx = (2.0 * (px + 0.5) / W - 1.0) * tf, sy = (1.0 - 2.0 * (py + 0.5) / W) * tf;
-    for (int k = 0; k < 3; k++) {
-        d[k] = s->camera.forward[k] + sx * s->camera.right[k] + sy * s->camera.up[k];
+    double d[3], o[3];
+    pixel_dir(s, px, py, d);
+    for (int k = 0; k < 3; k++)
         o[k] = s->camera.position[k];
-    }
     double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     for (int k = 0; k < 3; k++)
         d[k] /= len;
@@ -182,10 +190,8 @@ static void mirror_scene(Scene *s)
  * floor (x, z); 0 when it misses the mirror. */
 static int pixel_floor_mirrored(const Scene *s, int px, int py, double *x, double *z)
 {
-    double tf = tan(0.5 * s->camera.yfov), d[3];
-    double sx = (2.0 * (px + 0.5) / W - 1.0) * tf, sy = (1.0 - 2.0 * (py + 0.5) / W) * tf;
-    for (int k = 0; k < 3; k++)
-        d[k] = s->camera.forward[k] + sx * s->camera.right[k] + sy * s->camera.up[k];
+    double d[3];
+    pixel_dir(s, px, py, d);
     const float *o = s->camera.position;
     if (!(d[2] < 0.0) || !(d[1] < 0.0))
         return 0;
@@ -360,6 +366,115 @@ TEST(test_merge_sphere_converges)
     assert_true(level > 0.0);
     assert_true(e4 < 0.75 * e1);
     assert_true(worst < 5.0);
+}
+
+/* The spot's caustic lighting the floor again off a diffuse wall: a white
+ * Lambertian wall under the slab at x = WALL_X, which the caustic lights
+ * (the spot itself does not reach it). The floor beyond the caustic (r from
+ * 0.8 to 1.3) is lit only by paths with more vertices with a non-delta lobe
+ * between it and the glass (wall, caustic), camera - S - S - D - D - D - S -
+ * S - spot seen through the slab: the merge's from the light paths' second
+ * and later photons, where the camera's own paths can never reach the spot.
+ * The slab_scene camera sees the same floor directly (camera - D - ... - S -
+ * S - spot, the light-tracing pass's connections, an independent
+ * technique); the floor is Lambertian, so the pixels through the slab over
+ * their transmittance must agree with it, floor cell by floor cell. */
+#define WALL_X (-1.0)
+#define WALL_SPP 256
+#define WALL_DEPTH 10
+
+static void wall_scene(Scene *s, int through)
+{
+    slab_scene(s, LIGHT_SPOT, 1);
+    const float x = (float)WALL_X;
+    /* Counter-clockwise seen from +x: its front faces the floor's centre. */
+    const float wc[4][3] = {{x, 0.0f, -1.4f}, {x, 0.0f, 1.4f}, {x, 0.95f, 1.4f}, {x, 0.95f, -1.4f}};
+    SceneMaterial *m = append_rect(s, wc);
+    m->specular = 0.0f;
+    for (int k = 0; k < 3; k++)
+        m->base_color[k] = 0.8f;
+    if (through)
+        aim_camera(s, CAM_Y, CAM_Z, CAM_Y, CAM_Z, CAM_FOV);
+    else
+        scene_update_bounds(s);
+}
+
+/* Where pixel (px, py)'s centre ray from slab_scene's camera (under the
+ * slab) meets the floor (x, z). */
+static int pixel_floor_direct(const Scene *s, int px, int py, double *x, double *z)
+{
+    double d[3];
+    pixel_dir(s, px, py, d);
+    const float *o = s->camera.position;
+    if (!(d[1] < 0.0))
+        return 0;
+    double u = -o[1] / d[1];
+    *x = o[0] + u * d[0];
+    *z = o[2] + u * d[2];
+    return 1;
+}
+
+/* The floor cell (0.1 m) of (x, z) beyond the caustic and clear of the
+ * wall, or -1. */
+#define WALL_CELLS 30
+static int wall_cell(double x, double z)
+{
+    double r = sqrt(x * x + z * z);
+    if (!(r > 0.8 && r < 1.3 && x > WALL_X + 0.1))
+        return -1;
+    return (int)floor((x + 1.5) / 0.1) * WALL_CELLS + (int)floor((z + 1.5) / 0.1);
+}
+
+TEST(test_merge_caustic_off_a_wall)
+{
+    Scene s;
+    Film f[2];
+    for (int through = 0; through < 2; through++) {
+        wall_scene(&s, through);
+        RenderSettings rs = square_settings(W, WALL_SPP, WALL_DEPTH, 7);
+        rs.caustics = SPT_SWITCH_ON;
+        rs.merge = through ? SPT_SWITCH_ON : SPT_SWITCH_OFF;
+        render_caustic_scene(&s, &rs, &f[through]);
+        scene_free(&s);
+    }
+    static double sum[2][WALL_CELLS * WALL_CELLS];
+    static int n[2][WALL_CELLS * WALL_CELLS];
+    memset(sum, 0, sizeof sum);
+    memset(n, 0, sizeof n);
+    for (int through = 0; through < 2; through++) {
+        wall_scene(&s, through);
+        for (int py = 0; py < W; py++)
+            for (int px = 0; px < W; px++) {
+                double x, z, t = 1.0;
+                if (!(through ? pixel_floor_through(&s, LIGHT_SPOT, px, py, &x, &z, &t)
+                              : pixel_floor_direct(&s, px, py, &x, &z)))
+                    continue;
+                int c = wall_cell(x, z);
+                if (c < 0)
+                    continue;
+                size_t i = (size_t)py * W + px;
+                sum[through][c] += f[through].xyz[3 * i + 1] / f[through].count[i] / t;
+                n[through][c]++;
+            }
+        scene_free(&s);
+        film_free(&f[through]);
+    }
+    /* The cells both see: the means of their means. */
+    double m[2] = {0, 0};
+    int cells = 0;
+    for (int c = 0; c < WALL_CELLS * WALL_CELLS; c++) {
+        if (n[0][c] < 2 || n[1][c] < 2)
+            continue;
+        for (int k = 0; k < 2; k++)
+            m[k] += sum[k][c] / n[k][c];
+        cells++;
+    }
+    printf("floor lit off the wall, %d cells: seen directly (light tracing) %.4g, through the slab "
+           "(--merge on) %.4g, ratio %.3f\n",
+           cells, m[0] / cells, m[1] / cells, m[1] / m[0]);
+    assert_true(cells > 20);
+    assert_true(m[0] > 0.0);
+    assert_true(fabs(m[1] / m[0] - 1.0) < 0.05);
 }
 
 TEST_MAIN("tests", setup_cpu_device, teardown_cpu_device)

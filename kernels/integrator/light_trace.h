@@ -43,9 +43,9 @@
  *   r^2 W_e, and the N = light_paths light paths of each sample index are
  *   averaged: the film's sum over spp samples gains that over light_paths.
  * - With photon merging (kernels/integrator/photon_merge.h), a light path also
- *   leaves a photon at each vertex with a non-delta lobe that it reaches
- *   through delta vertices only, for camera paths that see that surface
- *   through glass or in a mirror.
+ *   leaves a photon at each vertex with a non-delta lobe (the first
+ *   SPT_PM_PER_PATH of them), for camera paths that see that surface through
+ *   glass or in a mirror.
  * - Determinism: light path k of sample index s (k < light_paths) takes its
  *   random numbers from (seed ^ SPT_LT_SALT, k, s), and its splats go to the
  *   light film as 64-bit fixed-point sums by integer atomics (rounded up or
@@ -514,8 +514,8 @@ static int lt_shade(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Kern
     kg->ps_flags[i] = SPT_PATH_ALIVE;
     uint lt_next = SPT_LT_LIGHT | SPT_LT_SPEC;
 #ifdef SPT_MERGE
-    /* Its photons so far, and whether a vertex took a non-delta lobe. */
-    lt_next |= (kg->ps_lt[i] & SPT_PM_BITS) | (bs.is_delta ? 0u : SPT_PM_SEEN_D);
+    /* Its photons so far. */
+    lt_next |= kg->ps_lt[i] & SPT_PM_BITS;
 #endif
     kg->ps_lt[i] = lt_next;
     kg->ps_throughput[i] = h.beta;

@@ -20,9 +20,10 @@
 
 #include "util/portable.h"
 
-/* Photons a light path may leave (at most one per vertex of its first chain
- * of delta vertices; a third is counted and dropped: SPT_CNT_PM_LOST). */
-#define SPT_PM_PER_PATH 2u
+/* Photons a light path may leave (one per vertex with a non-delta lobe after
+ * its first vertex, the first SPT_PM_PER_PATH of them: the merge owns the
+ * paths through those, the camera paths the rest; pm_camera_drops). */
+#define SPT_PM_PER_PATH 7u
 #define SPT_PM_PHOTON_FLOAT4 3u
 #define SPT_PM_TAG_SLOT 0xffffu
 #define SPT_PM_TAG_DEPTH_SHIFT 16

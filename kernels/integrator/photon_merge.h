@@ -1,21 +1,23 @@
 /* Photon merging for caustics seen through specular surfaces
  * (docs/architecture.md, "Caustics seen through specular surfaces"): the
  * light paths of the light-tracing pass (kernels/integrator/light_trace.h)
- * leave photons where they reach a surface with a non-delta lobe after delta
- * vertices only, and camera paths that reach such a surface after delta
- * vertices only gather them within a radius that shrinks with the sample
- * index (progressive photon mapping: Hachisuka, Ogaki and Jensen 2008;
- * the radius schedule of Knaus and Zwicker 2011,
+ * leave photons where they reach a surface with a non-delta lobe (after their
+ * first vertex, a delta one), and camera paths that reach such a surface
+ * after delta vertices only gather them within a radius that shrinks with the
+ * sample index (progressive photon mapping: Hachisuka, Ogaki and Jensen
+ * 2008; the radius schedule of Knaus and Zwicker 2011,
  * kernels/integrator/photon_grid.h). Kernels built with SPT_MERGE only.
  *
  * The partition of path space: name a path's vertices from the camera by the
  * lobe each took, D (non-delta) or S (delta). The merge owns the paths
- * camera - S+ - D - S+ - light (the light one the light-tracing pass starts
- * from: an emissive triangle of the light selection, a punctual light, an
- * environment map that the selection holds); a camera path drops the
- * emission it reaches that way (pm_camera_drops), and keeps everything else.
- * Those paths were the camera paths' alone (their first vertex is S, so the
- * light-tracing pass's connections never made them), and the dropped
+ * camera - S+ - D - (any) - S - light (the light one the light-tracing pass
+ * starts from: an emissive triangle of the light selection, a punctual
+ * light, an environment map that the selection holds) whose light path left
+ * its photon at that first D, that is fewer than SPT_PM_PER_PATH vertices
+ * with a non-delta lobe lie between it and the last S; a camera path drops
+ * the emission it reaches that way (pm_camera_drops), and keeps everything
+ * else. Those paths were the camera paths' alone (their first vertex is S,
+ * so the light-tracing pass's connections never made them), and the dropped
  * emission has MIS weight 1 (reached through a delta vertex), so no weight
  * is split. A camera path and a light path of one sample index carry the
  * same wavelengths (pm_lambda_u), so a merge multiplies the two lane by
@@ -81,22 +83,33 @@ SPT_FN_INLINE int pm_camera_hero(uint i, int dispersive, float4 *beta, const Ker
     return 1;
 }
 
-/* The camera path's state after its vertex at depth `depth` (segments from
- * the camera) sampled a lobe, delta or not (SPT_PM_* of render_types.h). */
-SPT_FN_INLINE uint pm_camera_next(uint lt, uint depth, int is_delta)
+/* The camera path's state after its vertex sampled a lobe, delta or not, its
+ * BSDF having a non-delta lobe or not (has_d; SPT_PM_* of render_types.h):
+ * after its first non-delta vertex (the merge's), the vertices with a
+ * non-delta lobe but the last one are counted (up to SPT_PM_COUNT_MAX): the
+ * light path through them left a photon at each (pm_deposit) before the one
+ * at the merge's vertex. */
+SPT_FN_INLINE uint pm_camera_next(uint lt, int is_delta, int has_d)
 {
-    if (!is_delta)
-        return (lt & ~(SPT_PM_ONE | SPT_PM_ONE_S)) | SPT_PM_SEEN_D |
-               (!(lt & SPT_PM_SEEN_D) && depth >= 2u ? SPT_PM_ONE : 0u);
-    return lt | ((lt & SPT_PM_ONE) ? SPT_PM_ONE_S : 0u);
+    if (!(lt & SPT_PM_SEEN_D))
+        return is_delta ? lt : lt | SPT_PM_SEEN_D;
+    uint n = (lt >> SPT_PM_COUNT_SHIFT) & SPT_PM_COUNT_MAX;
+    n = min(n + ((lt & SPT_PM_LAST_D) ? 1u : 0u), SPT_PM_COUNT_MAX);
+    return (lt & ~(SPT_PM_LAST_D | (SPT_PM_COUNT_MAX << SPT_PM_COUNT_SHIFT))) | (n << SPT_PM_COUNT_SHIFT) |
+           (has_d ? SPT_PM_LAST_D : 0u);
 }
 
 /* Whether the emission that a camera path in state lt reaches is the merge's
- * (camera - S+ - D - S+ - light): env for a ray that left the scene, else a
- * triangle of tri_light_pdf's (the light selection's). */
+ * (camera - S+ - D - ... - S+ - light, with fewer than SPT_PM_PER_PATH
+ * vertices with a non-delta lobe between the D and the last S: those whose
+ * photon the light path left at the D): env for a ray that left the scene,
+ * else a triangle of tri_light_pdf's (the light selection's). lt's
+ * SPT_LT_CHAIN (x1 took a non-delta lobe: the light-tracing pass's) and
+ * SPT_LT_SPEC (the last vertex took a delta one) are lt_camera_next's. */
 SPT_FN_INLINE int pm_camera_drops(uint lt, int env, uint prim, const KernelGlobals *kg)
 {
-    if (!kg->p->merge || !(lt & SPT_PM_ONE_S))
+    if (!kg->p->merge || (lt & (SPT_PM_SEEN_D | SPT_LT_CHAIN | SPT_LT_SPEC)) != (SPT_PM_SEEN_D | SPT_LT_SPEC) ||
+        ((lt >> SPT_PM_COUNT_SHIFT) & SPT_PM_COUNT_MAX) >= SPT_PM_PER_PATH)
         return 0;
     if (env)
         return kg->p->env_prob > 0.0f && kg->p->env.kind == SPT_ENV_MAP;
@@ -104,19 +117,16 @@ SPT_FN_INLINE int pm_camera_drops(uint lt, int env, uint prim, const KernelGloba
 }
 
 /* Light path i's photon at p (the light's direction there wo, toward the
- * path's previous vertex; throughput beta; depth segments from the light),
- * when its vertices so far all took delta lobes: into its next slot of
- * pm_photon. */
+ * path's previous vertex; throughput beta; depth segments from the light), a
+ * vertex with a non-delta lobe after the path's first (delta) one: into its
+ * next slot of pm_photon, while it has one (the camera paths keep the paths
+ * whose photon would come later: pm_camera_drops). */
 SPT_FN_INLINE void pm_deposit(uint i, float3 p, float3 wo, float4 beta, uint depth, const KernelGlobals *kg)
 {
     uint lt = kg->ps_lt[i];
-    if (!kg->p->merge || (lt & SPT_PM_SEEN_D))
+    uint n = (lt >> SPT_PM_COUNT_SHIFT) & SPT_PM_COUNT_MAX;
+    if (!kg->p->merge || n >= SPT_PM_PER_PATH)
         return;
-    uint n = (lt >> SPT_PM_COUNT_SHIFT) & 3u;
-    if (n >= SPT_PM_PER_PATH) {
-        atomic_inc(&kg->counters[SPT_CNT_PM_LOST]);
-        return;
-    }
     float4 phi = kg->ps_radiance[i] * beta;
     if (!(max4(phi) > 0.0f) || !isfinite(max4(phi)))
         return;

@@ -637,7 +637,7 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Ke
     if (kg->p->light_paths > 0u) {
         uint lt = kg->ps_lt[i], lt_next = lt_camera_next(lt, h.depth, bs.is_delta);
 #ifdef SPT_MERGE
-        lt_next |= pm_camera_next(lt, h.depth, bs.is_delta) & SPT_PM_BITS;
+        lt_next |= pm_camera_next(lt, bs.is_delta, !bsdf_is_delta(&bp)) & SPT_PM_BITS;
 #endif
         kg->ps_lt[i] = lt_next;
     }

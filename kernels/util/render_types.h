@@ -302,7 +302,6 @@ typedef struct RenderParams {
 #define SPT_CNT_WORK 2     /* next work index handed out (relative to work_begin) */
 #define SPT_CNT_DONE 3     /* paths finished in this chunk */
 #define SPT_CNT_NAN 4      /* paths whose radiance was NaN/Inf and was dropped */
-#define SPT_CNT_PM_LOST 5  /* photons past SPT_PM_PER_PATH on a light path, dropped */
 #define SPT_CNT_COUNT 8
 
 /* Light-tracing state of a path (ps_lt), kernels/integrator/light_trace.h. A camera
@@ -318,17 +317,16 @@ typedef struct RenderParams {
 #define SPT_LT_SKIP 8u
 #define SPT_PIXEL_SKIP 0xffffffffu
 /* Photon merging's state (kernels/integrator/photon_merge.h). A camera path:
- * SPT_PM_SEEN_D once a vertex sampled a non-delta lobe; SPT_PM_ONE when
- * exactly one has, after one or more delta vertices from the camera (the
- * merge's vertex), and SPT_PM_ONE_S once a delta vertex followed it. A light
- * path: SPT_PM_SEEN_D once a vertex sampled a non-delta lobe, and its
- * photons so far in the two bits from SPT_PM_COUNT_SHIFT. A camera path
- * with merging: SPT_PM_HERO once a dispersive refraction left it its hero
- * wavelength alone (pm_camera_hero). */
+ * SPT_PM_SEEN_D once a vertex sampled a non-delta lobe (the first: the
+ * merge's vertex); after it, SPT_PM_LAST_D while the last vertex's BSDF has a
+ * non-delta lobe, and the vertices with one before that (up to 7) in the three
+ * bits from SPT_PM_COUNT_SHIFT (pm_camera_next). A light path: its photons
+ * so far in those three bits. A camera path with merging: SPT_PM_HERO once a
+ * dispersive refraction left it its hero wavelength alone (pm_camera_hero). */
 #define SPT_PM_SEEN_D 16u
-#define SPT_PM_ONE 32u
-#define SPT_PM_ONE_S 64u
-#define SPT_PM_COUNT_SHIFT 7
+#define SPT_PM_LAST_D 32u
+#define SPT_PM_COUNT_SHIFT 6
+#define SPT_PM_COUNT_MAX 7u
 #define SPT_PM_HERO 512u
 #define SPT_PM_BITS 0x3f0u
 

@@ -275,6 +275,10 @@ static int group_size_for(cl_kernel k, cl_device_id dev, size_t *out, SptError *
     return 0;
 }
 
+/* A camera path counts up to SPT_PM_COUNT_MAX photons of the light path it
+ * would merge with (kernels/integrator/photon_merge.h, pm_camera_drops). */
+SPT_STATIC_ASSERT(SPT_PM_PER_PATH <= SPT_PM_COUNT_MAX, "a camera path's count of photons saturates below the slots");
+
 /* Photon slots per sample index with photon merging (light_paths per sample
  * index; 0: no merging). */
 static uint64_t merge_slots(const RenderSettings *rs, const GpuScene *g, uint32_t light_paths)
