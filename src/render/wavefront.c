@@ -17,8 +17,8 @@
 typedef cl_float4 float4;
 typedef cl_uint uint;
 
-static const char *const kernel_names[K_COUNT] = {"k_generate", "k_extend",     "k_shade",      "k_connect",
-                                                  "k_accumulate", "k_paths",      "k_shade_light"};
+static const char *const kernel_names[K_COUNT] = {"k_generate",   "k_extend", "k_shade",      "k_connect",
+                                                  "k_accumulate", "k_paths",  "k_shade_light"};
 
 _Static_assert(SPT_SCENE_BUFFER_COUNT <= 32, "Wavefront.uploaded has a bit per scene buffer");
 
