@@ -85,9 +85,9 @@ IFS=, read -r -a impl_list <<<"$impls"
 # test_instance_render 29 s (and 81 s of wall time for its instanced emitters'
 # test, which joined later), test_light_tree 103 s of CPU. Left out:
 # test_caustics_merge (its -DSPT_MERGE=1 program is a second cold build,
-# over 19 minutes of CPU here with the shading in one kernel, more than CI's
-# budget for rusticl; its cold build with k_shade and k_shade_light is not
-# measured: docs/performance.md, "rusticl's build"; its rusticl form, at 24 x
+# 213 s of CPU and 2.0 GB with k_shade and k_shade_light, docs/performance.md
+# "rusticl's build", against 371 s for k_shade alone in one kernel; the
+# subset's time with it is not measured yet; its rusticl form, at 24 x
 # 24 pixels, runs when named), and test_api
 # (with the cache warm, its first 5 of 18 tests took 420 s here: its renders
 # are sized for PoCL).
