@@ -84,8 +84,11 @@ IFS=, read -r -a impl_list <<<"$impls"
 # they add their times with the cache warm: test_gltf_instances 58 s,
 # test_instance_render 29 s (and 81 s of wall time for its instanced emitters'
 # test, which joined later), test_light_tree 103 s of CPU. Left out:
-# test_caustics_merge (its -DSPT_MERGE=1 program is a second cold build, 12
-# minutes and 4 GB here, more than CI's budget for rusticl), and test_api
+# test_caustics_merge (its -DSPT_MERGE=1 program is a second cold build,
+# 213 s of CPU and 2.0 GB with k_shade and k_shade_light, docs/performance.md
+# "rusticl's build", against 371 s for k_shade alone in one kernel; the
+# subset's time with it is not measured yet; its rusticl form, at 24 x
+# 24 pixels, runs when named), and test_api
 # (with the cache warm, its first 5 of 18 tests took 420 s here: its renders
 # are sized for PoCL).
 rusticl_subset=(test_bsdf test_bvh test_gltf_instances test_instance_render test_instancing

@@ -21,7 +21,21 @@
 #define CAM_Y 1.7
 #define CAM_Z 1.2
 #define CAM_FOV 0.6f
-#define W 48
+/* The image's width: 48, and 24 in rusticl's form (test_on_rusticl,
+ * docs/testing.md), which runs the spot's test and the split invariance
+ * only, at a quarter of the pixels: the others need hundreds of samples per
+ * pixel to hold their tolerances. */
+#define W (test_on_rusticl() ? 24 : 48)
+/* A count of pixels at 48 x 48, scaled to W x W. */
+#define AT_W(n) ((n) * W * W / (48 * 48))
+
+static void skip_on_rusticl(void)
+{
+    if (test_on_rusticl()) {
+        print_message("  left out of rusticl's form\n");
+        skip();
+    }
+}
 
 static void merge_scene(Scene *s, int light)
 {
@@ -120,19 +134,21 @@ static double check_through(const Film *f, int light, double r_max, double rel, 
         }
     scene_free(&s);
     slab_rings_check(&g, rel, what, "floor seen through the slab");
-    assert_true(g.n > 200);
+    assert_true(g.n > AT_W(200));
     for (int k = light == LIGHT_AREA ? 1 : 0; k < 3; k++)
-        assert_true(g.ring_n[k] > 20);
+        assert_true(g.ring_n[k] > AT_W(20));
     return g.got / g.want;
 }
 
 /* A spot light's caustic seen through the slab: the analytic one with
- * merging, black without. */
+ * merging, black without. Within 2%, and 4% in rusticl's form: at 24 x 24
+ * the mean's deviation over seeds 3 to 7 (on PoCL's GPU path) was 1.1% rms,
+ * 1.5% at most. */
 TEST(test_merge_spot_through_glass)
 {
     Film f;
     render_merge(LIGHT_SPOT, SPT_SWITCH_ON, 64, 3, 0, 0, &f);
-    check_through(&f, LIGHT_SPOT, 0.5, 0.02, "spot, --merge on");
+    check_through(&f, LIGHT_SPOT, 0.5, test_on_rusticl() ? 0.04 : 0.02, "spot, --merge on");
     film_free(&f);
     render_merge(LIGHT_SPOT, SPT_SWITCH_OFF, 4, 3, 0, 0, &f);
     double ratio = check_through(&f, LIGHT_SPOT, 0.5, 0.0, "spot, --merge off");
@@ -144,6 +160,7 @@ TEST(test_merge_spot_through_glass)
  * one. */
 TEST(test_merge_area_through_glass)
 {
+    skip_on_rusticl();
     Film f;
     render_merge(LIGHT_AREA, SPT_SWITCH_ON, 256, 3, 0, 0, &f);
     check_through(&f, LIGHT_AREA, 0.5, 0.02, "area light, --merge on");
@@ -206,6 +223,7 @@ static int pixel_floor_mirrored(const Scene *s, int px, int py, double *x, doubl
 
 TEST(test_merge_dispersive_in_mirror)
 {
+    skip_on_rusticl();
     Scene s;
     mirror_scene(&s);
     RenderSettings rs = square_settings(W, 64, 6, 3);
@@ -229,9 +247,9 @@ TEST(test_merge_dispersive_in_mirror)
     film_free(&f);
     scene_free(&s);
     slab_rings_check(&g, 0.03, "dispersive slab, spot, --merge on", "floor seen in the mirror");
-    assert_true(g.n > 200);
+    assert_true(g.n > AT_W(200));
     for (int k = 0; k < 3; k++)
-        assert_true(g.ring_n[k] > 20);
+        assert_true(g.ring_n[k] > AT_W(20));
 }
 
 /* Under adaptive sampling (a pixel's samples run behind the chunk's sample
@@ -240,6 +258,7 @@ TEST(test_merge_dispersive_in_mirror)
  * samples (the lag was exercised). */
 TEST(test_merge_adaptive)
 {
+    skip_on_rusticl();
     Scene s;
     merge_scene(&s, LIGHT_SPOT);
     RenderSettings rs = square_settings(W, 128, 6, 3);

@@ -6,11 +6,11 @@
  * gathers them into a private KernelGlobals (KERNEL_GLOBALS, as Cycles'
  * OpenCL kernels did) and hands its helpers a pointer to it, `kg`; a helper
  * that reads only a few buffers takes those instead. A kernel without
- * barriers builds it at its top; one with barriers (k_generate, k_shade)
- * within the stretch between barriers that calls the helpers, so that it
- * never lives across a barrier: PoCL keeps such a private variable in an
- * array of one per work-item of the group, which slowed k_shade's shading
- * (docs/performance.md, "Calls"). */
+ * barriers builds it at its top; one with barriers (k_generate, k_shade,
+ * k_shade_light) within the stretch between barriers that calls the
+ * helpers, so that it never lives across a barrier: PoCL keeps such a
+ * private variable in an array of one per work-item of the group, which
+ * slowed k_shade's shading (docs/performance.md, "Calls"). */
 #ifndef SPT_KERNEL_GLOBALS_H
 #define SPT_KERNEL_GLOBALS_H
 

@@ -2,8 +2,9 @@
  *
  * One iteration of the host loop (src/render/wavefront.c) runs: k_generate (finish ended
  * paths, start new ones from the chunk's work counter, queue every live path),
- * k_extend (closest hit), k_shade (emission with MIS, next-event estimation into
- * the shadow queue, BSDF sampling, Russian roulette), k_connect (shadow rays).
+ * k_extend (closest hit), k_shade and k_shade_light (the camera paths' and the
+ * light paths' shading: emission with MIS, next-event estimation into the
+ * shadow queue, BSDF sampling, Russian roulette), k_connect (shadow rays).
  * With the light-tracing pass (kernels/integrator/light_trace.h), a chunk's work
  * items past its camera paths (params.light_begin on) are light paths in the same
  * pool and queues.
@@ -298,53 +299,72 @@ __kernel void k_extend(KERNEL_ARGS)
     ps_hit[i] = extend_result(found, &h);
 }
 
-/* Prefetch distance of k_shade, in queue entries. */
+/* Prefetch distance of the shading kernels, in queue entries. */
 #define SPT_SHADE_AHEAD 8u
 
-__kernel void k_shade(KERNEL_ARGS)
+/* Cache misses hidden behind the work of queue entry g's path (of n): the hit
+ * triangle's shading record of the path 2 SPT_SHADE_AHEAD queue entries on is
+ * fetched, and the vertex positions and normals of the one SPT_SHADE_AHEAD on
+ * (whose record came in by now). */
+SPT_FN_INLINE void shade_prefetch(uint g, uint n, const KernelGlobals *kg)
 {
-    __local uint l_slot[SPT_GROUP_MAX], l_base;
-    uint g = get_global_id(0);
-    float4 so, sd, sc;
-    int shadow = 0;
-    uint i = 0;
-    uint n = counters[SPT_CNT_EXTEND];
-    if (g < n) {
-        KERNEL_GLOBALS;
-        /* Cache misses hidden behind this path's work: the hit triangle's
-         * shading record of the path 2 SPT_SHADE_AHEAD queue entries on is
-         * fetched, and the vertex positions and normals of the one
-         * SPT_SHADE_AHEAD on (whose record came in by now). */
-        if (g + 2u * SPT_SHADE_AHEAD < n) {
-            uint pa = as_uint(ps_hit[queue_extend[g + 2u * SPT_SHADE_AHEAD]].w);
-            if (pa != NO_HIT)
-                SPT_PREFETCH(tri_shade + pa);
-        }
-        if (g + SPT_SHADE_AHEAD < n) {
-            uint pb = as_uint(ps_hit[queue_extend[g + SPT_SHADE_AHEAD]].w);
-            if (pb != NO_HIT) {
-                TriShade tb = tri_shade[pb];
-                SPT_PREFETCH(vtx_pos + 3u * tb.v[0]);
-                SPT_PREFETCH(vtx_pos + 3u * tb.v[1]);
-                SPT_PREFETCH(vtx_pos + 3u * tb.v[2]);
-                SPT_PREFETCH(vtx_normal + 3u * tb.v[0]);
-                SPT_PREFETCH(vtx_normal + 3u * tb.v[1]);
-                SPT_PREFETCH(vtx_normal + 3u * tb.v[2]);
-            }
-        }
-        i = queue_extend[g];
-        shadow = (ps_lt[i] & SPT_LT_LIGHT) ? lt_shade(i, &so, &sd, &sc, kg)
-                                           : shade_path(i, &so, &sd, &sc, kg);
+    if (g + 2u * SPT_SHADE_AHEAD < n) {
+        uint pa = as_uint(kg->ps_hit[kg->queue_extend[g + 2u * SPT_SHADE_AHEAD]].w);
+        if (pa != NO_HIT)
+            SPT_PREFETCH(kg->tri_shade + pa);
     }
-    uint s = group_queue_slot(shadow, &counters[SPT_CNT_SHADOW], 0xffffffffu, 0, counters, l_slot,
-                              &l_base);
-    if (shadow) {
-        sh_ray_o[s] = so;
-        sh_ray_d[s] = sd;
-        sh_contrib[s] = sc;
-        sh_path[s] = i;
+    if (g + SPT_SHADE_AHEAD < n) {
+        uint pb = as_uint(kg->ps_hit[kg->queue_extend[g + SPT_SHADE_AHEAD]].w);
+        if (pb != NO_HIT) {
+            TriShade tb = kg->tri_shade[pb];
+            SPT_PREFETCH(kg->vtx_pos + 3u * tb.v[0]);
+            SPT_PREFETCH(kg->vtx_pos + 3u * tb.v[1]);
+            SPT_PREFETCH(kg->vtx_pos + 3u * tb.v[2]);
+            SPT_PREFETCH(kg->vtx_normal + 3u * tb.v[0]);
+            SPT_PREFETCH(kg->vtx_normal + 3u * tb.v[1]);
+            SPT_PREFETCH(kg->vtx_normal + 3u * tb.v[2]);
+        }
     }
 }
+
+/* The queued paths are shaded by two kernels over the same queue, k_shade
+ * the camera paths (shade_path) and k_shade_light the light paths (lt_shade),
+ * each passing over the other's entries: a compiler that inlines every call
+ * (Mesa's NIR, for llvmpipe) then compiles each kind's shading in a kernel of
+ * its own instead of both in one (docs/performance.md, "rusticl's build").
+ * Neither reads what the other writes in the same wave: a path's state is its
+ * own, the shadow queue's order is not the image's (a camera path's ray adds
+ * to its own radiance, a light path's splats are integer sums), and photons
+ * are deposited and gathered in different passes (run_merge_chunk). The two
+ * differ only in the kind they take (kind: ps_lt's SPT_LT_LIGHT bit) and
+ * the function that shades it (shade). */
+#define SPT_SHADE_KERNEL(name, kind, shade)                                                              \
+    __kernel void name(KERNEL_ARGS)                                                                      \
+    {                                                                                                    \
+        __local uint l_slot[SPT_GROUP_MAX], l_base;                                                      \
+        uint g = get_global_id(0);                                                                       \
+        float4 so, sd, sc;                                                                               \
+        int shadow = 0;                                                                                  \
+        uint i = 0;                                                                                      \
+        uint n = counters[SPT_CNT_EXTEND];                                                               \
+        if (g < n && (ps_lt[queue_extend[g]] & SPT_LT_LIGHT) == (kind)) {                                \
+            KERNEL_GLOBALS;                                                                              \
+            shade_prefetch(g, n, kg);                                                                    \
+            i = queue_extend[g];                                                                         \
+            shadow = shade(i, &so, &sd, &sc, kg);                                                        \
+        }                                                                                                \
+        uint s = group_queue_slot(shadow, &counters[SPT_CNT_SHADOW], 0xffffffffu, 0, counters, l_slot,   \
+                                  &l_base);                                                              \
+        if (shadow) {                                                                                    \
+            sh_ray_o[s] = so;                                                                            \
+            sh_ray_d[s] = sd;                                                                            \
+            sh_contrib[s] = sc;                                                                          \
+            sh_path[s] = i;                                                                              \
+        }                                                                                                \
+    }
+
+SPT_SHADE_KERNEL(k_shade, 0u, shade_path)
+SPT_SHADE_KERNEL(k_shade_light, SPT_LT_LIGHT, lt_shade)
 
 /* Traces the shadow ray (origin so, direction and tmax sd, contribution sc)
  * of path i and, unless it is blocked, adds its contribution to the path's

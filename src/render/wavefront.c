@@ -17,8 +17,8 @@
 typedef cl_float4 float4;
 typedef cl_uint uint;
 
-static const char *const kernel_names[K_COUNT] = {"k_generate", "k_extend", "k_shade",
-                                                  "k_connect", "k_accumulate", "k_paths"};
+static const char *const kernel_names[K_COUNT] = {"k_generate",   "k_extend", "k_shade",      "k_connect",
+                                                  "k_accumulate", "k_paths",  "k_shade_light"};
 
 _Static_assert(SPT_SCENE_BUFFER_COUNT <= 32, "Wavefront.uploaded has a bit per scene buffer");
 
@@ -709,12 +709,16 @@ static int run_paths_mega(Wavefront *w, const RenderParams *p, int long_chunk, d
 }
 
 /* The same with the stage kernels: waves of generate, extend, shade and
- * connect until every work item is done. */
+ * connect until every work item is done. The shading is two kernels, k_shade
+ * for the camera paths and k_shade_light for the light paths (kernels/
+ * integrator/wavefront.cl); each is launched only when p's work items hold
+ * paths of its kind (camera paths below p->light_begin, light paths from it). */
 static int run_paths_stages(Wavefront *w, const RenderParams *p, int long_chunk, double *acc, RenderStats *st,
                             SptError *e)
 {
     int rc;
     cl_uint counters[SPT_CNT_COUNT] = {0};
+    int camera = p->work_begin < p->light_begin, light = p->work_end > p->light_begin;
     for (;;) {
         static const cl_uint two_zeros[2] = {0, 0};
         SPT_CL_CHECK(e, clEnqueueWriteBuffer(w->dev.queue, w->b.counters, CL_FALSE, 0,
@@ -722,7 +726,8 @@ static int run_paths_stages(Wavefront *w, const RenderParams *p, int long_chunk,
         if ((rc = run_kernel(w, K_GENERATE, w->pool, acc ? acc + 0 : NULL, e)) ||
             (rc = run_kernel(w, K_EXTEND, w->ray_pairs ? (w->pool + 1) / 2 : w->pool,
                              acc ? acc + 1 : NULL, e)) ||
-            (rc = run_kernel(w, K_SHADE, w->pool, acc ? acc + 2 : NULL, e)) ||
+            (camera && (rc = run_kernel(w, K_SHADE, w->pool, acc ? acc + K_SHADE : NULL, e))) ||
+            (light && (rc = run_kernel(w, K_SHADE_LIGHT, w->pool, acc ? acc + K_SHADE : NULL, e))) ||
             (rc = run_kernel(w, K_CONNECT, w->pool, acc ? acc + 3 : NULL, e)))
             return rc;
         SPT_CL_CHECK(e, clEnqueueReadBuffer(w->dev.queue, w->b.counters, CL_TRUE, 0,

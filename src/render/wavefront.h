@@ -11,7 +11,9 @@
 #include "render/render.h"
 #include "render/render_lights.h"
 
-enum { K_GENERATE, K_EXTEND, K_SHADE, K_CONNECT, K_ACCUMULATE, K_PATHS, K_COUNT };
+/* The kernels; the first six are also the profile's stages (stage_seconds),
+ * where k_shade_light's time counts as the shading's. */
+enum { K_GENERATE, K_EXTEND, K_SHADE, K_CONNECT, K_ACCUMULATE, K_PATHS, K_SHADE_LIGHT, K_COUNT };
 
 /* Every device buffer. */
 typedef struct Buffers {
