@@ -67,31 +67,28 @@ IFS=, read -r -a impl_list <<<"$impls"
 # these, while pocl-gpu runs every device test on that path. The full form adds
 # the two that render most there (quick form, 2 cores: test_textures 342 s and
 # test_multidevice 173 s of CPU time, the other six 67 s together).
-# The tests of instancing and the light tree run in their rusticl form
-# (tests/test_util.h, test_on_rusticl; test_kernel_path_here: the GPU path
-# only, smaller renders). What rusticl costs is its cold build of each program
-# variant (the build options, src/render/wavefront.c): CI starts with Mesa's
-# shader cache empty, and llvmpipe compiles a kernel at its first launch. The
-# GPU path's program without options took 420 s of CPU and 3.9 GB here with
-# the cache empty (MESA_SHADER_CACHE_DIR a new folder), 374 s of it k_shade's
-# first launch, in LLVM's coroutine splitting (CoroSplit: gallivm makes each
-# compute shader a coroutine, for barriers, and splits it whatever
-# GALLIVM_PERF says; with GALLIVM_PERF=nopt, which skips the optimisation
-# passes, the same build ran past 15 minutes of CPU unfinished); then 29 s of
-# Mesa's passes in clCreateKernel(k_shade), 21 s the other kernels. The tests
-# of instancing and the light tree build only that variant, which test_sweep
-# builds too (483 s of CPU with the cache empty): the build is paid once, and
-# they add their times with the cache warm: test_gltf_instances 58 s,
-# test_instance_render 29 s (and 81 s of wall time for its instanced emitters'
-# test, which joined later), test_light_tree 103 s of CPU. Left out:
-# test_caustics_merge (its -DSPT_MERGE=1 program is a second cold build,
-# 213 s of CPU and 2.0 GB with k_shade and k_shade_light, docs/performance.md
-# "rusticl's build", against 371 s for k_shade alone in one kernel; the
-# subset's time with it is not measured yet; its rusticl form, at 24 x
-# 24 pixels, runs when named), and test_api
+# The tests of instancing, the light tree and photon merging run in their
+# rusticl form (tests/test_util.h, test_on_rusticl; test_kernel_path_here: the
+# GPU path only, smaller renders). What rusticl costs is its cold build of
+# each program variant (the build options, src/render/wavefront.c): CI starts
+# with Mesa's shader cache empty, and llvmpipe compiles a kernel at its first
+# launch, most of it in LLVM's coroutine splitting (CoroSplit: gallivm makes
+# each compute shader a coroutine, for barriers, and splits it whatever
+# GALLIVM_PERF says), whose cost grows faster than the kernel: with the
+# camera and light paths' shading in two kernels (k_shade, k_shade_light;
+# docs/performance.md "rusticl's build") test_sweep, which builds the GPU
+# path's program without options first, took 167 s of CPU (230 s wall) with
+# the caches empty, against 483 s with the shading in one kernel. The tests
+# of instancing and the light tree build only that variant: the build is
+# paid once, and they add their times with the cache warm:
+# test_gltf_instances 58 s, test_instance_render 29 s (and 81 s of wall time
+# for its instanced emitters' test), test_light_tree 103 s of CPU.
+# test_caustics_merge builds the -DSPT_MERGE=1 program, a second cold build
+# (213 s of CPU, 2.0 GB), then runs its spot caustic and split invariance at
+# 24 x 24 in 86 s (131 s of CPU) with the cache warm. Left out: test_api
 # (with the cache warm, its first 5 of 18 tests took 420 s here: its renders
 # are sized for PoCL).
-rusticl_subset=(test_bsdf test_bvh test_gltf_instances test_instance_render test_instancing
+rusticl_subset=(test_bsdf test_bvh test_caustics_merge test_gltf_instances test_instance_render test_instancing
                 test_light_tree test_lights test_rng test_sampling test_sweep test_wavelength)
 [ "$form" = full ] && rusticl_subset+=(test_textures test_multidevice)
 # test_multidevice and test_sweep split one render across PoCL and another

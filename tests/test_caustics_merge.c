@@ -446,6 +446,7 @@ static int wall_cell(double x, double z)
 
 TEST(test_merge_caustic_off_a_wall)
 {
+    skip_on_rusticl(); /* two renders of 256 spp: minutes at llvmpipe's rate */
     Scene s;
     Film f[2];
     for (int through = 0; through < 2; through++) {
