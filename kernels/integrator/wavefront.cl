@@ -453,14 +453,32 @@ static void mega_end(uint i, const KernelGlobals *kg)
         path_finish(i, kg);
 }
 
+/* Work items a work-item takes from SPT_CNT_WORK at a time. One atomic per
+ * path start made the counter's cache line move between the threads at each
+ * of them (docs/performance.md, "Vector width: AVX-512 against AVX2"); a
+ * batch leaves at most SPT_WORK_BATCH - 1 items to one thread at a launch's
+ * end. Which slot runs a work item does not change its numbers: path_start
+ * draws everything from the item's index. */
+#define SPT_WORK_BATCH 16u
+
+/* A work-item's batch of work items: [next, end), relative to work_begin. */
+typedef struct {
+    uint next, end;
+} WorkBatch;
+
 /* Starts the next work item in slot i; 1 when one is alive there, 0 when the
  * launch's work is all taken. */
-static int mega_next(uint i, const KernelGlobals *kg)
+static int mega_next(uint i, WorkBatch *wb, const KernelGlobals *kg)
 {
     for (;;) {
-        uint w = kg->p->work_begin + atomic_inc(&kg->counters[SPT_CNT_WORK]);
-        if (w >= kg->p->work_end)
+        if (wb->next == wb->end) {
+            wb->next = atomic_add(&kg->counters[SPT_CNT_WORK], SPT_WORK_BATCH);
+            wb->end = wb->next + SPT_WORK_BATCH;
+        }
+        uint rel = wb->next++;
+        if (rel >= kg->p->work_end - kg->p->work_begin)
             return 0;
+        uint w = kg->p->work_begin + rel;
         uint flags = path_start(i, w, kg);
         kg->ps_flags[i] = flags;
         if (flags == SPT_PATH_ALIVE)
@@ -472,7 +490,7 @@ static int mega_next(uint i, const KernelGlobals *kg)
 /* Shades path i at its hit (ps_hit) and traces its shadow ray; when the path
  * ended, starts the next. Returns mega_next's 1 or 0, or 1 while the path goes
  * on. */
-SPT_FN_INLINE int mega_shade(uint i, uint *nshadow, const KernelGlobals *kg)
+SPT_FN_INLINE int mega_shade(uint i, uint *nshadow, WorkBatch *wb, const KernelGlobals *kg)
 {
     float4 so, sd, sc;
     int shadow = (kg->ps_lt[i] & SPT_LT_LIGHT) ? lt_shade(i, &so, &sd, &sc, kg)
@@ -484,7 +502,7 @@ SPT_FN_INLINE int mega_shade(uint i, uint *nshadow, const KernelGlobals *kg)
     if (kg->ps_flags[i] != SPT_PATH_FINISHED)
         return 1;
     mega_end(i, kg);
-    return mega_next(i, kg);
+    return mega_next(i, wb, kg);
 }
 
 __kernel void k_paths(KERNEL_ARGS)
@@ -492,8 +510,9 @@ __kernel void k_paths(KERNEL_ARGS)
     KERNEL_GLOBALS;
     uint s0 = 2u * get_global_id(0), s1 = s0 + 1u;
     uint nray = 0u, nshadow = 0u;
-    int a0 = s0 < params.pool_size && mega_next(s0, kg);
-    int a1 = a0 && s1 < params.pool_size && mega_next(s1, kg);
+    WorkBatch wb = {0u, 0u};
+    int a0 = s0 < params.pool_size && mega_next(s0, &wb, kg);
+    int a1 = a0 && s1 < params.pool_size && mega_next(s1, &wb, kg);
     while (a0 | a1) {
         if (SPT_HAS_INSTANCES(&params)) {
             /* Two levels (docs/architecture.md, "Instances (two levels)"): one ray at a time. */
@@ -533,9 +552,9 @@ __kernel void k_paths(KERNEL_ARGS)
         }
         nray += (uint)a0 + (uint)a1;
         if (a0)
-            a0 = mega_shade(s0, &nshadow, kg);
+            a0 = mega_shade(s0, &nshadow, &wb, kg);
         if (a1)
-            a1 = mega_shade(s1, &nshadow, kg);
+            a1 = mega_shade(s1, &nshadow, &wb, kg);
     }
     if (nray)
         atomic_add(&counters[SPT_CNT_EXTEND], nray);
