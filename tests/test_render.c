@@ -126,15 +126,30 @@ TEST(test_gpu_path_on_cpu_device)
     g_hooks.stages = 1;
     int rc3 = render_gltf("scenes/cornell_box.gltf", 32, 32, 16, -1, 9, &c, &st);
     g_hooks.stages = 0;
+    /* k_paths's rays paired and one by one (the device picks one of the two;
+     * src/render/wavefront.c, kernel_path_for): the same hits and arithmetic,
+     * so the same film bit for bit. */
+    Film d, f;
+    g_hooks.rays = SPT_RAYS_PAIRED;
+    int rc4 = render_gltf("scenes/cornell_box.gltf", 32, 32, 16, -1, 9, &d, &st);
+    g_hooks.rays = SPT_RAYS_ONE_BY_ONE;
+    int rc5 = render_gltf("scenes/cornell_box.gltf", 32, 32, 16, -1, 9, &f, &st);
+    g_hooks.rays = SPT_RAYS_DEVICE;
     g_hooks.kernel_path = SPT_KERNEL_PATH_DEVICE;
     assert_int_equal(rc, 0);
     assert_int_equal(rc2, 0);
     assert_int_equal(rc3, 0);
+    assert_int_equal(rc4, 0);
+    assert_int_equal(rc5, 0);
     assert_same_film(&a, &b);
     assert_same_film(&c, &b);
+    assert_same_film(&d, &b);
+    assert_memory_equal(d.xyz, f.xyz, 32 * 32 * 3 * sizeof(double));
     film_free(&a);
     film_free(&b);
     film_free(&c);
+    film_free(&d);
+    film_free(&f);
 }
 
 /* The same seed on the same device gives the same film bit for bit; another seed

@@ -441,7 +441,8 @@ __kernel void k_connect(KERNEL_ARGS)
  * and 2 g + 1, whose closest-hit rays are traced together (bvh_intersect2),
  * and gives a slot whose path ended the next work item of
  * [params.work_begin, params.work_end) from counter SPT_CNT_WORK (counting from
- * params.work_begin; the host zeroes it per launch), until none is left. A CPU
+ * params.work_begin; the host zeroes it per launch), until none is left
+ * (SPT_ONE_RAY: the two rays traced one after the other instead). A CPU
  * runs a work-group's items one after another, so each thread keeps one
  * work-item's two paths in flight. */
 
@@ -523,8 +524,16 @@ __kernel void k_paths(KERNEL_ARGS)
         } else if (a0 && a1 && params.node_count > 0u) {
             int found[2];
             BvhHit hit[2];
+#if defined(SPT_ONE_RAY)
+            /* One ray after the other: faster than the pair on Intel's cores
+             * (src/render/wavefront.c, kernel_path_for; docs/performance.md,
+             * "Vector width: AVX-512 against AVX2"); the same hits. */
+            found[0] = bvh_intersect(nodes, tris, ps_ray_o[s0].xyz, ps_ray_d[s0].xyz, 1e30f, &hit[0]);
+            found[1] = bvh_intersect(nodes, tris, ps_ray_o[s1].xyz, ps_ray_d[s1].xyz, 1e30f, &hit[1]);
+#else
             bvh_intersect2(nodes, tris, ps_ray_o[s0].xyz, ps_ray_d[s0].xyz, ps_ray_o[s1].xyz,
                            ps_ray_d[s1].xyz, 1e30f, found, hit);
+#endif
             ps_hit[s0] = extend_result(found[0], &hit[0]);
             ps_hit[s1] = extend_result(found[1], &hit[1]);
 #if defined(SPT_BVH_STEP_PREFETCH)

@@ -15,6 +15,8 @@
 #include "render/render_options.h"
 
 enum { SPT_KERNEL_PATH_DEVICE = 0, SPT_KERNEL_PATH_CPU, SPT_KERNEL_PATH_GPU };
+/* How k_paths traces its two paths' closest-hit rays (the rays test hook). */
+enum { SPT_RAYS_DEVICE = 0, SPT_RAYS_PAIRED, SPT_RAYS_ONE_BY_ONE };
 
 /* Hooks for tests, off when zero; only tests set them (the command line takes
  * them from SPECTRACE_TEST_* variables: src/api/render_args.h). */
@@ -40,6 +42,8 @@ typedef struct RenderTestHooks {
                          (0: the device's own) */
     int stages;       /* 1: the stage kernels on the CPU path too, instead of
                          k_paths (comparisons; the extend stage's own time) */
+    int rays;         /* SPT_RAYS_PAIRED or _ONE_BY_ONE: k_paths's rays traced so
+                         on any CPU path (0: the device's choice) */
     int bvh_rebuild;  /* spectrace render --frames: every frame's BVH built anew,
                          never refitted (comparisons and timing) */
 } RenderTestHooks;
