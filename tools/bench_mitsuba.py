@@ -17,6 +17,9 @@ from the cache, render, EXR written) against Mitsuba 3 llvm_ad_spectral's render
 time alone (the scene loaded and the kernels compiled before), at 512x512, max
 depth 8: the Cornell box at 64 spp and the mesh at 16 spp; R alternated runs
 each, medians, and the ratio spectrace / Mitsuba (above 1: spectrace faster).
+The Cornell box is also timed with --caustics off: its path tracing alone, the
+work Mitsuba's path integrator does (spectrace's defaults add the caustic
+passes there).
 
 equal time (--only race): at 256x256, max depth 8, spectrace renders for T
 seconds (`--time T`: its default sampler, and adaptive sampling, on by
@@ -325,20 +328,33 @@ def speed(a, mi, scenes, tmp):
             ms = MitsubaScene(mi, path, 512, tmp)
             spp_band = max(1, int(math.ceil(spp / len(ms.bands))))
             ms.render("independent", 1, seed=1)   # compile
-        ours, theirs = [], []
+        # The Cornell box's glass and gold turn light, so spectrace's defaults
+        # add its caustic passes (light tracing, photon merging), which
+        # Mitsuba's path integrator does not run: its path tracing alone
+        # (--caustics off) is timed too, in the same alternation, as the
+        # like-for-like figure (docs/performance.md, "Vector width").
+        alone = name == "cornell"
+        ours, ours_pt, theirs = [], [], []
         for r in range(a.runs):
             wall, done, _ = spectrace_render(a, path, out, 512, ["--spp", str(spp), "--seed", str(r)])
             ours.append(512 * 512 * done / wall)
+            if alone:
+                wall, done, _ = spectrace_render(a, path, out, 512,
+                                                 ["--spp", str(spp), "--seed", str(r), "--caustics", "off"])
+                ours_pt.append(512 * 512 * done / wall)
             if ms is not None:
                 _, secs, paths, _ = ms.render("independent", spp_band, seed=r + 10)
                 theirs.append(paths / secs)
-        o = statistics.median(ours)
-        line = "%-8s %3d spp: spectrace %.3f Mpaths/s (process)" % (name, spp, o * 1e-6)
-        if theirs:
-            t = statistics.median(theirs)
-            line += ", Mitsuba %s %.3f Mpaths/s (render%s): ratio spectrace/Mitsuba %.2f" % (
-                mi.variant(), t * 1e-6, ", %d bands" % len(ms.bands) if len(ms.bands) > 1 else "", o / t)
-        print(line, flush=True)
+        t = statistics.median(theirs) if theirs else None
+        for what, runs in (("", ours), (" --caustics off", ours_pt)):
+            if not runs:
+                continue
+            o = statistics.median(runs)
+            line = "%-8s %3d spp%s: spectrace %.3f Mpaths/s (process)" % (name, spp, what, o * 1e-6)
+            if t:
+                line += ", Mitsuba %s %.3f Mpaths/s (render%s): ratio spectrace/Mitsuba %.2f" % (
+                    mi.variant(), t * 1e-6, ", %d bands" % len(ms.bands) if len(ms.bands) > 1 else "", o / t)
+            print(line, flush=True)
 
 
 def race(a, mi, scenes, tmp):
