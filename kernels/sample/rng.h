@@ -664,7 +664,7 @@ typedef struct SptSampler {
     spt_u32 zdigits, zlog2spp, zseed;
 } SptSampler;
 
-SPT_FN SPT_ALWAYS_INLINE SptSampler spt_sampler(spt_u32 kind, spt_u32 seed, spt_u32 pixel, spt_u32 sample)
+SPT_FN SptSampler spt_sampler(spt_u32 kind, spt_u32 seed, spt_u32 pixel, spt_u32 sample)
 {
     SptSampler s;
     s.kind = kind;
@@ -680,7 +680,7 @@ SPT_FN SPT_ALWAYS_INLINE SptSampler spt_sampler(spt_u32 kind, spt_u32 seed, spt_
 
 /* The sampler of a camera path's sample of the render p: spt_sampler, and for
  * ZSobol its Morton index from the pixel's position. */
-SPT_FN SPT_ALWAYS_INLINE SptSampler spt_sampler_for(const RenderParams *p, spt_u32 pixel, spt_u32 sample)
+SPT_FN SptSampler spt_sampler_for(const RenderParams *p, spt_u32 pixel, spt_u32 sample)
 {
     SptSampler s = spt_sampler(p->sampler, p->seed, pixel, sample);
     if (p->sampler == SPT_SAMPLER_ZSOBOL) {
