@@ -332,24 +332,23 @@ def speed(a, mi, scenes, tmp):
         # add its caustic passes (light tracing, photon merging), which
         # Mitsuba's path integrator does not run: its path tracing alone
         # (--caustics off) is timed too, in the same alternation, as the
-        # like-for-like figure (docs/performance.md, "Vector width").
-        alone = name == "cornell"
-        ours, ours_pt, theirs = [], [], []
+        # like-for-like figure (docs/performance.md, "An Intel Xeon with
+        # AVX-512").
+        variants = [("", [])]
+        if name == "cornell":
+            variants.append((" --caustics off", ["--caustics", "off"]))
+        ours = {what: [] for what, _ in variants}
+        theirs = []
         for r in range(a.runs):
-            wall, done, _ = spectrace_render(a, path, out, 512, ["--spp", str(spp), "--seed", str(r)])
-            ours.append(512 * 512 * done / wall)
-            if alone:
-                wall, done, _ = spectrace_render(a, path, out, 512,
-                                                 ["--spp", str(spp), "--seed", str(r), "--caustics", "off"])
-                ours_pt.append(512 * 512 * done / wall)
+            for what, extra in variants:
+                wall, done, _ = spectrace_render(a, path, out, 512, ["--spp", str(spp), "--seed", str(r)] + extra)
+                ours[what].append(512 * 512 * done / wall)
             if ms is not None:
                 _, secs, paths, _ = ms.render("independent", spp_band, seed=r + 10)
                 theirs.append(paths / secs)
         t = statistics.median(theirs) if theirs else None
-        for what, runs in (("", ours), (" --caustics off", ours_pt)):
-            if not runs:
-                continue
-            o = statistics.median(runs)
+        for what, _ in variants:
+            o = statistics.median(ours[what])
             line = "%-8s %3d spp%s: spectrace %.3f Mpaths/s (process)" % (name, spp, what, o * 1e-6)
             if t:
                 line += ", Mitsuba %s %.3f Mpaths/s (render%s): ratio spectrace/Mitsuba %.2f" % (

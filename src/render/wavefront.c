@@ -241,19 +241,25 @@ static int kernel_path_pairs(const ClDeviceInfo *info)
  * by one: *rays); else (unset or another word) the device's own path. */
 static void kernel_path_env(int *path, int *stages, int *rays)
 {
+    static const struct {
+        const char *word;
+        int path, stages, rays;
+    } words[] = {
+        {"cpu", SPT_KERNEL_PATH_CPU, 0, SPT_RAYS_DEVICE},
+        {"gpu", SPT_KERNEL_PATH_GPU, 0, SPT_RAYS_DEVICE},
+        {"cpu-stages", SPT_KERNEL_PATH_CPU, 1, SPT_RAYS_DEVICE},
+        {"cpu-pairs", SPT_KERNEL_PATH_CPU, 0, SPT_RAYS_PAIRED},
+        {"cpu-one-ray", SPT_KERNEL_PATH_CPU, 0, SPT_RAYS_ONE_BY_ONE},
+    };
     const char *v = getenv("SPECTRACE_KERNEL_PATH");
-    *path = !v                          ? SPT_KERNEL_PATH_DEVICE
-            : !strcmp(v, "cpu")         ? SPT_KERNEL_PATH_CPU
-            : !strcmp(v, "gpu")         ? SPT_KERNEL_PATH_GPU
-            : !strcmp(v, "cpu-stages")  ? SPT_KERNEL_PATH_CPU
-            : !strcmp(v, "cpu-pairs")   ? SPT_KERNEL_PATH_CPU
-            : !strcmp(v, "cpu-one-ray") ? SPT_KERNEL_PATH_CPU
-                                        : SPT_KERNEL_PATH_DEVICE;
-    *stages = *stages || (v && !strcmp(v, "cpu-stages"));
-    if (v && !strcmp(v, "cpu-pairs"))
-        *rays = SPT_RAYS_PAIRED;
-    else if (v && !strcmp(v, "cpu-one-ray"))
-        *rays = SPT_RAYS_ONE_BY_ONE;
+    *path = SPT_KERNEL_PATH_DEVICE;
+    for (size_t k = 0; v && k < sizeof words / sizeof words[0]; k++)
+        if (!strcmp(v, words[k].word)) {
+            *path = words[k].path;
+            *stages = *stages || words[k].stages;
+            if (words[k].rays != SPT_RAYS_DEVICE)
+                *rays = words[k].rays;
+        }
 }
 
 /* Work-group size of kernel k on dev: 64 work-items (the queues take one global
@@ -402,8 +408,8 @@ void wavefront_plan(WavefrontPlan *p, const ClDeviceInfo *info, const GpuScene *
 }
 
 /* The kernels' code path for rendering with rs on info's device: *ray_pairs
- * (the CPU path), *mega (k_paths rather than the stages) and *one_ray
- * (k_paths traces its two rays one after the other). */
+ * (the CPU path), *mega (k_paths rather than the stages) and, unless one_ray
+ * is NULL, *one_ray (k_paths traces its two rays one after the other). */
 static void kernel_path_for(const ClDeviceInfo *info, const RenderSettings *rs, int *ray_pairs,
                             int *mega, int *one_ray)
 {
@@ -433,8 +439,9 @@ static void kernel_path_for(const ClDeviceInfo *info, const RenderSettings *rs, 
      * Cornell box and the 1M-triangle mesh (docs/performance.md, "Vector
      * width: AVX-512 against AVX2"); elsewhere the pair stays. The same hits
      * either way; the rays hook picks one for the tests. */
-    *one_ray = *mega && (rays == SPT_RAYS_ONE_BY_ONE ||
-                         (rays == SPT_RAYS_DEVICE && strstr(info->vendor, "Intel") != NULL));
+    if (one_ray)
+        *one_ray = *mega && (rays == SPT_RAYS_ONE_BY_ONE ||
+                             (rays == SPT_RAYS_DEVICE && strstr(info->vendor, "Intel") != NULL));
 }
 
 void wavefront_options(const ClDeviceInfo *info, const GpuScene *g, const RenderSettings *rs,
@@ -484,8 +491,8 @@ int wavefront_fits(const Wavefront *w, const GpuScene *g, const RenderSettings *
     if (w->dev.profiling != (rs->profile != 0))
         return SPT_WAVEFRONT_REOPEN;
     char options[sizeof w->options];
-    int ray_pairs, mega, one_ray;
-    kernel_path_for(&w->dev.info, rs, &ray_pairs, &mega, &one_ray);
+    int ray_pairs, mega;
+    kernel_path_for(&w->dev.info, rs, &ray_pairs, &mega, NULL);
     wavefront_options(&w->dev.info, g, rs, options, sizeof options);
     return !strcmp(options, w->options) && ray_pairs == w->ray_pairs && mega == w->mega
                ? SPT_WAVEFRONT_FITS
@@ -505,8 +512,7 @@ int wavefront_program(Wavefront *w, const GpuScene *g, const RenderSettings *rs,
     const ClDeviceInfo *info = &w->dev.info;
     w->aov = render_keeps_aov(rs);
     w->bands = rs->spectral > 0 ? rs->spectral : 0;
-    int one_ray;
-    kernel_path_for(info, rs, &w->ray_pairs, &w->mega, &one_ray);
+    kernel_path_for(info, rs, &w->ray_pairs, &w->mega, NULL);
     wavefront_options(info, g, rs, w->options, sizeof w->options);
     w->dev.stop = rs->stop;
     w->dev.announce = rs->progress || rs->announce;
