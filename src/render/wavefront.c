@@ -444,6 +444,24 @@ static void kernel_path_for(const ClDeviceInfo *info, const RenderSettings *rs, 
                              (rays == SPT_RAYS_DEVICE && strstr(info->vendor, "Intel") != NULL));
 }
 
+/* A BVH larger than a quarter of the device's cache (shared by its cores
+ * and other programs) is read mostly from memory: each traversal step then
+ * asks early for the next one's data; in a small scene those requests only
+ * cost time. The cache counted is at most WAVEFRONT_CACHE_CAP: a server CPU
+ * reports its whole package's last-level cache (480 MiB on a Xeon whose
+ * virtual machine has 2 of its cores), of which a core gets a small share,
+ * and at a higher latency than a desktop's (docs/performance.md, "What sets
+ * the speed": the prefetch makes the 1M-triangle mesh's 24 MB tree 5%
+ * faster there, and changes nothing at 2 and 7 MB). */
+#define WAVEFRONT_CACHE_CAP (32.0 * 1024.0 * 1024.0)
+
+int wavefront_step_prefetch(double bvh_bytes, double cache)
+{
+    if (cache > WAVEFRONT_CACHE_CAP)
+        cache = WAVEFRONT_CACHE_CAP;
+    return bvh_bytes > 0.25 * cache;
+}
+
 void wavefront_options(const ClDeviceInfo *info, const GpuScene *g, const RenderSettings *rs,
                        char *out, size_t cap)
 {
@@ -453,13 +471,9 @@ void wavefront_options(const ClDeviceInfo *info, const GpuScene *g, const Render
     if (ray_pairs && clGetDeviceInfo(info->id, CL_DEVICE_GLOBAL_MEM_CACHE_SIZE, sizeof cache,
                                      &cache, NULL) != CL_SUCCESS)
         cache = 0;
-    /* A BVH larger than a quarter of the device's cache (shared by its cores
-     * and other programs) is read mostly from memory: each traversal step then
-     * asks early for the next one's data (SPT_BVH_STEP_PREFETCH); in a small
-     * scene those requests only cost time. */
     double bvh_bytes = (double)g->bvh.node_count * (g->qnodes ? sizeof(BvhQNode) : sizeof(BvhNode)) +
                        (double)g->bvh.tri_data_bytes;
-    int step_prefetch = ray_pairs && bvh_bytes > 0.25 * (double)cache;
+    int step_prefetch = ray_pairs && wavefront_step_prefetch(bvh_bytes, (double)cache);
     /* The thin film's code only where a material has one (kernels/closure/
      * bsdf_params.h, SPT_IRIDESCENCE). */
     int film = 0;

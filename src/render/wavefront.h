@@ -118,6 +118,11 @@ void wavefront_release_work_buffers(Wavefront *w);
 void wavefront_options(const ClDeviceInfo *info, const GpuScene *g, const RenderSettings *rs,
                        char *out, size_t cap);
 
+/* Whether the CPU path's traversal asks for each next node's memory early
+ * (SPT_BVH_STEP_PREFETCH): for a BVH of bvh_bytes on a device whose global
+ * memory cache is cache bytes (as it reports it; 0: unknown). */
+int wavefront_step_prefetch(double bvh_bytes, double cache);
+
 /* Whether w, a wavefront kept from an earlier render, can render g with rs:
  * as it is (SPT_WAVEFRONT_FITS), after wavefront_program builds its program
  * with rs's options (SPT_WAVEFRONT_REBUILD: its context and buffers stay), or
