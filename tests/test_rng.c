@@ -654,13 +654,17 @@ static const char device_src[] =
     "                          __global const float *cdf, uint ncdf)\n"
     "{\n"
     "    uint i = get_global_id(0);\n"
-    "    bits[5 * i + 0] = spt_rand_bits(spt_rng_key(7u, i * 3u, i / 5u), i % 41u);\n"
-    "    bits[5 * i + 1] = spt_sobol_owen_u32(i, i % SPT_SOBOL_DIMS, 0x9e3779b9u * i);\n"
-    "    bits[5 * i + 2] = as_uint(spt_sample_1d(3u, i / 64u, i % 64u, i % 23u));\n"
+    "    bits[13 * i + 0] = spt_rand_bits(spt_rng_key(7u, i * 3u, i / 5u), i % 41u);\n"
+    "    bits[13 * i + 1] = spt_sobol_owen_u32(i, i % SPT_SOBOL_DIMS, 0x9e3779b9u * i);\n"
+    "    bits[13 * i + 2] = as_uint(spt_sample_1d(3u, i / 64u, i % 64u, i % 23u));\n"
     "    float prob, ur;\n"
-    "    bits[5 * i + 3] = (uint)spt_discrete_sample(cdf, ncdf, spt_rand(1u, i, 0u, 0u), &prob, &ur);\n"
-    "    bits[5 * i + 4] = as_uint(spt_zsobol_1d(3u, i % 37u, i / 37u, 37u, 111u, i % 7u,\n"
+    "    bits[13 * i + 3] = (uint)spt_discrete_sample(cdf, ncdf, spt_rand(1u, i, 0u, 0u), &prob, &ur);\n"
+    "    bits[13 * i + 4] = as_uint(spt_zsobol_1d(3u, i % 37u, i / 37u, 37u, 111u, i % 7u,\n"
     "                                            (i * 13u) & ((1u << (i % 7u)) - 1u), i % 13u));\n"
+    "    float ub[SPT_DIM_BOUNCE_BLOCK];\n"
+    "    spt_sample_bounce(spt_sobol_pixel_key(5u, i / 16u), i * 2654435769u, i % 5u, ub);\n"
+    "    for (uint k = 0u; k < SPT_DIM_BOUNCE_BLOCK; k++)\n"
+    "        bits[13 * i + 5u + k] = as_uint(ub[k]);\n"
     "    float u1 = spt_rand(2u, i, 0u, 0u), u2 = spt_rand(2u, i, 0u, 1u);\n"
     "    vec3 c = spt_sample_cosine_hemisphere(u1, u2);\n"
     "    vec3 s = spt_sample_uniform_sphere(u1, u2);\n"
@@ -671,9 +675,15 @@ static const char device_src[] =
     "    o[11] = spt_power_heuristic(u1, u2);\n"
     "}\n";
 
-/* The same computations as k_rng_check, on the host, for item i. */
-static void host_check(spt_u32 i, const float *cdf, spt_u32 ncdf, spt_u32 bits[5], float f[12])
+/* The same computations as k_rng_check, on the host, for item i; a bounce's
+ * dims (spt_sample_bounce's eight lanes on the device, bounces 0-4: bounce 1
+ * holds the joined groups) from their definition, spt_sample_1d. */
+static void host_check(spt_u32 i, const float *cdf, spt_u32 ncdf, spt_u32 bits[13], float f[12])
 {
+    for (spt_u32 k = 0; k < SPT_DIM_BOUNCE_BLOCK; k++) {
+        float b = spt_sample_1d(5u, i / 16u, i * 2654435769u, spt_dim_bounce(i % 5u, k));
+        memcpy(&bits[5 + k], &b, sizeof b);
+    }
     float u = spt_sample_1d(3u, i / 64u, i % 64u, i % 23u); /* dims of groups 0-11 */
     float z = spt_zsobol_1d(3u, i % 37u, i / 37u, 37u, 111u, i % 7u, (i * 13u) & ((1u << (i % 7u)) - 1u),
                             i % 13u);
@@ -709,7 +719,7 @@ static void run_device_check(ClDevice *d, const char *options, float float_tol)
     cl_kernel k = clCreateKernel(prog, "k_rng_check", &err);
     assert_int_equal(err, CL_SUCCESS);
     cl_mem bits_buf = NULL, f_buf = NULL, cdf_buf = NULL;
-    assert_int_equal(cl_buffer_create(d, "bits", CL_MEM_WRITE_ONLY, sizeof(cl_uint) * 5 * N, NULL,
+    assert_int_equal(cl_buffer_create(d, "bits", CL_MEM_WRITE_ONLY, sizeof(cl_uint) * 13 * N, NULL,
                                       &bits_buf, &e),
                      0);
     assert_int_equal(cl_buffer_create(d, "floats", CL_MEM_WRITE_ONLY, sizeof(float) * 12 * N,
@@ -726,7 +736,7 @@ static void run_device_check(ClDevice *d, const char *options, float float_tol)
     size_t global = N;
     assert_int_equal(clEnqueueNDRangeKernel(d->queue, k, 1, NULL, &global, NULL, 0, NULL, NULL),
                      CL_SUCCESS);
-    static cl_uint bits[5 * N];
+    static cl_uint bits[13 * N];
     static float f[12 * N];
     assert_int_equal(clEnqueueReadBuffer(d->queue, bits_buf, CL_TRUE, 0, sizeof bits, bits, 0,
                                          NULL, NULL),
@@ -741,13 +751,13 @@ static void run_device_check(ClDevice *d, const char *options, float float_tol)
     clReleaseProgram(prog);
     float worst = 0.0f;
     for (spt_u32 i = 0; i < N; i++) {
-        spt_u32 hb[5];
+        spt_u32 hb[13];
         float hf[12];
         host_check(i, cdf, NCDF, hb, hf);
-        for (int j = 0; j < 5; j++)
-            if (bits[5 * i + j] != hb[j])
+        for (int j = 0; j < 13; j++)
+            if (bits[13 * i + j] != hb[j])
                 fail_msg("options \"%s\": item %u, integer output %d: device 0x%08x, host 0x%08x",
-                         options, i, j, bits[5 * i + j], hb[j]);
+                         options, i, j, bits[13 * i + j], hb[j]);
         for (int j = 0; j < 12; j++) {
             /* Output 2, the cosine-hemisphere z = sqrt(1 - x^2 - y^2), is
              * compared through z^2: near the horizon sqrt magnifies an error

@@ -65,7 +65,46 @@ typedef struct ShadeFrame {
     uint key;           /* smp.rand_key: spt_rand_key(key, d) = spt_rand(seed, pixel, sample, d),
                            for dims the sampler does not serve */
     uint bounce;
+    int drawn;          /* u holds the bounce's dims (shade_draw_bounce) */
+    float u[SPT_DIM_BOUNCE_BLOCK];
 } ShadeFrame;
+
+/* All dims of bounce `bounce` of smp's sample at once, into u, where the
+ * sampler is the Sobol one (spt_sample_bounce: the same numbers as one at a
+ * time, in a fraction of the instructions); returns whether it drew them.
+ * shade_take_bounce gives them to the frame, whose shade_u and shade_u2 read
+ * them. */
+SPT_FN_INLINE int shade_draw_bounce(SptSampler smp, uint bounce, float u[SPT_DIM_BOUNCE_BLOCK])
+{
+    if (smp.kind != SPT_SAMPLER_SOBOL)
+        return 0;
+    spt_sample_bounce(smp.pixel_key, smp.sample, bounce, u);
+    return 1;
+}
+
+SPT_FN_INLINE void shade_take_bounce(ShadeFrame *f, int drawn, const float u[SPT_DIM_BOUNCE_BLOCK])
+{
+    f->drawn = drawn;
+    for (uint k = 0u; k < SPT_DIM_BOUNCE_BLOCK; k++)
+        f->u[k] = u[k];
+}
+
+/* Dim k (SPT_DIM_LIGHT_SELECT ...) of f's bounce. */
+SPT_FN_INLINE float shade_u(const ShadeFrame *f, uint k)
+{
+    return f->drawn ? f->u[k] : spt_sampler_1d(f->smp, spt_dim_bounce(f->bounce, k));
+}
+
+/* Dims k and k + 1 (k even) of f's bounce. */
+SPT_FN_INLINE void shade_u2(const ShadeFrame *f, uint k, float *u0, float *u1)
+{
+    if (f->drawn) {
+        *u0 = f->u[k];
+        *u1 = f->u[k + 1u];
+    } else {
+        spt_sampler_pair(f->smp, spt_dim_bounce(f->bounce, k), u0, u1);
+    }
+}
 
 /* The camera paths' share of the path space beside the light-tracing pass
  * (kernels/integrator/light_trace.h), which owns the paths camera - x1 - ... - xk -
@@ -317,6 +356,7 @@ SPT_FN_INLINE void shade_frame(const ShadeHit *h, const TexCtx *tc, BsdfParams *
     f->bounce = h->depth - 1u;
     f->smp = smp;
     f->key = smp.rand_key;
+    f->drawn = 0;
 }
 
 /* Next-event estimation's emitter entry e when it is an instance's
@@ -365,7 +405,7 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
           !bsdf_is_delta(bp)))
         return 0;
     float prob, ul, vl;
-    spt_sampler_pair(f->smp, spt_dim_bounce(bounce, SPT_DIM_LIGHT_U), &ul, &vl);
+    shade_u2(f, SPT_DIM_LIGHT_U, &ul, &vl);
     /* tree_prob: the light tree's share of prob for an emitter it picked
      * (tri_light_pdf holds the rest of its pdf), 1 otherwise. */
     float tree_prob = 1.0f;
@@ -467,9 +507,9 @@ SPT_FN_INLINE int shade_bsdf_bounce(ShadeHit *h, const BsdfParams *bp, const Sha
                                     BsdfSample *bs, float3 *wn, float *wn_side, int *reflect,
                                     const KernelGlobals *kg)
 {
-    uint i = h->i, bounce = f->bounce;
+    uint i = h->i;
     float ub, vb;
-    spt_sampler_pair(f->smp, spt_dim_bounce(bounce, SPT_DIM_BSDF_U), &ub, &vb);
+    shade_u2(f, SPT_DIM_BSDF_U, &ub, &vb);
     *bs = bsdf_sample(bp, f->wo_l, ulobe, ub, vb);
     *wn = bs->wi.x * f->tg + bs->wi.y * f->bt + bs->wi.z * f->ns;
     *wn_side = dot(*wn, f->ngf);
@@ -522,7 +562,7 @@ SPT_FN_INLINE int shade_roulette(ShadeHit *h, const ShadeFrame *f, int alive, co
         alive = 0;
     if (alive && h->depth >= kg->p->rr_depth) {
         float qs = fmin(max4(h->beta), 0.95f);
-        float u = spt_sampler_1d(f->smp, spt_dim_bounce(f->bounce, SPT_DIM_ROULETTE));
+        float u = shade_u(f, SPT_DIM_ROULETTE);
         if (u >= qs)
             alive = 0;
         else
@@ -583,13 +623,17 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Ke
         shade_miss(i, h.lam, h.beta, kg);
         return 0;
     }
-    TexCtx tc;
-    shade_hit_geometry(&h, &tc, kg);
     uint npix = (uint)(kg->p->width * kg->p->height);
     uint w_item = kg->ps_work[i];
     uint pixel = w_item % npix;
     uint sample = kg->p->sample_begin + w_item / npix - kg->pixel_lag[pixel];
     SptSampler smp = spt_sampler_for(kg->p, pixel, sample);
+    /* The bounce's numbers depend on the sample alone: drawn before the
+     * hit's geometry, the chains of their hashes can run beside its loads. */
+    float ub[SPT_DIM_BOUNCE_BLOCK];
+    int drawn = shade_draw_bounce(smp, h.depth - 1u, ub);
+    TexCtx tc;
+    shade_hit_geometry(&h, &tc, kg);
     if (shade_alpha_with(&h, &tc, 1, smp, kg->p->seed, pixel, sample, kg))
         return 0;
     shade_emission(&h, &tc, kg);
@@ -612,10 +656,9 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Ke
 #ifdef SPT_AOV
     shade_aov(&h, &tc, &bp, &f, 0, kg);
 #endif
-    /* The light selection and the BSDF lobe are one Sobol pair (rng.h): drawn
-     * together, its seed and index shuffle are computed once. */
+    shade_take_bounce(&f, drawn, ub);
     float usel, ulobe;
-    spt_sampler_pair(f.smp, spt_dim_bounce(f.bounce, SPT_DIM_LIGHT_SELECT), &usel, &ulobe);
+    shade_u2(&f, SPT_DIM_LIGHT_SELECT, &usel, &ulobe);
     int shadow = shade_direct_light(&h, &tc, &bp, &f, usel, sh_o, sh_d, sh_c, kg);
 #ifdef SPT_MERGE
     /* A surface with a non-delta lobe reached through delta vertices only

@@ -529,6 +529,12 @@ __kernel void k_paths(KERNEL_ARGS)
              * (src/render/wavefront.c, kernel_path_for; docs/performance.md,
              * "Vector width: AVX-512 against AVX2"); the same hits. */
             found[0] = bvh_intersect(nodes, tris, ps_ray_o[s0].xyz, ps_ray_d[s0].xyz, 1e30f, &hit[0]);
+#if defined(SPT_BVH_STEP_PREFETCH)
+            /* The first hit's triangle record comes in while the second ray
+             * is traced. */
+            if (found[0])
+                SPT_PREFETCH(tri_shade + hit[0].prim);
+#endif
             found[1] = bvh_intersect(nodes, tris, ps_ray_o[s1].xyz, ps_ray_d[s1].xyz, 1e30f, &hit[1]);
 #else
             bvh_intersect2(nodes, tris, ps_ray_o[s0].xyz, ps_ray_d[s0].xyz, ps_ray_o[s1].xyz,
@@ -541,7 +547,18 @@ __kernel void k_paths(KERNEL_ARGS)
              * its vertices' positions and normals are asked for now, so they
              * arrive while the first path is shaded (on the 1M-triangle mesh
              * of tools/bench_mitsuba.py these loads were a sixth of
-             * shade_path's time). */
+             * shade_path's time); one ray at a time, also the first hit's
+             * vertices, its record having come in during the second ray's
+             * traversal. */
+#if defined(SPT_ONE_RAY)
+            if (found[0]) {
+                TriShade t0 = tri_shade[hit[0].prim];
+                for (int k = 0; k < 3; k++) {
+                    SPT_PREFETCH(vtx_pos + 3u * t0.v[k]);
+                    SPT_PREFETCH(vtx_normal + 3u * t0.v[k]);
+                }
+            }
+#endif
             if (found[1]) {
                 TriShade t1 = tri_shade[hit[1].prim];
                 for (int k = 0; k < 3; k++) {

@@ -528,6 +528,96 @@ SPT_FN SPT_ALWAYS_INLINE void spt_sample_pair(spt_u32 pixel_key, spt_u32 sample,
     *u1 = spt_u32_to_unit(spt_reverse_bits(spt_lk_hash(spt_sobol_rev_u32(shuffled, d + 1u), h1)));
 }
 
+/* ---- A bounce's dims at once ------------------------------------------------ */
+
+#if SPT_DEVICE
+/* spt_hash_u32, spt_reverse_bits and spt_lk_hash lane by lane. */
+SPT_FN uint8 spt_hash_u32x8(uint8 x)
+{
+    x ^= x >> 17u;
+    x *= 0xed5ad4bbu;
+    x ^= x >> 11u;
+    x *= 0xac4c1b51u;
+    x ^= x >> 15u;
+    x *= 0x31848babu;
+    x ^= x >> 14u;
+    return x;
+}
+
+SPT_FN uint8 spt_reverse_bits_x8(uint8 x)
+{
+    x = ((x >> 1u) & 0x55555555u) | ((x & 0x55555555u) << 1u);
+    x = ((x >> 2u) & 0x33333333u) | ((x & 0x33333333u) << 2u);
+    x = ((x >> 4u) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4u);
+    x = ((x >> 8u) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8u);
+    return (x >> 16u) | (x << 16u);
+}
+
+SPT_FN uint8 spt_lk_hash_x8(uint8 x, uint8 seed)
+{
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16u) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return x;
+}
+#endif
+
+SPT_STATIC_ASSERT(SPT_DIM_BOUNCE_BLOCK == 8u, "spt_sample_bounce draws a bounce's dims in 8 lanes");
+
+/* All SPT_DIM_BOUNCE_BLOCK dims of a bounce, u[k] = spt_sample_1d_key(pixel_key,
+ * sample, spt_dim_bounce(bounce, k)) bit for bit. A shading step uses most of
+ * them (the light, the lobe, the BSDF direction, the roulette), and each
+ * costs three hashes, two scrambles and their bit reversals: on the device
+ * the eight are one 8-lane computation (docs/performance.md, "The sampler's
+ * dims in lanes"), on the host a loop over the definition. */
+SPT_FN void spt_sample_bounce(spt_u32 pixel_key, spt_u32 sample, spt_u32 bounce,
+                              float u[SPT_DIM_BOUNCE_BLOCK])
+{
+#if SPT_DEVICE
+    uint8 lane = (uint8)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u);
+    uint8 group = (uint8)(spt_dim_bounce(bounce, 0u) >> 1) + (lane >> 1u);
+    uint8 odd = lane & 1u;
+    uint8 seed = spt_hash_u32x8((uint8)(pixel_key) ^ group);
+    /* The joined groups (spt_group_sobol_dim) take the index shuffle of
+     * SPT_GROUP_JOINT_BASE's seed and Sobol dims 2 and up. */
+    int8 joined = (group == (uint8)(SPT_GROUP_JOINT_LIGHT)) | (group == (uint8)(SPT_GROUP_JOINT_BSDF)) |
+                  (group == (uint8)(SPT_GROUP_JOINT_WAVELENGTH));
+    uint8 iseed = any(joined) ? select(seed, (uint8)(spt_hash_u32(pixel_key ^ SPT_GROUP_JOINT_BASE)), joined)
+                              : seed;
+    uint8 shuffled = spt_reverse_bits_x8(spt_lk_hash_x8((uint8)(spt_reverse_bits(sample)), iseed));
+    /* Sobol dims 0 (the identity) and 1 (spt_sobol_rev_u32's superset sum). */
+    uint8 x = shuffled;
+    x ^= (x >> 1u) & 0x55555555u;
+    x ^= (x >> 2u) & 0x33333333u;
+    x ^= (x >> 4u) & 0x0f0f0f0fu;
+    x ^= (x >> 8u) & 0x00ff00ffu;
+    x ^= (x >> 16u) & 0x0000ffffu;
+    uint8 v = select(shuffled, x, as_int8(odd) != (int8)(0));
+    if (any(joined)) {
+        uint sh[8], vv[8], g[8];
+        vstore8(shuffled, 0, sh);
+        vstore8(v, 0, vv);
+        vstore8(group, 0, g);
+        for (uint l = 0u; l < 8u; l++) {
+            uint ig;
+            uint d = spt_group_sobol_dim(g[l], &ig) + (l & 1u);
+            if (d >= 2u)
+                vv[l] = spt_sobol_rev_u32(sh[l], d);
+        }
+        v = vload8(0, vv);
+    }
+    uint8 h = spt_hash_u32x8(seed ^ select((uint8)(0x3c6ef372u), (uint8)(0x9e3779b9u + 0x3c6ef372u),
+                                           as_int8(odd) != (int8)(0)));
+    uint8 r = spt_reverse_bits_x8(spt_lk_hash_x8(v, h));
+    vstore8(convert_float8(r >> 8u) * 5.9604644775390625e-8f, 0, u);
+#else
+    for (spt_u32 k = 0; k < SPT_DIM_BOUNCE_BLOCK; k++)
+        u[k] = spt_sample_1d_key(pixel_key, sample, spt_dim_bounce(bounce, k));
+#endif
+}
+
 /* ---- ZSobol ------------------------------------------------------------------ */
 
 /* The 24 permutations of the base-4 digits {0, 1, 2, 3} in lexicographic
