@@ -299,6 +299,15 @@ __kernel void k_extend(KERNEL_ARGS)
     ps_hit[i] = extend_result(found, &h);
 }
 
+/* Asks for the positions and normals of the vertices of triangle record t. */
+SPT_FN_INLINE void prefetch_vertices(TriShade t, const KernelGlobals *kg)
+{
+    for (int k = 0; k < 3; k++) {
+        SPT_PREFETCH(kg->vtx_pos + 3u * t.v[k]);
+        SPT_PREFETCH(kg->vtx_normal + 3u * t.v[k]);
+    }
+}
+
 /* Prefetch distance of the shading kernels, in queue entries. */
 #define SPT_SHADE_AHEAD 8u
 
@@ -315,15 +324,8 @@ SPT_FN_INLINE void shade_prefetch(uint g, uint n, const KernelGlobals *kg)
     }
     if (g + SPT_SHADE_AHEAD < n) {
         uint pb = as_uint(kg->ps_hit[kg->queue_extend[g + SPT_SHADE_AHEAD]].w);
-        if (pb != NO_HIT) {
-            TriShade tb = kg->tri_shade[pb];
-            SPT_PREFETCH(kg->vtx_pos + 3u * tb.v[0]);
-            SPT_PREFETCH(kg->vtx_pos + 3u * tb.v[1]);
-            SPT_PREFETCH(kg->vtx_pos + 3u * tb.v[2]);
-            SPT_PREFETCH(kg->vtx_normal + 3u * tb.v[0]);
-            SPT_PREFETCH(kg->vtx_normal + 3u * tb.v[1]);
-            SPT_PREFETCH(kg->vtx_normal + 3u * tb.v[2]);
-        }
+        if (pb != NO_HIT)
+            prefetch_vertices(kg->tri_shade[pb], kg);
     }
 }
 
@@ -551,21 +553,11 @@ __kernel void k_paths(KERNEL_ARGS)
              * vertices, its record having come in during the second ray's
              * traversal. */
 #if defined(SPT_ONE_RAY)
-            if (found[0]) {
-                TriShade t0 = tri_shade[hit[0].prim];
-                for (int k = 0; k < 3; k++) {
-                    SPT_PREFETCH(vtx_pos + 3u * t0.v[k]);
-                    SPT_PREFETCH(vtx_normal + 3u * t0.v[k]);
-                }
-            }
+            if (found[0])
+                prefetch_vertices(tri_shade[hit[0].prim], kg);
 #endif
-            if (found[1]) {
-                TriShade t1 = tri_shade[hit[1].prim];
-                for (int k = 0; k < 3; k++) {
-                    SPT_PREFETCH(vtx_pos + 3u * t1.v[k]);
-                    SPT_PREFETCH(vtx_normal + 3u * t1.v[k]);
-                }
-            }
+            if (found[1])
+                prefetch_vertices(tri_shade[hit[1].prim], kg);
 #endif
         } else {
             uint i = a0 ? s0 : s1;
