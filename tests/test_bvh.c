@@ -519,6 +519,41 @@ TEST(test_full_sweep_builder)
     free(t);
 }
 
+/* The root's subtrees built on threads make the tree one thread makes, node
+ * for node and word for word (src/accel/bvh_build.c, build_root), on a mesh
+ * and on a soup (whose leaves pack_leaf splits). */
+TEST(test_threads_same_tree)
+{
+    rng_state = 15;
+    const float c[3] = {0, 0, 0};
+    for (int scene = 0; scene < 2; scene++) {
+        uint32_t n = 20000;
+        float *t = scene == 0 ? bvh_gen_sphere(100, 100, 1.0f, c, 0.3f, &n) : make_soup(n, 0.05);
+        Bvh one, many;
+        BvhOptions o = bvh_default_options();
+        o.threads = 1;
+        assert_int_equal(bvh_build_ex(&one, t, n, &o, NULL), 0);
+        o.threads = 3;
+        assert_int_equal(bvh_build_ex(&many, t, n, &o, NULL), 0);
+        assert_true(one.node_count > 8);
+        assert_int_equal(one.node_count, many.node_count);
+        assert_memory_equal(one.nodes, many.nodes, one.node_count * sizeof *one.nodes);
+        assert_int_equal(one.tri_data_bytes, many.tri_data_bytes);
+        assert_memory_equal(one.tri_data, many.tri_data, one.tri_data_bytes);
+        assert_int_equal(one.prim_count, many.prim_count);
+        assert_memory_equal(one.prim_index, many.prim_index, one.prim_count * sizeof *one.prim_index);
+        assert_memory_equal(one.tri_leaf, many.tri_leaf, one.prim_count * sizeof *one.tri_leaf);
+        assert_int_equal(one.stats.leaf_count, many.stats.leaf_count);
+        assert_int_equal(one.stats.max_depth, many.stats.max_depth);
+        /* The SAH sums add the subtrees' terms in another order. */
+        assert_close_rel(one.stats.sah_cost, many.stats.sah_cost, 1e-9);
+        check_rays(&many, t, n, NULL, 2000, -1.5, 1.5);
+        bvh_free(&one);
+        bvh_free(&many);
+        free(t);
+    }
+}
+
 TEST(test_million_triangles)
 {
     rng_state = 14;

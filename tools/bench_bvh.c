@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "accel/bvh_build.h"
 
@@ -175,11 +176,21 @@ int main(int argc, char **argv)
         o.cost_node = (float)atof(getenv("BVH_COST_NODE"));
     Bvh bvh;
     double cpu;
+    o.threads = 1;
     double sec = time_build(&bvh, mesh, n, &o, runs, &cpu);
     printf("  displaced sphere, %u triangles: binned build (%d bins, leaf <= %d, node cost %.2f) median %.3f s "
            "= %.2f Mtriangles/s (1 thread, %d runs); CPU time of the thread: median %.3f s = %.2f "
            "Mtriangles/s\n",
            n, o.bins, o.max_leaf, o.cost_node, sec, n / sec * 1e-6, runs, cpu, n / cpu * 1e-6);
+    /* The default: the root's subtrees on the CPUs online (the same tree). */
+    bvh_free(&bvh);
+    o.threads = 0;
+    double psec = time_build(&bvh, mesh, n, &o, runs, NULL);
+    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    printf("  the same on %ld threads (the CPUs online, at most %d: the default): median %.3f s = %.2f "
+           "Mtriangles/s (%.2fx)\n",
+           cpus < 1 ? 1 : cpus > BVH_WIDTH ? (long)BVH_WIDTH : cpus, BVH_WIDTH, psec, n / psec * 1e-6,
+           sec / psec);
     print_tree("binned tree", &bvh);
 
     /* Quality reference: the exact SAH sweep (slow: one run). */

@@ -2,17 +2,34 @@
  * Volume Hierarchies") into the flat 8-wide layout of kernels/bvh/bvh.h, with an
  * exact full-sweep SAH builder as a quality reference. The binary SAH tree is
  * decided top down and its nodes gathered into 8-wide nodes as it goes; it is
- * never stored. One thread, SSE where available: about 7 million triangles per
- * second of one core on the bench's 1M-triangle mesh (default options). */
+ * never stored. SSE where available: about 7 million triangles per second of
+ * one core on the bench's 1M-triangle mesh (default options); the root's
+ * subtrees are built on threads (BvhOptions.threads), into the same tree. */
 #include "accel/bvh_build.h"
 
 #include "accel/bvh_builder.h"
 
 #include <float.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+
+/* Threads for the subtrees under the root of a tree of count triangles by
+ * default: the CPUs online, at most one per slot, where the build is long
+ * enough to pay for starting them (a scene of many small meshes builds each
+ * on one). */
+#define BVH_THREADS_MIN_TRIS 65536u
+
+static int bvh_build_threads(uint32_t count)
+{
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    if (count < BVH_THREADS_MIN_TRIS || n < 1)
+        return 1;
+    return n > BVH_WIDTH ? BVH_WIDTH : (int)n;
+}
 
 /* Whether the CPU this runs on has AVX-512F: the CPU devices (PoCL, Intel's
  * runtime) run on it too. */
@@ -81,6 +98,7 @@ BvhOptions bvh_default_options_for(uint32_t tri_count)
     int row = host_has_avx512() || 36.0 * (double)tri_count > 0.25 * host_cache_bytes() ? 16 : 8;
     o.max_leaf = row;
     o.full_sweep = 0;
+    o.threads = 0;
     o.cost_node = (float)row;
     o.cost_tri = 1.0f;
     return o;
@@ -216,13 +234,12 @@ static void wide_slot(Builder *bd, uint32_t w, int i, const Item *it)
     }
 }
 
-/* Builds 8-wide node w (at depth wdepth) for the interior binary node it: the
- * slots start as its two children, and the interior slot of largest area
+/* The slots of the 8-wide node (at depth wdepth) for the interior binary node
+ * it: they start as its two children, and the interior slot of largest area
  * (ties: the fewest binary levels down) is replaced by its two children while
- * there is room. Then the interior slots are built the same way. */
-static void build_wide(Builder *bd, uint32_t w, const Item *it, uint32_t wdepth)
+ * there is room. Returns their number. */
+static int wide_expand(Builder *bd, const Item *it, uint32_t wdepth, Item slot[BVH_WIDTH])
 {
-    Item slot[BVH_WIDTH];
     int gen[BVH_WIDTH] = {0};
     int n = 2;
     decide(bd, it->begin, it->mid, it->depth + 1, &slot[0]);
@@ -248,15 +265,130 @@ static void build_wide(Builder *bd, uint32_t w, const Item *it, uint32_t wdepth)
     }
     if (wdepth > bd->st->max_depth)
         bd->st->max_depth = wdepth;
-    uint32_t child[BVH_WIDTH];
+    return n;
+}
+
+/* Fills node w with its n slots, child[i] the new node of each interior one. */
+static void wide_fill(Builder *bd, uint32_t w, const Item slot[BVH_WIDTH], int n,
+                      uint32_t child[BVH_WIDTH])
+{
     for (int i = 0; i < BVH_WIDTH; i++) {
         child[i] = i < n && !slot[i].leaf ? wide_new(bd) : 0;
         wide_slot(bd, w, i, i < n ? &slot[i] : NULL);
         bd->wide[w].child[i] = i < n && !slot[i].leaf ? child[i] : bd->wide[w].child[i];
     }
+}
+
+/* Builds 8-wide node w (at depth wdepth) for the interior binary node it, then
+ * its interior slots the same way, depth first: each subtree's nodes follow
+ * its root's siblings in one contiguous run. */
+static void build_wide(Builder *bd, uint32_t w, const Item *it, uint32_t wdepth)
+{
+    Item slot[BVH_WIDTH];
+    uint32_t child[BVH_WIDTH];
+    int n = wide_expand(bd, it, wdepth, slot);
+    wide_fill(bd, w, slot, n, child);
     for (int i = 0; i < n; i++) {
         if (!slot[i].leaf)
             build_wide(bd, child[i], &slot[i], wdepth + 1);
+    }
+}
+
+/* A subtree under the root, built into nodes of its own (its root the first),
+ * with its own SAH sum and counts. */
+typedef struct SubBuild {
+    Builder bd;
+    BvhStats st;
+    Item item;
+} SubBuild;
+
+typedef struct SubPool {
+    SubBuild *sub;
+    int count;
+    int next; /* the next subtree to take (atomic) */
+} SubPool;
+
+static void *sub_worker(void *arg)
+{
+    SubPool *pool = arg;
+    for (;;) {
+        int i = __atomic_fetch_add(&pool->next, 1, __ATOMIC_RELAXED);
+        if (i >= pool->count)
+            return NULL;
+        SubBuild *sb = &pool->sub[i];
+        build_wide(&sb->bd, wide_new(&sb->bd), &sb->item, 1);
+    }
+}
+
+/* The node index, in the whole tree, of node j of subtree sb whose root is
+ * node root and whose other nodes start at base. */
+static uint32_t sub_index(uint32_t j, uint32_t root, uint32_t base)
+{
+    return j == 0 ? root : base + j - 1;
+}
+
+/* build_wide for the root (node w), its subtrees built by up to `threads`
+ * threads: the root's slots as build_wide decides them, then each interior
+ * slot's subtree on its own nodes, whose runs are appended in slot order and
+ * renumbered, so the tree is the one build_wide makes (docs/performance.md,
+ * "What sets the speed"). */
+static void build_root(Builder *bd, uint32_t w, const Item *root, int threads)
+{
+    Item slot[BVH_WIDTH];
+    uint32_t child[BVH_WIDTH];
+    int n = wide_expand(bd, root, 0, slot);
+    wide_fill(bd, w, slot, n, child);
+    SubBuild sub[BVH_WIDTH];
+    int ns = 0, at[BVH_WIDTH];
+    for (int i = 0; i < n; i++) {
+        if (slot[i].leaf)
+            continue;
+        SubBuild *sb = &sub[ns];
+        memset(sb, 0, sizeof *sb);
+        sb->bd = *bd;
+        sb->bd.sah = 0.0;
+        sb->bd.st = &sb->st;
+        sb->bd.wide_cap = (slot[i].end - slot[i].begin) / 8 + 16;
+        sb->bd.wide_count = 0;
+        sb->bd.wide = aligned_alloc(64, (size_t)sb->bd.wide_cap * sizeof *sb->bd.wide);
+        if (!sb->bd.wide)
+            sb->bd.wide = spt_malloc((size_t)sb->bd.wide_cap * sizeof *sb->bd.wide);
+        sb->item = slot[i];
+        at[ns++] = i;
+    }
+    SubPool pool = {sub, ns, 0};
+    pthread_t tid[BVH_WIDTH];
+    int started = 0;
+    while (started + 1 < threads && started + 1 < ns &&
+           pthread_create(&tid[started], NULL, sub_worker, &pool) == 0)
+        started++;
+    sub_worker(&pool);
+    for (int t = 0; t < started; t++)
+        pthread_join(tid[t], NULL);
+    for (int k = 0; k < ns; k++) {
+        Builder *sbd = &sub[k].bd;
+        uint32_t r = child[at[k]], base = bd->wide_count;
+        for (uint32_t j = 0; j < sbd->wide_count; j++) {
+            BvhNode *node = &sbd->wide[j];
+            for (int c = 0; c < BVH_WIDTH; c++)
+                if (!node->count[c] && node->child[c])
+                    node->child[c] = sub_index(node->child[c], r, base);
+            uint32_t dst = j == 0 ? r : wide_new(bd);
+            bd->wide[dst] = *node;
+        }
+        /* Its leaves' slots, recorded at their first refs. */
+        for (uint32_t q = sub[k].item.begin; q < sub[k].item.end; q++) {
+            uint32_t ls = bd->leaf_slot[q];
+            if (ls) {
+                uint32_t node = (ls - 1) / BVH_WIDTH, c = (ls - 1) % BVH_WIDTH;
+                bd->leaf_slot[q] = sub_index(node, r, base) * BVH_WIDTH + c + 1;
+            }
+        }
+        bd->sah += sbd->sah;
+        bd->st->leaf_count += sub[k].st.leaf_count;
+        if (sub[k].st.max_depth > bd->st->max_depth)
+            bd->st->max_depth = sub[k].st.max_depth;
+        free(sbd->wide);
     }
 }
 
@@ -458,7 +590,8 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
     memset(&bd, 0, sizeof bd);
     bd.opt = opt ? *opt : bvh_default_options_for(tri_count);
     if (bd.opt.bins < 2 || bd.opt.bins > BVH_MAX_BINS || bd.opt.max_leaf < 1 ||
-        bd.opt.max_leaf > BVH_MAX_LEAF || !(bd.opt.cost_node > 0.0f) || !(bd.opt.cost_tri > 0.0f))
+        bd.opt.max_leaf > BVH_MAX_LEAF || !(bd.opt.cost_node > 0.0f) || !(bd.opt.cost_tri > 0.0f) ||
+        bd.opt.threads < 0)
         return spt_fail(e, SPT_EXIT_USAGE, "bvh: invalid options (bins %d, max_leaf %d)",
                         bd.opt.bins, bd.opt.max_leaf);
 
@@ -538,7 +671,9 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
             for (int i = 0; i < BVH_WIDTH; i++)
                 wide_slot(&bd, w, i, i == 0 ? &root : NULL);
         } else {
-            build_wide(&bd, w, &root, 0);
+            /* The full-sweep builder's scratch is shared: one thread. */
+            build_root(&bd, w, &root,
+                       bd.opt.full_sweep ? 1 : bd.opt.threads > 0 ? bd.opt.threads : bvh_build_threads(kept));
         }
         float root_area = box_half_area(&root.bounds);
         bvh->stats.sah_cost = root_area > 0.0f ? bd.sah / root_area : 0.0;

@@ -53,6 +53,9 @@ typedef struct BvhOptions {
                            quality reference for the benchmark, not for scenes */
     float cost_node;    /* SAH cost of visiting an interior node (> 0) */
     float cost_tri;     /* SAH cost of one triangle test (> 0) */
+    int threads;        /* threads building the root's subtrees (1 ..; the tree
+                           is the same for any number); 0: the CPUs online
+                           for 65,536 triangles or more, else 1 */
 } BvhOptions;
 
 #define BVH_MAX_BINS 64
