@@ -535,6 +535,8 @@ TEST(test_threads_same_tree)
         assert_int_equal(bvh_build_ex(&one, t, n, &o, NULL), 0);
         o.threads = 3;
         assert_int_equal(bvh_build_ex(&many, t, n, &o, NULL), 0);
+        assert_int_equal(one.stats.build_threads, 1);
+        assert_int_equal(many.stats.build_threads, 3);
         assert_true(one.node_count > 8);
         assert_int_equal(one.node_count, many.node_count);
         assert_memory_equal(one.nodes, many.nodes, one.node_count * sizeof *one.nodes);

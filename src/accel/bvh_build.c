@@ -202,14 +202,20 @@ static void decide(Builder *bd, uint32_t begin, uint32_t end, uint32_t depth, It
     bd->sah += (double)area * (leaf ? bd->opt.cost_tri * (double)count : bd->opt.cost_node);
 }
 
+/* An array of cap 8-wide nodes, 64-byte aligned where the allocator can, so
+ * a node is four cache lines. */
+static BvhNode *wide_alloc(uint32_t cap)
+{
+    BvhNode *w = aligned_alloc(64, (size_t)cap * sizeof *w);
+    return w ? w : spt_malloc((size_t)cap * sizeof *w);
+}
+
 /* Index of a new 8-wide node (the array grows by doubling). */
 static uint32_t wide_new(Builder *bd)
 {
     if (bd->wide_count == bd->wide_cap) {
         uint32_t cap = bd->wide_cap * 2;
-        BvhNode *w = aligned_alloc(64, (size_t)cap * sizeof *w);
-        if (!w)
-            w = spt_malloc((size_t)cap * sizeof *w);
+        BvhNode *w = wide_alloc(cap);
         memcpy(w, bd->wide, (size_t)bd->wide_count * sizeof *w);
         free(bd->wide);
         bd->wide = w;
@@ -331,8 +337,8 @@ static uint32_t sub_index(uint32_t j, uint32_t root, uint32_t base)
  * threads: the root's slots as build_wide decides them, then each interior
  * slot's subtree on its own nodes, whose runs are appended in slot order and
  * renumbered, so the tree is the one build_wide makes (docs/performance.md,
- * "What sets the speed"). */
-static void build_root(Builder *bd, uint32_t w, const Item *root, int threads)
+ * "What sets the speed"). Returns the threads that built. */
+static int build_root(Builder *bd, uint32_t w, const Item *root, int threads)
 {
     Item slot[BVH_WIDTH];
     uint32_t child[BVH_WIDTH];
@@ -350,9 +356,7 @@ static void build_root(Builder *bd, uint32_t w, const Item *root, int threads)
         sb->bd.st = &sb->st;
         sb->bd.wide_cap = (slot[i].end - slot[i].begin) / 8 + 16;
         sb->bd.wide_count = 0;
-        sb->bd.wide = aligned_alloc(64, (size_t)sb->bd.wide_cap * sizeof *sb->bd.wide);
-        if (!sb->bd.wide)
-            sb->bd.wide = spt_malloc((size_t)sb->bd.wide_cap * sizeof *sb->bd.wide);
+        sb->bd.wide = wide_alloc(sb->bd.wide_cap);
         sb->item = slot[i];
         at[ns++] = i;
     }
@@ -390,6 +394,7 @@ static void build_root(Builder *bd, uint32_t w, const Item *root, int threads)
             bd->st->max_depth = sub[k].st.max_depth;
         free(sbd->wide);
     }
+    return started + 1;
 }
 
 int bvh_tri_zero_area(const float *p)
@@ -586,6 +591,7 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
 {
     double t0 = spt_now();
     memset(bvh, 0, sizeof *bvh);
+    bvh->stats.build_threads = 1;
     Builder bd;
     memset(&bd, 0, sizeof bd);
     bd.opt = opt ? *opt : bvh_default_options_for(tri_count);
@@ -654,12 +660,10 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
             bd.tmp = spt_malloc(kept * sizeof *bd.tmp);
         }
         /* About one 8-wide node per 32 triangles with the default options; the
-         * array doubles when a tree needs more. 64-byte aligned, so a node is
-         * four cache lines. Pages past the last node are never touched. */
+         * array doubles when a tree needs more. Pages past the last node are
+         * never touched. */
         bd.wide_cap = kept / 8 + 16;
-        bd.wide = aligned_alloc(64, (size_t)bd.wide_cap * sizeof *bd.wide);
-        if (!bd.wide)
-            bd.wide = spt_malloc((size_t)bd.wide_cap * sizeof *bd.wide);
+        bd.wide = wide_alloc(bd.wide_cap);
         bd.st = &bvh->stats;
         bd.leaf_slot = spt_calloc(kept, sizeof *bd.leaf_slot);
         bd.tri_pos = tri_pos;
@@ -672,8 +676,9 @@ int bvh_build_ex(Bvh *bvh, const float *tri_pos, uint32_t tri_count, const BvhOp
                 wide_slot(&bd, w, i, i == 0 ? &root : NULL);
         } else {
             /* The full-sweep builder's scratch is shared: one thread. */
-            build_root(&bd, w, &root,
-                       bd.opt.full_sweep ? 1 : bd.opt.threads > 0 ? bd.opt.threads : bvh_build_threads(kept));
+            int threads =
+                bd.opt.full_sweep ? 1 : bd.opt.threads > 0 ? bd.opt.threads : bvh_build_threads(kept);
+            bvh->stats.build_threads = (uint32_t)build_root(&bd, w, &root, threads);
         }
         float root_area = box_half_area(&root.bounds);
         bvh->stats.sah_cost = root_area > 0.0f ? bd.sah / root_area : 0.0;

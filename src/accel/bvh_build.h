@@ -22,6 +22,7 @@ typedef struct BvhStats {
                                   cost (options cost_node per interior node,
                                   cost_tri per triangle in a leaf) */
     double build_seconds;
+    uint32_t build_threads;    /* threads that built it (BvhOptions.threads) */
     double bytes_per_tri;      /* (nodes + leaf blocks) / kept triangles */
     uint32_t dropped;          /* dropped_nonfinite + dropped_degenerate */
     uint32_t dropped_nonfinite;  /* NaN/Inf or |coordinate| >= 1e18 */
