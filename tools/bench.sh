@@ -55,6 +55,11 @@ echo "== against Mitsuba 3 (tools/bench_mitsuba.py)"
 python3 tools/bench_mitsuba.py --spectrace "$build/spectrace" || status=1
 # ---- end against Mitsuba 3 ----
 
+# ---- traversal against Embree: the ray queries alone on the same triangles and
+# rays as Mitsuba 3's ray_intersect_preliminary and ray_test (tools/bench_trace.py) ----
+echo "== traversal against Embree (tools/bench_trace.py)"
+python3 tools/bench_trace.py --bench-trace "$build/tools/bench_trace" || status=1
+# ---- end traversal ----
 # ---- light tree: relMSE at equal time with and without it on the street of
 # 1,000 lamps and the field of 200 quads (tools/bench_lights.py; T seconds:
 # SPECTRACE_BENCH_TIME, default 10) ----

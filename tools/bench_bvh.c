@@ -11,22 +11,10 @@
 #include <time.h>
 
 #include "accel/bvh_build.h"
+#include "bench_util.h"
 
 static uint64_t rng_state = 7;
 static double rnd(void) { return bvh_gen_uniform(&rng_state); }
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-/* Median of v[0, n) (reorders v). */
-static double median(double *v, int n)
-{
-    qsort(v, n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 /* Triangles of an OBJ file ("v x y z", "f a b c ..." fanned, 1-based or negative
  * indices, "a/b/c" forms). Returns NULL when the file cannot be read. */
@@ -105,8 +93,8 @@ static double time_build(Bvh *bvh, const float *t, uint32_t n, const BvhOptions 
         s[r] = bvh->stats.build_seconds;
     }
     if (cpu)
-        *cpu = median(c, runs);
-    return median(s, runs);
+        *cpu = bench_median(c, runs);
+    return bench_median(s, runs);
 }
 
 /* Incoherent rays: origins uniform in the mesh bounds, uniform directions.
@@ -140,7 +128,7 @@ static void bench_rays(const char *name, const Bvh *bvh, int runs, int nrays)
     }
     printf("  %s: host traversal, 1 thread, %d incoherent rays (%.0f%% hit): closest %.2f "
            "Mrays/s, any-hit %.2f Mrays/s\n",
-           name, nrays, 50.0 * hits / nrays, median(closest, runs), median(any, runs));
+           name, nrays, 50.0 * hits / nrays, bench_median(closest, runs), bench_median(any, runs));
     free(org);
     free(dir);
 }

@@ -23,20 +23,9 @@
 #include "render/film.h"
 #include "render/render.h"
 #include "scene/scene.h"
+#include "bench_util.h"
 /* Not on the tools' include path: named from this folder. */
 #include "../tests/render_fixture.h"
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 /* A closed displaced sphere of ~1M triangles seen from inside, diffuse 0.8 and
  * emissive, so every bounce sends rays in all directions. */
@@ -116,7 +105,7 @@ int main(int argc, char **argv)
     }
     if (do_cornell) {
         printf("cornell box 512x512 64 spp max depth 8: median %.3f Mpaths/s over %d runs\n",
-               median(pps, runs < 16 ? runs : 16) * 1e-6, runs);
+               bench_median(pps, runs < 16 ? runs : 16) * 1e-6, runs);
         RenderStats st;
         if (run(dev, &cb, 512, 512, 64, 8, 1, 0, &st))
             return 1;
@@ -154,7 +143,8 @@ int main(int argc, char **argv)
     int nr = runs < 16 ? runs : 16;
     printf("displaced sphere %u triangles, incoherent (bounce) extend rays: median %.3f Mrays/s "
            "(all rays %.3f, camera rays %.3f)\n",
-           sp.tri_count, median(bounce, nr) * 1e-6, median(all, nr) * 1e-6, median(camera, nr) * 1e-6);
+           sp.tri_count, bench_median(bounce, nr) * 1e-6, bench_median(all, nr) * 1e-6,
+           bench_median(camera, nr) * 1e-6);
     scene_free(&sp);
     cl_device_list_free(&list);
     return 0;
