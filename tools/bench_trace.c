@@ -29,13 +29,20 @@
 #include "accel/bvh_build.h"
 #include "bvh/bvh.h"
 #include "cl/cl_device.h"
+#include "core/input_file.h"
 #include "core/util.h"
 #include "render/wavefront.h"
 #include "bench_util.h"
 
+/* The t up to which a segment is tested (1 is its end), on the host and in
+ * k_src. */
+#define SEGMENT_TMAX 0.9999f
+#define BENCH_STR_(x) #x
+#define BENCH_STR(x) BENCH_STR_(x)
+
 static const char *k_src =
     "#include \"bvh/bvh.h\"\n"
-    "#define SEGMENT_TMAX 0.9999f\n"
+    "#define SEGMENT_TMAX " BENCH_STR(SEGMENT_TMAX) "\n"
     "__kernel void k_trace(__global const BvhNode *nodes, __global const float *tris,\n"
     "                      __global const float *rays, __global float *out, int n, int mode)\n"
     "{\n"
@@ -67,33 +74,25 @@ static const char *k_src =
     "    }\n"
     "}\n";
 
-/* The whole file at path as floats, a multiple of per; NULL with an error
- * line otherwise. */
-static float *read_floats(const char *path, size_t per, size_t *count)
+/* The whole file at path (input_read) as floats, a whole number of records of
+ * per; NULL with an error line otherwise. */
+static float *read_floats(const char *path, const char *what, size_t per, size_t *count)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        spt_error("%s: cannot open it", path);
+    unsigned char *data = NULL;
+    size_t size = 0;
+    SptError e = {0};
+    if (input_read(path, what, &data, &size, &e)) {
+        spt_report(&e);
         return NULL;
     }
-    float *v = NULL;
-    long size = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
-    if (size <= 0 || (size_t)size % (per * sizeof(float))) {
-        spt_error("%s: not a whole number of %zu-float records (%ld bytes)", path, per, size);
-    } else if (fseek(f, 0, SEEK_SET) == 0 && (v = malloc((size_t)size)) &&
-               fread(v, 1, (size_t)size, f) == (size_t)size) {
-        *count = (size_t)size / (per * sizeof(float));
-    } else {
-        spt_error("%s: cannot read it", path);
-        free(v);
-        v = NULL;
+    if (size == 0 || size % (per * sizeof(float))) {
+        spt_error("%s: %s: not a whole number of %zu-float records (%zu bytes)", path, what, per, size);
+        free(data);
+        return NULL;
     }
-    fclose(f);
-    return v;
+    *count = size / (per * sizeof(float));
+    return (float *)data;
 }
-
-/* The t up to which a segment is tested (1 is its end; SEGMENT_TMAX in k_src). */
-#define SEGMENT_TMAX 0.9999f
 
 /* Host traversal counts per ray over the first n rays, each tested for t in
  * (0, tmax) (any_hit: stop at the first hit). */
@@ -130,9 +129,9 @@ int main(int argc, char **argv)
         return 1;
     }
     size_t nt = 0, nr = 0, ns = 0;
-    float *tris = read_floats(argv[1], 9, &nt);
-    float *rays = tris ? read_floats(argv[2], 6, &nr) : NULL;
-    float *segs = rays ? read_floats(argv[3], 6, &ns) : NULL;
+    float *tris = read_floats(argv[1], "triangles", 9, &nt);
+    float *rays = tris ? read_floats(argv[2], "rays", 6, &nr) : NULL;
+    float *segs = rays ? read_floats(argv[3], "segments", 6, &ns) : NULL;
     if (!segs || nt > UINT32_MAX || nr > (size_t)1 << 30 || ns > (size_t)1 << 30)
         return 1;
     SptError e = {0};
