@@ -613,9 +613,56 @@ SPT_FN_INLINE void shade_hit_begin(uint i, ShadeHit *h, const KernelGlobals *kg)
         h->beta *= volume_transmittance(kg->materials + (medium - 1u), h->hit.x, h->lam, kg->spectra);
 }
 
-/* Shades path i at its hit; returns 1 and fills the shadow ray (origin, direction
- * with tmax in w, contribution) when next-event estimation wants one. */
-static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const KernelGlobals *kg)
+/* The sample a camera path draws its numbers from: its pixel, its sample
+ * index and their sampler, the same at each of its segments. */
+typedef struct PathSample {
+    uint pixel, sample;
+    SptSampler smp;
+    /* The dims of bounce u_bounce, drawn ahead (path_sample_draw) where
+     * drawn is set. */
+    uint u_bounce;
+    int drawn;
+    float u[SPT_DIM_BOUNCE_BLOCK];
+} PathSample;
+
+/* The sample (pixel, sample index) of a camera path, and the sample of work
+ * item w (w < light_begin). Through a pointer, not returned: an inlined struct return leaves
+ * llvm.experimental.noalias.scope.decl in the unoptimised code, which
+ * Oclgrind cannot run. */
+SPT_FN_INLINE void path_sample_set(uint pixel, uint sample, SptSampler smp, PathSample *ps)
+{
+    ps->pixel = pixel;
+    ps->sample = sample;
+    ps->smp = smp;
+    ps->drawn = 0;
+    ps->u_bounce = 0u;
+}
+
+SPT_FN_INLINE void path_sample_of(uint w, PathSample *ps, const KernelGlobals *kg)
+{
+    uint npix = (uint)(kg->p->width * kg->p->height);
+    uint pixel = w % npix;
+    uint sample = kg->p->sample_begin + w / npix - kg->pixel_lag[pixel];
+    path_sample_set(pixel, sample, spt_sampler_for(kg->p, pixel, sample), ps);
+}
+
+/* Draws the dims of the bounce path i shades next into ps, ahead of its
+ * traversal: a bounce's draw is a chain of dependent 8-lane multiplies
+ * (spt_sample_bounce), whose latency the traversal's independent work then
+ * covers (docs/performance.md, "Instructions per segment"). */
+SPT_FN_INLINE void path_sample_draw(uint i, PathSample *ps, const KernelGlobals *kg)
+{
+    ps->u_bounce = kg->ps_depth[i];
+    ps->drawn = shade_draw_bounce(ps->smp, ps->u_bounce, ps->u);
+}
+
+/* Shades path i, of sample *ps, at its hit; returns 1 and fills the shadow ray
+ * (origin, direction with tmax in w, contribution) when next-event estimation
+ * wants one. k_paths keeps each path's PathSample from its start (its hashes
+ * and divisions were 4% of the instructions of a segment's shading:
+ * docs/performance.md, "Instructions per segment"); shade_path derives it. */
+SPT_FN_INLINE int shade_path_of(uint i, const PathSample *ps, float4 *sh_o, float4 *sh_d, float4 *sh_c,
+                                const KernelGlobals *kg)
 {
     ShadeHit h;
     shade_hit_begin(i, &h, kg);
@@ -623,15 +670,20 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Ke
         shade_miss(i, h.lam, h.beta, kg);
         return 0;
     }
-    uint npix = (uint)(kg->p->width * kg->p->height);
-    uint w_item = kg->ps_work[i];
-    uint pixel = w_item % npix;
-    uint sample = kg->p->sample_begin + w_item / npix - kg->pixel_lag[pixel];
-    SptSampler smp = spt_sampler_for(kg->p, pixel, sample);
-    /* The bounce's numbers depend on the sample alone: drawn before the
-     * hit's geometry, the chains of their hashes can run beside its loads. */
+    uint pixel = ps->pixel, sample = ps->sample;
+    SptSampler smp = ps->smp;
+    /* The bounce's numbers depend on the sample alone: drawn ahead
+     * (path_sample_draw), or here before the hit's geometry, so that the
+     * chains of their hashes run beside its loads. */
     float ub[SPT_DIM_BOUNCE_BLOCK];
-    int drawn = shade_draw_bounce(smp, h.depth - 1u, ub);
+    int drawn;
+    if (ps->drawn && ps->u_bounce == h.depth - 1u) {
+        drawn = 1;
+        for (uint k = 0u; k < SPT_DIM_BOUNCE_BLOCK; k++)
+            ub[k] = ps->u[k];
+    } else {
+        drawn = shade_draw_bounce(smp, h.depth - 1u, ub);
+    }
     TexCtx tc;
     shade_hit_geometry(&h, &tc, kg);
     if (shade_alpha_with(&h, &tc, 1, smp, kg->p->seed, pixel, sample, kg))
@@ -697,6 +749,23 @@ static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const Ke
             kg->p->env_prob * env_pdf_at(&kg->p->env, kg->env_data, f.ns, f.both_sides, wn);
     kg->ps_depth[i] = h.depth;
     return shadow;
+}
+
+/* shade_path_of for a path whose sample is derived from its work item (the
+ * stage kernels' k_shade). */
+static int shade_path(uint i, float4 *sh_o, float4 *sh_d, float4 *sh_c, const KernelGlobals *kg)
+{
+    PathSample ps;
+    path_sample_of(kg->ps_work[i], &ps, kg);
+    return shade_path_of(i, &ps, sh_o, sh_d, sh_c, kg);
+}
+
+/* shade_path_of as one function for k_paths's two slots (inlined into each,
+ * the shading's code would be there twice). */
+static int shade_path_kept(uint i, const PathSample *ps, float4 *sh_o, float4 *sh_d, float4 *sh_c,
+                           const KernelGlobals *kg)
+{
+    return shade_path_of(i, ps, sh_o, sh_d, sh_c, kg);
 }
 
 #endif

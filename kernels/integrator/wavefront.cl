@@ -117,8 +117,9 @@ static void path_finish(uint i, const KernelGlobals *kg)
 }
 
 /* Starts work item w of the chunk in slot i (a camera path, or a light path
- * from params.light_begin on); returns its flags. */
-static uint path_start(uint i, uint w, const KernelGlobals *kg)
+ * from params.light_begin on); returns its flags. A camera path's sample goes
+ * to *ps where ps is not 0 (k_paths keeps it: shade_path_of). */
+static uint path_start(uint i, uint w, PathSample *ps, const KernelGlobals *kg)
 {
     if (w >= kg->p->light_begin)
         return lt_start(i, w, kg);
@@ -142,6 +143,8 @@ static uint path_start(uint i, uint w, const KernelGlobals *kg)
         return SPT_PATH_FINISHED;
     }
     SptSampler smp = spt_sampler_for(kg->p, pixel, sample);
+    if (ps)
+        path_sample_set(pixel, sample, smp, ps);
     float jx, jy;
     spt_sampler_pair(smp, SPT_DIM_PIXEL_X, &jx, &jy);
     float px = (float)(pixel % (uint)kg->p->width) + jx;
@@ -208,7 +211,7 @@ __kernel void k_generate(KERNEL_ARGS)
                               &counters[SPT_CNT_DONE], l_slot, &l_base);
     if (wants && w < total) {
         KERNEL_GLOBALS;
-        flags = path_start(i, params.work_begin + w, kg);
+        flags = path_start(i, params.work_begin + w, (PathSample *)0, kg);
         ps_flags[i] = flags;
     }
     uint q = group_queue_slot(flags == SPT_PATH_ALIVE, &counters[SPT_CNT_EXTEND], 0xffffffffu, 0,
@@ -471,7 +474,7 @@ typedef struct {
 
 /* Starts the next work item in slot i; 1 when one is alive there, 0 when the
  * launch's work is all taken. */
-static int mega_next(uint i, WorkBatch *wb, const KernelGlobals *kg)
+static int mega_next(uint i, WorkBatch *wb, PathSample *ps, const KernelGlobals *kg)
 {
     for (;;) {
         if (wb->next == wb->end) {
@@ -482,10 +485,14 @@ static int mega_next(uint i, WorkBatch *wb, const KernelGlobals *kg)
         if (rel >= kg->p->work_end - kg->p->work_begin)
             return 0;
         uint w = kg->p->work_begin + rel;
-        uint flags = path_start(i, w, kg);
+        uint flags = path_start(i, w, ps, kg);
         kg->ps_flags[i] = flags;
-        if (flags == SPT_PATH_ALIVE)
+        if (flags == SPT_PATH_ALIVE) {
+            if (!(kg->ps_lt[i] & SPT_LT_LIGHT)) {
+                path_sample_draw(i, ps, kg);
+            }
             return 1;
+        }
         mega_end(i, kg);
     }
 }
@@ -493,19 +500,22 @@ static int mega_next(uint i, WorkBatch *wb, const KernelGlobals *kg)
 /* Shades path i at its hit (ps_hit) and traces its shadow ray; when the path
  * ended, starts the next. Returns mega_next's 1 or 0, or 1 while the path goes
  * on. */
-SPT_FN_INLINE int mega_shade(uint i, uint *nshadow, WorkBatch *wb, const KernelGlobals *kg)
+SPT_FN_INLINE int mega_shade(uint i, uint *nshadow, WorkBatch *wb, PathSample *ps, const KernelGlobals *kg)
 {
     float4 so, sd, sc;
     int shadow = (kg->ps_lt[i] & SPT_LT_LIGHT) ? lt_shade(i, &so, &sd, &sc, kg)
-                                               : shade_path(i, &so, &sd, &sc, kg);
+                                               : shade_path_kept(i, ps, &so, &sd, &sc, kg);
     if (shadow) {
         connect_shadow(so, sd, sc, i, kg);
         *nshadow += 1u;
     }
-    if (kg->ps_flags[i] != SPT_PATH_FINISHED)
+    if (kg->ps_flags[i] != SPT_PATH_FINISHED) {
+        if (!(kg->ps_lt[i] & SPT_LT_LIGHT))
+            path_sample_draw(i, ps, kg);
         return 1;
+    }
     mega_end(i, kg);
-    return mega_next(i, wb, kg);
+    return mega_next(i, wb, ps, kg);
 }
 
 __kernel void k_paths(KERNEL_ARGS)
@@ -514,8 +524,9 @@ __kernel void k_paths(KERNEL_ARGS)
     uint s0 = 2u * get_global_id(0), s1 = s0 + 1u;
     uint nray = 0u, nshadow = 0u;
     WorkBatch wb = {0u, 0u};
-    int a0 = s0 < params.pool_size && mega_next(s0, &wb, kg);
-    int a1 = a0 && s1 < params.pool_size && mega_next(s1, &wb, kg);
+    PathSample ps0, ps1; /* the two paths' samples (shade_path_of) */
+    int a0 = s0 < params.pool_size && mega_next(s0, &wb, &ps0, kg);
+    int a1 = a0 && s1 < params.pool_size && mega_next(s1, &wb, &ps1, kg);
     while (a0 | a1) {
         if (SPT_HAS_INSTANCES(&params)) {
             /* Two levels (docs/architecture.md, "Instances (two levels)"): one ray at a time. */
@@ -570,9 +581,9 @@ __kernel void k_paths(KERNEL_ARGS)
         }
         nray += (uint)a0 + (uint)a1;
         if (a0)
-            a0 = mega_shade(s0, &nshadow, &wb, kg);
+            a0 = mega_shade(s0, &nshadow, &wb, &ps0, kg);
         if (a1)
-            a1 = mega_shade(s1, &nshadow, &wb, kg);
+            a1 = mega_shade(s1, &nshadow, &wb, &ps1, kg);
     }
     if (nray)
         atomic_add(&counters[SPT_CNT_EXTEND], nray);
