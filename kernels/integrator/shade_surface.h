@@ -626,9 +626,9 @@ typedef struct PathSample {
 } PathSample;
 
 /* The sample (pixel, sample index) of a camera path, and the sample of work
- * item w (w < light_begin). Through a pointer, not returned: an inlined struct return leaves
- * llvm.experimental.noalias.scope.decl in the unoptimised code, which
- * Oclgrind cannot run. */
+ * item w (w < light_begin). Through a pointer, not returned: an inlined
+ * struct return leaves llvm.experimental.noalias.scope.decl in the
+ * unoptimised code, which Oclgrind cannot run. */
 SPT_FN_INLINE void path_sample_set(uint pixel, uint sample, SptSampler smp, PathSample *ps)
 {
     ps->pixel = pixel;
