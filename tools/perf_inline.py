@@ -82,8 +82,8 @@ def main():
     if len(blocks) != len(keys):
         fail(f"{so}: llvm-symbolizer answered {len(blocks)} addresses of {len(keys)}")
     agg = collections.Counter()
-    for (sym, _), block in zip(keys, blocks):
-        n = counts[(sym, _)]
+    for key, block in zip(keys, blocks):
+        sym, n = key[0], counts[key]
         lines = block.strip().split("\n")
         # Innermost frame first: a function name, then its file:line:column.
         frames = [(lines[i], lines[i + 1].rsplit("/", 1)[-1]) for i in range(0, len(lines) - 1, 2)]
@@ -96,8 +96,8 @@ def main():
         chain = [f"{frames[j][0]}@{frames[j + 1][1]}" for j in range(max(0, k - depth), k)]
         agg[" > ".join(reversed(chain)) or "(its own code)"] += n
     print(f"{total} samples in {base}; below {top}, the first {depth} inlined frame(s):")
-    for key, n in agg.most_common(40):
-        print(f"{100.0 * n / total:6.2f}%  {key}")
+    for chain, n in agg.most_common(40):
+        print(f"{100.0 * n / total:6.2f}%  {chain}")
 
 
 if __name__ == "__main__":

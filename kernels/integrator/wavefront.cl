@@ -488,9 +488,8 @@ static int mega_next(uint i, WorkBatch *wb, PathSample *ps, const KernelGlobals 
         uint flags = path_start(i, w, ps, kg);
         kg->ps_flags[i] = flags;
         if (flags == SPT_PATH_ALIVE) {
-            if (!(kg->ps_lt[i] & SPT_LT_LIGHT)) {
+            if (!(kg->ps_lt[i] & SPT_LT_LIGHT))
                 path_sample_draw(i, ps, kg);
-            }
             return 1;
         }
         mega_end(i, kg);
