@@ -565,6 +565,31 @@ SPT_FN uint8 spt_lk_hash_x8(uint8 x, uint8 seed)
 #endif
 
 SPT_STATIC_ASSERT(SPT_DIM_BOUNCE_BLOCK == 8u, "spt_sample_bounce draws a bounce's dims in 8 lanes");
+/* The joined groups spt_sample_bounce draws in straight-line code: those of
+ * the light point and the BSDF direction are lanes 2-5 of bounce 1, with Sobol
+ * dims 2-5 (spt_group_sobol_dim), and the wavelength's group lies before every
+ * bounce. */
+SPT_STATIC_ASSERT(SPT_DIM_LIGHT_U == 2u && SPT_DIM_BSDF_U == 4u, "spt_sample_bounce: joined lanes 2-5");
+SPT_STATIC_ASSERT(SPT_GROUP_JOINT_LIGHT == (SPT_DIM_BOUNCE_BASE + SPT_DIM_BOUNCE_BLOCK + 2u) / 2u &&
+                      SPT_GROUP_JOINT_BSDF == SPT_GROUP_JOINT_LIGHT + 1u,
+                  "spt_sample_bounce: the joined groups are bounce 1's second and third");
+SPT_STATIC_ASSERT(SPT_GROUP_JOINT_WAVELENGTH < SPT_DIM_BOUNCE_BASE / 2u,
+                  "spt_sample_bounce: the wavelength's group is in no bounce");
+
+#if SPT_DEVICE
+/* Sobol dims 2-5 of one index (spt_sobol_rev_u32 of each): a table entry per
+ * 4-bit digit and dim, without the per-dim branches. */
+SPT_FN uint4 spt_sobol_rev_2to5(uint index)
+{
+    uint4 x = (uint4)(0u);
+    for (uint p = 0u; p < 8u; p++) {
+        uint e = 16u * p + ((index >> (4u * p)) & 15u);
+        x ^= (uint4)(SPT_SOBOL_NIBBLE_REV[e], SPT_SOBOL_NIBBLE_REV[128u + e], SPT_SOBOL_NIBBLE_REV[256u + e],
+                     SPT_SOBOL_NIBBLE_REV[384u + e]);
+    }
+    return x;
+}
+#endif
 
 /* All SPT_DIM_BOUNCE_BLOCK dims of a bounce, u[k] = spt_sample_1d_key(pixel_key,
  * sample, spt_dim_bounce(bounce, k)) bit for bit. A shading step uses most of
@@ -580,13 +605,8 @@ SPT_FN void spt_sample_bounce(spt_u32 pixel_key, spt_u32 sample, spt_u32 bounce,
     uint8 group = (uint8)(spt_dim_bounce(bounce, 0u) >> 1) + (lane >> 1u);
     uint8 odd = lane & 1u;
     uint8 seed = spt_hash_u32x8((uint8)(pixel_key) ^ group);
-    /* The joined groups (spt_group_sobol_dim) take the index shuffle of
-     * SPT_GROUP_JOINT_BASE's seed and Sobol dims 2 and up. */
-    int8 joined = (group == (uint8)(SPT_GROUP_JOINT_LIGHT)) | (group == (uint8)(SPT_GROUP_JOINT_BSDF)) |
-                  (group == (uint8)(SPT_GROUP_JOINT_WAVELENGTH));
-    uint8 iseed = any(joined) ? select(seed, (uint8)(spt_hash_u32(pixel_key ^ SPT_GROUP_JOINT_BASE)), joined)
-                              : seed;
-    uint8 shuffled = spt_reverse_bits_x8(spt_lk_hash_x8((uint8)(spt_reverse_bits(sample)), iseed));
+    uint rsample = spt_reverse_bits(sample);
+    uint8 shuffled = spt_reverse_bits_x8(spt_lk_hash_x8((uint8)(rsample), seed));
     /* Sobol dims 0 (the identity) and 1 (spt_sobol_rev_u32's superset sum). */
     uint8 x = shuffled;
     x ^= (x >> 1u) & 0x55555555u;
@@ -595,18 +615,12 @@ SPT_FN void spt_sample_bounce(spt_u32 pixel_key, spt_u32 sample, spt_u32 bounce,
     x ^= (x >> 8u) & 0x00ff00ffu;
     x ^= (x >> 16u) & 0x0000ffffu;
     uint8 v = select(shuffled, x, as_int8(odd) != (int8)(0));
-    if (any(joined)) {
-        uint sh[8], vv[8], g[8];
-        vstore8(shuffled, 0, sh);
-        vstore8(v, 0, vv);
-        vstore8(group, 0, g);
-        for (uint l = 0u; l < 8u; l++) {
-            uint ig;
-            uint d = spt_group_sobol_dim(g[l], &ig) + (l & 1u);
-            if (d >= 2u)
-                vv[l] = spt_sobol_rev_u32(sh[l], d);
-        }
-        v = vload8(0, vv);
+    if (bounce == 1u) {
+        /* The joined groups (lanes 2-5, the static asserts above) take Sobol
+         * dims 2-5 of one index, shuffled by SPT_GROUP_JOINT_BASE's seed. */
+        uint js = spt_reverse_bits(spt_lk_hash(rsample, spt_hash_u32(pixel_key ^ SPT_GROUP_JOINT_BASE)));
+        uint4 j = spt_sobol_rev_2to5(js);
+        v = (uint8)(v.s01, j, v.s67);
     }
     uint8 h = spt_hash_u32x8(seed ^ select((uint8)(0x3c6ef372u), (uint8)(0x9e3779b9u + 0x3c6ef372u),
                                            as_int8(odd) != (int8)(0)));
