@@ -576,14 +576,26 @@ SPT_FN int bvh_leaf_intersect(const SPT_GLOBAL float *tris, spt_u32 off, spt_u32
 #if defined(BVH_X86_AVX512)
     float16 u, v;
     float16 t = bvh_tri16_distances(rx, ry, rz, idx, count, r, *best, &u, &v);
-    float m = bvh_min16(t);
-    if (!(m < *best))
+    /* The lanes that hit (t < *best <= tmax, finite; the others BVH_FAR). */
+    int16 hits = t < (float16)(BVH_FAR);
+    uint hm = bvh_mask8(hits.lo) | bvh_mask8(hits.hi) << 8;
+    if (!hm)
         return 0;
     if (any_hit)
         return 1;
-    /* The first lane at the minimum, as the lane loop would keep it. */
-    int16 at_min = t == (float16)(m);
-    uint l = bvh_lowest_bit(bvh_mask8(at_min.lo) | bvh_mask8(at_min.hi) << 8);
+    /* The first lane at the minimum, as the lane loop would keep it: where
+     * one lane hits (a ray mostly meets one triangle of a leaf) that lane,
+     * without the reduction across the lanes. */
+    uint l;
+    float m;
+    if (!(hm & (hm - 1u))) {
+        l = bvh_lowest_bit(hm);
+        m = as_float16(bvh_gather16(t, (int16)((int)l))).s0;
+    } else {
+        m = bvh_min16(t);
+        int16 at_min = t == (float16)(m);
+        l = bvh_lowest_bit(bvh_mask8(at_min.lo) | bvh_mask8(at_min.hi) << 8);
+    }
     hit->t = m;
     hit->u = as_float16(bvh_gather16(u, (int16)((int)l))).s0;
     hit->v = as_float16(bvh_gather16(v, (int16)((int)l))).s0;
