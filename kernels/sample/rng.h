@@ -576,21 +576,6 @@ SPT_STATIC_ASSERT(SPT_GROUP_JOINT_LIGHT == (SPT_DIM_BOUNCE_BASE + SPT_DIM_BOUNCE
 SPT_STATIC_ASSERT(SPT_GROUP_JOINT_WAVELENGTH < SPT_DIM_BOUNCE_BASE / 2u,
                   "spt_sample_bounce: the wavelength's group is in no bounce");
 
-#if SPT_DEVICE
-/* Sobol dims 2-5 of one index (spt_sobol_rev_u32 of each): a table entry per
- * 4-bit digit and dim, without the per-dim branches. */
-SPT_FN uint4 spt_sobol_rev_2to5(uint index)
-{
-    uint4 x = (uint4)(0u);
-    for (uint p = 0u; p < 8u; p++) {
-        uint e = 16u * p + ((index >> (4u * p)) & 15u);
-        x ^= (uint4)(SPT_SOBOL_NIBBLE_REV[e], SPT_SOBOL_NIBBLE_REV[128u + e], SPT_SOBOL_NIBBLE_REV[256u + e],
-                     SPT_SOBOL_NIBBLE_REV[384u + e]);
-    }
-    return x;
-}
-#endif
-
 /* All SPT_DIM_BOUNCE_BLOCK dims of a bounce, u[k] = spt_sample_1d_key(pixel_key,
  * sample, spt_dim_bounce(bounce, k)) bit for bit. A shading step uses most of
  * them (the light, the lobe, the BSDF direction, the roulette), and each
@@ -619,7 +604,8 @@ SPT_FN void spt_sample_bounce(spt_u32 pixel_key, spt_u32 sample, spt_u32 bounce,
         /* The joined groups (lanes 2-5, the static asserts above) take Sobol
          * dims 2-5 of one index, shuffled by SPT_GROUP_JOINT_BASE's seed. */
         uint js = spt_reverse_bits(spt_lk_hash(rsample, spt_hash_u32(pixel_key ^ SPT_GROUP_JOINT_BASE)));
-        uint4 j = spt_sobol_rev_2to5(js);
+        uint4 j = (uint4)(spt_sobol_rev_u32(js, 2u), spt_sobol_rev_u32(js, 3u), spt_sobol_rev_u32(js, 4u),
+                          spt_sobol_rev_u32(js, 5u));
         v = (uint8)(v.s01, j, v.s67);
     }
     uint8 h = spt_hash_u32x8(seed ^ select((uint8)(0x3c6ef372u), (uint8)(0x9e3779b9u + 0x3c6ef372u),
