@@ -351,7 +351,7 @@ SPT_FN_INLINE uint lt_start(uint i, uint w, const KernelGlobals *kg)
     /* The shortest path the pass owns has 3 segments (light, delta vertex,
      * x1, camera). */
     int too_short = kg->p->max_depth > 0 && kg->p->max_depth < 3;
-    return max4(power) > 0.0f && !too_short ? SPT_PATH_ALIVE : SPT_PATH_FINISHED;
+    return any_positive4(power) && !too_short ? SPT_PATH_ALIVE : SPT_PATH_FINISHED;
 }
 
 /* Connects light vertex h (frame f, BSDF bp) to the camera, a pinhole or a
@@ -413,7 +413,7 @@ SPT_FN_INLINE int lt_connect(const ShadeHit *h, const BsdfParams *bp, const Shad
     float g = fabs(wc_side) / (fmax(fabs(f->wo_side), 1e-8f) * r2);
     float we = npix / (a_film * cosc * cosc * cosc);
     float4 c = kg->ps_radiance[h->i] * h->beta * fv * (g * we / (float)kg->p->light_paths);
-    if (!(max4(c) > 0.0f))
+    if (!any_positive4(c))
         return 0;
     /* With the wavelengths' pdf of this vertex: a dispersive refraction after
      * it changes the path's. */

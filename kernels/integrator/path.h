@@ -294,4 +294,11 @@ static float max4(float4 v)
     return fmax(fmax(v.x, v.y), fmax(v.z, v.w));
 }
 
+/* max4(v) > 0: fmax passes over NaN components, and so does a lane test
+ * (NaN > 0 is false), without fmax's NaN handling and its chain of three. */
+static int any_positive4(float4 v)
+{
+    return any(v > (float4)(0.0f));
+}
+
 #endif

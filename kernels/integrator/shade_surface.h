@@ -208,7 +208,7 @@ SPT_FN_INLINE void shade_hit_geometry(ShadeHit *h, TexCtx *tc, const KernelGloba
     h->bu = h->hit.y;
     h->bv = h->hit.z;
     h->p = (1.0f - h->bu - h->bv) * h->v0 + h->bu * h->v1 + h->bv * h->v2;
-    h->ng = normalize(cross(h->v1 - h->v0, h->v2 - h->v0));
+    h->ng = v3_unit(cross(h->v1 - h->v0, h->v2 - h->v0));
     if (h->inst != SPT_NO_INST && (kg->tlas_inst[h->inst].flags & BVH_INSTANCE_MIRRORED))
         h->ng = -h->ng;
     h->front = dot(h->ng, h->rd) < 0.0f;
@@ -379,7 +379,7 @@ static uint inst_emitter_triangle(uint e, float prob, float u, const KernelGloba
         return 0u;
     }
     tri_world(kg->tri_shade, kg->vtx_pos, kg->tlas_inst, k, lt, a, b, c);
-    *nl = normalize(cross(*b - *a, *c - *a));
+    *nl = v3_unit(cross(*b - *a, *c - *a));
     float area = 0.5f * length(cross(*b - *a, *c - *a));
     *pl = area > 0.0f ? prob * pt / area : 0.0f;
     if (kg->tlas_inst[k].flags & BVH_INSTANCE_MIRRORED)
@@ -433,7 +433,7 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
         if (!SPT_HAS_INSTANCES(kg->p) || (uint)e < kg->p->tri_emitters) {
             lt = kg->emitters[e];
             tri_positions(kg->tri_shade, kg->vtx_pos, lt, &a, &b, &c);
-            nl = normalize(cross(b - a, c - a));
+            nl = v3_unit(cross(b - a, c - a));
             pl = kg->tri_light_pdf[lt] * tree_prob;
         } else {
             lt = inst_emitter_triangle(
@@ -484,12 +484,12 @@ SPT_FN_INLINE int shade_direct_light(const ShadeHit *h, const TexCtx *tc, const 
     float wi_side = dot(wi, ngf);
     float3 wi_l = (float3)(dot(wi, tg), dot(wi, bt), dot(wi, ns));
     /* The geometric and shading sides of wi must agree. */
-    if (light_pdf > 0.0f && dist > 0.0f && wi_side * wi_l.z > 0.0f && max4(le) > 0.0f &&
+    if (light_pdf > 0.0f && dist > 0.0f && wi_side * wi_l.z > 0.0f && any_positive4(le) &&
         (f->both_sides || wi_side > 0.0f)) {
         float4 fv = bsdf_eval(bp, wo_l, wi_l);
         float wgt = delta ? 1.0f : spt_power_heuristic(light_pdf, bsdf_pdf(bp, wo_l, wi_l));
         float4 cn = h->beta * fv * le * (wgt / light_pdf);
-        if (max4(cn) > 0.0f) {
+        if (any_positive4(cn)) {
             float3 so = offset_origin(p, wi_side > 0.0f ? ngf : -ngf);
             *sh_o = (float4)(so, 0.0f);
             *sh_d = (float4)(wi, dist >= SPT_LIGHT_FAR ? SPT_LIGHT_FAR : dist * (1.0f - 1e-4f));
@@ -532,7 +532,7 @@ SPT_FN_INLINE int shade_bsdf_bounce(ShadeHit *h, const BsdfParams *bp, const Sha
             if (!(lp.y > 0.0f))
                 h->beta = (float4)(h->beta.x, 0.0f, 0.0f, 0.0f);
         }
-        alive = max4(h->beta) > 0.0f;
+        alive = any_positive4(h->beta);
     }
     return alive;
 }

@@ -168,7 +168,7 @@ static uint path_start(uint i, uint w, PathSample *ps, const KernelGlobals *kg)
         d = focus - org;
     }
     kg->ps_ray_o[i] = (float4)(org, 0.0f);
-    kg->ps_ray_d[i] = (float4)(normalize(d), kg->p->cam_pos[3]); /* w: the ray cone's width */
+    kg->ps_ray_d[i] = (float4)(v3_unit(d), kg->p->cam_pos[3]); /* w: the ray cone's width */
     float4 lam, pdf;
     /* With merging, the wavelengths of the chunk's light paths of this
      * sample slot (kernels/integrator/photon_merge.h): its sample index,
