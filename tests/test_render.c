@@ -169,6 +169,58 @@ TEST(test_step_prefetch_rule)
     assert_true(wavefront_step_prefetch(1e6, 0.0));
 }
 
+/* Whether wavefront_options builds the program without the texture code
+ * (-DSPT_TEXTURES=0) and without the layers' (-DSPT_LAYERS=0). */
+static void assert_leaves_out(const GpuScene *g, const RenderSettings *rs, int textures, int layers)
+{
+    char o[256];
+    wavefront_options(device, g, rs, o, sizeof o);
+    assert_int_equal(strstr(o, "-DSPT_TEXTURES=0 ") != NULL, textures);
+    assert_int_equal(strstr(o, "-DSPT_LAYERS=0 ") != NULL, layers);
+}
+
+/* The CPU path's program leaves out the texture and the layers' code only
+ * where no material of the scene needs it (src/render/wavefront.c,
+ * wavefront_options): any texture slot in use keeps the first, any clear
+ * coat, sheen, anisotropy or diffuse transmission (a NaN factor too) the
+ * second; the GPU path keeps both. The renders of tools/image_hashes.sh and
+ * the material tests check what the programs draw. */
+TEST(test_program_leaves_out_unused_code)
+{
+    Scene s;
+    grey_quad_scene(&s);
+    GpuScene g;
+    SptError e = {0};
+    assert_int_equal(gpu_scene_build(&g, &s, &e), 0);
+    RenderSettings rs = test_settings(8, 8, 1, 2, 1u);
+    rs.test.kernel_path = SPT_KERNEL_PATH_CPU;
+    assert_leaves_out(&g, &rs, 1, 1);
+    GpuMaterial *m = &g.materials[0];
+    float *factor[] = {&m->clearcoat, &m->aniso, &m->diffuse_transmission};
+    for (int k = 0; k < 3; k++) {
+        *factor[k] = 0.25f;
+        assert_leaves_out(&g, &rs, 1, 0);
+        *factor[k] = NAN;
+        assert_leaves_out(&g, &rs, 1, 0);
+        *factor[k] = -1.0f;
+        assert_leaves_out(&g, &rs, 1, 1);
+        *factor[k] = 0.0f;
+    }
+    m->sheen.kind = SPT_SPEC_SIGMOID;
+    assert_leaves_out(&g, &rs, 1, 0);
+    m->sheen.kind = SPT_SPEC_NONE;
+    for (int k = 0; k < SPT_TS_COUNT; k++) {
+        assert_int_equal(m->slot[k].tex, -1);
+        m->slot[k].tex = 0;
+        assert_leaves_out(&g, &rs, 0, 1);
+        m->slot[k].tex = -1;
+    }
+    rs.test.kernel_path = SPT_KERNEL_PATH_GPU;
+    assert_leaves_out(&g, &rs, 0, 0);
+    gpu_scene_free(&g);
+    scene_free(&s);
+}
+
 /* The same seed on the same device gives the same film bit for bit; another seed
  * does not. Rendering three times also exercises release of every object. */
 TEST(test_determinism)

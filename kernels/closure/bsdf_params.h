@@ -76,9 +76,19 @@ SPT_FN float bsdf_transmission(const BsdfParams *p) { return fminf(fmaxf(p->tran
  * reflection and interface lobes are then delta lobes. */
 SPT_FN int bsdf_base_smooth(const BsdfParams *p) { return bsdf_roughness_is_delta(p->roughness); }
 
-SPT_FN int bsdf_has_coat(const BsdfParams *p) { return p->clearcoat > 0.0f; }
-SPT_FN int bsdf_has_aniso(const BsdfParams *p) { return p->aniso > 0.0f; }
-SPT_FN int bsdf_has_dt(const BsdfParams *p) { return p->diffuse_transmission > 0.0f; }
+/* Whether the layers' code is compiled in: the CPU path's kernels are built
+ * with SPT_LAYERS 0 when no material of the scene has a clear coat, a sheen,
+ * anisotropy or diffuse transmission (src/render/wavefront.c,
+ * wavefront_options), so that every hit's BSDF skips their tests
+ * (docs/performance.md, "Generality a scene does not use"); host code and
+ * the tests' kernels have it. */
+#ifndef SPT_LAYERS
+#define SPT_LAYERS 1
+#endif
+
+SPT_FN int bsdf_has_coat(const BsdfParams *p) { return SPT_LAYERS && p->clearcoat > 0.0f; }
+SPT_FN int bsdf_has_aniso(const BsdfParams *p) { return SPT_LAYERS && p->aniso > 0.0f; }
+SPT_FN int bsdf_has_dt(const BsdfParams *p) { return SPT_LAYERS && p->diffuse_transmission > 0.0f; }
 
 /* Whether the specular reflection lobe is a mirror: a smooth base without
  * anisotropy (which widens the lobe along its direction, docs/gltf.md). */
@@ -86,7 +96,7 @@ SPT_FN int bsdf_specular_smooth(const BsdfParams *p) { return bsdf_base_smooth(p
 
 /* The diffuse transmission factor, clamped to [0, 1]. */
 SPT_FN float bsdf_dt(const BsdfParams *p) { return fminf(fmaxf(p->diffuse_transmission, 0.0f), 1.0f); }
-SPT_FN int bsdf_has_sheen(const BsdfParams *p) { return p->sheen_max > 0.0f; }
+SPT_FN int bsdf_has_sheen(const BsdfParams *p) { return SPT_LAYERS && p->sheen_max > 0.0f; }
 
 /* Whether the film code is compiled in: the path kernels are built with
  * SPT_IRIDESCENCE 0 when no material of the scene has a film

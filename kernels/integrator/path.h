@@ -233,6 +233,18 @@ static float tex_slot_lod(const __global GpuTexSlot *s, const __global GpuTextur
     return wdt > 0.0f ? log2(wdt) : 0.0f;
 }
 
+/* Whether the texture code is compiled in: the CPU path's kernels are built
+ * with SPT_TEXTURES 0 when no material of the scene has a texture in any
+ * slot (src/render/wavefront.c, wavefront_options), which takes the slots'
+ * tests and the texture reads out of every hit's shading (docs/performance.md,
+ * "Generality a scene does not use"). */
+#ifndef SPT_TEXTURES
+#define SPT_TEXTURES 1
+#endif
+
+/* Whether slot k of material m has a texture. */
+static int slot_textured(const __global GpuMaterial *m, int k) { return SPT_TEXTURES && m->slot[k].tex >= 0; }
+
 /* Slot k of material m read at c: the blended texel (DATA), or the spectrum at lam
  * with the w channel in *w (COLOR, SCALED). The slot must have a texture. */
 static float4 slot_value(const __global GpuMaterial *m, int k, const TexCtx *c,

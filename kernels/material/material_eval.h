@@ -167,7 +167,7 @@ static float material_opacity(const __global GpuMaterial *m, const TexCtx *c, ui
     if (!(f & (SPT_MAT_ALPHA_MASK | SPT_MAT_ALPHA_BLEND)))
         return 1.0f;
     float a = m->alpha;
-    if (m->slot[SPT_TS_BASE].tex >= 0) {
+    if (slot_textured(m, SPT_TS_BASE)) {
         TexCtx fine = *c;
         if (f & SPT_MAT_ALPHA_MASK)
             fine.fa[0] = fine.fa[1] = fine.fb[0] = fine.fb[1] = (float2)(0.0f);
@@ -194,13 +194,13 @@ static float4 material_emission(const __global GpuMaterial *m, const TexCtx *c, 
 {
     float4 le = spec_eval(&m->emission, lam, spectra);
     float w;
-    if (m->slot[SPT_TS_EMISSIVE].tex >= 0)
+    if (slot_textured(m, SPT_TS_EMISSIVE))
         le *= slot_spectrum(m, SPT_TS_EMISSIVE, c, lam, textures, texels, &w);
     if ((m->flags & (SPT_MAT_UNLIT | SPT_MAT_VERTEX_COLOR)) == (SPT_MAT_UNLIT | SPT_MAT_VERTEX_COLOR))
         le *= tri_color(tri_shade, vtx_color, prim, bu, bv, lam, &w);
     if (m->clearcoat > 0.0f) {
         float cc = m->clearcoat;
-        if (m->slot[SPT_TS_CLEARCOAT].tex >= 0)
+        if (slot_textured(m, SPT_TS_CLEARCOAT))
             cc *= slot_value(m, SPT_TS_CLEARCOAT, c, textures, texels).x;
         le *= 1.0f - clamp(cc, 0.0f, 1.0f) * bsdf_coat_fresnel(cos_v);
     }
@@ -380,10 +380,10 @@ static float3 shading_normal(uint prim, float bu, float bv, float3 *ng, int foll
         ns = si;
     }
     *n_coat = ns;
-    if (m->clearcoat > 0.0f && m->slot[SPT_TS_CLEARCOAT_NORMAL].tex >= 0)
+    if (m->clearcoat > 0.0f && slot_textured(m, SPT_TS_CLEARCOAT_NORMAL))
         *n_coat = normal_map(m, SPT_TS_CLEARCOAT_NORMAL, m->cc_normal_scale, ns, prim, bu, bv, v0, v1, v2, c,
                              tri_shade, vtx_uv, vtx_uv1, vtx_tangent, textures, texels, inst, k);
-    if (m->slot[SPT_TS_NORMAL].tex >= 0)
+    if (slot_textured(m, SPT_TS_NORMAL))
         ns = normal_map(m, SPT_TS_NORMAL, m->normal_scale, ns, prim, bu, bv, v0, v1, v2, c, tri_shade, vtx_uv,
                         vtx_uv1, vtx_tangent, textures, texels, inst, k);
     return ns;
@@ -399,7 +399,7 @@ static float4 material_base(const __global GpuMaterial *m, const TexCtx *c, uint
 {
     float w;
     float4 base = spec_eval(&m->reflectance, lam, spectra);
-    if (m->slot[SPT_TS_BASE].tex >= 0)
+    if (slot_textured(m, SPT_TS_BASE))
         base *= slot_spectrum(m, SPT_TS_BASE, c, lam, textures, texels, &w);
     if (m->flags & SPT_MAT_VERTEX_COLOR)
         base *= tri_color(tri_shade, vtx_color, prim, bu, bv, lam, &w);
@@ -445,9 +445,17 @@ static void material_bsdf_ext(const __global GpuMaterial *m, const TexCtx *c, fl
                               const __global float4 *texels, BsdfParams *bp)
 {
     float w;
+    if (!SPT_LAYERS) {
+        /* No material of the scene has these (bsdf_params.h, SPT_LAYERS). */
+        bp->aniso = 0.0f;
+        bp->aniso_t = (float3)(1.0f, 0.0f, 0.0f);
+        bp->diffuse_transmission = 0.0f;
+        bp->dt_color = (float4)(0.0f);
+        return;
+    }
     bp->aniso = m->aniso;
     float2 d = (float2)(1.0f, 0.0f);
-    if (m->aniso > 0.0f && m->slot[SPT_TS_ANISOTROPY].tex >= 0) {
+    if (m->aniso > 0.0f && slot_textured(m, SPT_TS_ANISOTROPY)) {
         float4 t = slot_value(m, SPT_TS_ANISOTROPY, c, textures, texels);
         d = (float2)(2.0f * t.x - 1.0f, 2.0f * t.y - 1.0f);
         bp->aniso *= t.z;
@@ -457,10 +465,10 @@ static void material_bsdf_ext(const __global GpuMaterial *m, const TexCtx *c, fl
     bp->diffuse_transmission = m->diffuse_transmission;
     bp->dt_color = (float4)(0.0f);
     if (m->diffuse_transmission > 0.0f) {
-        if (m->slot[SPT_TS_DIFFUSE_TRANSMISSION].tex >= 0)
+        if (slot_textured(m, SPT_TS_DIFFUSE_TRANSMISSION))
             bp->diffuse_transmission *= slot_value(m, SPT_TS_DIFFUSE_TRANSMISSION, c, textures, texels).w;
         bp->dt_color = spec_eval(&m->dt_color, lam, spectra);
-        if (m->slot[SPT_TS_DIFFUSE_TRANSMISSION_COLOR].tex >= 0)
+        if (slot_textured(m, SPT_TS_DIFFUSE_TRANSMISSION_COLOR))
             bp->dt_color *= slot_spectrum(m, SPT_TS_DIFFUSE_TRANSMISSION_COLOR, c, lam, textures, texels, &w);
         bp->dt_color = clamp(bp->dt_color, 0.0f, 1.0f);
     }
@@ -487,7 +495,7 @@ static BsdfParams material_bsdf(const __global GpuMaterial *m, const TexCtx *c, 
     bp.base = material_base(m, c, prim, bu, bv, lam, tri_shade, vtx_color, spectra, textures, texels);
     bp.metallic = m->metallic;
     bp.roughness = m->roughness;
-    if (m->slot[SPT_TS_METALLIC_ROUGHNESS].tex >= 0) {
+    if (slot_textured(m, SPT_TS_METALLIC_ROUGHNESS)) {
         float4 t = slot_value(m, SPT_TS_METALLIC_ROUGHNESS, c, textures, texels);
         bp.roughness *= t.y;
         bp.metallic *= t.z;
@@ -495,7 +503,7 @@ static BsdfParams material_bsdf(const __global GpuMaterial *m, const TexCtx *c, 
     bp.metallic = clamp(bp.metallic, 0.0f, 1.0f);
     bp.roughness = clamp(bp.roughness, 0.0f, 1.0f);
     bp.transmission = m->transmission;
-    if (m->slot[SPT_TS_TRANSMISSION].tex >= 0)
+    if (slot_textured(m, SPT_TS_TRANSMISSION))
         bp.transmission *= slot_value(m, SPT_TS_TRANSMISSION, c, textures, texels).x;
     bp.transmission = clamp(bp.transmission, 0.0f, 1.0f);
     float ior = fmax(m->ior, 1.0f);
@@ -507,17 +515,17 @@ static BsdfParams material_bsdf(const __global GpuMaterial *m, const TexCtx *c, 
     if (m->conductor > 0)
         bsdf_set_conductor(&bp, m->conductor - 1, lam.x, lam.y, lam.z, lam.w);
     bp.spec_tint = m->spec_tint.kind == SPT_SPEC_NONE ? (float4)(1.0f) : spec_eval(&m->spec_tint, lam, spectra);
-    if (m->slot[SPT_TS_SPECULAR_COLOR].tex >= 0)
+    if (slot_textured(m, SPT_TS_SPECULAR_COLOR))
         bp.spec_tint *= slot_spectrum(m, SPT_TS_SPECULAR_COLOR, c, lam, textures, texels, &w);
     bp.specular = m->specular;
-    if (m->slot[SPT_TS_SPECULAR].tex >= 0)
+    if (slot_textured(m, SPT_TS_SPECULAR))
         bp.specular = clamp(bp.specular * slot_value(m, SPT_TS_SPECULAR, c, textures, texels).w, 0.0f, 1.0f);
     bp.clearcoat = m->clearcoat;
     bp.cc_roughness = m->cc_roughness;
     if (bp.clearcoat > 0.0f) {
-        if (m->slot[SPT_TS_CLEARCOAT].tex >= 0)
+        if (slot_textured(m, SPT_TS_CLEARCOAT))
             bp.clearcoat *= slot_value(m, SPT_TS_CLEARCOAT, c, textures, texels).x;
-        if (m->slot[SPT_TS_CLEARCOAT_ROUGHNESS].tex >= 0)
+        if (slot_textured(m, SPT_TS_CLEARCOAT_ROUGHNESS))
             bp.cc_roughness *= slot_value(m, SPT_TS_CLEARCOAT_ROUGHNESS, c, textures, texels).y;
     }
     bp.clearcoat = clamp(bp.clearcoat, 0.0f, 1.0f);
@@ -529,11 +537,11 @@ static BsdfParams material_bsdf(const __global GpuMaterial *m, const TexCtx *c, 
     if (m->sheen.kind != SPT_SPEC_NONE) {
         bp.sheen = spec_eval(&m->sheen, lam, spectra);
         bp.sheen_max = m->sheen.scale;
-        if (m->slot[SPT_TS_SHEEN_COLOR].tex >= 0) {
+        if (slot_textured(m, SPT_TS_SHEEN_COLOR)) {
             bp.sheen *= slot_spectrum(m, SPT_TS_SHEEN_COLOR, c, lam, textures, texels, &w);
             bp.sheen_max *= w;
         }
-        if (m->slot[SPT_TS_SHEEN_ROUGHNESS].tex >= 0)
+        if (slot_textured(m, SPT_TS_SHEEN_ROUGHNESS))
             bp.sheen_roughness *= slot_value(m, SPT_TS_SHEEN_ROUGHNESS, c, textures, texels).w;
     }
     bp.lambda = lam;
@@ -541,9 +549,9 @@ static BsdfParams material_bsdf(const __global GpuMaterial *m, const TexCtx *c, 
     bp.film_ior = m->irid_ior;
     bp.film_nm = m->irid_max_nm;
     if (bp.iridescence > 0.0f) {
-        if (m->slot[SPT_TS_IRIDESCENCE].tex >= 0)
+        if (slot_textured(m, SPT_TS_IRIDESCENCE))
             bp.iridescence *= slot_value(m, SPT_TS_IRIDESCENCE, c, textures, texels).x;
-        if (m->slot[SPT_TS_IRIDESCENCE_THICKNESS].tex >= 0)
+        if (slot_textured(m, SPT_TS_IRIDESCENCE_THICKNESS))
             bp.film_nm = mix(m->irid_min_nm, m->irid_max_nm,
                              slot_value(m, SPT_TS_IRIDESCENCE_THICKNESS, c, textures, texels).y);
     }

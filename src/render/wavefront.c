@@ -479,6 +479,20 @@ void wavefront_options(const ClDeviceInfo *info, const GpuScene *g, const Render
     int film = 0;
     for (uint32_t i = 0; i < g->material_count; i++)
         film |= g->materials[i].iridescence > 0.0f;
+    /* The CPU path's program without the texture or the layers' code where
+     * no material needs it (kernels/integrator/path.h, SPT_TEXTURES;
+     * kernels/closure/bsdf_params.h, SPT_LAYERS; docs/performance.md,
+     * "Generality a scene does not use"): a material has layers unless its
+     * factors are 0 or below (a NaN counts as a layer). The GPU path keeps
+     * them, for rusticl's build time as below. */
+    int textures = !ray_pairs, layers = !ray_pairs;
+    for (uint32_t i = 0; i < g->material_count; i++) {
+        const GpuMaterial *m = &g->materials[i];
+        for (int k = 0; k < SPT_TS_COUNT; k++)
+            textures |= m->slot[k].tex >= 0;
+        layers |= !(m->clearcoat <= 0.0f) || m->sheen.kind != SPT_SPEC_NONE || !(m->aniso <= 0.0f) ||
+                  !(m->diffuse_transmission <= 0.0f);
+    }
     /* A scene without instances builds the CPU path's program without their
      * code (kernels/integrator/kernel_globals.h, SPT_HAS_INSTANCES;
      * docs/performance.md, "Instances: two levels"). The GPU path keeps one
@@ -490,10 +504,11 @@ void wavefront_options(const ClDeviceInfo *info, const GpuScene *g, const Render
         snprintf(bands_def, sizeof bands_def, "-DSPT_BANDS=%d ", rs->spectral);
     /* Photon merging's code only where it is asked for
      * (kernels/integrator/photon_merge.h). */
-    snprintf(out, cap, "%s%s%s%s%s%s%s%s%s%s",
+    snprintf(out, cap, "%s%s%s%s%s%s%s%s%s%s%s%s",
              ray_pairs ? "-DSPT_BVH_SIMD=1 -DSPT_BVH_PAIRS=1 " : "-DSPT_BVH_SHORT_STACK=1 ",
              one_ray ? "-DSPT_ONE_RAY=1 " : "",
-             no_inst ? "-DSPT_INSTANCES=0 " : "",
+             no_inst ? "-DSPT_INSTANCES=0 " : "", textures ? "" : "-DSPT_TEXTURES=0 ",
+             layers ? "" : "-DSPT_LAYERS=0 ",
              g->qnodes ? "-DSPT_BVH_QNODES=1 " : "", step_prefetch ? "-DSPT_BVH_STEP_PREFETCH=1 " : "",
              film ? "" : "-DSPT_IRIDESCENCE=0 ", render_keeps_aov(rs) ? "-DSPT_AOV=1 " : "", bands_def,
              light_plan_merges(rs, g) ? "-DSPT_MERGE=1 " : "",
