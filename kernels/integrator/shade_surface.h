@@ -379,8 +379,9 @@ static uint inst_emitter_triangle(uint e, float prob, float u, const KernelGloba
         return 0u;
     }
     tri_world(kg->tri_shade, kg->vtx_pos, kg->tlas_inst, k, lt, a, b, c);
-    *nl = v3_unit(cross(*b - *a, *c - *a));
-    float area = 0.5f * length(cross(*b - *a, *c - *a));
+    float3 cr = cross(*b - *a, *c - *a);
+    *nl = v3_unit(cr);
+    float area = 0.5f * length(cr);
     *pl = area > 0.0f ? prob * pt / area : 0.0f;
     if (kg->tlas_inst[k].flags & BVH_INSTANCE_MIRRORED)
         *nl = -*nl;

@@ -16,11 +16,11 @@ SPT_FN float v3_dot(vec3 a, vec3 b) { return dot(a, b); }
 SPT_FN vec3 v3_cross(vec3 a, vec3 b) { return cross(a, b); }
 SPT_FN vec3 v3_min(vec3 a, vec3 b) { return fmin(a, b); }
 SPT_FN vec3 v3_max(vec3 a, vec3 b) { return fmax(a, b); }
-/* normalize(a) without its range checks where |a|^2 is a normal float: PoCL's
- * normalize is then a * rsqrt(dot(a, a)) bit for bit, and the checks (a
- * scaling for tiny or huge vectors) were most of its 47 instructions per
- * call (docs/performance.md, "Instructions per segment"); other vectors,
- * zero among them, still take normalize. */
+/* normalize(a) without its range checks where |a|^2 is a normal float:
+ * PoCL's normalize is then a * rsqrt(dot(a, a)) bit for bit, and the checks
+ * (a scaling for tiny or huge vectors) were most of its 47 instructions per
+ * call (docs/performance.md, "Generality a scene does not use"); other
+ * vectors, zero among them, still take normalize. */
 SPT_FN vec3 v3_unit(vec3 a)
 {
     float d = dot(a, a);
